@@ -1,0 +1,336 @@
+//! CAN frames as small `Copy` values with validating constructors.
+//!
+//! A [`Frame`] is what crosses a bus: an identifier (11-bit standard or 29-bit
+//! extended), a kind (classic data, classic remote, or CAN FD) and up to 64
+//! data bytes. Constructors check every field, so a `Frame` that exists is
+//! always valid: a standard id fits in 11 bits, a classic frame carries at
+//! most 8 bytes, an FD frame carries one of the lengths a DLC can express.
+
+use core::fmt;
+
+/// Largest standard (11-bit) identifier.
+pub const MAX_STANDARD_ID: u16 = 0x7FF;
+/// Largest extended (29-bit) identifier.
+pub const MAX_EXTENDED_ID: u32 = 0x1FFF_FFFF;
+/// Most data bytes in a classic CAN frame.
+pub const MAX_CLASSIC_LEN: usize = 8;
+/// Most data bytes in a CAN FD frame.
+pub const MAX_FD_LEN: usize = 64;
+
+/// The data lengths a CAN FD frame can carry, indexed by DLC (0..=15).
+pub const FD_LENGTHS: [u8; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
+
+/// What was wrong with the fields of a frame being built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum FrameError {
+    /// A standard identifier above 0x7FF.
+    #[error("standard CAN id 0x{0:X} is out of range (expected 0x000..=0x7FF)")]
+    StandardIdOutOfRange(u32),
+    /// An extended identifier above 0x1FFFFFFF.
+    #[error("extended CAN id 0x{0:X} is out of range (expected 0x00000000..=0x1FFFFFFF)")]
+    ExtendedIdOutOfRange(u32),
+    /// A classic frame with more than 8 data bytes.
+    #[error("classic CAN frame of {0} bytes (expected 0..=8)")]
+    ClassicTooLong(usize),
+    /// An FD frame whose length no DLC expresses.
+    #[error("CAN FD frame of {0} bytes (expected one of 0-8, 12, 16, 20, 24, 32, 48, 64)")]
+    BadFdLength(usize),
+    /// A remote frame with a DLC above 8.
+    #[error("remote frame DLC {0} (expected 0..=8)")]
+    BadRemoteDlc(u8),
+}
+
+/// A CAN identifier, standard (11-bit) or extended (29-bit).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Id {
+    /// An 11-bit identifier (CAN 2.0A).
+    Standard(u16),
+    /// A 29-bit identifier (CAN 2.0B).
+    Extended(u32),
+}
+
+impl Id {
+    /// A standard id, checked to fit in 11 bits.
+    pub const fn standard(raw: u16) -> Result<Self, FrameError> {
+        if raw > MAX_STANDARD_ID {
+            Err(FrameError::StandardIdOutOfRange(raw as u32))
+        } else {
+            Ok(Id::Standard(raw))
+        }
+    }
+
+    /// An extended id, checked to fit in 29 bits.
+    pub const fn extended(raw: u32) -> Result<Self, FrameError> {
+        if raw > MAX_EXTENDED_ID {
+            Err(FrameError::ExtendedIdOutOfRange(raw))
+        } else {
+            Ok(Id::Extended(raw))
+        }
+    }
+
+    /// The raw identifier bits.
+    pub const fn raw(self) -> u32 {
+        match self {
+            Id::Standard(r) => r as u32,
+            Id::Extended(r) => r,
+        }
+    }
+
+    /// Whether this is a 29-bit identifier.
+    pub const fn is_extended(self) -> bool {
+        matches!(self, Id::Extended(_))
+    }
+
+    /// Arbitration priority key: lower wins the bus. A standard id beats an
+    /// extended id with the same 11 leading bits (its SRR/IDE bits are
+    /// dominant where the extended frame's are recessive).
+    pub const fn arbitration_key(self) -> u64 {
+        // Bits in wire order: base id (11), SRR/RTR, IDE, extension (18).
+        match self {
+            Id::Standard(r) => (r as u64) << 20,
+            Id::Extended(r) => {
+                let base = (r >> 18) as u64;
+                let ext = (r & 0x3FFFF) as u64;
+                (base << 20) | (1 << 19) | (1 << 18) | ext
+            }
+        }
+    }
+}
+
+impl fmt::Display for Id {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Id::Standard(r) => write!(f, "{r:03X}"),
+            Id::Extended(r) => write!(f, "{r:08X}"),
+        }
+    }
+}
+
+/// The kind of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kind {
+    /// A classic CAN data frame (0..=8 bytes).
+    Data,
+    /// A classic remote transmission request; `dlc` is the requested length.
+    Remote {
+        /// The data length code carried by the request (0..=8).
+        dlc: u8,
+    },
+    /// A CAN FD frame.
+    Fd {
+        /// Bit-rate switch: the data phase runs at the data bit rate.
+        brs: bool,
+        /// Error state indicator of the transmitter (error-passive when set).
+        esi: bool,
+    },
+}
+
+/// One CAN or CAN FD frame. Always valid once built; 72 bytes, `Copy`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Frame {
+    id: Id,
+    kind: Kind,
+    len: u8,
+    data: [u8; MAX_FD_LEN],
+}
+
+impl Frame {
+    /// A classic data frame with up to 8 bytes.
+    pub fn new(id: Id, data: &[u8]) -> Result<Self, FrameError> {
+        if data.len() > MAX_CLASSIC_LEN {
+            return Err(FrameError::ClassicTooLong(data.len()));
+        }
+        Ok(Self::raw(id, Kind::Data, data))
+    }
+
+    /// A classic data frame on a standard id; panics never, errors on bad input.
+    pub fn new_standard(id: u16, data: &[u8]) -> Result<Self, FrameError> {
+        Self::new(Id::standard(id)?, data)
+    }
+
+    /// A CAN FD frame; `data.len()` must be a length a DLC expresses
+    /// (see [`FD_LENGTHS`]; pad with [`fd_padded_len`] first if needed).
+    pub fn new_fd(id: Id, data: &[u8], brs: bool) -> Result<Self, FrameError> {
+        if data.len() > MAX_FD_LEN || !FD_LENGTHS.contains(&(data.len() as u8)) {
+            return Err(FrameError::BadFdLength(data.len()));
+        }
+        Ok(Self::raw(id, Kind::Fd { brs, esi: false }, data))
+    }
+
+    /// A remote frame requesting `dlc` bytes (0..=8).
+    pub fn new_remote(id: Id, dlc: u8) -> Result<Self, FrameError> {
+        if dlc as usize > MAX_CLASSIC_LEN {
+            return Err(FrameError::BadRemoteDlc(dlc));
+        }
+        Ok(Self {
+            id,
+            kind: Kind::Remote { dlc },
+            len: 0,
+            data: [0; MAX_FD_LEN],
+        })
+    }
+
+    fn raw(id: Id, kind: Kind, data: &[u8]) -> Self {
+        let mut buf = [0u8; MAX_FD_LEN];
+        buf[..data.len()].copy_from_slice(data);
+        Self {
+            id,
+            kind,
+            len: data.len() as u8,
+            data: buf,
+        }
+    }
+
+    /// Returns the same frame with the FD error-state indicator set as given
+    /// (no effect on classic frames).
+    pub fn with_esi(mut self, esi_flag: bool) -> Self {
+        if let Kind::Fd { brs, .. } = self.kind {
+            self.kind = Kind::Fd { brs, esi: esi_flag };
+        }
+        self
+    }
+
+    /// The identifier.
+    pub const fn id(&self) -> Id {
+        self.id
+    }
+
+    /// The kind (data, remote, FD).
+    pub const fn kind(&self) -> Kind {
+        self.kind
+    }
+
+    /// Whether this is a CAN FD frame.
+    pub const fn is_fd(&self) -> bool {
+        matches!(self.kind, Kind::Fd { .. })
+    }
+
+    /// Whether this is a remote frame.
+    pub const fn is_remote(&self) -> bool {
+        matches!(self.kind, Kind::Remote { .. })
+    }
+
+    /// The data bytes (empty for a remote frame).
+    pub fn data(&self) -> &[u8] {
+        &self.data[..self.len as usize]
+    }
+
+    /// Number of data bytes (0 for a remote frame).
+    pub const fn len(&self) -> usize {
+        self.len as usize
+    }
+
+    /// Whether the frame carries no data bytes.
+    pub const fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The data length code on the wire.
+    pub fn dlc(&self) -> u8 {
+        match self.kind {
+            Kind::Remote { dlc } => dlc,
+            Kind::Data => self.len,
+            Kind::Fd { .. } => fd_dlc(self.len as usize).unwrap_or(15),
+        }
+    }
+}
+
+impl fmt::Debug for Frame {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Frame({self})")
+    }
+}
+
+impl fmt::Display for Frame {
+    /// can-utils `cansend` notation: `123#DEADBEEF`, `123#R`, `123##1DEAD`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.id)?;
+        match self.kind {
+            Kind::Remote { dlc } => {
+                write!(f, "#R")?;
+                if dlc > 0 {
+                    write!(f, "{dlc}")?;
+                }
+                Ok(())
+            }
+            Kind::Data => {
+                write!(f, "#")?;
+                for b in self.data() {
+                    write!(f, "{b:02X}")?;
+                }
+                Ok(())
+            }
+            Kind::Fd { brs, esi } => {
+                let flags = (brs as u8) | ((esi as u8) << 1);
+                write!(f, "##{flags:X}")?;
+                for b in self.data() {
+                    write!(f, "{b:02X}")?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// The DLC of an FD frame of `len` bytes, if `len` is one a DLC expresses.
+pub fn fd_dlc(len: usize) -> Option<u8> {
+    FD_LENGTHS
+        .iter()
+        .position(|&l| l as usize == len)
+        .map(|p| p as u8)
+}
+
+/// The smallest FD length that holds `len` bytes (`None` above 64).
+pub fn fd_padded_len(len: usize) -> Option<usize> {
+    FD_LENGTHS.iter().map(|&l| l as usize).find(|&l| l >= len)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_range_checked() {
+        assert!(Id::standard(0x7FF).is_ok());
+        assert_eq!(
+            Id::standard(0x800),
+            Err(FrameError::StandardIdOutOfRange(0x800))
+        );
+        assert!(Id::extended(0x1FFF_FFFF).is_ok());
+        assert!(Id::extended(0x2000_0000).is_err());
+    }
+
+    #[test]
+    fn lengths_are_checked() {
+        let id = Id::Standard(0x123);
+        assert!(Frame::new(id, &[0; 8]).is_ok());
+        assert_eq!(Frame::new(id, &[0; 9]), Err(FrameError::ClassicTooLong(9)));
+        assert!(Frame::new_fd(id, &[0; 12], true).is_ok());
+        assert_eq!(
+            Frame::new_fd(id, &[0; 10], true),
+            Err(FrameError::BadFdLength(10))
+        );
+        assert!(Frame::new_remote(id, 9).is_err());
+        assert_eq!(fd_padded_len(9), Some(12));
+        assert_eq!(fd_padded_len(65), None);
+        assert_eq!(fd_dlc(64), Some(15));
+    }
+
+    #[test]
+    fn display_matches_cansend_notation() {
+        let f = Frame::new(Id::Standard(0x123), &[0xDE, 0xAD]).unwrap();
+        assert_eq!(f.to_string(), "123#DEAD");
+        let r = Frame::new_remote(Id::Extended(0x1234), 2).unwrap();
+        assert_eq!(r.to_string(), "00001234#R2");
+        let fd = Frame::new_fd(Id::Standard(0x10), &[1], true).unwrap();
+        assert_eq!(fd.to_string(), "010##101");
+    }
+
+    #[test]
+    fn standard_wins_arbitration_over_extended_with_same_base() {
+        let s = Id::Standard(0x100);
+        let e = Id::Extended(0x100 << 18);
+        assert!(s.arbitration_key() < e.arbitration_key());
+        assert!(Id::Standard(0x0FF).arbitration_key() < s.arbitration_key());
+    }
+}
