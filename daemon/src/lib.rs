@@ -1,2 +1,9 @@
-//! The real-time daemon: control loop, supervisor, gait generator, IPC (not yet built; see issue 5).
+//! The anguilla real-time daemon.
+//!
+//! It owns the control loop, the safety supervisor, the gait generator and
+//! its trapezoidal [`profile`]s, the operator interface (iceoryx2), recording
+//! and configuration. It holds no model maths (see `anguilla-model`) and no
+//! frame layouts (see `anguilla-protocol`).
 #![warn(missing_docs)]
+
+pub mod profile;
