@@ -1,0 +1,1142 @@
+//! The safety supervisor: operating modes, control authority, command
+//! validation and the reactions of DESIGN.md's safety table.
+//!
+//! It is pure logic: the control loop feeds it operator commands and, once a
+//! period, what it observed of the robot ([`Observations`]); the supervisor
+//! answers with what the loop must do ([`Directives`]). Nothing here
+//! allocates or blocks; every refusal is a small `Copy` [`Refusal`] whose
+//! `Display` names the reason, sent back to the client that asked.
+//!
+//! ```text
+//!            enable             all nodes enabled
+//!   Idle ───────────► Enabling ─────────────────► Ready ◄──────────┐
+//!    ▲  ◄── disable ──────────────────────────────  │ swim          │ at rest
+//!    │                                              ▼               │
+//!    │ reset                                     Swimming ─stop──► Stopping
+//!    │                                          (operator silent ──►)
+//!  Fault ◄── heartbeat lost, node fault, bus-off, model diverged (any active mode)
+//!  EStop ◄── E-stop from any client or from the bus (any mode); latched until reset
+//! ```
+
+use core::fmt;
+
+/// Monotonic time in nanoseconds, from the loop's clock.
+pub type Nanos = u64;
+
+/// A client's identity, chosen by the client (e.g. a random 64-bit number).
+pub type ClientId = u64;
+
+/// The daemon's operating mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Mode {
+    /// Actuators disabled; the robot is limp.
+    Idle = 0,
+    /// Enable sent; waiting for every node to report it is enabled.
+    Enabling = 1,
+    /// Enabled and holding the body straight.
+    Ready = 2,
+    /// Swimming with the commanded gait.
+    Swimming = 3,
+    /// Ramping the gait down and straightening, then Ready.
+    Stopping = 4,
+    /// A fault stopped the swim; see the fault set. Cleared by reset.
+    Fault = 5,
+    /// Emergency stop: actuators disabled, latched until reset.
+    EStop = 6,
+}
+
+impl Mode {
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Idle => "idle",
+            Mode::Enabling => "enabling",
+            Mode::Ready => "ready",
+            Mode::Swimming => "swimming",
+            Mode::Stopping => "stopping",
+            Mode::Fault => "fault",
+            Mode::EStop => "e-stop",
+        }
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Gait parameters an operator asks for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SwimParams {
+    /// Undulation amplitude as a fraction of the configured maximum, 0..=1
+    /// (the operator's "speed" knob).
+    pub amplitude: f64,
+    /// Undulation frequency (Hz).
+    pub frequency: f64,
+    /// Yaw turn curvature K_c3 (1/m): positive turns left.
+    pub turn: f64,
+    /// Pitch curvature K_c2 (1/m): positive dives.
+    pub pitch: f64,
+}
+
+impl SwimParams {
+    /// No undulation, straight (what Stopping ramps towards).
+    pub const REST: SwimParams = SwimParams {
+        amplitude: 0.0,
+        frequency: 0.0,
+        turn: 0.0,
+        pitch: 0.0,
+    };
+}
+
+/// The commands an operator tool can send.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Enable the actuators (Idle → Enabling → Ready).
+    Enable,
+    /// Disable the actuators (Ready or Fault → Idle).
+    Disable,
+    /// Swim, or change the gait while swimming.
+    Swim(SwimParams),
+    /// Stop swimming smoothly and hold straight.
+    Stop,
+    /// Emergency stop: accepted from any client, in any mode.
+    EStop,
+    /// Clear a fault or a latched E-stop (→ Idle).
+    Reset,
+    /// Ask for control authority.
+    TakeControl,
+    /// Give control authority up.
+    ReleaseControl,
+    /// Nothing but "I am still here" (keeps control and the swim alive).
+    KeepAlive,
+}
+
+impl Command {
+    /// Lower-case name, as shown to operators.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::Enable => "enable",
+            Command::Disable => "disable",
+            Command::Swim(_) => "swim",
+            Command::Stop => "stop",
+            Command::EStop => "e-stop",
+            Command::Reset => "reset",
+            Command::TakeControl => "take-control",
+            Command::ReleaseControl => "release-control",
+            Command::KeepAlive => "keep-alive",
+        }
+    }
+}
+
+/// Which swim parameter a range refusal is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Field {
+    /// [`SwimParams::amplitude`].
+    Amplitude,
+    /// [`SwimParams::frequency`].
+    Frequency,
+    /// [`SwimParams::turn`].
+    Turn,
+    /// [`SwimParams::pitch`].
+    Pitch,
+}
+
+impl Field {
+    fn name(self) -> &'static str {
+        match self {
+            Field::Amplitude => "amplitude",
+            Field::Frequency => "frequency (Hz)",
+            Field::Turn => "turn curvature (1/m)",
+            Field::Pitch => "pitch curvature (1/m)",
+        }
+    }
+}
+
+/// Why a command was refused. `Copy`; its `Display` is the text the client shows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Refusal {
+    /// The command needs control authority and another client holds it.
+    ControlHeldBy(ClientId),
+    /// The command needs control authority and nobody holds it.
+    NotInControl,
+    /// The command is not valid in the current mode.
+    InvalidInMode {
+        /// The command refused.
+        command: &'static str,
+        /// The mode it arrived in.
+        mode: Mode,
+        /// What would make it valid.
+        hint: &'static str,
+    },
+    /// A swim parameter was NaN or infinite.
+    NonFinite(Field),
+    /// A swim parameter was outside its configured range.
+    OutOfRange {
+        /// The parameter.
+        field: Field,
+        /// The value sent.
+        value: f64,
+        /// Smallest accepted value.
+        min: f64,
+        /// Largest accepted value.
+        max: f64,
+    },
+    /// The sequence number was not above the last one from this client.
+    StaleSequence {
+        /// Sequence number received.
+        got: u32,
+        /// Last sequence number accepted from that client.
+        last: u32,
+    },
+    /// Reset refused: the cause of the fault is still present.
+    FaultPersists(FaultSet),
+    /// More clients than the daemon tracks (their sequence numbers).
+    TooManyClients,
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Refusal::ControlHeldBy(c) => write!(
+                f,
+                "client {c:016x} holds control; ask it to release, or wait for it to time out"
+            ),
+            Refusal::NotInControl => write!(f, "take control first"),
+            Refusal::InvalidInMode {
+                command,
+                mode,
+                hint,
+            } => write!(f, "'{command}' is not valid in mode {mode}: {hint}"),
+            Refusal::NonFinite(field) => write!(f, "{} is not a finite number", field.name()),
+            Refusal::OutOfRange {
+                field,
+                value,
+                min,
+                max,
+            } => write!(
+                f,
+                "{} = {value} is out of range (expected {min} ..= {max})",
+                field.name()
+            ),
+            Refusal::StaleSequence { got, last } => write!(
+                f,
+                "sequence number {got} is not after the last one accepted ({last})"
+            ),
+            Refusal::FaultPersists(set) => {
+                write!(f, "the fault is still present ({set}); fix it, then reset")
+            }
+            Refusal::TooManyClients => write!(f, "too many clients"),
+        }
+    }
+}
+
+/// A cause of a fault or a stop, one bit each in a [`FaultSet`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum FaultKind {
+    /// A node's heartbeat stopped arriving.
+    HeartbeatLost = 1 << 0,
+    /// A node reported a fault in its heartbeat.
+    NodeFault = 1 << 1,
+    /// The bus went bus-off or the adapter disappeared.
+    BusOff = 1 << 2,
+    /// The model produced a non-finite or out-of-limit result.
+    ModelDiverged = 1 << 3,
+    /// An E-stop frame was seen on the bus (from a node or another tool).
+    BusEStop = 1 << 4,
+    /// An operator client sent an E-stop.
+    OperatorEStop = 1 << 5,
+    /// Nodes did not all report enabled within the enable timeout.
+    EnableTimeout = 1 << 6,
+}
+
+impl FaultKind {
+    const ALL: [FaultKind; 7] = [
+        FaultKind::HeartbeatLost,
+        FaultKind::NodeFault,
+        FaultKind::BusOff,
+        FaultKind::ModelDiverged,
+        FaultKind::BusEStop,
+        FaultKind::OperatorEStop,
+        FaultKind::EnableTimeout,
+    ];
+
+    /// Short name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            FaultKind::HeartbeatLost => "heartbeat lost",
+            FaultKind::NodeFault => "actuator fault",
+            FaultKind::BusOff => "bus off",
+            FaultKind::ModelDiverged => "model diverged",
+            FaultKind::BusEStop => "e-stop on the bus",
+            FaultKind::OperatorEStop => "operator e-stop",
+            FaultKind::EnableTimeout => "enable timed out",
+        }
+    }
+}
+
+/// A set of [`FaultKind`]s and the nodes involved. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FaultSet {
+    /// One bit per [`FaultKind`].
+    pub kinds: u32,
+    /// Bit `i` set: node id `i` is involved (ids 0..=63).
+    pub nodes: u64,
+}
+
+impl FaultSet {
+    /// Whether there is no fault.
+    pub fn is_empty(&self) -> bool {
+        self.kinds == 0
+    }
+
+    /// Whether `kind` is in the set.
+    pub fn contains(&self, kind: FaultKind) -> bool {
+        self.kinds & kind as u32 != 0
+    }
+
+    fn insert(&mut self, kind: FaultKind, nodes: u64) {
+        self.kinds |= kind as u32;
+        self.nodes |= nodes;
+    }
+}
+
+impl fmt::Display for FaultSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.is_empty() {
+            return f.write_str("no fault");
+        }
+        let mut first = true;
+        for k in FaultKind::ALL {
+            if self.contains(k) {
+                if !first {
+                    f.write_str(", ")?;
+                }
+                f.write_str(k.name())?;
+                first = false;
+            }
+        }
+        if self.nodes != 0 {
+            f.write_str(" (node")?;
+            for i in 0..64 {
+                if self.nodes & (1 << i) != 0 {
+                    write!(f, " {i}")?;
+                }
+            }
+            f.write_str(")")?;
+        }
+        Ok(())
+    }
+}
+
+/// What the loop observed of the robot during one period.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Observations {
+    /// Every configured node reports it is enabled.
+    pub all_enabled: bool,
+    /// Nodes whose heartbeat is overdue (bit = node id).
+    pub heartbeat_lost: u64,
+    /// Nodes that report a fault (bit = node id).
+    pub node_fault: u64,
+    /// Nodes that sent or report an E-stop (bit = node id); `bus_estop`
+    /// covers E-stops whose sender is not a node.
+    pub estop_nodes: u64,
+    /// An E-stop frame was seen on the bus.
+    pub bus_estop: bool,
+    /// The bus is bus-off or the adapter is gone.
+    pub bus_off: bool,
+    /// The model's step failed or produced a non-finite value.
+    pub model_diverged: bool,
+    /// The gait has ramped to zero amplitude and the body is straight.
+    pub gait_at_rest: bool,
+}
+
+/// How the loop must drive the actuators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Drive {
+    /// Send disable; send no setpoints.
+    Disabled,
+    /// Send enable, hold the current posture until the nodes are ready.
+    Enable,
+    /// Send setpoints from the gait generator (which may be ramping to rest).
+    Setpoints,
+}
+
+/// What happens to the actuators on an actuator fault.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaultPolicy {
+    /// Ramp the gait down and keep the healthy actuators holding straight.
+    Hold,
+    /// Disable every actuator at once.
+    Disable,
+}
+
+/// What the loop must do this period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Directives {
+    /// How to drive the actuators.
+    pub drive: Drive,
+    /// The gait the generator must head for (REST while not swimming).
+    pub gait_target: SwimParams,
+    /// Send an E-stop broadcast this period (once per E-stop event).
+    pub send_estop: bool,
+    /// Send a clear-faults broadcast this period (once, on reset).
+    pub send_clear_faults: bool,
+    /// Drop the torque feedforward (model diverged).
+    pub drop_feedforward: bool,
+}
+
+/// Supervisor settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupervisorConfig {
+    /// The holder's silence after which a swim stops smoothly (ns).
+    pub command_timeout: Nanos,
+    /// The holder's silence after which its control is released (ns).
+    pub control_release_timeout: Nanos,
+    /// Time allowed for every node to report enabled (ns).
+    pub enable_timeout: Nanos,
+    /// Largest frequency accepted (Hz); the smallest is 0.
+    pub max_frequency: f64,
+    /// Largest |turn curvature| accepted (1/m).
+    pub max_turn: f64,
+    /// Largest |pitch curvature| accepted (1/m).
+    pub max_pitch: f64,
+    /// Reaction to an actuator fault or a lost heartbeat.
+    pub fault_policy: FaultPolicy,
+    /// After a reset, how long node faults and E-stops still reported are
+    /// taken as stale (the nodes have not yet seen the clear-faults) (ns).
+    pub clear_settle_time: Nanos,
+}
+
+impl Default for SupervisorConfig {
+    fn default() -> Self {
+        Self {
+            command_timeout: 500_000_000,
+            control_release_timeout: 3_000_000_000,
+            enable_timeout: 1_000_000_000,
+            max_frequency: 3.0,
+            max_turn: 4.0,
+            max_pitch: 2.0,
+            fault_policy: FaultPolicy::Hold,
+            clear_settle_time: 300_000_000,
+        }
+    }
+}
+
+const MAX_CLIENTS: usize = 16;
+
+#[derive(Debug, Clone, Copy)]
+struct Holder {
+    client: ClientId,
+    last_heard: Nanos,
+}
+
+/// Why the swim stopped or the mode last changed, for the operator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cause {
+    /// No change yet.
+    None,
+    /// An operator command.
+    Command,
+    /// The holder stopped sending commands.
+    OperatorSilent,
+    /// A fault; see [`Supervisor::faults`].
+    Fault,
+    /// The nodes reported enabled, or the ramp down finished.
+    Progress,
+}
+
+/// The supervisor state machine.
+#[derive(Debug, Clone)]
+pub struct Supervisor {
+    cfg: SupervisorConfig,
+    mode: Mode,
+    cause: Cause,
+    holder: Option<Holder>,
+    seqs: [(ClientId, u32); MAX_CLIENTS],
+    seq_count: usize,
+    faults: FaultSet,
+    swim: SwimParams,
+    entered: Nanos,
+    estop_pending: bool,
+    clear_pending: bool,
+    operator_silent_count: u64,
+    disabled_in_fault: bool,
+    last_obs: Observations,
+    /// When the last reset was accepted: node faults and E-stops reported
+    /// until the clear-faults broadcast has had time to act are not re-latched.
+    reset_at: Option<Nanos>,
+}
+
+impl Supervisor {
+    /// A supervisor in Idle with nobody in control.
+    pub fn new(cfg: SupervisorConfig) -> Self {
+        Self {
+            cfg,
+            mode: Mode::Idle,
+            cause: Cause::None,
+            holder: None,
+            seqs: [(0, 0); MAX_CLIENTS],
+            seq_count: 0,
+            faults: FaultSet::default(),
+            swim: SwimParams::REST,
+            entered: 0,
+            estop_pending: false,
+            clear_pending: false,
+            operator_silent_count: 0,
+            disabled_in_fault: false,
+            last_obs: Observations::default(),
+            reset_at: None,
+        }
+    }
+
+    /// The current mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Why the mode last changed.
+    pub fn cause(&self) -> Cause {
+        self.cause
+    }
+
+    /// The faults latched since the last reset.
+    pub fn faults(&self) -> FaultSet {
+        self.faults
+    }
+
+    /// The client holding control, if any.
+    pub fn holder(&self) -> Option<ClientId> {
+        self.holder.map(|h| h.client)
+    }
+
+    /// The last accepted swim parameters.
+    pub fn swim_params(&self) -> SwimParams {
+        self.swim
+    }
+
+    /// How many times a swim was stopped because the holder went silent.
+    pub fn operator_silent_count(&self) -> u64 {
+        self.operator_silent_count
+    }
+
+    fn enter(&mut self, mode: Mode, now: Nanos, cause: Cause) {
+        self.mode = mode;
+        self.entered = now;
+        self.cause = cause;
+    }
+
+    fn check_seq(&mut self, client: ClientId, seq: u32) -> Result<(), Refusal> {
+        if let Some(slot) = self.seqs[..self.seq_count]
+            .iter_mut()
+            .find(|(c, _)| *c == client)
+        {
+            if seq <= slot.1 {
+                return Err(Refusal::StaleSequence {
+                    got: seq,
+                    last: slot.1,
+                });
+            }
+            slot.1 = seq;
+            return Ok(());
+        }
+        if self.seq_count == MAX_CLIENTS {
+            // Forget the least recent entry that is not the holder.
+            let holder = self.holder();
+            if let Some(i) = (0..MAX_CLIENTS).find(|&i| Some(self.seqs[i].0) != holder) {
+                self.seqs.copy_within(i + 1.., i);
+                self.seq_count -= 1;
+            } else {
+                return Err(Refusal::TooManyClients);
+            }
+        }
+        self.seqs[self.seq_count] = (client, seq);
+        self.seq_count += 1;
+        Ok(())
+    }
+
+    fn validate(&self, p: &SwimParams) -> Result<(), Refusal> {
+        let checks = [
+            (Field::Amplitude, p.amplitude, 0.0, 1.0),
+            (Field::Frequency, p.frequency, 0.0, self.cfg.max_frequency),
+            (Field::Turn, p.turn, -self.cfg.max_turn, self.cfg.max_turn),
+            (
+                Field::Pitch,
+                p.pitch,
+                -self.cfg.max_pitch,
+                self.cfg.max_pitch,
+            ),
+        ];
+        for (field, value, min, max) in checks {
+            if !value.is_finite() {
+                return Err(Refusal::NonFinite(field));
+            }
+            if value < min || value > max {
+                return Err(Refusal::OutOfRange {
+                    field,
+                    value,
+                    min,
+                    max,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Handles one operator command at time `now`; `Ok` means accepted.
+    pub fn command(
+        &mut self,
+        now: Nanos,
+        client: ClientId,
+        seq: u32,
+        cmd: Command,
+    ) -> Result<(), Refusal> {
+        self.check_seq(client, seq)?;
+        // E-stop: from anyone, in any mode, never refused.
+        if cmd == Command::EStop {
+            self.estop(now, FaultKind::OperatorEStop, 0);
+            return Ok(());
+        }
+        match self.holder {
+            Some(h) if h.client == client => {
+                self.holder = Some(Holder {
+                    client,
+                    last_heard: now,
+                });
+            }
+            Some(h) => return Err(Refusal::ControlHeldBy(h.client)),
+            None if cmd == Command::TakeControl => {
+                self.holder = Some(Holder {
+                    client,
+                    last_heard: now,
+                });
+                return Ok(());
+            }
+            None => return Err(Refusal::NotInControl),
+        }
+        let mode = self.mode;
+        let invalid = |hint| {
+            Err(Refusal::InvalidInMode {
+                command: cmd.name(),
+                mode,
+                hint,
+            })
+        };
+        match cmd {
+            Command::TakeControl | Command::KeepAlive | Command::EStop => Ok(()),
+            Command::ReleaseControl => {
+                self.holder = None;
+                self.stop_if_swimming(now, Cause::Command);
+                Ok(())
+            }
+            Command::Enable => match mode {
+                Mode::Idle => {
+                    self.enter(Mode::Enabling, now, Cause::Command);
+                    Ok(())
+                }
+                Mode::Enabling | Mode::Ready | Mode::Swimming | Mode::Stopping => Ok(()),
+                Mode::Fault | Mode::EStop => invalid("reset first"),
+            },
+            Command::Disable => match mode {
+                Mode::Idle | Mode::Enabling | Mode::Ready => {
+                    self.enter(Mode::Idle, now, Cause::Command);
+                    Ok(())
+                }
+                Mode::Fault => {
+                    // The fault stays latched; only the actuators go limp.
+                    self.disabled_in_fault = true;
+                    Ok(())
+                }
+                Mode::Swimming | Mode::Stopping => invalid("stop first, or e-stop"),
+                Mode::EStop => Ok(()),
+            },
+            Command::Swim(p) => {
+                self.validate(&p)?;
+                match mode {
+                    Mode::Ready | Mode::Swimming | Mode::Stopping => {
+                        self.swim = p;
+                        if mode != Mode::Swimming {
+                            self.enter(Mode::Swimming, now, Cause::Command);
+                        }
+                        Ok(())
+                    }
+                    Mode::Idle | Mode::Enabling => invalid("enable and wait for ready"),
+                    Mode::Fault | Mode::EStop => invalid("reset first"),
+                }
+            }
+            Command::Stop => match mode {
+                Mode::Swimming => {
+                    self.stop_if_swimming(now, Cause::Command);
+                    Ok(())
+                }
+                Mode::Stopping | Mode::Ready | Mode::Idle | Mode::Enabling => Ok(()),
+                Mode::Fault | Mode::EStop => Ok(()),
+            },
+            Command::Reset => match mode {
+                Mode::Fault | Mode::EStop => {
+                    // Node faults and E-stops are cleared by the clear-faults
+                    // broadcast that follows; a silent node or a dead bus is
+                    // not, so a reset waits for them to come back.
+                    let o = &self.last_obs;
+                    let mut persists = FaultSet::default();
+                    if o.heartbeat_lost != 0 {
+                        persists.insert(FaultKind::HeartbeatLost, o.heartbeat_lost);
+                    }
+                    if o.bus_off {
+                        persists.insert(FaultKind::BusOff, 0);
+                    }
+                    if !persists.is_empty() {
+                        return Err(Refusal::FaultPersists(persists));
+                    }
+                    self.faults = FaultSet::default();
+                    self.disabled_in_fault = false;
+                    self.reset_at = Some(now);
+                    self.clear_pending = true;
+                    self.enter(Mode::Idle, now, Cause::Command);
+                    Ok(())
+                }
+                _ => invalid("nothing to reset"),
+            },
+        }
+    }
+
+    fn stop_if_swimming(&mut self, now: Nanos, cause: Cause) {
+        if self.mode == Mode::Swimming {
+            self.swim = SwimParams::REST;
+            self.enter(Mode::Stopping, now, cause);
+        }
+    }
+
+    fn estop(&mut self, now: Nanos, kind: FaultKind, nodes: u64) {
+        self.faults.insert(kind, nodes);
+        self.swim = SwimParams::REST;
+        if self.mode != Mode::EStop {
+            self.estop_pending = true;
+            self.enter(Mode::EStop, now, Cause::Fault);
+        }
+    }
+
+    fn fault(&mut self, now: Nanos, kind: FaultKind, nodes: u64) {
+        self.faults.insert(kind, nodes);
+        match self.mode {
+            Mode::EStop => {}
+            Mode::Fault => {}
+            Mode::Idle if kind != FaultKind::BusOff && kind != FaultKind::ModelDiverged => {
+                // A node problem while limp is reported but changes nothing.
+            }
+            _ => {
+                self.swim = SwimParams::REST;
+                self.enter(Mode::Fault, now, Cause::Fault);
+            }
+        }
+    }
+
+    /// Once per period: applies timeouts and the robot's observed state, and
+    /// says what the loop must do.
+    pub fn tick(&mut self, now: Nanos, obs: &Observations) -> Directives {
+        // Operator silence.
+        if let Some(h) = self.holder {
+            let silent = now.saturating_sub(h.last_heard);
+            if silent >= self.cfg.control_release_timeout {
+                self.holder = None;
+            }
+            if silent >= self.cfg.command_timeout && self.mode == Mode::Swimming {
+                self.operator_silent_count += 1;
+                self.stop_if_swimming(now, Cause::OperatorSilent);
+            }
+        } else if self.mode == Mode::Swimming {
+            self.operator_silent_count += 1;
+            self.stop_if_swimming(now, Cause::OperatorSilent);
+        }
+        self.last_obs = *obs;
+        // After a reset, nodes need a moment to act on the clear-faults
+        // broadcast: their stale reports are not re-latched meanwhile.
+        let settling = match self.reset_at {
+            Some(t) if now.saturating_sub(t) < self.cfg.clear_settle_time => true,
+            Some(_) => {
+                self.reset_at = None;
+                false
+            }
+            None => false,
+        };
+        // Safety reactions (DESIGN.md's table).
+        if !settling && (obs.bus_estop || obs.estop_nodes != 0) {
+            self.estop(now, FaultKind::BusEStop, obs.estop_nodes);
+        }
+        if obs.bus_off {
+            self.fault(now, FaultKind::BusOff, 0);
+        }
+        if obs.heartbeat_lost != 0 {
+            self.fault(now, FaultKind::HeartbeatLost, obs.heartbeat_lost);
+        }
+        if !settling && obs.node_fault != 0 {
+            self.fault(now, FaultKind::NodeFault, obs.node_fault);
+        }
+        if obs.model_diverged {
+            self.fault(now, FaultKind::ModelDiverged, 0);
+        }
+        // Progress.
+        match self.mode {
+            Mode::Enabling if obs.all_enabled => self.enter(Mode::Ready, now, Cause::Progress),
+            Mode::Enabling if now.saturating_sub(self.entered) >= self.cfg.enable_timeout => {
+                self.faults.insert(FaultKind::EnableTimeout, 0);
+                self.enter(Mode::Fault, now, Cause::Fault);
+            }
+            Mode::Stopping if obs.gait_at_rest => self.enter(Mode::Ready, now, self.cause),
+            _ => {}
+        }
+        let drive = match self.mode {
+            Mode::Idle | Mode::EStop => Drive::Disabled,
+            Mode::Enabling => Drive::Enable,
+            Mode::Ready | Mode::Swimming | Mode::Stopping => Drive::Setpoints,
+            Mode::Fault if self.disabled_in_fault => Drive::Disabled,
+            Mode::Fault => match self.cfg.fault_policy {
+                FaultPolicy::Disable => Drive::Disabled,
+                // Without a bus or a model, holding is not possible.
+                FaultPolicy::Hold if obs.bus_off => Drive::Disabled,
+                FaultPolicy::Hold => Drive::Setpoints,
+            },
+        };
+        let d = Directives {
+            drive,
+            gait_target: if self.mode == Mode::Swimming {
+                self.swim
+            } else {
+                SwimParams::REST
+            },
+            send_estop: self.estop_pending,
+            send_clear_faults: self.clear_pending,
+            drop_feedforward: self.faults.contains(FaultKind::ModelDiverged),
+        };
+        self.estop_pending = false;
+        self.clear_pending = false;
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: Nanos = 1_000_000;
+    const A: ClientId = 0xA;
+    const B: ClientId = 0xB;
+
+    fn swim() -> Command {
+        Command::Swim(SwimParams {
+            amplitude: 0.5,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        })
+    }
+
+    fn ok_obs() -> Observations {
+        Observations {
+            all_enabled: true,
+            gait_at_rest: true,
+            ..Default::default()
+        }
+    }
+
+    /// A supervisor swimming under client A at t = 3 ms.
+    fn swimming() -> Supervisor {
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.command(0, A, 1, Command::TakeControl).unwrap();
+        s.command(MS, A, 2, Command::Enable).unwrap();
+        s.tick(2 * MS, &ok_obs());
+        assert_eq!(s.mode(), Mode::Ready);
+        s.command(3 * MS, A, 3, swim()).unwrap();
+        assert_eq!(s.mode(), Mode::Swimming);
+        s
+    }
+
+    #[test]
+    fn lifecycle_enable_swim_stop() {
+        let mut s = swimming();
+        let d = s.tick(4 * MS, &ok_obs());
+        assert_eq!(d.drive, Drive::Setpoints);
+        assert_eq!(d.gait_target.amplitude, 0.5);
+        s.command(5 * MS, A, 4, Command::Stop).unwrap();
+        assert_eq!(s.mode(), Mode::Stopping);
+        let not_yet = Observations {
+            gait_at_rest: false,
+            ..ok_obs()
+        };
+        assert_eq!(s.tick(6 * MS, &not_yet).gait_target, SwimParams::REST);
+        assert_eq!(s.mode(), Mode::Stopping);
+        s.tick(7 * MS, &ok_obs());
+        assert_eq!(s.mode(), Mode::Ready);
+        s.command(8 * MS, A, 5, Command::Disable).unwrap();
+        assert_eq!(s.tick(9 * MS, &ok_obs()).drive, Drive::Disabled);
+    }
+
+    #[test]
+    fn only_the_holder_commands_but_anyone_can_estop() {
+        let mut s = swimming();
+        let r = s.command(4 * MS, B, 1, Command::TakeControl).unwrap_err();
+        assert_eq!(r, Refusal::ControlHeldBy(A));
+        assert!(r.to_string().contains("holds control"));
+        assert_eq!(
+            s.command(4 * MS, B, 2, Command::Stop),
+            Err(Refusal::ControlHeldBy(A))
+        );
+        assert_eq!(s.mode(), Mode::Swimming);
+        s.command(5 * MS, B, 3, Command::EStop).unwrap();
+        assert_eq!(s.mode(), Mode::EStop);
+        let d = s.tick(6 * MS, &ok_obs());
+        assert!(d.send_estop);
+        assert_eq!(d.drive, Drive::Disabled);
+        // Sent once per event.
+        assert!(!s.tick(7 * MS, &ok_obs()).send_estop);
+    }
+
+    #[test]
+    fn estop_latches_until_reset_by_the_holder() {
+        let mut s = swimming();
+        s.command(4 * MS, A, 4, Command::EStop).unwrap();
+        assert!(matches!(
+            s.command(5 * MS, A, 5, swim()),
+            Err(Refusal::InvalidInMode {
+                mode: Mode::EStop,
+                ..
+            })
+        ));
+        assert!(matches!(
+            s.command(5 * MS, A, 6, Command::Enable),
+            Err(Refusal::InvalidInMode { .. })
+        ));
+        for i in 0..10 {
+            s.tick((6 + i) * MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::EStop);
+        }
+        s.command(20 * MS, A, 7, Command::Reset).unwrap();
+        assert_eq!(s.mode(), Mode::Idle);
+        assert!(s.tick(21 * MS, &ok_obs()).send_clear_faults);
+        assert!(s.faults().is_empty());
+    }
+
+    #[test]
+    fn operator_silence_stops_smoothly_then_releases_control() {
+        let mut s = swimming();
+        s.tick(3 * MS + 499 * MS, &ok_obs());
+        assert_eq!(s.mode(), Mode::Swimming);
+        let moving = Observations {
+            gait_at_rest: false,
+            ..ok_obs()
+        };
+        let d = s.tick(3 * MS + 500 * MS, &moving);
+        assert_eq!(s.mode(), Mode::Stopping);
+        assert_eq!(s.cause(), Cause::OperatorSilent);
+        assert_eq!(d.drive, Drive::Setpoints, "stopping keeps driving the body");
+        assert_eq!(d.gait_target, SwimParams::REST);
+        assert_eq!(s.holder(), Some(A));
+        s.tick(3 * MS + 3000 * MS, &ok_obs());
+        assert_eq!(s.holder(), None);
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(s.operator_silent_count(), 1);
+        // B can now take control.
+        s.command(3100 * MS, B, 1, Command::TakeControl).unwrap();
+    }
+
+    #[test]
+    fn keep_alive_keeps_the_swim_going() {
+        let mut s = swimming();
+        for i in 1..20u64 {
+            s.command(3 * MS + i * 200 * MS, A, 3 + i as u32, Command::KeepAlive)
+                .unwrap();
+            s.tick(3 * MS + i * 200 * MS + MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::Swimming);
+        }
+    }
+
+    #[test]
+    fn bad_swim_parameters_are_refused_with_the_field() {
+        let mut s = swimming();
+        let bad = |amplitude, frequency| {
+            Command::Swim(SwimParams {
+                amplitude,
+                frequency,
+                turn: 0.0,
+                pitch: 0.0,
+            })
+        };
+        let r = s.command(4 * MS, A, 10, bad(f64::NAN, 1.0)).unwrap_err();
+        assert_eq!(r, Refusal::NonFinite(Field::Amplitude));
+        let r = s.command(4 * MS, A, 11, bad(0.5, 9.0)).unwrap_err();
+        assert!(
+            r.to_string().contains("frequency (Hz) = 9 is out of range"),
+            "{r}"
+        );
+        // The swim goes on with the previous parameters.
+        assert_eq!(s.swim_params().amplitude, 0.5);
+    }
+
+    #[test]
+    fn stale_sequence_numbers_are_refused() {
+        let mut s = swimming();
+        assert_eq!(
+            s.command(4 * MS, A, 3, Command::Stop),
+            Err(Refusal::StaleSequence { got: 3, last: 3 })
+        );
+        assert_eq!(s.mode(), Mode::Swimming);
+    }
+
+    #[test]
+    fn faults_stop_the_swim_and_name_the_node() {
+        let mut s = swimming();
+        let obs = Observations {
+            heartbeat_lost: 1 << 7,
+            ..ok_obs()
+        };
+        let d = s.tick(4 * MS, &obs);
+        assert_eq!(s.mode(), Mode::Fault);
+        assert_eq!(d.gait_target, SwimParams::REST);
+        assert_eq!(d.drive, Drive::Setpoints, "default policy holds");
+        assert_eq!(s.faults().to_string(), "heartbeat lost (node 7)");
+        // While the node stays silent, a reset is refused with the reason.
+        let r = s.command(5 * MS, A, 4, Command::Reset).unwrap_err();
+        assert_eq!(
+            r.to_string(),
+            "the fault is still present (heartbeat lost (node 7)); fix it, then reset"
+        );
+        assert_eq!(s.mode(), Mode::Fault);
+        // Once it is back, the reset goes through.
+        s.tick(6 * MS, &ok_obs());
+        s.command(7 * MS, A, 5, Command::Reset).unwrap();
+        assert_eq!(s.mode(), Mode::Idle);
+    }
+
+    #[test]
+    fn reset_clears_node_faults_and_ignores_their_stale_reports() {
+        let mut s = swimming();
+        let faulty = Observations {
+            node_fault: 1 << 3,
+            ..ok_obs()
+        };
+        s.tick(4 * MS, &faulty);
+        assert_eq!(s.mode(), Mode::Fault);
+        s.command(5 * MS, A, 4, Command::Reset).unwrap();
+        let d = s.tick(6 * MS, &faulty);
+        assert!(d.send_clear_faults);
+        assert_eq!(s.mode(), Mode::Idle, "stale report during the settle time");
+        // A fault still reported after the settle time latches again.
+        s.command(7 * MS, A, 5, Command::Enable).unwrap();
+        s.tick(400 * MS, &faulty);
+        assert_eq!(s.mode(), Mode::Fault);
+    }
+
+    #[test]
+    fn disable_in_fault_goes_limp_but_keeps_the_fault() {
+        let mut s = swimming();
+        let faulty = Observations {
+            node_fault: 1,
+            ..ok_obs()
+        };
+        assert_eq!(s.tick(4 * MS, &faulty).drive, Drive::Setpoints);
+        s.command(5 * MS, A, 4, Command::Disable).unwrap();
+        assert_eq!(s.tick(6 * MS, &faulty).drive, Drive::Disabled);
+        assert_eq!(s.mode(), Mode::Fault);
+    }
+
+    #[test]
+    fn disable_policy_and_bus_off_disable_at_once() {
+        let cfg = SupervisorConfig {
+            fault_policy: FaultPolicy::Disable,
+            ..Default::default()
+        };
+        let mut s = Supervisor::new(cfg);
+        s.command(0, A, 1, Command::TakeControl).unwrap();
+        s.command(0, A, 2, Command::Enable).unwrap();
+        s.tick(MS, &ok_obs());
+        let d = s.tick(
+            2 * MS,
+            &Observations {
+                node_fault: 1 << 2,
+                ..ok_obs()
+            },
+        );
+        assert_eq!(d.drive, Drive::Disabled);
+        let mut s = swimming();
+        let d = s.tick(
+            4 * MS,
+            &Observations {
+                bus_off: true,
+                ..ok_obs()
+            },
+        );
+        assert_eq!(s.mode(), Mode::Fault);
+        assert_eq!(d.drive, Drive::Disabled);
+    }
+
+    #[test]
+    fn enable_times_out_into_a_fault() {
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.command(0, A, 1, Command::TakeControl).unwrap();
+        s.command(0, A, 2, Command::Enable).unwrap();
+        let none = Observations::default();
+        s.tick(999 * MS, &none);
+        assert_eq!(s.mode(), Mode::Enabling);
+        s.tick(1000 * MS, &none);
+        assert_eq!(s.mode(), Mode::Fault);
+        assert!(s.faults().contains(FaultKind::EnableTimeout));
+    }
+
+    #[test]
+    fn model_divergence_drops_feedforward() {
+        let mut s = swimming();
+        let d = s.tick(
+            4 * MS,
+            &Observations {
+                model_diverged: true,
+                ..ok_obs()
+            },
+        );
+        assert!(d.drop_feedforward);
+        assert_eq!(s.mode(), Mode::Fault);
+    }
+
+    #[test]
+    fn bus_estop_latches_even_without_a_client() {
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.tick(
+            MS,
+            &Observations {
+                bus_estop: true,
+                ..Default::default()
+            },
+        );
+        assert_eq!(s.mode(), Mode::EStop);
+        assert!(s.faults().contains(FaultKind::BusEStop));
+    }
+
+    #[test]
+    fn invalid_transitions_say_what_to_do() {
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.command(0, A, 1, Command::TakeControl).unwrap();
+        let r = s.command(0, A, 2, swim()).unwrap_err();
+        assert_eq!(
+            r.to_string(),
+            "'swim' is not valid in mode idle: enable and wait for ready"
+        );
+        let mut s = swimming();
+        let r = s.command(4 * MS, A, 4, Command::Disable).unwrap_err();
+        assert!(r.to_string().contains("stop first"), "{r}");
+    }
+
+    #[test]
+    fn sequence_table_is_bounded_and_keeps_the_holder() {
+        let mut s = swimming();
+        for c in 100..100 + 40u64 {
+            s.command(4 * MS, c, 1, Command::EStop).unwrap();
+        }
+        // The holder's entry survived eviction: its old sequence is still stale.
+        assert!(matches!(
+            s.command(5 * MS, A, 3, Command::Reset),
+            Err(Refusal::StaleSequence { .. })
+        ));
+    }
+}
