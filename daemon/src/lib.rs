@@ -6,5 +6,6 @@
 //! frame layouts (see `anguilla-protocol`).
 #![warn(missing_docs)]
 
+pub mod ipc;
 pub mod profile;
 pub mod supervisor;
