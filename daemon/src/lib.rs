@@ -8,4 +8,6 @@
 
 pub mod ipc;
 pub mod profile;
+pub mod rt;
+pub mod stats;
 pub mod supervisor;
