@@ -6,6 +6,7 @@
 //! frame layouts (see `anguilla-protocol`).
 #![warn(missing_docs)]
 
+pub mod config;
 pub mod ipc;
 pub mod profile;
 pub mod rt;

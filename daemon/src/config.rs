@@ -1,0 +1,679 @@
+//! The daemon's configuration: TOML, kebab-case keys, every key optional.
+//!
+//! A missing key takes the paper robot's default; an unknown key, a value of
+//! the wrong type or one out of range is an error that names the key and the
+//! accepted range. [`default_toml`] prints the whole default file with a
+//! comment on every key (`anguilla config default`); a test checks that it
+//! parses back to [`Config::default`], so the printed file cannot drift from
+//! the defaults in the code.
+
+use serde::Deserialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// What went wrong loading a configuration.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read configuration file {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The text is not valid TOML, has an unknown key or a value of the wrong type.
+    #[error("configuration {origin}: {message}")]
+    Parse {
+        /// The file, or "text".
+        origin: String,
+        /// toml's message, which names the key and the line.
+        message: String,
+    },
+    /// A value is outside its accepted range.
+    #[error("configuration key '{key}' = {value} is out of range (expected {expected})")]
+    Range {
+        /// The dotted key, e.g. `control.rate-hz`.
+        key: &'static str,
+        /// The value given.
+        value: String,
+        /// The accepted range.
+        expected: &'static str,
+    },
+}
+
+/// What to do with an actuator fault or a lost heartbeat.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultPolicyConfig {
+    /// Stop swimming and keep the healthy actuators holding straight.
+    Hold,
+    /// Disable every actuator at once.
+    Disable,
+}
+
+/// `[robot]`: the body's actuators.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct RobotConfig {
+    /// Number of actuated joints (each a pitch and a yaw axis, one node each).
+    pub joints: usize,
+    /// Node id of each joint from head to tail; empty means 1..=joints.
+    pub node_ids: Vec<u8>,
+}
+
+impl Default for RobotConfig {
+    fn default() -> Self {
+        Self {
+            joints: 12,
+            node_ids: Vec::new(),
+        }
+    }
+}
+
+/// `[control]`: the loop and the supervisor.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct ControlConfig {
+    /// Control rate (Hz); 0 means the highest the bus carries at `bus.max-load`.
+    pub rate_hz: f64,
+    /// The holder's silence that stops a swim (s).
+    pub command_timeout: f64,
+    /// The holder's silence that releases its control (s).
+    pub control_release_timeout: f64,
+    /// Time for every node to report enabled (s).
+    pub enable_timeout: f64,
+    /// A node's heartbeat older than this is lost (s).
+    pub heartbeat_timeout: f64,
+    /// Reaction to an actuator fault or a lost heartbeat.
+    pub fault_policy: FaultPolicyConfig,
+}
+
+impl Default for ControlConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 0.0,
+            command_timeout: 0.5,
+            control_release_timeout: 3.0,
+            enable_timeout: 1.0,
+            heartbeat_timeout: 0.35,
+            fault_policy: FaultPolicyConfig::Hold,
+        }
+    }
+}
+
+/// `[gait]`: the parametric gait and how fast its parameters may change.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct GaitConfig {
+    /// Wavelength λ of the body wave (m).
+    pub wavelength: f64,
+    /// Amplitude polynomial f_a(X) = a0 + a1·X + a2·X² at full amplitude (1/m).
+    pub amplitude_polynomial: [f64; 3],
+    /// Largest frequency an operator may ask for (Hz).
+    pub max_frequency: f64,
+    /// Largest |turn curvature| an operator may ask for (1/m).
+    pub max_turn: f64,
+    /// Largest |pitch curvature| an operator may ask for (1/m).
+    pub max_pitch: f64,
+    /// Fastest change of the amplitude fraction (1/s).
+    pub amplitude_rate: f64,
+    /// Largest acceleration of the amplitude fraction (1/s²).
+    pub amplitude_accel: f64,
+    /// Fastest change of the frequency (Hz/s).
+    pub frequency_rate: f64,
+    /// Largest acceleration of the frequency (Hz/s²).
+    pub frequency_accel: f64,
+    /// Fastest change of the turn and pitch curvatures (1/m/s).
+    pub curvature_rate: f64,
+    /// Largest acceleration of the turn and pitch curvatures (1/m/s²).
+    pub curvature_accel: f64,
+}
+
+impl Default for GaitConfig {
+    fn default() -> Self {
+        // The paper's F1 gait (Table 1) at full amplitude.
+        Self {
+            wavelength: 1.0,
+            amplitude_polynomial: [1.0, 0.5, 2.0],
+            max_frequency: 2.0,
+            max_turn: 2.0,
+            max_pitch: 1.0,
+            amplitude_rate: 0.5,
+            amplitude_accel: 1.0,
+            frequency_rate: 0.5,
+            frequency_accel: 1.0,
+            curvature_rate: 1.0,
+            curvature_accel: 2.0,
+        }
+    }
+}
+
+/// `[limits]`: per-axis joint limits, applied to every setpoint.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct LimitsConfig {
+    /// Largest |joint angle| (rad).
+    pub angle: f64,
+    /// Largest |joint velocity| (rad/s).
+    pub velocity: f64,
+    /// Largest |feedforward torque| (N·m).
+    pub torque: f64,
+}
+
+impl Default for LimitsConfig {
+    fn default() -> Self {
+        Self {
+            angle: 1.0,
+            velocity: 8.0,
+            torque: 4.0,
+        }
+    }
+}
+
+/// `[bus]`: which bus, and its physical layer.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct BusConfig {
+    /// Bus spec (`socketcan:can0`, `slcan:/dev/ttyACM0@1000000`, `mem:NAME`);
+    /// empty runs the built-in simulated robot on an in-process bus.
+    pub spec: String,
+    /// Use CAN FD frames.
+    pub fd: bool,
+    /// Nominal (arbitration) bit rate (bit/s).
+    pub bitrate: u32,
+    /// CAN FD data-phase bit rate (bit/s).
+    pub data_bitrate: u32,
+    /// Highest bus load the control rate may cause (fraction).
+    pub max_load: f64,
+}
+
+impl Default for BusConfig {
+    fn default() -> Self {
+        Self {
+            spec: String::new(),
+            fd: false,
+            bitrate: 1_000_000,
+            data_bitrate: 5_000_000,
+            max_load: 0.6,
+        }
+    }
+}
+
+/// `[realtime]`: what the loop thread asks of the OS.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct RealtimeConfig {
+    /// SCHED_FIFO priority (1..=99); 0 keeps the normal scheduler.
+    pub fifo_priority: u8,
+    /// CPU to pin the loop thread to; -1 for none.
+    pub cpu: i32,
+    /// Lock the process's memory (mlockall).
+    pub lock_memory: bool,
+}
+
+impl Default for RealtimeConfig {
+    fn default() -> Self {
+        Self {
+            fifo_priority: 0,
+            cpu: -1,
+            lock_memory: false,
+        }
+    }
+}
+
+/// `[ipc]`: the operator interface.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct IpcConfig {
+    /// Prefix of the iceoryx2 service names.
+    pub prefix: String,
+}
+
+impl Default for IpcConfig {
+    fn default() -> Self {
+        Self {
+            prefix: "anguilla".to_string(),
+        }
+    }
+}
+
+/// `[recording]`: what is written to disk.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct RecordingConfig {
+    /// Directory for the session recording; empty records nothing.
+    pub dir: String,
+}
+
+impl Default for RecordingConfig {
+    fn default() -> Self {
+        Self { dir: String::new() }
+    }
+}
+
+/// `[model]`: the feedforward model's discretization.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct ModelConfig {
+    /// Space nodes along the body.
+    pub nodes: usize,
+}
+
+impl Default for ModelConfig {
+    fn default() -> Self {
+        Self { nodes: 25 }
+    }
+}
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct Config {
+    /// `[robot]`.
+    pub robot: RobotConfig,
+    /// `[control]`.
+    pub control: ControlConfig,
+    /// `[gait]`.
+    pub gait: GaitConfig,
+    /// `[limits]`.
+    pub limits: LimitsConfig,
+    /// `[bus]`.
+    pub bus: BusConfig,
+    /// `[realtime]`.
+    pub realtime: RealtimeConfig,
+    /// `[ipc]`.
+    pub ipc: IpcConfig,
+    /// `[recording]`.
+    pub recording: RecordingConfig,
+    /// `[model]`.
+    pub model: ModelConfig,
+}
+
+fn range(
+    key: &'static str,
+    value: f64,
+    min: f64,
+    max: f64,
+    expected: &'static str,
+) -> Result<(), ConfigError> {
+    if value.is_finite() && value >= min && value <= max {
+        Ok(())
+    } else {
+        Err(ConfigError::Range {
+            key,
+            value: value.to_string(),
+            expected,
+        })
+    }
+}
+
+impl Config {
+    /// Parses and validates TOML text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            origin: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Reads, parses and validates a file.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// The node id of each joint, head to tail.
+    pub fn node_ids(&self) -> Vec<u8> {
+        if self.robot.node_ids.is_empty() {
+            (1..=self.robot.joints as u8).collect()
+        } else {
+            self.robot.node_ids.clone()
+        }
+    }
+
+    /// Checks every range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let r = &self.robot;
+        range("robot.joints", r.joints as f64, 1.0, 32.0, "1 ..= 32")?;
+        if !r.node_ids.is_empty() {
+            if r.node_ids.len() != r.joints {
+                return Err(ConfigError::Range {
+                    key: "robot.node-ids",
+                    value: format!("{} ids", r.node_ids.len()),
+                    expected: "one id per joint (robot.joints of them), or none for 1..=joints",
+                });
+            }
+            let mut seen = [false; 256];
+            for &id in &r.node_ids {
+                if !(1..=63).contains(&id) || seen[id as usize] {
+                    return Err(ConfigError::Range {
+                        key: "robot.node-ids",
+                        value: format!("{:?}", r.node_ids),
+                        expected: "distinct ids in 1 ..= 63",
+                    });
+                }
+                seen[id as usize] = true;
+            }
+        }
+        let c = &self.control;
+        if c.rate_hz != 0.0 {
+            range(
+                "control.rate-hz",
+                c.rate_hz,
+                10.0,
+                5000.0,
+                "0 (automatic) or 10 ..= 5000",
+            )?;
+        }
+        range(
+            "control.command-timeout",
+            c.command_timeout,
+            0.02,
+            10.0,
+            "0.02 ..= 10 s",
+        )?;
+        range(
+            "control.control-release-timeout",
+            c.control_release_timeout,
+            c.command_timeout,
+            600.0,
+            "control.command-timeout ..= 600 s",
+        )?;
+        range(
+            "control.enable-timeout",
+            c.enable_timeout,
+            0.01,
+            30.0,
+            "0.01 ..= 30 s",
+        )?;
+        range(
+            "control.heartbeat-timeout",
+            c.heartbeat_timeout,
+            0.01,
+            10.0,
+            "0.01 ..= 10 s",
+        )?;
+        let g = &self.gait;
+        range("gait.wavelength", g.wavelength, 0.1, 10.0, "0.1 ..= 10 m")?;
+        for (i, a) in g.amplitude_polynomial.iter().enumerate() {
+            let key = [
+                "gait.amplitude-polynomial[0]",
+                "gait.amplitude-polynomial[1]",
+                "gait.amplitude-polynomial[2]",
+            ][i];
+            range(key, *a, -20.0, 20.0, "-20 ..= 20 1/m")?;
+        }
+        range(
+            "gait.max-frequency",
+            g.max_frequency,
+            0.05,
+            10.0,
+            "0.05 ..= 10 Hz",
+        )?;
+        range("gait.max-turn", g.max_turn, 0.0, 10.0, "0 ..= 10 1/m")?;
+        range("gait.max-pitch", g.max_pitch, 0.0, 10.0, "0 ..= 10 1/m")?;
+        for (key, v) in [
+            ("gait.amplitude-rate", g.amplitude_rate),
+            ("gait.amplitude-accel", g.amplitude_accel),
+            ("gait.frequency-rate", g.frequency_rate),
+            ("gait.frequency-accel", g.frequency_accel),
+            ("gait.curvature-rate", g.curvature_rate),
+            ("gait.curvature-accel", g.curvature_accel),
+        ] {
+            range(key, v, 1e-3, 1e3, "0.001 ..= 1000")?;
+        }
+        let l = &self.limits;
+        range("limits.angle", l.angle, 0.01, 1.5, "0.01 ..= 1.5 rad")?;
+        range(
+            "limits.velocity",
+            l.velocity,
+            0.01,
+            50.0,
+            "0.01 ..= 50 rad/s",
+        )?;
+        range("limits.torque", l.torque, 0.0, 100.0, "0 ..= 100 N·m")?;
+        let b = &self.bus;
+        range(
+            "bus.bitrate",
+            b.bitrate as f64,
+            10_000.0,
+            1_000_000.0,
+            "10000 ..= 1000000 bit/s",
+        )?;
+        range(
+            "bus.data-bitrate",
+            b.data_bitrate as f64,
+            b.bitrate as f64,
+            12_000_000.0,
+            "bus.bitrate ..= 12000000 bit/s",
+        )?;
+        range("bus.max-load", b.max_load, 0.05, 0.95, "0.05 ..= 0.95")?;
+        let rt = &self.realtime;
+        range(
+            "realtime.fifo-priority",
+            rt.fifo_priority as f64,
+            0.0,
+            99.0,
+            "0 ..= 99",
+        )?;
+        range(
+            "realtime.cpu",
+            rt.cpu as f64,
+            -1.0,
+            1023.0,
+            "-1 (none) ..= 1023",
+        )?;
+        let p = &self.ipc.prefix;
+        if p.is_empty()
+            || !p
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '/'))
+        {
+            return Err(ConfigError::Range {
+                key: "ipc.prefix",
+                value: format!("{p:?}"),
+                expected: "a non-empty name of letters, digits, '-', '_' and '/'",
+            });
+        }
+        range(
+            "model.nodes",
+            self.model.nodes as f64,
+            5.0,
+            2000.0,
+            "5 ..= 2000",
+        )?;
+        Ok(())
+    }
+}
+
+fn fmt_f(v: f64) -> String {
+    // TOML floats need a decimal point or exponent.
+    let s = format!("{v}");
+    if s.contains(['.', 'e', 'E']) || s.contains("inf") || s.contains("nan") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+/// The whole default configuration as a commented TOML file.
+pub fn default_toml() -> String {
+    let d = Config::default();
+    let mut o = String::new();
+    let mut w = |s: String| {
+        let _ = writeln!(o, "{s}");
+    };
+    w("# anguilla daemon configuration. Every key is optional; these are the defaults.".into());
+    w("# Keys are kebab-case; an unknown key or an out-of-range value is an error.".into());
+    w(String::new());
+    w("[robot]".into());
+    w("# Actuated joints, head to tail (each: a pitch and a yaw axis on one node). 1..=32".into());
+    w(format!("joints = {}", d.robot.joints));
+    w("# Node id of each joint, head to tail; [] means 1..=joints. Distinct, 1..=63".into());
+    w("node-ids = []".into());
+    w(String::new());
+    w("[control]".into());
+    w("# Control rate (Hz). 0: the highest rate the bus carries within bus.max-load.".into());
+    w(format!("rate-hz = {}", fmt_f(d.control.rate_hz)));
+    w("# The controlling operator must send a command at least this often (s),".into());
+    w("# or the swim stops smoothly. 0.02..=10".into());
+    w(format!(
+        "command-timeout = {}",
+        fmt_f(d.control.command_timeout)
+    ));
+    w("# Silence after which the operator's control is released (s).".into());
+    w(format!(
+        "control-release-timeout = {}",
+        fmt_f(d.control.control_release_timeout)
+    ));
+    w("# Time allowed for every node to report enabled (s).".into());
+    w(format!(
+        "enable-timeout = {}",
+        fmt_f(d.control.enable_timeout)
+    ));
+    w("# A node whose heartbeat is older than this is lost (s).".into());
+    w(format!(
+        "heartbeat-timeout = {}",
+        fmt_f(d.control.heartbeat_timeout)
+    ));
+    w("# On an actuator fault or a lost node: \"hold\" (stop swimming, healthy joints".into());
+    w("# hold straight) or \"disable\" (every actuator off at once).".into());
+    w("fault-policy = \"hold\"".into());
+    w(String::new());
+    w("[gait]".into());
+    w("# Body wave length (m); amplitude polynomial a0 + a1·X + a2·X² (1/m) at full".into());
+    w("# amplitude: the paper's F1 gait.".into());
+    w(format!("wavelength = {}", fmt_f(d.gait.wavelength)));
+    let [a0, a1, a2] = d.gait.amplitude_polynomial;
+    w(format!(
+        "amplitude-polynomial = [{}, {}, {}]",
+        fmt_f(a0),
+        fmt_f(a1),
+        fmt_f(a2)
+    ));
+    w("# Largest frequency (Hz), turn and pitch curvatures (1/m) an operator may ask for.".into());
+    w(format!("max-frequency = {}", fmt_f(d.gait.max_frequency)));
+    w(format!("max-turn = {}", fmt_f(d.gait.max_turn)));
+    w(format!("max-pitch = {}", fmt_f(d.gait.max_pitch)));
+    w(
+        "# Trapezoidal shaping of parameter changes: rate (per s) and acceleration (per s²)."
+            .into(),
+    );
+    w(format!("amplitude-rate = {}", fmt_f(d.gait.amplitude_rate)));
+    w(format!(
+        "amplitude-accel = {}",
+        fmt_f(d.gait.amplitude_accel)
+    ));
+    w(format!("frequency-rate = {}", fmt_f(d.gait.frequency_rate)));
+    w(format!(
+        "frequency-accel = {}",
+        fmt_f(d.gait.frequency_accel)
+    ));
+    w(format!("curvature-rate = {}", fmt_f(d.gait.curvature_rate)));
+    w(format!(
+        "curvature-accel = {}",
+        fmt_f(d.gait.curvature_accel)
+    ));
+    w(String::new());
+    w("[limits]".into());
+    w("# Per-axis limits applied to every setpoint (clamped and counted).".into());
+    w("# Angle (rad) 0.01..=1.5, velocity (rad/s) 0.01..=50, torque (N·m) 0..=100.".into());
+    w(format!("angle = {}", fmt_f(d.limits.angle)));
+    w(format!("velocity = {}", fmt_f(d.limits.velocity)));
+    w(format!("torque = {}", fmt_f(d.limits.torque)));
+    w(String::new());
+    w("[bus]".into());
+    w("# \"socketcan:can0\", \"slcan:/dev/ttyACM0@1000000\", \"mem:NAME\"; empty runs the".into());
+    w("# built-in simulated robot. Real hardware is driven only when this is set.".into());
+    w("spec = \"\"".into());
+    w("# CAN FD frames; nominal and data-phase bit rates (bit/s).".into());
+    w(format!("fd = {}", d.bus.fd));
+    w(format!("bitrate = {}", d.bus.bitrate));
+    w(format!("data-bitrate = {}", d.bus.data_bitrate));
+    w("# Highest bus load the automatic control rate may cause. 0.05..=0.95".into());
+    w(format!("max-load = {}", fmt_f(d.bus.max_load)));
+    w(String::new());
+    w("[realtime]".into());
+    w("# SCHED_FIFO priority of the loop thread (0: normal scheduler), its CPU (-1: any),".into());
+    w("# and mlockall. When the system refuses, the daemon warns and runs anyway.".into());
+    w(format!("fifo-priority = {}", d.realtime.fifo_priority));
+    w(format!("cpu = {}", d.realtime.cpu));
+    w(format!("lock-memory = {}", d.realtime.lock_memory));
+    w(String::new());
+    w("[ipc]".into());
+    w("# Prefix of the iceoryx2 services (<prefix>/state, /state-ready, /command).".into());
+    w(format!("prefix = {:?}", d.ipc.prefix));
+    w(String::new());
+    w("[recording]".into());
+    w("# Directory for the session recording (candump log + state records); empty: none.".into());
+    w(format!("dir = {:?}", d.recording.dir));
+    w(String::new());
+    w("[model]".into());
+    w("# Space nodes of the feedforward model along the body. 5..=2000".into());
+    w(format!("nodes = {}", d.model.nodes));
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_printed_default_parses_back_to_the_default() {
+        let parsed = Config::from_toml(&default_toml(), "default").unwrap();
+        assert_eq!(parsed, Config::default());
+        Config::default().validate().unwrap();
+    }
+
+    #[test]
+    fn empty_file_is_the_default() {
+        assert_eq!(Config::from_toml("", "t").unwrap(), Config::default());
+    }
+
+    #[test]
+    fn unknown_keys_and_wrong_types_name_the_key() {
+        let e = Config::from_toml("[control]\nrate = 100\n", "t").unwrap_err();
+        assert!(e.to_string().contains("unknown field `rate`"), "{e}");
+        let e = Config::from_toml("[robot]\njoints = \"twelve\"\n", "t").unwrap_err();
+        assert!(e.to_string().contains("joints"), "{e}");
+        let e = Config::from_toml("[nonsense]\n", "t").unwrap_err();
+        assert!(e.to_string().contains("nonsense"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_values_name_the_key_and_the_range() {
+        let e = Config::from_toml("[control]\ncommand-timeout = -1.0\n", "t").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "configuration key 'control.command-timeout' = -1 is out of range (expected 0.02 ..= 10 s)"
+        );
+        let e = Config::from_toml("[robot]\njoints = 3\nnode-ids = [1, 2, 2]\n", "t").unwrap_err();
+        assert!(e.to_string().contains("distinct ids"), "{e}");
+        let e = Config::from_toml("[robot]\njoints = 3\nnode-ids = [1, 2]\n", "t").unwrap_err();
+        assert!(e.to_string().contains("one id per joint"), "{e}");
+        let e = Config::from_toml("[bus]\nmax-load = 1.5\n", "t").unwrap_err();
+        assert!(e.to_string().contains("bus.max-load"), "{e}");
+        let e = Config::from_toml("[ipc]\nprefix = \"a b\"\n", "t").unwrap_err();
+        assert!(e.to_string().contains("ipc.prefix"), "{e}");
+    }
+
+    #[test]
+    fn node_ids_default_to_one_through_joints() {
+        let c = Config::from_toml("[robot]\njoints = 4\n", "t").unwrap();
+        assert_eq!(c.node_ids(), vec![1, 2, 3, 4]);
+        let c = Config::from_toml("[robot]\njoints = 2\nnode-ids = [9, 4]\n", "t").unwrap();
+        assert_eq!(c.node_ids(), vec![9, 4]);
+    }
+
+    #[test]
+    fn a_missing_file_names_the_path() {
+        let e = Config::load(Path::new("/nonexistent/anguilla.toml")).unwrap_err();
+        assert!(e.to_string().contains("/nonexistent/anguilla.toml"), "{e}");
+    }
+}
