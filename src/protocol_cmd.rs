@@ -17,6 +17,12 @@ pub enum ProtocolCmd {
     Budget(BudgetArgs),
     /// Print or write the DBC file generated from the message definitions.
     Dbc(DbcArgs),
+    /// Print the Markdown layout tables of protocol/README.md.
+    Layout {
+        /// The CAN FD variant (default: classic CAN).
+        #[arg(long)]
+        fd: bool,
+    },
 }
 
 /// Arguments of `anguilla protocol budget`.
@@ -64,6 +70,11 @@ pub fn run(cmd: ProtocolCmd) -> anyhow::Result<()> {
     match cmd {
         ProtocolCmd::Budget(a) => run_budget(a),
         ProtocolCmd::Dbc(a) => run_dbc(a),
+        ProtocolCmd::Layout { fd } => {
+            let variant = if fd { Variant::Fd } else { Variant::Classic };
+            print!("{}", anguilla_protocol::doc::layout_markdown(variant));
+            Ok(())
+        }
     }
 }
 

@@ -25,6 +25,7 @@
 pub mod budget;
 pub mod candump;
 pub mod dbc;
+pub mod doc;
 pub mod frame;
 pub mod message;
 pub mod signal;

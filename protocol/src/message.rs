@@ -29,6 +29,10 @@ pub const MAX_NODE_ID: u8 = 63;
 pub const GROUP_SLOTS: usize = 6;
 /// Heartbeat period of every node, in milliseconds.
 pub const HEARTBEAT_PERIOD_MS: u32 = 100;
+/// A node's watchdog timeout after boot, ms (five periods at 100 Hz).
+pub const DEFAULT_WATCHDOG_MS: u16 = 50;
+/// A node's safe action after boot.
+pub const DEFAULT_SAFE_ACTION: SafeAction = SafeAction::Limp;
 /// Watchdog timeout range a node accepts, in milliseconds.
 pub const WATCHDOG_RANGE_MS: (u16, u16) = (2, 1000);
 
@@ -533,8 +537,10 @@ pub mod common {
     pub const SYNC_COUNTER: Signal =
         Signal::uint("Counter", 0, 16, 65535, "cycle counter, +1 per period");
     /// Command code.
-    pub const COMMAND: Signal =
-        Signal::uint("Command", 0, 8, 3, "1 Enable, 2 Disable, 3 ClearFaults");
+    pub const COMMAND: Signal = Signal {
+        min: 1.0,
+        ..Signal::uint("Command", 0, 8, 3, "1 Enable, 2 Disable, 3 ClearFaults")
+    };
     /// Heartbeat state.
     pub const HB_STATE: Signal = Signal::uint(
         "State",

@@ -580,7 +580,7 @@ fn decode_errors_say_what_was_wrong() {
     assert!(e.to_string().contains("expected -7500..=7500"), "{e}");
     assert_eq!(
         decode(&f(0x081, &[9]), c, nodes).unwrap_err().to_string(),
-        "Command.Command raw value 9 is out of range (expected 0..=3)"
+        "Command.Command raw value 9 is out of range (expected 1..=3)"
     );
     // Reserved bits of the FD feedback must be zero.
     let mut d = [0u8; 12];
