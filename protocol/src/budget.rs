@@ -28,8 +28,8 @@
 
 use crate::frame::{Frame, Id, Kind};
 use crate::message::{
-    AxisFeedback, ErrorBits, Feedback, Function, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId,
-    NodeState, Variant, encode_setpoints,
+    AxisFeedback, ErrorBits, Feedback, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId, NodeState,
+    Variant, encode_setpoints,
 };
 
 /// Worst-case length of one frame: bits at the nominal rate and at the data
@@ -341,15 +341,6 @@ pub fn max_rate(joints: u32, rates: Bitrates, max_load: f64) -> Result<f64, Budg
         .sum();
     Ok(((max_load - fixed) / per_period).max(0.0))
 }
-
-/// Which messages the budget counts, for documentation.
-pub const CYCLIC_FUNCTIONS: [Function; 5] = [
-    Function::Setpoint,
-    Function::SetpointGroup,
-    Function::Sync,
-    Function::Feedback,
-    Function::Heartbeat,
-];
 
 #[cfg(test)]
 mod tests {

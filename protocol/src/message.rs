@@ -1909,18 +1909,3 @@ pub fn encode_setpoints(
     }
     Ok(())
 }
-
-/// The data length of a frame `function` sends on `variant` for a robot of
-/// `nodes` nodes, group `group` (only the FD setpoint group varies).
-pub fn frame_len(variant: Variant, function: Function, nodes: u8, group: u8) -> Option<usize> {
-    let def = definition(variant, function)?;
-    if function == Function::SetpointGroup {
-        let first = group as usize * GROUP_SLOTS;
-        let in_group = (nodes as usize).saturating_sub(first).min(GROUP_SLOTS);
-        if in_group == 0 {
-            return None;
-        }
-        return Some(fd::group_len(in_group));
-    }
-    Some(def.len as usize)
-}
