@@ -211,3 +211,46 @@ fn run_dbc(a: DbcArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args() -> BudgetArgs {
+        BudgetArgs {
+            joints: 12,
+            rate: 100.0,
+            bitrate: 1_000_000,
+            fd: false,
+            data_bitrate: None,
+            max_load: 0.6,
+            json: true,
+        }
+    }
+
+    #[test]
+    fn bad_budget_arguments_are_clear_errors() {
+        let e = run_budget(BudgetArgs {
+            data_bitrate: Some(5_000_000),
+            ..args()
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("--data-bitrate needs --fd"), "{e}");
+        let e = run_budget(BudgetArgs {
+            rate: 0.0,
+            ..args()
+        })
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("control rate 0 Hz"), "{e:#}");
+        let e = run_budget(BudgetArgs {
+            bitrate: 100_000_000,
+            ..args()
+        })
+        .unwrap_err();
+        assert!(
+            format!("{e:#}").contains("expected 10000..=1000000"),
+            "{e:#}"
+        );
+        assert!(run_budget(args()).is_ok());
+    }
+}

@@ -1737,6 +1737,9 @@ pub fn decode(frame: &Frame, variant: Variant, nodes: NodeSet) -> Result<Message
         }
         Function::SetpointGroup => {
             let group = low;
+            if group as usize >= (MAX_NODE_ID as usize).div_ceil(GROUP_SLOTS) {
+                return Err(DecodeError::UnknownId(id));
+            }
             if data.len() < 2 {
                 return Err(DecodeError::WrongLength {
                     message,
