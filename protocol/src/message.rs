@@ -1643,6 +1643,12 @@ fn decode_param(
 /// Physical-layer flags (FD bit-rate switch and error-state indicator) are
 /// not part of the message and are ignored. Every failure is an error value:
 /// this function never panics, whatever the frame.
+///
+/// The host passes the configured nodes (`NodeSet::first(n)`), so a frame
+/// from or for any other id is [`DecodeError::UnknownNode`]. A node (the
+/// simulated one) passes [`NodeSet::all`] and keeps what is addressed to it:
+/// a [`SetpointGroup`] carries other nodes' slots too
+/// ([`SetpointGroup::for_node`]).
 pub fn decode(frame: &Frame, variant: Variant, nodes: NodeSet) -> Result<Message, DecodeError> {
     let id = match frame.id() {
         Id::Standard(id) => id,
