@@ -2,6 +2,8 @@
 //! hands the work to the library crates; it holds no model maths, frame
 //! layouts or control logic of its own.
 
+mod protocol_cmd;
+
 use clap::{Parser, Subcommand};
 
 /// Software for eel-like swimming robots.
@@ -13,7 +15,13 @@ struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-enum Command {}
+enum Command {
+    /// The vertebra CAN protocol: bus budget, DBC file.
+    Protocol {
+        #[command(subcommand)]
+        cmd: protocol_cmd::ProtocolCmd,
+    },
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
@@ -23,5 +31,6 @@ fn main() -> anyhow::Result<()> {
             Cli::command().print_help()?;
             Ok(())
         }
+        Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
     }
 }

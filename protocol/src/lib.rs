@@ -1,18 +1,34 @@
 //! The anguilla vertebra CAN protocol.
 //!
 //! This crate owns everything about the wire that does not need a socket:
-//! the [`frame::Frame`] type shared by every bus, and (as they are built) the
-//! message definitions, their encoders and decoders, the bus-load arithmetic,
-//! the DBC file and can-utils' candump log format.
+//! the [`frame::Frame`] type shared by every bus, the message definitions
+//! ([`message`]) with their encoders and decoders, the field descriptors
+//! they are built from ([`signal`]), the bus-load arithmetic ([`budget`]),
+//! the DBC file generator ([`dbc`]) and can-utils' candump log format
+//! ([`candump`]). `protocol/README.md` is the contract a node's firmware
+//! implements.
 //!
 //! ```
 //! use anguilla_protocol::frame::{Frame, Id};
+//! use anguilla_protocol::message::{decode, Message, NodeSet, Variant};
 //! let f = Frame::new(Id::standard(0x123)?, &[0xDE, 0xAD])?;
 //! assert_eq!(f.to_string(), "123#DEAD");
-//! # Ok::<(), anguilla_protocol::frame::FrameError>(())
+//!
+//! // SYNC number 7 on classic CAN: id 0x040, counter little-endian.
+//! let sync = Message::Sync { counter: 7 }.encode(Variant::Classic)?;
+//! assert_eq!(sync.to_string(), "040#0700");
+//! assert_eq!(decode(&sync, Variant::Classic, NodeSet::first(12))?, Message::Sync { counter: 7 });
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 #![warn(missing_docs)]
 
+pub mod budget;
+pub mod candump;
+pub mod dbc;
+pub mod doc;
 pub mod frame;
+pub mod message;
+pub mod signal;
 
 pub use frame::{Frame, FrameError, Id, Kind};
+pub use message::{DecodeError, EncodeError, Message, NodeId, NodeSet, Variant, decode};

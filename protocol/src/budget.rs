@@ -1,0 +1,427 @@
+//! Bus-load arithmetic with worst-case bit stuffing.
+//!
+//! # Frame lengths on the wire
+//!
+//! **Classic CAN**, base format (11-bit id), `n` data bytes: SOF (1), id
+//! (11), RTR (1), IDE (1), r0 (1), DLC (4), data (8n), CRC (15) are subject
+//! to bit stuffing: `S = 34 + 8n` bits (extended format: `54 + 8n`). A
+//! stuff bit follows every five equal bits; the worst case is a stuff bit
+//! after the first five bits and then after every four (the stuff bit
+//! itself starts the next run), `floor((S - 1) / 4)` stuff bits. Then CRC
+//! delimiter (1), ACK slot and delimiter (2), EOF (7) and the 3-bit
+//! interframe space are never stuffed: 13 bits. An 8-byte frame is
+//! `98 + 24 + 13 = 135` bit times; 111 without stuffing.
+//!
+//! **CAN FD** (ISO 11898-1:2015), base format: the arbitration phase SOF, id
+//! (11), RRS, IDE, FDF, res, BRS is 17 bits at the nominal rate (36 in the
+//! extended format). With bit-rate switching, ESI (1), DLC (4) and data (8n)
+//! follow at the data rate; dynamic stuffing runs from SOF to the end of
+//! the data, `floor((17 + 5 + 8n - 1) / 4)` stuff bits in the worst case,
+//! of which at most `floor((17 - 1) / 4) = 4` fall in the arbitration phase
+//! (we count 4 there, the rest at the data rate: an upper bound on time).
+//! The CRC field uses fixed stuffing: stuff count (4) + CRC-17 + 6 fixed
+//! stuff bits = 27 bits for up to 16 data bytes, stuff count + CRC-21 + 7
+//! fixed stuff bits = 32 above, at the data rate. CRC delimiter, ACK (2),
+//! EOF (7) and IFS (3) are counted at the nominal rate (13 bits; the switch
+//! back happens inside the CRC delimiter, so this slightly overestimates).
+//! Without BRS every bit is at the nominal rate.
+
+use crate::frame::{Frame, Id, Kind};
+use crate::message::{
+    AxisFeedback, ErrorBits, Feedback, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId, NodeState,
+    Variant, encode_setpoints,
+};
+
+/// Worst-case length of one frame: bits at the nominal rate and at the data
+/// rate (FD with bit-rate switch only), including the interframe space.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameBits {
+    /// Bit times at the nominal (arbitration) rate.
+    pub nominal: u32,
+    /// Bit times at the data rate (0 for classic frames and FD without BRS).
+    pub data: u32,
+}
+
+impl FrameBits {
+    /// Duration in seconds at the given rates.
+    pub fn seconds(self, rates: Bitrates) -> f64 {
+        let data_rate = rates.data.unwrap_or(rates.nominal);
+        self.nominal as f64 / rates.nominal as f64 + self.data as f64 / data_rate as f64
+    }
+}
+
+/// Worst-case on-the-wire length of `frame` with bit stuffing and IFS.
+pub fn worst_case_bits(frame: &Frame) -> FrameBits {
+    let n = frame.len() as u32;
+    match frame.kind() {
+        Kind::Data | Kind::Remote { .. } => {
+            let header = if frame.id().is_extended() { 39 } else { 19 };
+            let stuffed = header + 8 * n + 15;
+            FrameBits {
+                nominal: stuffed + (stuffed - 1) / 4 + 13,
+                data: 0,
+            }
+        }
+        Kind::Fd { brs, .. } => {
+            let arbitration = match frame.id() {
+                Id::Standard(_) => 17,
+                Id::Extended(_) => 36,
+            };
+            let dynamic = arbitration + 5 + 8 * n;
+            let stuff = (dynamic - 1) / 4;
+            let arb_stuff = (arbitration - 1) / 4;
+            let crc_field = if n <= 16 { 4 + 17 + 6 } else { 4 + 21 + 7 };
+            let nominal = arbitration + arb_stuff + 13;
+            let data = 5 + 8 * n + (stuff - arb_stuff) + crc_field;
+            if brs {
+                FrameBits { nominal, data }
+            } else {
+                FrameBits {
+                    nominal: nominal + data,
+                    data: 0,
+                }
+            }
+        }
+    }
+}
+
+/// Nominal and (CAN FD) data bit rates, bit/s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Bitrates {
+    /// Nominal (arbitration) rate.
+    pub nominal: u32,
+    /// Data-phase rate (CAN FD with BRS); `None` on classic CAN.
+    pub data: Option<u32>,
+}
+
+impl Bitrates {
+    /// The variant these rates imply.
+    pub const fn variant(self) -> Variant {
+        match self.data {
+            Some(_) => Variant::Fd,
+            None => Variant::Classic,
+        }
+    }
+
+    /// Checks the rates are physically sensible: nominal 10 kbit/s..=1 Mbit/s,
+    /// data rate nominal..=12 Mbit/s.
+    pub fn validate(self) -> Result<Self, BudgetError> {
+        if !(10_000..=1_000_000).contains(&self.nominal) {
+            return Err(BudgetError::NominalRate(self.nominal));
+        }
+        if let Some(d) = self.data
+            && !(self.nominal..=12_000_000).contains(&d)
+        {
+            return Err(BudgetError::DataRate {
+                data: d,
+                nominal: self.nominal,
+            });
+        }
+        Ok(self)
+    }
+}
+
+/// Bad budget inputs.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum BudgetError {
+    /// Nominal bit rate outside 10 kbit/s..=1 Mbit/s.
+    #[error("nominal bit rate {0} bit/s (expected 10000..=1000000)")]
+    NominalRate(u32),
+    /// Data bit rate below the nominal rate or above 12 Mbit/s.
+    #[error("data bit rate {data} bit/s (expected {nominal}..=12000000)")]
+    DataRate {
+        /// Given data rate.
+        data: u32,
+        /// Nominal rate.
+        nominal: u32,
+    },
+    /// Control rate not a positive finite number, or above 20 kHz.
+    #[error("control rate {0} Hz (expected > 0 and <= 20000)")]
+    Rate(f64),
+    /// Joint count outside 1..=63.
+    #[error("{0} joints (expected 1..=63, one node per joint)")]
+    Joints(u32),
+    /// Load target outside (0, 1].
+    #[error("load limit {0} (expected a fraction in (0, 1])")]
+    Load(f64),
+}
+
+/// How often a budget line's frames are sent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Cadence {
+    /// `count` frames every control period.
+    PerPeriod(u32),
+    /// `count` frames per second whatever the control rate (heartbeats).
+    PerSecond(f64),
+}
+
+/// One kind of frame in the control traffic.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BudgetLine {
+    /// Message name.
+    pub name: &'static str,
+    /// Data bytes of the frame (the longest, where frames differ).
+    pub bytes: u8,
+    /// How many are sent.
+    pub cadence: Cadence,
+    /// Worst-case bits of all these frames in one period, summed: nominal
+    /// and data-rate bits per frame sum over the frames of one period (for
+    /// per-second lines, per frame).
+    pub bits: FrameBits,
+}
+
+impl BudgetLine {
+    /// Bus time per second, at control rate `rate`, in seconds.
+    pub fn busy_per_second(&self, rates: Bitrates, rate: f64) -> f64 {
+        match self.cadence {
+            Cadence::PerPeriod(_) => self.bits.seconds(rates) * rate,
+            Cadence::PerSecond(c) => self.bits.seconds(rates) * c,
+        }
+    }
+
+    /// Frames in one period (fractional for per-second lines).
+    pub fn frames_per_period(&self, rate: f64) -> f64 {
+        match self.cadence {
+            Cadence::PerPeriod(c) => c as f64,
+            Cadence::PerSecond(c) => c / rate,
+        }
+    }
+}
+
+/// The cyclic traffic of a robot of `joints` nodes, computed by encoding
+/// the actual frames: setpoints, SYNC, feedback, heartbeats. Event messages
+/// (E-stop, commands, configuration) are not cyclic and not counted.
+pub fn control_traffic(variant: Variant, joints: u8) -> [BudgetLine; 4] {
+    let joints = joints.clamp(1, crate::message::MAX_NODE_ID);
+    // Setpoints: encode a real period's frames and sum them.
+    let setpoints = [[Default::default(); 2]; crate::message::MAX_NODE_ID as usize];
+    let (mut sp_count, mut sp_bytes, mut sp_bits) = (
+        0u32,
+        0u8,
+        FrameBits {
+            nominal: 0,
+            data: 0,
+        },
+    );
+    encode_setpoints(variant, 0, &setpoints[..joints as usize], |f| {
+        let b = worst_case_bits(&f);
+        sp_count += 1;
+        sp_bytes = sp_bytes.max(f.len() as u8);
+        sp_bits.nominal += b.nominal;
+        sp_bits.data += b.data;
+    })
+    .expect("zero setpoints encode");
+    let sp_name = match variant {
+        Variant::Classic => "Setpoint",
+        Variant::Fd => "SetpointGroup",
+    };
+    let node = NodeId::new(1).expect("1 is a node id");
+    let sync = Message::Sync { counter: 0 }
+        .encode(variant)
+        .expect("sync encodes");
+    let feedback = Message::Feedback(Feedback {
+        node,
+        enabled: true,
+        fault: false,
+        axes: [AxisFeedback::default(); 2],
+    })
+    .encode(variant)
+    .expect("feedback encodes");
+    let heartbeat = Message::Heartbeat(Heartbeat {
+        node,
+        state: NodeState::Enabled,
+        errors: ErrorBits(0),
+        counter: 0,
+        missed_syncs: 0,
+        temperature: 20,
+    })
+    .encode(variant)
+    .expect("heartbeat encodes");
+    let fb = worst_case_bits(&feedback);
+    [
+        BudgetLine {
+            name: sp_name,
+            bytes: sp_bytes,
+            cadence: Cadence::PerPeriod(sp_count),
+            bits: sp_bits,
+        },
+        BudgetLine {
+            name: "Sync",
+            bytes: sync.len() as u8,
+            cadence: Cadence::PerPeriod(1),
+            bits: worst_case_bits(&sync),
+        },
+        BudgetLine {
+            name: "Feedback",
+            bytes: feedback.len() as u8,
+            cadence: Cadence::PerPeriod(joints as u32),
+            bits: FrameBits {
+                nominal: fb.nominal * joints as u32,
+                data: fb.data * joints as u32,
+            },
+        },
+        BudgetLine {
+            name: "Heartbeat",
+            bytes: heartbeat.len() as u8,
+            cadence: Cadence::PerSecond(joints as f64 * 1000.0 / HEARTBEAT_PERIOD_MS as f64),
+            bits: worst_case_bits(&heartbeat),
+        },
+    ]
+}
+
+/// Bus load of the cyclic traffic.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Budget {
+    /// Variant the traffic is encoded for.
+    pub variant: Variant,
+    /// Bit rates.
+    pub rates: Bitrates,
+    /// Joints (= nodes).
+    pub joints: u8,
+    /// Control rate, Hz.
+    pub rate: f64,
+    /// The traffic.
+    pub lines: [BudgetLine; 4],
+    /// Worst-case bus time per control period, seconds (heartbeats
+    /// amortized).
+    pub busy_per_period: f64,
+    /// Fraction of bus time used (1.0 = saturated).
+    pub load: f64,
+}
+
+fn check_joints(joints: u32) -> Result<u8, BudgetError> {
+    if (1..=crate::message::MAX_NODE_ID as u32).contains(&joints) {
+        Ok(joints as u8)
+    } else {
+        Err(BudgetError::Joints(joints))
+    }
+}
+
+/// The worst-case bus load of `joints` nodes at control rate `rate` Hz.
+/// The variant follows from `rates` (a data rate means CAN FD).
+pub fn budget(joints: u32, rate: f64, rates: Bitrates) -> Result<Budget, BudgetError> {
+    let joints = check_joints(joints)?;
+    let rates = rates.validate()?;
+    if !(rate.is_finite() && rate > 0.0 && rate <= 20_000.0) {
+        return Err(BudgetError::Rate(rate));
+    }
+    let variant = rates.variant();
+    let lines = control_traffic(variant, joints);
+    let busy: f64 = lines.iter().map(|l| l.busy_per_second(rates, rate)).sum();
+    Ok(Budget {
+        variant,
+        rates,
+        joints,
+        rate,
+        lines,
+        busy_per_period: busy / rate,
+        load: busy,
+    })
+}
+
+/// The highest control rate, Hz, at which `joints` nodes' cyclic traffic
+/// stays within `max_load` (a fraction, e.g. 0.6) of the bus.
+pub fn max_rate(joints: u32, rates: Bitrates, max_load: f64) -> Result<f64, BudgetError> {
+    let joints = check_joints(joints)?;
+    let rates = rates.validate()?;
+    if !(max_load > 0.0 && max_load <= 1.0) {
+        return Err(BudgetError::Load(max_load));
+    }
+    let lines = control_traffic(rates.variant(), joints);
+    // load(rate) = fixed + rate * per_period
+    let fixed: f64 = lines
+        .iter()
+        .filter(|l| matches!(l.cadence, Cadence::PerSecond(_)))
+        .map(|l| l.busy_per_second(rates, 1.0))
+        .sum();
+    let per_period: f64 = lines
+        .iter()
+        .filter(|l| matches!(l.cadence, Cadence::PerPeriod(_)))
+        .map(|l| l.bits.seconds(rates))
+        .sum();
+    Ok(((max_load - fixed) / per_period).max(0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CLASSIC_1M: Bitrates = Bitrates {
+        nominal: 1_000_000,
+        data: None,
+    };
+    const FD_1_5M: Bitrates = Bitrates {
+        nominal: 1_000_000,
+        data: Some(5_000_000),
+    };
+
+    #[test]
+    fn classic_frame_lengths_match_the_textbook() {
+        let f = Frame::new_standard(0x123, &[0; 8]).unwrap();
+        // 111 bits unstuffed incl. IFS, 24 worst-case stuff bits.
+        assert_eq!(
+            worst_case_bits(&f),
+            FrameBits {
+                nominal: 135,
+                data: 0
+            }
+        );
+        let e = Frame::new(Id::Extended(1), &[0; 8]).unwrap();
+        assert_eq!(worst_case_bits(&e).nominal, 118 + 13 + 29);
+        let empty = Frame::new_standard(0, &[]).unwrap();
+        assert_eq!(worst_case_bits(&empty).nominal, 34 + 8 + 13);
+    }
+
+    #[test]
+    fn fd_frame_lengths() {
+        let f = Frame::new_fd(Id::Standard(0x100), &[0; 64], true).unwrap();
+        let b = worst_case_bits(&f);
+        assert_eq!(b.nominal, 17 + 4 + 13);
+        // 5 + 512 data bits, 129 stuff bits in the data phase, 32 CRC field.
+        assert_eq!(b.data, 5 + 512 + (533 / 4 - 4) + 32);
+        let slow = Frame::new_fd(Id::Standard(0x100), &[0; 64], false).unwrap();
+        assert_eq!(worst_case_bits(&slow).nominal, b.nominal + b.data);
+    }
+
+    #[test]
+    fn goals_are_met() {
+        let c = budget(12, 100.0, CLASSIC_1M).unwrap();
+        assert!(c.load <= 0.60, "classic load {}", c.load);
+        let f = budget(12, 500.0, FD_1_5M).unwrap();
+        assert!(f.load <= 0.60, "fd load {}", f.load);
+        assert!(max_rate(12, CLASSIC_1M, 0.6).unwrap() >= 100.0);
+        assert!(max_rate(12, FD_1_5M, 0.6).unwrap() >= 500.0);
+    }
+
+    #[test]
+    fn max_rate_is_where_the_load_hits_the_limit() {
+        for rates in [CLASSIC_1M, FD_1_5M] {
+            for joints in [1, 6, 12, 13, 30] {
+                let r = max_rate(joints, rates, 0.6).unwrap();
+                let b = budget(joints, r, rates).unwrap();
+                // Linear in the rate: equal up to float rounding.
+                assert!((b.load - 0.6).abs() < 1e-9, "{joints} {r} {}", b.load);
+            }
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        assert!(budget(0, 100.0, CLASSIC_1M).is_err());
+        assert!(budget(12, 0.0, CLASSIC_1M).is_err());
+        assert!(budget(12, f64::NAN, CLASSIC_1M).is_err());
+        let absurd = Bitrates {
+            nominal: 5_000_000,
+            data: None,
+        };
+        assert_eq!(
+            budget(12, 100.0, absurd),
+            Err(BudgetError::NominalRate(5_000_000))
+        );
+        let slow_data = Bitrates {
+            nominal: 1_000_000,
+            data: Some(500_000),
+        };
+        assert!(budget(12, 100.0, slow_data).is_err());
+    }
+}

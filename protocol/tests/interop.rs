@@ -1,0 +1,175 @@
+//! Sample candump logs of a few control periods, and the signal values the
+//! Rust codec reads from them, for checking third-party tools:
+//! `protocol/tools/check_dbc.py` decodes the logs with Python cantools and
+//! the committed DBC files and compares every value with
+//! `tests/data/sample*.json`. This test keeps the committed samples equal to
+//! what the codec produces (regenerate with `ANGUILLA_BLESS=1 cargo test`).
+
+use std::fmt::Write as _;
+
+use anguilla_protocol::candump::{Interface, LogEntry, Timestamp, Writer};
+use anguilla_protocol::message::*;
+use anguilla_protocol::signal::Mux;
+
+const NODES: u8 = 12;
+
+fn node(n: u8) -> NodeId {
+    NodeId::new(n).unwrap()
+}
+
+fn messages(variant: Variant) -> Vec<Message> {
+    let mut out = vec![
+        Message::Command {
+            target: Target::All,
+            command: Command::ClearFaults,
+        },
+        Message::ConfigWrite {
+            node: node(1),
+            param: ConfigParam::WatchdogTimeout { ms: 40 },
+        },
+        Message::ConfigAck {
+            node: node(1),
+            param: ConfigParam::WatchdogTimeout { ms: 40 },
+            result: ConfigResult::Accepted,
+        },
+        Message::ConfigWrite {
+            node: node(2),
+            param: ConfigParam::PositionLimits {
+                axis: Axis::Yaw,
+                min: -1.2,
+                max: 1.1,
+            },
+        },
+        Message::ConfigAck {
+            node: node(2),
+            param: ConfigParam::TorqueLimit {
+                axis: Axis::Pitch,
+                max: 2.5,
+            },
+            result: ConfigResult::OutOfRange,
+        },
+        Message::ConfigWrite {
+            node: node(3),
+            param: ConfigParam::SafeAction(SafeAction::Hold),
+        },
+        Message::Command {
+            target: Target::Node(node(3)),
+            command: Command::Enable,
+        },
+    ];
+    for cycle in 0u16..3 {
+        let phase = cycle as f32 * 0.4;
+        let sp: Vec<[AxisSetpoint; 2]> = (0..NODES)
+            .map(|k| {
+                let a = (k as f32 * 0.5 + phase).sin();
+                [
+                    AxisSetpoint {
+                        position: 0.1 * a,
+                        velocity: -0.3 * a,
+                        torque: 0.05,
+                    },
+                    AxisSetpoint {
+                        position: 1.1 * a,
+                        velocity: 6.0 * a,
+                        torque: -2.0 * a,
+                    },
+                ]
+            })
+            .collect();
+        encode_setpoints(variant, cycle, &sp, |f| {
+            out.push(decode(&f, variant, NodeSet::first(NODES)).unwrap())
+        })
+        .unwrap();
+        out.push(Message::Sync { counter: cycle });
+        for k in 0..NODES {
+            let s = sp[k as usize];
+            out.push(Message::Feedback(Feedback {
+                node: node(k + 1),
+                enabled: true,
+                fault: k == 5,
+                axes: [0, 1].map(|a| AxisFeedback {
+                    position: s[a].position * 0.98,
+                    velocity: s[a].velocity,
+                    torque: s[a].torque * 1.1,
+                    limited: a == 1 && k == 2,
+                }),
+            }));
+        }
+    }
+    out.push(Message::Heartbeat(Heartbeat {
+        node: node(4),
+        state: NodeState::Fault,
+        errors: ErrorBits(ErrorBits::WATCHDOG | ErrorBits::SYNC_MISSED),
+        counter: 17,
+        missed_syncs: 3,
+        temperature: 41,
+    }));
+    out.push(Message::EStop(Target::All));
+    out
+}
+
+/// The candump log and the expected values (JSON lines: id and signals).
+fn sample(variant: Variant) -> (String, String) {
+    let mut log = Writer::new(Vec::new());
+    let mut json = String::new();
+    let iface = Interface::new("can0").unwrap();
+    for (i, m) in messages(variant).iter().enumerate() {
+        let frame = m.encode(variant).unwrap();
+        let entry = LogEntry {
+            timestamp: Timestamp {
+                secs: 1_700_000_000,
+                micros: 1000 * i as u32,
+            },
+            interface: iface,
+            frame,
+        };
+        log.write(&entry).unwrap();
+        let def = definitions(variant)
+            .iter()
+            .find(|d| d.function == m.function())
+            .unwrap();
+        let data = frame.data();
+        let param = def
+            .signals
+            .iter()
+            .find(|s| s.mux == Mux::Switch)
+            .map(|s| s.get(data) as u8);
+        write!(json, "{{\"id\": {}, \"signals\": {{", frame.id().raw()).unwrap();
+        let mut first = true;
+        for s in def.signals {
+            if let (Mux::When(v), Some(p)) = (s.mux, param)
+                && v != p
+            {
+                continue;
+            }
+            if !first {
+                json.push_str(", ");
+            }
+            first = false;
+            write!(json, "\"{}\": {}", s.dbc_name(), s.to_physical(s.get(data))).unwrap();
+        }
+        json.push_str("}}\n");
+    }
+    (String::from_utf8(log.into_inner().unwrap()).unwrap(), json)
+}
+
+#[test]
+fn committed_samples_are_current() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
+    for (variant, stem) in [(Variant::Classic, "sample"), (Variant::Fd, "sample_fd")] {
+        let (log, json) = sample(variant);
+        let log_path = format!("{dir}/{stem}.log");
+        let json_path = format!("{dir}/{stem}.json");
+        if std::env::var_os("ANGUILLA_BLESS").is_some() {
+            std::fs::create_dir_all(dir).unwrap();
+            std::fs::write(&log_path, &log).unwrap();
+            std::fs::write(&json_path, &json).unwrap();
+        }
+        let old_log = std::fs::read_to_string(&log_path).unwrap_or_default();
+        let old_json = std::fs::read_to_string(&json_path).unwrap_or_default();
+        assert!(
+            old_log == log && old_json == json,
+            "{stem}.log/.json are stale: run `ANGUILLA_BLESS=1 cargo test -p anguilla-protocol --test interop`"
+        );
+    }
+}
