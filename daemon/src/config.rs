@@ -239,17 +239,11 @@ impl Default for IpcConfig {
 }
 
 /// `[recording]`: what is written to disk.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RecordingConfig {
     /// Directory for the session recording; empty records nothing.
     pub dir: String,
-}
-
-impl Default for RecordingConfig {
-    fn default() -> Self {
-        Self { dir: String::new() }
-    }
 }
 
 /// `[model]`: the feedforward model's discretization.
