@@ -435,6 +435,13 @@ impl MemBus {
         self.core.lock().slots.iter().filter(|s| s.alive).count()
     }
 
+    /// Frames sent but not yet delivered (on the wire or waiting for it).
+    pub fn frames_in_flight(&self) -> usize {
+        let mut inner = self.core.lock();
+        self.core.advance(&mut inner);
+        inner.slots.iter().map(|s| s.tx.len()).sum()
+    }
+
     /// Loses the next `n` frames on the wire (senders believe they were sent).
     pub fn drop_next(&self, n: u64) {
         self.core.lock().faults.drop_next = n;

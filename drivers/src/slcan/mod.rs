@@ -162,6 +162,19 @@ impl std::fmt::Debug for SlcanBus {
     }
 }
 
+/// Reads and discards until nothing arrives for `quiet` (at most `max`).
+fn drain_until_quiet(port: &mut TTYPort, quiet: Duration, max: Duration) {
+    let t0 = Instant::now();
+    let mut buf = [0u8; 256];
+    let _ = port.set_timeout(quiet);
+    while t0.elapsed() < max {
+        match port.read(&mut buf) {
+            Ok(n) if n > 0 => {}
+            _ => return,
+        }
+    }
+}
+
 fn escape(bytes: &[u8]) -> String {
     bytes.escape_ascii().to_string()
 }
@@ -220,20 +233,29 @@ impl SlcanBus {
         self.port = None;
         let mut port = self.open_port()?;
         self.reader.reset();
-        // Close a channel left open by a previous user; ignore its answer.
-        let _ = self.command(&mut port, &Command::Close, true);
+        // Close a channel left open by a previous user (or by us), then
+        // discard everything until the line is quiet: late frames, answers
+        // to status polls and to this `C` (ok or BEL) must not be taken for
+        // the answers to the setup commands that follow.
+        port.write_all(b"C\r")
+            .map_err(|e| BusError::io(&self.config.spec, e))?;
+        drain_until_quiet(
+            &mut port,
+            Duration::from_millis(20),
+            self.config.reply_timeout,
+        );
         let _ = port.clear(ClearBuffer::Input);
         self.reader.reset();
-        self.command(&mut port, &Command::Bitrate(self.config.bitrate), false)?;
+        self.command(&mut port, &Command::Bitrate(self.config.bitrate))?;
         if self.config.timestamps {
-            self.command(&mut port, &Command::Timestamps(true), false)?;
+            self.command(&mut port, &Command::Timestamps(true))?;
         }
         let open = if self.config.listen_only {
             Command::ListenOnly
         } else {
             Command::Open
         };
-        self.command(&mut port, &open, false)?;
+        self.command(&mut port, &open)?;
         self.side.rx.clear();
         self.side.state = BusState::ErrorActive;
         self.last_status = Instant::now();
@@ -242,7 +264,7 @@ impl SlcanBus {
     }
 
     /// Sends a setup command and waits for its answer.
-    fn command(&mut self, port: &mut TTYPort, cmd: &Command, lenient: bool) -> Result<()> {
+    fn command(&mut self, port: &mut TTYPort, cmd: &Command) -> Result<()> {
         let spec = &self.config.spec;
         let mut b = [0; MAX_LINE];
         let n = codec::encode_command(cmd, &mut b);
@@ -294,7 +316,6 @@ impl SlcanBus {
                         Ok(Reply::Ack) => outcome = Some(Ok(())),
                         // Frames and late answers during setup are dropped.
                         Ok(_) => {}
-                        Err(_) if lenient => {}
                         Err(e) => {
                             outcome = Some(Err(BusError::AdapterGarbage {
                                 spec: spec.clone(),
@@ -303,7 +324,6 @@ impl SlcanBus {
                             }))
                         }
                     },
-                    Token::Error(_) if lenient => {}
                     Token::Error(e) => {
                         outcome = Some(Err(BusError::AdapterGarbage {
                             spec: spec.clone(),
@@ -498,7 +518,6 @@ impl Bus for SlcanBus {
     fn reopen(&mut self) -> Result<()> {
         if let Some(port) = self.port.as_mut() {
             let _ = port.clear(ClearBuffer::Output);
-            let _ = port.write_all(b"C\r");
         }
         self.port = None;
         self.side.rx.clear();
