@@ -21,7 +21,7 @@ fn pair(bitrate: Option<u32>) -> Option<Pair> {
     let id = a.id();
     let handle = bus.clone();
     Some(Pair {
-        quiesce: Box::new(move || {
+        quiesce: Box::new(move |_| {
             conformance::wait_until("mem bus idle", || handle.frames_in_flight() == 0)
         }),
         a: Box::new(a),

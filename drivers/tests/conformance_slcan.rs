@@ -46,7 +46,7 @@ impl BusFactory for Slcan {
             a: Box::new(a),
             b: Box::new(b),
             force_bus_off_a: Some(Box::new(move || handle.force_state(id_a, BusState::BusOff))),
-            quiesce: Box::new(move || {
+            quiesce: Box::new(move |_| {
                 // Everything a's adapter put on the bus has been written to
                 // b's pty (and the reverse).
                 conformance::wait_until("emulators forwarded everything", || {

@@ -17,6 +17,9 @@ pub const PATIENCE: Duration = Duration::from_secs(5);
 /// Watchdog for a whole test.
 pub const WATCHDOG: Duration = Duration::from_secs(60);
 
+/// See [`Pair::quiesce`].
+pub type Quiesce = Box<dyn Fn(&dyn Bus)>;
+
 /// Two nodes on one fresh bus, and what keeps the bus alive.
 pub struct Pair {
     /// First node.
@@ -25,9 +28,9 @@ pub struct Pair {
     pub b: Box<dyn Bus>,
     /// Forces node `a` bus-off, if this bus can simulate it.
     pub force_bus_off_a: Option<Box<dyn Fn()>>,
-    /// Returns once every frame sent so far has reached the receiving
-    /// node's side (waiting on a condition, with a timeout).
-    pub quiesce: Box<dyn Fn()>,
+    /// Returns once every frame sent so far by the node given (`a`) has
+    /// reached the other node's side (waiting on a condition, with a timeout).
+    pub quiesce: Quiesce,
     /// Dropped after the nodes (emulators, locks, pty handles).
     pub keep: Vec<Box<dyn Any>>,
 }
@@ -226,7 +229,7 @@ pub fn reopen_discards_old_frames(mut p: Pair) {
     p.a.send(&stale).unwrap();
     assert_eq!(expect_frame(p.b.as_mut(), "first").frame, first);
     // `stale` is now waiting in b's receive path (queue, pty, socket).
-    (p.quiesce)();
+    (p.quiesce)(p.a.as_ref());
     p.b.reopen().unwrap();
     assert_eq!(p.b.state(), BusState::ErrorActive);
     p.a.send(&fresh).unwrap();
