@@ -162,6 +162,24 @@ impl std::fmt::Debug for SlcanBus {
     }
 }
 
+/// Whether `port` has bytes (or a hang-up) to read within `timeout`.
+fn wait_readable(port: &TTYPort, timeout: Duration) -> bool {
+    use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
+    use std::os::fd::{AsRawFd, BorrowedFd};
+    // SAFETY: the descriptor belongs to `port`, which outlives this call.
+    let fd = unsafe { BorrowedFd::borrow_raw(port.as_raw_fd()) };
+    let ms = timeout.as_micros().div_ceil(1000).min(i32::MAX as u128) as i32;
+    let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
+    match poll(
+        &mut fds,
+        PollTimeout::try_from(ms).unwrap_or(PollTimeout::MAX),
+    ) {
+        Ok(n) => n > 0,
+        // EINTR and friends: report readable and let `read` tell.
+        Err(_) => true,
+    }
+}
+
 /// Reads and discards until nothing arrives for `quiet` (at most `max`).
 fn drain_until_quiet(port: &mut TTYPort, quiet: Duration, max: Duration) {
     let t0 = Instant::now();
@@ -386,7 +404,12 @@ impl SlcanBus {
             return Ok(());
         };
         let mut buf = [0u8; 512];
-        let _ = port.set_timeout(timeout);
+        // Wait with poll(2) ourselves: a timed-out `serialport` read builds
+        // an error holding a `String`, which the control period must not.
+        if !wait_readable(port, timeout) {
+            return Ok(());
+        }
+        let _ = port.set_timeout(Duration::ZERO);
         match port.read(&mut buf) {
             Ok(0) => Err(self.disconnected("end of file on the serial port")),
             Ok(n) => {
