@@ -772,6 +772,57 @@ mod tests {
     }
 
     #[test]
+    fn inject_reaches_everyone_and_delay_holds_frames_on_the_wire() {
+        let clock = ManualClock::new();
+        let bus = MemBus::builder("inject")
+            .clock(Arc::new(clock.clone()))
+            .build();
+        let mut a = bus.participant();
+        let mut b = bus.participant();
+        let f = std_frame(0x77, &[7]);
+        bus.inject(&f);
+        assert_eq!(a.try_recv().unwrap().unwrap().frame, f);
+        assert_eq!(b.try_recv().unwrap().unwrap().frame, f);
+        bus.set_delay(Duration::from_millis(3));
+        a.send(&f).unwrap();
+        clock.advance(Duration::from_millis(2));
+        assert!(b.try_recv().unwrap().is_none());
+        assert_eq!(bus.frames_in_flight(), 1);
+        clock.advance(Duration::from_millis(1));
+        let r = b.try_recv().unwrap().unwrap();
+        assert_eq!(r.timestamp, Some(Duration::from_millis(3)));
+        bus.clear_faults();
+        a.send(&f).unwrap();
+        assert!(b.try_recv().unwrap().is_some());
+    }
+
+    #[test]
+    fn bus_off_purges_queued_frames_and_they_never_arrive() {
+        let clock = ManualClock::new();
+        let bus = MemBus::builder("purge")
+            .bitrate(125_000)
+            .clock(Arc::new(clock.clone()))
+            .build();
+        let mut a = bus.participant();
+        let mut b = bus.participant();
+        for i in 0..5u8 {
+            a.send(&std_frame(0x10, &[i])).unwrap();
+        }
+        bus.force_state(a.id(), BusState::BusOff);
+        assert_eq!(a.counters().tx_dropped, 5);
+        clock.advance(Duration::from_secs(1));
+        assert!(
+            b.try_recv().unwrap().is_none(),
+            "a stale frame was sent late"
+        );
+        a.flush_tx().unwrap();
+        a.reopen().unwrap();
+        a.send(&std_frame(0x10, &[9])).unwrap();
+        clock.advance(Duration::from_secs(1));
+        assert_eq!(b.try_recv().unwrap().unwrap().frame.data(), &[9]);
+    }
+
+    #[test]
     fn full_receive_queue_drops_and_counts() {
         let bus = MemBus::builder("full").capacity(4).build();
         let mut a = bus.participant();

@@ -583,4 +583,69 @@ mod tests {
             ]
         );
     }
+
+    mod props {
+        use super::super::*;
+        use proptest::prelude::*;
+
+        fn any_id() -> impl Strategy<Value = Id> {
+            prop_oneof![
+                (0u16..=0x7FF).prop_map(|r| Id::standard(r).unwrap()),
+                (0u32..=0x1FFF_FFFF).prop_map(|r| Id::extended(r).unwrap()),
+            ]
+        }
+
+        pub(super) fn any_frame() -> impl Strategy<Value = Frame> {
+            prop_oneof![
+                (any_id(), proptest::collection::vec(any::<u8>(), 0..=8))
+                    .prop_map(|(id, d)| Frame::new(id, &d).unwrap()),
+                (any_id(), 0u8..=8).prop_map(|(id, dlc)| Frame::new_remote(id, dlc).unwrap()),
+                (any_id(), 0usize..16, any::<bool>(), any::<[u8; 64]>()).prop_map(
+                    |(id, dlc, brs, d)| {
+                        Frame::new_fd(id, &d[..FD_LENGTHS[dlc] as usize], brs).unwrap()
+                    }
+                ),
+            ]
+        }
+
+        proptest! {
+            #[test]
+            fn frames_roundtrip(f in any_frame(), ts in proptest::option::of(0u16..60_000)) {
+                let mut b = [0; MAX_LINE];
+                let n = encode_frame(&f, ts, &mut b);
+                prop_assert_eq!(b[n - 1], b'\r');
+                prop_assert_eq!(parse_reply(&b[..n - 1]), Ok(Reply::Frame { frame: f, timestamp: ts }));
+                if ts.is_none() {
+                    prop_assert_eq!(parse_command(&b[..n - 1]), Ok(Command::Transmit(f)));
+                }
+            }
+
+            #[test]
+            fn commands_roundtrip(code in 0u8..9, b0: u8, b1: u8, on: bool) {
+                for cmd in [
+                    Command::Bitrate(Bitrate::from_code(code).unwrap()),
+                    Command::Btr(b0, b1),
+                    Command::Timestamps(on),
+                    Command::Open, Command::ListenOnly, Command::Close,
+                    Command::Version, Command::SerialNumber, Command::Status,
+                ] {
+                    let mut b = [0; MAX_LINE];
+                    let n = encode_command(&cmd, &mut b);
+                    prop_assert_eq!(parse_command(&b[..n - 1]), Ok(cmd));
+                }
+            }
+
+            #[test]
+            fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+                let mut r = LineReader::new();
+                r.feed(&bytes, &mut |t| {
+                    if let Token::Line(l) = t {
+                        assert!(l.len() <= MAX_LINE);
+                        let _ = parse_reply(l);
+                        let _ = parse_command(l);
+                    }
+                });
+            }
+        }
+    }
 }
