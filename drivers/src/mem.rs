@@ -823,6 +823,17 @@ mod tests {
     }
 
     #[test]
+    fn echo_delivers_to_the_sender_too() {
+        let bus = MemBus::builder("echo").echo(true).build();
+        let mut a = bus.participant();
+        let mut b = bus.participant();
+        let f = std_frame(0x5, &[5]);
+        a.send(&f).unwrap();
+        assert_eq!(a.try_recv().unwrap().unwrap().frame, f);
+        assert_eq!(b.try_recv().unwrap().unwrap().frame, f);
+    }
+
+    #[test]
     fn full_receive_queue_drops_and_counts() {
         let bus = MemBus::builder("full").capacity(4).build();
         let mut a = bus.participant();

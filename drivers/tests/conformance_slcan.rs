@@ -19,6 +19,7 @@ static N: AtomicU32 = AtomicU32::new(0);
 
 struct Slcan {
     timestamps: bool,
+    fd: bool,
 }
 
 impl BusFactory for Slcan {
@@ -27,12 +28,16 @@ impl BusFactory for Slcan {
         let bus = MemBus::builder(&name).build();
         let node_a = bus.participant();
         let id_a = node_a.id();
-        let emu_a = SlcanEmulator::on_pty(Box::new(node_a), EmulatorConfig::default()).unwrap();
-        let emu_b =
-            SlcanEmulator::on_pty(Box::new(bus.participant()), EmulatorConfig::default()).unwrap();
+        let emu_config = EmulatorConfig {
+            fd: self.fd,
+            ..EmulatorConfig::default()
+        };
+        let emu_a = SlcanEmulator::on_pty(Box::new(node_a), emu_config).unwrap();
+        let emu_b = SlcanEmulator::on_pty(Box::new(bus.participant()), emu_config).unwrap();
         let open = |emu: &SlcanEmulator| {
             let mut c = SlcanConfig::new(emu.path().unwrap(), Bitrate::B1M);
             c.timestamps = self.timestamps;
+            c.fd = self.fd;
             c.status_interval = Some(Duration::from_millis(10));
             SlcanBus::open(&c).unwrap()
         };
@@ -67,10 +72,25 @@ impl BusFactory for Slcan {
 
 mod plain {
     use super::*;
-    crate::conformance_tests!(Slcan { timestamps: false });
+    crate::conformance_tests!(Slcan {
+        timestamps: false,
+        fd: false
+    });
 }
 
 mod timestamps {
     use super::*;
-    crate::conformance_tests!(Slcan { timestamps: true });
+    crate::conformance_tests!(Slcan {
+        timestamps: true,
+        fd: false
+    });
+}
+
+/// CANable 2.0-style adapters with the slcan FD extension.
+mod fd {
+    use super::*;
+    crate::conformance_tests!(Slcan {
+        timestamps: false,
+        fd: true
+    });
 }

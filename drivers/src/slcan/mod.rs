@@ -45,6 +45,10 @@ pub struct SlcanConfig {
     pub timestamps: bool,
     /// Open listen-only (`L`): receive, never send or acknowledge.
     pub listen_only: bool,
+    /// Send and accept CAN FD frames with the CANable 2.0 slcan extension
+    /// (`d/D/b/B`); the adapter must support it and have its data bit rate
+    /// set beforehand.
+    pub fd: bool,
     /// How often to poll the status flags (`F`) while receiving.
     pub status_interval: Option<Duration>,
     /// How long to wait for the adapter's answer to a setup command.
@@ -62,6 +66,7 @@ impl SlcanConfig {
             baud: 115_200,
             timestamps: false,
             listen_only: false,
+            fd: false,
             status_interval: Some(Duration::from_millis(100)),
             reply_timeout: Duration::from_millis(500),
         }
@@ -455,6 +460,9 @@ impl Bus for SlcanBus {
         if self.config.listen_only {
             return Err(BusError::Unsupported("frames in listen-only mode"));
         }
+        if frame.is_fd() && !self.config.fd {
+            return Err(BusError::Unsupported("CAN FD frames (open with ?fd=1)"));
+        }
         if !self.recover() {
             return Err(if self.side.state == BusState::BusOff {
                 BusError::BusOff
@@ -514,9 +522,8 @@ impl Bus for SlcanBus {
 
     fn capabilities(&self) -> Capabilities {
         Capabilities {
-            // The CANable 2 FD extension (d/D/b/B) is encoded and parsed, but
-            // whether an adapter accepts it cannot be asked: off by default.
-            fd: false,
+            // Whether an adapter accepts the FD extension cannot be asked.
+            fd: self.config.fd,
             remote: true,
             timestamps: if self.config.timestamps {
                 TimestampBase::AdapterMillis
