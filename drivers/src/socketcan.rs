@@ -12,11 +12,15 @@
 //! (frames already handed to the device queue are the kernel's; the CAN
 //! layer drops them when the controller goes bus-off). `send` then fails
 //! with [`BusError::BusOff`] while the driver reopens the socket with
-//! exponential back-off (20 ms doubling to 2 s). Restarting the controller
+//! exponential back-off (20 ms doubling to 2 s), once the interface has its
+//! carrier back (`/sys/class/net/IF/carrier`). Restarting the controller
 //! itself is the kernel's job (`ip link set can0 type can restart-ms 100`):
 //! restarting it from here would need `CAP_NET_ADMIN` and netlink, which
 //! the daemon does not hold. A write that fails with `ENETDOWN` is treated
-//! as still bus-off.
+//! as still bus-off. Frames already in the interface's qdisc (up to
+//! `txqueuelen`) are out of a user-space driver's reach: keep it short
+//! (`ip link set can0 txqueuelen 4`) so that nothing stale survives a
+//! restart.
 //!
 //! `send`, `try_recv` and `drain` do not allocate.
 
@@ -157,12 +161,19 @@ impl SocketCanBus {
         self.sock = None;
     }
 
-    /// While bus-off, reopens the socket when the back-off allows.
+    /// While bus-off, reopens the socket when the back-off allows and the
+    /// interface has its carrier back (the controller left bus-off).
     fn recover(&mut self) -> bool {
         if self.sock.is_some() {
             return true;
         }
-        if self.backoff.due() && self.connect().is_ok() {
+        if !self.backoff.due() {
+            return false;
+        }
+        if self.state == BusState::BusOff && carrier(&self.config.interface) == Some(false) {
+            return false;
+        }
+        if self.connect().is_ok() {
             self.counters.reopens += 1;
             self.backoff.reset();
             return true;
@@ -312,6 +323,17 @@ mod tests {
         }
         let fd = Frame::new_fd(Id::standard(1).unwrap(), &[0; 12], false).unwrap();
         assert!(matches!(b.send(&fd), Err(BusError::Unsupported(_))));
+    }
+}
+
+/// The interface's carrier as sysfs reports it (`None`: unknown). A CAN
+/// controller that went bus-off has no carrier until it restarts.
+fn carrier(interface: &str) -> Option<bool> {
+    let text = std::fs::read_to_string(format!("/sys/class/net/{interface}/carrier")).ok()?;
+    match text.trim() {
+        "1" => Some(true),
+        "0" => Some(false),
+        _ => None,
     }
 }
 
