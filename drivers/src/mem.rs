@@ -823,6 +823,28 @@ mod tests {
     }
 
     #[test]
+    fn a_saturated_bus_carries_the_frames_the_bit_time_allows() {
+        // PEERS.md: 8-byte standard frames at 1 Mbit/s take 135 bits with
+        // worst-case stuffing, so one simulated second carries
+        // floor(1e6 / 135) = 7407 of them, and no more.
+        let clock = ManualClock::new();
+        let bus = MemBus::builder("saturated")
+            .bitrate(1_000_000)
+            .capacity(10_000)
+            .clock(Arc::new(clock.clone()))
+            .build();
+        let mut a = bus.participant();
+        let mut b = bus.participant();
+        for i in 0..10_000u16 {
+            a.send(&std_frame(0x100, &[i as u8; 8])).unwrap();
+        }
+        clock.advance(Duration::from_secs(1));
+        let n = b.drain(&mut |_| {}).unwrap();
+        assert_eq!(n, 7407);
+        assert_eq!(bus.frames_in_flight(), 10_000 - 7407);
+    }
+
+    #[test]
     fn echo_delivers_to_the_sender_too() {
         let bus = MemBus::builder("echo").echo(true).build();
         let mut a = bus.participant();

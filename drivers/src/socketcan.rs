@@ -311,6 +311,25 @@ mod tests {
     }
 
     #[test]
+    fn open_errors_are_mapped_and_name_the_spec() {
+        let b = detached();
+        for (errno, needle) in [
+            (libc_errno::EAFNOSUPPORT, "no CAN support"),
+            (libc_errno::ENODEV, "no CAN interface named 'vcan0'"),
+            (libc_errno::EACCES, "permission denied on vcan0"),
+            (libc_errno::EPERM, "permission denied on vcan0"),
+        ] {
+            let msg = b
+                .map_open_error(io::Error::from_raw_os_error(errno))
+                .to_string();
+            assert!(
+                msg.contains("socketcan:vcan0") && msg.contains(needle),
+                "{msg}"
+            );
+        }
+    }
+
+    #[test]
     fn bus_off_refuses_to_send_until_recovered() {
         let mut b = detached();
         b.on_error_frame(CAN_ERR_BUSOFF, &[0; 8]);

@@ -219,6 +219,22 @@ fn unplugged_adapter_is_reported_as_disconnected() {
 }
 
 #[test]
+fn stop_handle_ends_the_emulator_thread() {
+    watchdog(|| {
+        let (_bus, emu) = emulator(EmulatorConfig::default());
+        assert!(emu.is_running());
+        let h = emu.stop_handle();
+        std::thread::spawn(move || h.stop()).join().unwrap();
+        let t0 = Instant::now();
+        while emu.is_running() {
+            assert!(t0.elapsed() < PATIENCE, "emulator thread did not stop");
+            std::thread::yield_now();
+        }
+        let _bus_back = emu.stop();
+    });
+}
+
+#[test]
 fn listen_only_refuses_to_send() {
     watchdog(|| {
         let (_bus, emu) = emulator(EmulatorConfig::default());

@@ -68,6 +68,17 @@ pub struct EmulatorStats {
     pub discarded: AtomicU64,
 }
 
+/// Asks an emulator thread to stop; cheap to clone.
+#[derive(Debug, Clone)]
+pub struct StopHandle(Arc<AtomicBool>);
+
+impl StopHandle {
+    /// Requests the stop; the thread ends within one read timeout.
+    pub fn stop(&self) {
+        self.0.store(true, Ordering::Release);
+    }
+}
+
 /// A running emulator; stops its thread on [`stop`](Self::stop) or drop.
 pub struct SlcanEmulator {
     stop: Arc<AtomicBool>,
@@ -294,6 +305,17 @@ impl SlcanEmulator {
     /// The device path of the pty slave, if made by [`on_pty`](Self::on_pty).
     pub fn path(&self) -> Option<&str> {
         self.path.as_deref()
+    }
+
+    /// A handle that stops the emulator thread from anywhere (e.g. a signal
+    /// handler's thread); [`stop`](Self::stop) or drop then joins it.
+    pub fn stop_handle(&self) -> StopHandle {
+        StopHandle(self.stop.clone())
+    }
+
+    /// Whether the thread is still running (false after a stop request).
+    pub fn is_running(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
     }
 
     /// The emulator's counters.
