@@ -6,7 +6,7 @@ use crate::{Bus, Result};
 
 /// The accepted forms, for error messages.
 pub const ACCEPTED_FORMS: &str = "socketcan:IFACE[?fd=0|1&timestamps=0|1], \
-slcan:PATH@BITRATE[?baud=N&timestamps=0|1&listen=0|1&fd=0|1&status_ms=N], \
+slcan:PATH@BITRATE[?baud=N&timestamps=0|1&listen=0|1&fd=0|1&recover=0|1&status_ms=N], \
 mem:NAME[?bitrate=N&echo=0|1&capacity=N]";
 
 /// A bus spec string that did not parse.
@@ -140,6 +140,7 @@ impl BusSpec {
                         "baud" => c.baud = parse_u32(spec, k, v, (300, 12_000_000))?,
                         "timestamps" => c.timestamps = parse_bool(spec, k, v)?,
                         "listen" => c.listen_only = parse_bool(spec, k, v)?,
+                        "recover" => c.auto_recover = parse_bool(spec, k, v)?,
                         "fd" => c.fd = parse_bool(spec, k, v)?,
                         "status_ms" => {
                             let ms = parse_u32(spec, k, v, (0, 60_000))?;
@@ -150,7 +151,7 @@ impl BusSpec {
                             return Err(unknown(
                                 spec,
                                 k,
-                                "baud, timestamps, listen, fd, status_ms",
+                                "baud, timestamps, listen, fd, recover, status_ms",
                             ));
                         }
                     }

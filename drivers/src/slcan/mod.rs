@@ -53,6 +53,11 @@ pub struct SlcanConfig {
     pub status_interval: Option<Duration>,
     /// How long to wait for the adapter's answer to a setup command.
     pub reply_timeout: Duration,
+    /// Recover from bus-off and disconnection by itself (close, reopen,
+    /// with back-off) inside `send`/`recv`. Each attempt blocks for the
+    /// setup exchange (a few round trips to the adapter); turn it off to
+    /// call [`Bus::reopen`] at a time of your choosing instead.
+    pub auto_recover: bool,
 }
 
 impl SlcanConfig {
@@ -69,6 +74,7 @@ impl SlcanConfig {
             fd: false,
             status_interval: Some(Duration::from_millis(100)),
             reply_timeout: Duration::from_millis(500),
+            auto_recover: true,
         }
     }
 }
@@ -185,16 +191,29 @@ fn wait_readable(port: &TTYPort, timeout: Duration) -> bool {
     }
 }
 
-/// Reads and discards until nothing arrives for `quiet` (at most `max`).
-fn drain_until_quiet(port: &mut TTYPort, quiet: Duration, max: Duration) {
+/// Reads and discards up to the end of the adapter's answer to `V` (a line
+/// starting with `V`), or until `max` passes (adapters that reject `V`).
+fn discard_until_version(port: &mut TTYPort, reader: &mut LineReader, max: Duration) {
     let t0 = Instant::now();
     let mut buf = [0u8; 256];
-    let _ = port.set_timeout(quiet);
-    while t0.elapsed() < max {
-        match port.read(&mut buf) {
-            Ok(n) if n > 0 => {}
-            _ => return,
+    let mut found = false;
+    while !found {
+        let left = max.saturating_sub(t0.elapsed());
+        if left.is_zero() || !wait_readable(port, left) {
+            return;
         }
+        let _ = port.set_timeout(Duration::ZERO);
+        let n = match port.read(&mut buf) {
+            Ok(n) if n > 0 => n,
+            _ => return,
+        };
+        // Lines after the marker in the same read answer nothing we sent
+        // yet (frames of a channel being closed): dropping them is fine.
+        reader.feed(&buf[..n], &mut |t| {
+            if let Token::Line([b'V', ..]) = t {
+                found = true;
+            }
+        });
     }
 }
 
@@ -256,19 +275,15 @@ impl SlcanBus {
         self.port = None;
         let mut port = self.open_port()?;
         self.reader.reset();
-        // Close a channel left open by a previous user (or by us), then
-        // discard everything until the line is quiet: late frames, answers
-        // to status polls and to this `C` (ok or BEL) must not be taken for
-        // the answers to the setup commands that follow.
-        port.write_all(b"C\r")
+        // Close a channel left open by a previous user (or by us), and ask
+        // for the version as a marker: everything before its answer (late
+        // frames, answers to status polls and to this `C`, ok or BEL) is
+        // discarded, so it is not taken for the answer to a setup command.
+        port.write_all(b"C\rV\r")
             .map_err(|e| BusError::io(&self.config.spec, e))?;
-        drain_until_quiet(
-            &mut port,
-            Duration::from_millis(20),
-            self.config.reply_timeout,
-        );
-        let _ = port.clear(ClearBuffer::Input);
-        self.reader.reset();
+        // The reader keeps its place in the byte stream, so the next
+        // command sees whole lines.
+        discard_until_version(&mut port, &mut self.reader, self.config.reply_timeout);
         self.command(&mut port, &Command::Bitrate(self.config.bitrate))?;
         if self.config.timestamps {
             self.command(&mut port, &Command::Timestamps(true))?;
@@ -374,7 +389,7 @@ impl SlcanBus {
         if self.port.is_some() && self.side.state != BusState::BusOff {
             return true;
         }
-        if !self.backoff.due() {
+        if !self.config.auto_recover || !self.backoff.due() {
             return false;
         }
         if self.connect().is_ok() {
