@@ -121,8 +121,10 @@ pub struct Capabilities {
 /// Receive timeouts are not errors: [`recv`](Bus::recv) returns `Ok(None)`.
 /// [`send`](Bus::send), [`try_recv`](Bus::try_recv) and
 /// [`drain`](Bus::drain) never block for long (at most one serial write or
-/// one socket write) and, on the in-process bus and SocketCAN, never
-/// allocate: the daemon calls them every control period.
+/// one socket write) and do not allocate: the daemon calls them every
+/// control period (`tests/no_alloc.rs` checks the in-process bus and SLCAN;
+/// SocketCAN is written the same way). The exception is automatic recovery
+/// after a fault, which reopens the device.
 pub trait Bus: Send {
     /// Queues one frame for transmission. Fails with [`BusError::BusOff`]
     /// while the node is bus-off: a frame is never held back to be sent late.

@@ -171,7 +171,8 @@ fn garbage_between_frames_is_counted_and_skipped() {
             Garbling(master),
             Box::new(bus.participant()),
             EmulatorConfig::default(),
-        );
+        )
+        .unwrap();
         let mut c = SlcanConfig::new(&slave.name().unwrap(), Bitrate::B1M);
         c.status_interval = None;
         let mut drv = SlcanBus::open(&c).unwrap();

@@ -260,7 +260,7 @@ impl SlcanEmulator {
         port: S,
         bus: Box<dyn Bus>,
         config: EmulatorConfig,
-    ) -> Self {
+    ) -> io::Result<Self> {
         let stop = Arc::new(AtomicBool::new(false));
         let stats = Arc::new(EmulatorStats::default());
         let adapter = Adapter {
@@ -277,15 +277,14 @@ impl SlcanEmulator {
         let s = stop.clone();
         let thread = std::thread::Builder::new()
             .name("slcan-emulator".into())
-            .spawn(move || adapter.run(&s))
-            .expect("spawning the emulator thread");
-        Self {
+            .spawn(move || adapter.run(&s))?;
+        Ok(Self {
             stop,
             thread: Some(thread),
             path: None,
             stats,
             _slave: None,
-        }
+        })
     }
 
     /// Runs an emulator on a new pseudo-terminal; [`path`](Self::path) is
@@ -296,7 +295,7 @@ impl SlcanEmulator {
             .set_timeout(Duration::from_millis(2))
             .map_err(io::Error::from)?;
         let path = slave.name();
-        let mut emu = Self::spawn(master, bus, config);
+        let mut emu = Self::spawn(master, bus, config)?;
         emu.path = path;
         emu._slave = Some(slave);
         Ok(emu)
