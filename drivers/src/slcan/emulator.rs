@@ -253,6 +253,28 @@ impl<S: Read + Write> Adapter<S> {
     }
 }
 
+/// A pty master whose read timeouts do not allocate (a timed-out
+/// `serialport` read builds an error holding a `String`).
+struct PtyMaster(TTYPort);
+
+impl Read for PtyMaster {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if !super::wait_readable(&self.0, Duration::from_millis(2)) {
+            return Err(io::ErrorKind::TimedOut.into());
+        }
+        self.0.read(buf)
+    }
+}
+
+impl Write for PtyMaster {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.0.write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.0.flush()
+    }
+}
+
 impl SlcanEmulator {
     /// Runs an emulator on `port`, whose reads must time out (a few ms) so
     /// that bus frames are forwarded and stop requests are seen.
@@ -295,7 +317,7 @@ impl SlcanEmulator {
             .set_timeout(Duration::from_millis(2))
             .map_err(io::Error::from)?;
         let path = slave.name();
-        let mut emu = Self::spawn(master, bus, config)?;
+        let mut emu = Self::spawn(PtyMaster(master), bus, config)?;
         emu.path = path;
         emu._slave = Some(slave);
         Ok(emu)

@@ -174,7 +174,7 @@ impl std::fmt::Debug for SlcanBus {
 }
 
 /// Whether `port` has bytes (or a hang-up) to read within `timeout`.
-fn wait_readable(port: &TTYPort, timeout: Duration) -> bool {
+pub(crate) fn wait_readable(port: &TTYPort, timeout: Duration) -> bool {
     use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
     use std::os::fd::{AsRawFd, BorrowedFd};
     // SAFETY: the descriptor belongs to `port`, which outlives this call.
