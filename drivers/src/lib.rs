@@ -32,6 +32,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod backoff;
 pub mod clock;
 mod error;
 pub mod mem;

@@ -34,7 +34,7 @@ use socketcan::{
     Socket, SocketOptions, StandardId,
 };
 
-use crate::slcan::Backoff;
+use crate::backoff::Backoff;
 use crate::{
     Bus, BusCounters, BusError, BusState, Capabilities, Frame, Received, Result, TimestampBase,
 };
@@ -175,7 +175,7 @@ impl SocketCanBus {
         }
         if self.connect().is_ok() {
             self.counters.reopens += 1;
-            self.backoff.reset();
+            self.backoff.recovered();
             return true;
         }
         false

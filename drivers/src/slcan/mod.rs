@@ -22,6 +22,7 @@ use std::time::{Duration, Instant};
 
 use serialport::{ClearBuffer, SerialPort, TTYPort};
 
+use crate::backoff::Backoff;
 use crate::{
     Bus, BusCounters, BusError, BusState, Capabilities, Frame, Received, Result, TimestampBase,
 };
@@ -76,40 +77,6 @@ impl SlcanConfig {
             reply_timeout: Duration::from_millis(500),
             auto_recover: true,
         }
-    }
-}
-
-/// Exponential back-off between recovery attempts.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Backoff {
-    next_try: Option<Instant>,
-    delay: Duration,
-}
-
-impl Backoff {
-    pub(crate) const MIN: Duration = Duration::from_millis(20);
-    pub(crate) const MAX: Duration = Duration::from_secs(2);
-
-    pub(crate) const fn new() -> Self {
-        Self {
-            next_try: None,
-            delay: Self::MIN,
-        }
-    }
-    /// Whether an attempt is due now; arms the next one.
-    pub(crate) fn due(&mut self) -> bool {
-        let now = Instant::now();
-        match self.next_try {
-            Some(t) if now < t => false,
-            _ => {
-                self.next_try = Some(now + self.delay);
-                self.delay = (self.delay * 2).min(Self::MAX);
-                true
-            }
-        }
-    }
-    pub(crate) fn reset(&mut self) {
-        *self = Self::new();
     }
 }
 
@@ -394,7 +361,7 @@ impl SlcanBus {
         }
         if self.connect().is_ok() {
             self.side.counters.reopens += 1;
-            self.backoff.reset();
+            self.backoff.recovered();
             true
         } else {
             false
