@@ -4,7 +4,6 @@ mod conformance;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use anguilla_drivers::BusState;
 use anguilla_drivers::mem::MemBus;
 use conformance::{BusFactory, Pair};
 
@@ -26,7 +25,7 @@ fn pair(bitrate: Option<u32>) -> Option<Pair> {
         }),
         a: Box::new(a),
         b: Box::new(bus.participant()),
-        force_bus_off_a: Some(Box::new(move || bus.force_state(id, BusState::BusOff))),
+        force_state_a: Some(Box::new(move |st| bus.force_state(id, st))),
         keep: Vec::new(),
     })
 }

@@ -8,7 +8,6 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Duration;
 
-use anguilla_drivers::BusState;
 use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::codec::Bitrate;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
@@ -50,7 +49,7 @@ impl BusFactory for Slcan {
         Some(Pair {
             a: Box::new(a),
             b: Box::new(b),
-            force_bus_off_a: Some(Box::new(move || handle.force_state(id_a, BusState::BusOff))),
+            force_state_a: Some(Box::new(move |st| handle.force_state(id_a, st))),
             quiesce: Box::new(move |_| {
                 // Everything a's adapter put on the bus has been written to
                 // b's pty (and the reverse).

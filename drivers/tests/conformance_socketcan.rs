@@ -58,7 +58,7 @@ impl BusFactory for Vcan {
         Some(Pair {
             a: Box::new(a),
             b: Box::new(b),
-            force_bus_off_a: None,
+            force_state_a: None,
             // A third socket sees every frame in the same kernel delivery
             // pass as `b`: once it has seen all of `a`'s, so has `b`'s queue.
             quiesce: Box::new(move |sender: &dyn Bus| {

@@ -17,6 +17,9 @@ pub const PATIENCE: Duration = Duration::from_secs(5);
 /// Watchdog for a whole test.
 pub const WATCHDOG: Duration = Duration::from_secs(60);
 
+/// See [`Pair::force_state_a`].
+pub type ForceState = Box<dyn Fn(BusState)>;
+
 /// See [`Pair::quiesce`].
 pub type Quiesce = Box<dyn Fn(&dyn Bus)>;
 
@@ -26,8 +29,8 @@ pub struct Pair {
     pub a: Box<dyn Bus>,
     /// Second node.
     pub b: Box<dyn Bus>,
-    /// Forces node `a` bus-off, if this bus can simulate it.
-    pub force_bus_off_a: Option<Box<dyn Fn()>>,
+    /// Forces node `a`'s controller state, if this bus can simulate it.
+    pub force_state_a: Option<ForceState>,
     /// Returns once every frame sent so far by the node given (`a`) has
     /// reached the other node's side (waiting on a condition, with a timeout).
     pub quiesce: Quiesce,
@@ -70,7 +73,7 @@ macro_rules! conformance_tests {
         $crate::conformance_tests!(@each $factory;
             roundtrip_classic, roundtrip_fd, ordering_preserved, recv_timeout_returns_none,
             drain_on_empty_bus_returns_at_once, counters_increase, reopen_discards_old_frames,
-            bus_off_reported_and_recovered, no_loopback_to_sender);
+            bus_off_reported_and_recovered, error_passive_reported, no_loopback_to_sender);
     };
     (@each $factory:expr; $($name:ident),*) => {
         $(
@@ -244,11 +247,11 @@ pub fn reopen_discards_old_frames(mut p: Pair) {
 
 /// A node forced bus-off reports it, and works again after reopening.
 pub fn bus_off_reported_and_recovered(mut p: Pair) {
-    let Some(force) = p.force_bus_off_a.take() else {
+    let Some(force) = p.force_state_a.take() else {
         eprintln!("skipping: {} cannot simulate bus-off", p.a.spec());
         return;
     };
-    force();
+    force(BusState::BusOff);
     let t0 = Instant::now();
     while p.a.counters().bus_off_count == 0 {
         assert!(
@@ -263,6 +266,34 @@ pub fn bus_off_reported_and_recovered(mut p: Pair) {
     p.a.send(&f).unwrap();
     assert_eq!(expect_frame(p.b.as_mut(), "after recovery").frame, f);
     assert_ne!(p.a.state(), BusState::BusOff);
+}
+
+/// Error-passive is reported, and so is the return to error-active.
+pub fn error_passive_reported(mut p: Pair) {
+    let Some(force) = p.force_state_a.take() else {
+        eprintln!("skipping: {} cannot simulate error-passive", p.a.spec());
+        return;
+    };
+    for state in [BusState::ErrorPassive, BusState::ErrorActive] {
+        force(state);
+        let t0 = Instant::now();
+        while p.a.state() != state {
+            assert!(
+                t0.elapsed() < PATIENCE,
+                "{}: {state:?} not reported",
+                p.a.spec()
+            );
+            let _ = p.a.recv(Duration::from_millis(10));
+        }
+    }
+    // An error-passive node still sends.
+    let f = Frame::new(std_id(0x0AB), &[0xAB]).unwrap();
+    force(BusState::ErrorPassive);
+    p.a.send(&f).unwrap();
+    assert_eq!(
+        expect_frame(p.b.as_mut(), "from an error-passive node").frame,
+        f
+    );
 }
 
 /// Without echo, a sender does not receive its own frames.
