@@ -54,10 +54,14 @@ pub struct SlcanConfig {
     pub status_interval: Option<Duration>,
     /// How long to wait for the adapter's answer to a setup command.
     pub reply_timeout: Duration,
+    /// The shorter answer timeout used by automatic recovery, which runs
+    /// inside `send`/`recv`: it bounds how long one attempt can block.
+    pub recovery_reply_timeout: Duration,
     /// Recover from bus-off and disconnection by itself (close, reopen,
     /// with back-off) inside `send`/`recv`. Each attempt blocks for the
-    /// setup exchange (a few round trips to the adapter); turn it off to
-    /// call [`Bus::reopen`] at a time of your choosing instead.
+    /// setup exchange: three or four round trips to the adapter, each
+    /// bounded by `recovery_reply_timeout`. Turn it off to call
+    /// [`Bus::reopen`] at a time of your choosing instead.
     pub auto_recover: bool,
 }
 
@@ -75,6 +79,7 @@ impl SlcanConfig {
             fd: false,
             status_interval: Some(Duration::from_millis(100)),
             reply_timeout: Duration::from_millis(500),
+            recovery_reply_timeout: Duration::from_millis(20),
             auto_recover: true,
         }
     }
@@ -209,7 +214,7 @@ impl SlcanBus {
             last_status: Instant::now(),
             backoff: Backoff::new(),
         };
-        bus.connect()?;
+        bus.connect(config.reply_timeout)?;
         Ok(bus)
     }
 
@@ -238,7 +243,7 @@ impl SlcanBus {
     }
 
     /// Opens the port and runs the setup sequence.
-    fn connect(&mut self) -> Result<()> {
+    fn connect(&mut self, reply_timeout: Duration) -> Result<()> {
         self.port = None;
         let mut port = self.open_port()?;
         self.reader.reset();
@@ -250,17 +255,21 @@ impl SlcanBus {
             .map_err(|e| BusError::io(&self.config.spec, e))?;
         // The reader keeps its place in the byte stream, so the next
         // command sees whole lines.
-        discard_until_version(&mut port, &mut self.reader, self.config.reply_timeout);
-        self.command(&mut port, &Command::Bitrate(self.config.bitrate))?;
+        discard_until_version(&mut port, &mut self.reader, reply_timeout);
+        self.command(
+            &mut port,
+            &Command::Bitrate(self.config.bitrate),
+            reply_timeout,
+        )?;
         if self.config.timestamps {
-            self.command(&mut port, &Command::Timestamps(true))?;
+            self.command(&mut port, &Command::Timestamps(true), reply_timeout)?;
         }
         let open = if self.config.listen_only {
             Command::ListenOnly
         } else {
             Command::Open
         };
-        self.command(&mut port, &open)?;
+        self.command(&mut port, &open, reply_timeout)?;
         self.side.rx.clear();
         self.side.state = BusState::ErrorActive;
         self.last_status = Instant::now();
@@ -269,12 +278,12 @@ impl SlcanBus {
     }
 
     /// Sends a setup command and waits for its answer.
-    fn command(&mut self, port: &mut TTYPort, cmd: &Command) -> Result<()> {
+    fn command(&mut self, port: &mut TTYPort, cmd: &Command, timeout: Duration) -> Result<()> {
         let spec = &self.config.spec;
         let mut b = [0; MAX_LINE];
         let n = codec::encode_command(cmd, &mut b);
         port.write_all(&b[..n]).map_err(|e| BusError::io(spec, e))?;
-        let deadline = Instant::now() + self.config.reply_timeout;
+        let deadline = Instant::now() + timeout;
         let mut outcome: Option<Result<()>> = None;
         let mut buf = [0u8; 256];
         while outcome.is_none() {
@@ -283,7 +292,7 @@ impl SlcanBus {
                 return Err(BusError::AdapterTimeout {
                     spec: spec.clone(),
                     command: command_text(cmd),
-                    timeout_ms: self.config.reply_timeout.as_millis() as u64,
+                    timeout_ms: timeout.as_millis() as u64,
                 });
             }
             let _ = port.set_timeout(left);
@@ -359,7 +368,7 @@ impl SlcanBus {
         if !self.config.auto_recover || !self.backoff.due() {
             return false;
         }
-        if self.connect().is_ok() {
+        if self.connect(self.config.recovery_reply_timeout).is_ok() {
             self.side.counters.reopens += 1;
             self.backoff.recovered();
             true
@@ -534,7 +543,7 @@ impl Bus for SlcanBus {
         self.port = None;
         self.side.rx.clear();
         self.side.counters.reopens += 1;
-        self.connect()?;
+        self.connect(self.config.reply_timeout)?;
         self.backoff.reset();
         Ok(())
     }
