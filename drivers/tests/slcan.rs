@@ -224,6 +224,47 @@ fn unplugged_adapter_is_reported_as_disconnected() {
 }
 
 #[test]
+fn recovers_from_bus_off_by_itself_and_never_sends_stale_frames() {
+    watchdog(|| {
+        let bus = MemBus::builder("auto-recovery").build();
+        let mut peer = bus.participant();
+        let node = bus.participant();
+        let node_id = node.id();
+        let emu = SlcanEmulator::on_pty(Box::new(node), EmulatorConfig::default()).unwrap();
+        let mut c = SlcanConfig::new(emu.path().unwrap(), Bitrate::B1M);
+        c.status_interval = Some(Duration::from_millis(5));
+        // This test is about recovery, not speed: be patient with a loaded
+        // machine (the default 20 ms could fail an attempt, and the test
+        // would then wait for the next one anyway).
+        c.recovery_reply_timeout = Duration::from_millis(500);
+        let mut drv = SlcanBus::open(&c).unwrap();
+        bus.force_state(node_id, anguilla_drivers::BusState::BusOff);
+        // Sent while the adapter is off the bus but before the driver
+        // knows: the adapter refuses it (BEL); it must never appear later.
+        let stale = Frame::new_standard(0x66, &[0xDE]).unwrap();
+        let _ = drv.send(&stale);
+        let t0 = Instant::now();
+        while drv.counters().bus_off_count == 0 || drv.counters().reopens == 0 {
+            assert!(t0.elapsed() < PATIENCE, "{:?}", drv.counters());
+            let _ = drv.recv(Duration::from_millis(5));
+        }
+        assert_ne!(drv.state(), anguilla_drivers::BusState::BusOff);
+        let fresh = Frame::new_standard(0x67, &[0x01]).unwrap();
+        drv.send(&fresh).unwrap();
+        let t0 = Instant::now();
+        let first = loop {
+            assert!(t0.elapsed() < PATIENCE, "fresh frame never arrived");
+            if let Some(r) = peer.recv(Duration::from_millis(50)).unwrap() {
+                break r.frame;
+            }
+        };
+        assert_eq!(first, fresh, "a frame from before the bus-off came out");
+        drop(drv);
+        drop(emu);
+    });
+}
+
+#[test]
 fn stop_handle_ends_the_emulator_thread() {
     watchdog(|| {
         let (_bus, emu) = emulator(EmulatorConfig::default());
