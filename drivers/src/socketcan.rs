@@ -80,6 +80,7 @@ pub struct SocketCanBus {
     config: SocketCanConfig,
     sock: Option<CanFdSocket>,
     timestamps: bool,
+    fd: bool,
     state: BusState,
     counters: BusCounters,
     backoff: Backoff,
@@ -109,6 +110,7 @@ impl SocketCanBus {
             config: config.clone(),
             sock: None,
             timestamps: false,
+            fd: false,
             state: BusState::ErrorActive,
             counters: BusCounters::default(),
             backoff: Backoff::new(),
@@ -147,6 +149,9 @@ impl SocketCanBus {
         sock.set_error_filter_accept_all()
             .map_err(|e| BusError::io(spec, e))?;
         self.timestamps = self.config.timestamps && sock.set_recv_timestamp(true).is_ok();
+        // FD needs the interface MTU of a CAN FD frame (72); when sysfs
+        // cannot tell, trust the caller and let the kernel refuse.
+        self.fd = self.config.fd && mtu(&self.config.interface).is_none_or(|m| m == 72);
         self.sock = Some(sock);
         self.state = BusState::ErrorActive;
         Ok(())
@@ -279,6 +284,7 @@ mod tests {
             config: SocketCanConfig::new("vcan0"),
             sock: None,
             timestamps: false,
+            fd: false,
             state: BusState::ErrorActive,
             counters: BusCounters::default(),
             backoff: Backoff::new(),
@@ -345,6 +351,15 @@ mod tests {
     }
 }
 
+/// The interface's MTU as sysfs reports it (16: classic CAN, 72: CAN FD).
+fn mtu(interface: &str) -> Option<u32> {
+    std::fs::read_to_string(format!("/sys/class/net/{interface}/mtu"))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
+}
+
 /// The interface's carrier as sysfs reports it (`None`: unknown). A CAN
 /// controller that went bus-off has no carrier until it restarts.
 fn carrier(interface: &str) -> Option<bool> {
@@ -388,8 +403,10 @@ mod libc_errno {
 
 impl Bus for SocketCanBus {
     fn send(&mut self, frame: &Frame) -> Result<()> {
-        if frame.is_fd() && !self.config.fd {
-            return Err(BusError::Unsupported("CAN FD frames (open with ?fd=1)"));
+        if frame.is_fd() && !self.fd {
+            return Err(BusError::Unsupported(
+                "CAN FD frames (open with ?fd=1 an interface with mtu 72)",
+            ));
         }
         if !self.recover() {
             return Err(BusError::BusOff);
@@ -492,7 +509,7 @@ impl Bus for SocketCanBus {
 
     fn capabilities(&self) -> Capabilities {
         Capabilities {
-            fd: self.config.fd,
+            fd: self.fd,
             remote: true,
             timestamps: if self.timestamps {
                 TimestampBase::UnixEpoch
