@@ -296,7 +296,11 @@ impl Core {
         }
         let cap = self.config.capacity;
         for (i, slot) in inner.slots.iter_mut().enumerate() {
-            if !slot.alive || (Some(i) == from && !self.config.echo) {
+            // A bus-off controller is off the bus: it hears nothing either.
+            if !slot.alive
+                || slot.state == BusState::BusOff
+                || (Some(i) == from && !self.config.echo)
+            {
                 continue;
             }
             if slot.rx.len() >= cap {
@@ -745,6 +749,11 @@ mod tests {
         bus.force_state(a.id(), BusState::BusOff);
         assert_eq!(a.state(), BusState::BusOff);
         assert!(matches!(a.send(&std_frame(1, &[])), Err(BusError::BusOff)));
+        b.send(&std_frame(2, &[])).unwrap();
+        assert!(
+            a.try_recv().unwrap().is_none(),
+            "a bus-off node hears nothing"
+        );
         a.reopen().unwrap();
         a.send(&std_frame(1, &[])).unwrap();
         assert_eq!(a.counters().bus_off_count, 1);
