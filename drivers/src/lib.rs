@@ -1,8 +1,214 @@
 //! CAN buses for anguilla.
 //!
-//! This crate will own the `Bus` trait and its implementations (SocketCAN,
-//! SLCAN serial adapters, an in-process bus). It moves frames
-//! ([`anguilla_protocol::Frame`]) and knows nothing of the messages inside.
+//! This crate owns the [`Bus`] trait — send, receive with a timeout, drain
+//! without blocking, bus state and counters, purge and reopen — and its
+//! implementations, selected at run time from a bus spec string
+//! ([`BusSpec`], [`open`]):
+//!
+//! * [`mem`] — an in-process bus with any number of participants, optional
+//!   wire-time simulation (bit time, arbitration by id) on a pluggable
+//!   [`Clock`], and fault hooks for tests (`mem:NAME`);
+//! * [`slcan`] — SLCAN (Lawicel ASCII) serial adapters such as CANable,
+//!   USBtin and CANUSB, plus an adapter emulator that makes any bus look like
+//!   one on a pseudo-terminal (`slcan:/dev/ttyACM0@1000000`);
+//! * [`socketcan`] — Linux SocketCAN, classic and FD (`socketcan:can0`).
+//!
+//! It moves frames ([`anguilla_protocol::Frame`]) and knows nothing of the
+//! messages inside.
+//!
+//! ```
+//! use anguilla_drivers::{open, Frame};
+//! use std::time::Duration;
+//!
+//! let mut a = open("mem:doc-example").unwrap();
+//! let mut b = open("mem:doc-example").unwrap();
+//! let frame = Frame::new_standard(0x123, &[1, 2, 3]).unwrap();
+//! a.send(&frame).unwrap();
+//! let got = b.recv(Duration::from_secs(1)).unwrap().expect("a frame");
+//! assert_eq!(got.frame, frame);
+//! // The sender does not hear itself (no loopback), and nothing is left.
+//! assert!(a.try_recv().unwrap().is_none());
+//! assert!(b.try_recv().unwrap().is_none());
+//! ```
 #![warn(missing_docs)]
 
+mod backoff;
+pub mod clock;
+mod error;
+pub mod mem;
+pub mod slcan;
+pub mod socketcan;
+mod spec;
+
+use std::time::Duration;
+
 pub use anguilla_protocol::Frame;
+pub use clock::{Clock, ManualClock, MonotonicClock};
+pub use error::{BusError, Result};
+pub use spec::{BusSpec, SpecError};
+
+/// A frame taken off a bus, with the time it arrived if the bus knows it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Received {
+    /// The frame.
+    pub frame: Frame,
+    /// Arrival time; its time base is [`Capabilities::timestamps`].
+    pub timestamp: Option<Duration>,
+}
+
+/// The fault-confinement state of this node's CAN controller (ISO 11898-1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum BusState {
+    /// Normal operation: error counters below 128.
+    #[default]
+    ErrorActive,
+    /// An error counter reached 128: the node still sends, but only passive
+    /// error flags.
+    ErrorPassive,
+    /// The transmit error counter passed 255: the node is off the bus until
+    /// it recovers ([`Bus::reopen`] or the driver's automatic recovery).
+    BusOff,
+}
+
+/// Monotonic counters of one bus handle since it was opened (they survive
+/// [`Bus::reopen`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BusCounters {
+    /// Frames handed to the bus by [`Bus::send`].
+    pub tx: u64,
+    /// Frames returned by [`Bus::recv`], [`Bus::try_recv`] or [`Bus::drain`].
+    pub rx: u64,
+    /// Frames accepted by `send` and later discarded unsent (purge, bus-off,
+    /// full queue, adapter refusal).
+    pub tx_dropped: u64,
+    /// Received frames lost because a receive queue was full.
+    pub rx_overruns: u64,
+    /// Errors seen: error frames, error replies, garbage on a serial line.
+    pub errors: u64,
+    /// Times this node went bus-off.
+    pub bus_off_count: u64,
+    /// Times the bus was reopened (by the caller or by automatic recovery).
+    pub reopens: u64,
+}
+
+/// What the arrival timestamps of a bus mean.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TimestampBase {
+    /// The bus gives no timestamps.
+    None,
+    /// The bus's [`Clock`] (in-process bus).
+    BusClock,
+    /// Time since the Unix epoch, taken by the kernel (SocketCAN).
+    UnixEpoch,
+    /// The adapter's millisecond counter, which wraps every 60 s (SLCAN `Z1`).
+    AdapterMillis,
+}
+
+/// What a bus can do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Capabilities {
+    /// Whether CAN FD frames can be sent and received.
+    pub fd: bool,
+    /// Whether remote frames can be sent and received.
+    pub remote: bool,
+    /// The time base of [`Received::timestamp`].
+    pub timestamps: TimestampBase,
+    /// Whether the bus can be forced bus-off by a test hook.
+    pub simulated_faults: bool,
+}
+
+/// A CAN bus as seen by one node.
+///
+/// Receive timeouts are not errors: [`recv`](Bus::recv) returns `Ok(None)`.
+/// [`send`](Bus::send), [`try_recv`](Bus::try_recv) and
+/// [`drain`](Bus::drain) never block for long (at most one serial write or
+/// one socket write) and do not allocate: the daemon calls them every
+/// control period (`tests/no_alloc.rs` checks the in-process bus and SLCAN;
+/// SocketCAN is written the same way). The exception is automatic recovery
+/// after a fault, which reopens the device.
+pub trait Bus: Send {
+    /// Queues one frame for transmission. Fails with [`BusError::BusOff`]
+    /// while the node is bus-off: a frame is never held back to be sent late.
+    fn send(&mut self, frame: &Frame) -> Result<()>;
+
+    /// Waits up to `timeout` for one frame; `Ok(None)` when none came.
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Received>>;
+
+    /// Takes one frame if one is already there, without waiting.
+    fn try_recv(&mut self) -> Result<Option<Received>> {
+        self.recv(Duration::ZERO)
+    }
+
+    /// Hands every frame already received to `f`, without waiting; returns
+    /// how many.
+    fn drain(&mut self, f: &mut dyn FnMut(Received)) -> Result<usize> {
+        let mut n = 0;
+        while let Some(r) = self.try_recv()? {
+            f(r);
+            n += 1;
+        }
+        Ok(n)
+    }
+
+    /// The controller's fault-confinement state as last known.
+    fn state(&self) -> BusState;
+
+    /// Counters since the handle was opened.
+    fn counters(&self) -> BusCounters;
+
+    /// What the bus supports.
+    fn capabilities(&self) -> Capabilities;
+
+    /// Discards every frame accepted by `send` but not yet on the wire, as
+    /// far as this driver can reach (see each implementation). Used after a
+    /// fault so that stale setpoints are never sent late.
+    fn flush_tx(&mut self) -> Result<()>;
+
+    /// Closes and reopens the bus: queued frames in both directions are
+    /// discarded, the state returns to error-active if the bus allows it.
+    fn reopen(&mut self) -> Result<()>;
+
+    /// The spec this bus was opened from, for messages.
+    fn spec(&self) -> &str;
+}
+
+impl<B: Bus + ?Sized> Bus for Box<B> {
+    fn send(&mut self, frame: &Frame) -> Result<()> {
+        (**self).send(frame)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Received>> {
+        (**self).recv(timeout)
+    }
+    fn try_recv(&mut self) -> Result<Option<Received>> {
+        (**self).try_recv()
+    }
+    fn drain(&mut self, f: &mut dyn FnMut(Received)) -> Result<usize> {
+        (**self).drain(f)
+    }
+    fn state(&self) -> BusState {
+        (**self).state()
+    }
+    fn counters(&self) -> BusCounters {
+        (**self).counters()
+    }
+    fn capabilities(&self) -> Capabilities {
+        (**self).capabilities()
+    }
+    fn flush_tx(&mut self) -> Result<()> {
+        (**self).flush_tx()
+    }
+    fn reopen(&mut self) -> Result<()> {
+        (**self).reopen()
+    }
+    fn spec(&self) -> &str {
+        (**self).spec()
+    }
+}
+
+/// Opens a bus from a spec string (see [`BusSpec`] for the accepted forms).
+///
+/// `mem:NAME` joins (or creates, with the options given) the in-process bus
+/// `NAME` as a new participant.
+pub fn open(spec: &str) -> Result<Box<dyn Bus>> {
+    BusSpec::parse(spec)?.open()
+}

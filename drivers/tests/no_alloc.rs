@@ -1,0 +1,130 @@
+//! The control period's bus calls allocate nothing after setup: a counting
+//! global allocator (counting only on the test's thread) watches `send`,
+//! `try_recv`, `drain`, `state` and `counters` (copper-rs style).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use anguilla_drivers::mem::MemBus;
+use anguilla_drivers::slcan::codec::Bitrate;
+use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
+use anguilla_drivers::slcan::{SlcanBus, SlcanConfig};
+use anguilla_drivers::{Bus, Frame, ManualClock};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if COUNTING.with(|c| c.get()) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` came from `System.alloc` with this layout.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if COUNTING.with(|c| c.get()) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: as above.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Allocations made by `f` on this thread.
+fn allocations_in(f: impl FnOnce()) -> u64 {
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    COUNTING.with(|c| c.set(true));
+    f();
+    COUNTING.with(|c| c.set(false));
+    ALLOCATIONS.load(Ordering::SeqCst) - before
+}
+
+/// One control period: send a setpoint, drain feedback, read state.
+fn period(tx: &mut dyn Bus, rx: &mut dyn Bus, i: u32, sum: &mut u64) {
+    let f = Frame::new_standard(0x100 + (i % 16) as u16, &i.to_le_bytes()).unwrap();
+    tx.send(&f).unwrap();
+    rx.drain(&mut |r| *sum += u64::from(r.frame.data()[0]))
+        .unwrap();
+    let _ = tx.try_recv().unwrap();
+    let _ = (rx.state(), rx.counters(), tx.counters());
+}
+
+#[test]
+fn control_period_allocates_nothing() {
+    // The counting allocator sanity check: it does see allocations.
+    assert!(allocations_in(|| drop(std::hint::black_box(vec![1u8; 64]))) > 0);
+
+    // In-process bus, no wire time.
+    let bus = MemBus::builder("no-alloc").capacity(64).build();
+    let (mut a, mut b) = (bus.participant(), bus.participant());
+    let mut sum = 0;
+    period(&mut a, &mut b, 0, &mut sum);
+    let n = allocations_in(|| {
+        for i in 0..1000 {
+            period(&mut a, &mut b, i, &mut sum);
+        }
+    });
+    assert_eq!(n, 0, "mem bus: {n} allocations in 1000 periods");
+    assert!(sum > 0);
+
+    // In-process bus with wire time on a manual clock.
+    let clock = ManualClock::new();
+    let bus = MemBus::builder("no-alloc-wire")
+        .bitrate(1_000_000)
+        .clock(Arc::new(clock.clone()))
+        .capacity(64)
+        .build();
+    let (mut a, mut b) = (bus.participant(), bus.participant());
+    let n = allocations_in(|| {
+        for i in 0..1000 {
+            period(&mut a, &mut b, i, &mut sum);
+            clock.advance(Duration::from_millis(1));
+        }
+    });
+    assert_eq!(n, 0, "mem bus with wire time: {n} allocations");
+    assert_eq!(b.counters().rx, 999, "all but the last frame delivered");
+
+    // SLCAN driver over a pty (the emulator thread is not counted).
+    let bus = MemBus::builder("no-alloc-slcan").build();
+    let mut peer = bus.participant();
+    let emu =
+        SlcanEmulator::on_pty(Box::new(bus.participant()), EmulatorConfig::default()).unwrap();
+    let mut c = SlcanConfig::new(emu.path().unwrap(), Bitrate::B1M);
+    c.status_interval = Some(Duration::from_millis(1));
+    let mut drv = SlcanBus::open(&c).unwrap();
+    period(&mut drv, &mut peer, 0, &mut sum);
+    let n = allocations_in(|| {
+        for i in 0..200 {
+            period(&mut drv, &mut peer, i, &mut sum);
+            period(&mut peer, &mut drv, i, &mut sum);
+        }
+    });
+    assert_eq!(n, 0, "SLCAN driver: {n} allocations");
+    // Also a blocking receive with a frame waiting.
+    let t0 = Instant::now();
+    let n = allocations_in(|| {
+        peer.send(&Frame::new_standard(0x7, &[7]).unwrap()).unwrap();
+        while drv.recv(Duration::from_millis(10)).unwrap().is_none() {
+            assert!(t0.elapsed() < Duration::from_secs(5));
+        }
+    });
+    assert_eq!(n, 0, "SLCAN recv: {n} allocations");
+    drop(drv);
+    drop(emu);
+}

@@ -1,0 +1,324 @@
+//! SLCAN driver behaviour beyond the conformance suite: clear errors for
+//! every way opening can fail, garbage on the line, unplugged adapters.
+
+use std::io::{Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anguilla_drivers::mem::MemBus;
+use anguilla_drivers::slcan::codec::Bitrate;
+use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
+use anguilla_drivers::slcan::{SlcanBus, SlcanConfig};
+use anguilla_drivers::{Bus, BusError, Frame, open};
+use serialport::{SerialPort, TTYPort};
+
+const PATIENCE: Duration = Duration::from_secs(5);
+
+/// Runs `f` on a thread; fails if it takes more than 60 s.
+fn watchdog<F: FnOnce() + Send + 'static>(f: F) {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let t = std::thread::spawn(move || {
+        f();
+        let _ = tx.send(());
+    });
+    match rx.recv_timeout(Duration::from_secs(60)) {
+        Ok(()) | Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+            if let Err(p) = t.join() {
+                std::panic::resume_unwind(p)
+            }
+        }
+        Err(_) => panic!("watchdog expired"),
+    }
+}
+
+fn emulator(config: EmulatorConfig) -> (MemBus, SlcanEmulator) {
+    let bus = MemBus::builder("slcan-test").build();
+    let emu = SlcanEmulator::on_pty(Box::new(bus.participant()), config).unwrap();
+    (bus, emu)
+}
+
+#[test]
+fn missing_device_is_named() {
+    let spec = "slcan:/dev/anguilla-no-such-tty@1000000";
+    let e = open(spec).err().unwrap();
+    assert!(matches!(e, BusError::MissingDevice { .. }), "{e:?}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("/dev/anguilla-no-such-tty") && msg.contains(spec),
+        "{msg}"
+    );
+}
+
+fn running_as_root() -> bool {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Uid:"))
+                .map(|l| l.split_whitespace().nth(2) == Some("0"))
+        })
+        .unwrap_or(false)
+}
+
+#[test]
+fn permission_denied_is_named() {
+    if running_as_root() {
+        eprintln!("skipping: running as root, file permissions are not enforced");
+        return;
+    }
+    use std::os::unix::fs::PermissionsExt;
+    let path = std::env::temp_dir().join(format!("anguilla-noperm-{}", std::process::id()));
+    std::fs::write(&path, b"").unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o000)).unwrap();
+    let spec = format!("slcan:{}@1000000", path.display());
+    let e = open(&spec).err().unwrap();
+    let _ = std::fs::remove_file(&path);
+    assert!(matches!(e, BusError::PermissionDenied { .. }), "{e:?}");
+    assert!(e.to_string().contains(&spec));
+}
+
+#[test]
+fn adapter_answering_bel_is_a_clear_error() {
+    watchdog(|| {
+        let (_bus, emu) = emulator(EmulatorConfig {
+            reject_all: true,
+            ..EmulatorConfig::default()
+        });
+        let path = emu.path().unwrap().to_owned();
+        let e = open(&format!("slcan:{path}@1000000")).err().unwrap();
+        assert!(matches!(e, BusError::AdapterRejected { .. }), "{e:?}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains(&path) && msg.contains("'S8'") && msg.contains("BEL"),
+            "{msg}"
+        );
+    });
+}
+
+#[test]
+fn silent_device_times_out_with_a_clear_error() {
+    watchdog(|| {
+        let (_master, slave) = TTYPort::pair().unwrap();
+        let path = slave.name().unwrap();
+        let mut c = SlcanConfig::new(&path, Bitrate::B500k);
+        c.reply_timeout = Duration::from_millis(100);
+        let e = SlcanBus::open(&c).err().unwrap();
+        assert!(matches!(e, BusError::AdapterTimeout { .. }), "{e:?}");
+        assert!(e.to_string().contains(&path), "{e}");
+    });
+}
+
+#[test]
+fn garbage_instead_of_an_adapter_is_a_clear_error() {
+    watchdog(|| {
+        let (mut master, slave) = TTYPort::pair().unwrap();
+        master.set_timeout(Duration::from_millis(10)).unwrap();
+        let path = slave.name().unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        // A GPS receiver, say: NMEA sentences, never SLCAN.
+        let gps = std::thread::spawn(move || {
+            while !s.load(Ordering::Relaxed) {
+                let _ = master.write_all(b"$GPGGA,123519,4807.038,N,01131.000,E*47\r\n");
+            }
+        });
+        let mut c = SlcanConfig::new(&path, Bitrate::B1M);
+        c.reply_timeout = Duration::from_millis(200);
+        let e = SlcanBus::open(&c).err().unwrap();
+        stop.store(true, Ordering::Relaxed);
+        gps.join().unwrap();
+        assert!(matches!(e, BusError::AdapterGarbage { .. }), "{e:?}");
+        let msg = e.to_string();
+        // Whole lines are quoted: the reader keeps its place in the stream.
+        assert!(
+            msg.contains(&path) && msg.contains("\"$GPGGA,123519"),
+            "{msg}"
+        );
+    });
+}
+
+/// Wraps the emulator's side of the line and puts junk before every frame
+/// line it writes.
+struct Garbling<S>(S);
+
+impl<S: Read> Read for Garbling<S> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl<S: Write> Write for Garbling<S> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if buf.first() == Some(&b't') {
+            self.0.write_all(b"\x00\xff\x1b[0m!!\rt12\r")?;
+        }
+        self.0.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+#[test]
+fn garbage_between_frames_is_counted_and_skipped() {
+    watchdog(|| {
+        let bus = MemBus::builder("garbling").build();
+        let mut peer = bus.participant();
+        let (mut master, slave) = TTYPort::pair().unwrap();
+        master.set_timeout(Duration::from_millis(2)).unwrap();
+        let emu = SlcanEmulator::spawn(
+            Garbling(master),
+            Box::new(bus.participant()),
+            EmulatorConfig::default(),
+        )
+        .unwrap();
+        let mut c = SlcanConfig::new(&slave.name().unwrap(), Bitrate::B1M);
+        c.status_interval = None;
+        let mut drv = SlcanBus::open(&c).unwrap();
+        for i in 0..5u8 {
+            peer.send(&Frame::new_standard(0x50, &[i]).unwrap())
+                .unwrap();
+        }
+        let mut got = Vec::new();
+        let t0 = Instant::now();
+        while got.len() < 5 {
+            assert!(t0.elapsed() < PATIENCE, "got {got:?}");
+            if let Some(r) = drv.recv(Duration::from_millis(50)).unwrap() {
+                got.push(r.frame.data()[0]);
+            }
+        }
+        assert_eq!(got, vec![0, 1, 2, 3, 4]);
+        // Two bad lines before each frame ("\0\xff\x1b[0m!!" and "t12").
+        assert!(drv.counters().errors >= 10, "{:?}", drv.counters());
+        drop(drv);
+        drop(emu);
+        drop(slave);
+    });
+}
+
+#[test]
+fn unplugged_adapter_is_reported_as_disconnected() {
+    watchdog(|| {
+        let (_bus, emu) = emulator(EmulatorConfig::default());
+        let spec = format!("slcan:{}@1000000", emu.path().unwrap());
+        let mut drv = open(&spec).unwrap();
+        drop(emu.stop());
+        let t0 = Instant::now();
+        loop {
+            assert!(t0.elapsed() < PATIENCE, "no disconnection reported");
+            match drv.recv(Duration::from_millis(20)) {
+                Err(e @ BusError::Disconnected { .. }) => {
+                    assert!(e.to_string().contains(&spec), "{e}");
+                    break;
+                }
+                Ok(_) => {}
+                Err(e) => panic!("unexpected {e:?}"),
+            }
+        }
+        // It keeps answering (no panic) while the adapter is gone.
+        let _ = drv.recv(Duration::from_millis(1));
+        let f = Frame::new_standard(1, &[]).unwrap();
+        assert!(drv.send(&f).is_err());
+    });
+}
+
+#[test]
+fn recovers_from_bus_off_by_itself_and_never_sends_stale_frames() {
+    watchdog(|| {
+        let bus = MemBus::builder("auto-recovery").build();
+        let mut peer = bus.participant();
+        let node = bus.participant();
+        let node_id = node.id();
+        let emu = SlcanEmulator::on_pty(Box::new(node), EmulatorConfig::default()).unwrap();
+        let mut c = SlcanConfig::new(emu.path().unwrap(), Bitrate::B1M);
+        c.status_interval = Some(Duration::from_millis(5));
+        // This test is about recovery, not speed: be patient with a loaded
+        // machine (the default 20 ms could fail an attempt, and the test
+        // would then wait for the next one anyway).
+        c.recovery_reply_timeout = Duration::from_millis(500);
+        let mut drv = SlcanBus::open(&c).unwrap();
+        bus.force_state(node_id, anguilla_drivers::BusState::BusOff);
+        // Sent while the adapter is off the bus but before the driver
+        // knows: the adapter refuses it (BEL); it must never appear later.
+        let stale = Frame::new_standard(0x66, &[0xDE]).unwrap();
+        let _ = drv.send(&stale);
+        let t0 = Instant::now();
+        while drv.counters().bus_off_count == 0 || drv.counters().reopens == 0 {
+            assert!(t0.elapsed() < PATIENCE, "{:?}", drv.counters());
+            let _ = drv.recv(Duration::from_millis(5));
+        }
+        assert_ne!(drv.state(), anguilla_drivers::BusState::BusOff);
+        let fresh = Frame::new_standard(0x67, &[0x01]).unwrap();
+        drv.send(&fresh).unwrap();
+        let t0 = Instant::now();
+        let first = loop {
+            assert!(t0.elapsed() < PATIENCE, "fresh frame never arrived");
+            if let Some(r) = peer.recv(Duration::from_millis(50)).unwrap() {
+                break r.frame;
+            }
+        };
+        assert_eq!(first, fresh, "a frame from before the bus-off came out");
+        drop(drv);
+        drop(emu);
+    });
+}
+
+#[test]
+fn stop_handle_ends_the_emulator_thread() {
+    watchdog(|| {
+        let (_bus, emu) = emulator(EmulatorConfig::default());
+        assert!(emu.is_running());
+        let h = emu.stop_handle();
+        std::thread::spawn(move || h.stop()).join().unwrap();
+        let t0 = Instant::now();
+        while emu.is_running() {
+            assert!(t0.elapsed() < PATIENCE, "emulator thread did not stop");
+            std::thread::yield_now();
+        }
+        let _bus_back = emu.stop();
+    });
+}
+
+#[test]
+fn listen_only_refuses_to_send() {
+    watchdog(|| {
+        let (_bus, emu) = emulator(EmulatorConfig::default());
+        let mut drv = open(&format!("slcan:{}@250000?listen=1", emu.path().unwrap())).unwrap();
+        let f = Frame::new_standard(1, &[]).unwrap();
+        assert!(matches!(drv.send(&f), Err(BusError::Unsupported(_))));
+    });
+}
+
+#[test]
+fn emulator_answers_version_and_rejects_commands_in_the_wrong_state() {
+    watchdog(|| {
+        let (_bus, emu) = emulator(EmulatorConfig::default());
+        let mut port = serialport::new(emu.path().unwrap(), 115_200)
+            .timeout(Duration::from_millis(500))
+            .open_native()
+            .unwrap();
+        let mut ask = |cmd: &[u8], want: &[u8]| {
+            port.write_all(cmd).unwrap();
+            let mut got = Vec::new();
+            let mut b = [0u8; 1];
+            while got.len() < want.len() {
+                port.read_exact(&mut b).unwrap();
+                got.push(b[0]);
+            }
+            assert_eq!(got, want, "answer to {:?}", cmd.escape_ascii().to_string());
+        };
+        ask(b"V\r", b"V1013\r");
+        ask(b"F\r", b"\x07"); // closed: no status
+        ask(b"t1230\r", b"\x07"); // closed: no frames
+        ask(b"S9\r", b"\x07"); // no such rate
+        ask(b"S6\r", b"\r");
+        ask(b"O\r", b"\r");
+        ask(b"S8\r", b"\x07"); // open: rate is fixed
+        ask(b"F\r", b"F00\r");
+        ask(b"t1230\r", b"z\r");
+        ask(b"T000001230\r", b"Z\r");
+        ask(b"C\r", b"\r");
+        ask(b"garbage\r", b"\x07");
+    });
+}
