@@ -1,0 +1,338 @@
+//! One joint axis of a vertebra: motor, gearbox, servo loop and sensors.
+//!
+//! The servo is a position loop with velocity and torque feedforward,
+//! `τ_cmd = kp (θ* − θ) + kd (ω* − ω) + τ_ff`, saturated in torque and
+//! slowed near the speed limit; the motor's torque follows `τ_cmd` through a
+//! first-order lag (the current loop); the joint obeys
+//! `J θ̈ = τ − τ_load − b ω`, where `τ_load` is the torque the swimming body
+//! demands at this joint. The encoder quantizes and may add noise. An
+//! *ideal* axis follows its setpoint exactly (used to check the plant
+//! against the model with perfect servos).
+
+use crate::rng::Rng;
+
+/// Parameters of one axis; defaults describe a small waterproof servo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActuatorParams {
+    /// Position gain (N·m/rad).
+    pub kp: f64,
+    /// Velocity gain (N·m·s/rad).
+    pub kd: f64,
+    /// Torque saturation (N·m).
+    pub torque_limit: f64,
+    /// No-load speed (rad/s): available torque falls linearly to zero there.
+    pub speed_limit: f64,
+    /// Time constant of the torque (current) loop (s).
+    pub torque_lag: f64,
+    /// Reflected inertia of motor and gearbox (kg·m²).
+    pub inertia: f64,
+    /// Viscous friction (N·m·s/rad).
+    pub damping: f64,
+    /// Encoder resolution (rad per count).
+    pub encoder_resolution: f64,
+    /// Standard deviation of encoder noise (rad).
+    pub encoder_noise: f64,
+    /// Follow setpoints exactly, with no dynamics.
+    pub ideal: bool,
+}
+
+impl Default for ActuatorParams {
+    fn default() -> Self {
+        Self {
+            kp: 40.0,
+            kd: 1.2,
+            torque_limit: 4.0,
+            speed_limit: 8.0,
+            torque_lag: 0.002,
+            inertia: 0.02,
+            damping: 0.05,
+            encoder_resolution: 2.0 * core::f64::consts::PI / 4096.0,
+            encoder_noise: 0.0,
+            ideal: false,
+        }
+    }
+}
+
+/// What the axis is asked to do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Drive {
+    /// Zero torque.
+    Limp,
+    /// Windings shorted: strong viscous braking, no position control.
+    Brake,
+    /// Servo to a setpoint (position rad, velocity rad/s, torque N·m).
+    Servo {
+        /// Position (rad).
+        position: f64,
+        /// Velocity feedforward (rad/s).
+        velocity: f64,
+        /// Torque feedforward (N·m).
+        torque: f64,
+    },
+}
+
+/// Faults that can be injected into an axis.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AxisFaults {
+    /// The joint is jammed: it does not move, whatever the torque.
+    pub stuck: bool,
+    /// Torque saturates at this lower value (N·m), if set.
+    pub torque_cap: Option<f64>,
+    /// Extra encoder noise (rad, standard deviation).
+    pub extra_noise: f64,
+    /// One reading offset by this much (rad), then cleared.
+    pub spike: f64,
+}
+
+/// The state of one axis.
+#[derive(Debug, Clone)]
+pub struct Actuator {
+    params: ActuatorParams,
+    /// Joint angle (rad).
+    theta: f64,
+    /// Joint velocity (rad/s).
+    omega: f64,
+    /// Joint acceleration over the last step (rad/s²).
+    alpha: f64,
+    /// Motor torque (N·m).
+    tau: f64,
+    faults: AxisFaults,
+    saturated: bool,
+}
+
+impl Actuator {
+    /// An axis at rest at angle 0.
+    pub fn new(params: ActuatorParams) -> Self {
+        Self {
+            params,
+            theta: 0.0,
+            omega: 0.0,
+            alpha: 0.0,
+            tau: 0.0,
+            faults: AxisFaults::default(),
+            saturated: false,
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &ActuatorParams {
+        &self.params
+    }
+
+    /// Mutable access to the injected faults.
+    pub fn faults_mut(&mut self) -> &mut AxisFaults {
+        &mut self.faults
+    }
+
+    /// True angle (rad), velocity (rad/s), acceleration (rad/s²).
+    pub fn kinematics(&self) -> (f64, f64, f64) {
+        (self.theta, self.omega, self.alpha)
+    }
+
+    /// Motor torque (N·m).
+    pub fn torque(&self) -> f64 {
+        self.tau
+    }
+
+    /// Whether the torque hit its limit during the last step.
+    pub fn saturated(&self) -> bool {
+        self.saturated
+    }
+
+    /// What the encoder reads now (quantized, with noise and spikes).
+    pub fn measure(&mut self, rng: &mut Rng) -> f64 {
+        let p = &self.params;
+        let sigma = p.encoder_noise + self.faults.extra_noise;
+        let noise = if sigma > 0.0 {
+            sigma * rng.normal()
+        } else {
+            0.0
+        };
+        let spike = core::mem::take(&mut self.faults.spike);
+        let raw = self.theta + noise + spike;
+        if p.encoder_resolution > 0.0 {
+            (raw / p.encoder_resolution).round() * p.encoder_resolution
+        } else {
+            raw
+        }
+    }
+
+    /// Advances by `dt` seconds under `drive`, against the body's `load`
+    /// torque (N·m, the torque the body demands at this joint).
+    pub fn step(&mut self, dt: f64, drive: Drive, load: f64) {
+        let p = self.params;
+        let omega0 = self.omega;
+        if self.faults.stuck {
+            self.omega = 0.0;
+            self.alpha = 0.0;
+            self.tau = 0.0;
+            return;
+        }
+        if p.ideal {
+            match drive {
+                Drive::Servo {
+                    position,
+                    velocity,
+                    torque: _,
+                } => {
+                    self.theta = position;
+                    self.omega = velocity;
+                    self.tau = load;
+                }
+                Drive::Limp | Drive::Brake => {
+                    self.omega = 0.0;
+                    self.tau = 0.0;
+                }
+            }
+            self.alpha = (self.omega - omega0) / dt;
+            return;
+        }
+        if drive == Drive::Limp {
+            // Power stage off: no current, no torque, at once.
+            self.tau = 0.0;
+        }
+        let limit = self
+            .faults
+            .torque_cap
+            .unwrap_or(p.torque_limit)
+            .min(p.torque_limit);
+        let cmd = match drive {
+            Drive::Limp => 0.0,
+            Drive::Brake => -10.0 * p.kd * self.omega,
+            Drive::Servo {
+                position,
+                velocity,
+                torque,
+            } => p.kp * (position - self.theta) + p.kd * (velocity - self.omega) + torque,
+        };
+        // Torque-speed curve: the torque available in the direction of
+        // motion falls to zero at the no-load speed.
+        let speed_frac = (self.omega.abs() / p.speed_limit).min(1.0);
+        let avail = if cmd * self.omega > 0.0 {
+            limit * (1.0 - speed_frac)
+        } else {
+            limit
+        };
+        let sat = cmd.clamp(-avail, avail);
+        self.saturated = sat != cmd;
+        // First-order lag, exact for a constant command over dt.
+        let k = if drive == Drive::Limp {
+            1.0
+        } else if p.torque_lag > 0.0 {
+            1.0 - (-dt / p.torque_lag).exp()
+        } else {
+            1.0
+        };
+        self.tau += k * (sat - self.tau);
+        let acc = (self.tau - load - p.damping * self.omega) / p.inertia;
+        // Semi-implicit Euler.
+        self.omega += acc * dt;
+        self.theta += self.omega * dt;
+        self.alpha = (self.omega - omega0) / dt;
+    }
+
+    /// Sets the state directly (used when a simulation starts from a pose).
+    pub fn set_state(&mut self, theta: f64, omega: f64) {
+        self.theta = theta;
+        self.omega = omega;
+        self.alpha = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(a: &mut Actuator, drive: Drive, load: f64, seconds: f64) {
+        let dt = 2.5e-4;
+        for _ in 0..(seconds / dt) as usize {
+            a.step(dt, drive, load);
+        }
+    }
+
+    #[test]
+    fn servo_settles_on_its_setpoint() {
+        let mut a = Actuator::new(ActuatorParams::default());
+        let sp = Drive::Servo {
+            position: 0.3,
+            velocity: 0.0,
+            torque: 0.0,
+        };
+        run(&mut a, sp, 0.0, 1.0);
+        let (th, om, _) = a.kinematics();
+        assert!((th - 0.3).abs() < 1e-3, "{th}");
+        assert!(om.abs() < 1e-2);
+    }
+
+    #[test]
+    fn torque_feedforward_cancels_a_known_load() {
+        let p = ActuatorParams::default();
+        let sp = |ff| Drive::Servo {
+            position: 0.0,
+            velocity: 0.0,
+            torque: ff,
+        };
+        let mut without = Actuator::new(p);
+        run(&mut without, sp(0.0), 1.0, 1.0);
+        let mut with = Actuator::new(p);
+        run(&mut with, sp(1.0), 1.0, 1.0);
+        // Without feedforward the error is load/kp = 25 mrad.
+        assert!((without.kinematics().0 + 1.0 / p.kp).abs() < 1e-3);
+        assert!(with.kinematics().0.abs() < 1e-4);
+    }
+
+    #[test]
+    fn saturation_and_limp() {
+        let p = ActuatorParams::default();
+        let mut a = Actuator::new(p);
+        a.faults_mut().torque_cap = Some(0.5);
+        // A load beyond the cap drags the joint away.
+        run(
+            &mut a,
+            Drive::Servo {
+                position: 0.0,
+                velocity: 0.0,
+                torque: 0.0,
+            },
+            1.0,
+            0.2,
+        );
+        assert!(a.saturated());
+        assert!(a.kinematics().0 < -0.05);
+        let mut l = Actuator::new(p);
+        run(&mut l, Drive::Limp, 0.2, 0.1);
+        assert!(l.torque().abs() < 1e-12);
+        assert!(l.kinematics().1 < 0.0, "a limp joint yields to its load");
+    }
+
+    #[test]
+    fn stuck_joint_does_not_move() {
+        let mut a = Actuator::new(ActuatorParams::default());
+        a.faults_mut().stuck = true;
+        run(
+            &mut a,
+            Drive::Servo {
+                position: 1.0,
+                velocity: 0.0,
+                torque: 0.0,
+            },
+            0.0,
+            0.5,
+        );
+        assert_eq!(a.kinematics().0, 0.0);
+    }
+
+    #[test]
+    fn encoder_quantizes_and_spikes_once() {
+        let mut a = Actuator::new(ActuatorParams::default());
+        a.set_state(0.1234567, 0.0);
+        let mut rng = Rng::new(1);
+        let res = ActuatorParams::default().encoder_resolution;
+        let m = a.measure(&mut rng);
+        assert!((m - 0.1234567).abs() <= res / 2.0 + 1e-12);
+        assert!(((m / res).round() * res - m).abs() < 1e-12);
+        a.faults_mut().spike = 0.5;
+        assert!((a.measure(&mut rng) - 0.6234567).abs() <= res);
+        assert!((a.measure(&mut rng) - 0.1234567).abs() <= res);
+    }
+}
