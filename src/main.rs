@@ -4,6 +4,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod swim;
+
 /// Software for eel-like swimming robots.
 #[derive(Parser, Debug)]
 #[command(name = "anguilla", version, about, long_about = None)]
@@ -13,7 +15,10 @@ struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-enum Command {}
+enum Command {
+    /// Run the swimming model on a gait of the paper (CSV, SVG plot, JSON, paper table).
+    Swim(swim::SwimArgs),
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
@@ -23,5 +28,6 @@ fn main() -> anyhow::Result<()> {
             Cli::command().print_help()?;
             Ok(())
         }
+        Some(Command::Swim(args)) => swim::run(&args),
     }
 }

@@ -32,13 +32,15 @@ pub fn gait_period(g: &NamedGait) -> f64 {
 }
 
 /// Runs `gait` for `duration` seconds on `model` from the launch state of
-/// the paper, calling `observe(report, head_after, workspace)` after every
-/// step, and returns the table averages.
+/// the paper, calling `observe(report, head_before, head_after, workspace,
+/// unwrapped_yaw_before)` after every step (the report, joints and torques
+/// are those of `head_before`; the workspace shape is that of `head_after`),
+/// and returns the table averages.
 pub fn run_gait(
     model: &Model,
     gait: &NamedGait,
     duration: f64,
-    mut observe: impl FnMut(&StepReport, &HeadState, &Workspace, f64),
+    mut observe: impl FnMut(&StepReport, &HeadState, &HeadState, &Workspace, f64),
 ) -> Result<Summary> {
     let dt = model.dt();
     let mut ws = Workspace::new(model);
@@ -57,6 +59,8 @@ pub fn run_gait(
     let mut yaw_prev = 0.0;
     let mut yaw_unwrapped = 0.0;
     for k in 0..steps {
+        let before = head;
+        let yaw_before = yaw_unwrapped;
         let r = step(model, &mut ws, &mut src, &mut head)?;
         // averages are over the instants t_k = k dt of the window (t_end - w, t_end]
         let t = (k + 1) as f64 * dt;
@@ -83,7 +87,7 @@ pub fn run_gait(
             n_yaw += 1;
         }
         s_roll += head.roll_rate();
-        observe(&r, &head, &ws, yaw_unwrapped);
+        observe(&r, &before, &head, &ws, yaw_before);
     }
     let avg = |s: f64, n: usize| if n > 0 { s / n as f64 } else { 0.0 };
     Ok(Summary {
