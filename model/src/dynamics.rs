@@ -43,7 +43,7 @@ impl Default for ModelConfig {
 }
 
 /// Default number of space intervals (F1's mean speed converged to 0.5 %).
-pub const DEFAULT_NODES: usize = 26;
+pub const DEFAULT_NODES: usize = 52;
 /// Default time step (s).
 pub const DEFAULT_DT: f64 = 0.01;
 /// Largest accepted time step (s).
