@@ -12,6 +12,7 @@ fn control_step(c: &mut Criterion) {
             nodes,
             dt: 0.001,
             joints: 12,
+            integrator: Integrator::Midpoint,
             ..ModelConfig::default()
         })
         .unwrap();

@@ -38,8 +38,8 @@ pub mod run;
 
 pub use body::{Body, Profile};
 pub use dynamics::{
-    DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, JointState, MAX_DT, Model, ModelConfig,
-    StepReport, Workspace, evaluate, inverse_with, posture, step,
+    DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,
+    ModelConfig, StepReport, Workspace, evaluate, inverse_with, posture, step,
 };
 pub use error::{ModelError, Result};
 pub use gait::{

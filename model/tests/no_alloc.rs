@@ -40,6 +40,7 @@ fn a_control_step_allocates_nothing() {
     let model = Model::new(ModelConfig {
         dt: 0.001,
         joints: 12,
+        integrator: Integrator::Midpoint,
         ..ModelConfig::default()
     })
     .unwrap();

@@ -12,6 +12,7 @@ fn model(body: Body, nodes: usize, dt: f64, joints: usize) -> Model {
         nodes,
         dt,
         joints,
+        integrator: Integrator::Rk4,
     })
     .unwrap()
 }
