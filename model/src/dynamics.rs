@@ -420,18 +420,27 @@ struct Kin {
 }
 
 impl Kin {
-    /// Space derivative: (34), (35), (36).
+    /// Space derivative: (34), (35), (36). `R K^` and `R K` are expanded
+    /// column by column (`R = [t1 t2 t3]`).
     #[inline(always)]
     fn deriv(&self, c: &Curvature) -> Kin {
         let t1 = self.q.column(0).into_owned();
-        let qkd = self.q * c.k_dot;
+        let t2 = self.q.column(1).into_owned();
+        let t3 = self.q.column(2).into_owned();
+        let k = &c.k;
+        let rk = |v: &Vector3<f64>| t1 * v.x + t2 * v.y + t3 * v.z;
+        let qkd = rk(&c.k_dot);
         let wt1 = self.w.cross(&t1);
         Kin {
-            q: self.q * skew(&c.k),
+            q: Matrix3::from_columns(&[
+                t2 * k.z - t3 * k.y,
+                t3 * k.x - t1 * k.z,
+                t1 * k.y - t2 * k.x,
+            ]),
             p: t1,
             w: qkd,
             v: wt1,
-            al: self.q * c.k_ddot + self.w.cross(&qkd),
+            al: rk(&c.k_ddot) + self.w.cross(&qkd),
             ac: self.al.cross(&t1) + self.w.cross(&wt1),
         }
     }

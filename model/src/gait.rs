@@ -27,6 +27,37 @@ pub trait CurvatureSource {
     fn time(&self) -> f64;
 }
 
+/// `sin, cos` of `a0 + slope * x[i]` for every `x[i]`, by the angle-addition
+/// recurrence when `x` is uniformly spaced (the model's grid), else directly.
+/// Calls `f(i, sin, cos)`.
+#[inline]
+fn for_each_sin_cos(x: &[f64], a0: f64, slope: f64, mut f: impl FnMut(usize, f64, f64)) {
+    let n = x.len();
+    if n == 0 {
+        return;
+    }
+    let dx = if n > 1 { x[1] - x[0] } else { 0.0 };
+    let uniform = n > 2 && ((x[n - 1] - x[0]) - dx * (n - 1) as f64).abs() < 1e-12;
+    if !uniform {
+        for (i, &xi) in x.iter().enumerate() {
+            let (s, c) = (a0 + slope * xi).sin_cos();
+            f(i, s, c);
+        }
+        return;
+    }
+    let (sd, cd) = (slope * dx).sin_cos();
+    let (mut s, mut c) = (a0 + slope * x[0]).sin_cos();
+    for i in 0..n {
+        f(i, s, c);
+        // re-anchor every 64 points to bound round-off growth
+        if (i + 1) % 64 == 0 && i + 1 < n {
+            (s, c) = (a0 + slope * x[i + 1]).sin_cos();
+        } else {
+            (s, c) = (s * cd + c * sd, c * cd - s * sd);
+        }
+    }
+}
+
 /// Sinusoidal ramp `f_r(t, t_i, t_f)` of (43) and its first two time
 /// derivatives.
 pub fn ramp(t: f64, ti: f64, tf: f64) -> [f64; 3] {
@@ -62,9 +93,25 @@ pub struct Wave {
 impl Wave {
     /// `K_f3(X1, t)` of (44) and its first two time derivatives.
     pub fn eval(&self, x: f64, t: f64) -> [f64; 3] {
+        let (s, c) = (self.phase0(t) + self.slope() * x).sin_cos();
+        self.eval_sc(x, s, c)
+    }
+
+    /// Phase of (44) at `X1 = 0`.
+    fn phase0(&self, t: f64) -> f64 {
+        2.0 * PI * (-t / self.period + self.phi)
+    }
+
+    /// Phase slope `2 pi / lambda` of (44).
+    fn slope(&self) -> f64 {
+        2.0 * PI / self.lambda
+    }
+
+    /// (44) given `sin, cos` of its phase at `(x, t)`.
+    #[inline]
+    fn eval_sc(&self, x: f64, s: f64, c: f64) -> [f64; 3] {
         let fa = self.a[2] * x * x + self.a[1] * x + self.a[0];
         let w = 2.0 * PI / self.period;
-        let (s, c) = (2.0 * PI * (x / self.lambda - t / self.period + self.phi)).sin_cos();
         [fa * s, -fa * w * c, -fa * w * w * s]
     }
 }
@@ -146,8 +193,24 @@ impl GaitLaw {
         }
     }
 
+    /// The propulsive wave of the law.
+    pub fn wave(&self) -> Wave {
+        match *self {
+            GaitLaw::Forward(w)
+            | GaitLaw::Turn { wave: w, .. }
+            | GaitLaw::Spiral { wave: w, .. } => w,
+        }
+    }
+
     /// `(K3, K2)` laws with derivatives at `(x, t)`.
     pub fn eval(&self, x: f64, t: f64) -> Curvature {
+        let w = self.wave();
+        let (s, c) = (w.phase0(t) + w.slope() * x).sin_cos();
+        self.eval_sc(x, t, s, c)
+    }
+
+    /// [`GaitLaw::eval`] given `sin, cos` of the wave phase at `(x, t)`.
+    fn eval_sc(&self, x: f64, t: f64, sn: f64, cs: f64) -> Curvature {
         // product rule for (f g), (f g)', (f g)''
         fn mul(f: [f64; 3], g: [f64; 3]) -> [f64; 3] {
             [
@@ -157,7 +220,7 @@ impl GaitLaw {
             ]
         }
         let (k2, k3) = match *self {
-            GaitLaw::Forward(w) => ([0.0; 3], mul(ramp(t, 0.0, w.period), w.eval(x, t))),
+            GaitLaw::Forward(w) => ([0.0; 3], mul(ramp(t, 0.0, w.period), w.eval_sc(x, sn, cs))),
             GaitLaw::Turn {
                 wave,
                 kind,
@@ -168,7 +231,7 @@ impl GaitLaw {
                 let prop = if al == [0.0; 3] {
                     [0.0; 3]
                 } else {
-                    mul(al, wave.eval(x, t))
+                    mul(al, wave.eval_sc(x, sn, cs))
                 };
                 (
                     [0.0; 3],
@@ -181,7 +244,7 @@ impl GaitLaw {
             }
             GaitLaw::Spiral { wave, kc2, kc3 } => {
                 let r = ramp(t, 0.0, wave.period);
-                let f = wave.eval(x, t);
+                let f = wave.eval_sc(x, sn, cs);
                 (
                     [kc2 * r[0], kc2 * r[1], kc2 * r[2]],
                     mul(r, [f[0] + kc3, f[1], f[2]]),
@@ -296,9 +359,12 @@ impl LawSource {
 impl CurvatureSource for LawSource {
     fn curvature(&self, tau: f64, x: &[f64], out: &mut [Curvature]) {
         let t = self.t + tau;
-        for (o, &xi) in out.iter_mut().zip(x) {
-            *o = self.law.eval(xi, t);
-        }
+        let w = self.law.wave();
+        for_each_sin_cos(x, w.phase0(t), w.slope(), |i, s, c| {
+            if let Some(o) = out.get_mut(i) {
+                *o = self.law.eval_sc(x[i], t, s, c);
+            }
+        });
     }
     fn advance(&mut self, dt: f64) {
         self.t += dt;
@@ -447,29 +513,30 @@ impl CurvatureSource for ParametricGait {
         }
         let f = self.p[4];
         let theta = self.theta + f[0] * tau + 0.5 * f[1] * tau * tau + f[2] * tau * tau * tau / 6.0;
-        for (o, &xx) in out.iter_mut().zip(x) {
+        let tp = 2.0 * PI;
+        for_each_sin_cos(x, tp * (v[5][0] - theta), tp * v[3][0], |i, s, c| {
+            let xx = x[i];
             let amp = [
                 v[0][0] + v[1][0] * xx + v[2][0] * xx * xx,
                 v[0][1] + v[1][1] * xx + v[2][1] * xx * xx,
                 v[0][2] + v[1][2] * xx + v[2][2] * xx * xx,
             ];
-            let tp = 2.0 * PI;
-            let arg = tp * (xx * v[3][0] - theta + v[5][0]);
             let argd = tp * (xx * v[3][1] - v[4][0] + v[5][1]);
             let argdd = tp * (xx * v[3][2] - v[4][1] + v[5][2]);
-            let (s, c) = arg.sin_cos();
             let k3 = amp[0] * s + v[7][0];
             let k3d = amp[1] * s + amp[0] * c * argd + v[7][1];
             let k3dd = amp[2] * s
                 + 2.0 * amp[1] * c * argd
                 + amp[0] * (-s * argd * argd + c * argdd)
                 + v[7][2];
-            *o = Curvature {
-                k: Vector3::new(0.0, v[6][0], k3),
-                k_dot: Vector3::new(0.0, v[6][1], k3d),
-                k_ddot: Vector3::new(0.0, v[6][2], k3dd),
-            };
-        }
+            if let Some(o) = out.get_mut(i) {
+                *o = Curvature {
+                    k: Vector3::new(0.0, v[6][0], k3),
+                    k_dot: Vector3::new(0.0, v[6][1], k3d),
+                    k_ddot: Vector3::new(0.0, v[6][2], k3dd),
+                };
+            }
+        });
     }
 
     fn advance(&mut self, dt: f64) {
