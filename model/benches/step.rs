@@ -7,12 +7,16 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
 fn control_step(c: &mut Criterion) {
-    for nodes in [26, 52] {
+    for (nodes, integrator) in [
+        (52, Integrator::Midpoint),
+        (52, Integrator::SemiImplicitEuler),
+        (26, Integrator::Midpoint),
+    ] {
         let model = Model::new(ModelConfig {
             nodes,
             dt: 0.001,
             joints: 12,
-            integrator: Integrator::Midpoint,
+            integrator,
             ..ModelConfig::default()
         })
         .unwrap();
@@ -23,7 +27,10 @@ fn control_step(c: &mut Criterion) {
             step(&model, &mut ws, &mut gait, &mut head).unwrap();
         }
         c.bench_function(
-            &format!("control_step_dt1ms_12joints_{}intervals", model.intervals()),
+            &format!(
+                "control_step_dt1ms_12joints_{}intervals_{integrator:?}",
+                model.intervals()
+            ),
             |b| {
                 b.iter(|| {
                     let r = step(&model, &mut ws, &mut gait, black_box(&mut head)).unwrap();
@@ -36,7 +43,7 @@ fn control_step(c: &mut Criterion) {
 
 fn simulated_second(c: &mut Criterion) {
     let g = gait::named_gait("F1").unwrap();
-    for (nodes, dt) in [(24, 0.02), (48, 0.02)] {
+    for (nodes, dt) in [(24, 0.04), (24, 0.02), (48, 0.02)] {
         let model = Model::new(ModelConfig {
             nodes,
             dt,

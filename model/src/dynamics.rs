@@ -42,6 +42,10 @@ pub enum Integrator {
     /// Explicit midpoint rule, 2 stages per step: for the 1 kHz control
     /// period, where `dt²` errors are far below the model's.
     Midpoint,
+    /// Semi-implicit (symplectic) Euler, 1 stage per step: velocities first,
+    /// then the pose with the new velocities. First order; for the 1 kHz
+    /// control period when the step budget is tight.
+    SemiImplicitEuler,
 }
 
 impl Default for ModelConfig {
@@ -403,11 +407,6 @@ impl Workspace {
     }
 }
 
-#[inline]
-fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
-
 /// Kinematic state along `X1` (head frame).
 #[derive(Clone, Copy)]
 struct Kin {
@@ -552,7 +551,11 @@ fn forward_head(
                 s.k2 * vl.y * vl.y.abs(),
                 s.k3 * vl.z * vl.z.abs(),
             )
-            + s.buoyancy * (qt * grav_h);
+            + if s.buoyancy != 0.0 {
+                s.buoyancy * (qt * grav_h)
+            } else {
+                Vector3::zeros()
+            };
         let cbar_x = -0.5 * rho * s.k4 * om.x * om.x.abs();
         let mfv = mf.component_mul(&vl);
         let bf = mm.component_mul(&(qt * ac_full)) + om.cross(&mfv)
@@ -564,15 +567,32 @@ fn forward_head(
         ws.bf[i] = bf;
         ws.bt[i] = bt;
         let wi = model.w[i];
-        let ps = skew(&p);
-        let qm = q * Matrix3::from_diagonal(&mm);
-        let mmh = qm * qt;
-        let qi = q * Matrix3::from_diagonal(&mi);
-        let mih = qi * qt;
-        let pm = ps * mmh;
+        // R diag(m) R^T = m1 I + (m2 - m1) t2 t2^T + (m3 - m1) t3 t3^T
+        let t2 = q.column(1).into_owned();
+        let t3 = q.column(2).into_owned();
+        let sym = |m: &Vector3<f64>| {
+            let mut a = t2 * (t2.transpose() * (m.y - m.x)) + t3 * (t3.transpose() * (m.z - m.x));
+            a[(0, 0)] += m.x;
+            a[(1, 1)] += m.x;
+            a[(2, 2)] += m.x;
+            a
+        };
+        let mmh = sym(&mm);
+        let mih = sym(&mi);
+        // p^ M column by column, then (p^ M) p^ row by row (r^T p^ = (r x p)^T)
+        let pm = Matrix3::from_columns(&[
+            p.cross(&mmh.column(0).into_owned()),
+            p.cross(&mmh.column(1).into_owned()),
+            p.cross(&mmh.column(2).into_owned()),
+        ]);
+        let pmp = Matrix3::from_rows(&[
+            pm.row(0).transpose().cross(&p).transpose(),
+            pm.row(1).transpose().cross(&p).transpose(),
+            pm.row(2).transpose().cross(&p).transpose(),
+        ]);
         a_vv += mmh * wi;
         a_wv += pm * wi;
-        a_ww += (mih - pm * ps) * wi;
+        a_ww += (mih - pmp) * wi;
         let bfh = q * bf;
         rhs_f -= bfh * wi;
         rhs_t -= (q * bt + p.cross(&bfh)) * wi;
@@ -861,6 +881,16 @@ pub fn step<S: CurvatureSource + ?Sized>(
                 head.omega + (k1.1 + (k2.1 + k3.1) * 2.0 + k4.1) * c,
                 head.velocity + (k1.2 + (k2.2 + k3.2) * 2.0 + k4.2) * c,
                 q0 + (k1.3 + (k2.3 + k3.3) * 2.0 + k4.3) * c,
+            )
+        }
+        Integrator::SemiImplicitEuler => {
+            let omega = head.omega + k1.1 * dt;
+            let vel = head.velocity + k1.2 * dt;
+            (
+                head.position + vel * dt,
+                omega,
+                vel,
+                q0 + qdot(&q0, &omega) * dt,
             )
         }
         Integrator::Midpoint => {
