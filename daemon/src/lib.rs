@@ -7,7 +7,9 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod control;
 pub mod ipc;
+pub mod nodes;
 pub mod profile;
 pub mod rt;
 pub mod stats;

@@ -703,6 +703,20 @@ impl Supervisor {
         }
     }
 
+    /// Releases `client`'s control if it holds it (its process died), and
+    /// stops a swim smoothly as if it had gone silent. Returns whether it held it.
+    pub fn release_dead(&mut self, now: Nanos, client: ClientId) -> bool {
+        if self.holder() != Some(client) {
+            return false;
+        }
+        self.holder = None;
+        if self.mode == Mode::Swimming {
+            self.operator_silent_count += 1;
+        }
+        self.stop_if_swimming(now, Cause::OperatorSilent);
+        true
+    }
+
     fn stop_if_swimming(&mut self, now: Nanos, cause: Cause) {
         if self.mode == Mode::Swimming {
             self.swim = SwimParams::REST;
@@ -940,6 +954,16 @@ mod tests {
         assert_eq!(s.operator_silent_count(), 1);
         // B can now take control.
         s.command(3100 * MS, B, 1, Command::TakeControl).unwrap();
+    }
+
+    #[test]
+    fn a_dead_holder_is_released_and_the_swim_stops() {
+        let mut s = swimming();
+        assert!(!s.release_dead(4 * MS, B), "B does not hold control");
+        assert!(s.release_dead(4 * MS, A));
+        assert_eq!(s.holder(), None);
+        assert_eq!(s.mode(), Mode::Stopping);
+        s.command(5 * MS, B, 1, Command::TakeControl).unwrap();
     }
 
     #[test]

@@ -1,0 +1,626 @@
+//! One control period, from bus to bus.
+//!
+//! [`Controller::run_period`] is everything the loop thread does in a period, in
+//! this order (DESIGN.md's data flow):
+//!
+//! 1. drain the bus into the [`NodeTable`];
+//! 2. the [`Supervisor`] turns observations and timeouts into directives
+//!    (operator commands arrive before, through [`Controller::command`]);
+//! 3. the gait parameters follow the operator's targets along our own
+//!    trapezoidal [`profile`](crate::profile)s (and the model's parametric
+//!    gait smooths them once more, to C² in time);
+//! 4. the model's forward + inverse dynamics step gives every joint an
+//!    angle, a rate and a torque feedforward, plus the predicted head speed
+//!    and turn rate; a posture offset (also trapezoidal) straightens the
+//!    body from wherever it was when the actuators were enabled;
+//! 5. joint limits clamp (and count) the setpoints;
+//! 6. setpoints are encoded and sent, then SYNC;
+//! 7. the [`StateSnapshot`] is filled for publication.
+//!
+//! Time is a parameter (`now`, ns): the loop passes its clock, tests pass a
+//! simulated one. After construction nothing here allocates (a
+//! counting-allocator test runs whole periods).
+
+use anguilla_drivers::{Bus, BusState};
+use anguilla_model::{
+    Body, CurvatureSource, GaitParams, HeadState, Integrator, Model, ModelConfig, ModelError,
+    ParametricGait, StepReport, Workspace,
+};
+use anguilla_protocol::frame::Frame;
+use anguilla_protocol::message::{
+    self, AxisSetpoint, Command as NodeCommand, GROUP_SLOTS, Message, NodeId, SetpointGroup,
+    Target, Variant,
+};
+
+use crate::config::{Config, FaultPolicyConfig};
+use crate::ipc::{CommandReply, CommandRequest, GaitSnapshot, MAX_JOINTS, StateSnapshot};
+use crate::nodes::NodeTable;
+use crate::profile::{Follower, Limits};
+use crate::supervisor::{
+    Cause, Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig, SwimParams,
+};
+
+const MS: Nanos = 1_000_000;
+
+/// What went wrong building a controller from a configuration.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// The model refused the discretization or the body.
+    #[error("model: {0}")]
+    Model(#[from] ModelError),
+    /// A node id is not valid on the wire.
+    #[error("node id {0} is invalid (expected 1..=63)")]
+    NodeId(u8),
+    /// A gait limit is invalid.
+    #[error("gait profile limits: {0}")]
+    Profile(#[from] crate::profile::ProfileError),
+}
+
+/// Counters of what the controller did to setpoints and frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ControlCounters {
+    /// Setpoint values clamped to joint limits.
+    pub clamped: u64,
+    /// Commands refused.
+    pub refused: u64,
+    /// Frames the bus refused to send.
+    pub tx_errors: u64,
+    /// Periods whose model step failed.
+    pub model_failures: u64,
+}
+
+/// The whole state the loop thread owns.
+pub struct Controller {
+    period_ns: Nanos,
+    dt: f64,
+    variant: Variant,
+    ids: Vec<NodeId>,
+    cfg: Config,
+    sup: Supervisor,
+    table: NodeTable,
+    amplitude: Follower,
+    frequency: Follower,
+    turn: Follower,
+    pitch: Follower,
+    gait: ParametricGait,
+    model: Model,
+    ws: Workspace,
+    head: HeadState,
+    offsets: Vec<[Follower; 2]>,
+    setpoints: Vec<[AxisSetpoint; 2]>,
+    torque_ff: Vec<[f64; 2]>,
+    counter: u16,
+    mode_before: Mode,
+    last_command_sent: Nanos,
+    model_failed: bool,
+    last_model_error: Option<ModelError>,
+    report: StepReport,
+    counters: ControlCounters,
+    holder_node: Option<(u64, u128)>,
+    snapshot: StateSnapshot,
+    started: Nanos,
+}
+
+fn node_ids(cfg: &Config) -> Result<Vec<NodeId>, SetupError> {
+    cfg.node_ids()
+        .into_iter()
+        .map(|i| NodeId::new(i).map_err(|_| SetupError::NodeId(i)))
+        .collect()
+}
+
+/// The control period (ns) for `cfg`: its `control.rate-hz`, or with 0 the
+/// highest rate at which the configured bus carries the robot's traffic
+/// within `bus.max-load`.
+pub fn period_ns(cfg: &Config) -> Nanos {
+    let rate = if cfg.control.rate_hz > 0.0 {
+        cfg.control.rate_hz
+    } else {
+        let rates = anguilla_protocol::budget::Bitrates {
+            nominal: cfg.bus.bitrate,
+            data: if cfg.bus.fd {
+                Some(cfg.bus.data_bitrate)
+            } else {
+                None
+            },
+        };
+        anguilla_protocol::budget::max_rate(cfg.robot.joints as u32, rates, cfg.bus.max_load)
+            .unwrap_or(100.0)
+    };
+    (1e9 / rate).ceil() as Nanos
+}
+
+impl Controller {
+    /// Builds the controller for `cfg` at time `now`. Allocates everything
+    /// the periods will use.
+    pub fn new(cfg: &Config, now: Nanos) -> Result<Self, SetupError> {
+        let period_ns = period_ns(cfg);
+        let dt = period_ns as f64 * 1e-9;
+        let ids = node_ids(cfg)?;
+        let variant = if cfg.bus.fd {
+            Variant::Fd
+        } else {
+            Variant::Classic
+        };
+        let model = Model::new(ModelConfig {
+            body: Body::paper(),
+            nodes: cfg.model.nodes,
+            dt,
+            joints: ids.len(),
+            integrator: Integrator::Midpoint,
+        })?;
+        let ws = Workspace::new(&model);
+        let g = &cfg.gait;
+        let lim = |v, a| Limits::new(v, a);
+        let amp_l = lim(g.amplitude_rate, g.amplitude_accel)?;
+        let freq_l = lim(g.frequency_rate, g.frequency_accel)?;
+        let curv_l = lim(g.curvature_rate, g.curvature_accel)?;
+        let posture_l = lim(cfg.limits.velocity * 0.25, cfg.limits.velocity)?;
+        let rest = GaitParams {
+            wavelength: g.wavelength,
+            period: f64::INFINITY,
+            amplitude: [0.0; 3],
+            phase: 0.0,
+            kc3: 0.0,
+            kc2: 0.0,
+        };
+        let c = &cfg.control;
+        let sup = Supervisor::new(SupervisorConfig {
+            command_timeout: (c.command_timeout * 1e9) as Nanos,
+            control_release_timeout: (c.control_release_timeout * 1e9) as Nanos,
+            enable_timeout: (c.enable_timeout * 1e9) as Nanos,
+            max_frequency: g.max_frequency,
+            max_turn: g.max_turn,
+            max_pitch: g.max_pitch,
+            fault_policy: match c.fault_policy {
+                FaultPolicyConfig::Hold => FaultPolicy::Hold,
+                FaultPolicyConfig::Disable => FaultPolicy::Disable,
+            },
+            clear_settle_time: 300 * MS,
+        });
+        let n = ids.len();
+        let snapshot = StateSnapshot {
+            joint_count: n.min(MAX_JOINTS) as u32,
+            ..Default::default()
+        };
+        Ok(Self {
+            period_ns,
+            dt,
+            variant,
+            table: NodeTable::new(variant, &ids, now),
+            ids,
+            cfg: cfg.clone(),
+            sup,
+            amplitude: Follower::new(0.0, amp_l),
+            frequency: Follower::new(0.0, freq_l),
+            turn: Follower::new(0.0, curv_l),
+            pitch: Follower::new(0.0, curv_l),
+            // The daemon's trapezoids already bound rates and accelerations;
+            // the gait's own filter (50 ms) only rounds their corners so the
+            // curvature's second derivative stays continuous.
+            gait: ParametricGait::new(rest, 0.05),
+            ws,
+            model,
+            head: HeadState::launch(0.0),
+            offsets: vec![[Follower::new(0.0, posture_l); 2]; n],
+            setpoints: vec![[AxisSetpoint::default(); 2]; n],
+            torque_ff: vec![[0.0; 2]; n],
+            counter: 0,
+            mode_before: Mode::Idle,
+            last_command_sent: 0,
+            model_failed: false,
+            last_model_error: None,
+            report: StepReport::default(),
+            counters: ControlCounters::default(),
+            holder_node: None,
+            snapshot,
+            started: now,
+        })
+    }
+
+    /// The control period (ns).
+    pub fn period_ns(&self) -> Nanos {
+        self.period_ns
+    }
+
+    /// The supervisor (mode, faults, holder).
+    pub fn supervisor(&self) -> &Supervisor {
+        &self.sup
+    }
+
+    /// The node table.
+    pub fn nodes(&self) -> &NodeTable {
+        &self.table
+    }
+
+    /// Counters.
+    pub fn counters(&self) -> ControlCounters {
+        self.counters
+    }
+
+    /// The setpoints sent in the last period, joint order.
+    pub fn setpoints(&self) -> &[[AxisSetpoint; 2]] {
+        &self.setpoints
+    }
+
+    /// The model's last report (predicted head speed, turn rate).
+    pub fn report(&self) -> &StepReport {
+        &self.report
+    }
+
+    /// The last model error, if a step failed.
+    pub fn last_model_error(&self) -> Option<ModelError> {
+        self.last_model_error
+    }
+
+    /// The snapshot filled by the last period.
+    pub fn snapshot(&self) -> &StateSnapshot {
+        &self.snapshot
+    }
+
+    /// Handles one operator request and says what to reply.
+    pub fn command(&mut self, now: Nanos, req: &CommandRequest) -> CommandReply {
+        let reply = match req.command() {
+            Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
+            Ok(cmd) => match self.sup.command(now, req.client_id, req.sequence, cmd) {
+                Ok(()) => {
+                    if self.sup.holder() == Some(req.client_id) {
+                        self.holder_node = Some((req.client_id, req.node_id()));
+                    }
+                    CommandReply::accepted(req, self.sup.mode() as u8)
+                }
+                Err(why) => CommandReply::refused(req, self.sup.mode() as u8, &why),
+            },
+        };
+        if reply.accepted == 0 {
+            self.counters.refused += 1;
+        }
+        reply
+    }
+
+    /// Tells the controller that an iceoryx2 node died; if it held control,
+    /// control is released and a swim stops smoothly.
+    pub fn node_died(&mut self, now: Nanos, node_id: u128) -> bool {
+        match self.holder_node {
+            Some((client, node)) if node == node_id => {
+                self.holder_node = None;
+                self.sup.release_dead(now, client)
+            }
+            _ => false,
+        }
+    }
+
+    fn send(&mut self, bus: &mut dyn Bus, m: Message) {
+        match m.encode(self.variant) {
+            Ok(f) => self.send_frame(bus, &f),
+            Err(_) => self.counters.tx_errors += 1,
+        }
+    }
+
+    fn send_frame(&mut self, bus: &mut dyn Bus, f: &Frame) {
+        if bus.send(f).is_err() {
+            self.counters.tx_errors += 1;
+        }
+    }
+
+    fn at_rest(&self) -> bool {
+        let p = self.gait.params();
+        let small = |x: f64| x.abs() < 1e-3;
+        self.amplitude.settled()
+            && self.amplitude.target() == 0.0
+            && self.turn.settled()
+            && self.turn.target() == 0.0
+            && self.pitch.settled()
+            && self.pitch.target() == 0.0
+            && p.amplitude.iter().all(|&a| small(a))
+            && small(p.kc2)
+            && small(p.kc3)
+            && self.offsets.iter().flatten().all(|o| o.settled())
+    }
+
+    /// Runs one period at time `now` against `bus`.
+    pub fn run_period(&mut self, now: Nanos, bus: &mut dyn Bus) {
+        // 1. Everything the nodes said since the last period.
+        let table = &mut self.table;
+        // A receive error shows in the bus state read below.
+        let _ = bus.drain(&mut |r| table.ingest(now, &r.frame));
+        // 2. Supervisor.
+        let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
+        let (all_enabled, lost, fault, estop) = self.table.observe(now, hb_timeout);
+        let obs = Observations {
+            all_enabled,
+            heartbeat_lost: lost,
+            node_fault: fault,
+            estop_nodes: estop,
+            bus_estop: self.table.take_bus_estop(),
+            bus_off: bus.state() == BusState::BusOff,
+            model_diverged: self.model_failed,
+            gait_at_rest: self.at_rest(),
+        };
+        let d = self.sup.tick(now, &obs);
+        let mode = self.sup.mode();
+        if d.send_estop {
+            // Nothing queued before the E-stop may follow it.
+            let _ = bus.flush_tx();
+            self.send(bus, Message::EStop(Target::All));
+        }
+        if d.send_clear_faults {
+            self.send(
+                bus,
+                Message::Command {
+                    target: Target::All,
+                    command: NodeCommand::ClearFaults,
+                },
+            );
+            self.table.forget_states();
+            self.model_failed = false;
+            self.head = HeadState::launch(0.0);
+        }
+        // 3. Gait parameters along trapezoidal profiles.
+        let target = d.gait_target;
+        let _ = self.amplitude.set_target(target.amplitude);
+        if mode == Mode::Swimming {
+            let _ = self.frequency.set_target(target.frequency);
+        }
+        let _ = self.turn.set_target(target.turn);
+        let _ = self.pitch.set_target(target.pitch);
+        let a = self.amplitude.advance(self.dt).position;
+        let f = self.frequency.advance(self.dt).position;
+        let kc3 = self.turn.advance(self.dt).position;
+        let kc2 = self.pitch.advance(self.dt).position;
+        let poly = self.cfg.gait.amplitude_polynomial;
+        self.gait.set_target(&GaitParams {
+            wavelength: self.cfg.gait.wavelength,
+            period: if f > 1e-6 { 1.0 / f } else { f64::INFINITY },
+            amplitude: [poly[0] * a, poly[1] * a, poly[2] * a],
+            phase: 0.0,
+            kc3,
+            kc2,
+        });
+        // 4. Model: forward + inverse dynamics.
+        match anguilla_model::step(&self.model, &mut self.ws, &mut self.gait, &mut self.head) {
+            Ok(r) => self.report = r,
+            Err(e) => {
+                self.model_failed = true;
+                self.last_model_error = Some(e);
+                self.counters.model_failures += 1;
+                // Joint angles of the gait without dynamics.
+                anguilla_model::posture(&self.model, &mut self.ws, &self.gait);
+                self.gait.advance(self.dt);
+                self.head = HeadState::launch(0.0);
+            }
+        }
+        // Posture: on entering Ready from Enabling, straighten from where
+        // the joints are.
+        if self.mode_before == Mode::Enabling && mode == Mode::Ready {
+            for (j, off) in self.offsets.iter_mut().enumerate() {
+                if let Some(fb) = self.table.entries()[j].feedback {
+                    for (o, axis) in off.iter_mut().zip(fb.axes) {
+                        o.reset(axis.position as f64);
+                        let _ = o.set_target(0.0);
+                    }
+                }
+            }
+        }
+        // 5. Setpoints with limits.
+        let lim = &self.cfg.limits;
+        let pmax = lim.angle.min(message::POSITION_LIMIT);
+        let vmax = lim.velocity.min(message::VELOCITY_LIMIT);
+        let tmax = lim.torque.min(message::TORQUE_LIMIT);
+        let mut clamped = 0u64;
+        let mut clamp = |v: f64, m: f64| {
+            let c = v.clamp(-m, m);
+            if c != v {
+                clamped += 1;
+            }
+            c
+        };
+        for (j, js) in self
+            .ws
+            .joints()
+            .iter()
+            .enumerate()
+            .take(self.setpoints.len())
+        {
+            let off = &mut self.offsets[j];
+            let o = [off[0].advance(self.dt), off[1].advance(self.dt)];
+            // The actuator's torque is −C (MODEL-NOTES: C is what the rear
+            // exerts on the front).
+            let ff = if d.drop_feedforward {
+                [0.0, 0.0]
+            } else {
+                [-js.c2, -js.c3]
+            };
+            self.torque_ff[j] = ff;
+            let ang = [js.pitch + o[0].position, js.yaw + o[1].position];
+            let vel = [js.pitch_rate + o[0].velocity, js.yaw_rate + o[1].velocity];
+            for ax in 0..2 {
+                self.setpoints[j][ax] = AxisSetpoint {
+                    position: clamp(ang[ax], pmax) as f32,
+                    velocity: clamp(vel[ax], vmax) as f32,
+                    torque: clamp(ff[ax], tmax) as f32,
+                };
+            }
+        }
+        self.counters.clamped += clamped;
+        // 6. Frames: drive commands, setpoints, SYNC.
+        let entering = mode != self.mode_before;
+        let every = now.saturating_sub(self.last_command_sent) >= 100 * MS;
+        match d.drive {
+            Drive::Disabled => {
+                if (entering || every) && mode != Mode::EStop {
+                    self.last_command_sent = now;
+                    self.send(
+                        bus,
+                        Message::Command {
+                            target: Target::All,
+                            command: NodeCommand::Disable,
+                        },
+                    );
+                }
+            }
+            Drive::Enable => {
+                if entering {
+                    self.last_command_sent = now;
+                    self.send(
+                        bus,
+                        Message::Command {
+                            target: Target::All,
+                            command: NodeCommand::Enable,
+                        },
+                    );
+                } else if every {
+                    // Nodes that missed it (or were still booting).
+                    self.last_command_sent = now;
+                    for i in 0..self.ids.len() {
+                        let e = self.table.entries()[i];
+                        if e.state == Some(message::NodeState::Disabled) {
+                            self.send(
+                                bus,
+                                Message::Command {
+                                    target: Target::Node(e.id),
+                                    command: NodeCommand::Enable,
+                                },
+                            );
+                        }
+                    }
+                }
+            }
+            Drive::Setpoints => {
+                if bus.state() != BusState::BusOff {
+                    self.send_setpoints(bus);
+                }
+            }
+        }
+        if bus.state() != BusState::BusOff {
+            let counter = self.counter;
+            self.send(bus, Message::Sync { counter });
+        }
+        self.counter = self.counter.wrapping_add(1);
+        self.mode_before = mode;
+        // 7. Snapshot.
+        self.fill_snapshot(
+            now,
+            bus,
+            &d.gait_target,
+            [a, f, kc3, kc2],
+            d.drop_feedforward,
+        );
+    }
+
+    fn send_setpoints(&mut self, bus: &mut dyn Bus) {
+        let cycle = self.variant.cycle_tag(self.counter);
+        match self.variant {
+            Variant::Classic => {
+                for i in 0..self.ids.len() {
+                    let m = Message::Setpoint(message::Setpoint {
+                        node: self.ids[i],
+                        cycle,
+                        axes: self.setpoints[i],
+                    });
+                    self.send(bus, m);
+                }
+            }
+            Variant::Fd => {
+                // Up to 11 groups of six; nodes land in the group of their id.
+                let mut groups = [SetpointGroup {
+                    group: 0,
+                    cycle,
+                    slots: [None; GROUP_SLOTS],
+                }; 11];
+                let mut used = 0u16;
+                for (i, id) in self.ids.iter().enumerate() {
+                    let (g, slot) = SetpointGroup::locate(*id);
+                    let g = g as usize;
+                    groups[g].group = g as u8;
+                    groups[g].slots[slot] = Some(self.setpoints[i]);
+                    used |= 1 << g;
+                }
+                for (g, group) in groups.iter().enumerate() {
+                    if used & (1 << g) != 0 {
+                        let m = Message::SetpointGroup(*group);
+                        self.send(bus, m);
+                    }
+                }
+            }
+        }
+    }
+
+    fn fill_snapshot(
+        &mut self,
+        now: Nanos,
+        bus: &dyn Bus,
+        target: &SwimParams,
+        actual: [f64; 4],
+        ff_dropped: bool,
+    ) {
+        let s = &mut self.snapshot;
+        s.sequence += 1;
+        s.time_ns = now.saturating_sub(self.started);
+        s.mode = self.sup.mode() as u8;
+        s.cause = match self.sup.cause() {
+            Cause::None => 0,
+            Cause::Command => 1,
+            Cause::OperatorSilent => 2,
+            Cause::Fault => 3,
+            Cause::Progress => 4,
+        };
+        s.feedforward_dropped = ff_dropped as u8;
+        let faults = self.sup.faults();
+        s.fault_kinds = faults.kinds;
+        s.fault_nodes = faults.nodes;
+        s.holder = self.sup.holder().unwrap_or(0);
+        s.predicted_head_speed = self.report.forward_speed as f32;
+        s.predicted_turn_rate = self.report.turn_rate as f32;
+        s.gait_target = GaitSnapshot::from(*target);
+        s.gait_actual = GaitSnapshot {
+            amplitude: actual[0] as f32,
+            frequency: actual[1] as f32,
+            turn: actual[2] as f32,
+            pitch: actual[3] as f32,
+        };
+        let c = bus.counters();
+        s.bus.tx_frames = c.tx;
+        s.bus.rx_frames = c.rx;
+        s.bus.tx_dropped = c.tx_dropped;
+        s.bus.malformed = self.table.counters().malformed;
+        s.bus.errors = c.errors;
+        s.bus.bus_off_count = c.bus_off_count as u32;
+        s.bus.state = match bus.state() {
+            BusState::ErrorActive => 0,
+            BusState::ErrorPassive => 1,
+            BusState::BusOff => 2,
+        };
+        s.clamped_setpoints = self.counters.clamped;
+        s.refused_commands = self.counters.refused;
+        s.operator_silent_stops = self.sup.operator_silent_count();
+        for (j, e) in self.table.entries().iter().enumerate().take(MAX_JOINTS) {
+            let js = &mut s.joints[j];
+            let sp = &self.setpoints[j];
+            js.commanded_pitch = sp[0].position;
+            js.commanded_yaw = sp[1].position;
+            js.commanded_pitch_velocity = sp[0].velocity;
+            js.commanded_yaw_velocity = sp[1].velocity;
+            js.predicted_pitch_torque = self.torque_ff[j][0] as f32;
+            js.predicted_yaw_torque = self.torque_ff[j][1] as f32;
+            if let Some(fb) = e.feedback {
+                js.measured_pitch = fb.axes[0].position;
+                js.measured_yaw = fb.axes[1].position;
+                js.measured_pitch_velocity = fb.axes[0].velocity;
+                js.measured_yaw_velocity = fb.axes[1].velocity;
+                js.measured_pitch_torque = fb.axes[0].torque;
+                js.measured_yaw_torque = fb.axes[1].torque;
+            }
+            js.node_state = e.state.map(|s| s as u8).unwrap_or(0xFF);
+            let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
+            js.node_alive =
+                e.last_heartbeat
+                    .is_some_and(|t| now.saturating_sub(t) <= hb_timeout) as u8;
+            js.node_errors = e.errors.0 as u32;
+        }
+    }
+
+    /// Sets the loop statistics shown in the snapshot.
+    pub fn set_loop_stats(&mut self, stats: crate::ipc::LoopSnapshot) {
+        self.snapshot.loop_stats = stats;
+    }
+}

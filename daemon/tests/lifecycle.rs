@@ -1,0 +1,150 @@
+//! The controller drives twelve simulated vertebra nodes through the whole
+//! lifecycle and the safety reactions that involve only the bus and nodes.
+
+mod rig;
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::supervisor::{Command, FaultKind, Mode, SwimParams};
+use anguilla_protocol::message::NodeState;
+use rig::Rig;
+
+fn swim(amplitude: f64, frequency: f64) -> Command {
+    Command::Swim(SwimParams {
+        amplitude,
+        frequency,
+        turn: 0.0,
+        pitch: 0.0,
+    })
+}
+
+/// A rig with control taken by client 1 and the actuators enabled.
+fn ready(name: &str) -> Rig {
+    let mut r = Rig::new(name, &Config::default());
+    r.run_for(0.1); // nodes boot
+    assert_eq!(r.command(1, Command::TakeControl).accepted, 1);
+    assert_eq!(r.command(1, Command::Enable).accepted, 1);
+    r.run_for(0.3);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+    r
+}
+
+#[test]
+fn enable_swim_stop_and_the_joints_follow() {
+    let mut r = ready("lifecycle-swim");
+    assert!(r.nodes.iter().all(|n| n.state() == NodeState::Enabled));
+    assert_eq!(r.command(1, swim(1.0, 1.0)).accepted, 1);
+    let mut max_err = 0.0f64;
+    let mut max_angle = 0.0f64;
+    for i in 0..(4.0e9 / r.ctl.period_ns() as f64) as usize {
+        r.step();
+        if r.now > 3_000_000_000 {
+            for (j, n) in r.nodes.iter().enumerate() {
+                let cmd = n.active_setpoint()[1].position as f64;
+                let (th, _, _) = n.kinematics(1);
+                max_err = max_err.max((th - cmd).abs());
+                max_angle = max_angle.max(r.ctl.setpoints()[j][1].position.abs() as f64);
+            }
+        }
+        if i % 20 == 0 {
+            // The holder keeps sending (command timeout 0.5 s).
+            r.command(1, Command::KeepAlive);
+        }
+    }
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Swimming);
+    // Full amplitude F1 curvature (up to 3.5 /m over 1/13 m) bends the tail
+    // joints by about 0.25 rad; the servos track within a few degrees.
+    assert!(max_angle > 0.15, "yaw setpoints reach {max_angle} rad");
+    assert!(max_err < 0.06, "tracking error {max_err} rad");
+    assert!(
+        r.ctl.report().forward_speed > 0.1,
+        "model predicts forward swimming"
+    );
+    assert_eq!(r.command(1, Command::Stop).accepted, 1);
+    r.run_for(0.2);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Stopping);
+    for _ in 0..20 {
+        r.command(1, Command::KeepAlive);
+        r.run_for(0.25);
+    }
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+    let straight = r
+        .ctl
+        .setpoints()
+        .iter()
+        .flatten()
+        .all(|s| s.position.abs() < 1e-3);
+    assert!(straight, "holding straight after the stop");
+}
+
+#[test]
+fn operator_silence_stops_the_swim_smoothly() {
+    let mut r = ready("lifecycle-silent");
+    r.command(1, swim(1.0, 1.0));
+    r.run_for(1.0);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Stopping);
+    // Smoothly: amplitude ramps down rather than jumping to straight.
+    assert!(r.ctl.snapshot().gait_actual.amplitude > 0.1);
+    assert!(r.nodes.iter().all(|n| n.state() == NodeState::Enabled));
+    r.run_for(6.0);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+}
+
+#[test]
+fn estop_from_any_client_disables_every_node_and_latches() {
+    let mut r = ready("lifecycle-estop");
+    r.command(1, swim(0.5, 1.0));
+    r.run_for(0.3);
+    // Client 2 does not hold control but can E-stop.
+    assert_eq!(r.command(2, Command::Stop).accepted, 0);
+    assert_eq!(r.command(2, Command::EStop).accepted, 1);
+    r.run_for(0.05);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::EStop);
+    assert!(r.nodes.iter().all(|n| n.state() == NodeState::EStop));
+    assert_eq!(r.command(1, Command::Enable).accepted, 0, "latched");
+    assert_eq!(r.command(1, Command::Reset).accepted, 1);
+    r.run_for(0.5);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Idle);
+    assert!(r.nodes.iter().all(|n| n.state() == NodeState::Disabled));
+    assert_eq!(r.command(1, Command::Enable).accepted, 1);
+    r.run_for(0.3);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+}
+
+#[test]
+fn an_estop_frame_on_the_bus_latches_the_daemon() {
+    let mut r = ready("lifecycle-bus-estop");
+    r.bus
+        .inject(&anguilla_protocol::Frame::new_standard(0x000, &[]).unwrap());
+    r.run_for(0.05);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::EStop);
+    assert!(r.ctl.supervisor().faults().contains(FaultKind::BusEStop));
+}
+
+#[test]
+fn a_silent_node_is_a_fault_naming_it() {
+    let mut r = ready("lifecycle-heartbeat");
+    r.command(1, swim(0.5, 1.0));
+    r.run_for(0.3);
+    r.nodes[6].set_silent(true);
+    r.run_for(0.6);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault);
+    let f = r.ctl.supervisor().faults();
+    assert!(f.contains(FaultKind::HeartbeatLost));
+    assert_eq!(f.nodes, 1 << 7, "node 7 is joint 7");
+    // A reset is refused while it stays silent.
+    assert_eq!(r.command(1, Command::Reset).accepted, 0);
+}
+
+#[test]
+fn malformed_frames_are_counted_never_fatal() {
+    let mut r = ready("lifecycle-malformed");
+    for i in 0..50u16 {
+        r.bus.inject(
+            &anguilla_protocol::Frame::new_standard(0x7F0 + (i % 8), &[i as u8; 3]).unwrap(),
+        );
+    }
+    r.run_for(0.1);
+    assert_eq!(r.ctl.nodes().counters().malformed, 50);
+    assert_eq!(r.ctl.snapshot().bus.malformed, 50);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+}

@@ -1,0 +1,107 @@
+//! A test rig: the controller and twelve simulated vertebra nodes on one
+//! in-process bus, stepped in lockstep on simulated time (no body plant: the
+//! joints see no load). Faster than real time and deterministic.
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::control::Controller;
+use anguilla_daemon::ipc::{CommandReply, CommandRequest};
+use anguilla_daemon::supervisor::Command;
+use anguilla_drivers::Bus;
+use anguilla_drivers::mem::{MemBus, MemParticipant};
+use anguilla_protocol::frame::Frame;
+use anguilla_protocol::message::{NodeId, Variant};
+use anguilla_sim::actuator::ActuatorParams;
+use anguilla_sim::node::{NodeConfig, VertebraNode};
+
+pub struct Rig {
+    pub ctl: Controller,
+    pub host: MemParticipant,
+    pub bus: MemBus,
+    pub nodes: Vec<VertebraNode>,
+    node_port: MemParticipant,
+    pub now: u64,
+    seqs: [u32; 8],
+    out: Vec<Frame>,
+}
+
+#[allow(dead_code)] // each test file uses part of the rig
+impl Rig {
+    pub fn new(name: &str, cfg: &Config) -> Self {
+        let bus = MemBus::builder(name).capacity(4096).build();
+        let host = bus.participant();
+        let node_port = bus.participant();
+        let ctl = Controller::new(cfg, 0).expect("controller");
+        let variant = if cfg.bus.fd {
+            Variant::Fd
+        } else {
+            Variant::Classic
+        };
+        let nodes = cfg
+            .node_ids()
+            .into_iter()
+            .enumerate()
+            .map(|(i, id)| {
+                VertebraNode::new(
+                    NodeConfig {
+                        id: NodeId::new(id).unwrap(),
+                        variant,
+                        axes: [ActuatorParams::default(); 2],
+                        boot_time: 20_000_000,
+                        seed: i as u64,
+                    },
+                    0,
+                )
+            })
+            .collect();
+        Self {
+            ctl,
+            host,
+            bus,
+            nodes,
+            node_port,
+            now: 0,
+            seqs: [0; 8],
+            out: Vec::with_capacity(1024),
+        }
+    }
+
+    /// The nodes' half of a period: they hear the controller's frames and
+    /// live until the next period.
+    pub fn nodes_step(&mut self) {
+        let now = self.now;
+        let nodes = &mut self.nodes;
+        let out = &mut self.out;
+        let _ = self.node_port.drain(&mut |r| {
+            for n in nodes.iter_mut() {
+                n.receive(now, &r.frame, &mut |f| out.push(f));
+            }
+        });
+        self.now += self.ctl.period_ns();
+        for n in self.nodes.iter_mut() {
+            n.advance(self.now, &mut |f| out.push(f));
+        }
+        for f in self.out.drain(..) {
+            let _ = self.node_port.send(&f);
+        }
+    }
+
+    /// One control period.
+    pub fn step(&mut self) {
+        self.ctl.run_period(self.now, &mut self.host);
+        self.nodes_step();
+    }
+
+    pub fn run_for(&mut self, seconds: f64) {
+        let periods = (seconds * 1e9 / self.ctl.period_ns() as f64).ceil() as usize;
+        for _ in 0..periods {
+            self.step();
+        }
+    }
+
+    /// Sends `cmd` from client `client` (1..=7) and returns the reply.
+    pub fn command(&mut self, client: u64, cmd: Command) -> CommandReply {
+        self.seqs[client as usize] += 1;
+        let req = CommandRequest::new(cmd, client, client as u128, self.seqs[client as usize]);
+        self.ctl.command(self.now, &req)
+    }
+}
