@@ -754,4 +754,37 @@ mod tests {
         assert!(named_gait("X9").is_none());
         assert!(gait_names().contains("SPIRAL"));
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 24, ..Default::default() })]
+        /// Random target sequences (fixed seed by proptest's default config):
+        /// the curvature stays finite and its per-step changes bounded by its
+        /// rates (C0/C1 continuity in the discrete sense).
+        #[test]
+        fn parametric_gait_random_targets_stay_finite_and_continuous(
+            targets in proptest::collection::vec(
+                (0.3f64..2.0, 0.4f64..2.0, 0.0f64..3.0, -2.0f64..2.0, -1.0f64..1.0), 1..5)
+        ) {
+            let mut g = ParametricGait::from_rest(GaitParams::default(), 0.1);
+            let dt = 1e-3;
+            let x = [0.0, 0.5, 1.0];
+            let mut prev = [Curvature::default(); 3];
+            g.curvature(0.0, &x, &mut prev);
+            for (k, &(lambda, period, a2, kc3, kc2)) in targets.iter().enumerate() {
+                g.set_target(&GaitParams { wavelength: lambda, period, amplitude: [1.0, 0.5, a2], phase: 0.1 * k as f64, kc3, kc2 });
+                for _ in 0..400 {
+                    g.advance(dt);
+                    let mut c = [Curvature::default(); 3];
+                    g.curvature(0.0, &x, &mut c);
+                    for (a, b) in c.iter().zip(&prev) {
+                        proptest::prop_assert!(a.k.iter().chain(a.k_dot.iter()).chain(a.k_ddot.iter()).all(|v| v.is_finite()));
+                        // |dK| <= max|K'| dt with margin 2: K' bounded by the rates seen
+                        let bound = 2.0 * dt * (a.k_dot.norm().max(b.k_dot.norm()) + 1e-9) + 1e-6;
+                        proptest::prop_assert!((a.k - b.k).norm() <= bound, "{} > {}", (a.k - b.k).norm(), bound);
+                    }
+                    prev = c;
+                }
+            }
+        }
+    }
 }
