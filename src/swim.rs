@@ -387,3 +387,65 @@ fn plot(
     root.present()?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(gait: &str) -> SwimArgs {
+        SwimArgs {
+            gait: Some(gait.into()),
+            duration: 0.2,
+            nodes: 12,
+            dt: 0.01,
+            joints: 3,
+            csv: None,
+            plot: None,
+            json: true,
+            paper: false,
+        }
+    }
+
+    #[test]
+    fn csv_has_the_documented_columns_and_one_row_per_10_ms() {
+        let dir = std::env::temp_dir().join(format!("anguilla-swim-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let csv = dir.join("f1.csv");
+        let svg = dir.join("f1.svg");
+        let mut a = args("F1");
+        a.csv = Some(csv.clone());
+        a.plot = Some(svg.clone());
+        run(&a).unwrap();
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header.len(), 16 + 4 * 3);
+        assert_eq!(header[15], "yaw_deg");
+        assert_eq!(header[16], "C2_1");
+        assert_eq!(header[27], "yaw_3");
+        let rows: Vec<&str> = lines.collect();
+        assert_eq!(rows.len(), 20, "0.2 s at one row per 0.01 s");
+        assert!(rows.iter().all(|r| r.split(',').count() == header.len()));
+        assert!(!text.contains("NaN"));
+        assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn bad_arguments_are_errors_naming_them() {
+        let e = run(&args("F9")).unwrap_err().to_string();
+        assert!(e.contains("F9") && e.contains("SPIRAL"), "{e}");
+        let mut a = args("F1");
+        a.duration = f64::NAN;
+        assert!(run(&a).unwrap_err().to_string().contains("--duration"));
+        let mut a = args("F1");
+        a.dt = -1.0;
+        assert!(run(&a).unwrap_err().to_string().contains("--dt"));
+        let mut a = args("F1");
+        a.dt = 0.2;
+        assert!(format!("{:#}", run(&a).unwrap_err()).contains("dt"));
+        let mut a = args("F1");
+        a.nodes = 0;
+        assert!(run(&a).unwrap_err().to_string().contains("--nodes"));
+    }
+}

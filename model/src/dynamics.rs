@@ -372,7 +372,9 @@ impl Workspace {
         self.residual
     }
 
-    /// Energy, power and momentum of the last evaluated instant for `head`.
+    /// Energy, power and momentum of the instant of the last [`evaluate`] for
+    /// `head` (after [`step`] the velocity fields are those of its last
+    /// integration stage, so call [`evaluate`] first).
     pub fn diagnostics(&self, model: &Model, head: &HeadState) -> Diagnostics {
         let r = head.orientation.to_rotation_matrix();
         let mut d = Diagnostics::default();
