@@ -246,9 +246,12 @@ pub struct JointState {
     pub pitch_rate: f64,
     /// Yaw rate (rad/s).
     pub yaw_rate: f64,
-    /// Feedforward torque `C2 = c . t2` at the joint (N m).
+    /// Feedforward torque `C2 = c . t2` at the joint (N m), `c` being the
+    /// torque the rear part exerts on the front part (the paper's sign; a
+    /// rigid-body library's joint torque for the same motion is `-C2`).
     pub c2: f64,
-    /// Feedforward torque `C3 = c . t3` at the joint (N m).
+    /// Feedforward torque `C3 = c . t3` at the joint (N m), same sign
+    /// convention as `c2`.
     pub c3: f64,
 }
 
