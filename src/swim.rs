@@ -239,6 +239,16 @@ fn window(r: &PaperRow, g: &NamedGait) -> String {
     }
 }
 
+/// `(ours - S-M) / |S-M|`, or `/ |V_init|` for the stopping gait as in the
+/// paper's Table 6, in percent.
+fn diff_percent(r: &PaperRow, g: &NamedGait, ours: f64) -> f64 {
+    let scale = match r.metric {
+        Metric::FinalV1 => g.v_init.abs(),
+        _ => r.sm.abs(),
+    };
+    100.0 * (ours - r.sm) / scale
+}
+
 fn paper(args: &SwimArgs) -> Result<()> {
     let model = model(args)?;
     let mut rows = Vec::new();
@@ -259,7 +269,7 @@ fn paper(args: &SwimArgs) -> Result<()> {
                     "paper_ns": r.ns,
                     "paper_sm": r.sm,
                     "ours": ours,
-                    "diff_vs_sm_percent": 100.0 * (ours - r.sm) / r.sm.abs(),
+                    "diff_vs_sm_percent": diff_percent(r, g, *ours),
                     "window": window(r, g),
                     "duration": r.duration,
                 })
@@ -276,6 +286,7 @@ fn paper(args: &SwimArgs) -> Result<()> {
         model.intervals(),
         model.dt()
     );
+    println!("difference = (ours - S-M) / |S-M|, for STOP / |V_init| (the paper's Table 6 ratio)");
     println!(
         "{:<7}{:<18}{:>10}{:>10}{:>10}{:>10}  averaging window",
         "gait", "quantity", "N-S", "S-M", "ours", "vs S-M"
@@ -295,7 +306,7 @@ fn paper(args: &SwimArgs) -> Result<()> {
             ns,
             r.sm,
             ours,
-            100.0 * (ours - r.sm) / r.sm.abs(),
+            diff_percent(r, g, *ours),
             window(r, g),
             unit
         );
@@ -375,4 +386,66 @@ fn plot(
         .draw()?;
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(gait: &str) -> SwimArgs {
+        SwimArgs {
+            gait: Some(gait.into()),
+            duration: 0.2,
+            nodes: 12,
+            dt: 0.01,
+            joints: 3,
+            csv: None,
+            plot: None,
+            json: true,
+            paper: false,
+        }
+    }
+
+    #[test]
+    fn csv_has_the_documented_columns_and_one_row_per_10_ms() {
+        let dir = std::env::temp_dir().join(format!("anguilla-swim-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let csv = dir.join("f1.csv");
+        let svg = dir.join("f1.svg");
+        let mut a = args("F1");
+        a.csv = Some(csv.clone());
+        a.plot = Some(svg.clone());
+        run(&a).unwrap();
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header.len(), 16 + 4 * 3);
+        assert_eq!(header[15], "yaw_deg");
+        assert_eq!(header[16], "C2_1");
+        assert_eq!(header[27], "yaw_3");
+        let rows: Vec<&str> = lines.collect();
+        assert_eq!(rows.len(), 20, "0.2 s at one row per 0.01 s");
+        assert!(rows.iter().all(|r| r.split(',').count() == header.len()));
+        assert!(!text.contains("NaN"));
+        assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn bad_arguments_are_errors_naming_them() {
+        let e = run(&args("F9")).unwrap_err().to_string();
+        assert!(e.contains("F9") && e.contains("SPIRAL"), "{e}");
+        let mut a = args("F1");
+        a.duration = f64::NAN;
+        assert!(run(&a).unwrap_err().to_string().contains("--duration"));
+        let mut a = args("F1");
+        a.dt = -1.0;
+        assert!(run(&a).unwrap_err().to_string().contains("--dt"));
+        let mut a = args("F1");
+        a.dt = 0.2;
+        assert!(format!("{:#}", run(&a).unwrap_err()).contains("dt"));
+        let mut a = args("F1");
+        a.nodes = 0;
+        assert!(run(&a).unwrap_err().to_string().contains("--nodes"));
+    }
 }

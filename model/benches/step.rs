@@ -21,7 +21,7 @@ fn control_step(c: &mut Criterion) {
         })
         .unwrap();
         let mut ws = Workspace::new(&model);
-        let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2);
+        let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2).unwrap();
         let mut head = HeadState::launch(0.0);
         for _ in 0..2000 {
             step(&model, &mut ws, &mut gait, &mut head).unwrap();

@@ -9,7 +9,7 @@ fn main() {
     })
     .unwrap();
     let mut ws = Workspace::new(&model);
-    let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2);
+    let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2).unwrap();
     let mut head = HeadState::launch(0.0);
     let t0 = std::time::Instant::now();
     let n = 100_000;

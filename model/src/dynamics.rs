@@ -246,9 +246,12 @@ pub struct JointState {
     pub pitch_rate: f64,
     /// Yaw rate (rad/s).
     pub yaw_rate: f64,
-    /// Feedforward torque `C2 = c . t2` at the joint (N m).
+    /// Feedforward torque `C2 = c . t2` at the joint (N m), `c` being the
+    /// torque the rear part exerts on the front part (the paper's sign; a
+    /// rigid-body library's joint torque for the same motion is `-C2`).
     pub c2: f64,
-    /// Feedforward torque `C3 = c . t3` at the joint (N m).
+    /// Feedforward torque `C3 = c . t3` at the joint (N m), same sign
+    /// convention as `c2`.
     pub c3: f64,
 }
 
@@ -372,7 +375,9 @@ impl Workspace {
         self.residual
     }
 
-    /// Energy, power and momentum of the last evaluated instant for `head`.
+    /// Energy, power and momentum of the instant of the last [`evaluate`] for
+    /// `head` (after [`step`] the velocity fields are those of its last
+    /// integration stage, so call [`evaluate`] first).
     pub fn diagnostics(&self, model: &Model, head: &HeadState) -> Diagnostics {
         let r = head.orientation.to_rotation_matrix();
         let mut d = Diagnostics::default();

@@ -1,6 +1,7 @@
 //! Curvature laws: the paper's gaits (42)–(46), a parametric gait for the
 //! daemon, and a curvature source driven by measured joint motion.
 
+use crate::error::{ModelError, Result};
 use core::f64::consts::PI;
 use nalgebra::Vector3;
 
@@ -406,6 +407,44 @@ impl Default for GaitParams {
     }
 }
 
+impl GaitParams {
+    /// Checks the parameters: finite, `period > 0`, `|wavelength| >= 0.01`.
+    pub fn validate(&self) -> Result<()> {
+        let all = [
+            ("amplitude[0]", self.amplitude[0]),
+            ("amplitude[1]", self.amplitude[1]),
+            ("amplitude[2]", self.amplitude[2]),
+            ("phase", self.phase),
+            ("kc3", self.kc3),
+            ("kc2", self.kc2),
+        ];
+        for (name, value) in all {
+            if !value.is_finite() {
+                return Err(ModelError::InvalidParameter {
+                    name,
+                    value,
+                    range: "finite",
+                });
+            }
+        }
+        if !(self.period.is_finite() && self.period > 0.0) {
+            return Err(ModelError::InvalidParameter {
+                name: "period",
+                value: self.period,
+                range: "finite and > 0 s",
+            });
+        }
+        if !(self.wavelength.is_finite() && self.wavelength.abs() >= 0.01) {
+            return Err(ModelError::InvalidParameter {
+                name: "wavelength",
+                value: self.wavelength,
+                range: "finite with |wavelength| >= 0.01 body lengths",
+            });
+        }
+        Ok(())
+    }
+}
+
 const NP: usize = 8; // a0 a1 a2 1/lambda 1/T phase kc2 kc3
 
 fn pack(p: &GaitParams) -> [f64; NP] {
@@ -444,24 +483,32 @@ pub struct ParametricGait {
 impl ParametricGait {
     /// A gait at rest on `initial` (already converged), smoothing time
     /// constant `smoothing` (s, `> 0`).
-    pub fn new(initial: GaitParams, smoothing: f64) -> Self {
+    pub fn new(initial: GaitParams, smoothing: f64) -> Result<Self> {
+        initial.validate()?;
+        if !(smoothing.is_finite() && smoothing > 0.0) {
+            return Err(ModelError::InvalidParameter {
+                name: "smoothing",
+                value: smoothing,
+                range: "finite and > 0 s",
+            });
+        }
         let v = pack(&initial);
         let mut p = [[0.0; 3]; NP];
         for (pi, vi) in p.iter_mut().zip(v) {
             pi[0] = vi;
         }
-        Self {
+        Ok(Self {
             t: 0.0,
             theta: 0.0,
             p,
             target: v,
-            omega: 1.0 / smoothing.max(1e-6),
-        }
+            omega: 1.0 / smoothing,
+        })
     }
 
     /// A gait starting straight (zero amplitude and turn curvatures) with
     /// the wave of `initial`, which then ramps towards `initial`.
-    pub fn from_rest(initial: GaitParams, smoothing: f64) -> Self {
+    pub fn from_rest(initial: GaitParams, smoothing: f64) -> Result<Self> {
         let mut g = Self::new(
             GaitParams {
                 amplitude: [0.0; 3],
@@ -470,14 +517,17 @@ impl ParametricGait {
                 ..initial
             },
             smoothing,
-        );
-        g.set_target(&initial);
-        g
+        )?;
+        g.set_target(&initial)?;
+        Ok(g)
     }
 
     /// Sets new target parameters (no allocation; callable every period).
-    pub fn set_target(&mut self, params: &GaitParams) {
+    /// Invalid parameters are rejected and the previous target kept.
+    pub fn set_target(&mut self, params: &GaitParams) -> Result<()> {
+        params.validate()?;
         self.target = pack(params);
+        Ok(())
     }
 
     /// Current (smoothed) parameters.
@@ -694,7 +744,7 @@ mod tests {
 
     #[test]
     fn parametric_gait_is_c2_across_parameter_jumps() {
-        let mut g = ParametricGait::from_rest(GaitParams::default(), 0.2);
+        let mut g = ParametricGait::from_rest(GaitParams::default(), 0.2).unwrap();
         let dt = 1e-3;
         let x = [0.7];
         let mut prev = [Curvature::default()];
@@ -708,7 +758,8 @@ mod tests {
                     kc3: 1.5,
                     kc2: -0.5,
                     ..GaitParams::default()
-                });
+                })
+                .unwrap();
             }
             // derivative consistency inside the step
             if i % 250 == 7 {
@@ -736,6 +787,28 @@ mod tests {
     }
 
     #[test]
+    fn bad_gait_parameters_are_rejected_and_the_target_kept() {
+        let mut g = ParametricGait::new(GaitParams::default(), 0.2).unwrap();
+        let e = g
+            .set_target(&GaitParams {
+                period: 0.0,
+                ..GaitParams::default()
+            })
+            .unwrap_err();
+        assert!(e.to_string().contains("period"), "{e}");
+        let e = g
+            .set_target(&GaitParams {
+                wavelength: f64::NAN,
+                ..GaitParams::default()
+            })
+            .unwrap_err();
+        assert!(e.to_string().contains("wavelength"), "{e}");
+        assert!(ParametricGait::new(GaitParams::default(), 0.0).is_err());
+        g.advance(0.01);
+        assert!((g.params().period - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn joint_curvature_integrates_to_joint_angle() {
         let mut j = JointCurvature::new(4, 1.0);
         j.joints_mut()[1].yaw = [0.3, 0.0, 0.0];
@@ -753,5 +826,38 @@ mod tests {
         assert!(named_gait("f1").is_some());
         assert!(named_gait("X9").is_none());
         assert!(gait_names().contains("SPIRAL"));
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 24, ..Default::default() })]
+        /// Random target sequences (fixed seed by proptest's default config):
+        /// the curvature stays finite and its per-step changes bounded by its
+        /// rates (C0/C1 continuity in the discrete sense).
+        #[test]
+        fn parametric_gait_random_targets_stay_finite_and_continuous(
+            targets in proptest::collection::vec(
+                (0.3f64..2.0, 0.4f64..2.0, 0.0f64..3.0, -2.0f64..2.0, -1.0f64..1.0), 1..5)
+        ) {
+            let mut g = ParametricGait::from_rest(GaitParams::default(), 0.1).unwrap();
+            let dt = 1e-3;
+            let x = [0.0, 0.5, 1.0];
+            let mut prev = [Curvature::default(); 3];
+            g.curvature(0.0, &x, &mut prev);
+            for (k, &(lambda, period, a2, kc3, kc2)) in targets.iter().enumerate() {
+                g.set_target(&GaitParams { wavelength: lambda, period, amplitude: [1.0, 0.5, a2], phase: 0.1 * k as f64, kc3, kc2 }).unwrap();
+                for _ in 0..400 {
+                    g.advance(dt);
+                    let mut c = [Curvature::default(); 3];
+                    g.curvature(0.0, &x, &mut c);
+                    for (a, b) in c.iter().zip(&prev) {
+                        proptest::prop_assert!(a.k.iter().chain(a.k_dot.iter()).chain(a.k_ddot.iter()).all(|v| v.is_finite()));
+                        // |dK| <= max|K'| dt with margin 2: K' bounded by the rates seen
+                        let bound = 2.0 * dt * (a.k_dot.norm().max(b.k_dot.norm()) + 1e-9) + 1e-6;
+                        proptest::prop_assert!((a.k - b.k).norm() <= bound, "{} > {}", (a.k - b.k).norm(), bound);
+                    }
+                    prev = c;
+                }
+            }
+        }
     }
 }

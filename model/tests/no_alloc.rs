@@ -45,7 +45,7 @@ fn a_control_step_allocates_nothing() {
     })
     .unwrap();
     let mut ws = Workspace::new(&model);
-    let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2);
+    let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2).unwrap();
     let mut head = HeadState::launch(0.0);
     let mut joints = JointCurvature::new(12, 1.0);
     let turn = GaitParams {
@@ -56,7 +56,7 @@ fn a_control_step_allocates_nothing() {
     let mut sum = 0.0;
     for k in 0..500 {
         if k == 250 {
-            gait.set_target(&turn);
+            gait.set_target(&turn).unwrap();
         }
         let r = step(&model, &mut ws, &mut gait, &mut head).unwrap();
         sum += r.forward_speed + ws.joints().iter().map(|j| j.c3 + j.yaw).sum::<f64>();
