@@ -41,6 +41,9 @@ use crate::supervisor::{
 };
 
 const MS: Nanos = 1_000_000;
+/// The gait's period when the operator's frequency is 0: the wave stands
+/// still (a period must be finite for the model).
+const STILL_PERIOD: f64 = 1e6;
 
 /// What went wrong building a controller from a configuration.
 #[derive(Debug, thiserror::Error)]
@@ -157,7 +160,7 @@ impl Controller {
         let posture_l = lim(cfg.limits.velocity * 0.25, cfg.limits.velocity)?;
         let rest = GaitParams {
             wavelength: g.wavelength,
-            period: f64::INFINITY,
+            period: STILL_PERIOD,
             amplitude: [0.0; 3],
             phase: 0.0,
             kc3: 0.0,
@@ -197,7 +200,7 @@ impl Controller {
             // The daemon's trapezoids already bound rates and accelerations;
             // the gait's own filter (50 ms) only rounds their corners so the
             // curvature's second derivative stays continuous.
-            gait: ParametricGait::new(rest, 0.05),
+            gait: ParametricGait::new(rest, 0.05)?,
             ws,
             model,
             head: HeadState::launch(0.0),
@@ -368,9 +371,15 @@ impl Controller {
         let kc3 = self.turn.advance(self.dt).position;
         let kc2 = self.pitch.advance(self.dt).position;
         let poly = self.cfg.gait.amplitude_polynomial;
-        self.gait.set_target(&GaitParams {
+        // Validated at start-up; the followers keep every field finite and
+        // the period positive, so this cannot fail.
+        let _ = self.gait.set_target(&GaitParams {
             wavelength: self.cfg.gait.wavelength,
-            period: if f > 1e-6 { 1.0 / f } else { f64::INFINITY },
+            period: if f > 1.0 / STILL_PERIOD {
+                1.0 / f
+            } else {
+                STILL_PERIOD
+            },
             amplitude: [poly[0] * a, poly[1] * a, poly[2] * a],
             phase: 0.0,
             kc3,

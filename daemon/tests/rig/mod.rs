@@ -13,6 +13,7 @@ use anguilla_protocol::message::{NodeId, Variant};
 use anguilla_sim::actuator::ActuatorParams;
 use anguilla_sim::node::{NodeConfig, VertebraNode};
 
+#[allow(dead_code)] // each test file uses part of the rig
 pub struct Rig {
     pub ctl: Controller,
     pub host: MemParticipant,
