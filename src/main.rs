@@ -2,7 +2,9 @@
 //! hands the work to the library crates; it holds no model maths, frame
 //! layouts or control logic of its own.
 
+mod builtin_sim;
 mod protocol_cmd;
+mod run_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -18,6 +20,14 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Run the daemon: against the built-in simulated robot, or the bus named
+    /// with --bus (real hardware is driven only then).
+    Run(run_cmd::RunArgs),
+    /// Configuration: print the commented default, check a file.
+    Config {
+        #[command(subcommand)]
+        cmd: run_cmd::ConfigCmd,
+    },
     /// Run the swimming model on a gait of the paper (CSV, SVG plot, JSON, paper table).
     Swim(swim::SwimArgs),
     /// The vertebra CAN protocol: bus budget, DBC file.
@@ -35,6 +45,8 @@ fn main() -> anyhow::Result<()> {
             Cli::command().print_help()?;
             Ok(())
         }
+        Some(Command::Run(args)) => run_cmd::run(args),
+        Some(Command::Config { cmd }) => run_cmd::config(cmd),
         Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
     }

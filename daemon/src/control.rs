@@ -628,6 +628,22 @@ impl Controller {
         }
     }
 
+    /// Shutdown, first half: stop a swim smoothly (idempotent).
+    pub fn begin_shutdown(&mut self, now: Nanos) {
+        self.sup.stop_swimming(now);
+    }
+
+    /// Shutdown, second half: disable every actuator now.
+    pub fn disable_all(&mut self, bus: &mut dyn Bus) {
+        self.send(
+            bus,
+            Message::Command {
+                target: Target::All,
+                command: NodeCommand::Disable,
+            },
+        );
+    }
+
     /// Sets the loop statistics shown in the snapshot.
     pub fn set_loop_stats(&mut self, stats: crate::ipc::LoopSnapshot) {
         self.snapshot.loop_stats = stats;

@@ -12,5 +12,6 @@ pub mod ipc;
 pub mod nodes;
 pub mod profile;
 pub mod rt;
+pub mod run;
 pub mod stats;
 pub mod supervisor;

@@ -703,6 +703,11 @@ impl Supervisor {
         }
     }
 
+    /// The daemon itself stops a swim smoothly (shutdown).
+    pub fn stop_swimming(&mut self, now: Nanos) {
+        self.stop_if_swimming(now, Cause::Command);
+    }
+
     /// Releases `client`'s control if it holds it (its process died), and
     /// stops a swim smoothly as if it had gone silent. Returns whether it held it.
     pub fn release_dead(&mut self, now: Nanos, client: ClientId) -> bool {

@@ -1,0 +1,328 @@
+//! The loop thread: fixed rate on absolute deadlines, and its helpers.
+//!
+//! [`spawn`] starts the control loop on its own thread (optionally
+//! SCHED_FIFO, pinned, with memory locked) and two helper threads:
+//!
+//! - the **logger**, which receives [`Event`]s from the loop through a
+//!   bounded channel and writes them with `tracing` (the loop never logs
+//!   itself; when the channel is full the event is dropped and counted);
+//! - the **reaper**, which scans iceoryx2's node registry every 250 ms and
+//!   tells the loop which client processes died (their control is released).
+//!
+//! Each period the loop sleeps to an absolute deadline
+//! (`clock_nanosleep(TIMER_ABSTIME)`), answers operator commands, runs
+//! [`Controller::run_period`], and publishes the state. A period that
+//! starts more than a whole period late is an *overrun*: it is counted and
+//! the missed periods are skipped, never caught up by bursting frames.
+//!
+//! On stop (SIGINT/SIGTERM in the binary), a swim is stopped smoothly (at
+//! most `shutdown_grace`), then the actuators are disabled and the loop ends.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use anguilla_drivers::Bus;
+use crossbeam_channel::{Receiver, Sender, TrySendError};
+
+use crate::config::Config;
+use crate::control::{Controller, SetupError};
+use crate::ipc::{self, CommandReply, LoopSnapshot};
+use crate::rt::{self, RtRequest};
+use crate::stats::Window;
+use crate::supervisor::{FaultSet, Mode, Nanos};
+
+/// What the loop tells the logger. `Copy`, so sending it never allocates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// The mode changed.
+    Mode {
+        /// Previous mode.
+        from: Mode,
+        /// New mode.
+        to: Mode,
+        /// The latched faults at that moment.
+        faults: FaultSet,
+    },
+    /// A command was refused; the reply carries the reason.
+    Refused(CommandReply),
+    /// A client died while holding control.
+    HolderDied,
+    /// The loop overran (periods skipped).
+    Overrun {
+        /// Periods skipped this time.
+        skipped: u64,
+    },
+}
+
+/// What went wrong starting the loop.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The controller could not be built from the configuration.
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    /// The operator interface could not be created.
+    #[error("operator interface: {0}")]
+    Ipc(#[from] ipc::IpcError),
+    /// A thread could not be started.
+    #[error("cannot start the {0} thread: {1}")]
+    Thread(&'static str, std::io::Error),
+    /// The loop thread ended before it was ready, without saying why.
+    #[error("the control loop ended during start-up")]
+    EndedEarly,
+}
+
+/// Figures of a finished run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunReport {
+    /// Periods run.
+    pub periods: u64,
+    /// Overruns.
+    pub overruns: u64,
+    /// Wake-up lateness of the last window (ns): p50, p99, max.
+    pub jitter: crate::stats::Summary,
+    /// Compute time of the last window (ns).
+    pub compute: crate::stats::Summary,
+    /// Events the logger channel dropped.
+    pub events_dropped: u64,
+    /// The mode at the end.
+    pub final_mode: Mode,
+}
+
+/// A running daemon loop.
+pub struct Running {
+    stop: Arc<AtomicBool>,
+    loop_thread: JoinHandle<Result<RunReport, RunError>>,
+    helpers: Vec<JoinHandle<()>>,
+}
+
+impl Running {
+    /// Asks the loop to stop (smoothly) without waiting.
+    pub fn request_stop(&self) {
+        self.stop.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether the loop thread has ended.
+    pub fn is_finished(&self) -> bool {
+        self.loop_thread.is_finished()
+    }
+
+    /// Waits for the loop to end and returns its report.
+    pub fn join(self) -> Result<RunReport, RunError> {
+        let r = self
+            .loop_thread
+            .join()
+            .unwrap_or_else(|_| panic!("the control loop thread panicked"));
+        self.stop.store(true, Ordering::SeqCst);
+        for h in self.helpers {
+            let _ = h.join();
+        }
+        r
+    }
+}
+
+/// How long a smooth stop may take at shutdown before the actuators are
+/// disabled anyway.
+const SHUTDOWN_GRACE: Nanos = 3_000_000_000;
+
+/// Starts the daemon on `bus` with `cfg`; `stop` ends it (smoothly).
+pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Running, RunError> {
+    let (ev_tx, ev_rx) = crossbeam_channel::bounded::<Event>(1024);
+    let (dead_tx, dead_rx) = crossbeam_channel::bounded::<u128>(64);
+    let mut helpers = Vec::new();
+    helpers.push(
+        std::thread::Builder::new()
+            .name("anguilla-log".into())
+            .spawn(move || logger(ev_rx))
+            .map_err(|e| RunError::Thread("logger", e))?,
+    );
+    let reaper_stop = stop.clone();
+    helpers.push(
+        std::thread::Builder::new()
+            .name("anguilla-reaper".into())
+            .spawn(move || reaper(dead_tx, reaper_stop))
+            .map_err(|e| RunError::Thread("reaper", e))?,
+    );
+    let loop_stop = stop.clone();
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let loop_thread = std::thread::Builder::new()
+        .name("anguilla-loop".into())
+        .spawn(move || control_loop(cfg, bus, loop_stop, ev_tx, dead_rx, ready_tx))
+        .map_err(|e| RunError::Thread("control loop", e))?;
+    // Setup errors (IPC, model) surface here rather than in a log line.
+    match ready_rx.recv() {
+        Ok(()) => Ok(Running {
+            stop,
+            loop_thread,
+            helpers,
+        }),
+        Err(_) => {
+            stop.store(true, Ordering::SeqCst);
+            let r = loop_thread
+                .join()
+                .unwrap_or_else(|_| panic!("the control loop thread panicked"));
+            for h in helpers {
+                let _ = h.join();
+            }
+            Err(r.err().unwrap_or(RunError::EndedEarly))
+        }
+    }
+}
+
+fn logger(rx: Receiver<Event>) {
+    for ev in rx {
+        match ev {
+            Event::Mode { from, to, faults } if faults.is_empty() => {
+                tracing::info!("mode {from} -> {to}")
+            }
+            Event::Mode { from, to, faults } => {
+                tracing::warn!("mode {from} -> {to} ({faults})")
+            }
+            Event::Refused(r) => tracing::info!(
+                "refused command {} from client {:016x}: {}",
+                r.sequence,
+                r.client_id,
+                r.reason()
+            ),
+            Event::HolderDied => {
+                tracing::warn!("the client holding control died; control released")
+            }
+            Event::Overrun { skipped } => {
+                tracing::warn!("control loop overrun: {skipped} period(s) skipped")
+            }
+        }
+    }
+}
+
+fn reaper(tx: Sender<u128>, stop: Arc<AtomicBool>) {
+    while !stop.load(Ordering::Relaxed) {
+        for id in ipc::reap_dead_nodes() {
+            let _ = tx.try_send(id);
+        }
+        // Poll the stop flag often; scan every 250 ms.
+        for _ in 0..5 {
+            if stop.load(Ordering::Relaxed) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+fn control_loop(
+    cfg: Config,
+    mut bus: Box<dyn Bus>,
+    stop: Arc<AtomicBool>,
+    events: Sender<Event>,
+    dead: Receiver<u128>,
+    ready: std::sync::mpsc::Sender<()>,
+) -> Result<RunReport, RunError> {
+    let rt_req = RtRequest {
+        fifo_priority: (cfg.realtime.fifo_priority > 0).then_some(cfg.realtime.fifo_priority),
+        cpu: (cfg.realtime.cpu >= 0).then_some(cfg.realtime.cpu as usize),
+        lock_memory: cfg.realtime.lock_memory,
+    };
+    for w in rt::apply(&rt_req) {
+        tracing::warn!("{w}");
+    }
+    // iceoryx2 ports are not Send: they live on this thread.
+    let server = ipc::Server::new(&cfg.ipc.prefix)?;
+    let mut ctl = Controller::new(&cfg, rt::monotonic_ns())?;
+    let period = ctl.period_ns();
+    tracing::info!(
+        "control loop at {:.1} Hz ({} joints, bus {})",
+        1e9 / period as f64,
+        cfg.robot.joints,
+        bus.spec()
+    );
+    let _ = ready.send(());
+    let window = (1e9 / period as f64).ceil() as u64; // about one second
+    let mut jitter = Window::new(window);
+    let mut compute = Window::new(window);
+    let (mut periods, mut overruns, mut dropped) = (0u64, 0u64, 0u64);
+    let emit = |ev: Event, dropped: &mut u64| {
+        if let Err(TrySendError::Full(_)) = events.try_send(ev) {
+            *dropped += 1;
+        }
+    };
+    let mut deadline = rt::monotonic_ns() + period;
+    let mut mode = ctl.supervisor().mode();
+    let mut stopping_since: Option<Nanos> = None;
+    loop {
+        rt::sleep_until_ns(deadline);
+        let wake = rt::monotonic_ns();
+        let late = wake.saturating_sub(deadline);
+        jitter.record(late);
+        if late >= period {
+            let skipped = late / period;
+            overruns += 1;
+            deadline += skipped * period;
+            emit(Event::Overrun { skipped }, &mut dropped);
+        }
+        let now = wake;
+        // Operator commands, then dead clients, then the period itself.
+        let _ = server.serve(|req| {
+            let reply = ctl.command(now, req);
+            if reply.accepted == 0 {
+                emit(Event::Refused(reply), &mut dropped);
+            }
+            reply
+        });
+        while let Ok(node) = dead.try_recv() {
+            if ctl.node_died(now, node) {
+                emit(Event::HolderDied, &mut dropped);
+            }
+        }
+        if stop.load(Ordering::Relaxed) {
+            let since = *stopping_since.get_or_insert(now);
+            ctl.begin_shutdown(now);
+            let m = ctl.supervisor().mode();
+            let settled = !matches!(m, Mode::Swimming | Mode::Stopping);
+            if settled || now.saturating_sub(since) > SHUTDOWN_GRACE {
+                ctl.disable_all(bus.as_mut());
+                break;
+            }
+        }
+        ctl.run_period(now, bus.as_mut());
+        periods += 1;
+        let new_mode = ctl.supervisor().mode();
+        if new_mode != mode {
+            emit(
+                Event::Mode {
+                    from: mode,
+                    to: new_mode,
+                    faults: ctl.supervisor().faults(),
+                },
+                &mut dropped,
+            );
+            mode = new_mode;
+        }
+        let spent = rt::monotonic_ns().saturating_sub(wake);
+        compute.record(spent);
+        let (j, c) = (jitter.summary(), compute.summary());
+        ctl.set_loop_stats(LoopSnapshot {
+            period_ns: period as u32,
+            jitter_p50_ns: j.p50.min(u32::MAX as u64) as u32,
+            jitter_p99_ns: j.p99.min(u32::MAX as u64) as u32,
+            jitter_max_ns: j.max.min(u32::MAX as u64) as u32,
+            compute_p50_ns: c.p50.min(u32::MAX as u64) as u32,
+            compute_p99_ns: c.p99.min(u32::MAX as u64) as u32,
+            compute_max_ns: c.max.min(u32::MAX as u64) as u32,
+            reserved: 0,
+            periods,
+            overruns,
+        });
+        let _ = server.publish(ctl.snapshot());
+        deadline += period;
+    }
+    drop(events);
+    Ok(RunReport {
+        periods,
+        overruns,
+        jitter: jitter.summary(),
+        compute: compute.summary(),
+        events_dropped: dropped,
+        final_mode: ctl.supervisor().mode(),
+    })
+}

@@ -1,0 +1,201 @@
+//! `anguilla run` and `anguilla config`: parse, load, hand over to the daemon.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::config::{Config, default_toml};
+use anguilla_daemon::ipc::Client;
+use anguilla_daemon::run;
+use anguilla_daemon::supervisor::Mode;
+use anyhow::Context;
+
+/// Arguments of `anguilla run`.
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// Configuration file (TOML); every key is optional (see `anguilla config default`).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Bus to drive, e.g. `socketcan:can0`, `slcan:/dev/ttyACM0@1000000`,
+    /// `mem:NAME`. Overrides `bus.spec`. Without one, the daemon runs
+    /// against the built-in simulated robot; real hardware is only driven
+    /// when a bus is named.
+    #[arg(long, value_name = "SPEC")]
+    bus: Option<String>,
+    /// Stop (smoothly) after this many seconds.
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+    /// No status line on stdout (logs still go to stderr).
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// `anguilla config ...`.
+#[derive(clap::Subcommand, Debug)]
+pub enum ConfigCmd {
+    /// Print the whole default configuration, commented.
+    Default,
+    /// Check a configuration file and say what is wrong with it.
+    Check {
+        /// The file.
+        file: PathBuf,
+    },
+}
+
+static SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    SIGNALLED.store(true, Ordering::SeqCst);
+}
+
+fn install_signal_handlers() {
+    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: the handler only stores to an atomic (async-signal-safe).
+    unsafe {
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+}
+
+pub fn init_logging() {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_env("ANGUILLA_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let terminal = std::io::stderr().is_terminal();
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(terminal)
+        .with_target(false);
+    // Under systemd, journald stamps every line itself.
+    if terminal {
+        builder.init();
+    } else {
+        builder.without_time().init();
+    }
+}
+
+fn mode_name(m: u8) -> &'static str {
+    [
+        Mode::Idle,
+        Mode::Enabling,
+        Mode::Ready,
+        Mode::Swimming,
+        Mode::Stopping,
+        Mode::Fault,
+        Mode::EStop,
+    ]
+    .get(m as usize)
+    .map(|m| m.name())
+    .unwrap_or("?")
+}
+
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    init_logging();
+    let mut cfg = match &args.config {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    if let Some(b) = &args.bus {
+        cfg.bus.spec = b.clone();
+    }
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
+    }
+    install_signal_handlers();
+    let stop = Arc::new(AtomicBool::new(false));
+    let (bus, sim) = if cfg.bus.spec.is_empty() {
+        let (bus, sim) = crate::builtin_sim::start_builtin(&cfg)?;
+        tracing::info!("no bus named: running against the built-in simulated robot");
+        (bus, Some(sim))
+    } else {
+        let bus = anguilla_drivers::open(&cfg.bus.spec)
+            .with_context(|| format!("opening bus '{}'", cfg.bus.spec))?;
+        (bus, None)
+    };
+    let prefix = cfg.ipc.prefix.clone();
+    let running = run::spawn(cfg, bus, stop.clone())?;
+    let status = Client::new(
+        &prefix,
+        "anguilla-run-status",
+        std::process::id() as u64 | 1 << 40,
+    )
+    .context("reading the daemon's state")?;
+    let start = Instant::now();
+    let mut last_print = Instant::now();
+    while !running.is_finished() {
+        if SIGNALLED.load(Ordering::SeqCst)
+            || args
+                .duration
+                .is_some_and(|d| start.elapsed().as_secs_f64() >= d)
+        {
+            running.request_stop();
+        }
+        let state = status.wait_state(Duration::from_millis(100)).ok().flatten();
+        if let Some(s) = state
+            && !args.quiet
+            && last_print.elapsed() >= Duration::from_secs(1)
+        {
+            last_print = Instant::now();
+            let truth = sim.as_ref().map(|s| s.truth_line()).unwrap_or_default();
+            println!(
+                "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}",
+                s.time_ns as f64 * 1e-9,
+                mode_name(s.mode),
+                s.predicted_head_speed,
+                s.predicted_turn_rate,
+                1e9 / s.loop_stats.period_ns.max(1) as f64,
+                s.loop_stats.jitter_p99_ns as f64 / 1e3,
+                s.loop_stats.compute_p99_ns as f64 / 1e3,
+                s.loop_stats.overruns,
+                s.bus.tx_frames,
+                s.bus.rx_frames,
+                s.bus.malformed,
+                truth,
+            );
+        }
+    }
+    let report = running.join()?;
+    if let Some(sim) = sim {
+        sim.stop();
+    }
+    println!(
+        "stopped in mode {}: {} periods, {} overruns, jitter p50/p99/max {:.0}/{:.0}/{:.0} µs, compute p99 {:.0} µs",
+        report.final_mode,
+        report.periods,
+        report.overruns,
+        report.jitter.p50 as f64 / 1e3,
+        report.jitter.p99 as f64 / 1e3,
+        report.jitter.max as f64 / 1e3,
+        report.compute.p99 as f64 / 1e3,
+    );
+    Ok(())
+}
+
+pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
+    match cmd {
+        ConfigCmd::Default => {
+            print!("{}", default_toml());
+            Ok(())
+        }
+        ConfigCmd::Check { file } => {
+            let cfg = Config::load(&file)?;
+            let period = anguilla_daemon::control::period_ns(&cfg);
+            println!(
+                "{}: valid; {} joints, control rate {:.1} Hz, bus {}",
+                file.display(),
+                cfg.robot.joints,
+                1e9 / period as f64,
+                if cfg.bus.spec.is_empty() {
+                    "built-in simulated robot"
+                } else {
+                    &cfg.bus.spec
+                }
+            );
+            Ok(())
+        }
+    }
+}
