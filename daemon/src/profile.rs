@@ -442,11 +442,16 @@ mod tests {
 
         #[test]
         fn plan_is_time_optimal_against_slower_limits(
-            v0 in -3.0f64..3.0, d in -10.0f64..10.0,
+            v_frac in -0.9f64..0.9, d in -10.0f64..10.0,
             v_max in 0.5f64..5.0, a_max in 0.5f64..20.0,
         ) {
-            // Tighter limits can never be faster: a check that would fail if
-            // the planner wasted time in some branch (e.g. an unneeded cruise).
+            // From a start within both sets of limits, every motion allowed
+            // by the tighter limits is allowed by the looser ones, so the
+            // optimum under tighter limits can never be faster: a check that
+            // fails if the planner wastes time in some branch. (From a start
+            // above the velocity limit the sets are not nested — the plan
+            // must brake at once — so v0 stays inside 0.9 v_max.)
+            let v0 = v_frac * v_max * 0.9;
             let fast = Trapezoid::plan(0.0, v0, d, lim(v_max, a_max)).unwrap().duration();
             let slow = Trapezoid::plan(0.0, v0, d, lim(v_max * 0.9, a_max * 0.9)).unwrap().duration();
             prop_assert!(fast <= slow + 1e-9, "fast {fast} slow {slow}");
