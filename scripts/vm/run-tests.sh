@@ -7,9 +7,11 @@
 #
 # LIST has one test binary per line: `NAME<TAB>PATH[<TAB>ARGS...]`; ARGS are
 # extra libtest arguments (filters). Each binary runs with --test-threads=1
+# and --nocapture (so skip messages reach the log and are counted),
 # and ANGUILLA_VCAN set (default vcan0). N and M count individual tests (from
 # libtest's `test result:` line); a binary that fails without one counts as
-# one failure. The can-utils interop check counts as one test.
+# one failure. The can-utils interop check counts as one test. Each binary
+# is killed after VCAN_BINARY_TIMEOUT seconds (default 300).
 #
 # Usage: run-tests.sh LIST [WORKDIR]
 
@@ -19,6 +21,8 @@ mkdir -p "$work"
 : "${ANGUILLA_VCAN:=vcan0}"
 export ANGUILLA_VCAN
 export RUST_BACKTRACE=${RUST_BACKTRACE:-1}
+# Each binary gets this long, so one hung binary still leaves a summary.
+binary_timeout=${VCAN_BINARY_TIMEOUT:-300}
 
 passed=0
 failed=0
@@ -64,11 +68,14 @@ run_binary() { # NAME PATH [ARGS...]
     bin=$2
     shift 2
     log=$work/$name.log
-    echo "vcan-vm: RUN $name ($bin --test-threads=1 $*)"
+    echo "vcan-vm: RUN $name ($bin --test-threads=1 --nocapture $*)"
     # Stream the output and keep a copy to read the counts from; the exit
     # status goes through a file because a pipeline reports tee's.
-    { "$bin" --test-threads=1 "$@" 2>&1; echo $? >"$work/$name.rc"; } | tee "$log"
+    { timeout -s KILL "$binary_timeout" "$bin" --test-threads=1 --nocapture "$@" 2>&1; echo $? >"$work/$name.rc"; } | tee "$log"
     rc=$(cat "$work/$name.rc" 2>/dev/null || echo 255)
+    if [ "$rc" -eq 137 ] || [ "$rc" -eq 124 ]; then
+        echo "vcan-vm: $name killed after $binary_timeout s (hung?)"
+    fi
     line=$(grep '^test result:' "$log" | tail -n 1)
     skips=$(grep -c 'skipping' "$log")
     if [ -n "$line" ]; then
