@@ -304,3 +304,138 @@ fn classic_only_interface_carries_no_fd_frames() {
         .expect_err("an FD frame on an MTU-16 interface");
     assert_eq!(err.raw_os_error(), Some(libc::EINVAL), "{err}");
 }
+
+/// The pseudo-terminal master of an emulated SLCAN adapter, and the slave's
+/// path for slcand.
+fn open_pty() -> io::Result<(OwnedFd, String)> {
+    // SAFETY: plain posix_openpt(3); the descriptor is owned right away.
+    let raw = unsafe { libc::posix_openpt(libc::O_RDWR | libc::O_NOCTTY) };
+    if raw < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: `raw` is a fresh descriptor nobody else owns.
+    let master = unsafe { OwnedFd::from_raw_fd(raw) };
+    let mut name = [0 as libc::c_char; 64];
+    // SAFETY: `master` is a pty master; `name` is writable for its length.
+    unsafe {
+        check(libc::grantpt(master.as_raw_fd()))?;
+        check(libc::unlockpt(master.as_raw_fd()))?;
+        let r = libc::ptsname_r(master.as_raw_fd(), name.as_mut_ptr(), name.len());
+        if r != 0 {
+            return Err(io::Error::from_raw_os_error(r));
+        }
+    }
+    // SAFETY: ptsname_r wrote a NUL-terminated string.
+    let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) };
+    Ok((master, path.to_string_lossy().into_owned()))
+}
+
+/// Reads from the pty master until `want` appears or 3 s pass.
+fn read_until(master: &OwnedFd, want: &str) -> String {
+    let mut seen = Vec::new();
+    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    while !String::from_utf8_lossy(&seen).contains(want) {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            break;
+        }
+        let mut pfd = libc::pollfd {
+            fd: master.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        // SAFETY: one valid pollfd.
+        if unsafe { libc::poll(&mut pfd, 1, left.as_millis() as libc::c_int) } <= 0 {
+            continue;
+        }
+        let mut buf = [0u8; 256];
+        // SAFETY: `buf` is writable for its length.
+        let n = unsafe { libc::read(master.as_raw_fd(), buf.as_mut_ptr().cast(), buf.len()) };
+        if n > 0 {
+            seen.extend_from_slice(&buf[..n as usize]);
+        }
+    }
+    String::from_utf8_lossy(&seen).into_owned()
+}
+
+/// Kills slcand when the test ends, whatever happens.
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The kernel's slcan driver behind `slcand`, with an SLCAN adapter emulated
+/// on a pseudo-terminal: a frame sent on the slcan interface comes out of
+/// the serial line as `t...`, and a `t...` line written to it arrives as a
+/// frame. Needs root, slcand (can-utils), `ip` and the slcan module.
+#[test]
+fn slcand_attaches_a_serial_adapter() {
+    // SAFETY: getuid has no preconditions.
+    if unsafe { libc::getuid() } != 0 {
+        eprintln!("skipping: slcand needs root");
+        return;
+    }
+    if std::process::Command::new("slcand")
+        .arg("-h")
+        .output()
+        .is_err()
+    {
+        eprintln!("skipping: slcand (can-utils) is not installed");
+        return;
+    }
+    // Kernel CAN at all? (Binding to `lo` fails later, but socket() first.)
+    if let Err(e) = RawCan::open("lo", false)
+        && e.contains("EAFNOSUPPORT")
+    {
+        skip(&e);
+        return;
+    }
+    let (master, slave) = open_pty().expect("pseudo-terminal");
+    let ifname = "aslcan0";
+    let slcand = std::process::Command::new("slcand")
+        .args(["-F", "-o", "-c", "-s8", &slave, ifname])
+        .spawn()
+        .expect("start slcand");
+    let _slcand = Child(slcand);
+    // slcand sends close, speed and open to the adapter, then attaches.
+    let init = read_until(&master, "O\r");
+    assert!(init.contains("S8\r") && init.contains("O\r"), "{init:?}");
+    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    while !std::path::Path::new(&format!("/sys/class/net/{ifname}")).exists() {
+        if std::time::Instant::now() > deadline {
+            skip(&format!("slcand created no {ifname} (no slcan module?)"));
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let up = std::process::Command::new("ip")
+        .args(["link", "set", ifname, "up"])
+        .status()
+        .expect("run ip");
+    assert!(up.success(), "ip link set {ifname} up: {up}");
+    let sock = RawCan::open(ifname, false).expect("socket on the slcan interface");
+
+    let f = CanFrame {
+        can_id: 0x123,
+        len: 4,
+        pad: 0,
+        res0: 0,
+        len8_dlc: 0,
+        data: [0xDE, 0xAD, 0xBE, 0xEF, 0, 0, 0, 0],
+    };
+    assert_eq!(sock.send(&f).expect("send on slcan"), CAN_MTU);
+    let line = read_until(&master, "t1234DEADBEEF\r");
+    assert!(line.contains("t1234DEADBEEF\r"), "adapter got {line:?}");
+
+    let frame = b"t3212ABCD\r";
+    // SAFETY: `frame` is readable for its length.
+    let n = unsafe { libc::write(master.as_raw_fd(), frame.as_ptr().cast(), frame.len()) };
+    assert_eq!(n, frame.len() as isize);
+    let (n, got) = sock.recv().expect("no frame from the adapter within 2 s");
+    assert_eq!((n, got.can_id, got.len), (CAN_MTU, 0x321, 2));
+    assert_eq!(&got.data[..2], &[0xAB, 0xCD]);
+}
