@@ -5,8 +5,9 @@
 # Used as-is by the VM's /init (busybox sh) and by `scripts/vcan-vm --native`
 # (the host's sh), so keep it POSIX.
 #
-# LIST has one test binary per line: `NAME<TAB>PATH[<TAB>ARGS...]`; ARGS are
-# extra libtest arguments (filters). Each binary runs with --test-threads=1
+# LIST has one test binary per line: `NAME<TAB>PATH<TAB>DIR[<TAB>ARGS]`; the
+# binary runs in DIR (its package's directory, as under `cargo test`), ARGS
+# are extra libtest arguments (filters), whitespace-separated. Each binary runs with --test-threads=1
 # and --nocapture (so skip messages reach the log and are counted),
 # and ANGUILLA_VCAN set (default vcan0). N and M count individual tests (from
 # libtest's `test result:` line); a binary that fails without one counts as
@@ -63,15 +64,19 @@ interop() {
     fi
 }
 
-run_binary() { # NAME PATH [ARGS...]
+run_binary() { # NAME PATH DIR [ARGS...]
     name=$1
     bin=$2
-    shift 2
+    dir=$3
+    shift 3
     log=$work/$name.log
     echo "vcan-vm: RUN $name ($bin --test-threads=1 --nocapture $*)"
     # Stream the output and keep a copy to read the counts from; the exit
     # status goes through a file because a pipeline reports tee's.
-    { timeout -s KILL "$binary_timeout" "$bin" --test-threads=1 --nocapture "$@" 2>&1; echo $? >"$work/$name.rc"; } | tee "$log"
+    {
+        (cd "$dir" && exec timeout -s KILL "$binary_timeout" "$bin" --test-threads=1 --nocapture "$@") 2>&1
+        echo $? >"$work/$name.rc"
+    } | tee "$log"
     rc=$(cat "$work/$name.rc" 2>/dev/null || echo 255)
     if [ "$rc" -eq 137 ] || [ "$rc" -eq 124 ]; then
         echo "vcan-vm: $name killed after $binary_timeout s (hung?)"
@@ -108,10 +113,10 @@ done
 interop
 
 tab=$(printf '\t')
-while IFS="$tab" read -r name bin args; do
+while IFS="$tab" read -r name bin dir args; do
     case $name in '' | '#'*) continue ;; esac
     # shellcheck disable=SC2086 # ARGS are whitespace-separated on purpose
-    run_binary "$name" "$bin" $args
+    run_binary "$name" "$bin" "$dir" $args
 done <"$list"
 
 echo "vcan-vm: $ignored ignored, $skipped skip messages"
