@@ -577,7 +577,7 @@ pub fn default_toml() -> String {
     w(String::new());
     w("[limits]".into());
     w("# Per-axis limits applied to every setpoint (clamped and counted).".into());
-    w("# Angle (rad) 0.01..=1.5, velocity (rad/s) 0.01..=50, torque (N·m) 0..=100.".into());
+    w("# Angle (rad) 0.01..=1.5, velocity (rad/s) 0.01..=10, torque (N·m) 0..=5.".into());
     w(format!("angle = {}", fmt_f(d.limits.angle)));
     w(format!("velocity = {}", fmt_f(d.limits.velocity)));
     w(format!("torque = {}", fmt_f(d.limits.torque)));
@@ -623,6 +623,24 @@ mod tests {
         let parsed = Config::from_toml(&default_toml(), "default").unwrap();
         assert_eq!(parsed, Config::default());
         Config::default().validate().unwrap();
+    }
+
+    #[test]
+    fn the_readme_shows_the_default() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
+        let readme = std::fs::read_to_string(path).unwrap();
+        let (begin, end) = ("<!-- config:begin -->\n", "<!-- config:end -->");
+        let (head, rest) = readme.split_once(begin).expect("config:begin marker");
+        let (current, tail) = rest.split_once(end).expect("config:end marker");
+        let block = format!("```toml\n{}```\n", default_toml());
+        if std::env::var_os("ANGUILLA_BLESS").is_some() {
+            std::fs::write(path, format!("{head}{begin}{block}{end}{tail}")).unwrap();
+            return;
+        }
+        assert_eq!(
+            current, block,
+            "README.md's configuration block is out of date: rerun with ANGUILLA_BLESS=1"
+        );
     }
 
     #[test]
