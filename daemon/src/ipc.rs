@@ -594,6 +594,7 @@ impl Server {
 /// their resources, and returns their ids. Allocates: run it on a helper
 /// thread, never in the control period.
 pub fn reap_dead_nodes() -> Vec<u128> {
+    set_log_level_from_env_or(LogLevel::Error);
     let mut dead = Vec::new();
     let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
         if let NodeState::Dead(view) = state {

@@ -148,3 +148,33 @@ fn malformed_frames_are_counted_never_fatal() {
     assert_eq!(r.ctl.snapshot().bus.malformed, 50);
     assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
 }
+
+#[test]
+fn bus_off_is_a_fault_and_no_setpoints_are_sent_meanwhile() {
+    use anguilla_drivers::{Bus, BusState};
+    let mut r = ready("lifecycle-bus-off");
+    r.command(1, swim(0.5, 1.0));
+    r.run_for(0.3);
+    let id = r.host.id();
+    r.bus.force_state(id, BusState::BusOff);
+    r.run_for(0.05);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault);
+    assert!(r.ctl.supervisor().faults().contains(FaultKind::BusOff));
+    let tx_before = r.host.counters().tx;
+    r.run_for(0.1);
+    assert_eq!(
+        r.host.counters().tx,
+        tx_before,
+        "nothing sent while bus-off"
+    );
+    assert_eq!(
+        r.command(1, Command::Reset).accepted,
+        0,
+        "refused while bus-off"
+    );
+    r.bus.force_state(id, BusState::ErrorActive);
+    r.run_for(0.05);
+    assert_eq!(r.command(1, Command::Reset).accepted, 1);
+    r.run_for(0.5);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Idle);
+}
