@@ -23,6 +23,9 @@ enum Command {
     /// Run the daemon: against the built-in simulated robot, or the bus named
     /// with --bus (real hardware is driven only then).
     Run(run_cmd::RunArgs),
+    /// Rerun the control loop on a recorded session (simulated clock) and
+    /// check that its output matches the recording bit for bit.
+    Replay(run_cmd::ReplayArgs),
     /// Configuration: print the commented default, check a file.
     Config {
         #[command(subcommand)]
@@ -47,6 +50,7 @@ fn main() -> anyhow::Result<()> {
         }
         Some(Command::Run(args)) => run_cmd::run(args),
         Some(Command::Config { cmd }) => run_cmd::config(cmd),
+        Some(Command::Replay(args)) => run_cmd::replay(args),
         Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
     }

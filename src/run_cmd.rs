@@ -199,3 +199,31 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
         }
     }
 }
+
+/// Arguments of `anguilla replay`.
+#[derive(clap::Args, Debug)]
+pub struct ReplayArgs {
+    /// A session directory written by `anguilla run` with `recording.dir` set.
+    dir: PathBuf,
+}
+
+pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
+    let report = anguilla_daemon::record::replay(&args.dir)
+        .with_context(|| format!("replaying {}", args.dir.display()))?;
+    match &report.mismatch {
+        None => {
+            println!(
+                "{}: identical: {} periods, {} frames replayed bit for bit",
+                args.dir.display(),
+                report.periods,
+                report.frames
+            );
+            Ok(())
+        }
+        Some((period, what)) => anyhow::bail!(
+            "{}: differs at period {period} after {} identical frames: {what}",
+            args.dir.display(),
+            report.frames
+        ),
+    }
+}

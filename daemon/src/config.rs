@@ -7,7 +7,7 @@
 //! parses back to [`Config::default`], so the printed file cannot drift from
 //! the defaults in the code.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -43,7 +43,7 @@ pub enum ConfigError {
 }
 
 /// What to do with an actuator fault or a lost heartbeat.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FaultPolicyConfig {
     /// Stop swimming and keep the healthy actuators holding straight.
@@ -53,7 +53,7 @@ pub enum FaultPolicyConfig {
 }
 
 /// `[robot]`: the body's actuators.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RobotConfig {
     /// Number of actuated joints (each a pitch and a yaw axis, one node each).
@@ -72,7 +72,7 @@ impl Default for RobotConfig {
 }
 
 /// `[control]`: the loop and the supervisor.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct ControlConfig {
     /// Control rate (Hz); 0 means the highest the bus carries at `bus.max-load`.
@@ -103,7 +103,7 @@ impl Default for ControlConfig {
 }
 
 /// `[gait]`: the parametric gait and how fast its parameters may change.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct GaitConfig {
     /// Wavelength λ of the body wave (m).
@@ -150,7 +150,7 @@ impl Default for GaitConfig {
 }
 
 /// `[limits]`: per-axis joint limits, applied to every setpoint.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct LimitsConfig {
     /// Largest |joint angle| (rad).
@@ -172,7 +172,7 @@ impl Default for LimitsConfig {
 }
 
 /// `[bus]`: which bus, and its physical layer.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct BusConfig {
     /// Bus spec (`socketcan:can0`, `slcan:/dev/ttyACM0@1000000`, `mem:NAME`);
@@ -201,7 +201,7 @@ impl Default for BusConfig {
 }
 
 /// `[realtime]`: what the loop thread asks of the OS.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RealtimeConfig {
     /// SCHED_FIFO priority (1..=99); 0 keeps the normal scheduler.
@@ -223,7 +223,7 @@ impl Default for RealtimeConfig {
 }
 
 /// `[ipc]`: the operator interface.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct IpcConfig {
     /// Prefix of the iceoryx2 service names.
@@ -239,7 +239,7 @@ impl Default for IpcConfig {
 }
 
 /// `[recording]`: what is written to disk.
-#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RecordingConfig {
     /// Directory for the session recording; empty records nothing.
@@ -247,7 +247,7 @@ pub struct RecordingConfig {
 }
 
 /// `[model]`: the feedforward model's discretization.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct ModelConfig {
     /// Space nodes along the body.
@@ -261,7 +261,7 @@ impl Default for ModelConfig {
 }
 
 /// The whole configuration.
-#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct Config {
     /// `[robot]`.
@@ -311,6 +311,11 @@ impl Config {
         })?;
         cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// The configuration as TOML (every key written; used by recordings).
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_default()
     }
 
     /// Reads, parses and validates a file.
@@ -641,6 +646,17 @@ mod tests {
             current, block,
             "README.md's configuration block is out of date: rerun with ANGUILLA_BLESS=1"
         );
+    }
+
+    #[test]
+    fn a_written_configuration_reads_back() {
+        let mut c = Config::default();
+        c.robot.joints = 3;
+        c.robot.node_ids = vec![4, 5, 6];
+        c.bus.fd = true;
+        c.control.rate_hz = 250.0;
+        let back = Config::from_toml(&c.to_toml(), "written").unwrap();
+        assert_eq!(back, c);
     }
 
     #[test]

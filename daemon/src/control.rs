@@ -36,6 +36,7 @@ use crate::config::{Config, FaultPolicyConfig};
 use crate::ipc::{CommandReply, CommandRequest, GaitSnapshot, MAX_JOINTS, StateSnapshot};
 use crate::nodes::NodeTable;
 use crate::profile::{Follower, Limits};
+use crate::record::Record;
 use crate::supervisor::{
     Cause, Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig, SwimParams,
 };
@@ -102,6 +103,9 @@ pub struct Controller {
     holder_node: Option<(u64, u128)>,
     snapshot: StateSnapshot,
     started: Nanos,
+    tap: Option<crossbeam_channel::Sender<Record>>,
+    tap_dropped: u64,
+    now: Nanos,
 }
 
 fn node_ids(cfg: &Config) -> Result<Vec<NodeId>, SetupError> {
@@ -217,7 +221,30 @@ impl Controller {
             holder_node: None,
             snapshot,
             started: now,
+            tap: None,
+            tap_dropped: 0,
+            now,
         })
+    }
+
+    /// Records every input and output from now on into `tap` (bounded,
+    /// never blocking: a full channel drops the record and counts it).
+    pub fn set_tap(&mut self, tap: crossbeam_channel::Sender<Record>) {
+        let _ = tap.try_send(Record::Start(self.started));
+        self.tap = Some(tap);
+    }
+
+    /// Records dropped because the recorder fell behind.
+    pub fn tap_dropped(&self) -> u64 {
+        self.tap_dropped
+    }
+
+    fn record(&mut self, r: Record) {
+        if let Some(t) = &self.tap
+            && t.try_send(r).is_err()
+        {
+            self.tap_dropped += 1;
+        }
     }
 
     /// The control period (ns).
@@ -262,6 +289,7 @@ impl Controller {
 
     /// Handles one operator request and says what to reply.
     pub fn command(&mut self, now: Nanos, req: &CommandRequest) -> CommandReply {
+        self.record(Record::Command(now, *req));
         let reply = match req.command() {
             Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
             Ok(cmd) => match self.sup.command(now, req.client_id, req.sequence, cmd) {
@@ -283,6 +311,7 @@ impl Controller {
     /// Tells the controller that an iceoryx2 node died; if it held control,
     /// control is released and a swim stops smoothly.
     pub fn node_died(&mut self, now: Nanos, node_id: u128) -> bool {
+        self.record(Record::Dead(now, node_id));
         match self.holder_node {
             Some((client, node)) if node == node_id => {
                 self.holder_node = None;
@@ -302,6 +331,9 @@ impl Controller {
     fn send_frame(&mut self, bus: &mut dyn Bus, f: &Frame) {
         if bus.send(f).is_err() {
             self.counters.tx_errors += 1;
+        } else {
+            let now = self.now;
+            self.record(Record::Tx(now, *f));
         }
     }
 
@@ -322,10 +354,28 @@ impl Controller {
 
     /// Runs one period at time `now` against `bus`.
     pub fn run_period(&mut self, now: Nanos, bus: &mut dyn Bus) {
+        self.now = now;
+        let bus_state = match bus.state() {
+            BusState::ErrorActive => 0,
+            BusState::ErrorPassive => 1,
+            BusState::BusOff => 2,
+        };
+        self.record(Record::Period {
+            now,
+            bus: bus_state,
+        });
         // 1. Everything the nodes said since the last period.
         let table = &mut self.table;
+        let (tap, dropped) = (&self.tap, &mut self.tap_dropped);
         // A receive error shows in the bus state read below.
-        let _ = bus.drain(&mut |r| table.ingest(now, &r.frame));
+        let _ = bus.drain(&mut |r| {
+            table.ingest(now, &r.frame);
+            if let Some(t) = tap
+                && t.try_send(Record::Rx(now, r.frame)).is_err()
+            {
+                *dropped += 1;
+            }
+        });
         // 2. Supervisor.
         let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
         let (all_enabled, lost, fault, estop) = self.table.observe(now, hb_timeout);
@@ -335,7 +385,7 @@ impl Controller {
             node_fault: fault,
             estop_nodes: estop,
             bus_estop: self.table.take_bus_estop(),
-            bus_off: bus.state() == BusState::BusOff,
+            bus_off: bus_state == 2,
             model_diverged: self.model_failed,
             gait_at_rest: self.at_rest(),
         };
@@ -630,11 +680,13 @@ impl Controller {
 
     /// Shutdown, first half: stop a swim smoothly (idempotent).
     pub fn begin_shutdown(&mut self, now: Nanos) {
+        self.record(Record::Shutdown(now));
         self.sup.stop_swimming(now);
     }
 
     /// Shutdown, second half: disable every actuator now.
     pub fn disable_all(&mut self, bus: &mut dyn Bus) {
+        self.record(Record::End);
         self.send(
             bus,
             Message::Command {

@@ -11,6 +11,7 @@ pub mod control;
 pub mod ipc;
 pub mod nodes;
 pub mod profile;
+pub mod record;
 pub mod rt;
 pub mod run;
 pub mod stats;

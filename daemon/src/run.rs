@@ -15,6 +15,9 @@
 //! starts more than a whole period late is an *overrun*: it is counted and
 //! the missed periods are skipped, never caught up by bursting frames.
 //!
+//! With `recording.dir` set, a third helper, the **recorder**, writes every
+//! frame in and out and every operator command (see [`crate::record`]).
+//!
 //! On stop (SIGINT/SIGTERM in the binary), a swim is stopped smoothly (at
 //! most `shutdown_grace`), then the actuators are disabled and the loop ends.
 
@@ -86,6 +89,8 @@ pub struct RunReport {
     pub compute: crate::stats::Summary,
     /// Events the logger channel dropped.
     pub events_dropped: u64,
+    /// Records the recorder channel dropped (recording fell behind).
+    pub records_dropped: u64,
     /// The mode at the end.
     pub final_mode: Mode,
 }
@@ -144,11 +149,35 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             .spawn(move || reaper(dead_tx, reaper_stop))
             .map_err(|e| RunError::Thread("reaper", e))?,
     );
+    let recording = if cfg.recording.dir.is_empty() {
+        None
+    } else {
+        let secs = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0);
+        let dir = std::path::Path::new(&cfg.recording.dir).join(format!("session-{secs}"));
+        let (rec_tx, rec_rx) = crossbeam_channel::bounded(1 << 16);
+        let (st_tx, st_rx) = crossbeam_channel::bounded(256);
+        let rcfg = cfg.clone();
+        let shown = dir.display().to_string();
+        helpers.push(
+            std::thread::Builder::new()
+                .name("anguilla-rec".into())
+                .spawn(move || {
+                    if let Err(e) = crate::record::recorder(dir, rcfg, rec_rx, st_rx) {
+                        tracing::error!("recording to {shown} failed: {e}");
+                    }
+                })
+                .map_err(|e| RunError::Thread("recorder", e))?,
+        );
+        Some((rec_tx, st_tx))
+    };
     let loop_stop = stop.clone();
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let loop_thread = std::thread::Builder::new()
         .name("anguilla-loop".into())
-        .spawn(move || control_loop(cfg, bus, loop_stop, ev_tx, dead_rx, ready_tx))
+        .spawn(move || control_loop(cfg, bus, loop_stop, ev_tx, dead_rx, ready_tx, recording))
         .map_err(|e| RunError::Thread("control loop", e))?;
     // Setup errors (IPC, model) surface here rather than in a log line.
     match ready_rx.recv() {
@@ -217,6 +246,10 @@ fn control_loop(
     events: Sender<Event>,
     dead: Receiver<u128>,
     ready: std::sync::mpsc::Sender<()>,
+    recording: Option<(
+        Sender<crate::record::Record>,
+        Sender<crate::ipc::StateSnapshot>,
+    )>,
 ) -> Result<RunReport, RunError> {
     let rt_req = RtRequest {
         fifo_priority: (cfg.realtime.fifo_priority > 0).then_some(cfg.realtime.fifo_priority),
@@ -229,6 +262,10 @@ fn control_loop(
     // iceoryx2 ports are not Send: they live on this thread.
     let server = ipc::Server::new(&cfg.ipc.prefix)?;
     let mut ctl = Controller::new(&cfg, rt::monotonic_ns())?;
+    let states = recording.map(|(records, states)| {
+        ctl.set_tap(records);
+        states
+    });
     let period = ctl.period_ns();
     tracing::info!(
         "control loop at {:.1} Hz ({} joints, bus {})",
@@ -314,15 +351,26 @@ fn control_loop(
             overruns,
         });
         let _ = server.publish(ctl.snapshot());
+        if let Some(st) = &states
+            && periods % 10 == 0
+        {
+            let _ = st.try_send(*ctl.snapshot());
+        }
         deadline += period;
     }
     drop(events);
+    let records_dropped = ctl.tap_dropped();
+    let final_mode = ctl.supervisor().mode();
+    // Dropping the controller and the state sender ends the recording.
+    drop(ctl);
+    drop(states);
     Ok(RunReport {
+        records_dropped,
         periods,
         overruns,
         jitter: jitter.summary(),
         compute: compute.summary(),
         events_dropped: dropped,
-        final_mode: ctl.supervisor().mode(),
+        final_mode,
     })
 }

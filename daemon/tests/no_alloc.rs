@@ -58,6 +58,9 @@ fn a_control_period_allocates_nothing() {
         let mut cfg = Config::default();
         cfg.bus.fd = fd;
         let mut r = Rig::new(if fd { "no-alloc-fd" } else { "no-alloc" }, &cfg);
+        // Recording on: the tap's bounded channel must not allocate either.
+        let (tap, records) = crossbeam_channel::bounded(1 << 16);
+        r.ctl.set_tap(tap);
         // Warm-up outside the count: boot, control, enable.
         r.run_for(0.1);
         r.command(1, Command::TakeControl);
@@ -86,6 +89,7 @@ fn a_control_period_allocates_nothing() {
             for i in 0..200 {
                 counted(|| r.ctl.run_period(r.now, &mut r.host));
                 r.nodes_step();
+                records.try_iter().for_each(drop);
                 if i % 20 == 0 {
                     counted(|| r.command(1, Command::KeepAlive));
                 }
@@ -97,5 +101,6 @@ fn a_control_period_allocates_nothing() {
         let n = COUNT.with(|n| n.get());
         assert_eq!(n, 0, "{n} allocations in 800 control periods (fd = {fd})");
         assert!(r.ctl.snapshot().sequence > 800);
+        assert_eq!(r.ctl.tap_dropped(), 0);
     }
 }

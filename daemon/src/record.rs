@@ -1,0 +1,475 @@
+//! Recording a session, and replaying it bit for bit.
+//!
+//! While recording (`recording.dir`), the controller hands every input and
+//! output of every period to the recorder thread through a bounded channel
+//! that never blocks (a full channel drops the record and counts it). The
+//! recorder writes three files into a fresh directory:
+//!
+//! - `bus.log`: every frame in and out, in can-utils' `candump -l` format
+//!   (interface `anguilla0`), so `canplayer`, python-can, SavvyCAN and
+//!   cantools open it;
+//! - `session.log`: the replay script, one line per event (below);
+//! - `config.toml`: the configuration the daemon ran with;
+//! - `state.bin`: every tenth [`StateSnapshot`], as its raw `#[repr(C)]`
+//!   bytes (layout in `docs/ipc.md`).
+//!
+//! `session.log` lines (`#` starts a comment):
+//!
+//! ```text
+//! anguilla-session 1        header
+//! start <ns>                the controller's creation time
+//! C <ns> <hex>              an operator request (the CommandRequest's bytes)
+//! D <ns> <hex>              an iceoryx2 node that died (its id)
+//! S <ns>                    shutdown requested at this time
+//! P <ns> <bus state 0|1|2>  a period starts at this time
+//! R <frame>                 a frame received in this period (cansend notation)
+//! T <frame>                 a frame sent
+//! E                         shutdown: actuators disabled
+//! ```
+//!
+//! [`replay`] rebuilds the controller from `config.toml`, feeds it the
+//! recorded inputs on a simulated clock and compares every frame it sends
+//! with the recorded ones.
+
+use std::fmt::Write as _;
+use std::io::{BufRead, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use anguilla_drivers::{Bus, BusCounters, BusState, Capabilities, Received, TimestampBase};
+use anguilla_protocol::candump::{self, Interface, LogEntry, Timestamp};
+use anguilla_protocol::frame::Frame;
+use crossbeam_channel::Receiver;
+
+use crate::config::{Config, ConfigError};
+use crate::control::{Controller, SetupError};
+use crate::ipc::{CommandRequest, StateSnapshot};
+use crate::supervisor::Nanos;
+
+/// One recorded event. `Copy`: sending it allocates nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Record {
+    /// The controller was created at this time.
+    Start(Nanos),
+    /// A period starts; the bus state as the controller read it.
+    Period {
+        /// The period's time.
+        now: Nanos,
+        /// 0 error-active, 1 error-passive, 2 bus-off.
+        bus: u8,
+    },
+    /// An operator request handled at this time (before the next period).
+    Command(Nanos, CommandRequest),
+    /// A client's iceoryx2 node was found dead at this time.
+    Dead(Nanos, u128),
+    /// Shutdown requested at this time.
+    Shutdown(Nanos),
+    /// Shutdown: the actuators were disabled.
+    End,
+    /// A frame received.
+    Rx(Nanos, Frame),
+    /// A frame sent.
+    Tx(Nanos, Frame),
+}
+
+fn request_bytes(r: &CommandRequest) -> [u8; core::mem::size_of::<CommandRequest>()] {
+    // SAFETY: CommandRequest is #[repr(C)], Copy, and has no padding (the
+    // layout test in ipc.rs checks that its fields tile it exactly).
+    unsafe { core::mem::transmute_copy(r) }
+}
+
+fn request_from(bytes: &[u8]) -> Option<CommandRequest> {
+    if bytes.len() != core::mem::size_of::<CommandRequest>() {
+        return None;
+    }
+    let mut r = CommandRequest::default();
+    // SAFETY: same size, and every bit pattern is a valid CommandRequest
+    // (integers and floats only).
+    unsafe {
+        core::ptr::copy_nonoverlapping(
+            bytes.as_ptr(),
+            &mut r as *mut CommandRequest as *mut u8,
+            bytes.len(),
+        );
+    }
+    Some(r)
+}
+
+fn snapshot_bytes(s: &StateSnapshot) -> &[u8] {
+    // SAFETY: StateSnapshot is #[repr(C)] with no padding (tested in ipc.rs).
+    unsafe {
+        core::slice::from_raw_parts(
+            s as *const StateSnapshot as *const u8,
+            core::mem::size_of::<StateSnapshot>(),
+        )
+    }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    let mut s = String::with_capacity(bytes.len() * 2);
+    for b in bytes {
+        let _ = write!(s, "{b:02x}");
+    }
+    s
+}
+
+fn unhex(s: &str) -> Option<Vec<u8>> {
+    if !s.len().is_multiple_of(2) {
+        return None;
+    }
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(s.get(i..i + 2)?, 16).ok())
+        .collect()
+}
+
+/// Writes a recording; runs on its own thread until both channels close.
+pub fn recorder(
+    dir: PathBuf,
+    cfg: Config,
+    records: Receiver<Record>,
+    states: Receiver<StateSnapshot>,
+) -> std::io::Result<()> {
+    std::fs::create_dir_all(&dir)?;
+    std::fs::write(dir.join("config.toml"), cfg.to_toml())?;
+    let mut session = BufWriter::new(std::fs::File::create(dir.join("session.log"))?);
+    let mut bus = candump::Writer::new(BufWriter::new(std::fs::File::create(dir.join("bus.log"))?));
+    let mut state = BufWriter::new(std::fs::File::create(dir.join("state.bin"))?);
+    writeln!(session, "anguilla-session 1")?;
+    let epoch = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0);
+    let iface = Interface::new("anguilla0").map_err(|_| std::io::ErrorKind::InvalidInput)?;
+    let mut start = None;
+    let stamp = |now: Nanos, start: Option<Nanos>| {
+        let t = epoch + now.saturating_sub(start.unwrap_or(now));
+        Timestamp {
+            secs: t / 1_000_000_000,
+            micros: ((t % 1_000_000_000) / 1000) as u32,
+        }
+    };
+    let mut states_open = true;
+    loop {
+        crossbeam_channel::select! {
+            recv(records) -> r => {
+                let Ok(r) = r else { break };
+                match r {
+                    Record::Start(t) => {
+                        start = Some(t);
+                        writeln!(session, "start {t}")?;
+                    }
+                    Record::Period { now, bus } => writeln!(session, "P {now} {bus}")?,
+                    Record::Command(t, c) => writeln!(session, "C {t} {}", hex(&request_bytes(&c)))?,
+                    Record::Dead(t, id) => writeln!(session, "D {t} {id:032x}")?,
+                    Record::Shutdown(t) => writeln!(session, "S {t}")?,
+                    Record::End => writeln!(session, "E")?,
+                    Record::Rx(now, f) | Record::Tx(now, f) => {
+                        let tag = if matches!(r, Record::Rx(..)) { 'R' } else { 'T' };
+                        writeln!(session, "{tag} {f}")?;
+                        bus.write(&LogEntry { timestamp: stamp(now, start), interface: iface, frame: f })?;
+                    }
+                }
+            }
+            recv(states) -> s => {
+                match s {
+                    Ok(s) => state.write_all(snapshot_bytes(&s))?,
+                    Err(_) => states_open = false,
+                }
+                if !states_open { continue; }
+            }
+        }
+    }
+    // Records are closed; take what is left of the states.
+    for s in states.try_iter() {
+        state.write_all(snapshot_bytes(&s))?;
+    }
+    session.flush()?;
+    bus.into_inner()?.flush()?;
+    state.flush()?;
+    Ok(())
+}
+
+/// What is wrong with a recording, or with replaying it.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// A file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// `config.toml` is not valid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A line of `session.log` is malformed.
+    #[error("{path}:{line}: {what}")]
+    Line {
+        /// The file.
+        path: String,
+        /// Line number (1-based).
+        line: usize,
+        /// What was wrong and what was expected.
+        what: String,
+    },
+    /// The controller could not be rebuilt.
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+}
+
+#[derive(Debug, Default)]
+struct PeriodIn {
+    now: Nanos,
+    bus: u8,
+    before: Vec<Record>,
+    rx: Vec<Frame>,
+    tx: Vec<Frame>,
+}
+
+/// The outcome of a replay.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReplayReport {
+    /// Periods replayed.
+    pub periods: usize,
+    /// Frames compared.
+    pub frames: usize,
+    /// The first difference, if any: (period index, what differed).
+    pub mismatch: Option<(usize, String)>,
+}
+
+impl ReplayReport {
+    /// Whether every frame matched bit for bit.
+    pub fn identical(&self) -> bool {
+        self.mismatch.is_none()
+    }
+}
+
+/// A bus that replays recorded input and collects output.
+struct ReplayBus {
+    rx: std::collections::VecDeque<Frame>,
+    tx: Vec<Frame>,
+    state: BusState,
+}
+
+impl Bus for ReplayBus {
+    fn send(&mut self, frame: &Frame) -> anguilla_drivers::Result<()> {
+        self.tx.push(*frame);
+        Ok(())
+    }
+    fn recv(&mut self, _: std::time::Duration) -> anguilla_drivers::Result<Option<Received>> {
+        Ok(self.rx.pop_front().map(|frame| Received {
+            frame,
+            timestamp: None,
+        }))
+    }
+    fn state(&self) -> BusState {
+        self.state
+    }
+    fn counters(&self) -> BusCounters {
+        BusCounters::default()
+    }
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            fd: true,
+            remote: true,
+            timestamps: TimestampBase::None,
+            simulated_faults: false,
+        }
+    }
+    fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
+        Ok(())
+    }
+    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
+        Ok(())
+    }
+    fn spec(&self) -> &str {
+        "replay"
+    }
+}
+
+fn parse_session(path: &Path) -> Result<(Nanos, Vec<PeriodIn>, Option<Vec<Frame>>), ReplayError> {
+    let p = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|source| ReplayError::Read {
+        path: p.clone(),
+        source,
+    })?;
+    let err = |line: usize, what: String| ReplayError::Line {
+        path: p.clone(),
+        line,
+        what,
+    };
+    let mut start = None;
+    let mut periods: Vec<PeriodIn> = Vec::new();
+    let mut pending: Vec<Record> = Vec::new();
+    let mut end: Option<Vec<Frame>> = None;
+    for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
+        let n = i + 1;
+        let line = line.map_err(|source| ReplayError::Read {
+            path: p.clone(),
+            source,
+        })?;
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        if n == 1 {
+            if line != "anguilla-session 1" {
+                return Err(err(
+                    n,
+                    format!("'{line}' (expected the header 'anguilla-session 1')"),
+                ));
+            }
+            continue;
+        }
+        let (tag, rest) = line.split_once(' ').unwrap_or((line, ""));
+        let num = |s: &str, what: &str| {
+            s.parse::<u64>()
+                .map_err(|_| err(n, format!("{what} '{s}' is not a whole number")))
+        };
+        match tag {
+            "start" => start = Some(num(rest, "start time")?),
+            "C" => {
+                let (t, rest) = rest
+                    .split_once(' ')
+                    .ok_or_else(|| err(n, "command: expected '<ns> <hex>'".into()))?;
+                let t = num(t, "command time")?;
+                let bytes =
+                    unhex(rest).ok_or_else(|| err(n, "command: expected hex bytes".into()))?;
+                let req = request_from(&bytes).ok_or_else(|| {
+                    err(
+                        n,
+                        format!(
+                            "command of {} bytes (expected {})",
+                            bytes.len(),
+                            core::mem::size_of::<CommandRequest>()
+                        ),
+                    )
+                })?;
+                pending.push(Record::Command(t, req));
+            }
+            "D" => {
+                let (t, rest) = rest
+                    .split_once(' ')
+                    .ok_or_else(|| err(n, "dead node: expected '<ns> <hex>'".into()))?;
+                let t = num(t, "time")?;
+                let id = u128::from_str_radix(rest, 16)
+                    .map_err(|_| err(n, format!("node id '{rest}' (expected 32 hex digits)")))?;
+                pending.push(Record::Dead(t, id));
+            }
+            "S" => pending.push(Record::Shutdown(num(rest, "shutdown time")?)),
+            "P" => {
+                let (t, b) = rest
+                    .split_once(' ')
+                    .ok_or_else(|| err(n, "period: expected '<ns> <bus state>'".into()))?;
+                let bus = num(b, "bus state")?;
+                if bus > 2 {
+                    return Err(err(n, format!("bus state {bus} (expected 0, 1 or 2)")));
+                }
+                periods.push(PeriodIn {
+                    now: num(t, "period time")?,
+                    bus: bus as u8,
+                    before: std::mem::take(&mut pending),
+                    ..Default::default()
+                });
+            }
+            "R" | "T" => {
+                let f = candump::parse_frame(rest)
+                    .map_err(|e| err(n, format!("frame '{rest}': {e}")))?;
+                match (tag, end.as_mut(), periods.last_mut()) {
+                    ("T", Some(e), _) => e.push(f),
+                    ("R", _, Some(p)) => p.rx.push(f),
+                    ("T", None, Some(p)) => p.tx.push(f),
+                    _ => return Err(err(n, "a frame before the first period".into())),
+                }
+            }
+            "E" => end = Some(Vec::new()),
+            other => {
+                return Err(err(
+                    n,
+                    format!("unknown line tag '{other}' (expected start, C, D, S, P, R, T or E)"),
+                ));
+            }
+        }
+    }
+    let start = start.ok_or_else(|| err(0, "no 'start' line".into()))?;
+    // Shutdown requests after the last period belong to the end.
+    if !pending.is_empty() {
+        periods.push(PeriodIn {
+            now: u64::MAX,
+            before: pending,
+            ..Default::default()
+        });
+    }
+    Ok((start, periods, end))
+}
+
+/// Replays the recording in `dir` and compares every frame sent.
+pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
+    let cfg_path = dir.join("config.toml");
+    let cfg = Config::load(&cfg_path)?;
+    let (start, periods, end) = parse_session(&dir.join("session.log"))?;
+    let mut ctl = Controller::new(&cfg, start)?;
+    let mut bus = ReplayBus {
+        rx: Default::default(),
+        tx: Vec::new(),
+        state: BusState::ErrorActive,
+    };
+    let mut report = ReplayReport {
+        periods: 0,
+        frames: 0,
+        mismatch: None,
+    };
+    let compare = |k: usize, expected: &[Frame], got: &[Frame], report: &mut ReplayReport| {
+        for (i, (e, g)) in expected.iter().zip(got).enumerate() {
+            if e != g {
+                report.mismatch = Some((k, format!("frame {i}: recorded {e}, replayed {g}")));
+                return;
+            }
+        }
+        if expected.len() != got.len() {
+            report.mismatch = Some((
+                k,
+                format!("{} frames recorded, {} replayed", expected.len(), got.len()),
+            ));
+            return;
+        }
+        report.frames += expected.len();
+    };
+    for (k, p) in periods.iter().enumerate() {
+        for r in &p.before {
+            match *r {
+                Record::Command(t, req) => {
+                    ctl.command(t, &req);
+                }
+                Record::Dead(t, id) => {
+                    ctl.node_died(t, id);
+                }
+                Record::Shutdown(t) => ctl.begin_shutdown(t),
+                _ => {}
+            }
+        }
+        if p.now == u64::MAX {
+            break;
+        }
+        bus.rx = p.rx.iter().copied().collect();
+        bus.tx.clear();
+        bus.state = match p.bus {
+            1 => BusState::ErrorPassive,
+            2 => BusState::BusOff,
+            _ => BusState::ErrorActive,
+        };
+        ctl.run_period(p.now, &mut bus);
+        report.periods += 1;
+        compare(k, &p.tx, &bus.tx, &mut report);
+        if report.mismatch.is_some() {
+            return Ok(report);
+        }
+    }
+    if let Some(end) = end {
+        bus.tx.clear();
+        ctl.disable_all(&mut bus);
+        compare(periods.len(), &end, &bus.tx, &mut report);
+    }
+    Ok(report)
+}
