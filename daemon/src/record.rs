@@ -288,7 +288,15 @@ impl Bus for ReplayBus {
     }
 }
 
-fn parse_session(path: &Path) -> Result<(Nanos, Vec<PeriodIn>, Option<Vec<Frame>>), ReplayError> {
+/// A parsed `session.log`.
+struct Session {
+    start: Nanos,
+    periods: Vec<PeriodIn>,
+    /// Frames sent at shutdown, if the session ended with `E`.
+    end: Option<Vec<Frame>>,
+}
+
+fn parse_session(path: &Path) -> Result<Session, ReplayError> {
     let p = path.display().to_string();
     let file = std::fs::File::open(path).map_err(|source| ReplayError::Read {
         path: p.clone(),
@@ -401,14 +409,22 @@ fn parse_session(path: &Path) -> Result<(Nanos, Vec<PeriodIn>, Option<Vec<Frame>
             ..Default::default()
         });
     }
-    Ok((start, periods, end))
+    Ok(Session {
+        start,
+        periods,
+        end,
+    })
 }
 
 /// Replays the recording in `dir` and compares every frame sent.
 pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
     let cfg_path = dir.join("config.toml");
     let cfg = Config::load(&cfg_path)?;
-    let (start, periods, end) = parse_session(&dir.join("session.log"))?;
+    let Session {
+        start,
+        periods,
+        end,
+    } = parse_session(&dir.join("session.log"))?;
     let mut ctl = Controller::new(&cfg, start)?;
     let mut bus = ReplayBus {
         rx: Default::default(),
