@@ -101,6 +101,7 @@ pub struct Controller {
     report: StepReport,
     counters: ControlCounters,
     holder_node: Option<(u64, u128)>,
+    new_holder_node: bool,
     snapshot: StateSnapshot,
     started: Nanos,
     tap: Option<crossbeam_channel::Sender<Record>>,
@@ -219,6 +220,7 @@ impl Controller {
             report: StepReport::default(),
             counters: ControlCounters::default(),
             holder_node: None,
+            new_holder_node: false,
             snapshot,
             started: now,
             tap: None,
@@ -294,8 +296,11 @@ impl Controller {
             Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
             Ok(cmd) => match self.sup.command(now, req.client_id, req.sequence, cmd) {
                 Ok(()) => {
-                    if self.sup.holder() == Some(req.client_id) {
+                    if self.sup.holder() == Some(req.client_id)
+                        && self.holder_node != Some((req.client_id, req.node_id()))
+                    {
                         self.holder_node = Some((req.client_id, req.node_id()));
+                        self.new_holder_node = true;
                     }
                     CommandReply::accepted(req, self.sup.mode() as u8)
                 }
@@ -306,6 +311,16 @@ impl Controller {
             self.counters.refused += 1;
         }
         reply
+    }
+
+    /// The iceoryx2 node of a client that just took control, once (the
+    /// loop hands it to the reaper to watch).
+    pub fn take_new_holder_node(&mut self) -> Option<u128> {
+        if core::mem::take(&mut self.new_holder_node) {
+            self.holder_node.map(|(_, n)| n)
+        } else {
+            None
+        }
     }
 
     /// Tells the controller that an iceoryx2 node died; if it held control,

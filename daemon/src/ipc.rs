@@ -590,20 +590,54 @@ impl Server {
     }
 }
 
-/// Scans iceoryx2's node registry for nodes whose process died, cleans up
-/// their resources, and returns their ids. Allocates: run it on a helper
-/// thread, never in the control period.
-pub fn reap_dead_nodes() -> Vec<u128> {
+/// One scan of iceoryx2's node registry: the ids of the nodes that exist
+/// (alive, or not ours to judge), and of those whose process died (their
+/// resources are cleaned up here). `None` when the registry could not be
+/// read. Allocates: run it on a helper thread, never in the control period.
+pub fn scan_nodes() -> Option<(Vec<u128>, Vec<u128>)> {
     set_log_level_from_env_or(LogLevel::Error);
-    let mut dead = Vec::new();
-    let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
-        if let NodeState::Dead(view) = state {
-            dead.push(view.id().value());
-            let _ = view.try_remove_stale_resources();
+    let (mut alive, mut dead) = (Vec::new(), Vec::new());
+    Node::<ipc::Service>::list(Config::global_config(), |state| {
+        match state {
+            NodeState::Alive(view) => alive.push(view.id().value()),
+            NodeState::Dead(view) => {
+                dead.push(view.id().value());
+                let _ = view.try_remove_stale_resources();
+            }
+            NodeState::Inaccessible(id) | NodeState::Undefined(id) => alive.push(id.value()),
         }
         CallbackProgression::Continue
-    });
-    dead
+    })
+    .ok()?;
+    Some((alive, dead))
+}
+
+/// Watches the nodes of clients that hold control. A watched node is gone
+/// when a scan sees it dead, or no longer lists it: any iceoryx2 node's
+/// creation cleans up dead nodes, so another tool starting can remove a
+/// dead client's traces before a scan sees it dead.
+#[derive(Debug, Default)]
+pub struct NodeWatch {
+    watched: Vec<u128>,
+}
+
+impl NodeWatch {
+    /// Starts watching `id` (idempotent).
+    pub fn watch(&mut self, id: u128) {
+        if !self.watched.contains(&id) {
+            self.watched.push(id);
+        }
+    }
+
+    /// Feeds one scan; returns the watched ids that are gone (and forgets them).
+    pub fn update(&mut self, alive: &[u128], dead: &[u128]) -> Vec<u128> {
+        let (gone, kept): (Vec<u128>, Vec<u128>) = self
+            .watched
+            .iter()
+            .partition(|id| dead.contains(id) || !alive.contains(id));
+        self.watched = kept;
+        gone
+    }
 }
 
 /// A tool's side: reads state, waits for new state, sends commands.
@@ -883,6 +917,20 @@ mod tests {
         bad = r;
         bad.layout_version = 99;
         assert!(matches!(bad.command(), Err(RequestError::Version(99))));
+    }
+
+    #[test]
+    fn node_watch_reports_dead_and_vanished_nodes_once() {
+        let mut w = NodeWatch::default();
+        w.watch(2);
+        w.watch(9);
+        w.watch(2);
+        assert!(w.update(&[1, 2, 3, 9], &[]).is_empty());
+        // 2 vanished (cleaned up by someone else), 9 seen dead; 5 is not watched.
+        let mut gone = w.update(&[1, 3], &[9, 5]);
+        gone.sort_unstable();
+        assert_eq!(gone, vec![2, 9]);
+        assert!(w.update(&[1, 3], &[]).is_empty(), "reported once");
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //!   bounded channel and writes them with `tracing` (the loop never logs
 //!   itself; when the channel is full the event is dropped and counted);
 //! - the **reaper**, which scans iceoryx2's node registry every 250 ms and
-//!   tells the loop which client processes died (their control is released).
+//!   tells the loop which client nodes are gone — died, or ended without
+//!   releasing control (their control is released).
 //!
 //! Each period the loop sleeps to an absolute deadline
 //! (`clock_nanosleep(TIMER_ABSTIME)`), answers operator commands, runs
@@ -135,6 +136,7 @@ const SHUTDOWN_GRACE: Nanos = 3_000_000_000;
 pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Running, RunError> {
     let (ev_tx, ev_rx) = crossbeam_channel::bounded::<Event>(1024);
     let (dead_tx, dead_rx) = crossbeam_channel::bounded::<u128>(64);
+    let (watch_tx, watch_rx) = crossbeam_channel::bounded::<u128>(64);
     let mut helpers = Vec::new();
     helpers.push(
         std::thread::Builder::new()
@@ -146,7 +148,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-reaper".into())
-            .spawn(move || reaper(dead_tx, reaper_stop))
+            .spawn(move || reaper(watch_rx, dead_tx, reaper_stop))
             .map_err(|e| RunError::Thread("reaper", e))?,
     );
     let recording = if cfg.recording.dir.is_empty() {
@@ -177,7 +179,15 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let loop_thread = std::thread::Builder::new()
         .name("anguilla-loop".into())
-        .spawn(move || control_loop(cfg, bus, loop_stop, ev_tx, dead_rx, ready_tx, recording))
+        .spawn(move || {
+            let links = Links {
+                events: ev_tx,
+                dead: dead_rx,
+                watch: watch_tx,
+                ready: ready_tx,
+            };
+            control_loop(cfg, bus, loop_stop, links, recording)
+        })
         .map_err(|e| RunError::Thread("control loop", e))?;
     // Setup errors (IPC, model) surface here rather than in a log line.
     match ready_rx.recv() {
@@ -224,10 +234,16 @@ fn logger(rx: Receiver<Event>) {
     }
 }
 
-fn reaper(tx: Sender<u128>, stop: Arc<AtomicBool>) {
+fn reaper(watch_rx: Receiver<u128>, tx: Sender<u128>, stop: Arc<AtomicBool>) {
+    let mut watch = ipc::NodeWatch::default();
     while !stop.load(Ordering::Relaxed) {
-        for id in ipc::reap_dead_nodes() {
-            let _ = tx.try_send(id);
+        for id in watch_rx.try_iter() {
+            watch.watch(id);
+        }
+        if let Some((alive, dead)) = ipc::scan_nodes() {
+            for id in watch.update(&alive, &dead) {
+                let _ = tx.try_send(id);
+            }
         }
         // Poll the stop flag often; scan every 250 ms.
         for _ in 0..5 {
@@ -239,13 +255,19 @@ fn reaper(tx: Sender<u128>, stop: Arc<AtomicBool>) {
     }
 }
 
+/// The loop thread's channels to its helpers.
+struct Links {
+    events: Sender<Event>,
+    dead: Receiver<u128>,
+    watch: Sender<u128>,
+    ready: std::sync::mpsc::Sender<()>,
+}
+
 fn control_loop(
     cfg: Config,
     mut bus: Box<dyn Bus>,
     stop: Arc<AtomicBool>,
-    events: Sender<Event>,
-    dead: Receiver<u128>,
-    ready: std::sync::mpsc::Sender<()>,
+    links: Links,
     recording: Option<(
         Sender<crate::record::Record>,
         Sender<crate::ipc::StateSnapshot>,
@@ -256,6 +278,12 @@ fn control_loop(
         cpu: (cfg.realtime.cpu >= 0).then_some(cfg.realtime.cpu as usize),
         lock_memory: cfg.realtime.lock_memory,
     };
+    let Links {
+        events,
+        dead,
+        watch,
+        ready,
+    } = links;
     for w in rt::apply(&rt_req) {
         tracing::warn!("{w}");
     }
@@ -306,6 +334,9 @@ fn control_loop(
             }
             reply
         });
+        if let Some(node) = ctl.take_new_holder_node() {
+            let _ = watch.try_send(node);
+        }
         while let Ok(node) = dead.try_recv() {
             if ctl.node_died(now, node) {
                 emit(Event::HolderDied, &mut dropped);

@@ -1,0 +1,76 @@
+//! A client process that dies while holding control loses it: the daemon's
+//! reaper sees its iceoryx2 node dead and releases control. The timeouts are
+//! set far longer than the test, so only the reaper can release it.
+
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::ipc::Client;
+use anguilla_daemon::run;
+use anguilla_daemon::supervisor::Command;
+use anguilla_drivers::mem::MemBus;
+
+const CHILD_ENV: &str = "ANGUILLA_TEST_CHILD_PREFIX";
+const CHILD_ID: u64 = 0xC41D;
+
+/// Runs only as the child: take control, then die without cleaning up.
+#[test]
+fn child_client_takes_control_then_crashes() {
+    let Ok(prefix) = std::env::var(CHILD_ENV) else {
+        return; // not the child: nothing to do in the parent's run
+    };
+    let mut c = Client::new(&prefix, "crashing-client", CHILD_ID).expect("client");
+    let r = c
+        .request(Command::TakeControl, Duration::from_secs(10))
+        .expect("reply");
+    assert_eq!(r.accepted, 1, "{}", r.reason());
+    std::process::abort();
+}
+
+#[test]
+fn a_dead_holder_loses_control() {
+    if std::env::var(CHILD_ENV).is_ok() {
+        return;
+    }
+    let prefix = format!("anguilla-test/crash-{}", std::process::id());
+    let mut cfg = Config::default();
+    cfg.ipc.prefix = prefix.clone();
+    cfg.control.command_timeout = 10.0;
+    cfg.control.control_release_timeout = 600.0;
+    let bus = MemBus::builder("crashed-client").build();
+    let stop = Arc::new(AtomicBool::new(false));
+    let running = run::spawn(cfg, Box::new(bus.participant()), stop).expect("daemon");
+    let child = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "child_client_takes_control_then_crashes",
+            "--nocapture",
+        ])
+        .env(CHILD_ENV, &prefix)
+        .output()
+        .expect("child runs");
+    assert!(!child.status.success(), "the child aborts");
+    let watcher = Client::new(&prefix, "watcher", 7).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut held = false;
+    let mut released = false;
+    while Instant::now() < deadline {
+        if let Ok(Some(s)) = watcher.wait_state(Duration::from_millis(100)) {
+            held |= s.holder == CHILD_ID;
+            if held && s.holder == 0 {
+                released = true;
+                break;
+            }
+        }
+    }
+    running.request_stop();
+    running.join().unwrap();
+    assert!(
+        held,
+        "the child held control: {}",
+        String::from_utf8_lossy(&child.stdout)
+    );
+    assert!(released, "control released after the holder died");
+}
