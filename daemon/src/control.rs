@@ -42,6 +42,22 @@ use crate::supervisor::{
 };
 
 const MS: Nanos = 1_000_000;
+/// Plausibility limits of the model's predictions for a 1 m robot: beyond
+/// them the model is taken as diverged (DESIGN.md: "NaN, non-finite,
+/// limits"). The fastest anguilliform swimmers manage about 2 body lengths
+/// per second; 5 m/s, 20 rad/s and 1000 m/s² / rad/s² are far outside any
+/// gait the configuration allows.
+const MAX_PLAUSIBLE_SPEED: f64 = 5.0;
+const MAX_PLAUSIBLE_TURN_RATE: f64 = 20.0;
+const MAX_PLAUSIBLE_ACCEL: f64 = 1000.0;
+
+fn plausible(r: &StepReport) -> bool {
+    r.forward_speed.abs() <= MAX_PLAUSIBLE_SPEED
+        && r.turn_rate.abs() <= MAX_PLAUSIBLE_TURN_RATE
+        && r.v_dot.norm() <= MAX_PLAUSIBLE_ACCEL
+        && r.omega_dot.norm() <= MAX_PLAUSIBLE_ACCEL
+}
+
 /// The gait's period when the operator's frequency is 0: the wave stands
 /// still (a period must be finite for the model).
 const STILL_PERIOD: f64 = 1e6;
@@ -451,7 +467,18 @@ impl Controller {
             kc2,
         });
         // 4. Model: forward + inverse dynamics.
-        match anguilla_model::step(&self.model, &mut self.ws, &mut self.gait, &mut self.head) {
+        let step = anguilla_model::step(&self.model, &mut self.ws, &mut self.gait, &mut self.head)
+            .and_then(|r| {
+                if plausible(&r) {
+                    Ok(r)
+                } else {
+                    Err(ModelError::Diverged {
+                        quantity: "predicted head motion (beyond plausibility limits)",
+                        time: r.t,
+                    })
+                }
+            });
+        match step {
             Ok(r) => self.report = r,
             Err(e) => {
                 self.model_failed = true;

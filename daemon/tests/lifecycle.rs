@@ -178,3 +178,75 @@ fn bus_off_is_a_fault_and_no_setpoints_are_sent_meanwhile() {
     r.run_for(0.5);
     assert_eq!(r.ctl.supervisor().mode(), Mode::Idle);
 }
+
+#[test]
+fn an_actuator_fault_stops_the_swim_and_names_the_node() {
+    use anguilla_protocol::message::ErrorBits;
+    let mut r = ready("lifecycle-node-fault");
+    r.command(1, swim(0.5, 1.0));
+    r.run_for(0.3);
+    let mut out = Vec::new();
+    let now = r.now;
+    r.nodes[3].inject_fault(ErrorBits::OVER_TEMPERATURE, now, &mut |f| out.push(f));
+    // The node's heartbeat reaches the bus with the rig's next step.
+    for f in out {
+        let _ = anguilla_drivers::Bus::send(&mut r.bus.participant(), &f);
+    }
+    r.run_for(0.2);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault);
+    let f = r.ctl.supervisor().faults();
+    assert!(f.contains(FaultKind::NodeFault));
+    assert_eq!(f.nodes, 1 << 4, "node 4 is joint 4");
+    // Default policy: the others hold (still enabled), gait ramps to rest.
+    assert!(
+        r.nodes
+            .iter()
+            .filter(|n| n.state() == NodeState::Enabled)
+            .count()
+            == 11
+    );
+    assert_eq!(r.ctl.snapshot().gait_target.amplitude, 0.0);
+}
+
+#[test]
+fn a_diverging_model_drops_the_feedforward_and_faults() {
+    let mut cfg = Config::default();
+    // A gait far beyond anything physical: 20 /m curvature at 10 Hz.
+    cfg.gait.amplitude_polynomial = [20.0, 20.0, 20.0];
+    cfg.gait.max_frequency = 10.0;
+    cfg.gait.amplitude_rate = 1000.0;
+    cfg.gait.amplitude_accel = 1000.0;
+    cfg.gait.frequency_rate = 1000.0;
+    cfg.gait.frequency_accel = 1000.0;
+    let mut r = Rig::new("lifecycle-model", &cfg);
+    r.run_for(0.1);
+    r.command(1, Command::TakeControl);
+    r.command(1, Command::Enable);
+    r.run_for(0.3);
+    r.command(1, swim(1.0, 10.0));
+    for _ in 0..30 {
+        r.run_for(0.1);
+        r.command(1, Command::KeepAlive);
+        if r.ctl.supervisor().mode() == Mode::Fault {
+            break;
+        }
+    }
+    assert!(r.ctl.counters().model_failures > 0, "{:?}", r.ctl.report());
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault);
+    assert!(
+        r.ctl
+            .supervisor()
+            .faults()
+            .contains(FaultKind::ModelDiverged)
+    );
+    r.run_for(0.1);
+    assert!(r.ctl.snapshot().feedforward_dropped == 1);
+    assert!(r.ctl.setpoints().iter().flatten().all(|s| s.torque == 0.0));
+    assert!(
+        r.ctl
+            .setpoints()
+            .iter()
+            .flatten()
+            .all(|s| s.position.is_finite())
+    );
+}
