@@ -1,0 +1,364 @@
+//! Daemon benchmarks that print figures (never asserted; machines are shared
+//! and noisy: compare the ratios printed in one run).
+//!
+//! `cargo bench -p anguilla-daemon --bench daemon` prints JSON lines:
+//!
+//! 1. `loop_jitter`: wake-up lateness of the control loop at 1 kHz against
+//!    twelve simulated nodes on the in-process bus, beside `cyclictest`
+//!    (Debian's rt-tests) at the same rate and the same SCHED_FIFO priority,
+//!    running at the same time (so both see the same load); p50/p99/max and
+//!    the ratio of the p99s (goal ≤ 1.5).
+//! 2. `state_latency`: publication of a `StateSnapshot` to its receipt by a
+//!    client woken by the state-ready event, beside iceoryx2's own
+//!    publish-subscribe + event with a payload of the same size; p50/p99 and
+//!    the ratio (goal ≤ 1.2).
+//! 3. `command_latency`: an operator command (E-stop, then reset, in turn)
+//!    sent through iceoryx2 to the first frame on the bus that reflects it
+//!    (an E-stop frame, a clear-faults command); p50/p99 and the period
+//!    (goal: p99 ≤ one period + 100 µs).
+//!
+//! `ANGUILLA_BENCH_SECONDS` (default 10) sets the length of the loop run.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::ipc::{Client, Server, StateSnapshot};
+use anguilla_daemon::rt::monotonic_ns;
+use anguilla_daemon::run;
+use anguilla_daemon::supervisor::Command;
+use anguilla_drivers::Bus;
+use anguilla_drivers::mem::MemBus;
+use anguilla_protocol::message::{self, Message, NodeId, NodeSet, Variant};
+use anguilla_sim::actuator::ActuatorParams;
+use anguilla_sim::node::{NodeConfig, VertebraNode};
+
+fn pct(sorted: &[u64], q: f64) -> u64 {
+    if sorted.is_empty() {
+        return 0;
+    }
+    sorted[((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1]
+}
+
+/// Hosts twelve simulated nodes on `port` until `stop`.
+fn node_host(mut port: anguilla_drivers::mem::MemParticipant, stop: Arc<AtomicBool>) {
+    let t0 = Instant::now();
+    let ns = move || t0.elapsed().as_nanos() as u64;
+    let mut nodes: Vec<_> = (1..=12u8)
+        .map(|i| {
+            VertebraNode::new(
+                NodeConfig {
+                    id: NodeId::new(i).unwrap(),
+                    variant: Variant::Classic,
+                    axes: [ActuatorParams::default(); 2],
+                    boot_time: 10_000_000,
+                    seed: i as u64,
+                },
+                ns(),
+            )
+        })
+        .collect();
+    let mut out = Vec::with_capacity(256);
+    while !stop.load(Ordering::Relaxed) {
+        if let Ok(Some(first)) = port.recv(Duration::from_micros(500)) {
+            let now = ns();
+            for n in nodes.iter_mut() {
+                n.receive(now, &first.frame, &mut |f| out.push(f));
+            }
+            let _ = port.drain(&mut |r| {
+                for n in nodes.iter_mut() {
+                    n.receive(now, &r.frame, &mut |f| out.push(f));
+                }
+            });
+        }
+        let now = ns();
+        for n in nodes.iter_mut() {
+            n.advance(now, &mut |f| out.push(f));
+        }
+        for f in out.drain(..) {
+            let _ = port.send(&f);
+        }
+    }
+}
+
+fn loop_and_command_bench(seconds: f64) {
+    let prefix = format!("anguilla-bench/{}", std::process::id());
+    let mut cfg = Config::default();
+    cfg.control.rate_hz = 1000.0;
+    cfg.realtime.fifo_priority = 2;
+    cfg.ipc.prefix = prefix.clone();
+    let bus = MemBus::builder("bench").capacity(1 << 14).build();
+    let stop = Arc::new(AtomicBool::new(false));
+    let host_stop = stop.clone();
+    let host_port = bus.participant();
+    let host = std::thread::spawn(move || node_host(host_port, host_stop));
+    let mut listener = bus.participant();
+    let running = run::spawn(cfg, Box::new(bus.participant()), stop.clone()).expect("daemon");
+    let mut client = Client::new(&prefix, "bench-client", 0xBE7C).expect("client");
+    let reply = |c: &mut Client, cmd| c.request(cmd, Duration::from_secs(5)).expect("reply");
+    reply(&mut client, Command::TakeControl);
+    // cyclictest at the same rate and priority, at the same time: both see
+    // the same load (the simulated nodes, this client, whatever else runs).
+    let loops = (seconds * 1000.0) as u64;
+    let cyclictest = std::process::Command::new("cyclictest")
+        .args(["-t1", "-i", "1000", "-p", "2", "-q", "-h", "5000", "-l"])
+        .arg(loops.to_string())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn();
+    // Jitter: collect each window's p99 from the state (about 1 s windows).
+    let mut window_p99 = Vec::new();
+    let mut window_p50 = Vec::new();
+    let mut max = 0u64;
+    let mut last_seq_periods = 0;
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    while Instant::now() < end {
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(50)) {
+            let l = s.loop_stats;
+            if l.periods >= last_seq_periods + 1000 {
+                last_seq_periods = l.periods;
+                window_p99.push(l.jitter_p99_ns as u64);
+                window_p50.push(l.jitter_p50_ns as u64);
+                max = max.max(l.jitter_max_ns as u64);
+            }
+        }
+        let _ = client.send(Command::KeepAlive);
+        client.replies(|_| {}).ok();
+    }
+    window_p99.sort_unstable();
+    window_p50.sort_unstable();
+    // Command latency: E-stop and reset in turn; time to the frame.
+    let mut lat = Vec::new();
+    for i in 0..200 {
+        let (cmd, wanted): (Command, fn(&Message) -> bool) = if i % 2 == 0 {
+            (Command::EStop, |m| matches!(m, Message::EStop(_)))
+        } else {
+            (Command::Reset, |m| {
+                matches!(
+                    m,
+                    Message::Command {
+                        command: message::Command::ClearFaults,
+                        ..
+                    }
+                )
+            })
+        };
+        while listener.try_recv().ok().flatten().is_some() {}
+        let t0 = monotonic_ns();
+        client.send(cmd).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < deadline {
+            if let Ok(Some(r)) = listener.recv(Duration::from_millis(5))
+                && let Ok(m) = message::decode(&r.frame, Variant::Classic, NodeSet::all())
+                && wanted(&m)
+            {
+                lat.push(monotonic_ns() - t0);
+                break;
+            }
+        }
+        client.replies(|_| {}).ok();
+        // Let the nodes settle (clear-faults takes a heartbeat to show).
+        std::thread::sleep(Duration::from_millis(if i % 2 == 0 { 5 } else { 400 }));
+    }
+    lat.sort_unstable();
+    running.request_stop();
+    let report = running.join().expect("stop");
+    stop.store(true, Ordering::SeqCst);
+    let _ = host.join();
+
+    let ct = cyclictest.and_then(|c| c.wait_with_output());
+    let (ct_p50, ct_p99, ct_max) = match ct {
+        Ok(o) if o.status.success() => {
+            let text = String::from_utf8_lossy(&o.stdout);
+            let mut samples = Vec::new();
+            for line in text.lines().filter(|l| !l.starts_with('#')) {
+                let mut it = line.split_whitespace();
+                if let (Some(us), Some(n)) = (it.next(), it.next())
+                    && let (Ok(us), Ok(n)) = (us.parse::<u64>(), n.parse::<u64>())
+                {
+                    samples.extend(std::iter::repeat_n(us * 1000, n as usize));
+                }
+            }
+            let max = text
+                .lines()
+                .find_map(|l| l.strip_prefix("# Max Latencies:"))
+                .and_then(|v| v.split_whitespace().next()?.parse::<u64>().ok())
+                .map(|us| us * 1000)
+                .unwrap_or(0);
+            (pct(&samples, 0.5), pct(&samples, 0.99), max)
+        }
+        _ => {
+            println!(
+                "{{\"bench\":\"loop_jitter\",\"note\":\"cyclictest not available (apt-get install rt-tests)\"}}"
+            );
+            (0, 0, 0)
+        }
+    };
+    let ours_p99 = pct(&window_p99, 0.5);
+    println!(
+        "{{\"bench\":\"loop_jitter\",\"rate_hz\":1000,\"seconds\":{seconds},\"policy\":\"SCHED_FIFO 2 (both)\",\
+\"ours_p50_us\":{:.1},\"ours_p99_us\":{:.1},\"ours_p99_worst_window_us\":{:.1},\"ours_max_us\":{:.1},\"overruns\":{},\
+\"cyclictest_p50_us\":{:.1},\"cyclictest_p99_us\":{:.1},\"cyclictest_max_us\":{:.1},\"p99_ratio\":{:.2},\"goal_ratio\":1.5}}",
+        pct(&window_p50, 0.5) as f64 / 1e3,
+        ours_p99 as f64 / 1e3,
+        window_p99.last().copied().unwrap_or(0) as f64 / 1e3,
+        max as f64 / 1e3,
+        report.overruns,
+        ct_p50 as f64 / 1e3,
+        ct_p99 as f64 / 1e3,
+        ct_max as f64 / 1e3,
+        if ct_p99 > 0 {
+            ours_p99 as f64 / ct_p99 as f64
+        } else {
+            f64::NAN
+        },
+    );
+    println!(
+        "{{\"bench\":\"command_latency\",\"samples\":{},\"p50_us\":{:.1},\"p99_us\":{:.1},\"max_us\":{:.1},\"period_us\":1000,\"goal_p99_us\":1100}}",
+        lat.len(),
+        pct(&lat, 0.5) as f64 / 1e3,
+        pct(&lat, 0.99) as f64 / 1e3,
+        lat.last().copied().unwrap_or(0) as f64 / 1e3,
+    );
+}
+
+mod raw {
+    use iceoryx2::prelude::ZeroCopySend;
+
+    /// A payload of exactly the snapshot's size, for raw iceoryx2.
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("anguilla::bench::Raw")]
+    pub struct Raw {
+        pub stamp: u64,
+        pub rest: [u8; core::mem::size_of::<anguilla_daemon::ipc::StateSnapshot>() - 8],
+    }
+}
+use raw::Raw;
+
+fn state_latency_bench(samples: usize) {
+    use iceoryx2::prelude::*;
+    let prefix = format!("anguilla-bench-ipc/{}", std::process::id());
+    let (tx, rx) = std::sync::mpsc::channel::<u64>();
+    let stop = Arc::new(AtomicBool::new(false));
+    // Ours: Server::publish (loan, write, send, notify) on one thread,
+    // Client::wait_state on this one.
+    let p = prefix.clone();
+    let s2 = stop.clone();
+    let publisher = std::thread::spawn(move || {
+        let server = Server::new(&p).unwrap();
+        let mut snap = StateSnapshot::default();
+        while !s2.load(Ordering::Relaxed) {
+            snap.time_ns = monotonic_ns();
+            server.publish(&snap).unwrap();
+            let _ = rx.recv_timeout(Duration::from_millis(100));
+        }
+    });
+    let client = Client::new(&prefix, "bench-sub", 1).unwrap();
+    let mut ours = Vec::with_capacity(samples);
+    std::thread::sleep(Duration::from_millis(200));
+    let _ = client.latest();
+    while ours.len() < samples {
+        let _ = tx.send(0);
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(200)) {
+            ours.push(monotonic_ns() - s.time_ns);
+        }
+    }
+    stop.store(true, Ordering::SeqCst);
+    let _ = tx.send(0);
+    let _ = publisher.join();
+
+    // Raw iceoryx2: the same pattern with a payload of the same size.
+    let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
+    let name = format!("{prefix}/raw");
+    let svc = node
+        .service_builder(&name.as_str().try_into().unwrap())
+        .publish_subscribe::<Raw>()
+        .history_size(1)
+        .subscriber_max_buffer_size(2)
+        .enable_safe_overflow(true)
+        .open_or_create()
+        .unwrap();
+    let ev = node
+        .service_builder(&format!("{name}-ev").as_str().try_into().unwrap())
+        .event()
+        .open_or_create()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<u64>();
+    let stop = Arc::new(AtomicBool::new(false));
+    let s2 = stop.clone();
+    let n2 = name.clone();
+    let publisher = std::thread::spawn(move || {
+        let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
+        let svc = node
+            .service_builder(&n2.as_str().try_into().unwrap())
+            .publish_subscribe::<Raw>()
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .enable_safe_overflow(true)
+            .open_or_create()
+            .unwrap();
+        let ev = node
+            .service_builder(&format!("{n2}-ev").as_str().try_into().unwrap())
+            .event()
+            .open_or_create()
+            .unwrap();
+        let publ = svc.publisher_builder().create().unwrap();
+        let notifier = ev.notifier_builder().create().unwrap();
+        while !s2.load(Ordering::Relaxed) {
+            let sample = publ.loan_uninit().unwrap();
+            let sample = sample.write_payload(Raw {
+                stamp: monotonic_ns(),
+                rest: [0; core::mem::size_of::<StateSnapshot>() - 8],
+            });
+            sample.send().unwrap();
+            notifier.notify().unwrap();
+            let _ = rx.recv_timeout(Duration::from_millis(100));
+        }
+    });
+    let sub = svc.subscriber_builder().create().unwrap();
+    let listener = ev.listener_builder().create().unwrap();
+    let mut raw = Vec::with_capacity(samples);
+    std::thread::sleep(Duration::from_millis(200));
+    while sub.receive().ok().flatten().is_some() {}
+    while raw.len() < samples {
+        let _ = tx.send(0);
+        let _ = listener.timed_wait(|_| {}, Duration::from_millis(200));
+        let mut last = None;
+        while let Ok(Some(s)) = sub.receive() {
+            last = Some(s.payload().stamp);
+        }
+        if let Some(stamp) = last {
+            raw.push(monotonic_ns() - stamp);
+        }
+    }
+    stop.store(true, Ordering::SeqCst);
+    let _ = tx.send(0);
+    let _ = publisher.join();
+    ours.sort_unstable();
+    raw.sort_unstable();
+    println!(
+        "{{\"bench\":\"state_latency\",\"payload_bytes\":{},\"samples\":{samples},\"ours_p50_us\":{:.2},\"ours_p99_us\":{:.2},\
+\"iceoryx2_p50_us\":{:.2},\"iceoryx2_p99_us\":{:.2},\"p50_ratio\":{:.2},\"p99_ratio\":{:.2},\"goal_ratio\":1.2}}",
+        core::mem::size_of::<StateSnapshot>(),
+        pct(&ours, 0.5) as f64 / 1e3,
+        pct(&ours, 0.99) as f64 / 1e3,
+        pct(&raw, 0.5) as f64 / 1e3,
+        pct(&raw, 0.99) as f64 / 1e3,
+        pct(&ours, 0.5) as f64 / pct(&raw, 0.5).max(1) as f64,
+        pct(&ours, 0.99) as f64 / pct(&raw, 0.99).max(1) as f64,
+    );
+}
+
+fn main() {
+    // `cargo bench` passes --bench; `cargo test --benches` passes nothing
+    // special: run a short version then.
+    let bench = std::env::args().any(|a| a == "--bench");
+    let seconds: f64 = std::env::var("ANGUILLA_BENCH_SECONDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(if bench { 10.0 } else { 1.0 });
+    state_latency_bench(if bench { 5000 } else { 200 });
+    loop_and_command_bench(seconds);
+}
