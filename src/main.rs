@@ -6,6 +6,8 @@ mod protocol_cmd;
 
 use clap::{Parser, Subcommand};
 
+mod swim;
+
 /// Software for eel-like swimming robots.
 #[derive(Parser, Debug)]
 #[command(name = "anguilla", version, about, long_about = None)]
@@ -16,6 +18,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Run the swimming model on a gait of the paper (CSV, SVG plot, JSON, paper table).
+    Swim(swim::SwimArgs),
     /// The vertebra CAN protocol: bus budget, DBC file.
     Protocol {
         #[command(subcommand)]
@@ -31,6 +35,7 @@ fn main() -> anyhow::Result<()> {
             Cli::command().print_help()?;
             Ok(())
         }
+        Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
     }
 }

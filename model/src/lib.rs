@@ -1,7 +1,47 @@
 //! Fast dynamics of an eel-like swimming robot.
 //!
-//! This crate will implement the model of Boyer, Porez, Leroyer and
-//! Visonneau, *Fast dynamics of an eel-like robot* (IEEE T-RO 2008): body
-//! geometry and inertia, hydrodynamic coefficients, gaits, forward and inverse
-//! dynamics, and the mapping onto a discrete chain of actuated joints.
+//! This crate implements the model of Boyer, Porez, Leroyer and Visonneau,
+//! *Fast dynamics of an eel-like robot* (IEEE T-RO 2008), sections 2–7: it
+//! owns the body geometry and inertia ([`Body`]), the reactive (Lighthill)
+//! and resistive hydrodynamic terms, the gaits ([`gait`]), the forward
+//! dynamics `G_ext` (29)–(31) that give the head acceleration, the inverse
+//! dynamics `G_int` (17)–(20) that give the internal torques, the time
+//! integration of the head, and the mapping onto the discrete robot (pitch
+//! and yaw of each universal joint and its feedforward torques). It does no
+//! I/O and a [`step`] allocates nothing: the [`Model`] is immutable and
+//! validated, the [`Workspace`] is preallocated.
+//!
+//! ```
+//! use anguilla_model::{HeadState, Model, ModelConfig, Workspace, gait, step};
+//!
+//! let model = Model::new(ModelConfig { dt: 0.01, ..ModelConfig::default() })?;
+//! let mut ws = Workspace::new(&model);
+//! let f1 = gait::named_gait("F1").unwrap();
+//! let mut src = gait::LawSource::new(f1.law);
+//! let mut head = HeadState::launch(f1.v_init);
+//! for _ in 0..100 {
+//!     step(&model, &mut ws, &mut src, &mut head)?;
+//! }
+//! // after one second F1 has started to swim head first (towards -e1)
+//! assert!(head.position.x < 0.0);
+//! let joint = ws.joints()[5];
+//! assert!(joint.yaw.is_finite() && joint.c3.is_finite());
+//! # Ok::<(), anguilla_model::ModelError>(())
+//! ```
 #![warn(missing_docs)]
+
+pub mod body;
+pub mod dynamics;
+pub mod error;
+pub mod gait;
+pub mod run;
+
+pub use body::{Body, Profile};
+pub use dynamics::{
+    DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,
+    ModelConfig, StepReport, Workspace, evaluate, inverse_with, posture, step,
+};
+pub use error::{ModelError, Result};
+pub use gait::{
+    Curvature, CurvatureSource, GaitParams, JointCurvature, JointMotion, LawSource, ParametricGait,
+};

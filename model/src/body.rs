@@ -1,0 +1,380 @@
+//! Body geometry, inertia densities and hydrodynamic coefficients
+//! (sections 2, 3.1, 4 and 7.2 of the paper).
+
+use crate::error::{ModelError, Result};
+use core::f64::consts::PI;
+
+/// Cross-section semi-axes along the body.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Profile {
+    /// The paper's body of section 7.2 (half-ellipsoid nose over
+    /// `X1 < 0.05`, `a = 0.05 A(X1)`, `b = 0.05 B(X1)`).
+    Paper,
+    /// Semi-axes sampled at increasing normalized abscissae `x` in `[0, 1]`
+    /// (first 0, last 1), linearly interpolated: `a` along `t3` (height),
+    /// `b` along `t2` (lateral thickness), both in metres.
+    Sampled {
+        /// Normalized abscissae, strictly increasing from 0 to 1.
+        x: Vec<f64>,
+        /// Semi-axis along `t3` (m), non-negative.
+        a: Vec<f64>,
+        /// Semi-axis along `t2` (m), non-negative.
+        b: Vec<f64>,
+    },
+}
+
+/// The section-7.2 functions `A(X1)` (height factor) and `B(X1)` (width
+/// factor), with the reading `X~1 = (20 X1 - 4)/11` of MODEL-NOTES.md.
+pub fn paper_a_b(x: f64) -> (f64, f64) {
+    let big_a = if x < 0.2 {
+        1.0
+    } else if x < 0.75 {
+        let xt = (20.0 * x - 4.0) / 11.0;
+        1.0 - ((PI * xt - PI / 2.0).sin() + 1.0) / 5.0
+    } else {
+        0.6
+    };
+    let big_b = -((PI * x - PI / 2.0).sin() + 1.0) / 6.0 - x * x / 8.0 + 0.5;
+    let nose = if x < 0.05 {
+        let u = (0.05 - x) / 0.05;
+        (1.0 - u * u).max(0.0).sqrt()
+    } else {
+        1.0
+    };
+    (0.05 * big_a * nose, 0.05 * big_b * nose)
+}
+
+/// A swimming body: geometry, densities and the hydrodynamic coefficients of
+/// sections 4 and 7.3.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Body {
+    /// Body length (m), `> 0`.
+    pub length: f64,
+    /// Semi-axis profile.
+    pub profile: Profile,
+    /// Length `c_o` of the rounded nose (m), `> 0`; the nose semi-axes
+    /// `a_o`, `b_o` are the profile's at that abscissa.
+    pub nose_length: f64,
+    /// Body volume mass `rho_b` (kg/m³), `> 0`.
+    pub rho_body: f64,
+    /// Fluid volume mass `rho_f` (kg/m³), `>= 0` (0 is vacuum).
+    pub rho_fluid: f64,
+    /// Fluid kinematic viscosity `nu` (m²/s), `> 0`.
+    pub nu: f64,
+    /// Nose axial pressure drag coefficient `c_p` of (22).
+    pub c_p: f64,
+    /// Nose axial added-mass coefficient `k` of (23).
+    pub k_nose: f64,
+    /// Angular drag coefficient `c_1` of (24).
+    pub c1: f64,
+    /// Linear drag coefficient `c_2` along `t2` of (24).
+    pub c2: f64,
+    /// Linear drag coefficient `c_3` along `t3` of (24).
+    pub c3: f64,
+    /// Gravity acceleration in the earth frame (m/s²).
+    pub gravity: [f64; 3],
+    /// Include the resistive wrench (24) and the nose terms (22)–(23).
+    /// `false` leaves the purely reactive (Lighthill) model.
+    pub resistive: bool,
+}
+
+impl Default for Body {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+impl Body {
+    /// The paper's body and coefficients (sections 7.2–7.3), neutrally
+    /// buoyant in water.
+    pub fn paper() -> Self {
+        Self {
+            length: 1.0,
+            profile: Profile::Paper,
+            nose_length: 0.05,
+            rho_body: 1000.0,
+            rho_fluid: 1000.0,
+            nu: 1e-6,
+            c_p: 0.036,
+            k_nose: 0.32,
+            c1: 0.0,
+            c2: 1.98,
+            c3: 0.5,
+            gravity: [0.0, 0.0, -9.81],
+            resistive: true,
+        }
+    }
+
+    /// The same body in vacuum without gravity (for conservation checks).
+    pub fn vacuum(mut self) -> Self {
+        self.rho_fluid = 0.0;
+        self.gravity = [0.0; 3];
+        self
+    }
+
+    /// Semi-axes `(a, b)` (m) at normalized abscissa `x` in `[0, 1]`.
+    pub fn semi_axes(&self, x: f64) -> (f64, f64) {
+        match &self.profile {
+            Profile::Paper => paper_a_b(x),
+            Profile::Sampled { x: xs, a, b } => {
+                let x = x.clamp(0.0, 1.0);
+                let i = xs.partition_point(|&v| v <= x).clamp(1, xs.len() - 1);
+                let (x0, x1) = (xs[i - 1], xs[i]);
+                let u = ((x - x0) / (x1 - x0)).clamp(0.0, 1.0);
+                (
+                    a[i - 1] + u * (a[i] - a[i - 1]),
+                    b[i - 1] + u * (b[i] - b[i - 1]),
+                )
+            }
+        }
+    }
+
+    /// Checks every field; the error names the field and the accepted range.
+    pub fn validate(&self) -> Result<()> {
+        fn pos(field: &'static str, v: f64) -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ModelError::InvalidBody {
+                    field,
+                    reason: "must be finite and > 0",
+                })
+            }
+        }
+        fn nonneg(field: &'static str, v: f64) -> Result<()> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(ModelError::InvalidBody {
+                    field,
+                    reason: "must be finite and >= 0",
+                })
+            }
+        }
+        pos("length", self.length)?;
+        pos("nose_length", self.nose_length)?;
+        if self.nose_length >= self.length {
+            return Err(ModelError::InvalidBody {
+                field: "nose_length",
+                reason: "must be shorter than the body length",
+            });
+        }
+        pos("rho_body", self.rho_body)?;
+        nonneg("rho_fluid", self.rho_fluid)?;
+        pos("nu", self.nu)?;
+        nonneg("c_p", self.c_p)?;
+        nonneg("k_nose", self.k_nose)?;
+        nonneg("c1", self.c1)?;
+        nonneg("c2", self.c2)?;
+        nonneg("c3", self.c3)?;
+        if self.gravity.iter().any(|g| !g.is_finite()) {
+            return Err(ModelError::InvalidBody {
+                field: "gravity",
+                reason: "must be finite",
+            });
+        }
+        if let Profile::Sampled { x, a, b } = &self.profile {
+            if x.len() < 2 {
+                return Err(ModelError::InvalidBody {
+                    field: "profile.x",
+                    reason: "needs at least 2 samples",
+                });
+            }
+            if a.len() != x.len() || b.len() != x.len() {
+                return Err(ModelError::InvalidBody {
+                    field: "profile.a/profile.b",
+                    reason: "must have as many samples as profile.x",
+                });
+            }
+            if x.iter().any(|v| !v.is_finite())
+                || x[0] != 0.0
+                || x[x.len() - 1] != 1.0
+                || x.windows(2).any(|w| w[1] <= w[0])
+            {
+                return Err(ModelError::InvalidBody {
+                    field: "profile.x",
+                    reason: "must be finite, strictly increasing, from 0 to 1",
+                });
+            }
+            for (field, v) in [("profile.a", a), ("profile.b", b)] {
+                if v.iter().any(|s| !s.is_finite() || *s < 0.0) {
+                    return Err(ModelError::InvalidBody {
+                        field,
+                        reason: "semi-axes must be finite and >= 0",
+                    });
+                }
+                if v.iter().all(|s| *s == 0.0) {
+                    return Err(ModelError::InvalidBody {
+                        field,
+                        reason: "semi-axes must not all be 0",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Nose semi-axes `(a_o, b_o)`: the profile's at the end of the nose.
+    pub fn nose_axes(&self) -> (f64, f64) {
+        self.semi_axes(self.nose_length / self.length)
+    }
+
+    /// Nose pressure-drag coefficient `k_o = pi c_p a_o b_o` of (22) (m²).
+    pub fn k_o(&self) -> f64 {
+        let (a0, b0) = self.nose_axes();
+        PI * self.c_p * a0 * b0
+    }
+
+    /// Nose axial added mass `m_o = rho_f pi k a_o b_o c_o` of (23) (kg).
+    pub fn m_o(&self) -> f64 {
+        if !self.resistive {
+            return 0.0;
+        }
+        let (a0, b0) = self.nose_axes();
+        self.rho_fluid * PI * self.k_nose * a0 * b0 * self.nose_length
+    }
+
+    /// Section constants at normalized abscissa `x`.
+    pub(crate) fn section(&self, x: f64) -> Section {
+        let (a, b) = self.semi_axes(x);
+        let rb = self.rho_body;
+        let rf = self.rho_fluid;
+        let area = PI * a * b;
+        let j1 = PI * a * b * (a * a + b * b) / 4.0;
+        let j2 = PI * b * a * a * a / 4.0;
+        let j3 = PI * a * b * b * b / 4.0;
+        let mf2 = rf * PI * a * a;
+        let mf3 = rf * PI * b * b;
+        let d = a * a - b * b;
+        let if1 = rf * PI / 8.0 * d * d;
+        let perimeter = PI * (1.5 * (a + b) - (a * b).sqrt());
+        let res = if self.resistive { 1.0 } else { 0.0 };
+        Section {
+            mass: rb * area,
+            mm: [rb * area, rb * area + mf2, rb * area + mf3],
+            mi: [rb * j1 + if1, rb * j2, rb * j3],
+            mf: [0.0, mf2, mf3],
+            if1,
+            perimeter: res * perimeter,
+            k2: res * self.c2 * 2.0 * a,
+            k3: res * self.c3 * 2.0 * b,
+            k4: res * self.c1 * PI * d * d,
+            buoyancy: (rb - rf) * area,
+        }
+    }
+
+    /// Total body mass (kg), by composite Simpson on 2000 intervals.
+    pub fn mass(&self) -> f64 {
+        let n = 2000;
+        let h = 1.0 / n as f64;
+        let mut s = 0.0;
+        for i in 0..=n {
+            let w = if i == 0 || i == n {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            s += w * self.section(i as f64 * h).mass;
+        }
+        s * h / 3.0 * self.length
+    }
+}
+
+/// Per-section constants (densities per unit length, local frame).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Section {
+    pub mass: f64,
+    /// Body + fluid linear inertia along t1, t2, t3 (kg/m).
+    pub mm: [f64; 3],
+    /// Body + fluid angular inertia about t1, t2, t3 (kg m).
+    pub mi: [f64; 3],
+    /// Fluid added mass along t1, t2, t3 (kg/m).
+    pub mf: [f64; 3],
+    /// Fluid added angular inertia about t1.
+    pub if1: f64,
+    /// Perimeter P (m), 0 when the resistive model is off.
+    pub perimeter: f64,
+    pub k2: f64,
+    pub k3: f64,
+    pub k4: f64,
+    /// (rho_b - rho_f) A (kg/m).
+    pub buoyancy: f64,
+}
+
+/// Friction coefficient `c_f` of (41) for the local Reynolds number `re`.
+pub fn friction_coefficient(re: f64) -> f64 {
+    if re <= 8e4 {
+        0.664 / re.sqrt()
+    } else {
+        0.059 / re.powf(0.2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_body_weighs_1_94_kg() {
+        // MODEL-NOTES: about 1.944 kg with the reading used; paper 1.94 kg.
+        let m = Body::paper().mass();
+        assert!((m - 1.944).abs() < 0.005, "mass {m}");
+    }
+
+    #[test]
+    fn head_semi_axes_match_the_paper() {
+        let (a0, b0) = Body::paper().nose_axes();
+        // sampled at the end of the nose X1 = 0.05, where B = 0.4976
+        assert!(
+            (a0 - 0.05).abs() < 1e-12 && (b0 - 0.025).abs() < 2e-4,
+            "{a0} {b0}"
+        );
+        assert_eq!(paper_a_b(0.0), (0.0, 0.0));
+    }
+
+    #[test]
+    fn bad_bodies_name_the_field() {
+        let mut b = Body::paper();
+        b.length = -1.0;
+        let e = b.validate().unwrap_err();
+        assert!(e.to_string().contains("length"), "{e}");
+        let mut b = Body::paper();
+        b.rho_body = f64::NAN;
+        assert!(b.validate().unwrap_err().to_string().contains("rho_body"));
+        let mut b = Body::paper();
+        b.profile = Profile::Sampled {
+            x: vec![0.0],
+            a: vec![0.1],
+            b: vec![0.1],
+        };
+        assert!(b.validate().unwrap_err().to_string().contains("profile.x"));
+        let mut b = Body::paper();
+        b.profile = Profile::Sampled {
+            x: vec![0.0, 1.0],
+            a: vec![0.1, f64::INFINITY],
+            b: vec![0.1, 0.1],
+        };
+        assert!(b.validate().unwrap_err().to_string().contains("profile.a"));
+    }
+
+    #[test]
+    fn sampled_profile_interpolates() {
+        let mut b = Body::paper();
+        b.profile = Profile::Sampled {
+            x: vec![0.0, 0.5, 1.0],
+            a: vec![0.0, 0.1, 0.0],
+            b: vec![0.0, 0.2, 0.0],
+        };
+        b.validate().unwrap();
+        let (a, bb) = b.semi_axes(0.25);
+        assert!((a - 0.05).abs() < 1e-12 && (bb - 0.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn friction_law_switches_at_8e4() {
+        assert!((friction_coefficient(1e4) - 0.664e-2).abs() < 1e-12);
+        assert!((friction_coefficient(1e5) - 0.059 / 10.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,298 @@
+//! Physics checks of issue 2 that need no reference data, plus the
+//! comparison with the paper's simplified-model column.
+
+use anguilla_model::gait::{self, LawSource};
+use anguilla_model::run::{self, PAPER_ROWS};
+use anguilla_model::*;
+use nalgebra::Vector3;
+
+fn model(body: Body, nodes: usize, dt: f64, joints: usize) -> Model {
+    Model::new(ModelConfig {
+        body,
+        nodes,
+        dt,
+        joints,
+        integrator: Integrator::Rk4,
+    })
+    .unwrap()
+}
+
+/// Runs `src` from `head` to time `t_end`.
+fn advance_to(
+    m: &Model,
+    ws: &mut Workspace,
+    src: &mut LawSource,
+    head: &mut HeadState,
+    t_end: f64,
+) {
+    while head.t < t_end - 1e-9 {
+        step(m, ws, src, head).unwrap();
+    }
+}
+
+#[test]
+fn vacuum_conserves_momentum_and_centre_of_mass_in_3d() {
+    // SPIRAL bends in pitch and yaw: a 3-D shape change from rest in vacuum.
+    let m = model(Body::paper().vacuum(), 24, 0.01, 0);
+    let mut ws = Workspace::new(&m);
+    let g = gait::named_gait("SPIRAL").unwrap();
+    let mut src = LawSource::new(g.law);
+    let mut head = HeadState::launch(0.0);
+    evaluate(&m, &mut ws, &src, &head).unwrap();
+    let com0 = ws.diagnostics(&m, &head).centre_of_mass;
+    let (mut pmax, mut lmax, mut cmax, mut moved) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for _ in 0..300 {
+        evaluate(&m, &mut ws, &src, &head).unwrap();
+        let d = ws.diagnostics(&m, &head);
+        pmax = pmax.max(d.momentum.norm());
+        lmax = lmax.max(d.angular_momentum.norm());
+        cmax = cmax.max((d.centre_of_mass - com0).norm());
+        moved = moved.max(head.position.norm());
+        step(&m, &mut ws, &mut src, &mut head).unwrap();
+    }
+    // The head moves by centimetres while the momenta stay at the level of
+    // the RK4 time and space truncation (body momentum scale ~ 2 kg x 0.3 m/s).
+    assert!(moved > 0.02, "head should move, moved {moved}");
+    assert!(pmax < 1e-4, "linear momentum {pmax}");
+    assert!(lmax < 1e-4, "angular momentum {lmax}");
+    assert!(cmax < 1e-5, "centre of mass drift {cmax}");
+}
+
+#[test]
+fn tail_closure_of_figure_20_converges() {
+    // The head acceleration closes the global balance (27) exactly on the
+    // grid; the internal wrench of (17), (19), integrated from the nose, must
+    // then meet the tail conditions (18), (20) up to a residual that shrinks
+    // at the order of the space integration (the paper's figure 20).
+    let g = gait::named_gait("SPIRAL").unwrap();
+    let m0 = model(Body::paper(), 48, 0.01, 0);
+    let mut ws = Workspace::new(&m0);
+    let mut src = LawSource::new(g.law);
+    let mut head = HeadState::launch(g.v_init);
+    advance_to(&m0, &mut ws, &mut src, &mut head, 2.3);
+    let mut res = Vec::new();
+    let mut scale = 0.0;
+    for n in [12, 24, 48, 96] {
+        let m = model(Body::paper(), n, 0.01, 0);
+        let mut w = Workspace::new(&m);
+        evaluate(&m, &mut w, &src, &head).unwrap();
+        res.push(w.tail_residual().norm());
+        scale = w.c_star().iter().map(|c| c.norm()).fold(0.0, f64::max);
+    }
+    let order = (res[2] / res[3]).log2();
+    eprintln!("tail residuals {res:?} (|c*| max {scale}), observed order {order:.2}");
+    assert!(res.windows(2).all(|w| w[1] < w[0]), "{res:?}");
+    // Simpson is 4th order, the nose profile ~ sqrt(X1) lowers it; at least 1.5
+    assert!(order > 1.5, "order {order}, residuals {res:?}");
+    assert!(res[3] < 1e-3 * scale.max(1e-3), "{res:?}");
+}
+
+#[test]
+fn reactive_energy_balance() {
+    // Purely reactive model: d(T_b + T_f)/dt = actuator power + tail flux.
+    let mut body = Body::paper();
+    body.resistive = false;
+    let dt = 0.002;
+    let m = model(body, 48, dt, 0);
+    let mut ws = Workspace::new(&m);
+    let g = gait::named_gait("T4").unwrap();
+    let mut src = LawSource::new(g.law);
+    let mut head = HeadState::launch(-0.3);
+    advance_to(&m, &mut ws, &mut src, &mut head, 1.3);
+    let mut rec = Vec::new();
+    for _ in 0..200 {
+        evaluate(&m, &mut ws, &src, &head).unwrap();
+        let d = ws.diagnostics(&m, &head);
+        rec.push((d.energy, d.actuator_power + d.tail_flux));
+        step(&m, &mut ws, &mut src, &mut head).unwrap();
+    }
+    let scale = rec.iter().map(|r| r.1.abs()).fold(0.0, f64::max);
+    let mut worst = 0.0f64;
+    for k in 1..rec.len() - 1 {
+        let de = (rec[k + 1].0 - rec[k - 1].0) / (2.0 * dt);
+        worst = worst.max((de - rec[k].1).abs());
+    }
+    // central difference O(dt²) and RK4 errors: well under 1 % of the power
+    assert!(scale > 0.01, "power scale {scale}");
+    assert!(
+        worst < 1e-2 * scale,
+        "energy balance error {worst} vs power {scale}"
+    );
+}
+
+fn f1_speed(nodes: usize, dt: f64) -> f64 {
+    let m = model(Body::paper(), nodes, dt, 0);
+    let g = gait::named_gait("F1").unwrap();
+    run::run_gait(&m, &g, 8.0, |_, _, _, _, _| {})
+        .unwrap()
+        .last_period_forward_speed
+}
+
+#[test]
+fn f1_speed_converges_in_nodes_and_dt() {
+    let v: Vec<f64> = [12, 24, 48, 96]
+        .iter()
+        .map(|&n| f1_speed(n, 0.02))
+        .collect();
+    let d: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    eprintln!("F1 speed vs nodes 12/24/48/96: {v:?}");
+    assert!(d[1] < d[0] && d[2] < d[1], "{v:?}");
+    assert!(d[2] / v[3] < 1e-3, "48 -> 96 changes by {}", d[2] / v[3]);
+    let w: Vec<f64> = [0.04, 0.02, 0.01]
+        .iter()
+        .map(|&dt| f1_speed(24, dt))
+        .collect();
+    eprintln!("F1 speed vs dt 0.04/0.02/0.01: {w:?}");
+    // RK4 in time is converged already at dt = 0.04 s: the remaining
+    // differences (~1e-4 relative) come from sampling the average at the steps
+    assert!((w[1] - w[0]).abs() / w[2] < 3e-4, "{w:?}");
+    assert!((w[2] - w[1]).abs() / w[2] < 3e-4, "{w:?}");
+}
+
+#[test]
+fn discrete_chain_converges_to_the_beam() {
+    // Drive the body by n joints carrying the continuous gait's joint angles
+    // (curvature lumped over each joint's span) and compare the head
+    // acceleration with the continuous beam's, at the same state.
+    let g = gait::named_gait("F1").unwrap();
+    let beam = model(Body::paper(), 96, 0.01, 0);
+    let mut ws = Workspace::new(&beam);
+    let mut src = LawSource::new(g.law);
+    let mut head = HeadState::launch(0.0);
+    advance_to(&beam, &mut ws, &mut src, &mut head, 2.4);
+    let r = evaluate(&beam, &mut ws, &src, &head).unwrap();
+    let reference = Vector3::new(r.v_dot.x, r.v_dot.y, r.omega_dot.z);
+    let mut errs = Vec::new();
+    for n in [6, 12, 24] {
+        let m = model(Body::paper(), 8 * (n + 1), 0.01, n);
+        let mut w = Workspace::new(&m);
+        let h = 1e-4;
+        let mut at = |dt: f64| {
+            let mut s = src;
+            s.t += dt;
+            posture(&m, &mut w, &s).to_vec()
+        };
+        let (jm, j0, jp) = (at(-h), at(0.0), at(h));
+        let mut jc = JointCurvature::new(n, 1.0);
+        for (k, jmut) in jc.joints_mut().iter_mut().enumerate() {
+            jmut.pitch = [
+                j0[k].pitch,
+                j0[k].pitch_rate,
+                (jp[k].pitch_rate - jm[k].pitch_rate) / (2.0 * h),
+            ];
+            jmut.yaw = [
+                j0[k].yaw,
+                j0[k].yaw_rate,
+                (jp[k].yaw_rate - jm[k].yaw_rate) / (2.0 * h),
+            ];
+        }
+        let rc = evaluate(&m, &mut w, &jc, &head).unwrap();
+        let e = (Vector3::new(rc.v_dot.x, rc.v_dot.y, rc.omega_dot.z) - reference).norm();
+        errs.push(e / reference.norm());
+    }
+    eprintln!("chain vs beam head acceleration relative errors (n = 6, 12, 24): {errs:?}");
+    // first order in the joint spacing: the error halves when n+1 doubles
+    assert!(
+        errs[0] > 1.6 * errs[1] && errs[1] > 1.6 * errs[2],
+        "{errs:?}"
+    );
+    assert!(errs[2] < 0.3, "{errs:?}");
+}
+
+#[test]
+fn forward_and_turning_gaits_within_12_percent_of_the_paper() {
+    // Converged discretization (52 intervals, dt = 0.02 s), the run lengths
+    // and averaging windows of `anguilla swim --paper`.
+    let m = model(Body::paper(), 52, 0.02, 0);
+    for row in PAPER_ROWS
+        .iter()
+        .filter(|r| r.gait.starts_with('F') || r.gait.starts_with('T'))
+    {
+        if row.gait == "F7" {
+            continue; // reported, not checked: see model/README.md
+        }
+        let g = gait::named_gait(row.gait).unwrap();
+        let s = run::run_gait(&m, &g, row.duration, |_, _, _, _, _| {}).unwrap();
+        let ours = run::metric_value(row.metric, &s);
+        let e = (ours - row.sm).abs() / row.sm.abs();
+        assert!(
+            e < 0.12,
+            "{}: ours {ours}, paper S-M {}, {:.1} %",
+            row.gait,
+            row.sm,
+            100.0 * e
+        );
+    }
+}
+
+#[test]
+fn bad_parameters_are_errors_naming_them() {
+    for (nodes, dt, name) in [
+        (0, 0.01, "nodes"),
+        (10, 0.0, "dt"),
+        (10, f64::NAN, "dt"),
+        (10, 0.5, "dt"),
+    ] {
+        let e = Model::new(ModelConfig {
+            nodes,
+            dt,
+            ..ModelConfig::default()
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains(name), "{e}");
+    }
+}
+
+struct Nan;
+impl CurvatureSource for Nan {
+    fn curvature(&self, _tau: f64, _x: &[f64], out: &mut [Curvature]) {
+        for o in out {
+            o.k_ddot.z = f64::NAN;
+        }
+    }
+    fn advance(&mut self, _dt: f64) {}
+    fn time(&self) -> f64 {
+        0.0
+    }
+}
+
+struct Wild(f64);
+impl CurvatureSource for Wild {
+    fn curvature(&self, tau: f64, x: &[f64], out: &mut [Curvature]) {
+        let w = 2000.0;
+        for (o, &xx) in out.iter_mut().zip(x) {
+            let a = w * (self.0 + tau) + 10.0 * xx;
+            o.k.z = 5.0 * a.sin();
+            o.k_dot.z = 5.0 * w * a.cos();
+            o.k_ddot.z = -5.0 * w * w * a.sin();
+        }
+    }
+    fn advance(&mut self, dt: f64) {
+        self.0 += dt;
+    }
+    fn time(&self) -> f64 {
+        self.0
+    }
+}
+
+#[test]
+fn non_finite_or_diverging_states_are_errors_not_panics() {
+    let m = model(Body::paper(), 12, 0.05, 0);
+    let mut ws = Workspace::new(&m);
+    let mut head = HeadState::launch(0.0);
+    let e = step(&m, &mut ws, &mut Nan, &mut head).unwrap_err();
+    assert!(matches!(e, ModelError::NonFinite { .. }), "{e}");
+    assert_eq!(head, HeadState::launch(0.0), "state unchanged on error");
+    // a gait far too fast for dt = 0.05 s either diverges or stays finite;
+    // it never panics and never returns NaN
+    let mut src = Wild(0.0);
+    for _ in 0..2000 {
+        match step(&m, &mut ws, &mut src, &mut head) {
+            Ok(r) => assert!(r.v_dot.iter().all(|v| v.is_finite())),
+            Err(e) => {
+                assert!(e.to_string().contains("t = "), "{e}");
+                break;
+            }
+        }
+    }
+}
