@@ -5,9 +5,12 @@
 //!
 //! - [`node`]: vertebra actuator nodes implementing the firmware contract of
 //!   `protocol/README.md`, each driving two [`actuator`]s (pitch and yaw);
+//! - [`plant`]: the swimming body (the Boyer et al. model driven by the
+//!   joints' achieved motion), which gives each actuator its load;
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 #![warn(missing_docs)]
 
 pub mod actuator;
 pub mod node;
+pub mod plant;
 pub mod rng;
