@@ -114,11 +114,9 @@ impl Plant {
     }
 
     /// Puts the head back at the origin with the given state (a test's
-    /// initial condition); the joint acceleration estimate restarts from the
-    /// next step.
+    /// initial condition); the joints keep their motion.
     pub fn reset_head(&mut self, head: HeadState) {
         self.head = head;
-        self.primed = false;
     }
 
     /// The loads `[pitch, yaw]` (N·m) each joint's actuators see: `−C`.
