@@ -19,7 +19,8 @@
 //! API are reconciled in one place.
 
 use anguilla_model::{
-    HeadState, Integrator, JointCurvature, Model, ModelConfig, ModelError, Workspace, step,
+    HeadState, Integrator, JointCurvature, Model, ModelConfig, ModelError, Workspace, evaluate,
+    step,
 };
 
 /// Configuration of the body plant.
@@ -35,6 +36,10 @@ pub struct PlantConfig {
     pub nodes: usize,
     /// Head speed along `t1` at the start (m/s, negative is head first).
     pub v_init: f64,
+    /// Also compute the loads without the joints' own accelerations
+    /// ([`Plant::rate_loads`]), for actuators with dynamics (one more model
+    /// evaluation per step).
+    pub rate_loads: bool,
 }
 
 impl Default for PlantConfig {
@@ -47,6 +52,7 @@ impl Default for PlantConfig {
             dt: 0.002,
             nodes: 52,
             v_init: 0.0,
+            rate_loads: false,
         }
     }
 }
@@ -62,8 +68,12 @@ pub struct Plant {
     prev_rates: Vec<[f64; 2]>,
     /// Whether `prev_rates` holds a previous step.
     primed: bool,
+    /// Joint accelerations of the current step.
+    acc: Vec<[f64; 2]>,
     /// Loads `[pitch, yaw]` (N·m) per joint from the last step.
     loads: Vec<[f64; 2]>,
+    /// The same without the joints' own accelerations.
+    rate_loads: Option<Vec<[f64; 2]>>,
 }
 
 /// One joint's measured motion, as the actuators achieve it.
@@ -94,7 +104,9 @@ impl Plant {
             head: HeadState::launch(cfg.v_init),
             prev_rates: vec![[0.0; 2]; cfg.joints],
             primed: false,
+            acc: vec![[0.0; 2]; cfg.joints],
             loads: vec![[0.0; 2]; cfg.joints],
+            rate_loads: cfg.rate_loads.then(|| vec![[0.0; 2]; cfg.joints]),
         })
     }
 
@@ -124,6 +136,18 @@ impl Plant {
         &self.loads
     }
 
+    /// The loads of the last step with the joints' accelerations taken as
+    /// zero (if [`PlantConfig::rate_loads`]): what actuators with their own
+    /// dynamics are given. The body's inertial reaction to the joints'
+    /// accelerations (body and added mass, ~0.5 kg·m² at the front joints,
+    /// 25 times a servo's reflected inertia) cannot be fed back explicitly
+    /// one step late — that loop is unstable — so such actuators are modelled
+    /// as dominated by their reflected inertia (a stiff geared servo), and
+    /// see the velocity- and pose-dependent part of the load.
+    pub fn rate_loads(&self) -> Option<&[[f64; 2]]> {
+        self.rate_loads.as_deref()
+    }
+
     /// One physics step with the joints at `input` (angles and rates now;
     /// accelerations are the rates' backward difference over the step).
     /// Returns the loads for the next step. On a model error the head state
@@ -132,7 +156,7 @@ impl Plant {
         let dt = self.model.dt();
         for (j, m) in self.src.joints_mut().iter_mut().enumerate() {
             let inp = input.get(j).copied().unwrap_or_default();
-            let acc = if self.primed {
+            self.acc[j] = if self.primed {
                 [
                     (inp.rate[0] - self.prev_rates[j][0]) / dt,
                     (inp.rate[1] - self.prev_rates[j][1]) / dt,
@@ -140,11 +164,25 @@ impl Plant {
             } else {
                 [0.0; 2]
             };
-            m.pitch = [inp.angle[0], inp.rate[0], acc[0]];
-            m.yaw = [inp.angle[1], inp.rate[1], acc[1]];
+            m.pitch = [inp.angle[0], inp.rate[0], 0.0];
+            m.yaw = [inp.angle[1], inp.rate[1], 0.0];
             self.prev_rates[j] = inp.rate;
         }
         self.primed = true;
+        if let Some(rl) = &mut self.rate_loads {
+            match evaluate(&self.model, &mut self.ws, &self.src, &self.head) {
+                Ok(_) => {
+                    for (l, js) in rl.iter_mut().zip(self.ws.joints()) {
+                        *l = [-js.c2, -js.c3];
+                    }
+                }
+                Err(_) => rl.iter_mut().for_each(|l| *l = [0.0; 2]),
+            }
+        }
+        for (m, a) in self.src.joints_mut().iter_mut().zip(&self.acc) {
+            m.pitch[2] = a[0];
+            m.yaw[2] = a[1];
+        }
         match step(&self.model, &mut self.ws, &mut self.src, &mut self.head) {
             Ok(_) => {
                 for (l, js) in self.loads.iter_mut().zip(self.ws.joints()) {

@@ -260,6 +260,7 @@ impl SimRobot {
             dt: cfg.tick.as_secs_f64(),
             nodes: cfg.model_nodes,
             v_init: cfg.v_init,
+            rate_loads: !cfg.actuator.ideal,
         })?;
         let start = nanos(start);
         let mut rng = Rng::new(cfg.seed);
@@ -500,7 +501,10 @@ impl SimRobot {
             Ok(_) => {}
             Err(_) => self.stats.model_errors += 1,
         }
-        for (node, load) in self.nodes.iter_mut().zip(self.plant.loads()) {
+        // Ideal servos report the full load; servos with dynamics get the
+        // part they can be coupled to stably (see `Plant::rate_loads`).
+        let loads = self.plant.rate_loads().unwrap_or(self.plant.loads());
+        for (node, load) in self.nodes.iter_mut().zip(loads) {
             node.set_load(*load);
         }
         self.flood_tick();
