@@ -3,6 +3,7 @@
 //! layouts or control logic of its own.
 
 mod protocol_cmd;
+mod sim_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -25,6 +26,8 @@ enum Command {
         #[command(subcommand)]
         cmd: protocol_cmd::ProtocolCmd,
     },
+    /// Run the simulated robot on a bus (or behind an emulated SLCAN adapter) in real time.
+    Sim(sim_cmd::SimArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -37,5 +40,6 @@ fn main() -> anyhow::Result<()> {
         }
         Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
+        Some(Command::Sim(args)) => sim_cmd::run(&args),
     }
 }
