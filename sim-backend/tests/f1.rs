@@ -142,3 +142,64 @@ fn perfect_servos_fed_f1_reproduce_the_models_head_speed() {
         100.0 * e_beam
     );
 }
+
+#[test]
+fn default_servos_fed_f1_swim_close_to_the_model() {
+    // The same host loop with the default servos (dynamics, torque limits,
+    // encoder quantization): the joints lag their setpoints a little, and
+    // the robot swims head first close to the model's speed.
+    let gait = named_gait("F1").unwrap();
+    let steps = (DURATION / DT).round() as usize;
+    let window = (WINDOW / DT).round() as usize;
+    let model = Model::new(ModelConfig {
+        nodes: PlantConfig::default().nodes,
+        dt: DT,
+        joints: JOINTS,
+        ..ModelConfig::default()
+    })
+    .unwrap();
+    let mut ws = Workspace::new(&model);
+    let mut src = LawSource::new(gait.law);
+    let mut h = Host::new(RobotConfig::with_joints(JOINTS));
+    h.enable_all();
+    while !h.now().as_millis().is_multiple_of(2) {
+        h.run(MS);
+    }
+    let mut speed = Vec::with_capacity(steps);
+    let mut max_err = 0.0f64;
+    for k in 0..steps {
+        src.t = k as f64 * DT;
+        let js = joints(&model, &mut ws, &src);
+        let sp: Vec<[AxisSetpoint; 2]> = js
+            .iter()
+            .map(|j| {
+                [0, 1].map(|a| AxisSetpoint {
+                    position: j.angle[a] as f32,
+                    velocity: j.rate[a] as f32,
+                    torque: 0.0,
+                })
+            })
+            .collect();
+        h.cycle(&sp, Duration::from_secs_f64(DT));
+        if k == 0 {
+            h.robot.reset_head();
+        }
+        if k > steps / 3 {
+            for (n, j) in h.robot.nodes().iter().zip(&js) {
+                max_err = max_err.max((n.kinematics(1).0 - j.angle[1]).abs());
+            }
+        }
+        speed.push(h.robot.truth().forward_speed);
+    }
+    let v = mean_last(&speed, window);
+    eprintln!(
+        "F1 with default servos: mean forward speed {v:.5} m/s, largest yaw tracking error {max_err:.4} rad"
+    );
+    assert_eq!(h.robot.stats().model_errors, 0);
+    // The servos follow within a few hundredths of a radian (setpoints are
+    // one 2 ms period old when applied, the gait moves at <= 2 rad/s).
+    assert!(max_err < 0.05, "{max_err}");
+    // Tracking errors of that size change the mean speed by a few percent
+    // at most: 10 % is a loose bound around the model's 0.374 m/s.
+    assert!((v - 0.374).abs() < 0.0374, "{v}");
+}
