@@ -165,7 +165,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         robot.bus().spec()
     );
 
-    let running = robot.spawn(clock);
+    let running = robot
+        .spawn(clock)
+        .context("starting the simulation thread")?;
     let started = Instant::now();
     let mut next_status = Duration::from_secs(1);
     while !stop.load(Ordering::Acquire) {

@@ -662,8 +662,9 @@ impl SimRobot {
         }
     }
 
-    /// Runs the robot in real time on its own thread.
-    pub fn spawn(mut self, clock: Arc<dyn Clock>) -> RunningSim {
+    /// Runs the robot in real time on its own thread (fails only if the
+    /// thread cannot be created).
+    pub fn spawn(mut self, clock: Arc<dyn Clock>) -> std::io::Result<RunningSim> {
         let stop = Arc::new(AtomicBool::new(false));
         let truth = Arc::new(Mutex::new(self.truth()));
         let status = Arc::new(Mutex::new(Status::default()));
@@ -687,14 +688,13 @@ impl SimRobot {
                     }
                 });
                 self
-            })
-            .expect("spawn the simulation thread");
-        RunningSim {
+            })?;
+        Ok(RunningSim {
             stop,
             truth,
             status,
             thread: Some(thread),
-        }
+        })
     }
 }
 

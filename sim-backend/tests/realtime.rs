@@ -28,7 +28,7 @@ fn robot_behind_an_slcan_pty_answers_a_host() {
     let clock = bus.clock();
     let robot =
         SimRobot::on_mem(RobotConfig::with_joints(3), bus.participant(), clock.now()).unwrap();
-    let running = robot.spawn(clock);
+    let running = robot.spawn(clock).unwrap();
     let spec = format!("slcan:{}@1000000", emu.path().unwrap());
     let mut host = open(&spec).unwrap();
 
