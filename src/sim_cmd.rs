@@ -182,8 +182,8 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             println!(
                 "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}",
                 t.time.as_secs_f64(),
-                t.forward_speed,
-                t.yaw.to_degrees(),
+                t.forward_speed + 0.0, // no "-0.000" at rest
+                t.yaw.to_degrees() + 0.0,
                 s.states,
                 s.stats.frames_in,
                 s.stats.frames_out,
