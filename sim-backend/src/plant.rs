@@ -74,6 +74,11 @@ pub struct Plant {
     loads: Vec<[f64; 2]>,
     /// The same without the joints' own accelerations.
     rate_loads: Option<Vec<[f64; 2]>>,
+    /// `K = M0 (J I + M0)^-1` (row-major, 2n x 2n) once
+    /// [`Plant::couple_servos`] was called.
+    coupling: Option<Vec<f64>>,
+    /// Scratch: the residual torques of the coupled load.
+    residual: Vec<f64>,
 }
 
 /// One joint's measured motion, as the actuators achieve it.
@@ -107,7 +112,91 @@ impl Plant {
             acc: vec![[0.0; 2]; cfg.joints],
             loads: vec![[0.0; 2]; cfg.joints],
             rate_loads: cfg.rate_loads.then(|| vec![[0.0; 2]; cfg.joints]),
+            coupling: None,
+            residual: vec![0.0; 2 * cfg.joints],
         })
+    }
+
+    /// The body's joint-space inertia `M0` (N·m per rad/s², row-major,
+    /// `2n x 2n`, index `2 (j - 1) + axis`) for the straight body at rest,
+    /// free-floating, added mass included: column `k` is the load change when
+    /// joint axis `k` alone accelerates at 1 rad/s².
+    pub fn joint_inertia(&self) -> Result<Vec<f64>, ModelError> {
+        let n = self.joints();
+        let m = 2 * n;
+        let mut ws = Workspace::new(&self.model);
+        let mut src = JointCurvature::new(n, self.model.body().length);
+        let head = HeadState::launch(0.0);
+        evaluate(&self.model, &mut ws, &src, &head)?;
+        let base: Vec<[f64; 2]> = ws.joints().iter().map(|j| [j.c2, j.c3]).collect();
+        let mut out = vec![0.0; m * m];
+        for col in 0..m {
+            for (j, jm) in src.joints_mut().iter_mut().enumerate() {
+                jm.pitch[2] = if 2 * j == col { 1.0 } else { 0.0 };
+                jm.yaw[2] = if 2 * j + 1 == col { 1.0 } else { 0.0 };
+            }
+            evaluate(&self.model, &mut ws, &src, &head)?;
+            for (k, js) in ws.joints().iter().enumerate() {
+                // load = -C
+                out[(2 * k) * m + col] = -(js.c2 - base[k][0]);
+                out[(2 * k + 1) * m + col] = -(js.c3 - base[k][1]);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Couples servos of reflected inertia `inertia` (kg·m², every axis) to
+    /// the body implicitly, linearized about the straight body: see
+    /// [`Plant::coupled_loads`].
+    pub fn couple_servos(&mut self, inertia: f64) -> Result<(), ModelError> {
+        let m0 = self.joint_inertia()?;
+        let m = 2 * self.joints();
+        let mut a = m0.clone();
+        for i in 0..m {
+            a[i * m + i] += inertia;
+        }
+        let inv = invert(&a, m).ok_or(ModelError::NonFinite {
+            quantity: "joint-space inertia (singular)",
+            time: 0.0,
+        })?;
+        let mut k = vec![0.0; m * m];
+        for i in 0..m {
+            for j in 0..m {
+                k[i * m + j] = (0..m).map(|l| m0[i * m + l] * inv[l * m + j]).sum();
+            }
+        }
+        self.coupling = Some(k);
+        Ok(())
+    }
+
+    /// The loads for servos coupled with [`Plant::couple_servos`], given each
+    /// axis's motor torque and friction torque now: the rate-dependent load
+    /// plus the body's inertial reaction to the acceleration these torques
+    /// will give, `L = C_rate + K (tau - friction - C_rate)` with
+    /// `K = M0 (J I + M0)^-1`, solved for all joints at once so that the
+    /// loop is stable whatever the ratio of body to servo inertia. Writes
+    /// into `out`; without coupling, `out` gets the rate loads.
+    pub fn coupled_loads(&mut self, tau: &[[f64; 2]], friction: &[[f64; 2]], out: &mut [[f64; 2]]) {
+        let Some(rl) = &self.rate_loads else {
+            out.copy_from_slice(&self.loads);
+            return;
+        };
+        out.copy_from_slice(rl);
+        let Some(k) = &self.coupling else { return };
+        let m = self.residual.len();
+        for j in 0..m / 2 {
+            for a in 0..2 {
+                self.residual[2 * j + a] = tau[j][a] - friction[j][a] - rl[j][a];
+            }
+        }
+        for (i, o) in out.iter_mut().flat_map(|x| x.iter_mut()).enumerate() {
+            let row = &k[i * m..(i + 1) * m];
+            *o += row
+                .iter()
+                .zip(&self.residual)
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+        }
     }
 
     /// The physics step (s).
@@ -137,13 +226,12 @@ impl Plant {
     }
 
     /// The loads of the last step with the joints' accelerations taken as
-    /// zero (if [`PlantConfig::rate_loads`]): what actuators with their own
-    /// dynamics are given. The body's inertial reaction to the joints'
-    /// accelerations (body and added mass, ~0.5 kg·m² at the front joints,
-    /// 25 times a servo's reflected inertia) cannot be fed back explicitly
-    /// one step late — that loop is unstable — so such actuators are modelled
-    /// as dominated by their reflected inertia (a stiff geared servo), and
-    /// see the velocity- and pose-dependent part of the load.
+    /// zero (if [`PlantConfig::rate_loads`]): pose- and rate-dependent
+    /// torques only. Servos with dynamics get these plus the inertial
+    /// reaction solved implicitly ([`Plant::coupled_loads`]): feeding the
+    /// full load back one step late is an unstable loop (the body's
+    /// joint-space inertia, added mass included, is comparable to or larger
+    /// than a servo's reflected inertia and strongly coupled between joints).
     pub fn rate_loads(&self) -> Option<&[[f64; 2]]> {
         self.rate_loads.as_deref()
     }
@@ -207,6 +295,45 @@ impl Plant {
     }
 }
 
+/// Inverse of the `m x m` row-major matrix `a` (Gauss–Jordan with partial
+/// pivoting); `None` if singular.
+fn invert(a: &[f64], m: usize) -> Option<Vec<f64>> {
+    let mut a = a.to_vec();
+    let mut inv = vec![0.0; m * m];
+    for i in 0..m {
+        inv[i * m + i] = 1.0;
+    }
+    for c in 0..m {
+        let p = (c..m).max_by(|&x, &y| a[x * m + c].abs().total_cmp(&a[y * m + c].abs()))?;
+        if a[p * m + c].abs() < 1e-12 || !a[p * m + c].is_finite() {
+            return None;
+        }
+        if p != c {
+            for k in 0..m {
+                a.swap(p * m + k, c * m + k);
+                inv.swap(p * m + k, c * m + k);
+            }
+        }
+        let d = a[c * m + c];
+        for k in 0..m {
+            a[c * m + k] /= d;
+            inv[c * m + k] /= d;
+        }
+        for r in 0..m {
+            if r != c {
+                let f = a[r * m + c];
+                if f != 0.0 {
+                    for k in 0..m {
+                        a[r * m + k] -= f * a[c * m + k];
+                        inv[r * m + k] -= f * inv[c * m + k];
+                    }
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,6 +349,40 @@ mod tests {
                 rate: [j.pitch_rate, j.yaw_rate],
             })
             .collect()
+    }
+
+    #[test]
+    fn joint_inertia_is_symmetric_with_a_positive_diagonal() {
+        let p = Plant::new(PlantConfig {
+            joints: 6,
+            ..PlantConfig::default()
+        })
+        .unwrap();
+        let m0 = p.joint_inertia().unwrap();
+        let m = 12;
+        let diag: Vec<f64> = (0..m).map(|i| m0[i * m + i]).collect();
+        eprintln!("joint-space inertia diagonal (kg m^2): {diag:.4?}");
+        let scale = diag.iter().cloned().fold(0.0, f64::max);
+        for i in 0..m {
+            assert!(m0[i * m + i] > 0.0, "{i}: {}", m0[i * m + i]);
+            for j in 0..m {
+                // A mechanical inertia is symmetric; the discretization
+                // (curvature spread over each joint's span) keeps it so to
+                // a few percent of the largest entry.
+                let d = (m0[i * m + j] - m0[j * m + i]).abs();
+                assert!(
+                    d < 0.05 * scale,
+                    "{i},{j}: {} vs {}",
+                    m0[i * m + j],
+                    m0[j * m + i]
+                );
+            }
+        }
+        let inv = invert(&m0, m).unwrap();
+        for i in 0..m {
+            let e: f64 = (0..m).map(|l| m0[i * m + l] * inv[l * m + i]).sum();
+            assert!((e - 1.0).abs() < 1e-9, "{e}");
+        }
     }
 
     #[test]

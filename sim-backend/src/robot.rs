@@ -212,6 +212,9 @@ pub struct SimRobot {
     pending: VecDeque<(Nanos, Frame)>,
     out: Vec<Frame>,
     inputs: Vec<JointInput>,
+    tau: Vec<[f64; 2]>,
+    friction: Vec<[f64; 2]>,
+    node_loads: Vec<[f64; 2]>,
     scenario: Scenario,
     next_event: usize,
     undo: Vec<(Nanos, Undo)>,
@@ -262,6 +265,10 @@ impl SimRobot {
             v_init: cfg.v_init,
             rate_loads: !cfg.actuator.ideal,
         })?;
+        let mut plant = plant;
+        if !cfg.actuator.ideal {
+            plant.couple_servos(cfg.actuator.inertia)?;
+        }
         let start = nanos(start);
         let mut rng = Rng::new(cfg.seed);
         let nodes = cfg
@@ -292,6 +299,9 @@ impl SimRobot {
             pending: VecDeque::with_capacity(4096),
             out: Vec::with_capacity(256),
             inputs: vec![JointInput::default(); n],
+            tau: vec![[0.0; 2]; n],
+            friction: vec![[0.0; 2]; n],
+            node_loads: vec![[0.0; 2]; n],
             scenario: Scenario::default(),
             next_event: 0,
             undo: Vec::new(),
@@ -502,9 +512,15 @@ impl SimRobot {
             Err(_) => self.stats.model_errors += 1,
         }
         // Ideal servos report the full load; servos with dynamics get the
-        // part they can be coupled to stably (see `Plant::rate_loads`).
-        let loads = self.plant.rate_loads().unwrap_or(self.plant.loads());
-        for (node, load) in self.nodes.iter_mut().zip(loads) {
+        // load coupled implicitly to their torques (`Plant::coupled_loads`).
+        let b = self.cfg.actuator.damping;
+        for ((node, tau), fr) in self.nodes.iter().zip(&mut self.tau).zip(&mut self.friction) {
+            *tau = [node.motor_torque(0), node.motor_torque(1)];
+            *fr = [b * node.kinematics(0).1, b * node.kinematics(1).1];
+        }
+        self.plant
+            .coupled_loads(&self.tau, &self.friction, &mut self.node_loads);
+        for (node, load) in self.nodes.iter_mut().zip(&self.node_loads) {
             node.set_load(*load);
         }
         self.flood_tick();
