@@ -77,6 +77,8 @@ pub struct Plant {
     /// `K = M0 (J I + M0)^-1` (row-major, 2n x 2n) once
     /// [`Plant::couple_servos`] was called.
     coupling: Option<Vec<f64>>,
+    /// The body's joint-space inertia, computed on first use.
+    m0: Option<Vec<f64>>,
     /// Scratch: the residual torques of the coupled load.
     residual: Vec<f64>,
 }
@@ -113,6 +115,7 @@ impl Plant {
             loads: vec![[0.0; 2]; cfg.joints],
             rate_loads: cfg.rate_loads.then(|| vec![[0.0; 2]; cfg.joints]),
             coupling: None,
+            m0: None,
             residual: vec![0.0; 2 * cfg.joints],
         })
     }
@@ -145,24 +148,44 @@ impl Plant {
         Ok(out)
     }
 
-    /// Couples servos of reflected inertia `inertia` (kg·m², every axis) to
+    /// Couples servos of reflected inertia `inertia[j][axis]` (kg·m²) to
     /// the body implicitly, linearized about the straight body: see
-    /// [`Plant::coupled_loads`].
-    pub fn couple_servos(&mut self, inertia: f64) -> Result<(), ModelError> {
-        let m0 = self.joint_inertia()?;
-        let m = 2 * self.joints();
-        let mut a = m0.clone();
-        for i in 0..m {
-            a[i * m + i] += inertia;
+    /// [`Plant::coupled_loads`]. A jammed axis is given an infinite inertia
+    /// (`f64::INFINITY`): it does not move, and its neighbours feel it.
+    /// Allocates (call it at set-up and on fault changes, not every tick).
+    pub fn couple_servos(&mut self, inertia: &[[f64; 2]]) -> Result<(), ModelError> {
+        if self.m0.is_none() {
+            self.m0 = Some(self.joint_inertia()?);
         }
-        let inv = invert(&a, m).ok_or(ModelError::NonFinite {
+        let m0 = self.m0.as_deref().unwrap_or_default();
+        let m = 2 * self.joints();
+        // Infinite inertia: the axis is removed (row and column of the
+        // coupling are zero, so its load is the rate load and the others do
+        // not see it accelerate).
+        let free: Vec<bool> = (0..m)
+            .map(|i| inertia.get(i / 2).is_some_and(|x| x[i % 2].is_finite()))
+            .collect();
+        let idx: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+        let f = idx.len();
+        let mut a = vec![0.0; f * f];
+        for (r, &i) in idx.iter().enumerate() {
+            for (c, &j) in idx.iter().enumerate() {
+                a[r * f + c] = m0[i * m + j];
+            }
+            a[r * f + r] += inertia[i / 2][i % 2];
+        }
+        let inv = invert(&a, f).ok_or(ModelError::NonFinite {
             quantity: "joint-space inertia (singular)",
             time: 0.0,
         })?;
         let mut k = vec![0.0; m * m];
-        for i in 0..m {
-            for j in 0..m {
-                k[i * m + j] = (0..m).map(|l| m0[i * m + l] * inv[l * m + j]).sum();
+        for &i in &idx {
+            for (c, &j) in idx.iter().enumerate() {
+                k[i * m + j] = idx
+                    .iter()
+                    .enumerate()
+                    .map(|(l, &ll)| m0[i * m + ll] * inv[l * f + c])
+                    .sum();
             }
         }
         self.coupling = Some(k);
@@ -383,6 +406,26 @@ mod tests {
             let e: f64 = (0..m).map(|l| m0[i * m + l] * inv[l * m + i]).sum();
             assert!((e - 1.0).abs() < 1e-9, "{e}");
         }
+    }
+
+    #[test]
+    fn a_jammed_axis_is_removed_from_the_coupling() {
+        let mut p = Plant::new(PlantConfig {
+            joints: 3,
+            rate_loads: true,
+            ..PlantConfig::default()
+        })
+        .unwrap();
+        let mut inertia = vec![[0.02; 2]; 3];
+        inertia[1][1] = f64::INFINITY;
+        p.couple_servos(&inertia).unwrap();
+        let k = p.coupling.as_ref().unwrap();
+        let m = 6;
+        for i in 0..m {
+            assert_eq!(k[3 * m + i], 0.0);
+            assert_eq!(k[i * m + 3], 0.0);
+        }
+        assert!(k[0] > 0.0 && k[0] < 1.0, "{}", k[0]);
     }
 
     #[test]

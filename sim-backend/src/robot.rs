@@ -267,7 +267,7 @@ impl SimRobot {
         })?;
         let mut plant = plant;
         if !cfg.actuator.ideal {
-            plant.couple_servos(cfg.actuator.inertia)?;
+            plant.couple_servos(&vec![[cfg.actuator.inertia; 2]; n])?;
         }
         let start = nanos(start);
         let mut rng = Rng::new(cfg.seed);
@@ -598,6 +598,30 @@ impl SimRobot {
         }
     }
 
+    /// Recomputes the servo-body coupling after a joint jammed or freed.
+    fn recouple(&mut self) {
+        if self.cfg.actuator.ideal {
+            return;
+        }
+        let j = self.cfg.actuator.inertia;
+        let inertia: Vec<[f64; 2]> = self
+            .nodes
+            .iter_mut()
+            .map(|n| {
+                [0, 1].map(|a| {
+                    if n.axis_faults_mut(a).stuck {
+                        f64::INFINITY
+                    } else {
+                        j
+                    }
+                })
+            })
+            .collect();
+        if self.plant.couple_servos(&inertia).is_err() {
+            self.stats.model_errors += 1;
+        }
+    }
+
     fn apply(&mut self, action: Action, at: Nanos) {
         match action {
             Action::Node { id, fault } => {
@@ -621,7 +645,10 @@ impl SimRobot {
                 };
                 let f = node.axis_faults_mut(axis.index());
                 match fault {
-                    JointFault::Stuck(s) => f.stuck = s,
+                    JointFault::Stuck(s) => {
+                        f.stuck = s;
+                        self.recouple();
+                    }
                     JointFault::TorqueLimit(c) => f.torque_cap = c,
                     JointFault::Noise(s) => f.extra_noise = s,
                     JointFault::Spike(s) => f.spike = s,
