@@ -790,3 +790,30 @@ impl Drop for RunningSim {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_configurations_name_the_setting() {
+        let bus = MemBus::builder("robot-config-test").build();
+        let mut cfg = RobotConfig::with_joints(3);
+        cfg.node_ids = vec![1, 2, 2];
+        let e = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap_err();
+        assert!(
+            e.to_string().contains("node_ids") && e.to_string().contains("twice"),
+            "{e}"
+        );
+        let mut cfg = RobotConfig::with_joints(3);
+        cfg.node_ids = vec![1, 64];
+        let e = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap_err();
+        assert!(e.to_string().contains("1..=63"), "{e}");
+        let mut cfg = RobotConfig::with_joints(3);
+        cfg.tick = Duration::from_millis(50);
+        let e = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap_err();
+        assert!(e.to_string().contains("tick"), "{e}");
+        let e = crate::open_robot(RobotConfig::with_joints(3), "nonsense").unwrap_err();
+        assert!(e.to_string().contains("bus"), "{e}");
+    }
+}
