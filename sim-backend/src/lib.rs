@@ -12,6 +12,12 @@
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 //!
+//! In process, `anguilla run` puts the robot on `mem:NAME` with
+//! [`open_robot`] and runs it with [`SimRobot::spawn`] on the bus's clock;
+//! tests drive [`SimRobot::step_until`] on a
+//! [`ManualClock`](anguilla_drivers::ManualClock), faster than real time and
+//! deterministically:
+//!
 //! ```
 //! use std::sync::Arc;
 //! use std::time::Duration;
