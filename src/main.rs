@@ -5,6 +5,7 @@
 mod builtin_sim;
 mod protocol_cmd;
 mod run_cmd;
+mod sim_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -38,6 +39,8 @@ enum Command {
         #[command(subcommand)]
         cmd: protocol_cmd::ProtocolCmd,
     },
+    /// Run the simulated robot on a bus (or behind an emulated SLCAN adapter) in real time.
+    Sim(sim_cmd::SimArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -53,5 +56,6 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Replay(args)) => run_cmd::replay(args),
         Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
+        Some(Command::Sim(args)) => sim_cmd::run(&args),
     }
 }

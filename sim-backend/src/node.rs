@@ -327,9 +327,13 @@ impl VertebraNode {
             4 => self.cfg.variant == Variant::Fd && low as usize == (me as usize - 1) / 6,
             // Node-to-host messages are never for a node.
             5 | 6 | 8 => false,
-            // EStop, Command (0 = all), Setpoint, ConfigWrite.
+            // EStop, Command (0 = all).
             0 | 2 => low == 0 || low == me,
-            _ => low == me,
+            // Setpoint (classic only), ConfigWrite.
+            3 => self.cfg.variant == Variant::Classic && low == me,
+            7 => low == me,
+            // Ids from 0x240 up are not used by the protocol: ignored.
+            _ => false,
         }
     }
 
@@ -883,6 +887,8 @@ mod tests {
         );
         // Unknown ids, extended ids, remote frames, other nodes: silent.
         b.send_frame(&Frame::new_standard(0x7FF, &[1]).unwrap());
+        b.send_frame(&Frame::new_standard(0x240 + ID as u16, &[1]).unwrap());
+        b.send_frame(&Frame::new_standard(0x3C0 + ID as u16, &[]).unwrap());
         b.send_frame(&Frame::new(Id::extended(0x1234).unwrap(), &[1]).unwrap());
         b.send_frame(&Frame::new_remote(Id::Standard(0x0C0 + ID as u16), 8).unwrap());
         b.send_frame(&Frame::new_standard(0x0C0 + ID as u16 + 1, &[0; 5]).unwrap());

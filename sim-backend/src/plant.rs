@@ -1,0 +1,459 @@
+//! The swimming body as the plant: a thin adapter over `anguilla-model`.
+//!
+//! The model is driven by the joints' *achieved* motion (a
+//! [`JointCurvature`] source fed every physics step with the actuators'
+//! angles and rates), not by an imposed gait, so the simulated robot swims,
+//! turns and dives as its joints actually move. Each step returns the torque
+//! the body demands at every joint axis, which becomes the actuators' load.
+//!
+//! **Sign of the load.** The model's internal torque `c(X1)` is the torque
+//! the rear part exerts on the front part (`model/README.md`,
+//! `docs/MODEL-NOTES.md`); the actuator of a joint turns the rear platform
+//! relative to the front one, so the torque it must produce for the motion
+//! is `−C` (a rigid-body library's joint torque). The load of an axis is
+//! therefore `[−C2, −C3]`: an ideal servo's motor torque equals it, and the
+//! actuators do positive net work on the fluid while swimming (checked by a
+//! test below).
+//!
+//! Everything the model needs is kept here so that changes of the model's
+//! API are reconciled in one place.
+
+use anguilla_model::{
+    HeadState, Integrator, JointCurvature, Model, ModelConfig, ModelError, Workspace, evaluate,
+    step,
+};
+
+/// Configuration of the body plant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantConfig {
+    /// Number of joints (one per node).
+    pub joints: usize,
+    /// Physics step (s): the head state is integrated, and the loads
+    /// updated, at this period.
+    pub dt: f64,
+    /// Requested number of space intervals of the model (rounded up by the
+    /// model to a multiple of `2 (joints + 1)`).
+    pub nodes: usize,
+    /// Head speed along `t1` at the start (m/s, negative is head first).
+    pub v_init: f64,
+    /// Also compute the loads without the joints' own accelerations
+    /// ([`Plant::rate_loads`]), for actuators with dynamics (one more model
+    /// evaluation per step).
+    pub rate_loads: bool,
+}
+
+impl Default for PlantConfig {
+    fn default() -> Self {
+        Self {
+            joints: 12,
+            // 2 ms: RK4 at this step is far below the model's space
+            // discretization error (the model is converged at 20 ms), and
+            // the loads follow the servos' motion closely.
+            dt: 0.002,
+            nodes: 52,
+            v_init: 0.0,
+            rate_loads: false,
+        }
+    }
+}
+
+/// The body: model, workspace, joint-driven curvature and head state.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    model: Model,
+    ws: Workspace,
+    src: JointCurvature,
+    head: HeadState,
+    /// Joint rates at the previous step, for the acceleration estimate.
+    prev_rates: Vec<[f64; 2]>,
+    /// Whether `prev_rates` holds a previous step.
+    primed: bool,
+    /// Joint accelerations of the current step.
+    acc: Vec<[f64; 2]>,
+    /// Loads `[pitch, yaw]` (N·m) per joint from the last step.
+    loads: Vec<[f64; 2]>,
+    /// The same without the joints' own accelerations.
+    rate_loads: Option<Vec<[f64; 2]>>,
+    /// `K = M0 (J I + M0)^-1` (row-major, 2n x 2n) once
+    /// [`Plant::couple_servos`] was called.
+    coupling: Option<Vec<f64>>,
+    /// The body's joint-space inertia, computed on first use.
+    m0: Option<Vec<f64>>,
+    /// Scratch: the residual torques of the coupled load.
+    residual: Vec<f64>,
+}
+
+/// One joint's measured motion, as the actuators achieve it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct JointInput {
+    /// Angles `[pitch, yaw]` (rad).
+    pub angle: [f64; 2],
+    /// Rates `[pitch, yaw]` (rad/s).
+    pub rate: [f64; 2],
+}
+
+impl Plant {
+    /// A straight body at rest (or launched at `v_init`) at the origin.
+    pub fn new(cfg: PlantConfig) -> Result<Self, ModelError> {
+        let model = Model::new(ModelConfig {
+            nodes: cfg.nodes,
+            dt: cfg.dt,
+            joints: cfg.joints,
+            integrator: Integrator::Rk4,
+            ..ModelConfig::default()
+        })?;
+        let ws = Workspace::new(&model);
+        let length = model.body().length;
+        Ok(Self {
+            src: JointCurvature::new(cfg.joints, length),
+            ws,
+            model,
+            head: HeadState::launch(cfg.v_init),
+            prev_rates: vec![[0.0; 2]; cfg.joints],
+            primed: false,
+            acc: vec![[0.0; 2]; cfg.joints],
+            loads: vec![[0.0; 2]; cfg.joints],
+            rate_loads: cfg.rate_loads.then(|| vec![[0.0; 2]; cfg.joints]),
+            coupling: None,
+            m0: None,
+            residual: vec![0.0; 2 * cfg.joints],
+        })
+    }
+
+    /// The body's joint-space inertia `M0` (N·m per rad/s², row-major,
+    /// `2n x 2n`, index `2 (j - 1) + axis`) for the straight body at rest,
+    /// free-floating, added mass included: column `k` is the load change when
+    /// joint axis `k` alone accelerates at 1 rad/s².
+    pub fn joint_inertia(&self) -> Result<Vec<f64>, ModelError> {
+        let n = self.joints();
+        let m = 2 * n;
+        let mut ws = Workspace::new(&self.model);
+        let mut src = JointCurvature::new(n, self.model.body().length);
+        let head = HeadState::launch(0.0);
+        evaluate(&self.model, &mut ws, &src, &head)?;
+        let base: Vec<[f64; 2]> = ws.joints().iter().map(|j| [j.c2, j.c3]).collect();
+        let mut out = vec![0.0; m * m];
+        for col in 0..m {
+            for (j, jm) in src.joints_mut().iter_mut().enumerate() {
+                jm.pitch[2] = if 2 * j == col { 1.0 } else { 0.0 };
+                jm.yaw[2] = if 2 * j + 1 == col { 1.0 } else { 0.0 };
+            }
+            evaluate(&self.model, &mut ws, &src, &head)?;
+            for (k, js) in ws.joints().iter().enumerate() {
+                // load = -C
+                out[(2 * k) * m + col] = -(js.c2 - base[k][0]);
+                out[(2 * k + 1) * m + col] = -(js.c3 - base[k][1]);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Couples servos of reflected inertia `inertia[j][axis]` (kg·m²) to
+    /// the body implicitly, linearized about the straight body: see
+    /// [`Plant::coupled_loads`]. A jammed axis is given an infinite inertia
+    /// (`f64::INFINITY`): it does not move, and its neighbours feel it.
+    /// Allocates (call it at set-up and on fault changes, not every tick).
+    pub fn couple_servos(&mut self, inertia: &[[f64; 2]]) -> Result<(), ModelError> {
+        if self.m0.is_none() {
+            self.m0 = Some(self.joint_inertia()?);
+        }
+        let m0 = self.m0.as_deref().unwrap_or_default();
+        let m = 2 * self.joints();
+        // Infinite inertia: the axis is removed (row and column of the
+        // coupling are zero, so its load is the rate load and the others do
+        // not see it accelerate).
+        let free: Vec<bool> = (0..m)
+            .map(|i| inertia.get(i / 2).is_some_and(|x| x[i % 2].is_finite()))
+            .collect();
+        let idx: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+        let f = idx.len();
+        let mut a = vec![0.0; f * f];
+        for (r, &i) in idx.iter().enumerate() {
+            for (c, &j) in idx.iter().enumerate() {
+                a[r * f + c] = m0[i * m + j];
+            }
+            a[r * f + r] += inertia[i / 2][i % 2];
+        }
+        let inv = invert(&a, f).ok_or(ModelError::NonFinite {
+            quantity: "joint-space inertia (singular)",
+            time: 0.0,
+        })?;
+        let mut k = vec![0.0; m * m];
+        for &i in &idx {
+            for (c, &j) in idx.iter().enumerate() {
+                k[i * m + j] = idx
+                    .iter()
+                    .enumerate()
+                    .map(|(l, &ll)| m0[i * m + ll] * inv[l * f + c])
+                    .sum();
+            }
+        }
+        self.coupling = Some(k);
+        Ok(())
+    }
+
+    /// The loads for servos coupled with [`Plant::couple_servos`], given each
+    /// axis's motor torque and friction torque now: the rate-dependent load
+    /// plus the body's inertial reaction to the acceleration these torques
+    /// will give, `L = C_rate + K (tau - friction - C_rate)` with
+    /// `K = M0 (J I + M0)^-1`, solved for all joints at once so that the
+    /// loop is stable whatever the ratio of body to servo inertia. Writes
+    /// into `out`; without coupling, `out` gets the rate loads.
+    pub fn coupled_loads(&mut self, tau: &[[f64; 2]], friction: &[[f64; 2]], out: &mut [[f64; 2]]) {
+        let Some(rl) = &self.rate_loads else {
+            out.copy_from_slice(&self.loads);
+            return;
+        };
+        out.copy_from_slice(rl);
+        let Some(k) = &self.coupling else { return };
+        let m = self.residual.len();
+        for j in 0..m / 2 {
+            for a in 0..2 {
+                self.residual[2 * j + a] = tau[j][a] - friction[j][a] - rl[j][a];
+            }
+        }
+        for (i, o) in out.iter_mut().flat_map(|x| x.iter_mut()).enumerate() {
+            let row = &k[i * m..(i + 1) * m];
+            *o += row
+                .iter()
+                .zip(&self.residual)
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+        }
+    }
+
+    /// The physics step (s).
+    pub fn dt(&self) -> f64 {
+        self.model.dt()
+    }
+
+    /// Number of joints.
+    pub fn joints(&self) -> usize {
+        self.loads.len()
+    }
+
+    /// The head state (ground truth).
+    pub fn head(&self) -> &HeadState {
+        &self.head
+    }
+
+    /// Puts the head back at the origin with the given state (a test's
+    /// initial condition); the joints keep their motion.
+    pub fn reset_head(&mut self, head: HeadState) {
+        self.head = head;
+    }
+
+    /// The loads `[pitch, yaw]` (N·m) each joint's actuators see: `−C`.
+    pub fn loads(&self) -> &[[f64; 2]] {
+        &self.loads
+    }
+
+    /// The loads of the last step with the joints' accelerations taken as
+    /// zero (if [`PlantConfig::rate_loads`]): pose- and rate-dependent
+    /// torques only. Servos with dynamics get these plus the inertial
+    /// reaction solved implicitly ([`Plant::coupled_loads`]): feeding the
+    /// full load back one step late is an unstable loop (the body's
+    /// joint-space inertia, added mass included, is comparable to or larger
+    /// than a servo's reflected inertia and strongly coupled between joints).
+    pub fn rate_loads(&self) -> Option<&[[f64; 2]]> {
+        self.rate_loads.as_deref()
+    }
+
+    /// One physics step with the joints at `input` (angles and rates now;
+    /// accelerations are the rates' backward difference over the step).
+    /// Returns the loads for the next step. On a model error the head state
+    /// is unchanged and the loads are zeroed.
+    pub fn step(&mut self, input: &[JointInput]) -> Result<&[[f64; 2]], ModelError> {
+        let dt = self.model.dt();
+        for (j, m) in self.src.joints_mut().iter_mut().enumerate() {
+            let inp = input.get(j).copied().unwrap_or_default();
+            self.acc[j] = if self.primed {
+                [
+                    (inp.rate[0] - self.prev_rates[j][0]) / dt,
+                    (inp.rate[1] - self.prev_rates[j][1]) / dt,
+                ]
+            } else {
+                [0.0; 2]
+            };
+            m.pitch = [inp.angle[0], inp.rate[0], 0.0];
+            m.yaw = [inp.angle[1], inp.rate[1], 0.0];
+            self.prev_rates[j] = inp.rate;
+        }
+        self.primed = true;
+        if let Some(rl) = &mut self.rate_loads {
+            match evaluate(&self.model, &mut self.ws, &self.src, &self.head) {
+                Ok(_) => {
+                    for (l, js) in rl.iter_mut().zip(self.ws.joints()) {
+                        *l = [-js.c2, -js.c3];
+                    }
+                }
+                Err(_) => rl.iter_mut().for_each(|l| *l = [0.0; 2]),
+            }
+        }
+        for (m, a) in self.src.joints_mut().iter_mut().zip(&self.acc) {
+            m.pitch[2] = a[0];
+            m.yaw[2] = a[1];
+        }
+        match step(&self.model, &mut self.ws, &mut self.src, &mut self.head) {
+            Ok(_) => {
+                for (l, js) in self.loads.iter_mut().zip(self.ws.joints()) {
+                    *l = [-js.c2, -js.c3];
+                }
+                Ok(&self.loads)
+            }
+            Err(e) => {
+                self.loads.iter_mut().for_each(|l| *l = [0.0; 2]);
+                Err(e)
+            }
+        }
+    }
+
+    /// The joint angles and rates of the model's own discrete robot at the
+    /// last step (what the platforms' relative rotations are).
+    pub fn model_joints(&self) -> impl Iterator<Item = JointInput> + '_ {
+        self.ws.joints().iter().map(|j| JointInput {
+            angle: [j.pitch, j.yaw],
+            rate: [j.pitch_rate, j.yaw_rate],
+        })
+    }
+}
+
+/// Inverse of the `m x m` row-major matrix `a` (Gauss–Jordan with partial
+/// pivoting); `None` if singular.
+fn invert(a: &[f64], m: usize) -> Option<Vec<f64>> {
+    let mut a = a.to_vec();
+    let mut inv = vec![0.0; m * m];
+    for i in 0..m {
+        inv[i * m + i] = 1.0;
+    }
+    for c in 0..m {
+        let p = (c..m).max_by(|&x, &y| a[x * m + c].abs().total_cmp(&a[y * m + c].abs()))?;
+        if a[p * m + c].abs() < 1e-12 || !a[p * m + c].is_finite() {
+            return None;
+        }
+        if p != c {
+            for k in 0..m {
+                a.swap(p * m + k, c * m + k);
+                inv.swap(p * m + k, c * m + k);
+            }
+        }
+        let d = a[c * m + c];
+        for k in 0..m {
+            a[c * m + k] /= d;
+            inv[c * m + k] /= d;
+        }
+        for r in 0..m {
+            if r != c {
+                let f = a[r * m + c];
+                if f != 0.0 {
+                    for k in 0..m {
+                        a[r * m + k] -= f * a[c * m + k];
+                        inv[r * m + k] -= f * inv[c * m + k];
+                    }
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anguilla_model::gait::named_gait;
+    use anguilla_model::{LawSource, posture};
+
+    /// Joint motion of the gait of `src` at its time for `model`'s joints.
+    fn gait_joints(model: &Model, ws: &mut Workspace, src: &LawSource) -> Vec<JointInput> {
+        posture(model, ws, src)
+            .iter()
+            .map(|j| JointInput {
+                angle: [j.pitch, j.yaw],
+                rate: [j.pitch_rate, j.yaw_rate],
+            })
+            .collect()
+    }
+
+    #[test]
+    fn joint_inertia_is_symmetric_with_a_positive_diagonal() {
+        let p = Plant::new(PlantConfig {
+            joints: 6,
+            ..PlantConfig::default()
+        })
+        .unwrap();
+        let m0 = p.joint_inertia().unwrap();
+        let m = 12;
+        let diag: Vec<f64> = (0..m).map(|i| m0[i * m + i]).collect();
+        eprintln!("joint-space inertia diagonal (kg m^2): {diag:.4?}");
+        let scale = diag.iter().cloned().fold(0.0, f64::max);
+        for i in 0..m {
+            assert!(m0[i * m + i] > 0.0, "{i}: {}", m0[i * m + i]);
+            for j in 0..m {
+                // A mechanical inertia is symmetric; the discretization
+                // (curvature spread over each joint's span) keeps it so to
+                // a few percent of the largest entry.
+                let d = (m0[i * m + j] - m0[j * m + i]).abs();
+                assert!(
+                    d < 0.05 * scale,
+                    "{i},{j}: {} vs {}",
+                    m0[i * m + j],
+                    m0[j * m + i]
+                );
+            }
+        }
+        let inv = invert(&m0, m).unwrap();
+        for i in 0..m {
+            let e: f64 = (0..m).map(|l| m0[i * m + l] * inv[l * m + i]).sum();
+            assert!((e - 1.0).abs() < 1e-9, "{e}");
+        }
+    }
+
+    #[test]
+    fn a_jammed_axis_is_removed_from_the_coupling() {
+        let mut p = Plant::new(PlantConfig {
+            joints: 3,
+            rate_loads: true,
+            ..PlantConfig::default()
+        })
+        .unwrap();
+        let mut inertia = vec![[0.02; 2]; 3];
+        inertia[1][1] = f64::INFINITY;
+        p.couple_servos(&inertia).unwrap();
+        let k = p.coupling.as_ref().unwrap();
+        let m = 6;
+        for i in 0..m {
+            assert_eq!(k[3 * m + i], 0.0);
+            assert_eq!(k[i * m + 3], 0.0);
+        }
+        assert!(k[0] > 0.0 && k[0] < 1.0, "{}", k[0]);
+    }
+
+    #[test]
+    fn actuators_do_positive_work_on_the_fluid_while_swimming() {
+        // Feed F1's joint motion for 1.5 s: the mean actuator power
+        // sum(load * rate) must be positive (the body pushes water back),
+        // which fixes the sign of the load (−C, not C).
+        let cfg = PlantConfig {
+            dt: 0.005,
+            ..PlantConfig::default()
+        };
+        let mut p = Plant::new(cfg).unwrap();
+        let mut ws = Workspace::new(&p.model);
+        let g = named_gait("F1").unwrap();
+        let mut src = LawSource::new(g.law);
+        let mut work = 0.0;
+        let steps = (1.5 / cfg.dt) as usize;
+        for _ in 0..steps {
+            let input = gait_joints(&p.model, &mut ws, &src);
+            let loads = p.step(&input).unwrap().to_vec();
+            for (l, i) in loads.iter().zip(&input) {
+                work += (l[0] * i.rate[0] + l[1] * i.rate[1]) * cfg.dt;
+            }
+            src.t += cfg.dt;
+        }
+        eprintln!("actuator work over 1.5 s of F1: {work} J");
+        assert!(work > 0.0, "actuator work {work} J");
+        // And the body swims head first (towards −e1).
+        assert!(p.head().v1() < 0.0, "V1 = {}", p.head().v1());
+    }
+}

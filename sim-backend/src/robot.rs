@@ -1,0 +1,819 @@
+//! The whole simulated robot: vertebra nodes on a bus, the body as their
+//! load, and a fault scenario.
+//!
+//! [`SimRobot::step_until`] is the deterministic core: it takes every frame
+//! received from the bus up to a time, in order, hands it to every node,
+//! runs the nodes and the physics in fixed ticks, gives each actuator the
+//! torque the body demands at its joint, and sends the nodes' frames.
+//! [`SimRobot::run_realtime`] and [`SimRobot::spawn`] pace it to a clock.
+//!
+//! Joint `j` (1 = nearest the head) is node `node_ids[j - 1]`; axis 0 is
+//! pitch and axis 1 yaw; the angles are those of the model's
+//! [`JointState`](anguilla_model::JointState) (the universal joint at
+//! `X = j / (n + 1)`), so a host sending the model's joint angles as
+//! setpoints makes the plant reproduce the model's motion.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use anguilla_drivers::mem::{MemBus, MemParticipant, ParticipantId};
+use anguilla_drivers::{Bus, BusState, Clock, Frame, Received, TimestampBase};
+use anguilla_model::{HeadState, ModelError};
+use anguilla_protocol::message::{NodeId, NodeState, Variant};
+
+use crate::actuator::ActuatorParams;
+use crate::node::{Nanos, NodeConfig, VertebraNode};
+use crate::plant::{JointInput, Plant, PlantConfig};
+use crate::rng::Rng;
+use crate::scenario::{Action, BusFault, JointFault, NodeFault, Scenario};
+
+/// Errors of building or running a simulated robot.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// A configuration value is out of range.
+    #[error("invalid simulation setting {field}: {reason}")]
+    Config {
+        /// The setting.
+        field: &'static str,
+        /// What is accepted.
+        reason: String,
+    },
+    /// The body model refused its configuration.
+    #[error("body model: {0}")]
+    Model(#[from] ModelError),
+    /// A scenario line could not be parsed.
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    /// A scenario scripts a bus fault on a bus without fault hooks.
+    #[error(
+        "scenario line {line}: bus faults other than flood need the in-process bus (mem:NAME); \
+         on {bus} only node and joint faults and floods can be simulated"
+    )]
+    BusFaultNeedsMemBus {
+        /// The scenario line.
+        line: usize,
+        /// The bus spec.
+        bus: String,
+    },
+    /// The bus failed.
+    #[error("bus: {0}")]
+    Bus(#[from] anguilla_drivers::BusError),
+}
+
+/// Result of this crate's operations.
+pub type Result<T> = std::result::Result<T, SimError>;
+
+/// Configuration of a simulated robot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotConfig {
+    /// Node ids, joint 1 (head end) first.
+    pub node_ids: Vec<u8>,
+    /// Classic CAN or CAN FD nodes.
+    pub variant: Variant,
+    /// Parameters of every actuator axis.
+    pub actuator: ActuatorParams,
+    /// Node boot time (power-on to Disabled).
+    pub boot_time: Duration,
+    /// Seed of sensor noise and random faults.
+    pub seed: u64,
+    /// Physics step; also the period at which nodes are advanced and the
+    /// loads updated (frames are still handled at their own times).
+    pub tick: Duration,
+    /// Requested space intervals of the body model.
+    pub model_nodes: usize,
+    /// Initial head speed along `t1` (m/s).
+    pub v_init: f64,
+}
+
+impl Default for RobotConfig {
+    fn default() -> Self {
+        Self::with_joints(12)
+    }
+}
+
+impl RobotConfig {
+    /// `n` joints on nodes `1..=n`, classic CAN, default servos.
+    pub fn with_joints(n: usize) -> Self {
+        let p = PlantConfig::default();
+        Self {
+            node_ids: (1..=n.min(63) as u8).collect(),
+            variant: Variant::Classic,
+            actuator: ActuatorParams::default(),
+            boot_time: Duration::from_millis(20),
+            seed: 1,
+            tick: Duration::from_secs_f64(p.dt),
+            model_nodes: p.nodes,
+            v_init: 0.0,
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        if self.node_ids.is_empty() {
+            return Err(SimError::Config {
+                field: "node_ids",
+                reason: "at least one node".into(),
+            });
+        }
+        for (i, &id) in self.node_ids.iter().enumerate() {
+            if NodeId::new(id).is_err() {
+                return Err(SimError::Config {
+                    field: "node_ids",
+                    reason: format!("node id {id} outside 1..=63"),
+                });
+            }
+            if self.node_ids[..i].contains(&id) {
+                return Err(SimError::Config {
+                    field: "node_ids",
+                    reason: format!("node id {id} appears twice"),
+                });
+            }
+        }
+        let t = self.tick.as_secs_f64();
+        if !(1e-4..=0.02).contains(&t) {
+            return Err(SimError::Config {
+                field: "tick",
+                reason: format!("{t} s outside 0.1 ms..=20 ms"),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The simulation's ground truth (never sent on the bus).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Truth {
+    /// Simulated time.
+    pub time: Duration,
+    /// Nose position (m, earth frame).
+    pub position: [f64; 3],
+    /// Head orientation, unit quaternion `[w, x, y, z]` (head frame to earth).
+    pub orientation: [f64; 4],
+    /// Nose velocity (m/s, earth frame).
+    pub velocity: [f64; 3],
+    /// Head angular velocity (rad/s, earth frame).
+    pub angular_velocity: [f64; 3],
+    /// Forward speed `−V1` at the head (m/s; positive head first).
+    pub forward_speed: f64,
+    /// Yaw of the head axis about the vertical (rad).
+    pub yaw: f64,
+    /// True joint angles `[pitch, yaw]` (rad), joint 1 first.
+    pub joints: Vec<[f64; 2]>,
+}
+
+/// Counters of the simulation itself.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SimStats {
+    /// Frames taken off the bus.
+    pub frames_in: u64,
+    /// Frames sent by the nodes.
+    pub frames_out: u64,
+    /// Sends the bus refused (bus-off, full queue).
+    pub send_errors: u64,
+    /// Receive errors of the bus.
+    pub recv_errors: u64,
+    /// Physics steps.
+    pub ticks: u64,
+    /// Physics steps the model refused (non-finite state): loads zeroed.
+    pub model_errors: u64,
+    /// Flood frames sent or injected.
+    pub flood_frames: u64,
+    /// Scenario events applied.
+    pub events: u64,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Undo {
+    Speak(usize),
+    BusOn,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Flood {
+    left: u64,
+    ticks_left: u64,
+}
+
+/// The simulated robot.
+pub struct SimRobot {
+    cfg: RobotConfig,
+    nodes: Vec<VertebraNode>,
+    plant: Plant,
+    rng: Rng,
+    bus: Box<dyn Bus>,
+    mem: Option<(MemBus, ParticipantId)>,
+    stamps: TimestampBase,
+    /// Time of the last tick (ns since the clock's origin).
+    time: Nanos,
+    start: Nanos,
+    tick: Nanos,
+    pending: VecDeque<(Nanos, Frame)>,
+    out: Vec<Frame>,
+    inputs: Vec<JointInput>,
+    tau: Vec<[f64; 2]>,
+    friction: Vec<[f64; 2]>,
+    node_loads: Vec<[f64; 2]>,
+    scenario: Scenario,
+    next_event: usize,
+    undo: Vec<(Nanos, Undo)>,
+    flood: Option<Flood>,
+    stats: SimStats,
+}
+
+impl std::fmt::Debug for SimRobot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimRobot")
+            .field("bus", &self.bus.spec())
+            .field("nodes", &self.cfg.node_ids)
+            .field("time", &self.time)
+            .finish_non_exhaustive()
+    }
+}
+
+fn nanos(d: Duration) -> Nanos {
+    d.as_nanos().min(u64::MAX as u128) as u64
+}
+
+impl SimRobot {
+    /// A robot on `bus`, powered on at `start` (the bus clock's time; zero
+    /// for a fresh clock). Bus faults of scenarios are refused on this bus:
+    /// use [`SimRobot::on_mem`] for them.
+    pub fn new(cfg: RobotConfig, bus: Box<dyn Bus>, start: Duration) -> Result<Self> {
+        Self::build(cfg, bus, None, start)
+    }
+
+    /// A robot on an in-process bus, with its fault hooks for scenarios.
+    pub fn on_mem(cfg: RobotConfig, participant: MemParticipant, start: Duration) -> Result<Self> {
+        let mem = (participant.bus(), participant.id());
+        Self::build(cfg, Box::new(participant), Some(mem), start)
+    }
+
+    fn build(
+        cfg: RobotConfig,
+        bus: Box<dyn Bus>,
+        mem: Option<(MemBus, ParticipantId)>,
+        start: Duration,
+    ) -> Result<Self> {
+        cfg.validate()?;
+        let n = cfg.node_ids.len();
+        let plant = Plant::new(PlantConfig {
+            joints: n,
+            dt: cfg.tick.as_secs_f64(),
+            nodes: cfg.model_nodes,
+            v_init: cfg.v_init,
+            rate_loads: !cfg.actuator.ideal,
+        })?;
+        let mut plant = plant;
+        if !cfg.actuator.ideal {
+            plant.couple_servos(&vec![[cfg.actuator.inertia; 2]; n])?;
+        }
+        let start = nanos(start);
+        let mut rng = Rng::new(cfg.seed);
+        let nodes = cfg
+            .node_ids
+            .iter()
+            .map(|&id| {
+                let nc = NodeConfig {
+                    id: NodeId::new(id).expect("validated"),
+                    variant: cfg.variant,
+                    axes: [cfg.actuator; 2],
+                    boot_time: nanos(cfg.boot_time),
+                    seed: rng.next_u64(),
+                };
+                VertebraNode::new(nc, start)
+            })
+            .collect();
+        let stamps = bus.capabilities().timestamps;
+        Ok(Self {
+            tick: nanos(cfg.tick),
+            nodes,
+            plant,
+            rng,
+            bus,
+            mem,
+            stamps,
+            time: start,
+            start,
+            pending: VecDeque::with_capacity(4096),
+            out: Vec::with_capacity(256),
+            inputs: vec![JointInput::default(); n],
+            tau: vec![[0.0; 2]; n],
+            friction: vec![[0.0; 2]; n],
+            node_loads: vec![[0.0; 2]; n],
+            scenario: Scenario::default(),
+            next_event: 0,
+            undo: Vec::new(),
+            flood: None,
+            stats: SimStats::default(),
+            cfg,
+        })
+    }
+
+    /// Loads a fault scenario (times from the robot's start). Fails if it
+    /// scripts bus faults and the robot is not on the in-process bus.
+    pub fn set_scenario(&mut self, scenario: Scenario) -> Result<()> {
+        if self.mem.is_none()
+            && let Some(e) = scenario.first_mem_only()
+        {
+            return Err(SimError::BusFaultNeedsMemBus {
+                line: e.line,
+                bus: self.bus.spec().to_owned(),
+            });
+        }
+        self.scenario = scenario;
+        self.next_event = 0;
+        Ok(())
+    }
+
+    /// Parses and loads a scenario file's text.
+    pub fn load_scenario(&mut self, text: &str) -> Result<()> {
+        let s = Scenario::parse(text, &self.cfg.node_ids)?;
+        self.set_scenario(s)
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &RobotConfig {
+        &self.cfg
+    }
+
+    /// Time of the last tick.
+    pub fn time(&self) -> Duration {
+        Duration::from_nanos(self.time)
+    }
+
+    /// The nodes, joint 1 first.
+    pub fn nodes(&self) -> &[VertebraNode] {
+        &self.nodes
+    }
+
+    /// The nodes, for tests that inject faults directly.
+    pub fn nodes_mut(&mut self) -> &mut [VertebraNode] {
+        &mut self.nodes
+    }
+
+    /// The node with bus id `id`.
+    pub fn node(&self, id: u8) -> Option<&VertebraNode> {
+        let i = self.cfg.node_ids.iter().position(|&x| x == id)?;
+        self.nodes.get(i)
+    }
+
+    /// Counters of the simulation.
+    pub fn stats(&self) -> SimStats {
+        self.stats
+    }
+
+    /// The bus the robot is on.
+    pub fn bus(&self) -> &dyn Bus {
+        self.bus.as_ref()
+    }
+
+    /// The in-process bus, if the robot is on one.
+    pub fn mem_bus(&self) -> Option<&MemBus> {
+        self.mem.as_ref().map(|(b, _)| b)
+    }
+
+    /// How many nodes are in each state:
+    /// `[Boot, Disabled, Enabled, Fault, EStop]`.
+    pub fn state_counts(&self) -> [usize; 5] {
+        let mut c = [0; 5];
+        for n in &self.nodes {
+            let i = match n.state() {
+                NodeState::Boot => 0,
+                NodeState::Disabled => 1,
+                NodeState::Enabled => 2,
+                NodeState::Fault => 3,
+                NodeState::EStop => 4,
+            };
+            c[i] += 1;
+        }
+        c
+    }
+
+    /// The ground truth now.
+    pub fn truth(&self) -> Truth {
+        let mut t = Truth::default();
+        self.truth_into(&mut t);
+        t
+    }
+
+    /// Writes the ground truth into `t` (reusing its joint buffer).
+    pub fn truth_into(&self, t: &mut Truth) {
+        let h: &HeadState = self.plant.head();
+        let q = h.orientation.quaternion();
+        t.time = Duration::from_nanos(self.time);
+        t.position = [h.position.x, h.position.y, h.position.z];
+        t.orientation = [q.w, q.i, q.j, q.k];
+        t.velocity = [h.velocity.x, h.velocity.y, h.velocity.z];
+        t.angular_velocity = [h.omega.x, h.omega.y, h.omega.z];
+        t.forward_speed = -h.v1();
+        t.yaw = h.yaw();
+        t.joints.clear();
+        t.joints.extend(
+            self.nodes
+                .iter()
+                .map(|n| [n.kinematics(0).0, n.kinematics(1).0]),
+        );
+    }
+
+    /// The loads `[pitch, yaw]` (N·m) the body puts on each joint now.
+    pub fn loads(&self) -> &[[f64; 2]] {
+        self.plant.loads()
+    }
+
+    /// Puts the head at the origin at rest, keeping the joints as they are
+    /// (a test's initial condition, e.g. to start a gait the way the model's
+    /// own runs do).
+    pub fn reset_head(&mut self) {
+        let t = self.plant.head().t;
+        let mut h = HeadState::launch(self.cfg.v_init);
+        h.t = t;
+        self.plant.reset_head(h);
+    }
+
+    /// Hands over a frame received outside [`step_until`](Self::step_until)
+    /// (by a runner waiting on the bus), stamped at `at`.
+    pub fn accept(&mut self, r: Received, at: Duration) {
+        let ts = self.stamp(&r, nanos(at));
+        self.pending.push_back((ts, r.frame));
+        self.stats.frames_in += 1;
+    }
+
+    fn stamp(&self, r: &Received, now: Nanos) -> Nanos {
+        let ts = match (self.stamps, r.timestamp) {
+            (TimestampBase::BusClock, Some(t)) => nanos(t),
+            _ => now,
+        };
+        let floor = self
+            .pending
+            .back()
+            .map_or(self.time, |p| p.0.max(self.time));
+        ts.clamp(floor, now.max(floor))
+    }
+
+    /// Runs the simulation up to `now` (the bus clock's time): handles every
+    /// frame received up to then in order, advances the nodes and the
+    /// physics in ticks, applies due scenario events and sends the nodes'
+    /// frames. Never blocks.
+    pub fn step_until(&mut self, now: Duration) {
+        let now = nanos(now);
+        // Take everything the bus has.
+        {
+            let (pending, stamps, time, stats) =
+                (&mut self.pending, self.stamps, self.time, &mut self.stats);
+            let mut floor = pending.back().map_or(time, |p| p.0.max(time));
+            let r = self.bus.drain(&mut |r: Received| {
+                let ts = match (stamps, r.timestamp) {
+                    (TimestampBase::BusClock, Some(t)) => nanos(t),
+                    _ => now,
+                };
+                let ts = ts.clamp(floor, now.max(floor));
+                floor = ts;
+                pending.push_back((ts, r.frame));
+                stats.frames_in += 1;
+            });
+            if r.is_err() {
+                self.stats.recv_errors += 1;
+            }
+        }
+        loop {
+            let next_tick = self.time + self.tick;
+            match self.pending.front().copied() {
+                Some((ts, frame)) if ts < next_tick && ts <= now => {
+                    self.pending.pop_front();
+                    self.apply_events(ts);
+                    let out = &mut self.out;
+                    for node in &mut self.nodes {
+                        node.receive(ts, &frame, &mut |f| out.push(f));
+                    }
+                    self.flush();
+                }
+                _ if next_tick <= now => self.tick_to(next_tick),
+                _ => break,
+            }
+        }
+    }
+
+    fn tick_to(&mut self, t: Nanos) {
+        self.apply_events(t);
+        let out = &mut self.out;
+        for (node, inp) in self.nodes.iter_mut().zip(self.inputs.iter_mut()) {
+            node.advance(t, &mut |f| out.push(f));
+            let (p, pr, _) = node.kinematics(0);
+            let (y, yr, _) = node.kinematics(1);
+            *inp = JointInput {
+                angle: [p, y],
+                rate: [pr, yr],
+            };
+        }
+        match self.plant.step(&self.inputs) {
+            Ok(_) => {}
+            Err(_) => self.stats.model_errors += 1,
+        }
+        // Ideal servos report the full load; servos with dynamics get the
+        // load coupled implicitly to their torques (`Plant::coupled_loads`).
+        let b = self.cfg.actuator.damping;
+        for ((node, tau), fr) in self.nodes.iter().zip(&mut self.tau).zip(&mut self.friction) {
+            *tau = [node.motor_torque(0), node.motor_torque(1)];
+            *fr = [b * node.kinematics(0).1, b * node.kinematics(1).1];
+        }
+        self.plant
+            .coupled_loads(&self.tau, &self.friction, &mut self.node_loads);
+        for (node, load) in self.nodes.iter_mut().zip(&self.node_loads) {
+            node.set_load(*load);
+        }
+        self.flood_tick();
+        self.time = t;
+        self.stats.ticks += 1;
+        self.flush();
+    }
+
+    fn flush(&mut self) {
+        for f in self.out.drain(..) {
+            self.stats.frames_out += 1;
+            if self.bus.send(&f).is_err() {
+                self.stats.send_errors += 1;
+            }
+        }
+    }
+
+    fn flood_tick(&mut self) {
+        let Some(mut fl) = self.flood else { return };
+        let n = if fl.ticks_left <= 1 {
+            fl.left
+        } else {
+            fl.left.div_ceil(fl.ticks_left)
+        };
+        for _ in 0..n {
+            // Ids 0x240..=0x7FF are not used by the protocol.
+            let id = 0x240 + (self.rng.next_u64() % (0x800 - 0x240)) as u16;
+            let len = (self.rng.next_u64() % 9) as usize;
+            let bytes = self.rng.next_u64().to_le_bytes();
+            let Ok(frame) = Frame::new_standard(id, &bytes[..len]) else {
+                continue;
+            };
+            match &self.mem {
+                // From outside: every participant hears it, the nodes too.
+                Some((bus, _)) => bus.inject(&frame),
+                None => {
+                    if self.bus.send(&frame).is_err() {
+                        self.stats.send_errors += 1;
+                    }
+                }
+            }
+            self.stats.flood_frames += 1;
+        }
+        fl.left -= n;
+        fl.ticks_left = fl.ticks_left.saturating_sub(1);
+        self.flood = (fl.left > 0).then_some(fl);
+    }
+
+    fn apply_events(&mut self, t: Nanos) {
+        // Timed ends of earlier faults.
+        let mut i = 0;
+        while i < self.undo.len() {
+            if self.undo[i].0 <= t {
+                let (_, u) = self.undo.swap_remove(i);
+                match u {
+                    Undo::Speak(k) => self.nodes[k].set_silent(false),
+                    Undo::BusOn => {
+                        if let Some((bus, id)) = &self.mem {
+                            bus.force_state(*id, BusState::ErrorActive);
+                        }
+                    }
+                }
+            } else {
+                i += 1;
+            }
+        }
+        while let Some(e) = self.scenario.events.get(self.next_event).copied() {
+            let at = self.start + nanos(e.at);
+            if at > t {
+                break;
+            }
+            self.next_event += 1;
+            self.stats.events += 1;
+            self.apply(e.action, at);
+        }
+    }
+
+    /// Recomputes the servo-body coupling after a joint jammed or freed.
+    fn recouple(&mut self) {
+        if self.cfg.actuator.ideal {
+            return;
+        }
+        let j = self.cfg.actuator.inertia;
+        let inertia: Vec<[f64; 2]> = self
+            .nodes
+            .iter_mut()
+            .map(|n| {
+                [0, 1].map(|a| {
+                    if n.axis_faults_mut(a).stuck {
+                        f64::INFINITY
+                    } else {
+                        j
+                    }
+                })
+            })
+            .collect();
+        if self.plant.couple_servos(&inertia).is_err() {
+            self.stats.model_errors += 1;
+        }
+    }
+
+    fn apply(&mut self, action: Action, at: Nanos) {
+        match action {
+            Action::Node { id, fault } => {
+                let Some(k) = self.cfg.node_ids.iter().position(|&x| x == id) else {
+                    return;
+                };
+                match fault {
+                    NodeFault::Silent(d) => {
+                        self.nodes[k].set_silent(true);
+                        if let Some(d) = d {
+                            self.undo.push((at + nanos(d), Undo::Speak(k)));
+                        }
+                    }
+                    NodeFault::Speak => self.nodes[k].set_silent(false),
+                    NodeFault::Reboot => self.nodes[k].reboot(at),
+                }
+            }
+            Action::Joint { joint, axis, fault } => {
+                let Some(node) = self.nodes.get_mut(joint.wrapping_sub(1)) else {
+                    return;
+                };
+                let f = node.axis_faults_mut(axis.index());
+                match fault {
+                    JointFault::Stuck(s) => {
+                        f.stuck = s;
+                        self.recouple();
+                    }
+                    JointFault::TorqueLimit(c) => f.torque_cap = c,
+                    JointFault::Noise(s) => f.extra_noise = s,
+                    JointFault::Spike(s) => f.spike = s,
+                }
+            }
+            Action::Bus(BusFault::Flood { count, over }) => {
+                let ticks = (nanos(over) / self.tick).max(1);
+                self.flood = Some(Flood {
+                    left: count,
+                    ticks_left: ticks,
+                });
+            }
+            Action::Bus(fault) => {
+                let Some((bus, id)) = &self.mem else { return };
+                match fault {
+                    BusFault::Drop(n) => bus.drop_next(n),
+                    BusFault::DropFraction(f) => bus.drop_fraction(f, self.rng.next_u64()),
+                    BusFault::Delay(d) => bus.set_delay(d),
+                    BusFault::Corrupt(n) => bus.corrupt_next(n),
+                    BusFault::BusOff(d) => {
+                        bus.force_state(*id, BusState::BusOff);
+                        self.undo.push((at + nanos(d), Undo::BusOn));
+                    }
+                    BusFault::Clear => bus.clear_faults(),
+                    BusFault::Flood { .. } => {}
+                }
+            }
+        }
+    }
+
+    /// Runs in real time on `clock` until `stop` is set, waiting on the bus
+    /// between ticks; calls `observe` after every step.
+    pub fn run_realtime(
+        &mut self,
+        clock: &dyn Clock,
+        stop: &AtomicBool,
+        mut observe: impl FnMut(&SimRobot),
+    ) {
+        while !stop.load(Ordering::Acquire) {
+            self.step_until(clock.now());
+            observe(self);
+            let next = Duration::from_nanos(self.time + self.tick);
+            let wait = next.saturating_sub(clock.now());
+            match self.bus.recv(wait) {
+                Ok(Some(r)) => self.accept(r, clock.now()),
+                Ok(None) => {}
+                Err(_) => {
+                    self.stats.recv_errors += 1;
+                    // A failing bus (e.g. an unplugged adapter): do not spin.
+                    let left = next.saturating_sub(clock.now());
+                    std::thread::sleep(left.min(Duration::from_millis(10)));
+                }
+            }
+        }
+    }
+
+    /// Runs the robot in real time on its own thread (fails only if the
+    /// thread cannot be created).
+    pub fn spawn(mut self, clock: Arc<dyn Clock>) -> std::io::Result<RunningSim> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let truth = Arc::new(Mutex::new(self.truth()));
+        let status = Arc::new(Mutex::new(Status::default()));
+        let (s, t, st) = (stop.clone(), truth.clone(), status.clone());
+        let thread = std::thread::Builder::new()
+            .name("anguilla-sim".into())
+            .spawn(move || {
+                let mut last = u64::MAX;
+                self.run_realtime(clock.as_ref(), &s, |r| {
+                    if r.stats.ticks != last {
+                        last = r.stats.ticks;
+                        if let Ok(mut g) = t.lock() {
+                            r.truth_into(&mut g);
+                        }
+                        if let Ok(mut g) = st.lock() {
+                            *g = Status {
+                                states: r.state_counts(),
+                                stats: r.stats,
+                            };
+                        }
+                    }
+                });
+                self
+            })?;
+        Ok(RunningSim {
+            stop,
+            truth,
+            status,
+            thread: Some(thread),
+        })
+    }
+}
+
+/// A summary of the running robot for status displays.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Status {
+    /// Nodes per state: `[Boot, Disabled, Enabled, Fault, EStop]`.
+    pub states: [usize; 5],
+    /// Simulation counters.
+    pub stats: SimStats,
+}
+
+/// A robot running in real time on its own thread ([`SimRobot::spawn`]).
+#[derive(Debug)]
+pub struct RunningSim {
+    stop: Arc<AtomicBool>,
+    truth: Arc<Mutex<Truth>>,
+    status: Arc<Mutex<Status>>,
+    thread: Option<JoinHandle<SimRobot>>,
+}
+
+impl RunningSim {
+    /// The ground truth at the last tick.
+    pub fn truth(&self) -> Truth {
+        self.truth.lock().map(|g| g.clone()).unwrap_or_default()
+    }
+
+    /// Node states and counters at the last tick.
+    pub fn status(&self) -> Status {
+        self.status.lock().map(|g| *g).unwrap_or_default()
+    }
+
+    /// A flag that stops the robot when set.
+    pub fn stop_flag(&self) -> Arc<AtomicBool> {
+        self.stop.clone()
+    }
+
+    /// Stops the robot and gives it back (`None` if its thread panicked).
+    pub fn stop(mut self) -> Option<SimRobot> {
+        self.stop.store(true, Ordering::Release);
+        self.thread.take().and_then(|t| t.join().ok())
+    }
+}
+
+impl Drop for RunningSim {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_configurations_name_the_setting() {
+        let bus = MemBus::builder("robot-config-test").build();
+        let mut cfg = RobotConfig::with_joints(3);
+        cfg.node_ids = vec![1, 2, 2];
+        let e = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap_err();
+        assert!(
+            e.to_string().contains("node_ids") && e.to_string().contains("twice"),
+            "{e}"
+        );
+        let mut cfg = RobotConfig::with_joints(3);
+        cfg.node_ids = vec![1, 64];
+        let e = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap_err();
+        assert!(e.to_string().contains("1..=63"), "{e}");
+        let mut cfg = RobotConfig::with_joints(3);
+        cfg.tick = Duration::from_millis(50);
+        let e = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap_err();
+        assert!(e.to_string().contains("tick"), "{e}");
+        let e = crate::open_robot(RobotConfig::with_joints(3), "nonsense").unwrap_err();
+        assert!(e.to_string().contains("bus"), "{e}");
+    }
+}

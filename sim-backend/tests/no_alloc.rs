@@ -1,0 +1,91 @@
+//! In steady state `SimRobot::step_until` allocates nothing, so an
+//! in-process robot does not disturb the daemon's allocation-free control
+//! period (nor its counting-allocator tests).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use anguilla_drivers::mem::MemBus;
+use anguilla_drivers::{Bus, Clock, ManualClock};
+use anguilla_protocol::message::{self, AxisSetpoint, Command, Message, Target, Variant};
+use anguilla_sim::{RobotConfig, SimRobot};
+
+struct Counting;
+
+static ALLOCS: AtomicU64 = AtomicU64::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn step_until_allocates_nothing_in_steady_state() {
+    let clock = ManualClock::new();
+    let bus = MemBus::builder("sim-no-alloc")
+        .clock(Arc::new(clock.clone()))
+        .build();
+    let mut host = bus.participant();
+    let mut robot = SimRobot::on_mem(
+        RobotConfig::with_joints(12),
+        bus.participant(),
+        Duration::ZERO,
+    )
+    .unwrap();
+    let enable = Message::Command {
+        target: Target::All,
+        command: Command::Enable,
+    }
+    .encode(Variant::Classic)
+    .unwrap();
+    let mut setpoints = [[AxisSetpoint::default(); 2]; 12];
+    let mut cycle =
+        |k: u16, robot: &mut SimRobot, host: &mut anguilla_drivers::mem::MemParticipant| {
+            for (j, sp) in setpoints.iter_mut().enumerate() {
+                sp[1].position = 0.2 * ((k as f32) * 0.01 + j as f32).sin();
+            }
+            message::encode_setpoints(Variant::Classic, k, &setpoints, |f| host.send(&f).unwrap())
+                .unwrap();
+            let sync = Message::Sync { counter: k }
+                .encode(Variant::Classic)
+                .unwrap();
+            host.send(&sync).unwrap();
+            clock.advance(Duration::from_millis(2));
+            robot.step_until(clock.now());
+            host.drain(&mut |_| {}).unwrap();
+        };
+    for k in 0..20 {
+        if k == 10 {
+            host.send(&enable).unwrap();
+        }
+        cycle(k, &mut robot, &mut host);
+    }
+    // Warm up (first heartbeats, queues reach their working size).
+    for k in 20..300 {
+        cycle(k, &mut robot, &mut host);
+    }
+    assert_eq!(robot.state_counts()[2], 12);
+    let before = ALLOCS.load(Ordering::Relaxed);
+    for k in 300..800 {
+        cycle(k, &mut robot, &mut host);
+    }
+    let n = ALLOCS.load(Ordering::Relaxed) - before;
+    assert_eq!(n, 0, "{n} allocations in 500 control periods (1 s)");
+}

@@ -1,0 +1,210 @@
+//! `anguilla sim`: the simulated robot as its own process, on a named bus or
+//! behind an emulated SLCAN adapter on a pseudo-terminal.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anguilla_drivers::mem::MemBus;
+use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
+use anguilla_drivers::{Clock, MonotonicClock};
+use anguilla_protocol::message::Variant;
+use anguilla_sim::actuator::ActuatorParams;
+use anguilla_sim::{RobotConfig, SimRobot};
+use anyhow::{Context, bail};
+use clap::Args;
+
+/// Options of `anguilla sim`.
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Examples:
+  anguilla sim --slcan-pty                 # prints the device to open, e.g.
+                                           # slcan:/dev/pts/5@1000000
+  anguilla sim --bus socketcan:vcan0 --scenario faults.txt
+  anguilla sim --bus socketcan:can0 --fd --joints 6
+
+The robot runs in real time until Ctrl-C, printing a status line every second.
+Scenario files (sim-backend/README.md) script faults with times, e.g.
+  1.5 node 3 silent 0.5
+  2.0 joint 4 yaw stuck
+  3.0 bus drop 5          (bus faults: in-process bus only, so with --slcan-pty)")]
+pub struct SimArgs {
+    /// Bus to put the robot on: socketcan:IFACE, slcan:DEVICE@BITRATE or mem:NAME.
+    #[arg(long, value_name = "SPEC", conflicts_with = "slcan_pty")]
+    bus: Option<String>,
+    /// Emulate an SLCAN USB adapter on a pseudo-terminal and run the robot
+    /// behind it; prints the device path to open.
+    #[arg(long)]
+    slcan_pty: bool,
+    /// Bit rate of the simulated wire behind the emulated adapter (bit/s).
+    #[arg(long, default_value_t = 1_000_000, value_name = "BPS")]
+    bitrate: u32,
+    /// Fault scenario file (timed faults, see sim-backend/README.md).
+    #[arg(long, value_name = "FILE")]
+    scenario: Option<PathBuf>,
+    /// Number of joints (nodes 1..=N), 1..=63.
+    #[arg(long, default_value_t = 12, value_name = "N")]
+    joints: usize,
+    /// CAN FD nodes (setpoint groups) instead of classic CAN.
+    #[arg(long)]
+    fd: bool,
+    /// Seed of sensor noise and random faults.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Perfect servos that follow their setpoints exactly.
+    #[arg(long)]
+    ideal: bool,
+    /// Stop after this many seconds (default: run until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+}
+
+/// Runs `anguilla sim`.
+pub fn run(args: &SimArgs) -> anyhow::Result<()> {
+    if !(1..=63).contains(&args.joints) {
+        bail!("--joints {}: expected 1..=63", args.joints);
+    }
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration {d}: expected a positive number of seconds");
+    }
+    if args.bus.is_none() && !args.slcan_pty {
+        bail!("give --bus SPEC (e.g. socketcan:vcan0) or --slcan-pty");
+    }
+    let cfg = RobotConfig {
+        variant: if args.fd {
+            Variant::Fd
+        } else {
+            Variant::Classic
+        },
+        seed: args.seed,
+        actuator: ActuatorParams {
+            ideal: args.ideal,
+            ..ActuatorParams::default()
+        },
+        ..RobotConfig::with_joints(args.joints)
+    };
+    let scenario = match &args.scenario {
+        Some(p) => Some(
+            std::fs::read_to_string(p)
+                .with_context(|| format!("reading the scenario file {}", p.display()))?,
+        ),
+        None => None,
+    };
+
+    // SIGINT and SIGTERM are blocked in every thread and awaited by one.
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut signals = nix::sys::signal::SigSet::empty();
+    signals.add(nix::sys::signal::Signal::SIGINT);
+    signals.add(nix::sys::signal::Signal::SIGTERM);
+    signals
+        .thread_block()
+        .context("blocking SIGINT/SIGTERM for a clean stop")?;
+    {
+        let stop = stop.clone();
+        std::thread::Builder::new()
+            .name("signals".into())
+            .spawn(move || {
+                if signals.wait().is_ok() {
+                    stop.store(true, Ordering::Release);
+                }
+            })
+            .context("starting the signal thread")?;
+    }
+
+    let mut _emulator = None;
+    let (mut robot, clock): (SimRobot, Arc<dyn Clock>) = if args.slcan_pty {
+        let bus = MemBus::builder("anguilla-sim-slcan")
+            .bitrate(args.bitrate)
+            .build();
+        let emu = SlcanEmulator::on_pty(
+            Box::new(bus.participant()),
+            EmulatorConfig {
+                fd: args.fd,
+                ..EmulatorConfig::default()
+            },
+        )
+        .context("creating the SLCAN pseudo-terminal")?;
+        let path = emu.path().unwrap_or("?").to_owned();
+        println!(
+            "slcan device: {path} (open it with slcan:{path}@{})",
+            args.bitrate
+        );
+        _emulator = Some(emu);
+        let clock = bus.clock();
+        let robot = SimRobot::on_mem(cfg, bus.participant(), clock.now())
+            .context("building the simulated robot")?;
+        (robot, clock)
+    } else {
+        let spec = args.bus.as_deref().unwrap_or_default();
+        let robot = anguilla_sim::open_robot(cfg, spec)
+            .with_context(|| format!("opening the bus {spec}"))?;
+        let clock: Arc<dyn Clock> = match robot.mem_bus() {
+            Some(b) => b.clock(),
+            None => Arc::new(MonotonicClock::new()),
+        };
+        (robot, clock)
+    };
+    if let Some(text) = &scenario {
+        let name = args
+            .scenario
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default();
+        robot
+            .load_scenario(text)
+            .with_context(|| format!("in the scenario file {name}"))?;
+    }
+    println!(
+        "simulated robot: {} joints ({} CAN), nodes 1..={}, on {}; Ctrl-C stops",
+        args.joints,
+        if args.fd { "FD" } else { "classic" },
+        args.joints,
+        robot.bus().spec()
+    );
+
+    let running = robot
+        .spawn(clock)
+        .context("starting the simulation thread")?;
+    let started = Instant::now();
+    let mut next_status = Duration::from_secs(1);
+    while !stop.load(Ordering::Acquire) {
+        let el = started.elapsed();
+        if args.duration.is_some_and(|d| el.as_secs_f64() >= d) {
+            break;
+        }
+        if el >= next_status {
+            next_status += Duration::from_secs(1);
+            let t = running.truth();
+            let s = running.status();
+            println!(
+                "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}",
+                t.time.as_secs_f64(),
+                t.forward_speed + 0.0, // no "-0.000" at rest
+                t.yaw.to_degrees() + 0.0,
+                s.states,
+                s.stats.frames_in,
+                s.stats.frames_out,
+                s.stats.send_errors,
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let robot = running
+        .stop()
+        .context("the simulation thread stopped unexpectedly")?;
+    let s = robot.stats();
+    println!(
+        "stopped at t {:.1} s: {} ticks, {} frames in, {} out, {} send errors, {} model errors, {} scenario events",
+        robot.time().as_secs_f64(),
+        s.ticks,
+        s.frames_in,
+        s.frames_out,
+        s.send_errors,
+        s.model_errors,
+        s.events
+    );
+    Ok(())
+}
