@@ -4,7 +4,7 @@
 //! `cargo bench -p anguilla-daemon --bench daemon` prints JSON lines:
 //!
 //! 1. `loop_jitter`: wake-up lateness of the control loop at 1 kHz against
-//!    twelve simulated nodes on the in-process bus, beside `cyclictest`
+//!    the simulated robot (twelve nodes and the swimming body) on the in-process bus, beside `cyclictest`
 //!    (Debian's rt-tests) at the same rate and the same SCHED_FIFO priority,
 //!    running at the same time (so both see the same load); p50/p99/max and
 //!    the ratio of the p99s (goal ≤ 1.5).
@@ -30,56 +30,14 @@ use anguilla_daemon::run;
 use anguilla_daemon::supervisor::Command;
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::MemBus;
-use anguilla_protocol::message::{self, Message, NodeId, NodeSet, Variant};
-use anguilla_sim::actuator::ActuatorParams;
-use anguilla_sim::node::{NodeConfig, VertebraNode};
+use anguilla_protocol::message::{self, Message, NodeSet, Variant};
+use anguilla_sim::robot::{RobotConfig, SimRobot};
 
 fn pct(sorted: &[u64], q: f64) -> u64 {
     if sorted.is_empty() {
         return 0;
     }
     sorted[((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1]
-}
-
-/// Hosts twelve simulated nodes on `port` until `stop`.
-fn node_host(mut port: anguilla_drivers::mem::MemParticipant, stop: Arc<AtomicBool>) {
-    let t0 = Instant::now();
-    let ns = move || t0.elapsed().as_nanos() as u64;
-    let mut nodes: Vec<_> = (1..=12u8)
-        .map(|i| {
-            VertebraNode::new(
-                NodeConfig {
-                    id: NodeId::new(i).unwrap(),
-                    variant: Variant::Classic,
-                    axes: [ActuatorParams::default(); 2],
-                    boot_time: 10_000_000,
-                    seed: i as u64,
-                },
-                ns(),
-            )
-        })
-        .collect();
-    let mut out = Vec::with_capacity(256);
-    while !stop.load(Ordering::Relaxed) {
-        if let Ok(Some(first)) = port.recv(Duration::from_micros(500)) {
-            let now = ns();
-            for n in nodes.iter_mut() {
-                n.receive(now, &first.frame, &mut |f| out.push(f));
-            }
-            let _ = port.drain(&mut |r| {
-                for n in nodes.iter_mut() {
-                    n.receive(now, &r.frame, &mut |f| out.push(f));
-                }
-            });
-        }
-        let now = ns();
-        for n in nodes.iter_mut() {
-            n.advance(now, &mut |f| out.push(f));
-        }
-        for f in out.drain(..) {
-            let _ = port.send(&f);
-        }
-    }
 }
 
 fn loop_and_command_bench(seconds: f64) {
@@ -90,9 +48,19 @@ fn loop_and_command_bench(seconds: f64) {
     cfg.ipc.prefix = prefix.clone();
     let bus = MemBus::builder("bench").capacity(1 << 14).build();
     let stop = Arc::new(AtomicBool::new(false));
-    let host_stop = stop.clone();
-    let host_port = bus.participant();
-    let host = std::thread::spawn(move || node_host(host_port, host_stop));
+    // The simulated robot (twelve nodes and the swimming body) in real time.
+    let clock = bus.clock();
+    let robot = SimRobot::on_mem(
+        RobotConfig {
+            boot_time: Duration::from_millis(10),
+            ..RobotConfig::with_joints(12)
+        },
+        bus.participant(),
+        clock.now(),
+    )
+    .expect("robot")
+    .spawn(clock)
+    .expect("robot thread");
     let mut listener = bus.participant();
     let running = run::spawn(cfg, Box::new(bus.participant()), stop.clone()).expect("daemon");
     let mut client = Client::new(&prefix, "bench-client", 0xBE7C).expect("client");
@@ -164,8 +132,7 @@ fn loop_and_command_bench(seconds: f64) {
     lat.sort_unstable();
     running.request_stop();
     let report = running.join().expect("stop");
-    stop.store(true, Ordering::SeqCst);
-    let _ = host.join();
+    let _ = robot.stop();
 
     let ct = cyclictest.and_then(|c| c.wait_with_output());
     let (ct_p50, ct_p99, ct_max) = match ct {
