@@ -3,6 +3,7 @@
 //! layouts or control logic of its own.
 
 mod builtin_sim;
+mod dump_cmd;
 mod protocol_cmd;
 mod run_cmd;
 mod sim_cmd;
@@ -39,6 +40,9 @@ enum Command {
         #[command(subcommand)]
         cmd: protocol_cmd::ProtocolCmd,
     },
+    /// Print a bus's frames live, decoded with the anguilla protocol (and
+    /// optionally log them in candump -l format).
+    Dump(dump_cmd::DumpArgs),
     /// Run the simulated robot on a bus (or behind an emulated SLCAN adapter) in real time.
     Sim(sim_cmd::SimArgs),
 }
@@ -57,5 +61,6 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
         Some(Command::Sim(args)) => sim_cmd::run(&args),
+        Some(Command::Dump(args)) => dump_cmd::run(args),
     }
 }

@@ -429,14 +429,15 @@ impl Config {
         }
         let l = &self.limits;
         range("limits.angle", l.angle, 0.01, 1.5, "0.01 ..= 1.5 rad")?;
+        // The protocol carries at most ±10 rad/s and ±5 N·m.
         range(
             "limits.velocity",
             l.velocity,
             0.01,
-            50.0,
-            "0.01 ..= 50 rad/s",
+            10.0,
+            "0.01 ..= 10 rad/s",
         )?;
-        range("limits.torque", l.torque, 0.0, 100.0, "0 ..= 100 N·m")?;
+        range("limits.torque", l.torque, 0.0, 5.0, "0 ..= 5 N·m")?;
         let b = &self.bus;
         range(
             "bus.bitrate",

@@ -1,0 +1,127 @@
+//! `anguilla dump`: print a bus's frames live, decoded with our protocol, and
+//! optionally log them in can-utils' `candump -l` format.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anguilla_protocol::candump::{Interface, LogEntry, Timestamp, Writer};
+use anguilla_protocol::message::{self, NodeSet, Variant};
+use anyhow::Context;
+
+/// Arguments of `anguilla dump`.
+#[derive(clap::Args, Debug)]
+pub struct DumpArgs {
+    /// Bus to listen on, e.g. `socketcan:can0`, `slcan:/dev/ttyACM0@1000000`.
+    #[arg(long, value_name = "SPEC")]
+    bus: String,
+    /// Also write every frame to this file (`candump -l` format).
+    #[arg(long, value_name = "FILE")]
+    log: Option<PathBuf>,
+    /// Decode as CAN FD (default: classic CAN).
+    #[arg(long)]
+    fd: bool,
+    /// Stop after this many frames.
+    #[arg(long, value_name = "N")]
+    count: Option<u64>,
+    /// Stop after this many seconds.
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+}
+
+static SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    SIGNALLED.store(true, Ordering::SeqCst);
+}
+
+pub fn run(args: DumpArgs) -> anyhow::Result<()> {
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
+    }
+    let mut bus =
+        anguilla_drivers::open(&args.bus).with_context(|| format!("opening bus '{}'", args.bus))?;
+    let mut log = match &args.log {
+        Some(p) => Some(Writer::new(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+        ))),
+        None => None,
+    };
+    // The interface name in the log: the spec's device, shortened to fit.
+    // `socketcan:can0` → can0, `slcan:/dev/ttyACM0@1000000` → ttyACM0.
+    let name: String = args
+        .bus
+        .split(['@', '?'])
+        .next()
+        .and_then(|s| s.rsplit([':', '/']).next())
+        .unwrap_or("can0")
+        .chars()
+        .filter(|c| c.is_ascii_graphic())
+        .take(15)
+        .collect();
+    let iface = Interface::new(if name.is_empty() { "can0" } else { &name })
+        .map_err(|e| anyhow::anyhow!("interface name: {e}"))?;
+    let variant = if args.fd {
+        Variant::Fd
+    } else {
+        Variant::Classic
+    };
+    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: the handler only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+    let start = std::time::Instant::now();
+    let mut n = 0u64;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    while !SIGNALLED.load(Ordering::SeqCst)
+        && args.count.is_none_or(|c| n < c)
+        && args
+            .duration
+            .is_none_or(|d| start.elapsed().as_secs_f64() < d)
+    {
+        let Some(r) = bus
+            .recv(Duration::from_millis(100))
+            .with_context(|| format!("reading {}", args.bus))?
+        else {
+            continue;
+        };
+        n += 1;
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default();
+        let ts = Timestamp {
+            secs: now.as_secs(),
+            micros: now.subsec_micros(),
+        };
+        let decoded = match message::decode(&r.frame, variant, NodeSet::all()) {
+            Ok(m) => format!("{m:?}"),
+            Err(e) => format!("(not ours: {e})"),
+        };
+        let _ = writeln!(
+            out,
+            "({}.{:06}) {:<24} {decoded}",
+            ts.secs, ts.micros, r.frame
+        );
+        if let Some(w) = log.as_mut() {
+            w.write(&LogEntry {
+                timestamp: ts,
+                interface: iface,
+                frame: r.frame,
+            })
+            .context("writing the log")?;
+        }
+    }
+    if let Some(w) = log {
+        w.into_inner()
+            .and_then(|mut b| b.flush())
+            .context("flushing the log")?;
+    }
+    eprintln!("{n} frames");
+    Ok(())
+}
