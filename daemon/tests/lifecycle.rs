@@ -250,3 +250,38 @@ fn a_diverging_model_drops_the_feedforward_and_faults() {
             .all(|s| s.position.is_finite())
     );
 }
+
+#[test]
+fn setpoints_beyond_joint_limits_are_clamped_and_counted() {
+    let mut cfg = Config::default();
+    cfg.limits.angle = 0.05;
+    cfg.limits.torque = 0.01;
+    let mut r = Rig::new("lifecycle-limits", &cfg);
+    r.run_for(0.1);
+    r.command(1, Command::TakeControl);
+    r.command(1, Command::Enable);
+    r.run_for(0.3);
+    assert_eq!(r.command(1, swim(1.0, 1.0)).accepted, 1);
+    for _ in 0..10 {
+        r.run_for(0.2);
+        r.command(1, Command::KeepAlive);
+        for s in r.ctl.setpoints().iter().flatten() {
+            assert!(s.position.abs() <= 0.05 + 1e-6, "{s:?}");
+            assert!(s.torque.abs() <= 0.01 + 1e-6, "{s:?}");
+        }
+    }
+    let clamped = r.ctl.snapshot().clamped_setpoints;
+    assert!(clamped > 100, "only {clamped} clamped");
+    assert_eq!(
+        r.ctl.supervisor().mode(),
+        Mode::Swimming,
+        "clamping is not a fault"
+    );
+    // The nodes apply what they were sent (within their own, wider limits).
+    let worst = r
+        .nodes
+        .iter()
+        .map(|n| n.active_setpoint()[1].position.abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 0.05 + 1e-3, "{worst}");
+}
