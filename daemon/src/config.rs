@@ -85,6 +85,9 @@ pub struct ControlConfig {
     pub enable_timeout: f64,
     /// A node's heartbeat older than this is lost (s).
     pub heartbeat_timeout: f64,
+    /// The nodes' watchdog, written to them before every enable (s); 0 means
+    /// five control periods.
+    pub node_watchdog: f64,
     /// Reaction to an actuator fault or a lost heartbeat.
     pub fault_policy: FaultPolicyConfig,
 }
@@ -97,6 +100,7 @@ impl Default for ControlConfig {
             control_release_timeout: 3.0,
             enable_timeout: 1.0,
             heartbeat_timeout: 0.35,
+            node_watchdog: 0.0,
             fault_policy: FaultPolicyConfig::Hold,
         }
     }
@@ -398,6 +402,15 @@ impl Config {
             10.0,
             "0.01 ..= 10 s",
         )?;
+        if c.node_watchdog != 0.0 {
+            range(
+                "control.node-watchdog",
+                c.node_watchdog,
+                0.002,
+                1.0,
+                "0 (five control periods) or 0.002 ..= 1 s",
+            )?;
+        }
         let g = &self.gait;
         range("gait.wavelength", g.wavelength, 0.1, 10.0, "0.1 ..= 10 m")?;
         for (i, a) in g.amplitude_polynomial.iter().enumerate() {
@@ -541,6 +554,12 @@ pub fn default_toml() -> String {
     w(format!(
         "heartbeat-timeout = {}",
         fmt_f(d.control.heartbeat_timeout)
+    ));
+    w("# The nodes' watchdog, written to them before every enable (s): a node that".into());
+    w("# applies no setpoint for this long takes its safe action. 0: five periods.".into());
+    w(format!(
+        "node-watchdog = {}",
+        fmt_f(d.control.node_watchdog)
     ));
     w("# On an actuator fault or a lost node: \"hold\" (stop swimming, healthy joints".into());
     w("# hold straight) or \"disable\" (every actuator off at once).".into());

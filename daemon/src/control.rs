@@ -463,7 +463,10 @@ impl Controller {
             },
             amplitude: [poly[0] * a, poly[1] * a, poly[2] * a],
             phase: 0.0,
-            kc3,
+            // The operator's turn is positive to the left (a positive yaw
+            // rate about e3, which points up); a positive K_c3 turns the
+            // body to the right (the paper's T1: K_c3 = 2 ends at -88°).
+            kc3: -kc3,
             kc2,
         });
         // 4. Model: forward + inverse dynamics.
@@ -562,6 +565,26 @@ impl Controller {
             Drive::Enable => {
                 if entering {
                     self.last_command_sent = now;
+                    // Configuration first (nodes accept it only while
+                    // disabled): the watchdog (`control.node-watchdog`).
+                    let wd = match self.cfg.control.node_watchdog {
+                        0.0 => 5 * self.period_ns,
+                        s => (s * 1e9) as Nanos,
+                    };
+                    let ms = (wd / MS).clamp(
+                        message::WATCHDOG_RANGE_MS.0 as u64,
+                        message::WATCHDOG_RANGE_MS.1 as u64,
+                    ) as u16;
+                    for i in 0..self.ids.len() {
+                        let node = self.ids[i];
+                        self.send(
+                            bus,
+                            Message::ConfigWrite {
+                                node,
+                                param: message::ConfigParam::WatchdogTimeout { ms },
+                            },
+                        );
+                    }
                     self.send(
                         bus,
                         Message::Command {

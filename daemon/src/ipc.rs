@@ -640,6 +640,9 @@ impl NodeWatch {
     }
 }
 
+/// Unanswered requests a client keeps (the service allows 8 per client).
+const MAX_PENDING: usize = 6;
+
 /// A tool's side: reads state, waits for new state, sends commands.
 pub struct Client {
     node: Node<ipc::Service>,
@@ -705,6 +708,11 @@ impl Client {
     /// Sends `cmd`; its reply arrives through [`Client::replies`].
     /// Returns the sequence number used.
     pub fn send(&mut self, cmd: Command) -> Result<u32, IpcError> {
+        // A slow daemon must not exhaust the service's active requests: the
+        // oldest unanswered request is given up (its reply is not awaited).
+        if self.pending.len() >= MAX_PENDING {
+            self.pending.remove(0);
+        }
         self.sequence = self.sequence.wrapping_add(1);
         let req = CommandRequest::new(cmd, self.client_id, self.node.id().value(), self.sequence);
         let pending = self.client.send_copy(req).map_err(ice("send command"))?;

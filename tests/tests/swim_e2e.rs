@@ -153,15 +153,39 @@ fn the_robot_swims_turns_and_stops_under_the_daemon() {
         pitch: 0.0,
     });
     sys.ok(turn);
-    sys.hold(turn, 4.0);
+    let during = sys.hold(turn, 2.5);
     let yaw1 = sys.sim.as_ref().unwrap().truth().yaw;
     let turned = (yaw1 - yaw0 + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
         - std::f64::consts::PI;
-    assert!(turned.abs() > 0.3, "turned {turned} rad");
-    eprintln!(
-        "turn curvature 1.5 /m for 4 s: head yaw changed by {:.1}°",
-        turned.to_degrees()
+    // A positive turn is to the left: yaw (about e3, up) increases, and the
+    // model predicts a positive turn rate too.
+    assert!(turned > 0.3, "turned {turned} rad");
+    assert!(
+        during.predicted_turn_rate > 0.0,
+        "predicted turn rate {}",
+        during.predicted_turn_rate
     );
+    eprintln!(
+        "turn +1.5 /m for 2.5 s: head yaw changed by {:+.1}°, predicted turn rate {:+.2} rad/s",
+        turned.to_degrees(),
+        during.predicted_turn_rate
+    );
+    // Dive: a positive pitch curvature takes the head down (e3 is up).
+    let z0 = sys.sim.as_ref().unwrap().truth().position[2];
+    let dive = Command::Swim(SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.0,
+        pitch: 0.8,
+    });
+    sys.ok(dive);
+    sys.hold(dive, 2.5);
+    let z1 = sys.sim.as_ref().unwrap().truth().position[2];
+    eprintln!(
+        "pitch +0.8 /m for 2.5 s: head depth changed by {:+.3} m",
+        z1 - z0
+    );
+    assert!(z1 - z0 < -0.05, "dived {} m", z1 - z0);
     // Stop: ramps down to Ready, body straight.
     sys.ok(Command::Stop);
     sys.wait_mode(Mode::Ready, 15.0);

@@ -1,0 +1,260 @@
+//! The daemon and `anguilla sim` as two separate processes on a real
+//! SocketCAN interface (vcan), with can-utils beside them:
+//!
+//! - enable, swim, stop through the operator interface;
+//! - an E-stop sent with `cansend` latches the daemon;
+//! - a session logged by `candump -l` reads back through anguilla's
+//!   candump reader; the daemon's own recording replays with `canplayer`;
+//! - the simulator killed: the daemon reports the lost heartbeats.
+//!
+//! Where the kernel has no CAN (this machine), it prints why and skips,
+//! unless `ANGUILLA_VCAN_REQUIRED=1` (set by `scripts/vcan-vm`, which runs it
+//! in a VM with vcan).
+
+use std::path::PathBuf;
+use std::process::{Child, Command as Proc, Stdio};
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::ipc::{Client, StateSnapshot};
+use anguilla_daemon::supervisor::{Command, FaultKind, Mode, SwimParams};
+
+fn iface() -> String {
+    std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".into())
+}
+
+/// Whether SocketCAN and the interface are usable; prints why not.
+fn can_available() -> bool {
+    match anguilla_drivers::open(&format!("socketcan:{}", iface())) {
+        Ok(_) => true,
+        Err(e) => {
+            let why = format!("skipping: socketcan:{} cannot be opened ({e})", iface());
+            if std::env::var("ANGUILLA_VCAN_REQUIRED").is_ok_and(|v| v == "1") {
+                panic!("{why}, and ANGUILLA_VCAN_REQUIRED=1");
+            }
+            eprintln!("{why}");
+            false
+        }
+    }
+}
+
+fn anguilla_bin() -> PathBuf {
+    std::env::var_os("ANGUILLA_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/debug/anguilla")
+        })
+}
+
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn wait_for(
+    client: &mut Client,
+    what: &str,
+    timeout: f64,
+    f: impl Fn(&StateSnapshot) -> bool,
+) -> StateSnapshot {
+    let end = Instant::now() + Duration::from_secs_f64(timeout);
+    let mut last = None;
+    while Instant::now() < end {
+        let _ = client.send(Command::KeepAlive);
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
+            if f(&s) {
+                return s;
+            }
+            last = Some(s);
+        }
+        let _ = client.replies(|_| {});
+    }
+    panic!(
+        "{what} not reached within {timeout} s; last state: mode {:?}, faults {:#x}",
+        last.map(|s| s.mode),
+        last.map(|s| s.fault_kinds).unwrap_or(0)
+    );
+}
+
+fn ok(client: &mut Client, cmd: Command) {
+    let r = client.request(cmd, Duration::from_secs(5)).expect("reply");
+    assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
+}
+
+#[test]
+fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
+    if !can_available() {
+        return;
+    }
+    let dev = iface();
+    let dir = std::env::temp_dir().join(format!("anguilla-vcan-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let prefix = format!("anguilla-vcan-{}", std::process::id());
+    let config = dir.join("anguilla.toml");
+    std::fs::write(
+        &config,
+        format!(
+            // The VM emulates its CPU (TCG) and is slow: a 50 Hz loop, and
+            // heartbeats allowed 2 s, the nodes' watchdog 1 s.
+            "[control]\nrate-hz = 50.0\nheartbeat-timeout = 2.0\nenable-timeout = 10.0\nnode-watchdog = 1.0\n[ipc]\nprefix = \"{prefix}\"\n[recording]\ndir = \"{}\"\n",
+            dir.join("rec").display()
+        ),
+    )
+    .unwrap();
+    let bin = anguilla_bin();
+    let sim = Killed(
+        Proc::new(&bin)
+            .args(["sim", "--bus", &format!("socketcan:{dev}")])
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("anguilla sim starts"),
+    );
+    let daemon = Proc::new(&bin)
+        .args([
+            "run",
+            "--quiet",
+            "--bus",
+            &format!("socketcan:{dev}"),
+            "--config",
+        ])
+        .arg(&config)
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("anguilla run starts");
+    let mut daemon = Killed(daemon);
+    // candump -l logs the session into dir/candump-*.log.
+    let candump = Killed(
+        Proc::new("candump")
+            .args(["-l", &dev])
+            .current_dir(&dir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("candump starts"),
+    );
+    let mut client = {
+        let end = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Ok(c) = Client::new(&prefix, "vcan-operator", 0x7CA) {
+                break c;
+            }
+            assert!(Instant::now() < end, "no operator interface");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    wait_for(&mut client, "first state", 10.0, |_| true);
+    ok(&mut client, Command::TakeControl);
+    ok(&mut client, Command::Enable);
+    wait_for(&mut client, "ready", 15.0, |s| s.mode == Mode::Ready as u8);
+    let swim = Command::Swim(SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.0,
+        pitch: 0.0,
+    });
+    ok(&mut client, swim);
+    let s = wait_for(&mut client, "swimming with the joints moving", 8.0, |s| {
+        s.mode == Mode::Swimming as u8
+            && s.joints[11].measured_yaw.abs() > 0.05
+            && s.predicted_head_speed > 0.05
+    });
+    eprintln!(
+        "swimming on {dev}: predicted speed {:.3} m/s, tail yaw {:.3} rad, loop jitter p99 {} µs",
+        s.predicted_head_speed,
+        s.joints[11].measured_yaw,
+        s.loop_stats.jitter_p99_ns / 1000
+    );
+    ok(&mut client, Command::Stop);
+    wait_for(&mut client, "ready after the stop", 15.0, |s| {
+        s.mode == Mode::Ready as u8
+    });
+    // An E-stop from can-utils.
+    let st = Proc::new("cansend")
+        .args([&dev, "000#"])
+        .status()
+        .expect("cansend");
+    assert!(st.success());
+    let s = wait_for(&mut client, "e-stop from cansend", 3.0, |s| {
+        s.mode == Mode::EStop as u8
+    });
+    assert_ne!(s.fault_kinds & FaultKind::BusEStop as u32, 0);
+    ok(&mut client, Command::Reset);
+    wait_for(&mut client, "idle after reset", 5.0, |s| {
+        s.mode == Mode::Idle as u8
+    });
+    // The simulator dies: every heartbeat stops.
+    ok(&mut client, Command::Enable);
+    wait_for(&mut client, "ready again", 15.0, |s| {
+        s.mode == Mode::Ready as u8
+    });
+    drop(sim);
+    let s = wait_for(&mut client, "heartbeats lost", 6.0, |s| {
+        s.mode == Mode::Fault as u8
+    });
+    assert_ne!(s.fault_kinds & FaultKind::HeartbeatLost as u32, 0);
+    assert_eq!(s.fault_nodes & 0x1FFE, 0x1FFE, "all twelve nodes named");
+    // Stop the daemon cleanly (SIGTERM), which ends its recording.
+    // SAFETY: plain kill(2) on our own child.
+    unsafe { libc::kill(daemon.0.id() as i32, libc::SIGTERM) };
+    let end = Instant::now() + Duration::from_secs(10);
+    while daemon.0.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < end, "daemon did not stop on SIGTERM");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drop(candump);
+    // candump's log reads through anguilla's reader.
+    let log = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .find(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("candump-"))
+        })
+        .expect("candump wrote a log");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let entries: Vec<_> = anguilla_protocol::candump::Reader::new(text.as_bytes()).collect();
+    assert!(entries.len() > 500, "{} lines", entries.len());
+    for (i, e) in entries.iter().enumerate() {
+        assert!(e.is_ok(), "line {}: {:?}", i + 1, e);
+    }
+    // The daemon's recording replays with canplayer onto the interface.
+    let session = std::fs::read_dir(dir.join("rec"))
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .next()
+        .expect("a recorded session");
+    let watch = Proc::new("candump")
+        .args(["-n", "20", &dev])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("candump");
+    std::thread::sleep(Duration::from_millis(200));
+    let played = Proc::new("canplayer")
+        .args(["-t", "-I"])
+        .arg(session.join("bus.log"))
+        .arg(format!("{dev}=anguilla0"))
+        .status()
+        .expect("canplayer");
+    assert!(played.success());
+    let seen = watch.wait_with_output().expect("candump ends");
+    let lines = String::from_utf8_lossy(&seen.stdout).lines().count();
+    assert_eq!(lines, 20, "canplayer put the recording back on {dev}");
+    // And the recording replays bit for bit in anguilla.
+    let replay = Proc::new(&bin)
+        .arg("replay")
+        .arg(&session)
+        .output()
+        .unwrap();
+    assert!(
+        replay.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
