@@ -1,0 +1,149 @@
+//! The daemon and the simulated robot as two separate processes, joined by a
+//! real serial driver: `anguilla sim --slcan-pty` emulates a USB SLCAN adapter
+//! on a pseudo-terminal and `anguilla run --bus slcan:/dev/pts/N@1000000`
+//! drives it. An operator client enables, swims, stops and E-stops.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command as Proc, Stdio};
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::ipc::{Client, StateSnapshot};
+use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+
+fn anguilla_bin() -> PathBuf {
+    std::env::var_os("ANGUILLA_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/debug/anguilla")
+        })
+}
+
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn wait_for(
+    c: &mut Client,
+    what: &str,
+    timeout: f64,
+    f: impl Fn(&StateSnapshot) -> bool,
+) -> StateSnapshot {
+    let end = Instant::now() + Duration::from_secs_f64(timeout);
+    let mut last = None;
+    while Instant::now() < end {
+        let _ = c.send(Command::KeepAlive);
+        if let Ok(Some(s)) = c.wait_state(Duration::from_millis(100)) {
+            if f(&s) {
+                return s;
+            }
+            last = Some(s);
+        }
+        let _ = c.replies(|_| {});
+    }
+    panic!(
+        "{what} not reached within {timeout} s; last: {:?}",
+        last.map(|s| (s.mode, s.fault_kinds, s.joints[0].node_errors))
+    );
+}
+
+fn ok(c: &mut Client, cmd: Command) {
+    let r = c.request(cmd, Duration::from_secs(5)).expect("reply");
+    assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
+}
+
+#[test]
+fn daemon_and_simulator_processes_over_an_slcan_pty() {
+    let bin = anguilla_bin();
+    if !bin.exists() {
+        panic!("{} not built (cargo build --bin anguilla)", bin.display());
+    }
+    let mut sim = Killed(
+        Proc::new(&bin)
+            .args(["sim", "--slcan-pty", "--duration", "120"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("anguilla sim starts"),
+    );
+    let mut lines = BufReader::new(sim.0.stdout.take().unwrap()).lines();
+    let device = lines
+        .by_ref()
+        .take(20)
+        .filter_map(|l| l.ok())
+        .find_map(|l| {
+            l.split_whitespace()
+                .find(|w| w.starts_with("/dev/"))
+                .map(str::to_string)
+        })
+        .expect("the simulator prints its device");
+    // Keep draining its status lines so it never blocks on a full pipe.
+    std::thread::spawn(move || for _ in lines {});
+    let prefix = format!("anguilla-test/slcan-processes-{}", std::process::id());
+    let config = std::env::temp_dir().join(format!("anguilla-slcan-{}.toml", std::process::id()));
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    let _daemon = Killed(
+        Proc::new(&bin)
+            .args([
+                "run",
+                "--quiet",
+                "--bus",
+                &format!("slcan:{device}@1000000"),
+                "--config",
+            ])
+            .arg(&config)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("anguilla run starts"),
+    );
+    let mut c = {
+        let end = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Ok(c) = Client::new(&prefix, "slcan-operator", 0x51C) {
+                break c;
+            }
+            assert!(Instant::now() < end, "no operator interface");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    wait_for(&mut c, "the daemon's first state", 15.0, |_| true);
+    ok(&mut c, Command::TakeControl);
+    ok(&mut c, Command::Enable);
+    wait_for(&mut c, "ready", 10.0, |s| s.mode == Mode::Ready as u8);
+    ok(
+        &mut c,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        }),
+    );
+    // The tail joint swings and its measured angle follows the command.
+    let s = wait_for(&mut c, "the tail swinging", 10.0, |s| {
+        s.mode == Mode::Swimming as u8 && s.joints[11].commanded_yaw.abs() > 0.15
+    });
+    let err = (s.joints[11].measured_yaw - s.joints[11].commanded_yaw).abs();
+    assert!(err < 0.08, "tail yaw tracking error {err} rad");
+    ok(&mut c, Command::Stop);
+    wait_for(&mut c, "ready after the stop", 20.0, |s| {
+        s.mode == Mode::Ready as u8
+    });
+    ok(&mut c, Command::EStop);
+    let s = wait_for(&mut c, "e-stop", 3.0, |s| {
+        s.mode == Mode::EStop as u8 && s.joints[..12].iter().all(|j| j.node_state == 4)
+    });
+    assert_eq!(s.joints[0].node_state, 4, "nodes latched in EStop");
+    ok(&mut c, Command::Reset);
+    wait_for(&mut c, "idle after reset", 5.0, |s| {
+        s.mode == Mode::Idle as u8
+    });
+    let _ = std::fs::remove_file(&config);
+    drop(sim);
+}
