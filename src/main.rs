@@ -5,6 +5,7 @@
 mod builtin_sim;
 mod protocol_cmd;
 mod run_cmd;
+mod teleop_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -35,6 +36,12 @@ enum Command {
         #[command(subcommand)]
         cmd: protocol_cmd::ProtocolCmd,
     },
+    /// Drive the robot from the keyboard (terminal UI).
+    Teleop(teleop_cmd::TeleopArgs),
+    /// Drive the robot with a gamepad (Linux evdev; hold the deadman button).
+    Joy(teleop_cmd::JoyArgs),
+    /// Watch the robot (read-only): terminal view with plots, or --json lines.
+    Monitor(teleop_cmd::MonitorArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -49,5 +56,8 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Config { cmd }) => run_cmd::config(cmd),
         Some(Command::Swim(args)) => swim::run(&args),
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
+        Some(Command::Teleop(args)) => teleop_cmd::teleop(args),
+        Some(Command::Joy(args)) => teleop_cmd::joy(args),
+        Some(Command::Monitor(args)) => teleop_cmd::monitor(args),
     }
 }
