@@ -200,7 +200,11 @@ fn render_header(frame: &mut Frame, area: Rect, v: &ViewModel) {
 
 /// Points of the body's centre line from the head (x = 0, swimming to
 /// +x) to the tail, bending by the joint angles: `angle(j)` of joint `j`.
-fn body_line(n: usize, angle: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
+/// A positive angle puts the tail towards -y (`sign` 1.0) or +y (-1.0):
+/// seen from above with the head on the right, a left turn (positive yaw)
+/// curves the tail up the screen; seen from the side, a dive (positive
+/// pitch) curves it down.
+fn body_line(n: usize, sign: f64, angle: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
     let seg = 1.0 / (n as f64 + 1.0);
     let mut pts = Vec::with_capacity(n + 2);
     let (mut x, mut y, mut heading) = (0.0f64, 0.0f64, std::f64::consts::PI);
@@ -210,7 +214,7 @@ fn body_line(n: usize, angle: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
         y += seg * heading.sin();
         pts.push((x, y));
         if j < n {
-            heading += angle(j);
+            heading += sign * angle(j);
         }
     }
     pts
@@ -228,13 +232,13 @@ fn render_body(frame: &mut Frame, area: Rect, s: Option<&StateSnapshot>, top: bo
             let j = &s.joints;
             if top {
                 (
-                    body_line(n, |i| j[i].commanded_yaw as f64),
-                    body_line(n, |i| j[i].measured_yaw as f64),
+                    body_line(n, -1.0, |i| j[i].commanded_yaw as f64),
+                    body_line(n, -1.0, |i| j[i].measured_yaw as f64),
                 )
             } else {
                 (
-                    body_line(n, |i| j[i].commanded_pitch as f64),
-                    body_line(n, |i| j[i].measured_pitch as f64),
+                    body_line(n, 1.0, |i| j[i].commanded_pitch as f64),
+                    body_line(n, 1.0, |i| j[i].measured_pitch as f64),
                 )
             }
         }
@@ -647,15 +651,63 @@ mod tests {
 
     #[test]
     fn the_body_sketch_bends_with_the_joints() {
-        let straight = body_line(3, |_| 0.0);
+        let straight = body_line(3, 1.0, |_| 0.0);
         assert_eq!(straight.len(), 5);
         assert!((straight[4].0 + 1.0).abs() < 1e-12, "1 m long");
         assert!(straight.iter().all(|p| p.1.abs() < 1e-12));
-        let bent = body_line(3, |_| 0.2);
-        assert!(bent[4].1.abs() > 0.1, "tail leaves the axis");
+        // A left turn seen from above: the tail curves up the screen.
+        let left = body_line(3, -1.0, |_| 0.2);
+        assert!(left[4].1 > 0.1, "tail at +y: {left:?}");
+        // A dive seen from the side: the tail curves down.
+        let dive = body_line(3, 1.0, |_| 0.2);
+        assert!(dive[4].1 < -0.1, "tail at -y: {dive:?}");
         // Equal and opposite bends mirror the sketch.
-        let other = body_line(3, |_| -0.2);
+        let bent = left;
+        let other = body_line(3, -1.0, |_| -0.2);
         assert!((bent[4].1 + other[4].1).abs() < 1e-12);
+    }
+
+    /// Replaces the text between `<!-- {tag}:begin -->` and `<!-- {tag}:end -->`
+    /// in the README with `generated`, or checks it is already there.
+    fn check_readme_block(tag: &str, generated: &str) {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
+        let doc = std::fs::read_to_string(path).unwrap();
+        let begin = format!("<!-- {tag}:begin -->\n");
+        let end = format!("<!-- {tag}:end -->");
+        let (head, rest) = doc.split_once(&begin).expect("begin marker");
+        let (current, tail) = rest.split_once(&end).expect("end marker");
+        if std::env::var_os("ANGUILLA_BLESS").is_some() {
+            std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
+            return;
+        }
+        assert_eq!(
+            current, generated,
+            "README.md's {tag} is out of date: rerun this test with ANGUILLA_BLESS=1"
+        );
+    }
+
+    #[test]
+    fn readme_screenshot_and_keys_are_current() {
+        let s = sample_snapshot();
+        let mut i = Intent::new(Limits::default());
+        for _ in 0..6 {
+            i.apply(Action::Faster);
+        }
+        i.apply(Action::TurnLeft);
+        i.apply(Action::TurnLeft);
+        let r = Refused {
+            command: "disable",
+            reason: "'disable' is not valid in mode swimming: stop first, or e-stop".into(),
+        };
+        let mut v = teleop_view(Some(&s), &i, Some(&r));
+        v.status = "prefix 'anguilla' · you hold control: sending your command at 10 Hz";
+        let text = draw(100, 30, &v);
+        check_readme_block("teleop-screenshot", &format!("```text\n{text}```\n"));
+        let keys: String = KEYS
+            .iter()
+            .map(|(k, _, long)| format!("| `{k}` | {long} |\n"))
+            .collect();
+        check_readme_block("teleop-keys", &keys);
     }
 
     #[test]
