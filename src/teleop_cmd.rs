@@ -116,6 +116,8 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
     let op = Operator::connect(&prefix, "anguilla-teleop")
         .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
     let mut driver = Driver::new(op, Intent::new(limits));
+    // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
+    install_signal_handlers();
     let mut terminal = ratatui::init();
     let result = teleop_loop(&mut terminal, &mut driver, &prefix);
     // Whatever happened, stop the swim and release control before leaving.
@@ -131,7 +133,7 @@ fn teleop_loop(
     driver: &mut Driver,
     prefix: &str,
 ) -> anyhow::Result<()> {
-    loop {
+    while !SIGNALLED.load(Ordering::SeqCst) {
         let next = driver.pump(Instant::now())?;
         let status = if driver.op.holds_control() {
             format!("prefix '{prefix}' · you hold control: sending your command at 10 Hz")
@@ -170,6 +172,7 @@ fn teleop_loop(
             } {}
         }
     }
+    Ok(())
 }
 
 /// `anguilla monitor`.
@@ -197,10 +200,11 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
     }
     let joint = args.joint.map(|j| j.saturating_sub(1));
     let mut history: Option<History> = None;
+    install_signal_handlers();
     let mut terminal = ratatui::init();
     let result = (|| -> anyhow::Result<()> {
         let mut last_draw = Instant::now() - Duration::from_secs(1);
-        loop {
+        while !SIGNALLED.load(Ordering::SeqCst) {
             op.wait_state(Duration::from_millis(20))?;
             if let Some(s) = op.state() {
                 let h = history.get_or_insert_with(|| {
@@ -236,6 +240,7 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
                 }
             }
         }
+        Ok(())
     })();
     ratatui::restore();
     result

@@ -231,6 +231,15 @@ impl Intent {
         }
     }
 
+    /// The daemon refused a swim (no control, wrong mode, out of range):
+    /// the intent drops to rest, so taking control later does not start a
+    /// swim the operator asked for before.
+    pub fn swim_refused(&mut self) {
+        if self.swimming {
+            self.rest();
+        }
+    }
+
     /// Follows the daemon: when it left the swim on its own (fault, E-stop
     /// from any tool, reset, the operator's silence), the intent drops to
     /// rest, so the steady sender never restarts a swim by itself.
@@ -357,6 +366,16 @@ mod tests {
             assert!(!j.swimming(), "mode {mode} cause {cause}");
             assert_eq!(j.steady(), Command::KeepAlive);
         }
+    }
+
+    #[test]
+    fn a_refused_swim_is_forgotten() {
+        let mut i = Intent::new(Limits::default());
+        i.apply(Action::Faster);
+        i.swim_refused();
+        assert!(!i.swimming());
+        assert_eq!(i.steady(), Command::KeepAlive);
+        assert_eq!(i.params().amplitude, 0.0);
     }
 
     #[test]

@@ -45,6 +45,7 @@ pub struct Operator {
     sent: Vec<(u32, &'static str)>,
     state: Option<StateSnapshot>,
     last_refused: Option<Refused>,
+    refusals: u64,
 }
 
 impl std::fmt::Debug for Operator {
@@ -67,6 +68,7 @@ impl Operator {
             sent: Vec::new(),
             state: None,
             last_refused: None,
+            refusals: 0,
         })
     }
 
@@ -90,6 +92,7 @@ impl Operator {
     pub fn request(&mut self, cmd: Command, timeout: Duration) -> Result<CommandReply, IpcError> {
         let r = self.client.request(cmd, timeout)?;
         if r.accepted == 0 {
+            self.refusals += 1;
             self.last_refused = Some(Refused {
                 command: cmd.name(),
                 reason: r.reason().to_string(),
@@ -101,6 +104,7 @@ impl Operator {
     /// Collects the replies and the newest state that arrived.
     pub fn poll(&mut self) -> Result<(), IpcError> {
         let mut refused = None;
+        let mut count = 0;
         let sent = &mut self.sent;
         self.client.replies(|r| {
             let name = sent
@@ -109,12 +113,14 @@ impl Operator {
                 .map(|i| sent.swap_remove(i).1)
                 .unwrap_or("command");
             if r.accepted == 0 {
+                count += 1;
                 refused = Some(Refused {
                     command: name,
                     reason: r.reason().to_string(),
                 });
             }
         })?;
+        self.refusals += count;
         if refused.is_some() {
             self.last_refused = refused;
         }
@@ -147,6 +153,11 @@ impl Operator {
         self.last_refused.as_ref()
     }
 
+    /// Refusals received since connecting.
+    pub fn refusals(&self) -> u64 {
+        self.refusals
+    }
+
     /// Replies still awaited.
     pub fn awaiting(&self) -> usize {
         self.client.awaiting()
@@ -163,6 +174,7 @@ pub struct Driver {
     /// The operator's intent.
     pub intent: Intent,
     next_steady: Instant,
+    refusals_seen: u64,
 }
 
 impl Driver {
@@ -172,6 +184,7 @@ impl Driver {
             op,
             intent,
             next_steady: Instant::now(),
+            refusals_seen: 0,
         }
     }
 
@@ -191,6 +204,12 @@ impl Driver {
     /// control. Returns when the next steady command is due.
     pub fn pump(&mut self, now: Instant) -> Result<Instant, IpcError> {
         self.op.poll()?;
+        if self.op.refusals() != self.refusals_seen {
+            self.refusals_seen = self.op.refusals();
+            if self.op.last_refused().is_some_and(|r| r.command == "swim") {
+                self.intent.swim_refused();
+            }
+        }
         if let Some(s) = self.op.state() {
             self.intent.observe(s.mode, s.cause);
         }

@@ -269,6 +269,10 @@ fn a_scripted_operator_drives_a_whole_session() {
     );
     assert_eq!(s.fault_kinds, 0);
 
+    // The steady 10 Hz sender kept every swim alive: the daemon never had
+    // to stop one for the operator's silence.
+    assert_eq!(s.operator_silent_stops, 0);
+
     // Quit: stop and release control.
     d.quit(REPLY).unwrap();
     wait_for(
@@ -324,6 +328,21 @@ fn a_second_client_cannot_take_control_but_can_estop() {
         assert_eq!(b.op.request(cmd, REPLY).unwrap().accepted, 0, "{cmd:?}");
     }
     assert!(b.op.last_refused().is_some());
+
+    // B's swim is refused (no control), and B's intent forgets it, so it
+    // would not start swimming if B took control later.
+    assert!(matches!(
+        b.act(Action::Faster).unwrap(),
+        Some(Command::Swim(_))
+    ));
+    assert!(b.intent.swimming());
+    let deadline = Instant::now() + REPLY;
+    while b.intent.swimming() && Instant::now() < deadline {
+        b.pump(Instant::now()).unwrap();
+        b.op.wait_state(Duration::from_millis(10)).unwrap();
+    }
+    assert!(!b.intent.swimming(), "refused swim forgotten");
+    assert_eq!(b.op.last_refused().unwrap().command, "swim");
 
     // A swims; B, watching, sees A as the holder and sends nothing steady.
     for _ in 0..5 {
