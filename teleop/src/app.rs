@@ -390,4 +390,55 @@ mod tests {
         // Faster with frequency 0 does not start a swim the daemon would refuse to move.
         assert_eq!(i.apply(Action::Faster), None);
     }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn action() -> impl Strategy<Value = Action> {
+            use Action::*;
+            proptest::sample::select(vec![
+                Faster,
+                Slower,
+                FrequencyUp,
+                FrequencyDown,
+                TurnLeft,
+                TurnRight,
+                Dive,
+                Climb,
+                Straighten,
+                Stop,
+                EStop,
+                Enable,
+                Disable,
+                Reset,
+                TakeControl,
+                ReleaseControl,
+            ])
+        }
+
+        proptest! {
+            // Any key sequence: every swim sent is one the daemon accepts
+            // (in range, moving), and the steady command matches the state.
+            #[test]
+            fn every_swim_is_in_the_daemons_ranges(
+                actions in proptest::collection::vec(action(), 1..300)
+            ) {
+                let l = Limits::default();
+                let mut i = Intent::new(l);
+                for a in actions {
+                    let sent = i.apply(a);
+                    for c in [sent, Some(i.steady())].into_iter().flatten() {
+                        if let Command::Swim(p) = c {
+                            prop_assert!(p.amplitude > 0.0 && p.amplitude <= 1.0);
+                            prop_assert!(p.frequency > 0.0 && p.frequency <= l.max_frequency);
+                            prop_assert!(p.turn.abs() <= l.max_turn);
+                            prop_assert!(p.pitch.abs() <= l.max_pitch);
+                        }
+                    }
+                    prop_assert_eq!(i.swimming(), matches!(i.steady(), Command::Swim(_)));
+                }
+            }
+        }
+    }
 }

@@ -635,4 +635,65 @@ mod tests {
         assert!(e.to_string().contains("deadzone"), "{e}");
         assert!(JoyMapping::from_toml("unknown-key = 1", l).is_err());
     }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn input() -> impl Strategy<Value = JoyInput> {
+            let buttons = prop_oneof![
+                Just(KeyCode::BTN_TL),
+                Just(KeyCode::BTN_EAST),
+                Just(KeyCode::BTN_START),
+                Just(KeyCode::BTN_NORTH),
+                Just(KeyCode::BTN_SELECT),
+                Just(KeyCode::BTN_SOUTH),
+            ];
+            let axes = prop_oneof![
+                Just(AbsoluteAxisCode::ABS_Y),
+                Just(AbsoluteAxisCode::ABS_RX),
+                Just(AbsoluteAxisCode::ABS_RY),
+                Just(AbsoluteAxisCode::ABS_X),
+            ];
+            prop_oneof![
+                (buttons, any::<bool>())
+                    .prop_map(|(code, pressed)| JoyInput::Button { code, pressed }),
+                (axes, any::<i32>()).prop_map(|(code, value)| JoyInput::Axis { code, value }),
+            ]
+        }
+
+        proptest! {
+            // Whatever the pad does: swims stay in the daemon's ranges;
+            // without the deadman only an E-stop or the one release stop
+            // goes out; after a release, ticks are silent.
+            #[test]
+            fn commands_are_in_range_and_need_the_deadman(
+                steps in proptest::collection::vec((input(), any::<bool>()), 1..200)
+            ) {
+                let l = Limits::default();
+                let mut j = joy();
+                for (inp, tick) in steps {
+                    let held_before = j.deadman();
+                    let out = if tick { j.tick() } else { j.handle(inp) };
+                    match out {
+                        Some(Command::Swim(p)) => {
+                            prop_assert!(j.deadman());
+                            prop_assert!((0.0..=1.0).contains(&p.amplitude) && p.amplitude > 0.0);
+                            prop_assert!(p.frequency > 0.0 && p.frequency <= l.max_frequency);
+                            prop_assert!(p.turn.abs() <= l.max_turn);
+                            prop_assert!(p.pitch.abs() <= l.max_pitch);
+                        }
+                        Some(Command::EStop) => {}
+                        Some(Command::Stop) if held_before => {}
+                        Some(Command::TakeControl) => prop_assert!(!held_before && j.deadman()),
+                        Some(other) => prop_assert!(held_before && j.deadman(), "{other:?} without the deadman"),
+                        None => {}
+                    }
+                    if !j.deadman() {
+                        prop_assert_eq!(j.tick(), None);
+                    }
+                }
+            }
+        }
+    }
 }
