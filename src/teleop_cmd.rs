@@ -2,7 +2,6 @@
 //! device plumbing around the `anguilla-teleop` library.
 
 use std::io::{IsTerminal, Write};
-use std::os::fd::AsRawFd;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -10,8 +9,9 @@ use std::time::{Duration, Instant};
 use anguilla_daemon::config::Config;
 use anguilla_teleop::app::{Action, Intent, Limits};
 use anguilla_teleop::history::History;
-use anguilla_teleop::joy::{AxisRange, Joy, JoyInput, JoyMapping};
-use anguilla_teleop::operator::{Driver, Operator, QUIT_TIMEOUT, STEADY_PERIOD};
+use anguilla_teleop::joy::{Joy, JoyMapping};
+use anguilla_teleop::operator::{Driver, Operator, QUIT_TIMEOUT};
+use anguilla_teleop::pad::{EvdevPads, JoyNotice, JoySession};
 use anguilla_teleop::view::{self, ViewModel};
 use anguilla_teleop::{json, keys};
 use anyhow::Context;
@@ -96,6 +96,15 @@ fn install_signal_handlers() {
     unsafe {
         libc::signal(libc::SIGINT, handler);
         libc::signal(libc::SIGTERM, handler);
+    }
+}
+
+/// An error of a wait that a signal interrupted is the signal, not a failure.
+fn interrupted<T>(r: Result<T, anguilla_daemon::ipc::IpcError>) -> anyhow::Result<Option<T>> {
+    match r {
+        Ok(v) => Ok(Some(v)),
+        Err(_) if SIGNALLED.load(Ordering::SeqCst) => Ok(None),
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -205,7 +214,9 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
     let result = (|| -> anyhow::Result<()> {
         let mut last_draw = Instant::now() - Duration::from_secs(1);
         while !SIGNALLED.load(Ordering::SeqCst) {
-            op.wait_state(Duration::from_millis(20))?;
+            if interrupted(op.wait_state(Duration::from_millis(20)).map(|_| ()))?.is_none() {
+                return Ok(());
+            }
             if let Some(s) = op.state() {
                 let h = history.get_or_insert_with(|| {
                     let last = (s.joint_count as usize).max(1) - 1;
@@ -256,7 +267,13 @@ fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::
     let mut warned = false;
     let stdout = std::io::stdout();
     while !SIGNALLED.load(Ordering::SeqCst) && args.count.is_none_or(|c| lines < c) {
-        let s = op.wait_state(Duration::from_millis(100))?.copied();
+        let Some(s) = interrupted(
+            op.wait_state(Duration::from_millis(100))
+                .map(|s| s.copied()),
+        )?
+        else {
+            break;
+        };
         let Some(s) = s.filter(|s| Some(s.sequence) != last_seq) else {
             if !warned && silent_since.elapsed() > Duration::from_secs(2) {
                 eprintln!(
@@ -302,150 +319,44 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
         print!("{}", mapping.to_toml());
         return Ok(());
     }
-    install_signal_handlers();
-    let mut op = Operator::connect(&prefix, "anguilla-joy")
+    let op = Operator::connect(&prefix, "anguilla-joy")
         .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
-    let mut joy = Joy::new(mapping, limits);
+    // After iceoryx2 is set up, so these handlers are the ones in place.
+    install_signal_handlers();
     eprintln!(
         "anguilla joy: daemon prefix '{prefix}'; hold {:?} to drive, {:?} is E-stop (Ctrl-C quits)",
         mapping.deadman, mapping.estop
     );
-    let mut reporter = Reporter::default();
-    let mut said_waiting = false;
-    'outer: while !SIGNALLED.load(Ordering::SeqCst) {
-        let Some((path, mut dev)) = find_gamepad(&args, &mapping) else {
-            if !said_waiting {
-                eprintln!(
-                    "anguilla joy: no gamepad found ({}); waiting for one to be plugged in",
-                    match &args.device {
-                        Some(p) => format!("cannot open {}", p.display()),
-                        None => format!(
-                            "no /dev/input/event* device with a {:?} button is readable",
-                            mapping.deadman
-                        ),
-                    }
-                );
-                said_waiting = true;
+    let looking = match &args.device {
+        Some(p) => format!("cannot open {}", p.display()),
+        None => format!(
+            "no readable /dev/input/event* device with a {:?} button and a {:?} axis",
+            mapping.deadman, mapping.speed.code
+        ),
+    };
+    let pads = EvdevPads::new(args.device.clone(), mapping);
+    let mut session = JoySession::new(op, Joy::new(mapping, limits), pads);
+    while !SIGNALLED.load(Ordering::SeqCst) {
+        let step = session.step(|n| match n {
+            JoyNotice::Waiting => eprintln!(
+                "anguilla joy: no gamepad found ({looking}); waiting for one to be plugged in"
+            ),
+            JoyNotice::Connected(name) => eprintln!("anguilla joy: using {name}"),
+            JoyNotice::Disconnected { stop_sent } => eprintln!(
+                "anguilla joy: the gamepad disappeared{}; the daemon's command timeout stops the robot anyway; waiting for it",
+                if stop_sent { " (one stop sent)" } else { "" }
+            ),
+            JoyNotice::Mode(m) => eprintln!("anguilla joy: mode {}", view::mode_name(m)),
+            JoyNotice::Refused(r) => {
+                eprintln!("anguilla joy: '{}' refused: {}", r.command, r.reason)
             }
-            let until = Instant::now() + Duration::from_secs(1);
-            while Instant::now() < until && !SIGNALLED.load(Ordering::SeqCst) {
-                op.poll()?;
-                reporter.report(&op);
-                std::thread::sleep(Duration::from_millis(50));
-            }
-            continue;
-        };
-        said_waiting = false;
-        eprintln!(
-            "anguilla joy: using {} ({})",
-            dev.name().unwrap_or("unnamed device"),
-            path.display()
-        );
-        if let Ok(infos) = dev.get_absinfo() {
-            for (code, info) in infos {
-                joy.set_range(
-                    code,
-                    AxisRange {
-                        min: info.minimum(),
-                        max: info.maximum(),
-                    },
-                );
-            }
-        }
-        if let Err(e) = dev.set_nonblocking(true) {
-            eprintln!("anguilla joy: {}: {e}", path.display());
-            continue;
-        }
-        let mut next_tick = Instant::now();
-        while !SIGNALLED.load(Ordering::SeqCst) {
-            let mut pfd = libc::pollfd {
-                fd: dev.as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            };
-            // SAFETY: one valid pollfd for the duration of the call.
-            unsafe { libc::poll(&mut pfd, 1, 10) };
-            let gone = pfd.revents & (libc::POLLERR | libc::POLLHUP | libc::POLLNVAL) != 0;
-            let mut cmds = vec![];
-            match dev.fetch_events() {
-                Ok(evs) => {
-                    for ev in evs {
-                        if let Some(c) = JoyInput::from_evdev(ev).and_then(|i| joy.handle(i)) {
-                            cmds.push(c);
-                        }
-                    }
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock && !gone => {}
-                Err(_) => {
-                    if let Some(c) = joy.disconnected() {
-                        op.send(c)?;
-                    }
-                    eprintln!(
-                        "anguilla joy: the gamepad disappeared ({}); one stop sent if you were driving, the daemon's command timeout stops the robot anyway; waiting for it",
-                        path.display()
-                    );
-                    continue 'outer;
-                }
-            }
-            for c in cmds {
-                op.send(c)?;
-                next_tick = Instant::now() + STEADY_PERIOD;
-            }
-            if Instant::now() >= next_tick {
-                if let Some(c) = joy.tick() {
-                    op.send(c)?;
-                }
-                next_tick = Instant::now() + STEADY_PERIOD;
-            }
-            op.poll()?;
-            reporter.report(&op);
+        });
+        if interrupted(step)?.is_none() {
+            break;
         }
     }
-    if let Some(c) = joy.disconnected() {
-        let _ = op.send(c);
-    }
-    op.poll()?;
-    if op.holds_control() {
-        let _ = op.request(anguilla_daemon::supervisor::Command::Stop, QUIT_TIMEOUT);
-        let _ = op.request(
-            anguilla_daemon::supervisor::Command::ReleaseControl,
-            QUIT_TIMEOUT,
-        );
-    }
+    session
+        .quit(QUIT_TIMEOUT)
+        .context("stopping and releasing control on quit")?;
     Ok(())
-}
-
-/// Prints mode changes and refusals as they happen.
-#[derive(Default)]
-struct Reporter {
-    mode: Option<u8>,
-    refused: Option<anguilla_teleop::operator::Refused>,
-}
-
-impl Reporter {
-    fn report(&mut self, op: &Operator) {
-        if let Some(s) = op.state()
-            && self.mode != Some(s.mode)
-        {
-            self.mode = Some(s.mode);
-            eprintln!("anguilla joy: mode {}", view::mode_name(s.mode));
-        }
-        if op.last_refused() != self.refused.as_ref() {
-            self.refused = op.last_refused().cloned();
-            if let Some(r) = &self.refused {
-                eprintln!("anguilla joy: '{}' refused: {}", r.command, r.reason);
-            }
-        }
-    }
-}
-
-fn find_gamepad(args: &JoyArgs, m: &JoyMapping) -> Option<(PathBuf, evdev::Device)> {
-    if let Some(p) = &args.device {
-        return evdev::Device::open(p).ok().map(|d| (p.clone(), d));
-    }
-    evdev::enumerate().find(|(_, d)| {
-        d.supported_keys().is_some_and(|k| k.contains(m.deadman))
-            && d.supported_absolute_axes()
-                .is_some_and(|a| a.contains(m.speed.code))
-    })
 }

@@ -11,6 +11,7 @@
 //! - [`keys`]: key → [`app::Action`];
 //! - [`joy`]: evdev event → command, with the deadman rules;
 //! - [`operator`]: a connection to the daemon and the steady 10 Hz sender;
+//! - [`pad`]: the gamepad session (evdev devices or a scripted pad, hot-plug);
 //! - [`view`]: the state view, drawn with ratatui on any backend;
 //! - [`history`]: the monitor's ring buffers; [`json`]: `--json` lines.
 //!
@@ -31,4 +32,5 @@ pub mod joy;
 pub mod json;
 pub mod keys;
 pub mod operator;
+pub mod pad;
 pub mod view;
