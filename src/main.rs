@@ -7,6 +7,7 @@ mod dump_cmd;
 mod protocol_cmd;
 mod run_cmd;
 mod sim_cmd;
+mod teleop_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -45,6 +46,12 @@ enum Command {
     Dump(dump_cmd::DumpArgs),
     /// Run the simulated robot on a bus (or behind an emulated SLCAN adapter) in real time.
     Sim(sim_cmd::SimArgs),
+    /// Drive the robot from the keyboard (terminal UI).
+    Teleop(teleop_cmd::TeleopArgs),
+    /// Drive the robot with a gamepad (Linux evdev; hold the deadman button).
+    Joy(teleop_cmd::JoyArgs),
+    /// Watch the robot (read-only): terminal view with plots, or --json lines.
+    Monitor(teleop_cmd::MonitorArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -62,5 +69,8 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
         Some(Command::Sim(args)) => sim_cmd::run(&args),
         Some(Command::Dump(args)) => dump_cmd::run(args),
+        Some(Command::Teleop(args)) => teleop_cmd::teleop(args),
+        Some(Command::Joy(args)) => teleop_cmd::joy(args),
+        Some(Command::Monitor(args)) => teleop_cmd::monitor(args),
     }
 }

@@ -1,0 +1,362 @@
+//! `anguilla teleop`, `anguilla joy` and `anguilla monitor`: terminal and
+//! device plumbing around the `anguilla-teleop` library.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::config::Config;
+use anguilla_teleop::app::{Action, Intent, Limits};
+use anguilla_teleop::history::History;
+use anguilla_teleop::joy::{Joy, JoyMapping};
+use anguilla_teleop::operator::{Driver, Operator, QUIT_TIMEOUT};
+use anguilla_teleop::pad::{EvdevPads, JoyNotice, JoySession};
+use anguilla_teleop::view::{self, ViewModel};
+use anguilla_teleop::{json, keys};
+use anyhow::Context;
+use crossterm::event::{self, Event};
+
+/// Where to find the daemon (shared by the three tools).
+#[derive(clap::Args, Debug)]
+pub struct DaemonArgs {
+    /// The daemon's configuration file: its `ipc.prefix` and gait limits are used.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// The daemon's iceoryx2 service prefix (overrides the configuration's).
+    #[arg(long, value_name = "PREFIX")]
+    prefix: Option<String>,
+}
+
+impl DaemonArgs {
+    fn resolve(&self) -> anyhow::Result<(String, Limits)> {
+        let cfg = match &self.config {
+            Some(p) => Config::load(p)?,
+            None => Config::default(),
+        };
+        let prefix = self.prefix.clone().unwrap_or(cfg.ipc.prefix.clone());
+        Ok((prefix, Limits::from_config(&cfg)))
+    }
+}
+
+/// Arguments of `anguilla teleop`.
+#[derive(clap::Args, Debug)]
+pub struct TeleopArgs {
+    #[command(flatten)]
+    daemon: DaemonArgs,
+}
+
+/// Arguments of `anguilla joy`.
+#[derive(clap::Args, Debug)]
+pub struct JoyArgs {
+    #[command(flatten)]
+    daemon: DaemonArgs,
+    /// Gamepad mapping (TOML; see --print-mapping for the keys and defaults).
+    #[arg(long, value_name = "FILE")]
+    mapping: Option<PathBuf>,
+    /// Print the default mapping and exit.
+    #[arg(long)]
+    print_mapping: bool,
+    /// Use this event device (e.g. /dev/input/event5) instead of the first gamepad found.
+    #[arg(long, value_name = "PATH")]
+    device: Option<PathBuf>,
+}
+
+/// Arguments of `anguilla monitor`.
+#[derive(clap::Args, Debug)]
+pub struct MonitorArgs {
+    #[command(flatten)]
+    daemon: DaemonArgs,
+    /// Stream the state as JSON lines on stdout instead of the terminal view.
+    #[arg(long)]
+    json: bool,
+    /// With --json: at most this many lines per second (default: every state received).
+    #[arg(long, value_name = "HZ")]
+    rate: Option<f64>,
+    /// With --json: stop after this many lines.
+    #[arg(long, value_name = "N")]
+    count: Option<u64>,
+    /// Joint plotted (1 = nearest the head; default: the tail-most).
+    #[arg(long, value_name = "N")]
+    joint: Option<usize>,
+    /// Seconds of history in the plots.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    window: f64,
+}
+
+static SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    SIGNALLED.store(true, Ordering::SeqCst);
+}
+
+fn install_signal_handlers() {
+    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: the handler only stores to an atomic (async-signal-safe).
+    unsafe {
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+}
+
+/// An error of a wait that a signal interrupted is the signal, not a failure.
+fn interrupted<T>(r: Result<T, anguilla_daemon::ipc::IpcError>) -> anyhow::Result<Option<T>> {
+    match r {
+        Ok(v) => Ok(Some(v)),
+        Err(_) if SIGNALLED.load(Ordering::SeqCst) => Ok(None),
+        Err(e) => Err(e.into()),
+    }
+}
+
+fn need_terminal(tool: &str, hint: &str) -> anyhow::Result<()> {
+    if !(std::io::stdin().is_terminal() && std::io::stdout().is_terminal()) {
+        anyhow::bail!("{tool} needs a terminal, and stdin or stdout is not one; {hint}");
+    }
+    Ok(())
+}
+
+/// `anguilla teleop`.
+pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
+    need_terminal(
+        "anguilla teleop",
+        "run it in a terminal (for scripts, `anguilla monitor --json` streams the state)",
+    )?;
+    let (prefix, limits) = args.daemon.resolve()?;
+    let op = Operator::connect(&prefix, "anguilla-teleop")
+        .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    let mut driver = Driver::new(op, Intent::new(limits));
+    // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
+    install_signal_handlers();
+    let mut terminal = ratatui::init();
+    let result = teleop_loop(&mut terminal, &mut driver, &prefix);
+    // Whatever happened, stop the swim and release control before leaving.
+    let quit = driver.quit(QUIT_TIMEOUT);
+    ratatui::restore();
+    result?;
+    quit.context("stopping and releasing control on quit")?;
+    Ok(())
+}
+
+fn teleop_loop(
+    terminal: &mut ratatui::DefaultTerminal,
+    driver: &mut Driver,
+    prefix: &str,
+) -> anyhow::Result<()> {
+    while !SIGNALLED.load(Ordering::SeqCst) {
+        let next = driver.pump(Instant::now())?;
+        let status = if driver.op.holds_control() {
+            format!("prefix '{prefix}' · you hold control: sending your command at 10 Hz")
+        } else {
+            format!("prefix '{prefix}' · watching: press t to take control")
+        };
+        let intent = driver.intent;
+        terminal.draw(|f| {
+            view::render(
+                f,
+                &ViewModel {
+                    title: "anguilla teleop",
+                    state: driver.op.state(),
+                    me: Some(driver.op.id()),
+                    intent: Some(&intent),
+                    refused: driver.op.last_refused(),
+                    history: None,
+                    status: &status,
+                },
+            )
+        })?;
+        let wait = next
+            .saturating_duration_since(Instant::now())
+            .min(Duration::from_millis(50));
+        if event::poll(wait)? {
+            while {
+                if let Event::Key(k) = event::read()?
+                    && let Some(a) = keys::action_for(k)
+                {
+                    if a == Action::Quit {
+                        return Ok(());
+                    }
+                    driver.act(a)?;
+                }
+                event::poll(Duration::ZERO)?
+            } {}
+        }
+    }
+    Ok(())
+}
+
+/// `anguilla monitor`.
+pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
+    let (prefix, _) = args.daemon.resolve()?;
+    if let Some(r) = args.rate
+        && !(r.is_finite() && r > 0.0)
+    {
+        anyhow::bail!("--rate {r} is invalid (expected lines per second > 0)");
+    }
+    if !(args.window.is_finite() && args.window > 0.0) {
+        anyhow::bail!("--window {} is invalid (expected seconds > 0)", args.window);
+    }
+    if !args.json {
+        need_terminal(
+            "anguilla monitor",
+            "use `anguilla monitor --json` to stream the state as JSON lines",
+        )?;
+    }
+    // Read-only: this connection never sends a command.
+    let mut op = Operator::connect(&prefix, "anguilla-monitor")
+        .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    if args.json {
+        return monitor_json(&mut op, &args, &prefix);
+    }
+    let joint = args.joint.map(|j| j.saturating_sub(1));
+    let mut history: Option<History> = None;
+    install_signal_handlers();
+    let mut terminal = ratatui::init();
+    let result = (|| -> anyhow::Result<()> {
+        let mut last_draw = Instant::now() - Duration::from_secs(1);
+        while !SIGNALLED.load(Ordering::SeqCst) {
+            if interrupted(op.wait_state(Duration::from_millis(20)).map(|_| ()))?.is_none() {
+                return Ok(());
+            }
+            if let Some(s) = op.state() {
+                let h = history.get_or_insert_with(|| {
+                    let last = (s.joint_count as usize).max(1) - 1;
+                    History::new(args.window, joint.unwrap_or(last).min(last))
+                });
+                h.push(s);
+            }
+            if last_draw.elapsed() >= Duration::from_millis(50) {
+                last_draw = Instant::now();
+                let status = format!("prefix '{prefix}' · read-only monitor · q quits");
+                let empty = History::new(args.window, 0);
+                terminal.draw(|f| {
+                    view::render(
+                        f,
+                        &ViewModel {
+                            title: "anguilla monitor",
+                            state: op.state(),
+                            me: None,
+                            intent: None,
+                            refused: None,
+                            history: Some(history.as_ref().unwrap_or(&empty)),
+                            status: &status,
+                        },
+                    )
+                })?;
+            }
+            while event::poll(Duration::ZERO)? {
+                if let Event::Key(k) = event::read()?
+                    && keys::action_for(k) == Some(Action::Quit)
+                {
+                    return Ok(());
+                }
+            }
+        }
+        Ok(())
+    })();
+    ratatui::restore();
+    result
+}
+
+fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::Result<()> {
+    install_signal_handlers();
+    let min_gap = args.rate.map(|r| Duration::from_secs_f64(1.0 / r));
+    let mut last_line: Option<Instant> = None;
+    let mut last_seq = None;
+    let mut lines = 0u64;
+    let mut silent_since = Instant::now();
+    let mut warned = false;
+    let stdout = std::io::stdout();
+    while !SIGNALLED.load(Ordering::SeqCst) && args.count.is_none_or(|c| lines < c) {
+        let Some(s) = interrupted(
+            op.wait_state(Duration::from_millis(100))
+                .map(|s| s.copied()),
+        )?
+        else {
+            break;
+        };
+        let Some(s) = s.filter(|s| Some(s.sequence) != last_seq) else {
+            if !warned && silent_since.elapsed() > Duration::from_secs(2) {
+                eprintln!(
+                    "no state from a daemon at prefix '{prefix}' yet: is it running? (waiting)"
+                );
+                warned = true;
+            }
+            continue;
+        };
+        silent_since = Instant::now();
+        if let (Some(gap), Some(t)) = (min_gap, last_line)
+            && t.elapsed() < gap
+        {
+            continue;
+        }
+        last_seq = Some(s.sequence);
+        last_line = Some(Instant::now());
+        let mut out = stdout.lock();
+        // A closed pipe (`| head`) ends the stream quietly.
+        if writeln!(out, "{}", json::snapshot_json(&s))
+            .and_then(|_| out.flush())
+            .is_err()
+        {
+            return Ok(());
+        }
+        lines += 1;
+    }
+    Ok(())
+}
+
+/// `anguilla joy`.
+pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
+    let (prefix, limits) = args.daemon.resolve()?;
+    let mapping = match &args.mapping {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            JoyMapping::from_toml(&text, limits).with_context(|| p.display().to_string())?
+        }
+        None => JoyMapping::default(),
+    };
+    if args.print_mapping {
+        print!("{}", mapping.to_toml());
+        return Ok(());
+    }
+    let op = Operator::connect(&prefix, "anguilla-joy")
+        .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    // After iceoryx2 is set up, so these handlers are the ones in place.
+    install_signal_handlers();
+    eprintln!(
+        "anguilla joy: daemon prefix '{prefix}'; hold {:?} to drive, {:?} is E-stop (Ctrl-C quits)",
+        mapping.deadman, mapping.estop
+    );
+    let looking = match &args.device {
+        Some(p) => format!("cannot open {}", p.display()),
+        None => format!(
+            "no readable /dev/input/event* device with a {:?} button and a {:?} axis",
+            mapping.deadman, mapping.speed.code
+        ),
+    };
+    let pads = EvdevPads::new(args.device.clone(), mapping);
+    let mut session = JoySession::new(op, Joy::new(mapping, limits), pads);
+    while !SIGNALLED.load(Ordering::SeqCst) {
+        let step = session.step(|n| match n {
+            JoyNotice::Waiting => eprintln!(
+                "anguilla joy: no gamepad found ({looking}); waiting for one to be plugged in"
+            ),
+            JoyNotice::Connected(name) => eprintln!("anguilla joy: using {name}"),
+            JoyNotice::Disconnected { stop_sent } => eprintln!(
+                "anguilla joy: the gamepad disappeared{}; the daemon's command timeout stops the robot anyway; waiting for it",
+                if stop_sent { " (one stop sent)" } else { "" }
+            ),
+            JoyNotice::Mode(m) => eprintln!("anguilla joy: mode {}", view::mode_name(m)),
+            JoyNotice::Refused(r) => {
+                eprintln!("anguilla joy: '{}' refused: {}", r.command, r.reason)
+            }
+        });
+        if interrupted(step)?.is_none() {
+            break;
+        }
+    }
+    session
+        .quit(QUIT_TIMEOUT)
+        .context("stopping and releasing control on quit")?;
+    Ok(())
+}

@@ -1,0 +1,444 @@
+//! The operator's intent: the gait the operator wants, stepped by keys and
+//! clamped to the daemon's ranges, and the command it turns into.
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+
+/// The daemon's accepted ranges for swim parameters (`[gait]` in its
+/// configuration); commands outside them would be refused.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Largest frequency (Hz).
+    pub max_frequency: f64,
+    /// Largest turn curvature magnitude (1/m).
+    pub max_turn: f64,
+    /// Largest pitch curvature magnitude (1/m).
+    pub max_pitch: f64,
+}
+
+impl Limits {
+    /// The limits of a daemon configuration.
+    pub fn from_config(cfg: &Config) -> Self {
+        Self {
+            max_frequency: cfg.gait.max_frequency,
+            max_turn: cfg.gait.max_turn,
+            max_pitch: cfg.gait.max_pitch,
+        }
+    }
+}
+
+impl Default for Limits {
+    /// The daemon's defaults (2 Hz, 2 /m, 1 /m).
+    fn default() -> Self {
+        Self::from_config(&Config::default())
+    }
+}
+
+/// What an operator can ask for, whatever the input device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Action {
+    /// More amplitude (starts swimming from ready).
+    Faster,
+    /// Less amplitude (stops the swim at zero).
+    Slower,
+    /// Higher undulation frequency.
+    FrequencyUp,
+    /// Lower undulation frequency.
+    FrequencyDown,
+    /// Turn more to the left.
+    TurnLeft,
+    /// Turn more to the right.
+    TurnRight,
+    /// Pitch down more (positive pitch curvature).
+    Dive,
+    /// Pitch up more.
+    Climb,
+    /// Zero turn and pitch.
+    Straighten,
+    /// Stop swimming smoothly.
+    Stop,
+    /// Emergency stop (accepted from any client).
+    EStop,
+    /// Enable the actuators.
+    Enable,
+    /// Disable the actuators.
+    Disable,
+    /// Clear a fault or an E-stop.
+    Reset,
+    /// Take control authority.
+    TakeControl,
+    /// Release control authority (the daemon stops a swim).
+    ReleaseControl,
+    /// Leave the tool (stops the swim and releases control first).
+    Quit,
+}
+
+/// Amplitude step of [`Action::Faster`] / [`Action::Slower`] (fraction of maximum).
+pub const AMPLITUDE_STEP: f64 = 0.1;
+/// Frequency step (Hz).
+pub const FREQUENCY_STEP: f64 = 0.1;
+/// Turn curvature step (1/m).
+pub const TURN_STEP: f64 = 0.25;
+/// Pitch curvature step (1/m).
+pub const PITCH_STEP: f64 = 0.25;
+/// Frequency a new session starts with (Hz).
+pub const DEFAULT_FREQUENCY: f64 = 1.0;
+
+/// The operator's intent: target gait and whether the robot should swim.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Intent {
+    limits: Limits,
+    params: SwimParams,
+    swimming: bool,
+}
+
+/// Rounds to a multiple of a thousandth so repeated steps do not drift
+/// (0.1 + 0.1 + 0.1 stays 0.3), then clamps.
+fn step(value: f64, by: f64, min: f64, max: f64) -> f64 {
+    (((value + by) * 1000.0).round() / 1000.0).clamp(min, max)
+}
+
+impl Intent {
+    /// At rest, with `limits` and [`DEFAULT_FREQUENCY`] (clamped).
+    pub fn new(limits: Limits) -> Self {
+        Self {
+            limits,
+            params: SwimParams {
+                frequency: DEFAULT_FREQUENCY.min(limits.max_frequency),
+                ..SwimParams::REST
+            },
+            swimming: false,
+        }
+    }
+
+    /// The limits in use.
+    pub fn limits(&self) -> Limits {
+        self.limits
+    }
+
+    /// The target gait.
+    pub fn params(&self) -> SwimParams {
+        self.params
+    }
+
+    /// Whether the operator wants the robot to swim.
+    pub fn swimming(&self) -> bool {
+        self.swimming
+    }
+
+    /// Applies `action`; returns the command to send at once, if any.
+    /// [`Action::Quit`] returns `None`: the caller runs its quit sequence.
+    pub fn apply(&mut self, action: Action) -> Option<Command> {
+        let l = self.limits;
+        let p = &mut self.params;
+        match action {
+            Action::Faster => {
+                p.amplitude = step(p.amplitude, AMPLITUDE_STEP, 0.0, 1.0);
+                if p.amplitude > 0.0 && p.frequency > 0.0 {
+                    self.swimming = true;
+                    return Some(Command::Swim(*p));
+                }
+                None
+            }
+            Action::Slower => {
+                p.amplitude = step(p.amplitude, -AMPLITUDE_STEP, 0.0, 1.0);
+                self.gait_changed()
+            }
+            Action::FrequencyUp => {
+                p.frequency = step(p.frequency, FREQUENCY_STEP, 0.0, l.max_frequency);
+                self.gait_changed()
+            }
+            Action::FrequencyDown => {
+                p.frequency = step(p.frequency, -FREQUENCY_STEP, 0.0, l.max_frequency);
+                self.gait_changed()
+            }
+            Action::TurnLeft => {
+                p.turn = step(p.turn, TURN_STEP, -l.max_turn, l.max_turn);
+                self.gait_changed()
+            }
+            Action::TurnRight => {
+                p.turn = step(p.turn, -TURN_STEP, -l.max_turn, l.max_turn);
+                self.gait_changed()
+            }
+            Action::Dive => {
+                p.pitch = step(p.pitch, PITCH_STEP, -l.max_pitch, l.max_pitch);
+                self.gait_changed()
+            }
+            Action::Climb => {
+                p.pitch = step(p.pitch, -PITCH_STEP, -l.max_pitch, l.max_pitch);
+                self.gait_changed()
+            }
+            Action::Straighten => {
+                p.turn = 0.0;
+                p.pitch = 0.0;
+                self.gait_changed()
+            }
+            Action::Stop => {
+                self.rest();
+                Some(Command::Stop)
+            }
+            Action::EStop => {
+                self.rest();
+                Some(Command::EStop)
+            }
+            Action::Enable => Some(Command::Enable),
+            Action::Disable => {
+                self.rest();
+                Some(Command::Disable)
+            }
+            Action::Reset => {
+                self.rest();
+                Some(Command::Reset)
+            }
+            Action::TakeControl => Some(Command::TakeControl),
+            Action::ReleaseControl => {
+                self.rest();
+                Some(Command::ReleaseControl)
+            }
+            Action::Quit => None,
+        }
+    }
+
+    /// After a gait change: the new swim while swimming, a stop when the
+    /// amplitude or frequency reached zero, nothing when not swimming.
+    fn gait_changed(&mut self) -> Option<Command> {
+        if !self.swimming {
+            return None;
+        }
+        if self.params.amplitude <= 0.0 || self.params.frequency <= 0.0 {
+            self.swimming = false;
+            self.params.amplitude = 0.0;
+            return Some(Command::Stop);
+        }
+        Some(Command::Swim(self.params))
+    }
+
+    /// Amplitude zero, straight, not swimming (frequency kept).
+    fn rest(&mut self) {
+        self.swimming = false;
+        self.params.amplitude = 0.0;
+        self.params.turn = 0.0;
+        self.params.pitch = 0.0;
+    }
+
+    /// What the holder sends at its steady rate: the swim while swimming,
+    /// otherwise a keep-alive.
+    pub fn steady(&self) -> Command {
+        if self.swimming {
+            Command::Swim(self.params)
+        } else {
+            Command::KeepAlive
+        }
+    }
+
+    /// The daemon refused a swim (no control, wrong mode, out of range):
+    /// the intent drops to rest, so taking control later does not start a
+    /// swim the operator asked for before.
+    pub fn swim_refused(&mut self) {
+        if self.swimming {
+            self.rest();
+        }
+    }
+
+    /// Follows the daemon: when it left the swim on its own (fault, E-stop
+    /// from any tool, reset, the operator's silence), the intent drops to
+    /// rest, so the steady sender never restarts a swim by itself.
+    /// `mode` and `cause` are the snapshot's codes.
+    pub fn observe(&mut self, mode: u8, cause: u8) {
+        const OPERATOR_SILENT: u8 = 2;
+        let stopped_by_daemon = mode == Mode::Idle as u8
+            || mode == Mode::Enabling as u8
+            || mode == Mode::Fault as u8
+            || mode == Mode::EStop as u8
+            || (mode == Mode::Stopping as u8 && cause == OPERATOR_SILENT);
+        if self.swimming && stopped_by_daemon {
+            self.rest();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn swim_of(c: Option<Command>) -> SwimParams {
+        match c {
+            Some(Command::Swim(p)) => p,
+            other => panic!("expected a swim, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn faster_starts_the_swim_and_slower_to_zero_stops_it() {
+        let mut i = Intent::new(Limits::default());
+        assert_eq!(i.steady(), Command::KeepAlive);
+        let p = swim_of(i.apply(Action::Faster));
+        assert_eq!(p.amplitude, 0.1);
+        assert_eq!(p.frequency, 1.0);
+        assert!(i.swimming());
+        assert!(matches!(i.steady(), Command::Swim(_)));
+        assert_eq!(i.apply(Action::Slower), Some(Command::Stop));
+        assert!(!i.swimming());
+        assert_eq!(i.steady(), Command::KeepAlive);
+        // Slower at rest sends nothing.
+        assert_eq!(i.apply(Action::Slower), None);
+    }
+
+    #[test]
+    fn steps_are_clamped_to_the_daemons_ranges_and_do_not_drift() {
+        let l = Limits::default();
+        let mut i = Intent::new(l);
+        for _ in 0..30 {
+            i.apply(Action::Faster);
+            i.apply(Action::FrequencyUp);
+            i.apply(Action::TurnLeft);
+            i.apply(Action::Dive);
+        }
+        let p = i.params();
+        assert_eq!(p.amplitude, 1.0);
+        assert_eq!(p.frequency, l.max_frequency);
+        assert_eq!(p.turn, l.max_turn);
+        assert_eq!(p.pitch, l.max_pitch);
+        for _ in 0..60 {
+            i.apply(Action::TurnRight);
+            i.apply(Action::Climb);
+        }
+        assert_eq!(i.params().turn, -l.max_turn);
+        assert_eq!(i.params().pitch, -l.max_pitch);
+        let mut j = Intent::new(l);
+        for _ in 0..3 {
+            j.apply(Action::Faster);
+        }
+        assert_eq!(j.params().amplitude, 0.3);
+    }
+
+    #[test]
+    fn turn_and_dive_at_rest_only_set_the_target() {
+        let mut i = Intent::new(Limits::default());
+        assert_eq!(i.apply(Action::TurnLeft), None);
+        assert_eq!(i.apply(Action::Dive), None);
+        let p = swim_of(i.apply(Action::Faster));
+        assert_eq!((p.turn, p.pitch), (0.25, 0.25));
+        let p = swim_of(i.apply(Action::TurnRight));
+        assert_eq!(p.turn, 0.0);
+        let p = swim_of(i.apply(Action::Straighten));
+        assert_eq!((p.turn, p.pitch), (0.0, 0.0));
+    }
+
+    #[test]
+    fn stop_estop_and_release_rest_the_intent() {
+        for (a, c) in [
+            (Action::Stop, Command::Stop),
+            (Action::EStop, Command::EStop),
+            (Action::ReleaseControl, Command::ReleaseControl),
+        ] {
+            let mut i = Intent::new(Limits::default());
+            i.apply(Action::Faster);
+            i.apply(Action::TurnLeft);
+            assert_eq!(i.apply(a), Some(c));
+            assert!(!i.swimming());
+            assert_eq!(i.params().amplitude, 0.0);
+            assert_eq!(i.params().turn, 0.0);
+        }
+        let mut i = Intent::new(Limits::default());
+        assert_eq!(i.apply(Action::Enable), Some(Command::Enable));
+        assert_eq!(i.apply(Action::TakeControl), Some(Command::TakeControl));
+        assert_eq!(i.apply(Action::Quit), None);
+    }
+
+    #[test]
+    fn a_stop_by_the_daemon_is_never_undone_by_the_steady_sender() {
+        let mut i = Intent::new(Limits::default());
+        i.apply(Action::Faster);
+        i.observe(Mode::Ready as u8, 1); // just sent: not yet swimming
+        assert!(i.swimming());
+        i.observe(Mode::Swimming as u8, 1);
+        i.observe(Mode::Stopping as u8, 1); // a stop of ours would be fine
+        assert!(i.swimming());
+        for (mode, cause) in [
+            (Mode::EStop as u8, 1),
+            (Mode::Fault as u8, 3),
+            (Mode::Stopping as u8, 2),
+            (Mode::Idle as u8, 1),
+        ] {
+            let mut j = i;
+            j.observe(mode, cause);
+            assert!(!j.swimming(), "mode {mode} cause {cause}");
+            assert_eq!(j.steady(), Command::KeepAlive);
+        }
+    }
+
+    #[test]
+    fn a_refused_swim_is_forgotten() {
+        let mut i = Intent::new(Limits::default());
+        i.apply(Action::Faster);
+        i.swim_refused();
+        assert!(!i.swimming());
+        assert_eq!(i.steady(), Command::KeepAlive);
+        assert_eq!(i.params().amplitude, 0.0);
+    }
+
+    #[test]
+    fn frequency_zero_while_swimming_stops() {
+        let mut i = Intent::new(Limits::default());
+        i.apply(Action::Faster);
+        let sent: Vec<_> = (0..12).map(|_| i.apply(Action::FrequencyDown)).collect();
+        let stops = sent.iter().filter(|c| **c == Some(Command::Stop)).count();
+        assert_eq!(stops, 1, "stopped once: {sent:?}");
+        assert_eq!(sent[11], None, "then nothing");
+        assert!(!i.swimming());
+        // Faster with frequency 0 does not start a swim the daemon would refuse to move.
+        assert_eq!(i.apply(Action::Faster), None);
+    }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn action() -> impl Strategy<Value = Action> {
+            use Action::*;
+            proptest::sample::select(vec![
+                Faster,
+                Slower,
+                FrequencyUp,
+                FrequencyDown,
+                TurnLeft,
+                TurnRight,
+                Dive,
+                Climb,
+                Straighten,
+                Stop,
+                EStop,
+                Enable,
+                Disable,
+                Reset,
+                TakeControl,
+                ReleaseControl,
+            ])
+        }
+
+        proptest! {
+            // Any key sequence: every swim sent is one the daemon accepts
+            // (in range, moving), and the steady command matches the state.
+            #[test]
+            fn every_swim_is_in_the_daemons_ranges(
+                actions in proptest::collection::vec(action(), 1..300)
+            ) {
+                let l = Limits::default();
+                let mut i = Intent::new(l);
+                for a in actions {
+                    let sent = i.apply(a);
+                    for c in [sent, Some(i.steady())].into_iter().flatten() {
+                        if let Command::Swim(p) = c {
+                            prop_assert!(p.amplitude > 0.0 && p.amplitude <= 1.0);
+                            prop_assert!(p.frequency > 0.0 && p.frequency <= l.max_frequency);
+                            prop_assert!(p.turn.abs() <= l.max_turn);
+                            prop_assert!(p.pitch.abs() <= l.max_pitch);
+                        }
+                    }
+                    prop_assert_eq!(i.swimming(), matches!(i.steady(), Command::Swim(_)));
+                }
+            }
+        }
+    }
+}

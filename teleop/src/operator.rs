@@ -1,0 +1,249 @@
+//! A connection to the daemon as one operator tool: commands with their
+//! refusals remembered, the latest state, and the steady sender.
+
+use std::time::{Duration, Instant};
+
+use anguilla_daemon::ipc::{Client, CommandReply, IpcError, StateSnapshot};
+use anguilla_daemon::supervisor::Command;
+
+use crate::app::{Action, Intent};
+
+/// How often the holder sends its intent (10 Hz: five times within the
+/// daemon's default 0.5 s command timeout).
+pub const STEADY_PERIOD: Duration = Duration::from_millis(100);
+
+/// How long the quit sequence waits for each reply.
+pub const QUIT_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// A non-zero client id for this session, from the clock and the process id.
+pub fn new_client_id() -> u64 {
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0);
+    // splitmix64 of time ^ pid: distinct for tools started together.
+    let mut z = t ^ (u64::from(std::process::id()) << 32);
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    z.max(1)
+}
+
+/// A refused command and the daemon's reason.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Refused {
+    /// The command's name (`swim`, `enable`, ...).
+    pub command: &'static str,
+    /// The daemon's reason.
+    pub reason: String,
+}
+
+/// One operator tool's connection to the daemon.
+pub struct Operator {
+    client: Client,
+    sent: Vec<(u32, &'static str)>,
+    state: Option<StateSnapshot>,
+    last_refused: Option<Refused>,
+    refusals: u64,
+}
+
+impl std::fmt::Debug for Operator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Operator")
+            .field("id", &self.client.id())
+            .field("last_refused", &self.last_refused)
+            .finish()
+    }
+}
+
+impl Operator {
+    /// Connects to the daemon under `prefix` as a new client (a fresh
+    /// random id); `tool` names the iceoryx2 node.
+    pub fn connect(prefix: &str, tool: &str) -> Result<Self, IpcError> {
+        let id = new_client_id();
+        let name = format!("{tool}-{id:016x}");
+        Ok(Self {
+            client: Client::new(prefix, &name, id)?,
+            sent: Vec::new(),
+            state: None,
+            last_refused: None,
+            refusals: 0,
+        })
+    }
+
+    /// This client's id (compare with [`StateSnapshot::holder`]).
+    pub fn id(&self) -> u64 {
+        self.client.id()
+    }
+
+    /// Sends `cmd` without waiting; its reply is collected by [`Operator::poll`].
+    pub fn send(&mut self, cmd: Command) -> Result<(), IpcError> {
+        let seq = self.client.send(cmd)?;
+        if self.sent.len() >= 256 {
+            self.sent.drain(..128);
+        }
+        self.sent.push((seq, cmd.name()));
+        Ok(())
+    }
+
+    /// Sends `cmd` and waits up to `timeout` for its reply (a refusal is
+    /// also remembered as the last refused command).
+    pub fn request(&mut self, cmd: Command, timeout: Duration) -> Result<CommandReply, IpcError> {
+        let r = self.client.request(cmd, timeout)?;
+        if r.accepted == 0 {
+            self.refusals += 1;
+            self.last_refused = Some(Refused {
+                command: cmd.name(),
+                reason: r.reason().to_string(),
+            });
+        }
+        Ok(r)
+    }
+
+    /// Collects the replies and the newest state that arrived.
+    pub fn poll(&mut self) -> Result<(), IpcError> {
+        let mut refused = None;
+        let mut count = 0;
+        let sent = &mut self.sent;
+        self.client.replies(|r| {
+            let name = sent
+                .iter()
+                .position(|(s, _)| *s == r.sequence)
+                .map(|i| sent.swap_remove(i).1)
+                .unwrap_or("command");
+            if r.accepted == 0 {
+                count += 1;
+                refused = Some(Refused {
+                    command: name,
+                    reason: r.reason().to_string(),
+                });
+            }
+        })?;
+        self.refusals += count;
+        if refused.is_some() {
+            self.last_refused = refused;
+        }
+        if let Some(s) = self.client.latest()? {
+            self.state = Some(s);
+        }
+        Ok(())
+    }
+
+    /// Waits up to `timeout` for a new state; returns the newest known.
+    pub fn wait_state(&mut self, timeout: Duration) -> Result<Option<&StateSnapshot>, IpcError> {
+        if let Some(s) = self.client.wait_state(timeout)? {
+            self.state = Some(s);
+        }
+        Ok(self.state.as_ref())
+    }
+
+    /// The newest state received.
+    pub fn state(&self) -> Option<&StateSnapshot> {
+        self.state.as_ref()
+    }
+
+    /// Whether the newest state says this client holds control.
+    pub fn holds_control(&self) -> bool {
+        self.state.is_some_and(|s| s.holder == self.id())
+    }
+
+    /// The last refused command and why.
+    pub fn last_refused(&self) -> Option<&Refused> {
+        self.last_refused.as_ref()
+    }
+
+    /// Refusals received since connecting.
+    pub fn refusals(&self) -> u64 {
+        self.refusals
+    }
+
+    /// Replies still awaited.
+    pub fn awaiting(&self) -> usize {
+        self.client.awaiting()
+    }
+}
+
+/// The keyboard client's driving logic without a terminal: an [`Intent`],
+/// its immediate commands, and the steady 10 Hz sender while holding
+/// control. `anguilla teleop` and the system tests use the same code.
+#[derive(Debug)]
+pub struct Driver {
+    /// The connection.
+    pub op: Operator,
+    /// The operator's intent.
+    pub intent: Intent,
+    next_steady: Instant,
+    refusals_seen: u64,
+}
+
+impl Driver {
+    /// A driver over `op`, at rest.
+    pub fn new(op: Operator, intent: Intent) -> Self {
+        Self {
+            op,
+            intent,
+            next_steady: Instant::now(),
+            refusals_seen: 0,
+        }
+    }
+
+    /// Applies `action` and sends its command at once (not for
+    /// [`Action::Quit`]: see [`Driver::quit`]).
+    pub fn act(&mut self, action: Action) -> Result<Option<Command>, IpcError> {
+        let cmd = self.intent.apply(action);
+        if let Some(c) = cmd {
+            self.op.send(c)?;
+            self.next_steady = Instant::now() + STEADY_PERIOD;
+        }
+        Ok(cmd)
+    }
+
+    /// One turn of the tool's loop: collect replies and state, follow the
+    /// daemon's mode, and send the steady command when due while holding
+    /// control. Returns when the next steady command is due.
+    pub fn pump(&mut self, now: Instant) -> Result<Instant, IpcError> {
+        self.op.poll()?;
+        if self.op.refusals() != self.refusals_seen {
+            self.refusals_seen = self.op.refusals();
+            if self.op.last_refused().is_some_and(|r| r.command == "swim") {
+                self.intent.swim_refused();
+            }
+        }
+        if let Some(s) = self.op.state() {
+            self.intent.observe(s.mode, s.cause);
+        }
+        if now >= self.next_steady {
+            if self.op.holds_control() {
+                self.op.send(self.intent.steady())?;
+            }
+            self.next_steady = now + STEADY_PERIOD;
+        }
+        Ok(self.next_steady)
+    }
+
+    /// The quit sequence: if holding control, stop the swim and release
+    /// control, each waiting for its reply up to `timeout`.
+    pub fn quit(&mut self, timeout: Duration) -> Result<(), IpcError> {
+        self.op.poll()?;
+        self.intent.apply(Action::Stop);
+        if self.op.holds_control() {
+            self.op.request(Command::Stop, timeout)?;
+            self.op.request(Command::ReleaseControl, timeout)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn client_ids_are_non_zero_and_differ() {
+        let a = new_client_id();
+        let b = new_client_id();
+        assert_ne!(a, 0);
+        assert_ne!(a, b);
+    }
+}
