@@ -101,7 +101,8 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
     let op = Operator::connect(&robot.prefix, "systest-joy").unwrap();
     let mut s = JoySession::new(op, Joy::new(JoyMapping::default(), limits), pad.clone());
     let mut notices = vec![];
-    let t = Duration::from_secs(20);
+    // Bounds, not speed goals: generous for a loaded 2-core CI machine.
+    let t = Duration::from_secs(60);
 
     // No pad: said once, nothing sent.
     wait_for(&mut s, &mut notices, "the first state", t, |_| true);
@@ -110,7 +111,7 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
 
     // Plugged: found within its 1 s look-up period.
     pad.plug(true);
-    let deadline = Instant::now() + Duration::from_secs(5);
+    let deadline = Instant::now() + Duration::from_secs(15);
     while !s.connected() && Instant::now() < deadline {
         s.step(|n| notices.push(n)).unwrap();
     }
@@ -153,14 +154,14 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
         &mut s,
         &mut notices,
         "ready after the stop",
-        Duration::from_secs(30),
+        Duration::from_secs(60),
         |st| st.mode == Mode::Ready as u8,
     );
 
     // Replugged: the old stick position is forgotten; the deadman again
     // keeps control alive without swimming.
     pad.plug(true);
-    let deadline = Instant::now() + Duration::from_secs(5);
+    let deadline = Instant::now() + Duration::from_secs(15);
     while !s.connected() && Instant::now() < deadline {
         s.step(|n| notices.push(n)).unwrap();
     }

@@ -152,7 +152,7 @@ fn a_scripted_operator_drives_a_whole_session() {
     let s = wait_for(
         &mut d,
         "the tail swinging, unbiased, while swimming straight",
-        Duration::from_secs(30),
+        Duration::from_secs(60),
         window,
         |s, w| {
             s.mode == Mode::Swimming as u8
@@ -176,7 +176,7 @@ fn a_scripted_operator_drives_a_whole_session() {
     let s = wait_for(
         &mut d,
         "the yaw angles biased to the left",
-        Duration::from_secs(30),
+        Duration::from_secs(60),
         window,
         |s, w| s.gait_actual.turn > 0.9 && mean_angle(w, |j| j.measured_yaw) < -0.03,
     );
@@ -192,7 +192,7 @@ fn a_scripted_operator_drives_a_whole_session() {
     let s = wait_for(
         &mut d,
         "the pitch angles biased (diving)",
-        Duration::from_secs(30),
+        Duration::from_secs(60),
         window,
         |s, w| {
             s.gait_actual.pitch > 0.9
@@ -209,7 +209,7 @@ fn a_scripted_operator_drives_a_whole_session() {
     let s = wait_for(
         &mut d,
         "ready and straight after the stop",
-        Duration::from_secs(30),
+        Duration::from_secs(60),
         no_window,
         |s, _| {
             s.mode == Mode::Ready as u8
