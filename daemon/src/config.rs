@@ -86,7 +86,7 @@ pub struct ControlConfig {
     /// A node's heartbeat older than this is lost (s).
     pub heartbeat_timeout: f64,
     /// The nodes' watchdog, written to them before every enable (s); 0 means
-    /// five control periods.
+    /// five control periods, at least 100 ms.
     pub node_watchdog: f64,
     /// Reaction to an actuator fault or a lost heartbeat.
     pub fault_policy: FaultPolicyConfig,
@@ -408,7 +408,7 @@ impl Config {
                 c.node_watchdog,
                 0.002,
                 1.0,
-                "0 (five control periods) or 0.002 ..= 1 s",
+                "0 (automatic) or 0.002 ..= 1 s",
             )?;
         }
         let g = &self.gait;
@@ -556,7 +556,8 @@ pub fn default_toml() -> String {
         fmt_f(d.control.heartbeat_timeout)
     ));
     w("# The nodes' watchdog, written to them before every enable (s): a node that".into());
-    w("# applies no setpoint for this long takes its safe action. 0: five periods.".into());
+    w("# applies no setpoint for this long takes its safe action. 0: five periods,".into());
+    w("# at least 100 ms.".into());
     w(format!(
         "node-watchdog = {}",
         fmt_f(d.control.node_watchdog)

@@ -568,7 +568,10 @@ impl Controller {
                     // Configuration first (nodes accept it only while
                     // disabled): the watchdog (`control.node-watchdog`).
                     let wd = match self.cfg.control.node_watchdog {
-                        0.0 => 5 * self.period_ns,
+                        // Five periods, but no less than 100 ms: a loop that is
+                        // not real-time (no SCHED_FIFO) can stall for tens of
+                        // milliseconds on a busy machine.
+                        0.0 => (5 * self.period_ns).max(100 * MS),
                         s => (s * 1e9) as Nanos,
                     };
                     let ms = (wd / MS).clamp(
