@@ -172,3 +172,76 @@ fn start_nodes(cfg: &Config) -> anyhow::Result<Nodes> {
         })?;
     Ok((host, stop, thread))
 }
+
+/// Fixtures for tests that run `anguilla` as separate processes and talk to
+/// the daemon as an operator.
+pub mod process {
+    use std::path::PathBuf;
+    use std::process::Child;
+    use std::time::{Duration, Instant};
+
+    use anguilla_daemon::ipc::{Client, StateSnapshot};
+    use anguilla_daemon::supervisor::Command;
+
+    /// The `anguilla` binary: `$ANGUILLA_BIN` (set in the vcan VM), else the
+    /// workspace's debug build (which `cargo test --workspace` builds).
+    pub fn anguilla_bin() -> PathBuf {
+        std::env::var_os("ANGUILLA_BIN")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| {
+                PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/debug/anguilla")
+            })
+    }
+
+    /// A child process killed (and reaped) when dropped.
+    #[derive(Debug)]
+    pub struct Killed(pub Child);
+
+    impl Drop for Killed {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+
+    /// Sends `cmd` and asserts it is accepted (the reason otherwise).
+    pub fn ok(client: &mut Client, cmd: Command) {
+        let r = client.request(cmd, Duration::from_secs(5)).expect("reply");
+        assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
+    }
+
+    /// Keeps control alive and waits up to `timeout` seconds for a state
+    /// satisfying `f`; panics naming `what` and the last state otherwise.
+    pub fn wait_for(
+        client: &mut Client,
+        what: &str,
+        timeout: f64,
+        f: impl Fn(&StateSnapshot) -> bool,
+    ) -> StateSnapshot {
+        let end = Instant::now() + Duration::from_secs_f64(timeout);
+        let mut last = None;
+        while Instant::now() < end {
+            let _ = client.send(Command::KeepAlive);
+            if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
+                if f(&s) {
+                    return s;
+                }
+                last = Some(s);
+            }
+            let _ = client.replies(|_| {});
+        }
+        let detail = last.map(|s| {
+            format!(
+                "mode {}, faults {:#x}, node 1 state {} errors {:#x}, bus malformed {} tx {} rx {}",
+                s.mode,
+                s.fault_kinds,
+                s.joints[0].node_state,
+                s.joints[0].node_errors,
+                s.bus.malformed,
+                s.bus.tx_frames,
+                s.bus.rx_frames
+            )
+        });
+        panic!("{what} not reached within {timeout} s; last state: {detail:?}");
+    }
+}

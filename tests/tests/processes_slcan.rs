@@ -4,58 +4,12 @@
 //! drives it. An operator client enables, swims, stops and E-stops.
 
 use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
-use std::process::{Child, Command as Proc, Stdio};
+use std::process::{Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::{Client, StateSnapshot};
+use anguilla_daemon::ipc::Client;
 use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
-
-fn anguilla_bin() -> PathBuf {
-    std::env::var_os("ANGUILLA_BIN")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/debug/anguilla")
-        })
-}
-
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn wait_for(
-    c: &mut Client,
-    what: &str,
-    timeout: f64,
-    f: impl Fn(&StateSnapshot) -> bool,
-) -> StateSnapshot {
-    let end = Instant::now() + Duration::from_secs_f64(timeout);
-    let mut last = None;
-    while Instant::now() < end {
-        let _ = c.send(Command::KeepAlive);
-        if let Ok(Some(s)) = c.wait_state(Duration::from_millis(100)) {
-            if f(&s) {
-                return s;
-            }
-            last = Some(s);
-        }
-        let _ = c.replies(|_| {});
-    }
-    panic!(
-        "{what} not reached within {timeout} s; last: {:?}",
-        last.map(|s| (s.mode, s.fault_kinds, s.joints[0].node_errors))
-    );
-}
-
-fn ok(c: &mut Client, cmd: Command) {
-    let r = c.request(cmd, Duration::from_secs(5)).expect("reply");
-    assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
-}
+use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
 
 #[test]
 fn daemon_and_simulator_processes_over_an_slcan_pty() {

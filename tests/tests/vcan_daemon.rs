@@ -11,12 +11,12 @@
 //! unless `ANGUILLA_VCAN_REQUIRED=1` (set by `scripts/vcan-vm`, which runs it
 //! in a VM with vcan).
 
-use std::path::PathBuf;
-use std::process::{Child, Command as Proc, Stdio};
+use std::process::{Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::{Client, StateSnapshot};
+use anguilla_daemon::ipc::Client;
 use anguilla_daemon::supervisor::{Command, FaultKind, Mode};
+use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
 
 fn iface() -> String {
     std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".into())
@@ -35,56 +35,6 @@ fn can_available() -> bool {
             false
         }
     }
-}
-
-fn anguilla_bin() -> PathBuf {
-    std::env::var_os("ANGUILLA_BIN")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/debug/anguilla")
-        })
-}
-
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn wait_for(
-    client: &mut Client,
-    what: &str,
-    timeout: f64,
-    f: impl Fn(&StateSnapshot) -> bool,
-) -> StateSnapshot {
-    let end = Instant::now() + Duration::from_secs_f64(timeout);
-    let mut last = None;
-    while Instant::now() < end {
-        let _ = client.send(Command::KeepAlive);
-        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
-            if f(&s) {
-                return s;
-            }
-            last = Some(s);
-        }
-        let _ = client.replies(|_| {});
-    }
-    let detail = last.map(|s| {
-        format!(
-            "mode {}, faults {:#x}, node 1 state {} errors {:#x}, node 12 errors {:#x}, bus malformed {} tx {} rx {}",
-            s.mode, s.fault_kinds, s.joints[0].node_state, s.joints[0].node_errors,
-            s.joints[11].node_errors, s.bus.malformed, s.bus.tx_frames, s.bus.rx_frames
-        )
-    });
-    panic!("{what} not reached within {timeout} s; last state: {detail:?}");
-}
-
-fn ok(client: &mut Client, cmd: Command) {
-    let r = client.request(cmd, Duration::from_secs(5)).expect("reply");
-    assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
 }
 
 #[test]
