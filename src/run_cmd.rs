@@ -77,18 +77,7 @@ pub fn init_logging() {
 }
 
 fn mode_name(m: u8) -> &'static str {
-    [
-        Mode::Idle,
-        Mode::Enabling,
-        Mode::Ready,
-        Mode::Swimming,
-        Mode::Stopping,
-        Mode::Fault,
-        Mode::EStop,
-    ]
-    .get(m as usize)
-    .map(|m| m.name())
-    .unwrap_or("?")
+    Mode::from_code(m).map(Mode::name).unwrap_or("?")
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<()> {

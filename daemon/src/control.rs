@@ -38,7 +38,7 @@ use crate::nodes::NodeTable;
 use crate::profile::{Follower, Limits};
 use crate::record::Record;
 use crate::supervisor::{
-    Cause, Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig, SwimParams,
+    Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig, SwimParams,
 };
 
 const MS: Nanos = 1_000_000;
@@ -684,13 +684,7 @@ impl Controller {
         s.sequence += 1;
         s.time_ns = now.saturating_sub(self.started);
         s.mode = self.sup.mode() as u8;
-        s.cause = match self.sup.cause() {
-            Cause::None => 0,
-            Cause::Command => 1,
-            Cause::OperatorSilent => 2,
-            Cause::Fault => 3,
-            Cause::Progress => 4,
-        };
+        s.cause = self.sup.cause().code();
         s.feedforward_dropped = ff_dropped as u8;
         let faults = self.sup.faults();
         s.fault_kinds = faults.kinds;

@@ -47,6 +47,22 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Every mode, in the order of their codes (`mode as u8`).
+    pub const ALL: [Mode; 7] = [
+        Mode::Idle,
+        Mode::Enabling,
+        Mode::Ready,
+        Mode::Swimming,
+        Mode::Stopping,
+        Mode::Fault,
+        Mode::EStop,
+    ];
+
+    /// The mode of a snapshot's code (`StateSnapshot::mode`).
+    pub fn from_code(code: u8) -> Option<Mode> {
+        Self::ALL.get(code as usize).copied()
+    }
+
     /// Lower-case name, as shown to operators.
     pub fn name(self) -> &'static str {
         match self {
@@ -447,6 +463,37 @@ pub enum Cause {
     Fault,
     /// The nodes reported enabled, or the ramp down finished.
     Progress,
+}
+
+impl Cause {
+    const ALL: [Cause; 5] = [
+        Cause::None,
+        Cause::Command,
+        Cause::OperatorSilent,
+        Cause::Fault,
+        Cause::Progress,
+    ];
+
+    /// Its code in a snapshot (`StateSnapshot::cause`).
+    pub fn code(self) -> u8 {
+        Self::ALL.iter().position(|&c| c == self).unwrap_or(0) as u8
+    }
+
+    /// The cause of a snapshot's code.
+    pub fn from_code(code: u8) -> Option<Cause> {
+        Self::ALL.get(code as usize).copied()
+    }
+
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            Cause::None => "none",
+            Cause::Command => "command",
+            Cause::OperatorSilent => "operator silent",
+            Cause::Fault => "fault",
+            Cause::Progress => "progress",
+        }
+    }
 }
 
 /// The supervisor state machine.
@@ -871,6 +918,19 @@ mod tests {
         s.command(3 * MS, A, 3, swim()).unwrap();
         assert_eq!(s.mode(), Mode::Swimming);
         s
+    }
+
+    #[test]
+    fn codes_round_trip() {
+        for m in Mode::ALL {
+            assert_eq!(Mode::from_code(m as u8), Some(m));
+        }
+        assert_eq!(Mode::from_code(7), None);
+        for c in Cause::ALL {
+            assert_eq!(Cause::from_code(c.code()), Some(c));
+        }
+        assert_eq!(Cause::OperatorSilent.code(), 2);
+        assert_eq!(Cause::from_code(9), None);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! clamped to the daemon's ranges, and the command it turns into.
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+use anguilla_daemon::supervisor::{Cause, Command, Mode, SwimParams};
 
 /// The daemon's accepted ranges for swim parameters (`[gait]` in its
 /// configuration); commands outside them would be refused.
@@ -245,12 +245,12 @@ impl Intent {
     /// rest, so the steady sender never restarts a swim by itself.
     /// `mode` and `cause` are the snapshot's codes.
     pub fn observe(&mut self, mode: u8, cause: u8) {
-        const OPERATOR_SILENT: u8 = 2;
         let stopped_by_daemon = mode == Mode::Idle as u8
             || mode == Mode::Enabling as u8
             || mode == Mode::Fault as u8
             || mode == Mode::EStop as u8
-            || (mode == Mode::Stopping as u8 && cause == OPERATOR_SILENT);
+            || (mode == Mode::Stopping as u8
+                && Cause::from_code(cause) == Some(Cause::OperatorSilent));
         if self.swimming && stopped_by_daemon {
             self.rest();
         }

@@ -2,7 +2,7 @@
 //! drawn with ratatui on any backend (a terminal, or `TestBackend` in tests).
 
 use anguilla_daemon::ipc::{GaitSnapshot, StateSnapshot};
-use anguilla_daemon::supervisor::{FaultSet, Mode};
+use anguilla_daemon::supervisor::{Cause, FaultSet, Mode};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
@@ -25,38 +25,20 @@ pub const MIN_HEIGHT: u16 = 24;
 /// Smallest height of the monitor view (it adds plots).
 pub const MIN_HEIGHT_MONITOR: u16 = 34;
 
-const MODES: [Mode; 7] = [
-    Mode::Idle,
-    Mode::Enabling,
-    Mode::Ready,
-    Mode::Swimming,
-    Mode::Stopping,
-    Mode::Fault,
-    Mode::EStop,
-];
-
 /// The name of a snapshot's mode code.
 pub fn mode_name(mode: u8) -> &'static str {
-    MODES
-        .get(mode as usize)
-        .map(|m| m.name())
-        .unwrap_or("unknown")
+    Mode::from_code(mode).map(Mode::name).unwrap_or("unknown")
 }
 
 /// The name of a snapshot's cause code.
 pub fn cause_name(cause: u8) -> &'static str {
-    match cause {
-        0 => "none",
-        1 => "command",
-        2 => "operator silent",
-        3 => "fault",
-        4 => "progress",
-        _ => "unknown",
-    }
+    Cause::from_code(cause)
+        .map(Cause::name)
+        .unwrap_or("unknown")
 }
 
 fn mode_style(mode: u8) -> Style {
-    let c = match MODES.get(mode as usize) {
+    let c = match Mode::from_code(mode) {
         Some(Mode::Swimming) => Color::Green,
         Some(Mode::Ready) => Color::Cyan,
         Some(Mode::Enabling | Mode::Stopping) => Color::Yellow,

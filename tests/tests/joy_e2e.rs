@@ -8,7 +8,7 @@ use std::rc::Rc;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::ipc::StateSnapshot;
-use anguilla_daemon::supervisor::Mode;
+use anguilla_daemon::supervisor::{Cause, Mode};
 use anguilla_system_tests::{Robot, Watchdog};
 use anguilla_teleop::app::Limits;
 use anguilla_teleop::joy::{AxisRange, Joy, JoyInput, JoyMapping};
@@ -148,7 +148,11 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
         st.mode == Mode::Stopping as u8
     });
     assert!(notices.contains(&JoyNotice::Disconnected { stop_sent: true }));
-    assert_eq!(st.cause, 1, "stopped by a command (the one stop)");
+    assert_eq!(
+        Cause::from_code(st.cause),
+        Some(Cause::Command),
+        "stopped by a command (the one stop)"
+    );
     assert_eq!(st.operator_silent_stops, 0);
     wait_for(
         &mut s,
