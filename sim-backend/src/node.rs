@@ -577,6 +577,17 @@ mod tests {
 
     const ID: u8 = 3;
 
+    /// Node `ID`, default actuators, booting in 20 ms.
+    fn test_config(variant: Variant) -> NodeConfig {
+        NodeConfig {
+            id: NodeId::new(ID).unwrap(),
+            variant,
+            axes: [ActuatorParams::default(); 2],
+            boot_time: 20 * MS,
+            seed: 1,
+        }
+    }
+
     struct Bench {
         node: VertebraNode,
         out: Vec<Frame>,
@@ -586,13 +597,7 @@ mod tests {
 
     impl Bench {
         fn new(variant: Variant) -> Self {
-            let cfg = NodeConfig {
-                id: NodeId::new(ID).unwrap(),
-                variant,
-                axes: [ActuatorParams::default(); 2],
-                boot_time: 20 * MS,
-                seed: 1,
-            };
+            let cfg = test_config(variant);
             let mut b = Self {
                 node: VertebraNode::new(cfg, 0),
                 out: Vec::new(),
@@ -698,13 +703,7 @@ mod tests {
 
     #[test]
     fn boots_into_disabled_with_heartbeats() {
-        let cfg = NodeConfig {
-            id: NodeId::new(ID).unwrap(),
-            variant: Variant::Classic,
-            axes: [ActuatorParams::default(); 2],
-            boot_time: 20 * MS,
-            seed: 1,
-        };
+        let cfg = test_config(Variant::Classic);
         let mut node = VertebraNode::new(cfg, 0);
         let mut out = Vec::new();
         node.advance(250 * MS, &mut |f| out.push(f));
@@ -981,13 +980,7 @@ mod tests {
 
     #[test]
     fn feedback_on_sync_except_while_booting() {
-        let cfg = NodeConfig {
-            id: NodeId::new(ID).unwrap(),
-            variant: Variant::Classic,
-            axes: [ActuatorParams::default(); 2],
-            boot_time: 20 * MS,
-            seed: 1,
-        };
+        let cfg = test_config(Variant::Classic);
         let mut node = VertebraNode::new(cfg, 0);
         let mut out = Vec::new();
         let sync = Message::Sync { counter: 1 }

@@ -105,7 +105,24 @@ impl Drop for System {
 #[test]
 fn the_robot_swims_turns_and_stops_under_the_daemon() {
     let mut sys = System::start("e2e-swim");
-    std::thread::sleep(Duration::from_millis(200)); // nodes boot (50 ms)
+    // Every node has booted and reports Disabled (protocol state 1).
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        let booted = sys
+            .client
+            .wait_state(Duration::from_millis(100))
+            .ok()
+            .flatten()
+            .is_some_and(|s| {
+                s.joints[..12]
+                    .iter()
+                    .all(|j| j.node_alive == 1 && j.node_state == 1)
+            });
+        if booted {
+            break;
+        }
+        assert!(Instant::now() < end, "the simulated nodes did not boot");
+    }
     sys.ok(Command::TakeControl);
     sys.ok(Command::Enable);
     sys.wait_mode(Mode::Ready, 5.0);
