@@ -8,8 +8,9 @@
 //!    (Debian's rt-tests) at the same rate and the same SCHED_FIFO priority,
 //!    running at the same time (so both see the same load); p50/p99/max and
 //!    the ratio of the p99s (goal ≤ 1.5).
-//! 2. `state_latency`: publication of a `StateSnapshot` to its receipt by a
-//!    client woken by the state-ready event, beside iceoryx2's own
+//! 2. `state_latency`: the loop's handoff of a `StateSnapshot` (a bounded
+//!    channel to the daemon's state thread, which publishes it) to its
+//!    receipt by a client woken by the state-ready event, beside iceoryx2's own
 //!    publish-subscribe + event with a payload of the same size; p50/p99 and
 //!    the ratio (goal ≤ 1.2).
 //! 3. `command_latency`: an operator command (E-stop, then reset, in turn)
@@ -24,7 +25,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::ipc::{Client, Server, StateSnapshot};
+use anguilla_daemon::ipc::{Client, StateSnapshot};
 use anguilla_daemon::rt::monotonic_ns;
 use anguilla_daemon::run;
 use anguilla_daemon::supervisor::Command;
@@ -209,16 +210,20 @@ fn state_latency_bench(samples: usize) {
     let prefix = format!("anguilla-bench-ipc/{}", std::process::id());
     let (tx, rx) = std::sync::mpsc::channel::<u64>();
     let stop = Arc::new(AtomicBool::new(false));
-    // Ours: Server::publish (loan, write, send, notify) on one thread,
-    // Client::wait_state on this one.
+    // Ours: a stand-in for the loop thread hands the snapshot to the
+    // daemon's state thread (loan, write, send, notify there), and
+    // Client::wait_state receives it on this thread.
     let p = prefix.clone();
     let s2 = stop.clone();
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let (state_tx, state_rx) = crossbeam_channel::bounded::<StateSnapshot>(4);
+    let state = std::thread::spawn(move || run::state_thread(&p, state_rx, ready_tx));
+    ready_rx.recv().unwrap().unwrap();
     let publisher = std::thread::spawn(move || {
-        let server = Server::new(&p).unwrap();
         let mut snap = StateSnapshot::default();
         while !s2.load(Ordering::Relaxed) {
             snap.time_ns = monotonic_ns();
-            server.publish(&snap).unwrap();
+            let _ = state_tx.try_send(snap);
             let _ = rx.recv_timeout(Duration::from_millis(100));
         }
     });
@@ -235,6 +240,7 @@ fn state_latency_bench(samples: usize) {
     stop.store(true, Ordering::SeqCst);
     let _ = tx.send(0);
     let _ = publisher.join();
+    let _ = state.join();
 
     // Raw iceoryx2: the same pattern with a payload of the same size.
     let node = NodeBuilder::new().create::<ipc::Service>().unwrap();

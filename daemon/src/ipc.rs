@@ -1,6 +1,6 @@
 //! The operator interface on iceoryx2: state, commands and wake-ups.
 //!
-//! Three services, named under a prefix (`anguilla` by default, so several
+//! Four services, named under a prefix (`anguilla` by default, so several
 //! daemons can share a machine):
 //!
 //! | service | pattern | payload | who |
@@ -8,6 +8,12 @@
 //! | `<prefix>/state` | publish-subscribe, history 1 | [`StateSnapshot`] | daemon publishes every period |
 //! | `<prefix>/state-ready` | event | — | daemon notifies after each publication |
 //! | `<prefix>/command` | request-response | [`CommandRequest`] → [`CommandReply`] | tools send, daemon replies to each |
+//! | `<prefix>/command-ready` | event | — | tools notify after sending a request |
+//!
+//! The daemon's two sides are separate so that each can live on its own
+//! helper thread, never on the control loop's (iceoryx2 allocates when it
+//! loans a sample or answers a request): [`StatePublisher`] and
+//! [`CommandServer`]. A tool uses one [`Client`].
 //!
 //! Every payload is `#[repr(C)]`, `Copy` and [`ZeroCopySend`], made of fixed
 //! size integers, floats and arrays, so C, C++ and Python iceoryx2 clients can
@@ -471,7 +477,11 @@ struct Services {
     state: PubSubFactory<ipc::Service, StateSnapshot, ()>,
     ready: EventFactory<ipc::Service>,
     command: ReqResFactory<ipc::Service, CommandRequest, (), CommandReply, ()>,
+    command_ready: EventFactory<ipc::Service>,
 }
+
+/// Most clients (tools) at once.
+const MAX_CLIENTS: usize = 32;
 
 fn open_services(node: &Node<ipc::Service>, prefix: &str) -> Result<Services, IpcError> {
     let state = node
@@ -480,20 +490,27 @@ fn open_services(node: &Node<ipc::Service>, prefix: &str) -> Result<Services, Ip
         .history_size(1)
         .subscriber_max_buffer_size(2)
         .enable_safe_overflow(true)
-        .max_subscribers(32)
+        .max_subscribers(MAX_CLIENTS)
         .max_publishers(1)
         .open_or_create()
         .map_err(ice("state service"))?;
     let ready = node
         .service_builder(&service_name(prefix, "state-ready")?)
         .event()
-        .max_listeners(32)
+        .max_listeners(MAX_CLIENTS)
         .open_or_create()
         .map_err(ice("state-ready event"))?;
+    let command_ready = node
+        .service_builder(&service_name(prefix, "command-ready")?)
+        .event()
+        .max_notifiers(MAX_CLIENTS)
+        .max_listeners(1)
+        .open_or_create()
+        .map_err(ice("command-ready event"))?;
     let command = node
         .service_builder(&service_name(prefix, "command")?)
         .request_response::<CommandRequest, CommandReply>()
-        .max_clients(32)
+        .max_clients(MAX_CLIENTS)
         .max_servers(1)
         .max_active_requests_per_client(8)
         .enable_safe_overflow_for_requests(true)
@@ -503,6 +520,7 @@ fn open_services(node: &Node<ipc::Service>, prefix: &str) -> Result<Services, Ip
         state,
         ready,
         command,
+        command_ready,
     })
 }
 
@@ -518,19 +536,19 @@ fn new_node(name: &str) -> Result<Node<ipc::Service>, IpcError> {
         .map_err(ice("node"))
 }
 
-/// The daemon's side: publishes state, wakes clients, answers commands.
-pub struct Server {
-    node: Node<ipc::Service>,
+/// The daemon's state side: publishes snapshots and wakes the listeners.
+/// Lives on the daemon's state thread (its ports are not `Send`).
+pub struct StatePublisher {
+    _node: Node<ipc::Service>,
     publisher: iceoryx2::port::publisher::Publisher<ipc::Service, StateSnapshot, ()>,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
-    server: iceoryx2::port::server::Server<ipc::Service, CommandRequest, (), CommandReply, ()>,
     _services: Services,
 }
 
-impl Server {
-    /// Creates the services under `prefix` and the daemon's ports.
+impl StatePublisher {
+    /// Opens (or creates) the services under `prefix` and the state ports.
     pub fn new(prefix: &str) -> Result<Self, IpcError> {
-        let node = new_node("anguilla-daemon")?;
+        let node = new_node("anguilla-daemon-state")?;
         let services = open_services(&node, prefix)?;
         let publisher = services
             .state
@@ -542,21 +560,16 @@ impl Server {
             .notifier_builder()
             .create()
             .map_err(ice("state-ready notifier"))?;
-        let server = services
-            .command
-            .server_builder()
-            .create()
-            .map_err(ice("command server"))?;
         Ok(Self {
-            node,
+            _node: node,
             publisher,
             notifier,
-            server,
             _services: services,
         })
     }
 
-    /// Publishes one snapshot and wakes the listeners. Called every period.
+    /// Publishes one snapshot and wakes the listeners. Allocates (iceoryx2
+    /// 0.10 creates an `Arc` per loaned sample).
     pub fn publish(&self, snapshot: &StateSnapshot) -> Result<(), IpcError> {
         let sample = self
             .publisher
@@ -567,26 +580,79 @@ impl Server {
         self.notifier.notify().map_err(ice("notify"))?;
         Ok(())
     }
+}
 
-    /// Takes every pending command, in arrival order, and replies to each
-    /// with what `handle` returns. Returns how many were handled.
+/// A request taken from a client, to be answered once with
+/// [`CommandServer::reply`].
+pub type ActiveRequest =
+    iceoryx2::active_request::ActiveRequest<ipc::Service, CommandRequest, (), CommandReply, ()>;
+
+/// The daemon's command side: waits for requests and answers them. Lives
+/// on the daemon's command thread (its ports are not `Send`).
+pub struct CommandServer {
+    _node: Node<ipc::Service>,
+    server: iceoryx2::port::server::Server<ipc::Service, CommandRequest, (), CommandReply, ()>,
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    _services: Services,
+}
+
+impl CommandServer {
+    /// Opens (or creates) the services under `prefix` and the command ports.
+    pub fn new(prefix: &str) -> Result<Self, IpcError> {
+        let node = new_node("anguilla-daemon-command")?;
+        let services = open_services(&node, prefix)?;
+        let server = services
+            .command
+            .server_builder()
+            .create()
+            .map_err(ice("command server"))?;
+        let listener = services
+            .command_ready
+            .listener_builder()
+            .create()
+            .map_err(ice("command-ready listener"))?;
+        Ok(Self {
+            _node: node,
+            server,
+            listener,
+            _services: services,
+        })
+    }
+
+    /// Blocks until a client announces a request on `command-ready`, or
+    /// `timeout` passes (requests from clients that do not announce them
+    /// are still taken by the next [`CommandServer::take`]).
+    pub fn wait(&self, timeout: Duration) -> Result<(), IpcError> {
+        self.listener
+            .timed_wait(|_| {}, timeout)
+            .map_err(ice("wait for commands"))?;
+        Ok(())
+    }
+
+    /// The oldest request not yet taken, if any.
+    pub fn take(&self) -> Result<Option<ActiveRequest>, IpcError> {
+        self.server.receive().map_err(ice("receive command"))
+    }
+
+    /// Answers `request`. A client that left before its reply is not an
+    /// error.
+    pub fn reply(request: ActiveRequest, reply: CommandReply) {
+        let _ = request.send_copy(reply);
+    }
+
+    /// Takes every pending request, in arrival order, and answers each with
+    /// what `handle` returns. Returns how many were answered.
     pub fn serve(
         &self,
         mut handle: impl FnMut(&CommandRequest) -> CommandReply,
     ) -> Result<usize, IpcError> {
         let mut n = 0;
-        while let Some(active) = self.server.receive().map_err(ice("receive command"))? {
+        while let Some(active) = self.take()? {
             let reply = handle(active.payload());
-            // A client that left before the reply is not an error.
-            let _ = active.send_copy(reply);
+            Self::reply(active, reply);
             n += 1;
         }
         Ok(n)
-    }
-
-    /// The daemon's iceoryx2 node.
-    pub fn node(&self) -> &Node<ipc::Service> {
-        &self.node
     }
 }
 
@@ -649,6 +715,7 @@ pub struct Client {
     subscriber: iceoryx2::port::subscriber::Subscriber<ipc::Service, StateSnapshot, ()>,
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
     client: iceoryx2::port::client::Client<ipc::Service, CommandRequest, (), CommandReply, ()>,
+    command_ready: iceoryx2::port::notifier::Notifier<ipc::Service>,
     pending: Vec<
         iceoryx2::pending_response::PendingResponse<
             ipc::Service,
@@ -683,11 +750,17 @@ impl Client {
             .client_builder()
             .create()
             .map_err(ice("command client"))?;
+        let command_ready = services
+            .command_ready
+            .notifier_builder()
+            .create()
+            .map_err(ice("command-ready notifier"))?;
         Ok(Self {
             node,
             subscriber,
             listener,
             client,
+            command_ready,
             pending: Vec::new(),
             client_id,
             // Sequence numbers start from the wall clock so a restarted tool
@@ -717,6 +790,11 @@ impl Client {
         let req = CommandRequest::new(cmd, self.client_id, self.node.id().value(), self.sequence);
         let pending = self.client.send_copy(req).map_err(ice("send command"))?;
         self.pending.push(pending);
+        // Wake the daemon's command thread at once; without this it would
+        // take the request at its next poll.
+        self.command_ready
+            .notify()
+            .map_err(ice("notify command-ready"))?;
         Ok(self.sequence)
     }
 
@@ -1010,7 +1088,8 @@ mod tests {
         let stop = std::sync::atomic::AtomicBool::new(false);
         std::thread::scope(|s| {
             s.spawn(|| {
-                let server = Server::new(&p).unwrap();
+                let server = StatePublisher::new(&p).unwrap();
+                let commands = CommandServer::new(&p).unwrap();
                 let mut snap = StateSnapshot {
                     sequence: 9,
                     joint_count: 12,
@@ -1022,7 +1101,8 @@ mod tests {
                 while !stop.load(std::sync::atomic::Ordering::Relaxed) {
                     // Like the daemon: publish every period.
                     server.publish(&snap).unwrap();
-                    server
+                    let _ = commands.wait(Duration::from_millis(1));
+                    commands
                         .serve(|req| match req.command() {
                             Ok(Command::TakeControl) => CommandReply::accepted(req, 0),
                             Ok(other) => CommandReply::refused(req, 0, &other.name()),

@@ -1,18 +1,28 @@
 //! The loop thread: fixed rate on absolute deadlines, and its helpers.
 //!
 //! [`spawn`] starts the control loop on its own thread (optionally
-//! SCHED_FIFO, pinned, with memory locked) and two helper threads:
+//! SCHED_FIFO, pinned, with memory locked) and its helper threads. The loop
+//! talks to each through bounded crossbeam channels of `Copy` values, with
+//! `try_send`/`try_recv` only: it never waits on a helper, and never
+//! allocates (iceoryx2 does, so its ports live on the helpers):
 //!
-//! - the **logger**, which receives [`Event`]s from the loop through a
-//!   bounded channel and writes them with `tracing` (the loop never logs
-//!   itself; when the channel is full the event is dropped and counted);
-//! - the **reaper**, which scans iceoryx2's node registry every 250 ms and
-//!   tells the loop which client nodes are gone — died, or ended without
-//!   releasing control (their control is released).
+//! - the **state** thread takes each period's [`ipc::StateSnapshot`] and
+//!   publishes it on iceoryx2, then wakes the clients (when it falls behind,
+//!   only the newest snapshot is published; the others are counted);
+//! - the **command** thread waits for operator requests (clients announce
+//!   them on the `command-ready` event; it also polls every
+//!   [`COMMAND_POLL`]), hands them to the loop, which answers them at the
+//!   start of its next period, and sends the answers back;
+//! - the **logger** receives [`Event`]s from the loop and writes them with
+//!   `tracing` (the loop never logs itself; when the channel is full the
+//!   event is dropped and counted);
+//! - the **reaper** scans iceoryx2's node registry every 250 ms and tells
+//!   the loop which client nodes are gone — died, or ended without releasing
+//!   control (their control is released).
 //!
 //! Each period the loop sleeps to an absolute deadline
-//! (`clock_nanosleep(TIMER_ABSTIME)`), answers operator commands, runs
-//! [`Controller::run_period`], and publishes the state. A period that
+//! (`clock_nanosleep(TIMER_ABSTIME)`), answers the operator commands handed
+//! over, runs [`Controller::run_period`], and hands the state over. A period that
 //! starts more than a whole period late is an *overrun*: it is counted and
 //! the missed periods are skipped, never caught up by bursting frames.
 //!
@@ -32,7 +42,7 @@ use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::config::Config;
 use crate::control::{Controller, SetupError};
-use crate::ipc::{self, CommandReply, LoopSnapshot};
+use crate::ipc::{self, CommandReply, CommandRequest, LoopSnapshot, StateSnapshot};
 use crate::rt::{self, RtRequest};
 use crate::stats::Window;
 use crate::supervisor::{FaultSet, Mode, Nanos};
@@ -92,6 +102,9 @@ pub struct RunReport {
     pub events_dropped: u64,
     /// Records the recorder channel dropped (recording fell behind).
     pub records_dropped: u64,
+    /// Snapshots the state thread skipped (it fell behind; the newest one
+    /// is always published).
+    pub states_dropped: u64,
     /// The mode at the end.
     pub final_mode: Mode,
 }
@@ -137,7 +150,48 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     let (ev_tx, ev_rx) = crossbeam_channel::bounded::<Event>(1024);
     let (dead_tx, dead_rx) = crossbeam_channel::bounded::<u128>(64);
     let (watch_tx, watch_rx) = crossbeam_channel::bounded::<u128>(64);
+    let (state_tx, state_rx) = crossbeam_channel::bounded::<StateSnapshot>(STATE_QUEUE);
+    // The loop keeps a receiver too: when the state thread falls behind, the
+    // loop drops the oldest snapshot queued instead of the newest.
+    let state_rx_loop = state_rx.clone();
+    let (req_tx, req_rx) = crossbeam_channel::bounded::<CommandRequest>(COMMAND_BATCH);
+    let (reply_tx, reply_rx) = crossbeam_channel::bounded::<CommandReply>(COMMAND_BATCH);
     let mut helpers = Vec::new();
+    // The iceoryx2 helpers first: their setup errors (a bad prefix, a
+    // second daemon on the same services) are reported by `spawn`.
+    let (ipc_ready_tx, ipc_ready_rx) = std::sync::mpsc::channel::<Result<(), ipc::IpcError>>();
+    let (prefix, ready) = (cfg.ipc.prefix.clone(), ipc_ready_tx.clone());
+    helpers.push(
+        std::thread::Builder::new()
+            .name("anguilla-state".into())
+            .spawn(move || state_thread(&prefix, state_rx, ready))
+            .map_err(|e| RunError::Thread("state", e))?,
+    );
+    let prefix = cfg.ipc.prefix.clone();
+    // Ten periods, and a second to spare for a loop that overruns: past
+    // that the loop is stalled and the clients' own timeouts report it.
+    let reply_wait =
+        Duration::from_secs(1) + 10 * Duration::from_nanos(crate::control::period_ns(&cfg));
+    helpers.push(
+        std::thread::Builder::new()
+            .name("anguilla-command".into())
+            .spawn(move || command_thread(&prefix, req_tx, reply_rx, reply_wait, ipc_ready_tx))
+            .map_err(|e| RunError::Thread("command", e))?,
+    );
+    for _ in 0..2 {
+        let r = ipc_ready_rx.recv().unwrap_or(Err(ipc::IpcError::Iceoryx(
+            "an operator-interface thread ended during start-up".into(),
+        )));
+        if let Err(e) = r {
+            stop.store(true, Ordering::SeqCst);
+            // The helpers end when the loop's ends of their channels go.
+            drop((state_tx, state_rx_loop, req_rx, reply_tx));
+            for h in helpers {
+                let _ = h.join();
+            }
+            return Err(e.into());
+        }
+    }
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-log".into())
@@ -185,6 +239,9 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
                 dead: dead_rx,
                 watch: watch_tx,
                 ready: ready_tx,
+                states: (state_tx, state_rx_loop),
+                requests: req_rx,
+                replies: reply_tx,
             };
             control_loop(cfg, bus, loop_stop, links, recording)
         })
@@ -255,12 +312,132 @@ fn reaper(watch_rx: Receiver<u128>, tx: Sender<u128>, stop: Arc<AtomicBool>) {
     }
 }
 
+/// Snapshots the state channel holds (the state thread publishes the newest).
+const STATE_QUEUE: usize = 4;
+/// Most operator requests handed to the loop at once.
+const COMMAND_BATCH: usize = 32;
+/// How often the command thread looks for requests that no client announced
+/// on `command-ready`.
+pub const COMMAND_POLL: Duration = Duration::from_millis(10);
+
+/// The state thread's body: publishes on iceoryx2 what the loop hands over
+/// through `rx` (the newest when behind) until the loop drops its sender.
+/// Reports on `ready` whether the services could be opened. Public for the
+/// benchmark, which measures the loop's handoff to a client's receipt.
+pub fn state_thread(
+    prefix: &str,
+    rx: Receiver<StateSnapshot>,
+    ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
+) {
+    let publisher = match ipc::StatePublisher::new(prefix) {
+        Ok(p) => {
+            let _ = ready.send(Ok(()));
+            p
+        }
+        Err(e) => {
+            let _ = ready.send(Err(e));
+            return;
+        }
+    };
+    drop(ready);
+    let mut failing = false;
+    // Ends when the loop drops its sender.
+    while let Ok(mut snap) = rx.recv() {
+        for newer in rx.try_iter() {
+            snap = newer;
+        }
+        match publisher.publish(&snap) {
+            Ok(()) => failing = false,
+            Err(e) if !failing => {
+                tracing::warn!("state publication failed: {e}");
+                failing = true;
+            }
+            Err(_) => {}
+        }
+    }
+}
+
+/// Takes operator requests from iceoryx2, hands them to the loop and sends
+/// back the loop's answers.
+fn command_thread(
+    prefix: &str,
+    to_loop: Sender<CommandRequest>,
+    from_loop: Receiver<CommandReply>,
+    reply_wait: Duration,
+    ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
+) {
+    use crossbeam_channel::{RecvTimeoutError, TryRecvError};
+    let server = match ipc::CommandServer::new(prefix) {
+        Ok(s) => {
+            let _ = ready.send(Ok(()));
+            s
+        }
+        Err(e) => {
+            let _ = ready.send(Err(e));
+            return;
+        }
+    };
+    drop(ready);
+    let mut waiting: Vec<ipc::ActiveRequest> = Vec::with_capacity(COMMAND_BATCH);
+    let mut failing = false;
+    loop {
+        // Serve until the loop has gone (it still answers while it stops a
+        // swim at shutdown). Nothing is awaited here, so a reply found is a
+        // late one to an abandoned batch.
+        if let Err(TryRecvError::Disconnected) = from_loop.try_recv() {
+            return;
+        }
+        let _ = server.wait(COMMAND_POLL);
+        while waiting.len() < COMMAND_BATCH {
+            match server.take() {
+                Ok(Some(request)) => {
+                    if to_loop.try_send(*request.payload()).is_err() {
+                        break; // the loop is gone; the request is dropped
+                    }
+                    waiting.push(request);
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    if !failing {
+                        tracing::warn!("taking operator commands failed: {e}");
+                    }
+                    failing = true;
+                    break;
+                }
+            }
+        }
+        // Answer in the loop's order; a reply is matched by client and
+        // sequence so that a late answer to an abandoned batch is dropped.
+        while !waiting.is_empty() {
+            match from_loop.recv_timeout(reply_wait) {
+                Ok(reply) => {
+                    let at = waiting.iter().position(|r| {
+                        r.payload().client_id == reply.client_id
+                            && r.payload().sequence == reply.sequence
+                    });
+                    if let Some(at) = at {
+                        ipc::CommandServer::reply(waiting.remove(at), reply);
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    // The loop is stalled: the clients' own timeouts report it.
+                    waiting.clear();
+                }
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+    }
+}
+
 /// The loop thread's channels to its helpers.
 struct Links {
     events: Sender<Event>,
     dead: Receiver<u128>,
     watch: Sender<u128>,
     ready: std::sync::mpsc::Sender<()>,
+    states: (Sender<StateSnapshot>, Receiver<StateSnapshot>),
+    requests: Receiver<CommandRequest>,
+    replies: Sender<CommandReply>,
 }
 
 fn control_loop(
@@ -283,12 +460,13 @@ fn control_loop(
         dead,
         watch,
         ready,
+        states: (to_publish, unpublished),
+        requests,
+        replies,
     } = links;
     for w in rt::apply(&rt_req) {
         tracing::warn!("{w}");
     }
-    // iceoryx2 ports are not Send: they live on this thread.
-    let server = ipc::Server::new(&cfg.ipc.prefix)?;
     let mut ctl = Controller::new(&cfg, rt::monotonic_ns())?;
     let states = recording.map(|(records, states)| {
         ctl.set_tap(records);
@@ -306,6 +484,7 @@ fn control_loop(
     let mut jitter = Window::new(window);
     let mut compute = Window::new(window);
     let (mut periods, mut overruns, mut dropped) = (0u64, 0u64, 0u64);
+    let mut states_dropped = 0u64;
     let emit = |ev: Event, dropped: &mut u64| {
         if let Err(TrySendError::Full(_)) = events.try_send(ev) {
             *dropped += 1;
@@ -327,13 +506,14 @@ fn control_loop(
         }
         let now = wake;
         // Operator commands, then dead clients, then the period itself.
-        let _ = server.serve(|req| {
-            let reply = ctl.command(now, req);
+        while let Ok(req) = requests.try_recv() {
+            let reply = ctl.command(now, &req);
             if reply.accepted == 0 {
                 emit(Event::Refused(reply), &mut dropped);
             }
-            reply
-        });
+            // Room for every request handed over: the channels are the same size.
+            let _ = replies.try_send(reply);
+        }
         if let Some(node) = ctl.take_new_holder_node() {
             let _ = watch.try_send(node);
         }
@@ -381,7 +561,10 @@ fn control_loop(
             periods,
             overruns,
         });
-        let _ = server.publish(ctl.snapshot());
+        if let Err(TrySendError::Full(snap)) = to_publish.try_send(*ctl.snapshot()) {
+            states_dropped += unpublished.try_recv().is_ok() as u64;
+            let _ = to_publish.try_send(snap);
+        }
         if let Some(st) = &states
             && periods % 10 == 0
         {
@@ -397,6 +580,7 @@ fn control_loop(
     drop(states);
     Ok(RunReport {
         records_dropped,
+        states_dropped,
         periods,
         overruns,
         jitter: jitter.summary(),
