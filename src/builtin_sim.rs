@@ -63,5 +63,13 @@ pub fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)>
     let running = robot
         .spawn(clock)
         .context("starting the simulated robot's thread")?;
+    // Below a real-time loop, so the loop never waits on the shared bus lock
+    // held by a preempted robot thread (see RunningSim::set_fifo_priority).
+    if cfg.realtime.fifo_priority > 1 {
+        let p = cfg.realtime.fifo_priority - 1;
+        if let Err(e) = running.set_fifo_priority(p) {
+            tracing::warn!("simulated robot thread: SCHED_FIFO priority {p} refused ({e})");
+        }
+    }
     Ok((host, BuiltinSim { running }))
 }

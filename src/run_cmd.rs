@@ -152,15 +152,23 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         sim.stop();
     }
     println!(
-        "stopped in mode {}: {} periods, {} overruns, jitter p50/p99/max {:.0}/{:.0}/{:.0} µs, compute p99 {:.0} µs",
+        "stopped in mode {}: {} periods, {} overruns (latest wake-up {:.0} µs, longest period {:.0} µs), last second's jitter p50/p99/max {:.0}/{:.0}/{:.0} µs, compute p99 {:.0} µs",
         report.final_mode,
         report.periods,
         report.overruns,
+        report.worst_late_ns as f64 / 1e3,
+        report.worst_compute_ns as f64 / 1e3,
         report.jitter.p50 as f64 / 1e3,
         report.jitter.p99 as f64 / 1e3,
         report.jitter.max as f64 / 1e3,
         report.compute.p99 as f64 / 1e3,
     );
+    if report.states_dropped > 0 {
+        println!(
+            "the state thread fell behind: {} snapshots were not published (newer ones were)",
+            report.states_dropped
+        );
+    }
     Ok(())
 }
 

@@ -622,12 +622,14 @@ pub fn default_toml() -> String {
     w("[realtime]".into());
     w("# SCHED_FIFO priority of the loop thread (0: normal scheduler), its CPU (-1: any),".into());
     w("# and mlockall. When the system refuses, the daemon warns and runs anyway.".into());
+    w("# Above 1, the iceoryx2 threads and the built-in simulated robot run one lower.".into());
     w(format!("fifo-priority = {}", d.realtime.fifo_priority));
     w(format!("cpu = {}", d.realtime.cpu));
     w(format!("lock-memory = {}", d.realtime.lock_memory));
     w(String::new());
     w("[ipc]".into());
-    w("# Prefix of the iceoryx2 services (<prefix>/state, /state-ready, /command).".into());
+    w("# Prefix of the iceoryx2 services (<prefix>/state, /state-ready, /command,".into());
+    w("# /command-ready).".into());
     w(format!("prefix = {:?}", d.ipc.prefix));
     w(String::new());
     w("[recording]".into());

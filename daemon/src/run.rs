@@ -6,7 +6,8 @@
 //! `try_send`/`try_recv` only: it never waits on a helper, and never
 //! allocates (iceoryx2 does, so its ports live on the helpers):
 //!
-//! - the **state** thread takes each period's [`ipc::StateSnapshot`] and
+//! - the **state** thread (at SCHED_FIFO one below the loop, when the loop
+//!   has a priority above 1; so is the command thread) takes each period's [`ipc::StateSnapshot`] and
 //!   publishes it on iceoryx2, then wakes the clients (when it falls behind,
 //!   only the newest snapshot is published; the others are counted);
 //! - the **command** thread waits for operator requests (clients announce
@@ -98,6 +99,12 @@ pub struct RunReport {
     pub jitter: crate::stats::Summary,
     /// Compute time of the last window (ns).
     pub compute: crate::stats::Summary,
+    /// Latest wake-up of the whole run (ns). An overrun with
+    /// `worst_compute_ns` below the period was the OS waking the loop late,
+    /// not a period computing too long.
+    pub worst_late_ns: u64,
+    /// Longest period of the whole run (ns), from wake-up to hand-over.
+    pub worst_compute_ns: u64,
     /// Events the logger channel dropped.
     pub events_dropped: u64,
     /// Records the recorder channel dropped (recording fell behind).
@@ -160,11 +167,18 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     // The iceoryx2 helpers first: their setup errors (a bad prefix, a
     // second daemon on the same services) are reported by `spawn`.
     let (ipc_ready_tx, ipc_ready_rx) = std::sync::mpsc::channel::<Result<(), ipc::IpcError>>();
+    // With the loop at SCHED_FIFO p, the two iceoryx2 helpers run at p - 1:
+    // above ordinary threads, so clients see the state and the loop sees
+    // commands without waiting for a busy CPU, and never above the loop.
+    let helper_rt = RtRequest {
+        fifo_priority: (cfg.realtime.fifo_priority > 1).then(|| cfg.realtime.fifo_priority - 1),
+        ..RtRequest::default()
+    };
     let (prefix, ready) = (cfg.ipc.prefix.clone(), ipc_ready_tx.clone());
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-state".into())
-            .spawn(move || state_thread(&prefix, state_rx, ready))
+            .spawn(move || state_thread(&prefix, helper_rt, state_rx, ready))
             .map_err(|e| RunError::Thread("state", e))?,
     );
     let prefix = cfg.ipc.prefix.clone();
@@ -175,7 +189,16 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-command".into())
-            .spawn(move || command_thread(&prefix, req_tx, reply_rx, reply_wait, ipc_ready_tx))
+            .spawn(move || {
+                command_thread(
+                    &prefix,
+                    helper_rt,
+                    req_tx,
+                    reply_rx,
+                    reply_wait,
+                    ipc_ready_tx,
+                )
+            })
             .map_err(|e| RunError::Thread("command", e))?,
     );
     for _ in 0..2 {
@@ -322,13 +345,18 @@ pub const COMMAND_POLL: Duration = Duration::from_millis(10);
 
 /// The state thread's body: publishes on iceoryx2 what the loop hands over
 /// through `rx` (the newest when behind) until the loop drops its sender.
-/// Reports on `ready` whether the services could be opened. Public for the
-/// benchmark, which measures the loop's handoff to a client's receipt.
+/// Applies `rt` to itself first. Reports on `ready` whether the services
+/// could be opened. Public for the benchmark, which measures the loop's
+/// handoff to a client's receipt.
 pub fn state_thread(
     prefix: &str,
+    rt: RtRequest,
     rx: Receiver<StateSnapshot>,
     ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
 ) {
+    for w in rt::apply(&rt) {
+        tracing::warn!("state thread: {w}");
+    }
     let publisher = match ipc::StatePublisher::new(prefix) {
         Ok(p) => {
             let _ = ready.send(Ok(()));
@@ -361,12 +389,16 @@ pub fn state_thread(
 /// back the loop's answers.
 fn command_thread(
     prefix: &str,
+    rt: RtRequest,
     to_loop: Sender<CommandRequest>,
     from_loop: Receiver<CommandReply>,
     reply_wait: Duration,
     ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
 ) {
     use crossbeam_channel::{RecvTimeoutError, TryRecvError};
+    for w in rt::apply(&rt) {
+        tracing::warn!("command thread: {w}");
+    }
     let server = match ipc::CommandServer::new(prefix) {
         Ok(s) => {
             let _ = ready.send(Ok(()));
@@ -485,6 +517,7 @@ fn control_loop(
     let mut compute = Window::new(window);
     let (mut periods, mut overruns, mut dropped) = (0u64, 0u64, 0u64);
     let mut states_dropped = 0u64;
+    let (mut worst_late, mut worst_compute) = (0u64, 0u64);
     let emit = |ev: Event, dropped: &mut u64| {
         if let Err(TrySendError::Full(_)) = events.try_send(ev) {
             *dropped += 1;
@@ -498,6 +531,7 @@ fn control_loop(
         let wake = rt::monotonic_ns();
         let late = wake.saturating_sub(deadline);
         jitter.record(late);
+        worst_late = worst_late.max(late);
         if late >= period {
             let skipped = late / period;
             overruns += 1;
@@ -548,6 +582,7 @@ fn control_loop(
         }
         let spent = rt::monotonic_ns().saturating_sub(wake);
         compute.record(spent);
+        worst_compute = worst_compute.max(spent);
         let (j, c) = (jitter.summary(), compute.summary());
         ctl.set_loop_stats(LoopSnapshot {
             period_ns: period as u32,
@@ -579,6 +614,8 @@ fn control_loop(
     drop(ctl);
     drop(states);
     Ok(RunReport {
+        worst_late_ns: worst_late,
+        worst_compute_ns: worst_compute,
         records_dropped,
         states_dropped,
         periods,
