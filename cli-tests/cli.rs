@@ -61,6 +61,12 @@ fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["replay", "/nonexistent/session"]);
     assert!(!ok);
     assert!(err.contains("/nonexistent/session"), "{err}");
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--dt", "0.5"]);
+    assert!(!ok);
+    assert!(err.contains("--dt 0.5: expected"), "{err}");
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--model-nodes", "1"]);
+    assert!(!ok);
+    assert!(err.contains("--model-nodes 1: expected"), "{err}");
 }
 
 #[test]

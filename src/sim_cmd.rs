@@ -55,6 +55,14 @@ pub struct SimArgs {
     /// Perfect servos that follow their setpoints exactly.
     #[arg(long)]
     ideal: bool,
+    /// Physics step in seconds (0.0001..=0.02; default 0.002). A larger
+    /// step, like fewer model nodes, makes the body cheaper to simulate on
+    /// a slow machine (e.g. a CPU-emulated VM).
+    #[arg(long, value_name = "SECONDS")]
+    dt: Option<f64>,
+    /// Space intervals of the body model (4..=400; default 52).
+    #[arg(long, value_name = "N")]
+    model_nodes: Option<usize>,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
@@ -73,6 +81,17 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     if args.bus.is_none() && !args.slcan_pty {
         bail!("give --bus SPEC (e.g. socketcan:vcan0) or --slcan-pty");
     }
+    if let Some(dt) = args.dt
+        && !(dt.is_finite() && (1e-4..=0.02).contains(&dt))
+    {
+        bail!("--dt {dt}: expected a physics step of 0.0001..=0.02 seconds");
+    }
+    if let Some(n) = args.model_nodes
+        && !(4..=400).contains(&n)
+    {
+        bail!("--model-nodes {n}: expected 4..=400 space intervals");
+    }
+    let defaults = RobotConfig::with_joints(args.joints);
     let cfg = RobotConfig {
         variant: if args.fd {
             Variant::Fd
@@ -84,7 +103,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             ideal: args.ideal,
             ..ActuatorParams::default()
         },
-        ..RobotConfig::with_joints(args.joints)
+        tick: args.dt.map_or(defaults.tick, Duration::from_secs_f64),
+        model_nodes: args.model_nodes.unwrap_or(defaults.model_nodes),
+        ..defaults
     };
     let scenario = match &args.scenario {
         Some(p) => Some(
@@ -180,7 +201,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             let t = running.truth();
             let s = running.status();
             println!(
-                "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}",
+                "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
                 t.time.as_secs_f64(),
                 t.forward_speed + 0.0, // no "-0.000" at rest
                 t.yaw.to_degrees() + 0.0,
@@ -188,6 +209,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
                 s.stats.frames_in,
                 s.stats.frames_out,
                 s.stats.send_errors,
+                s.stats.slipped.as_secs_f64(),
             );
         }
         std::thread::sleep(Duration::from_millis(50));
@@ -197,14 +219,15 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         .context("the simulation thread stopped unexpectedly")?;
     let s = robot.stats();
     println!(
-        "stopped at t {:.1} s: {} ticks, {} frames in, {} out, {} send errors, {} model errors, {} scenario events",
+        "stopped at t {:.1} s: {} ticks, {} frames in, {} out, {} send errors, {} model errors, {} scenario events, {:.2} s slipped behind real time",
         robot.time().as_secs_f64(),
         s.ticks,
         s.frames_in,
         s.frames_out,
         s.send_errors,
         s.model_errors,
-        s.events
+        s.events,
+        s.slipped.as_secs_f64()
     );
     Ok(())
 }

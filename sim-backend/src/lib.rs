@@ -49,7 +49,9 @@ pub mod rng;
 pub mod robot;
 pub mod scenario;
 
-pub use robot::{Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status, Truth};
+pub use robot::{
+    MAX_CATCH_UP, Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status, Truth,
+};
 pub use scenario::{Scenario, ScenarioError};
 
 use anguilla_drivers::{Bus, BusSpec, mem::MemBus};

@@ -182,7 +182,19 @@ pub struct SimStats {
     pub flood_frames: u64,
     /// Scenario events applied.
     pub events: u64,
+    /// Real time the simulation gave up to keep pace
+    /// ([`SimRobot::run_realtime`] catches up at most
+    /// [`MAX_CATCH_UP`] at once): non-zero when the machine is too slow
+    /// for the physics step and model size.
+    pub slipped: Duration,
 }
+
+/// The longest stretch of simulated time [`SimRobot::run_realtime`] runs
+/// at once to catch up with its clock. A robot that falls further behind
+/// (a machine too slow for its physics step) lets its time slip instead of
+/// spiralling: running ever longer batches would hold every node's frames
+/// back for the whole batch.
+pub const MAX_CATCH_UP: Duration = Duration::from_millis(50);
 
 #[derive(Debug, Clone, Copy)]
 enum Undo {
@@ -687,18 +699,26 @@ impl SimRobot {
         stop: &AtomicBool,
         mut observe: impl FnMut(&SimRobot),
     ) {
+        // Simulated time is the clock's minus what has slipped.
         while !stop.load(Ordering::Acquire) {
-            self.step_until(clock.now());
+            let mut now = clock.now().saturating_sub(self.stats.slipped);
+            let behind = now.saturating_sub(self.time());
+            if behind > MAX_CATCH_UP {
+                self.stats.slipped += behind - MAX_CATCH_UP;
+                now = self.time() + MAX_CATCH_UP;
+            }
+            let slip = self.stats.slipped;
+            self.step_until(now);
             observe(self);
             let next = Duration::from_nanos(self.time + self.tick);
-            let wait = next.saturating_sub(clock.now());
+            let wait = next.saturating_sub(clock.now().saturating_sub(slip));
             match self.bus.recv(wait) {
-                Ok(Some(r)) => self.accept(r, clock.now()),
+                Ok(Some(r)) => self.accept(r, clock.now().saturating_sub(slip)),
                 Ok(None) => {}
                 Err(_) => {
                     self.stats.recv_errors += 1;
                     // A failing bus (e.g. an unplugged adapter): do not spin.
-                    let left = next.saturating_sub(clock.now());
+                    let left = next.saturating_sub(clock.now().saturating_sub(slip));
                     std::thread::sleep(left.min(Duration::from_millis(10)));
                 }
             }
@@ -821,6 +841,33 @@ impl Drop for RunningSim {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_robot_far_behind_its_clock_catches_up_a_bounded_stretch_and_slips_the_rest() {
+        let clock = anguilla_drivers::ManualClock::new();
+        let bus = MemBus::builder("robot-slip-test")
+            .clock(Arc::new(clock.clone()))
+            .build();
+        let mut robot = SimRobot::on_mem(
+            RobotConfig::with_joints(2),
+            bus.participant(),
+            Duration::ZERO,
+        )
+        .unwrap();
+        let stop = AtomicBool::new(false);
+        // One second late (a stalled process, a machine slower than the
+        // physics): one step runs MAX_CATCH_UP of it.
+        clock.advance(Duration::from_secs(1));
+        robot.run_realtime(&clock, &stop, |_| stop.store(true, Ordering::Release));
+        assert_eq!(robot.time(), MAX_CATCH_UP);
+        assert_eq!(robot.stats().slipped, Duration::from_secs(1) - MAX_CATCH_UP);
+        // On time again: it follows the clock minus the slip, no more slip.
+        clock.advance(Duration::from_millis(20));
+        stop.store(false, Ordering::Release);
+        robot.run_realtime(&clock, &stop, |_| stop.store(true, Ordering::Release));
+        assert_eq!(robot.time(), MAX_CATCH_UP + Duration::from_millis(20));
+        assert_eq!(robot.stats().slipped, Duration::from_secs(1) - MAX_CATCH_UP);
+    }
 
     #[test]
     fn bad_configurations_name_the_setting() {
