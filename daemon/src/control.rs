@@ -362,6 +362,8 @@ impl Controller {
     fn send_frame(&mut self, bus: &mut dyn Bus, f: &Frame) {
         if bus.send(f).is_err() {
             self.counters.tx_errors += 1;
+            let now = self.now;
+            self.record(Record::Refused(now, *f));
         } else {
             let now = self.now;
             self.record(Record::Tx(now, *f));
@@ -398,7 +400,7 @@ impl Controller {
         // 1. Everything the nodes said since the last period.
         let table = &mut self.table;
         let (tap, dropped) = (&self.tap, &mut self.tap_dropped);
-        // A receive error shows in the bus state read below.
+        // A receive error shows in the bus state the next period reads.
         let _ = bus.drain(&mut |r| {
             table.ingest(now, &r.frame);
             if let Some(t) = tap
@@ -613,12 +615,15 @@ impl Controller {
                 }
             }
             Drive::Setpoints => {
-                if bus.state() != BusState::BusOff {
+                // The state the period started with throughout (a bus
+                // that goes off meanwhile refuses the sends, recorded as
+                // such): a replay sees the same period.
+                if bus_state != 2 {
                     self.send_setpoints(bus);
                 }
             }
         }
-        if bus.state() != BusState::BusOff {
+        if bus_state != 2 {
             let counter = self.counter;
             self.send(bus, Message::Sync { counter });
         }
@@ -628,6 +633,7 @@ impl Controller {
         self.fill_snapshot(
             now,
             bus,
+            bus_state,
             &d.gait_target,
             [a, f, kc3, kc2],
             d.drop_feedforward,
@@ -676,6 +682,7 @@ impl Controller {
         &mut self,
         now: Nanos,
         bus: &dyn Bus,
+        bus_state: u8,
         target: &SwimParams,
         actual: [f64; 4],
         ff_dropped: bool,
@@ -706,11 +713,8 @@ impl Controller {
         s.bus.malformed = self.table.counters().malformed;
         s.bus.errors = c.errors;
         s.bus.bus_off_count = c.bus_off_count as u32;
-        s.bus.state = match bus.state() {
-            BusState::ErrorActive => 0,
-            BusState::ErrorPassive => 1,
-            BusState::BusOff => 2,
-        };
+        // The state the supervisor acted on this period.
+        s.bus.state = bus_state;
         s.clamped_setpoints = self.counters.clamped;
         s.refused_commands = self.counters.refused;
         s.operator_silent_stops = self.sup.operator_silent_count();

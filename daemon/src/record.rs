@@ -24,6 +24,9 @@
 //! P <ns> <bus state 0|1|2>  a period starts at this time
 //! R <frame>                 a frame received in this period (cansend notation)
 //! T <frame>                 a frame sent
+//! X <frame>                 a frame the bus refused to send (bus-off, an
+//!                           interface gone down): not on the wire, so not
+//!                           in bus.log
 //! E                         shutdown: actuators disabled
 //! ```
 //!
@@ -69,6 +72,8 @@ pub enum Record {
     Rx(Nanos, Frame),
     /// A frame sent.
     Tx(Nanos, Frame),
+    /// A frame the bus refused to send.
+    Refused(Nanos, Frame),
 }
 
 fn request_bytes(r: &CommandRequest) -> [u8; core::mem::size_of::<CommandRequest>()] {
@@ -163,6 +168,7 @@ pub fn recorder(
                     Record::Dead(t, id) => writeln!(session, "D {t} {id:032x}")?,
                     Record::Shutdown(t) => writeln!(session, "S {t}")?,
                     Record::End => writeln!(session, "E")?,
+                    Record::Refused(_, f) => writeln!(session, "X {f}")?,
                     Record::Rx(now, f) | Record::Tx(now, f) => {
                         let tag = if matches!(r, Record::Rx(..)) { 'R' } else { 'T' };
                         writeln!(session, "{tag} {f}")?;
@@ -224,7 +230,8 @@ struct PeriodIn {
     bus: u8,
     before: Vec<Record>,
     rx: Vec<Frame>,
-    tx: Vec<Frame>,
+    /// Frames the controller sent, `false` where the bus refused them.
+    tx: Vec<(Frame, bool)>,
 }
 
 /// The outcome of a replay.
@@ -248,14 +255,25 @@ impl ReplayReport {
 /// A bus that replays recorded input and collects output.
 struct ReplayBus {
     rx: std::collections::VecDeque<Frame>,
-    tx: Vec<Frame>,
+    /// What the recording says was sent, to refuse the same sends.
+    expected: Vec<(Frame, bool)>,
+    tx: Vec<(Frame, bool)>,
     state: BusState,
 }
 
 impl Bus for ReplayBus {
     fn send(&mut self, frame: &Frame) -> anguilla_drivers::Result<()> {
-        self.tx.push(*frame);
-        Ok(())
+        // Refused where the recorded bus refused this frame at this point.
+        let refused = self
+            .expected
+            .get(self.tx.len())
+            .is_some_and(|&(f, sent)| !sent && f == *frame);
+        self.tx.push((*frame, !refused));
+        if refused {
+            Err(anguilla_drivers::BusError::BusOff)
+        } else {
+            Ok(())
+        }
     }
     fn recv(&mut self, _: std::time::Duration) -> anguilla_drivers::Result<Option<Received>> {
         Ok(self.rx.pop_front().map(|frame| Received {
@@ -293,7 +311,7 @@ struct Session {
     start: Nanos,
     periods: Vec<PeriodIn>,
     /// Frames sent at shutdown, if the session ended with `E`.
-    end: Option<Vec<Frame>>,
+    end: Option<Vec<(Frame, bool)>>,
 }
 
 fn parse_session(path: &Path) -> Result<Session, ReplayError> {
@@ -310,7 +328,7 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
     let mut start = None;
     let mut periods: Vec<PeriodIn> = Vec::new();
     let mut pending: Vec<Record> = Vec::new();
-    let mut end: Option<Vec<Frame>> = None;
+    let mut end: Option<Vec<(Frame, bool)>> = None;
     for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
         let n = i + 1;
         let line = line.map_err(|source| ReplayError::Read {
@@ -381,13 +399,14 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
                     ..Default::default()
                 });
             }
-            "R" | "T" => {
+            "R" | "T" | "X" => {
                 let f = candump::parse_frame(rest)
                     .map_err(|e| err(n, format!("frame '{rest}': {e}")))?;
+                let sent = tag == "T";
                 match (tag, end.as_mut(), periods.last_mut()) {
-                    ("T", Some(e), _) => e.push(f),
+                    ("T" | "X", Some(e), _) => e.push((f, sent)),
                     ("R", _, Some(p)) => p.rx.push(f),
-                    ("T", None, Some(p)) => p.tx.push(f),
+                    ("T" | "X", None, Some(p)) => p.tx.push((f, sent)),
                     _ => return Err(err(n, "a frame before the first period".into())),
                 }
             }
@@ -395,7 +414,9 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
             other => {
                 return Err(err(
                     n,
-                    format!("unknown line tag '{other}' (expected start, C, D, S, P, R, T or E)"),
+                    format!(
+                        "unknown line tag '{other}' (expected start, C, D, S, P, R, T, X or E)"
+                    ),
                 ));
             }
         }
@@ -428,6 +449,7 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
     let mut ctl = Controller::new(&cfg, start)?;
     let mut bus = ReplayBus {
         rx: Default::default(),
+        expected: Vec::new(),
         tx: Vec::new(),
         state: BusState::ErrorActive,
     };
@@ -436,22 +458,31 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         frames: 0,
         mismatch: None,
     };
-    let compare = |k: usize, expected: &[Frame], got: &[Frame], report: &mut ReplayReport| {
-        for (i, (e, g)) in expected.iter().zip(got).enumerate() {
-            if e != g {
-                report.mismatch = Some((k, format!("frame {i}: recorded {e}, replayed {g}")));
+    let compare =
+        |k: usize, expected: &[(Frame, bool)], got: &[(Frame, bool)], report: &mut ReplayReport| {
+            let how = |sent: bool| if sent { "sent" } else { "refused" };
+            for (i, ((e, es), (g, gs))) in expected.iter().zip(got).enumerate() {
+                if e != g || es != gs {
+                    report.mismatch = Some((
+                        k,
+                        format!(
+                            "frame {i}: recorded {e} ({}), replayed {g} ({})",
+                            how(*es),
+                            how(*gs)
+                        ),
+                    ));
+                    return;
+                }
+            }
+            if expected.len() != got.len() {
+                report.mismatch = Some((
+                    k,
+                    format!("{} frames recorded, {} replayed", expected.len(), got.len()),
+                ));
                 return;
             }
-        }
-        if expected.len() != got.len() {
-            report.mismatch = Some((
-                k,
-                format!("{} frames recorded, {} replayed", expected.len(), got.len()),
-            ));
-            return;
-        }
-        report.frames += expected.len();
-    };
+            report.frames += expected.len();
+        };
     for (k, p) in periods.iter().enumerate() {
         for r in &p.before {
             match *r {
@@ -469,6 +500,7 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
             break;
         }
         bus.rx = p.rx.iter().copied().collect();
+        bus.expected.clone_from(&p.tx);
         bus.tx.clear();
         bus.state = match p.bus {
             1 => BusState::ErrorPassive,
@@ -483,6 +515,7 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         }
     }
     if let Some(end) = end {
+        bus.expected.clone_from(&end);
         bus.tx.clear();
         ctl.disable_all(&mut bus);
         compare(periods.len(), &end, &bus.tx, &mut report);

@@ -5,9 +5,57 @@ mod rig;
 use anguilla_daemon::config::Config;
 use anguilla_daemon::record::{self, ReplayError};
 use anguilla_daemon::supervisor::{Command, SwimParams};
+use anguilla_drivers::{Bus, BusCounters, BusState, Capabilities, Received};
+use anguilla_protocol::frame::Frame;
 use rig::Rig;
+use std::time::Duration;
+
+/// The rig's bus, but the interface "goes down" after `left` sends: later
+/// sends in the period are refused (as SocketCAN's ENETDOWN), though the
+/// period started on a healthy bus.
+struct GoesDown<'a> {
+    inner: &'a mut anguilla_drivers::mem::MemParticipant,
+    left: usize,
+}
+
+impl Bus for GoesDown<'_> {
+    fn send(&mut self, frame: &Frame) -> anguilla_drivers::Result<()> {
+        if self.left == 0 {
+            return Err(anguilla_drivers::BusError::BusOff);
+        }
+        self.left -= 1;
+        self.inner.send(frame)
+    }
+    fn recv(&mut self, timeout: Duration) -> anguilla_drivers::Result<Option<Received>> {
+        self.inner.recv(timeout)
+    }
+    fn state(&self) -> BusState {
+        self.inner.state()
+    }
+    fn counters(&self) -> BusCounters {
+        self.inner.counters()
+    }
+    fn capabilities(&self) -> Capabilities {
+        self.inner.capabilities()
+    }
+    fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
+        self.inner.flush_tx()
+    }
+    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
+        self.inner.reopen()
+    }
+    fn spec(&self) -> &str {
+        "goes-down"
+    }
+}
 
 fn record_session(name: &str) -> std::path::PathBuf {
+    record_session_with(name, false)
+}
+
+/// Records a session: enable, swim and turn, E-stop. With `refusals`, the
+/// bus refuses part of the sends of three periods of the swim.
+fn record_session_with(name: &str, refusals: bool) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("anguilla-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let cfg = Config::default();
@@ -30,9 +78,22 @@ fn record_session(name: &str) -> std::path::PathBuf {
             pitch: 0.0,
         }),
     );
-    for _ in 0..10 {
+    for i in 0..10 {
         r.run_for(0.2);
         r.command(1, Command::KeepAlive);
+        if refusals && i == 5 {
+            for left in [0, 3, 7] {
+                let now = r.now;
+                r.ctl.run_period(
+                    now,
+                    &mut GoesDown {
+                        inner: &mut r.host,
+                        left,
+                    },
+                );
+                r.nodes_step();
+            }
+        }
     }
     r.command(2, Command::EStop);
     r.run_for(0.2);
@@ -59,6 +120,35 @@ fn a_recorded_session_replays_bit_for_bit() {
     assert!(report.identical(), "{:?}", report.mismatch);
     assert!(report.periods > 400);
     assert!(report.frames > 5000);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn sends_the_bus_refused_are_recorded_and_refused_again_in_the_replay() {
+    let dir = record_session_with("replay-refused", true);
+    let session = std::fs::read_to_string(dir.join("session.log")).unwrap();
+    let refused = session.lines().filter(|l| l.starts_with("X ")).count();
+    assert!(refused > 10, "{refused} refused sends recorded");
+    // Not on the wire, so not in the candump log.
+    let log = std::fs::read_to_string(dir.join("bus.log")).unwrap();
+    let sent = session.lines().filter(|l| l.starts_with("T ")).count();
+    let received = session.lines().filter(|l| l.starts_with("R ")).count();
+    assert_eq!(log.lines().count(), sent + received);
+    let report = record::replay(&dir).expect("replays");
+    assert!(report.identical(), "{:?}", report.mismatch);
+    // Without the first refusal, the replay sends that frame where the
+    // recording has the next one refused: a mismatch that says so.
+    let i = session.find("\nX ").unwrap() + 1;
+    let end = i + session[i..].find('\n').unwrap() + 1;
+    let mut changed = session.clone();
+    changed.replace_range(i..end, "");
+    std::fs::write(dir.join("session.log"), &changed).unwrap();
+    let report = record::replay(&dir).unwrap();
+    let (_, what) = report.mismatch.expect("a mismatch");
+    assert!(
+        what.contains("(refused), replayed") && what.ends_with("(sent)"),
+        "{what}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
