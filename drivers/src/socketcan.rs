@@ -12,8 +12,9 @@
 //! (frames already handed to the device queue are the kernel's; the CAN
 //! layer drops them when the controller goes bus-off). `send` then fails
 //! with [`BusError::BusOff`] while the driver reopens the socket with
-//! exponential back-off (20 ms doubling to 2 s), once the interface has its
-//! carrier back (`/sys/class/net/IF/carrier`). Restarting the controller
+//! exponential back-off (20 ms doubling to 2 s), once the interface is up
+//! and has its carrier back (`/sys/class/net/IF/flags` and `carrier`; an
+//! interface set down counts as one bus-off until it is up again). Restarting the controller
 //! itself is the kernel's job (`ip link set can0 type can restart-ms 100`):
 //! restarting it from here would need `CAP_NET_ADMIN` and netlink, which
 //! the daemon does not hold. A write that fails with `ENETDOWN` is treated
@@ -84,6 +85,9 @@ pub struct SocketCanBus {
     state: BusState,
     counters: BusCounters,
     backoff: Backoff,
+    /// `/sys/class/net/IF/{flags,carrier}`, made once: checking them
+    /// while bus-off allocates nothing.
+    link: LinkFiles,
 }
 
 /// Whether this kernel has SocketCAN (`socket(AF_CAN, SOCK_RAW, CAN_RAW)`).
@@ -114,6 +118,7 @@ impl SocketCanBus {
             state: BusState::ErrorActive,
             counters: BusCounters::default(),
             backoff: Backoff::new(),
+            link: LinkFiles::new(&config.interface),
         };
         bus.connect()?;
         Ok(bus)
@@ -175,7 +180,10 @@ impl SocketCanBus {
         if !self.backoff.due() {
             return false;
         }
-        if self.state == BusState::BusOff && carrier(&self.config.interface) == Some(false) {
+        // An interface that is down (`ip link set can0 down`) or has no
+        // carrier would accept a new socket and fail its first write again:
+        // wait for it instead of counting one more bus-off per back-off.
+        if self.state == BusState::BusOff && self.link.ready() == Some(false) {
             return false;
         }
         if self.connect().is_ok() {
@@ -288,7 +296,29 @@ mod tests {
             state: BusState::ErrorActive,
             counters: BusCounters::default(),
             backoff: Backoff::new(),
+            link: LinkFiles::new("vcan0"),
         }
+    }
+
+    #[test]
+    fn an_interface_set_down_or_without_carrier_is_not_ready() {
+        let dir = std::env::temp_dir().join(format!("anguilla-link-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let link = LinkFiles {
+            flags: dir.join("flags"),
+            carrier: dir.join("carrier"),
+        };
+        assert_eq!(link.ready(), None, "sysfs cannot tell");
+        // `ip link set vcan0 down`: IFF_UP clear, carrier unreadable.
+        std::fs::write(&link.flags, "0x80\n").unwrap();
+        assert_eq!(link.ready(), Some(false));
+        std::fs::write(&link.flags, "0xc1\n").unwrap();
+        assert_eq!(link.ready(), None, "up, carrier unknown");
+        std::fs::write(&link.carrier, "0\n").unwrap();
+        assert_eq!(link.ready(), Some(false), "bus-off controller");
+        std::fs::write(&link.carrier, "1\n").unwrap();
+        assert_eq!(link.ready(), Some(true));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
@@ -360,15 +390,50 @@ fn mtu(interface: &str) -> Option<u32> {
         .ok()
 }
 
-/// The interface's carrier as sysfs reports it (`None`: unknown). A CAN
-/// controller that went bus-off has no carrier until it restarts.
-fn carrier(interface: &str) -> Option<bool> {
-    let text = std::fs::read_to_string(format!("/sys/class/net/{interface}/carrier")).ok()?;
-    match text.trim() {
-        "1" => Some(true),
-        "0" => Some(false),
-        _ => None,
+/// The sysfs files telling whether an interface can carry frames.
+#[derive(Debug)]
+struct LinkFiles {
+    flags: std::path::PathBuf,
+    carrier: std::path::PathBuf,
+}
+
+impl LinkFiles {
+    fn new(interface: &str) -> Self {
+        let dir = std::path::Path::new("/sys/class/net").join(interface);
+        Self {
+            flags: dir.join("flags"),
+            carrier: dir.join("carrier"),
+        }
     }
+
+    /// Whether the interface is up with a carrier (`None`: sysfs cannot
+    /// tell). A CAN controller that went bus-off has no carrier until it
+    /// restarts; an interface set down has `IFF_UP` clear (and no readable
+    /// carrier).
+    fn ready(&self) -> Option<bool> {
+        const IFF_UP: u32 = 0x1;
+        let mut buf = [0u8; 32];
+        if let Some(text) = read_small(&self.flags, &mut buf)
+            && let Some(hex) = text.strip_prefix("0x")
+            && let Ok(flags) = u32::from_str_radix(hex, 16)
+            && flags & IFF_UP == 0
+        {
+            return Some(false);
+        }
+        match read_small(&self.carrier, &mut buf)? {
+            "1" => Some(true),
+            "0" => Some(false),
+            _ => None,
+        }
+    }
+}
+
+/// Reads a short sysfs file into `buf` without allocating (the path fits
+/// std's on-stack C-string buffer), trimmed.
+fn read_small<'a>(path: &std::path::Path, buf: &'a mut [u8]) -> Option<&'a str> {
+    use std::io::Read;
+    let n = std::fs::File::open(path).ok()?.read(buf).ok()?;
+    std::str::from_utf8(&buf[..n]).ok().map(str::trim)
 }
 
 fn to_id<F: socketcan::Frame>(f: &F) -> Option<Id> {
