@@ -412,11 +412,26 @@ fn slcand_attaches_a_serial_adapter() {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let up = std::process::Command::new("ip")
-        .args(["link", "set", ifname, "up"])
-        .status()
-        .expect("run ip");
-    assert!(up.success(), "ip link set {ifname} up: {up}");
+    // slcand creates slcanN and renames it: under a slow (emulated) CPU the
+    // new name can show in sysfs a moment before `ip` finds the device
+    // ("SIOCGIFFLAGS: No such device"), so retry for a while.
+    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    loop {
+        let up = std::process::Command::new("ip")
+            .args(["link", "set", ifname, "up"])
+            .output()
+            .expect("run ip");
+        if up.status.success() {
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "ip link set {ifname} up: {}: {}",
+            up.status,
+            String::from_utf8_lossy(&up.stderr)
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
     let sock = RawCan::open(ifname, false).expect("socket on the slcan interface");
 
     let f = CanFrame {
