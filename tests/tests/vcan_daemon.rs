@@ -28,12 +28,18 @@ fn iface() -> String {
     std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".into())
 }
 
-/// Keeps control alive for `seconds`, taking states and replies.
-fn keep_alive_for(client: &mut Client, seconds: f64) {
+/// Keeps control alive for `seconds`, handing every state to `each`.
+fn keep_alive_for(
+    client: &mut Client,
+    seconds: f64,
+    mut each: impl FnMut(&anguilla_daemon::ipc::StateSnapshot),
+) {
     let end = Instant::now() + Duration::from_secs_f64(seconds);
     while Instant::now() < end {
         let _ = client.send(Command::KeepAlive);
-        let _ = client.wait_state(Duration::from_millis(100));
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
+            each(&s);
+        }
         let _ = client.replies(|_| {});
     }
 }
@@ -178,13 +184,20 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
     wait_for(&mut client, "the tail swung left", 5.0, |s| {
         tail(s).measured_yaw < -0.1
     });
-    let s = wait_for(&mut client, "the tail swung right again", 5.0, |s| {
-        tail(s).measured_yaw > 0.1
+    // Swim a while longer: the tail's measured swing matches the commanded
+    // one (amplitudes, not instants: under CPU emulation the feedback lags
+    // by a varying number of periods; tracking is checked natively over
+    // SLCAN in processes_slcan.rs), and the simulator's status line reports
+    // the speed.
+    let (mut measured, mut commanded) = (0.0_f32, 0.0_f32);
+    keep_alive_for(&mut client, 3.0, |s| {
+        measured = measured.max(tail(s).measured_yaw.abs());
+        commanded = commanded.max(tail(s).commanded_yaw.abs());
     });
-    let err = (tail(&s).measured_yaw - tail(&s).commanded_yaw).abs();
-    assert!(err < 0.15, "tail yaw tracking error {err} rad");
-    // Swim a while longer: the simulator's status line reports the speed.
-    keep_alive_for(&mut client, 3.0);
+    assert!(
+        commanded > 0.2 && (measured / commanded - 1.0).abs() < 0.25,
+        "tail yaw swing: measured {measured} rad, commanded {commanded} rad"
+    );
     ok(&mut client, Command::Stop);
     wait_for(&mut client, "stopping", 3.0, |s| {
         s.mode == Mode::Stopping as u8
@@ -223,7 +236,7 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         assert!(r.reason().contains("bus off"), "{}", r.reason());
         // Down for a while: the driver must not reopen a down interface
         // (each reopen would fail its first write: one more bus-off).
-        keep_alive_for(&mut client, 1.0);
+        keep_alive_for(&mut client, 1.0, |_| {});
         set_link(&dev, "up");
         wait_for(&mut client, "the bus back", 5.0, |s| s.bus.state == 0);
         ok(&mut client, Command::Reset);
@@ -256,11 +269,15 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         s.mode == Mode::Ready as u8
     });
     drop(sim);
-    let s = wait_for(&mut client, "heartbeats lost", 6.0, |s| {
-        s.mode == Mode::Fault as u8
-    });
+    // The nodes' last heartbeats were not all at the same instant: the fault
+    // names the first ones lost, then all twelve.
+    let s = wait_for(
+        &mut client,
+        "heartbeats lost, all twelve nodes named",
+        6.0,
+        |s| s.mode == Mode::Fault as u8 && s.fault_nodes & 0x1FFE == 0x1FFE,
+    );
     assert_ne!(s.fault_kinds & FaultKind::HeartbeatLost as u32, 0);
-    assert_eq!(s.fault_nodes & 0x1FFE, 0x1FFE, "all twelve nodes named");
     // Stop the daemon cleanly (SIGTERM), which ends its recording.
     // SAFETY: plain kill(2) on our own child.
     unsafe { libc::kill(daemon.0.id() as i32, libc::SIGTERM) };
