@@ -14,7 +14,9 @@
 //!    channel to the daemon's state thread, which publishes it) to its
 //!    receipt by a client woken by the state-ready event, beside iceoryx2's own
 //!    publish-subscribe + event with a payload of the same size; p50/p99 and
-//!    the ratio (goal ≤ 1.2).
+//!    the ratios (goal ≤ 1.2), with the state thread at SCHED_FIFO 1 (as the
+//!    daemon runs it under a real-time loop: the scheduler wakes it on
+//!    another CPU) and at SCHED_OTHER (as the raw publisher runs).
 //! 3. `command_latency`: an operator command (E-stop, then reset, in turn)
 //!    sent through iceoryx2 to the first frame on the bus that reflects it
 //!    (an E-stop frame, a clear-faults command); p50/p99 and the period
@@ -221,22 +223,21 @@ mod raw {
 }
 use raw::Raw;
 
-fn state_latency_bench(samples: usize) {
-    use iceoryx2::prelude::*;
-    let prefix = format!("anguilla-bench-ipc/{}", std::process::id());
+/// Our path: a stand-in for the loop thread hands the snapshot to the
+/// daemon's state thread (loan, write, send, notify there), and
+/// `Client::wait_state` receives it on this thread. `fifo`: the state
+/// thread's SCHED_FIFO priority (the daemon's p − 1), or `None` for
+/// SCHED_OTHER. The stand-in for the loop stays SCHED_OTHER, like the raw
+/// publisher.
+fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     let (tx, rx) = std::sync::mpsc::channel::<u64>();
     let stop = Arc::new(AtomicBool::new(false));
-    // Ours: a stand-in for the loop thread hands the snapshot to the
-    // daemon's state thread (loan, write, send, notify there), and
-    // Client::wait_state receives it on this thread.
-    let p = prefix.clone();
+    let p = prefix.to_owned();
     let s2 = stop.clone();
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let (state_tx, state_rx) = crossbeam_channel::bounded::<StateSnapshot>(4);
-    // At SCHED_FIFO 1, as the daemon runs it under a loop at priority 2
-    // (the stand-in for the loop stays SCHED_OTHER, like the raw publisher).
     let rt = anguilla_daemon::rt::RtRequest {
-        fifo_priority: Some(1),
+        fifo_priority: fifo,
         ..Default::default()
     };
     let state = std::thread::spawn(move || run::state_thread(&p, rt, state_rx, ready_tx));
@@ -249,7 +250,7 @@ fn state_latency_bench(samples: usize) {
             let _ = rx.recv_timeout(Duration::from_millis(100));
         }
     });
-    let client = Client::new(&prefix, "bench-sub", 1).unwrap();
+    let client = Client::new(prefix, "bench-sub", 1).unwrap();
     let mut ours = Vec::with_capacity(samples);
     std::thread::sleep(Duration::from_millis(200));
     let _ = client.latest();
@@ -263,6 +264,16 @@ fn state_latency_bench(samples: usize) {
     let _ = tx.send(0);
     let _ = publisher.join();
     let _ = state.join();
+    ours.sort_unstable();
+    ours
+}
+
+fn state_latency_bench(samples: usize) {
+    use iceoryx2::prelude::*;
+    let prefix = format!("anguilla-bench-ipc/{}", std::process::id());
+    // As the daemon runs it under a loop at priority 2, and at SCHED_OTHER.
+    let ours = ours_latency(&format!("{prefix}/fifo"), Some(1), samples);
+    let other = ours_latency(&format!("{prefix}/other"), None, samples);
 
     // Raw iceoryx2: the same pattern with a payload of the same size.
     let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
@@ -331,18 +342,25 @@ fn state_latency_bench(samples: usize) {
     stop.store(true, Ordering::SeqCst);
     let _ = tx.send(0);
     let _ = publisher.join();
-    ours.sort_unstable();
     raw.sort_unstable();
+    let us = |v: &[u64], q: f64| pct(v, q) as f64 / 1e3;
+    let ratio = |v: &[u64], q: f64| pct(v, q) as f64 / pct(&raw, q).max(1) as f64;
     println!(
-        "{{\"bench\":\"state_latency\",\"payload_bytes\":{},\"samples\":{samples},\"ours_p50_us\":{:.2},\"ours_p99_us\":{:.2},\
-\"iceoryx2_p50_us\":{:.2},\"iceoryx2_p99_us\":{:.2},\"p50_ratio\":{:.2},\"p99_ratio\":{:.2},\"goal_ratio\":1.2}}",
+        "{{\"bench\":\"state_latency\",\"payload_bytes\":{},\"samples\":{samples},\
+\"ours_fifo1_p50_us\":{:.2},\"ours_fifo1_p99_us\":{:.2},\"ours_other_p50_us\":{:.2},\"ours_other_p99_us\":{:.2},\
+\"iceoryx2_p50_us\":{:.2},\"iceoryx2_p99_us\":{:.2},\"fifo1_p50_ratio\":{:.2},\"fifo1_p99_ratio\":{:.2},\
+\"other_p50_ratio\":{:.2},\"other_p99_ratio\":{:.2},\"goal_ratio\":1.2}}",
         core::mem::size_of::<StateSnapshot>(),
-        pct(&ours, 0.5) as f64 / 1e3,
-        pct(&ours, 0.99) as f64 / 1e3,
-        pct(&raw, 0.5) as f64 / 1e3,
-        pct(&raw, 0.99) as f64 / 1e3,
-        pct(&ours, 0.5) as f64 / pct(&raw, 0.5).max(1) as f64,
-        pct(&ours, 0.99) as f64 / pct(&raw, 0.99).max(1) as f64,
+        us(&ours, 0.5),
+        us(&ours, 0.99),
+        us(&other, 0.5),
+        us(&other, 0.99),
+        us(&raw, 0.5),
+        us(&raw, 0.99),
+        ratio(&ours, 0.5),
+        ratio(&ours, 0.99),
+        ratio(&other, 0.5),
+        ratio(&other, 0.99),
     );
 }
 
