@@ -5,49 +5,8 @@ mod rig;
 use anguilla_daemon::config::Config;
 use anguilla_daemon::record::{self, ReplayError};
 use anguilla_daemon::supervisor::{Command, SwimParams};
-use anguilla_drivers::{Bus, BusCounters, BusState, Capabilities, Received};
 use anguilla_protocol::frame::Frame;
-use rig::Rig;
-use std::time::Duration;
-
-/// The rig's bus, but the interface "goes down" after `left` sends: later
-/// sends in the period are refused (as SocketCAN's ENETDOWN), though the
-/// period started on a healthy bus.
-struct GoesDown<'a> {
-    inner: &'a mut anguilla_drivers::mem::MemParticipant,
-    left: usize,
-}
-
-impl Bus for GoesDown<'_> {
-    fn send(&mut self, frame: &Frame) -> anguilla_drivers::Result<()> {
-        if self.left == 0 {
-            return Err(anguilla_drivers::BusError::BusOff);
-        }
-        self.left -= 1;
-        self.inner.send(frame)
-    }
-    fn recv(&mut self, timeout: Duration) -> anguilla_drivers::Result<Option<Received>> {
-        self.inner.recv(timeout)
-    }
-    fn state(&self) -> BusState {
-        self.inner.state()
-    }
-    fn counters(&self) -> BusCounters {
-        self.inner.counters()
-    }
-    fn capabilities(&self) -> Capabilities {
-        self.inner.capabilities()
-    }
-    fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
-        self.inner.flush_tx()
-    }
-    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
-        self.inner.reopen()
-    }
-    fn spec(&self) -> &str {
-        "goes-down"
-    }
-}
+use rig::{Hooked, Rig};
 
 fn record_session(name: &str) -> std::path::PathBuf {
     record_session_with(name, false)
@@ -82,15 +41,22 @@ fn record_session_with(name: &str, refusals: bool) -> std::path::PathBuf {
         r.run_for(0.2);
         r.command(1, Command::KeepAlive);
         if refusals && i == 5 {
-            for left in [0, 3, 7] {
+            // The interface "goes down" after `left` sends: later sends
+            // in the period are refused (as SocketCAN's ENETDOWN), though
+            // the period started on a healthy bus.
+            for mut left in [0, 3, 7] {
                 let now = r.now;
-                r.ctl.run_period(
-                    now,
-                    &mut GoesDown {
-                        inner: &mut r.host,
-                        left,
+                let mut bus = Hooked {
+                    inner: &mut r.host,
+                    hook: |_: &Frame| {
+                        if left == 0 {
+                            return Err(anguilla_drivers::BusError::BusOff);
+                        }
+                        left -= 1;
+                        Ok(())
                     },
-                );
+                };
+                r.ctl.run_period(now, &mut bus);
                 r.nodes_step();
             }
         }

@@ -8,46 +8,13 @@ use std::time::Duration;
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::run;
+use anguilla_drivers::Bus;
 use anguilla_drivers::mem::MemBus;
-use anguilla_drivers::{Bus, BusCounters, BusState, Capabilities, Received};
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{self, Message, NodeSet, Variant};
 
-/// A bus whose `send` blocks once for 30 ms when asked (a stalled adapter).
-struct Stalling {
-    inner: Box<dyn Bus>,
-    stall: Arc<AtomicU32>,
-}
-
-impl Bus for Stalling {
-    fn send(&mut self, f: &Frame) -> anguilla_drivers::Result<()> {
-        if self.stall.swap(0, Ordering::SeqCst) > 0 {
-            std::thread::sleep(Duration::from_millis(30));
-        }
-        self.inner.send(f)
-    }
-    fn recv(&mut self, t: Duration) -> anguilla_drivers::Result<Option<Received>> {
-        self.inner.recv(t)
-    }
-    fn state(&self) -> BusState {
-        self.inner.state()
-    }
-    fn counters(&self) -> BusCounters {
-        self.inner.counters()
-    }
-    fn capabilities(&self) -> Capabilities {
-        self.inner.capabilities()
-    }
-    fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
-        self.inner.flush_tx()
-    }
-    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
-        self.inner.reopen()
-    }
-    fn spec(&self) -> &str {
-        "stalling"
-    }
-}
+mod rig;
+use rig::Hooked;
 
 #[test]
 fn an_overrun_is_counted_and_skipped_not_caught_up() {
@@ -60,9 +27,18 @@ fn an_overrun_is_counted_and_skipped_not_caught_up() {
     let stop = Arc::new(AtomicBool::new(false));
     let running = run::spawn(
         cfg,
-        Box::new(Stalling {
+        // Its send blocks once for 30 ms when asked (a stalled adapter).
+        Box::new(Hooked {
             inner: Box::new(bus.participant()),
-            stall: stall.clone(),
+            hook: {
+                let stall = stall.clone();
+                move |_: &Frame| {
+                    if stall.swap(0, Ordering::SeqCst) > 0 {
+                        std::thread::sleep(Duration::from_millis(30));
+                    }
+                    Ok(())
+                }
+            },
         }),
         stop.clone(),
     )

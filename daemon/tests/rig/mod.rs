@@ -13,6 +13,51 @@ use anguilla_protocol::message::{NodeId, Variant};
 use anguilla_sim::actuator::ActuatorParams;
 use anguilla_sim::node::{NodeConfig, VertebraNode};
 
+/// A bus (behind a `Box` or a `&mut`) that asks `hook` before every send:
+/// the hook may stall, or refuse the frame with an error (a stalled
+/// adapter, an interface gone down); everything else is `inner`'s.
+#[allow(dead_code)] // each test file uses part of the rig
+pub struct Hooked<B, F> {
+    pub inner: B,
+    pub hook: F,
+}
+
+impl<B, F> Bus for Hooked<B, F>
+where
+    B: std::ops::DerefMut + Send,
+    B::Target: Bus,
+    F: FnMut(&Frame) -> anguilla_drivers::Result<()> + Send,
+{
+    fn send(&mut self, frame: &Frame) -> anguilla_drivers::Result<()> {
+        (self.hook)(frame)?;
+        self.inner.send(frame)
+    }
+    fn recv(
+        &mut self,
+        timeout: std::time::Duration,
+    ) -> anguilla_drivers::Result<Option<anguilla_drivers::Received>> {
+        self.inner.recv(timeout)
+    }
+    fn state(&self) -> anguilla_drivers::BusState {
+        self.inner.state()
+    }
+    fn counters(&self) -> anguilla_drivers::BusCounters {
+        self.inner.counters()
+    }
+    fn capabilities(&self) -> anguilla_drivers::Capabilities {
+        self.inner.capabilities()
+    }
+    fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
+        self.inner.flush_tx()
+    }
+    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
+        self.inner.reopen()
+    }
+    fn spec(&self) -> &str {
+        "hooked"
+    }
+}
+
 #[allow(dead_code)] // each test file uses part of the rig
 pub struct Rig {
     pub ctl: Controller,
