@@ -712,6 +712,7 @@ impl Controller {
         s.bus.tx_dropped = c.tx_dropped;
         s.bus.malformed = self.table.counters().malformed;
         s.bus.errors = c.errors;
+        s.bus.rx_overruns = c.rx_overruns;
         s.bus.bus_off_count = c.bus_off_count as u32;
         // The state the supervisor acted on this period.
         s.bus.state = bus_state;

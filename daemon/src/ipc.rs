@@ -35,7 +35,7 @@ use crate::supervisor::{Command, SwimParams};
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 1;
+pub const LAYOUT_VERSION: u32 = 2;
 /// Bytes of reason text in a [`CommandReply`].
 pub const REASON_LEN: usize = 120;
 
@@ -147,6 +147,9 @@ pub struct BusSnapshot {
     pub malformed: u64,
     /// Bus error events reported by the driver.
     pub errors: u64,
+    /// Frames lost on reception because a receive queue was full (the CAN
+    /// controller's, or the kernel's socket buffer on SocketCAN).
+    pub rx_overruns: u64,
     /// Times the bus went bus-off.
     pub bus_off_count: u32,
     /// 0 error-active, 1 error-passive, 2 bus-off.
@@ -931,7 +934,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
     ]));
     v.extend(rows!(BusSnapshot, "BusSnapshot", [
         tx_frames: "uint64_t", rx_frames: "uint64_t", tx_dropped: "uint64_t",
-        malformed: "uint64_t", errors: "uint64_t", bus_off_count: "uint32_t", state: "uint8_t",
+        malformed: "uint64_t", errors: "uint64_t", rx_overruns: "uint64_t",
+        bus_off_count: "uint32_t", state: "uint8_t",
         reserved: "uint8_t[3]",
     ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [

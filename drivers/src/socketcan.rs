@@ -23,7 +23,11 @@
 //! (`ip link set can0 txqueuelen 4`) so that nothing stale survives a
 //! restart.
 //!
-//! `send`, `try_recv` and `drain` do not allocate.
+//! Receive overruns count the controller's (`CAN_ERR_CRTL_RX_OVERFLOW`) and
+//! the frames the kernel dropped because the socket's receive queue was full
+//! (`SO_MEMINFO`), which nothing else would show.
+//!
+//! `send`, `try_recv`, `drain` and `counters` do not allocate.
 
 use std::io;
 use std::os::fd::AsFd;
@@ -88,6 +92,8 @@ pub struct SocketCanBus {
     /// `/sys/class/net/IF/{flags,carrier}`, made once: checking them
     /// while bus-off allocates nothing.
     link: LinkFiles,
+    /// Frames the kernel dropped on sockets already closed.
+    drops_closed: u64,
 }
 
 /// Whether this kernel has SocketCAN (`socket(AF_CAN, SOCK_RAW, CAN_RAW)`).
@@ -119,6 +125,7 @@ impl SocketCanBus {
             counters: BusCounters::default(),
             backoff: Backoff::new(),
             link: LinkFiles::new(&config.interface),
+            drops_closed: 0,
         };
         bus.connect()?;
         Ok(bus)
@@ -143,7 +150,7 @@ impl SocketCanBus {
     }
 
     fn connect(&mut self) -> Result<()> {
-        self.sock = None;
+        self.close();
         if let Err(e) = probe_kernel() {
             return Err(self.map_open_error(io::Error::from_raw_os_error(e as i32)));
         }
@@ -168,7 +175,15 @@ impl SocketCanBus {
         }
         self.state = BusState::BusOff;
         // Closing the socket discards what is still queued in it.
-        self.sock = None;
+        self.close();
+    }
+
+    /// Closes the socket, keeping the count of frames the kernel dropped
+    /// on it.
+    fn close(&mut self) {
+        if let Some(sock) = self.sock.take() {
+            self.drops_closed += socket_drops(&sock);
+        }
     }
 
     /// While bus-off, reopens the socket when the back-off allows and the
@@ -249,7 +264,7 @@ impl SocketCanBus {
                     return Ok(None);
                 }
                 Err(e) => {
-                    self.sock = None;
+                    self.close();
                     return Err(BusError::Disconnected {
                         spec: self.config.spec.clone(),
                         reason: e.to_string(),
@@ -297,6 +312,7 @@ mod tests {
             counters: BusCounters::default(),
             backoff: Backoff::new(),
             link: LinkFiles::new("vcan0"),
+            drops_closed: 0,
         }
     }
 
@@ -388,6 +404,30 @@ fn mtu(interface: &str) -> Option<u32> {
         .trim()
         .parse()
         .ok()
+}
+
+/// Frames the kernel dropped on `sock` because its receive queue was full
+/// (`SO_MEMINFO`'s `SK_MEMINFO_DROPS`; 0 where the kernel cannot tell).
+fn socket_drops(sock: &CanFdSocket) -> u64 {
+    use std::os::fd::AsRawFd;
+    const SK_MEMINFO_DROPS: usize = 8;
+    let mut info = [0u32; 9]; // SK_MEMINFO_VARS
+    let mut len = std::mem::size_of_val(&info) as libc::socklen_t;
+    // SAFETY: `info` is writable for `len` bytes and the fd is open.
+    let r = unsafe {
+        libc::getsockopt(
+            sock.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_MEMINFO,
+            info.as_mut_ptr().cast(),
+            &mut len,
+        )
+    };
+    if r == 0 && len as usize > SK_MEMINFO_DROPS * 4 {
+        u64::from(info[SK_MEMINFO_DROPS])
+    } else {
+        0
+    }
 }
 
 /// The sysfs files telling whether an interface can carry frames.
@@ -569,7 +609,13 @@ impl Bus for SocketCanBus {
     }
 
     fn counters(&self) -> BusCounters {
-        self.counters
+        // Frames the kernel dropped because this socket's receive queue was
+        // full are receive overruns too (one getsockopt, no allocation).
+        let open = self.sock.as_ref().map_or(0, socket_drops);
+        BusCounters {
+            rx_overruns: self.counters.rx_overruns + self.drops_closed + open,
+            ..self.counters
+        }
     }
 
     fn capabilities(&self) -> Capabilities {

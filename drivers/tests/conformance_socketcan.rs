@@ -90,3 +90,48 @@ fn open_errors_name_the_spec_and_the_cause() {
         other => panic!("unexpected error {other:?}"),
     }
 }
+
+/// Frames the kernel drops because a socket's receive queue is full are
+/// counted as receive overruns: every frame sent is either received or
+/// counted, none is lost unseen.
+#[test]
+fn frames_dropped_by_a_full_socket_queue_are_counted() {
+    let _guard = VCAN_LOCK.lock().unwrap_or_else(|p| p.into_inner());
+    let (Some(mut sender), Some(mut reader)) = (open_vcan(), open_vcan()) else {
+        return;
+    };
+    let _ = reader.drain(&mut |_| {});
+    let before = reader.counters();
+    // Far more than a default receive buffer holds, sent before reading.
+    let frame = anguilla_drivers::Frame::new_standard(0x7F0, &[0xA5; 8]).unwrap();
+    let mut sent = 0u64;
+    while sent < 5000 {
+        match sender.send(&frame) {
+            Ok(()) => sent += 1,
+            // The sender's own queue is full: let it drain.
+            Err(BusError::TxQueueFull) => std::thread::sleep(std::time::Duration::from_millis(1)),
+            Err(e) => panic!("send: {e}"),
+        }
+    }
+    let mut received = 0u64;
+    loop {
+        let n = reader.drain(&mut |r| {
+            if r.frame.id().raw() == 0x7F0 {
+                received += 1;
+            }
+        });
+        if n.unwrap() == 0 {
+            break;
+        }
+    }
+    let lost = reader.counters().rx_overruns - before.rx_overruns;
+    assert!(
+        lost > 0,
+        "5000 frames fit the socket's queue? received {received}"
+    );
+    assert_eq!(
+        received + lost,
+        sent,
+        "received {received}, counted lost {lost}"
+    );
+}

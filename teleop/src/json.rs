@@ -42,7 +42,8 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         },
         "bus": {
             "tx_frames": b.tx_frames, "rx_frames": b.rx_frames, "tx_dropped": b.tx_dropped,
-            "malformed": b.malformed, "errors": b.errors, "bus_off_count": b.bus_off_count,
+            "malformed": b.malformed, "errors": b.errors, "rx_overruns": b.rx_overruns,
+            "bus_off_count": b.bus_off_count,
             "state": b.state,
         },
         "clamped_setpoints": s.clamped_setpoints,

@@ -334,8 +334,14 @@ fn render_status(frame: &mut Frame, area: Rect, v: &ViewModel) {
             _ => "?",
         };
         lines.push(Line::from(format!(
-            "bus {bus_state}: tx {} rx {} dropped {} malformed {} errors {} bus-off {}",
-            b.tx_frames, b.rx_frames, b.tx_dropped, b.malformed, b.errors, b.bus_off_count
+            "bus {bus_state}: tx {} rx {} dropped {} rx lost {} malformed {} errors {} bus-off {}",
+            b.tx_frames,
+            b.rx_frames,
+            b.tx_dropped,
+            b.rx_overruns,
+            b.malformed,
+            b.errors,
+            b.bus_off_count
         )));
         let alive = s.joints[..(s.joint_count as usize).min(s.joints.len())]
             .iter()
