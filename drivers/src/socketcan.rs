@@ -192,13 +192,15 @@ impl SocketCanBus {
         if self.sock.is_some() {
             return true;
         }
-        if !self.backoff.due() {
-            return false;
-        }
         // An interface that is down (`ip link set can0 down`) or has no
         // carrier would accept a new socket and fail its first write again:
-        // wait for it instead of counting one more bus-off per back-off.
+        // wait for it instead of counting one more bus-off per back-off,
+        // and without spending back-off delay (the first attempt once it
+        // is back is at once).
         if self.state == BusState::BusOff && self.link.ready() == Some(false) {
+            return false;
+        }
+        if !self.backoff.due() {
             return false;
         }
         if self.connect().is_ok() {
@@ -334,6 +336,29 @@ mod tests {
         assert_eq!(link.ready(), Some(false), "bus-off controller");
         std::fs::write(&link.carrier, "1\n").unwrap();
         assert_eq!(link.ready(), Some(true));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_bus_off_bus_on_a_down_interface_stays_closed_through_flush_and_send() {
+        let dir = std::env::temp_dir().join(format!("anguilla-down-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("flags"), "0x80\n").unwrap(); // IFF_UP clear
+        let mut b = detached();
+        b.link = LinkFiles {
+            flags: dir.join("flags"),
+            carrier: dir.join("carrier"),
+        };
+        b.on_error_frame(CAN_ERR_BUSOFF, &[0; 8]);
+        // An E-stop flushes first: nothing is queued in a closed socket,
+        // and nothing is reopened on a down interface.
+        assert!(b.flush_tx().is_ok());
+        assert!(b.sock.is_none());
+        let f = Frame::new_standard(0x000, &[]).unwrap();
+        assert!(matches!(b.send(&f), Err(BusError::BusOff)));
+        assert_eq!(b.state(), BusState::BusOff);
+        assert_eq!(b.counters().bus_off_count, 1);
+        assert_eq!(b.counters().reopens, 0);
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -632,7 +657,12 @@ impl Bus for SocketCanBus {
     }
 
     /// Closes and reopens the socket: frames still queued in it are dropped.
+    /// While bus-off the socket is already closed (nothing is queued) and
+    /// reopening is recovery's job, which waits for the interface.
     fn flush_tx(&mut self) -> Result<()> {
+        if self.sock.is_none() && self.state == BusState::BusOff {
+            return Ok(());
+        }
         self.connect()
     }
 
