@@ -706,6 +706,12 @@ impl SimRobot {
             if behind > MAX_CATCH_UP {
                 self.stats.slipped += behind - MAX_CATCH_UP;
                 now = self.time() + MAX_CATCH_UP;
+                // Frames stamped before the slip (taken in during the
+                // stall) are due now, not a stall's length from now.
+                let cap = nanos(now);
+                for p in &mut self.pending {
+                    p.0 = p.0.min(cap);
+                }
             }
             let slip = self.stats.slipped;
             self.step_until(now);
@@ -861,12 +867,38 @@ mod tests {
         robot.run_realtime(&clock, &stop, |_| stop.store(true, Ordering::Release));
         assert_eq!(robot.time(), MAX_CATCH_UP);
         assert_eq!(robot.stats().slipped, Duration::from_secs(1) - MAX_CATCH_UP);
+        // A frame taken in during a second stall (stamped on the clock
+        // before the slip) is handled in the next step, not a stall later.
+        clock.advance(Duration::from_secs(1));
+        let f = Frame::new_standard(0x7F0, &[1]).unwrap();
+        robot.accept(
+            Received {
+                frame: f,
+                timestamp: None,
+            },
+            clock.now() - robot.stats().slipped,
+        );
+        stop.store(false, Ordering::Release);
+        robot.run_realtime(&clock, &stop, |_| stop.store(true, Ordering::Release));
+        assert_eq!(robot.time(), MAX_CATCH_UP * 2);
+        assert!(
+            robot.pending.is_empty(),
+            "the frame waits for {:?}",
+            robot.pending
+        );
+        assert_eq!(
+            robot.stats().slipped,
+            Duration::from_secs(2) - MAX_CATCH_UP * 2
+        );
         // On time again: it follows the clock minus the slip, no more slip.
         clock.advance(Duration::from_millis(20));
         stop.store(false, Ordering::Release);
         robot.run_realtime(&clock, &stop, |_| stop.store(true, Ordering::Release));
-        assert_eq!(robot.time(), MAX_CATCH_UP + Duration::from_millis(20));
-        assert_eq!(robot.stats().slipped, Duration::from_secs(1) - MAX_CATCH_UP);
+        assert_eq!(robot.time(), MAX_CATCH_UP * 2 + Duration::from_millis(20));
+        assert_eq!(
+            robot.stats().slipped,
+            Duration::from_secs(2) - MAX_CATCH_UP * 2
+        );
     }
 
     #[test]
