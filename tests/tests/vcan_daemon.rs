@@ -44,6 +44,15 @@ fn keep_alive_for(
     }
 }
 
+/// Sets the interface up when dropped.
+struct LinkUp<'a>(&'a str);
+
+impl Drop for LinkUp<'_> {
+    fn drop(&mut self) {
+        let _ = Proc::new("ip").args(["link", "set", self.0, "up"]).status();
+    }
+}
+
 /// `ip link set DEV up|down`, as root (the VM); elsewhere prints why the
 /// check is skipped and returns false.
 fn set_link(dev: &str, how: &str) -> bool {
@@ -225,6 +234,9 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
 
     // The interface goes down and comes back.
     if set_link(&dev, "down") {
+        // Whatever happens below, the interface comes back up (natively it
+        // would otherwise stay down for later runs).
+        let _up = LinkUp(&dev);
         let s = wait_for(&mut client, "bus-off fault", 5.0, |s| {
             s.mode == Mode::Fault as u8 && s.fault_kinds & FaultKind::BusOff as u32 != 0
         });
@@ -238,7 +250,11 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         // (each reopen would fail its first write: one more bus-off).
         keep_alive_for(&mut client, 1.0, |_| {});
         set_link(&dev, "up");
-        wait_for(&mut client, "the bus back", 5.0, |s| s.bus.state == 0);
+        // Reset is refused while a heartbeat is missing: wait for the bus
+        // and for every node's heartbeat.
+        wait_for(&mut client, "the bus and all nodes back", 8.0, |s| {
+            s.bus.state == 0 && s.joints[..12].iter().all(|j| j.node_alive != 0)
+        });
         ok(&mut client, Command::Reset);
         wait_for(&mut client, "idle after the bus came back", 5.0, |s| {
             s.mode == Mode::Idle as u8
