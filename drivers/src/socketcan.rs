@@ -150,20 +150,21 @@ impl SocketCanBus {
     }
 
     fn connect(&mut self) -> Result<()> {
+        self.connect_raw().map_err(|e| self.map_open_error(e))
+    }
+
+    /// Opens the socket; allocates nothing (automatic recovery runs inside
+    /// the control period), errors are the OS's.
+    fn connect_raw(&mut self) -> io::Result<()> {
         self.close();
-        if let Err(e) = probe_kernel() {
-            return Err(self.map_open_error(io::Error::from_raw_os_error(e as i32)));
-        }
-        let sock = CanFdSocket::open(&self.config.interface).map_err(|e| self.map_open_error(e))?;
-        let spec = &self.config.spec;
-        sock.set_nonblocking(true)
-            .map_err(|e| BusError::io(spec, e))?;
-        sock.set_error_filter_accept_all()
-            .map_err(|e| BusError::io(spec, e))?;
+        probe_kernel().map_err(|e| io::Error::from_raw_os_error(e as i32))?;
+        let sock = CanFdSocket::open(&self.config.interface)?;
+        sock.set_nonblocking(true)?;
+        sock.set_error_filter_accept_all()?;
         self.timestamps = self.config.timestamps && sock.set_recv_timestamp(true).is_ok();
         // FD needs the interface MTU of a CAN FD frame (72); when sysfs
         // cannot tell, trust the caller and let the kernel refuse.
-        self.fd = self.config.fd && mtu(&self.config.interface).is_none_or(|m| m == 72);
+        self.fd = self.config.fd && self.link.mtu().is_none_or(|m| m == 72);
         self.sock = Some(sock);
         self.state = BusState::ErrorActive;
         Ok(())
@@ -203,7 +204,7 @@ impl SocketCanBus {
         if !self.backoff.due() {
             return false;
         }
-        if self.connect().is_ok() {
+        if self.connect_raw().is_ok() {
             self.counters.reopens += 1;
             self.backoff.recovered();
             return true;
@@ -325,6 +326,7 @@ mod tests {
         let link = LinkFiles {
             flags: dir.join("flags"),
             carrier: dir.join("carrier"),
+            mtu: dir.join("mtu"),
         };
         assert_eq!(link.ready(), None, "sysfs cannot tell");
         // `ip link set vcan0 down`: IFF_UP clear, carrier unreadable.
@@ -336,6 +338,9 @@ mod tests {
         assert_eq!(link.ready(), Some(false), "bus-off controller");
         std::fs::write(&link.carrier, "1\n").unwrap();
         assert_eq!(link.ready(), Some(true));
+        assert_eq!(link.mtu(), None);
+        std::fs::write(&link.mtu, "72\n").unwrap();
+        assert_eq!(link.mtu(), Some(72));
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -348,6 +353,7 @@ mod tests {
         b.link = LinkFiles {
             flags: dir.join("flags"),
             carrier: dir.join("carrier"),
+            mtu: dir.join("mtu"),
         };
         b.on_error_frame(CAN_ERR_BUSOFF, &[0; 8]);
         // An E-stop flushes first: nothing is queued in a closed socket,
@@ -422,15 +428,6 @@ mod tests {
     }
 }
 
-/// The interface's MTU as sysfs reports it (16: classic CAN, 72: CAN FD).
-fn mtu(interface: &str) -> Option<u32> {
-    std::fs::read_to_string(format!("/sys/class/net/{interface}/mtu"))
-        .ok()?
-        .trim()
-        .parse()
-        .ok()
-}
-
 /// Frames the kernel dropped on `sock` because its receive queue was full
 /// (`SO_MEMINFO`'s `SK_MEMINFO_DROPS`; 0 where the kernel cannot tell).
 fn socket_drops(sock: &CanFdSocket) -> u64 {
@@ -460,6 +457,7 @@ fn socket_drops(sock: &CanFdSocket) -> u64 {
 struct LinkFiles {
     flags: std::path::PathBuf,
     carrier: std::path::PathBuf,
+    mtu: std::path::PathBuf,
 }
 
 impl LinkFiles {
@@ -468,7 +466,14 @@ impl LinkFiles {
         Self {
             flags: dir.join("flags"),
             carrier: dir.join("carrier"),
+            mtu: dir.join("mtu"),
         }
+    }
+
+    /// The interface's MTU (16: classic CAN, 72: CAN FD).
+    fn mtu(&self) -> Option<u32> {
+        let mut buf = [0u8; 16];
+        read_small(&self.mtu, &mut buf)?.parse().ok()
     }
 
     /// Whether the interface is up with a carrier (`None`: sysfs cannot

@@ -128,3 +128,79 @@ fn control_period_allocates_nothing() {
     drop(drv);
     drop(emu);
 }
+
+/// SocketCAN: the periods while the interface is down (bus-off) and the
+/// automatic reconnection once it is up again allocate nothing. Needs a
+/// vcan interface (`ANGUILLA_VCAN`, default vcan0) and root to set it down
+/// and up: `scripts/vcan-vm` runs it in its VM.
+#[test]
+fn socketcan_bus_off_and_recovery_allocate_nothing() {
+    use anguilla_drivers::BusState;
+    use anguilla_drivers::socketcan::{SocketCanBus, SocketCanConfig};
+    let dev = std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".to_owned());
+    let mut bus = match SocketCanBus::open(&SocketCanConfig::new(&dev)) {
+        Ok(b) => b,
+        Err(e) => {
+            let why = format!("skipping: socketcan:{dev} cannot be opened ({e})");
+            if std::env::var("ANGUILLA_VCAN_REQUIRED").is_ok_and(|v| v == "1") {
+                panic!("{why}, and ANGUILLA_VCAN_REQUIRED=1");
+            }
+            eprintln!("{why}");
+            return;
+        }
+    };
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } != 0 {
+        eprintln!("skipping: setting {dev} down and up needs root");
+        return;
+    }
+    let link = |how: &str| {
+        let st = std::process::Command::new("ip")
+            .args(["link", "set", &dev, how])
+            .status()
+            .expect("ip runs");
+        assert!(st.success(), "ip link set {dev} {how}");
+    };
+    let f = Frame::new_standard(0x123, &[1, 2]).unwrap();
+    bus.send(&f).unwrap();
+    link("down");
+    let mut sum = 0u64;
+    let mut period = |bus: &mut SocketCanBus| {
+        let _ = bus.send(&f);
+        let _ = bus.drain(&mut |r| sum += u64::from(r.frame.data()[0]));
+        let _ = bus.try_recv();
+        let _ = bus.flush_tx();
+        sum += bus.counters().tx + bus.state() as u64;
+    };
+    // The first send or read sees ENETDOWN: bus-off.
+    let t0 = Instant::now();
+    while bus.state() != BusState::BusOff {
+        period(&mut bus);
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "no bus-off while {dev} is down"
+        );
+    }
+    let n = allocations_in(|| {
+        for _ in 0..100 {
+            period(&mut bus);
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    });
+    link("up");
+    assert_eq!(n, 0, "{n} allocations while {dev} is down");
+    assert_eq!(
+        bus.counters().bus_off_count,
+        1,
+        "one bus-off for one interface down"
+    );
+    let t0 = Instant::now();
+    let n = allocations_in(|| {
+        while bus.state() != BusState::ErrorActive || bus.send(&f).is_err() {
+            period(&mut bus);
+            assert!(t0.elapsed() < Duration::from_secs(5), "no recovery");
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations while reconnecting");
+    assert_eq!(bus.counters().reopens, 1);
+}
