@@ -9,9 +9,10 @@ use std::time::{Duration, Instant};
 use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
 use anguilla_drivers::{Clock, MonotonicClock};
+use anguilla_model::dynamics::NODES_RANGE;
 use anguilla_protocol::message::Variant;
 use anguilla_sim::actuator::ActuatorParams;
-use anguilla_sim::{RobotConfig, SimRobot};
+use anguilla_sim::{RobotConfig, SimRobot, TICK_RANGE};
 use anyhow::{Context, bail};
 use clap::Args;
 
@@ -60,7 +61,7 @@ pub struct SimArgs {
     /// a slow machine (e.g. a CPU-emulated VM).
     #[arg(long, value_name = "SECONDS")]
     dt: Option<f64>,
-    /// Space intervals of the body model (4..=400; default 52).
+    /// Space intervals of the body model (2..=100000; default 52).
     #[arg(long, value_name = "N")]
     model_nodes: Option<usize>,
     /// Stop after this many seconds (default: run until Ctrl-C).
@@ -82,14 +83,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         bail!("give --bus SPEC (e.g. socketcan:vcan0) or --slcan-pty");
     }
     if let Some(dt) = args.dt
-        && !(dt.is_finite() && (1e-4..=0.02).contains(&dt))
+        && !TICK_RANGE.contains(&dt)
     {
-        bail!("--dt {dt}: expected a physics step of 0.0001..=0.02 seconds");
+        bail!("--dt {dt}: expected a physics step of {TICK_RANGE:?} seconds");
     }
     if let Some(n) = args.model_nodes
-        && !(4..=400).contains(&n)
+        && !NODES_RANGE.contains(&n)
     {
-        bail!("--model-nodes {n}: expected 4..=400 space intervals");
+        bail!("--model-nodes {n}: expected {NODES_RANGE:?} space intervals");
     }
     let defaults = RobotConfig::with_joints(args.joints);
     let cfg = RobotConfig {

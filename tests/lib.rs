@@ -210,6 +210,37 @@ pub mod process {
         assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
     }
 
+    /// Keeps control alive for `seconds`, handing every state to `each`.
+    pub fn keep_alive_for(client: &mut Client, seconds: f64, mut each: impl FnMut(&StateSnapshot)) {
+        let _ = keep_alive_until(client, seconds, |s| {
+            each(s);
+            false
+        });
+    }
+
+    /// Sends keep-alives and takes states for up to `timeout` seconds until
+    /// one satisfies `f`: `(true, that state)`, else `(false, the last one)`.
+    fn keep_alive_until(
+        client: &mut Client,
+        timeout: f64,
+        mut f: impl FnMut(&StateSnapshot) -> bool,
+    ) -> (bool, Option<StateSnapshot>) {
+        let end = Instant::now() + Duration::from_secs_f64(timeout);
+        let mut last = None;
+        while Instant::now() < end {
+            let _ = client.send(Command::KeepAlive);
+            if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
+                let found = f(&s);
+                last = Some(s);
+                if found {
+                    return (true, last);
+                }
+            }
+            let _ = client.replies(|_| {});
+        }
+        (false, last)
+    }
+
     /// Keeps control alive and waits up to `timeout` seconds for a state
     /// satisfying `f`; panics naming `what` and the last state otherwise.
     pub fn wait_for(
@@ -218,17 +249,9 @@ pub mod process {
         timeout: f64,
         f: impl Fn(&StateSnapshot) -> bool,
     ) -> StateSnapshot {
-        let end = Instant::now() + Duration::from_secs_f64(timeout);
-        let mut last = None;
-        while Instant::now() < end {
-            let _ = client.send(Command::KeepAlive);
-            if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
-                if f(&s) {
-                    return s;
-                }
-                last = Some(s);
-            }
-            let _ = client.replies(|_| {});
+        let (found, last) = keep_alive_until(client, timeout, f);
+        if let (true, Some(s)) = (found, last) {
+            return s;
         }
         let detail = last.map(|s| {
             format!(

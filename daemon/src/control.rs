@@ -360,12 +360,11 @@ impl Controller {
     }
 
     fn send_frame(&mut self, bus: &mut dyn Bus, f: &Frame) {
+        let now = self.now;
         if bus.send(f).is_err() {
             self.counters.tx_errors += 1;
-            let now = self.now;
             self.record(Record::Refused(now, *f));
         } else {
-            let now = self.now;
             self.record(Record::Tx(now, *f));
         }
     }
@@ -388,7 +387,12 @@ impl Controller {
     /// Runs one period at time `now` against `bus`.
     pub fn run_period(&mut self, now: Nanos, bus: &mut dyn Bus) {
         self.now = now;
-        let bus_state = match bus.state() {
+        // The state this period acts on throughout (a bus that goes off
+        // meanwhile refuses the sends, recorded as such): a replay sees the
+        // same period.
+        let period_state = bus.state();
+        let bus_off = period_state == BusState::BusOff;
+        let bus_state = match period_state {
             BusState::ErrorActive => 0,
             BusState::ErrorPassive => 1,
             BusState::BusOff => 2,
@@ -418,7 +422,7 @@ impl Controller {
             node_fault: fault,
             estop_nodes: estop,
             bus_estop: self.table.take_bus_estop(),
-            bus_off: bus_state == 2,
+            bus_off,
             model_diverged: self.model_failed,
             gait_at_rest: self.at_rest(),
         };
@@ -615,15 +619,12 @@ impl Controller {
                 }
             }
             Drive::Setpoints => {
-                // The state the period started with throughout (a bus
-                // that goes off meanwhile refuses the sends, recorded as
-                // such): a replay sees the same period.
-                if bus_state != 2 {
+                if !bus_off {
                     self.send_setpoints(bus);
                 }
             }
         }
-        if bus_state != 2 {
+        if !bus_off {
             let counter = self.counter;
             self.send(bus, Message::Sync { counter });
         }

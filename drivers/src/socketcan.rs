@@ -323,11 +323,7 @@ mod tests {
     fn an_interface_set_down_or_without_carrier_is_not_ready() {
         let dir = std::env::temp_dir().join(format!("anguilla-link-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let link = LinkFiles {
-            flags: dir.join("flags"),
-            carrier: dir.join("carrier"),
-            mtu: dir.join("mtu"),
-        };
+        let link = LinkFiles::in_dir(&dir);
         assert_eq!(link.ready(), None, "sysfs cannot tell");
         // `ip link set vcan0 down`: IFF_UP clear, carrier unreadable.
         std::fs::write(&link.flags, "0x80\n").unwrap();
@@ -350,11 +346,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("flags"), "0x80\n").unwrap(); // IFF_UP clear
         let mut b = detached();
-        b.link = LinkFiles {
-            flags: dir.join("flags"),
-            carrier: dir.join("carrier"),
-            mtu: dir.join("mtu"),
-        };
+        b.link = LinkFiles::in_dir(&dir);
         b.on_error_frame(CAN_ERR_BUSOFF, &[0; 8]);
         // An E-stop flushes first: nothing is queued in a closed socket,
         // and nothing is reopened on a down interface.
@@ -462,7 +454,10 @@ struct LinkFiles {
 
 impl LinkFiles {
     fn new(interface: &str) -> Self {
-        let dir = std::path::Path::new("/sys/class/net").join(interface);
+        Self::in_dir(&std::path::Path::new("/sys/class/net").join(interface))
+    }
+
+    fn in_dir(dir: &std::path::Path) -> Self {
         Self {
             flags: dir.join("flags"),
             carrier: dir.join("carrier"),

@@ -105,11 +105,18 @@ fn frames_dropped_by_a_full_socket_queue_are_counted() {
     // Far more than a default receive buffer holds, sent before reading.
     let frame = anguilla_drivers::Frame::new_standard(0x7F0, &[0xA5; 8]).unwrap();
     let mut sent = 0u64;
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
     while sent < 5000 {
         match sender.send(&frame) {
             Ok(()) => sent += 1,
-            // The sender's own queue is full: let it drain.
-            Err(BusError::TxQueueFull) => std::thread::sleep(std::time::Duration::from_millis(1)),
+            // The sender's own queue is full: retry until it has room.
+            Err(BusError::TxQueueFull) => {
+                assert!(
+                    std::time::Instant::now() < deadline,
+                    "sender queue full for 10 s"
+                );
+                std::thread::yield_now();
+            }
             Err(e) => panic!("send: {e}"),
         }
     }

@@ -66,6 +66,8 @@ pub const DEFAULT_NODES: usize = 52;
 pub const DEFAULT_DT: f64 = 0.01;
 /// Largest accepted time step (s).
 pub const MAX_DT: f64 = 0.05;
+/// Space intervals the model accepts ([`ModelConfig::nodes`]).
+pub const NODES_RANGE: std::ops::RangeInclusive<usize> = 2..=100_000;
 
 /// The immutable, validated model: body constants at every node, quadrature
 /// weights, discretization.
@@ -93,7 +95,7 @@ impl Model {
     /// Validates `config` and precomputes the body constants.
     pub fn new(config: ModelConfig) -> Result<Self> {
         config.body.validate()?;
-        if config.nodes < 2 || config.nodes > 100_000 {
+        if !NODES_RANGE.contains(&config.nodes) {
             return Err(ModelError::InvalidParameter {
                 name: "nodes",
                 value: config.nodes as f64,

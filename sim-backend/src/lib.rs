@@ -50,7 +50,8 @@ pub mod robot;
 pub mod scenario;
 
 pub use robot::{
-    MAX_CATCH_UP, Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status, Truth,
+    MAX_CATCH_UP, Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status,
+    TICK_RANGE, Truth,
 };
 pub use scenario::{Scenario, ScenarioError};
 

@@ -132,7 +132,7 @@ impl RobotConfig {
             }
         }
         let t = self.tick.as_secs_f64();
-        if !(1e-4..=0.02).contains(&t) {
+        if !TICK_RANGE.contains(&t) {
             return Err(SimError::Config {
                 field: "tick",
                 reason: format!("{t} s outside 0.1 ms..=20 ms"),
@@ -188,6 +188,9 @@ pub struct SimStats {
     /// for the physics step and model size.
     pub slipped: Duration,
 }
+
+/// Physics steps a robot accepts ([`RobotConfig::tick`], seconds).
+pub const TICK_RANGE: std::ops::RangeInclusive<f64> = 1e-4..=0.02;
 
 /// The longest stretch of simulated time [`SimRobot::run_realtime`] runs
 /// at once to catch up with its clock. A robot that falls further behind
@@ -714,17 +717,17 @@ impl SimRobot {
                 }
             }
             let slip = self.stats.slipped;
+            let sim_now = || clock.now().saturating_sub(slip);
             self.step_until(now);
             observe(self);
             let next = Duration::from_nanos(self.time + self.tick);
-            let wait = next.saturating_sub(clock.now().saturating_sub(slip));
-            match self.bus.recv(wait) {
-                Ok(Some(r)) => self.accept(r, clock.now().saturating_sub(slip)),
+            match self.bus.recv(next.saturating_sub(sim_now())) {
+                Ok(Some(r)) => self.accept(r, sim_now()),
                 Ok(None) => {}
                 Err(_) => {
                     self.stats.recv_errors += 1;
                     // A failing bus (e.g. an unplugged adapter): do not spin.
-                    let left = next.saturating_sub(clock.now().saturating_sub(slip));
+                    let left = next.saturating_sub(sim_now());
                     std::thread::sleep(left.min(Duration::from_millis(10)));
                 }
             }

@@ -22,26 +22,10 @@ use std::time::{Duration, Instant};
 
 use anguilla_daemon::ipc::Client;
 use anguilla_daemon::supervisor::{Command, FaultKind, Mode, SwimParams};
-use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
+use anguilla_system_tests::process::{Killed, anguilla_bin, keep_alive_for, ok, wait_for};
 
 fn iface() -> String {
     std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".into())
-}
-
-/// Keeps control alive for `seconds`, handing every state to `each`.
-fn keep_alive_for(
-    client: &mut Client,
-    seconds: f64,
-    mut each: impl FnMut(&anguilla_daemon::ipc::StateSnapshot),
-) {
-    let end = Instant::now() + Duration::from_secs_f64(seconds);
-    while Instant::now() < end {
-        let _ = client.send(Command::KeepAlive);
-        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
-            each(&s);
-        }
-        let _ = client.replies(|_| {});
-    }
 }
 
 /// Sets the interface up when dropped.
@@ -203,6 +187,10 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         measured = measured.max(tail(s).measured_yaw.abs());
         commanded = commanded.max(tail(s).commanded_yaw.abs());
     });
+    // States come every period (20 ms, 7° of a 1 Hz swing: under 1 % off
+    // a peak); the rest of the 25 % is the emulated servos' lag and the
+    // periods a loaded VM skips, generous on purpose: this checks that the
+    // joint follows on a real bus, not how well.
     assert!(
         commanded > 0.2 && (measured / commanded - 1.0).abs() < 0.25,
         "tail yaw swing: measured {measured} rad, commanded {commanded} rad"
