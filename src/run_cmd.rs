@@ -6,9 +6,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::{Config, default_toml};
-use anguilla_daemon::ipc::Client;
 use anguilla_daemon::run;
-use anguilla_daemon::supervisor::Mode;
+use anguilla_ipc::Client;
+use anguilla_ipc::Mode;
 use anyhow::Context;
 
 /// Arguments of `anguilla run`.

@@ -100,7 +100,7 @@ fn install_signal_handlers() {
 }
 
 /// An error of a wait that a signal interrupted is the signal, not a failure.
-fn interrupted<T>(r: Result<T, anguilla_daemon::ipc::IpcError>) -> anyhow::Result<Option<T>> {
+fn interrupted<T>(r: Result<T, anguilla_ipc::IpcError>) -> anyhow::Result<Option<T>> {
     match r {
         Ok(v) => Ok(Some(v)),
         Err(_) if SIGNALLED.load(Ordering::SeqCst) => Ok(None),

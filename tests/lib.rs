@@ -180,8 +180,8 @@ pub mod process {
     use std::process::Child;
     use std::time::{Duration, Instant};
 
-    use anguilla_daemon::ipc::{Client, StateSnapshot};
-    use anguilla_daemon::supervisor::Command;
+    use anguilla_ipc::Command;
+    use anguilla_ipc::{Client, StateSnapshot};
 
     /// The `anguilla` binary: `$ANGUILLA_BIN` (set in the vcan VM), else the
     /// workspace's debug build (which `cargo test --workspace` builds).

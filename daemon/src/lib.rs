@@ -8,7 +8,7 @@
 
 pub mod config;
 pub mod control;
-pub mod ipc;
+pub use anguilla_ipc as ipc;
 pub mod nodes;
 pub mod profile;
 pub mod record;

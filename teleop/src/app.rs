@@ -2,7 +2,7 @@
 //! clamped to the daemon's ranges, and the command it turns into.
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::supervisor::{Cause, Command, Mode, SwimParams};
+use anguilla_ipc::{Cause, Command, Mode, SwimParams};
 
 /// The daemon's accepted ranges for swim parameters (`[gait]` in its
 /// configuration); commands outside them would be refused.

@@ -1,6 +1,6 @@
 //! Ring buffers of the monitor's plots: the last seconds of a few signals.
 
-use anguilla_daemon::ipc::StateSnapshot;
+use anguilla_ipc::StateSnapshot;
 
 /// A time series keeping the points of the last `window` seconds.
 #[derive(Debug, Clone)]

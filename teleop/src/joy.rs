@@ -17,7 +17,7 @@
 
 use core::str::FromStr;
 
-use anguilla_daemon::supervisor::{Command, SwimParams};
+use anguilla_ipc::{Command, SwimParams};
 use evdev::{AbsoluteAxisCode, EventSummary, InputEvent, KeyCode};
 
 use crate::app::Limits;

@@ -1,7 +1,7 @@
 //! `anguilla monitor --json`: a state snapshot as one JSON object.
 
-use anguilla_daemon::ipc::StateSnapshot;
-use anguilla_daemon::supervisor::FaultSet;
+use anguilla_ipc::FaultSet;
+use anguilla_ipc::StateSnapshot;
 use serde_json::{Value, json};
 
 use crate::view::{cause_name, mode_name};
@@ -10,7 +10,7 @@ use crate::view::{cause_name, mode_name};
 /// spelled out (`mode_name`, `cause_name`, `faults`) and only the joints in use.
 pub fn snapshot_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
-    let gait = |g: &anguilla_daemon::ipc::GaitSnapshot| json!({"amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch});
+    let gait = |g: &anguilla_ipc::GaitSnapshot| json!({"amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch});
     let l = &s.loop_stats;
     let b = &s.bus;
     let faults = FaultSet {

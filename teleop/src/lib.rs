@@ -17,7 +17,7 @@
 //!
 //! ```
 //! use anguilla_teleop::app::{Action, Intent, Limits};
-//! use anguilla_daemon::supervisor::Command;
+//! use anguilla_ipc::Command;
 //!
 //! let mut intent = Intent::new(Limits::default());
 //! assert!(matches!(intent.apply(Action::Faster), Some(Command::Swim(_))));

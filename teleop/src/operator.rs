@@ -3,8 +3,8 @@
 
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::{Client, CommandReply, IpcError, StateSnapshot};
-use anguilla_daemon::supervisor::Command;
+use anguilla_ipc::Command;
+use anguilla_ipc::{Client, CommandReply, IpcError, StateSnapshot};
 
 use crate::app::{Action, Intent};
 

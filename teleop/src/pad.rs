@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::IpcError;
-use anguilla_daemon::supervisor::Command;
+use anguilla_ipc::Command;
+use anguilla_ipc::IpcError;
 use evdev::AbsoluteAxisCode;
 
 use crate::joy::{AxisRange, Joy, JoyInput, JoyMapping};

@@ -1,8 +1,8 @@
 //! The state view shared by `anguilla teleop` and `anguilla monitor`,
 //! drawn with ratatui on any backend (a terminal, or `TestBackend` in tests).
 
-use anguilla_daemon::ipc::{GaitSnapshot, StateSnapshot};
-use anguilla_daemon::supervisor::{Cause, FaultSet, Mode};
+use anguilla_ipc::{Cause, FaultSet, Mode};
+use anguilla_ipc::{GaitSnapshot, StateSnapshot};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};

@@ -7,8 +7,8 @@ use std::collections::VecDeque;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::StateSnapshot;
-use anguilla_daemon::supervisor::{Cause, Mode};
+use anguilla_ipc::StateSnapshot;
+use anguilla_ipc::{Cause, Mode};
 use anguilla_system_tests::{Robot, Watchdog};
 use anguilla_teleop::app::Limits;
 use anguilla_teleop::joy::{AxisRange, Joy, JoyInput, JoyMapping};

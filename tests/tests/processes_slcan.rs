@@ -7,8 +7,8 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::Client;
-use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+use anguilla_ipc::Client;
+use anguilla_ipc::{Command, Mode, SwimParams};
 use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
 
 #[test]

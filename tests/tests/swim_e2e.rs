@@ -7,10 +7,10 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::ipc::Client;
 use anguilla_daemon::run;
-use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
 use anguilla_drivers::mem::MemBus;
+use anguilla_ipc::Client;
+use anguilla_ipc::{Command, Mode, SwimParams};
 use anguilla_protocol::message::Variant;
 use anguilla_sim::robot::{RobotConfig, RunningSim, SimRobot};
 
@@ -62,7 +62,7 @@ impl System {
     }
 
     /// Keeps the command alive for `seconds`, returning the last state.
-    fn hold(&mut self, cmd: Command, seconds: f64) -> anguilla_daemon::ipc::StateSnapshot {
+    fn hold(&mut self, cmd: Command, seconds: f64) -> anguilla_ipc::StateSnapshot {
         let end = Instant::now() + Duration::from_secs_f64(seconds);
         let mut last = None;
         while Instant::now() < end {

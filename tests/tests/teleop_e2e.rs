@@ -7,8 +7,8 @@
 
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::StateSnapshot;
-use anguilla_daemon::supervisor::{Command, FaultKind, Mode};
+use anguilla_ipc::StateSnapshot;
+use anguilla_ipc::{Command, FaultKind, Mode};
 use anguilla_system_tests::{Robot, Watchdog};
 use anguilla_teleop::app::{Action, Intent, Limits};
 use anguilla_teleop::operator::{Driver, Operator};
@@ -64,17 +64,14 @@ fn mode_is(m: Mode) -> impl FnMut(&StateSnapshot, &[StateSnapshot]) -> bool {
     move |s, _| s.mode == m as u8
 }
 
-fn joints(s: &StateSnapshot) -> &[anguilla_daemon::ipc::JointSnapshot] {
+fn joints(s: &StateSnapshot) -> &[anguilla_ipc::JointSnapshot] {
     &s.joints[..s.joint_count as usize]
 }
 
 /// Mean over the window and over the joints of a measured angle: the
 /// undulation averages out over whole periods (1 Hz gait, 2 s window),
 /// leaving the turn's or the dive's bias.
-fn mean_angle(
-    states: &[StateSnapshot],
-    f: impl Fn(&anguilla_daemon::ipc::JointSnapshot) -> f32,
-) -> f64 {
+fn mean_angle(states: &[StateSnapshot], f: impl Fn(&anguilla_ipc::JointSnapshot) -> f32) -> f64 {
     let mut sum = 0.0;
     let mut n = 0usize;
     for s in states {

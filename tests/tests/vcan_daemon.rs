@@ -20,8 +20,8 @@ use std::process::{Command as Proc, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::ipc::Client;
-use anguilla_daemon::supervisor::{Command, FaultKind, Mode, SwimParams};
+use anguilla_ipc::Client;
+use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
 use anguilla_system_tests::process::{Killed, anguilla_bin, keep_alive_for, ok, wait_for};
 
 fn iface() -> String {
@@ -169,7 +169,7 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
             pitch: 0.0,
         }),
     );
-    let tail = |s: &anguilla_daemon::ipc::StateSnapshot| s.joints[11];
+    let tail = |s: &anguilla_ipc::StateSnapshot| s.joints[11];
     let s = wait_for(&mut client, "the tail swung right", 15.0, |s| {
         s.mode == Mode::Swimming as u8 && tail(s).measured_yaw > 0.1
     });

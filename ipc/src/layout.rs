@@ -1,0 +1,111 @@
+//! The payloads' layout, field by field, from the compiler's own offsets.
+
+use core::fmt::Write as _;
+
+use crate::payload::*;
+
+/// One row of the documented payload layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LayoutRow {
+    /// Payload type.
+    pub ty: &'static str,
+    /// Field name.
+    pub field: &'static str,
+    /// Byte offset within the type.
+    pub offset: usize,
+    /// Size in bytes.
+    pub size: usize,
+    /// C type.
+    pub c_type: &'static str,
+}
+
+macro_rules! rows {
+    ($ty:ty, $name:literal, [$( $f:ident : $c:literal ),* $(,)?]) => {
+        [$( LayoutRow {
+            ty: $name,
+            field: stringify!($f),
+            offset: core::mem::offset_of!($ty, $f),
+            size: {
+                fn size_of_field<T, F>(_: impl Fn(&T) -> &F) -> usize { core::mem::size_of::<F>() }
+                size_of_field(|s: &$ty| &s.$f)
+            },
+            c_type: $c,
+        } ),*]
+    };
+}
+
+/// The layout of every payload, field by field, from the compiler's own
+/// offsets: the source of `docs/ipc.md`'s tables.
+pub fn layout_table() -> Vec<LayoutRow> {
+    let mut v = Vec::new();
+    v.extend(rows!(StateSnapshot, "StateSnapshot", [
+        layout_version: "uint32_t", joint_count: "uint32_t", sequence: "uint64_t",
+        time_ns: "uint64_t", mode: "uint8_t", cause: "uint8_t", feedforward_dropped: "uint8_t",
+        reserved: "uint8_t", fault_kinds: "uint32_t", fault_nodes: "uint64_t", holder: "uint64_t",
+        predicted_head_speed: "float", predicted_turn_rate: "float",
+        gait_target: "GaitSnapshot", gait_actual: "GaitSnapshot", loop_stats: "LoopSnapshot",
+        bus: "BusSnapshot", clamped_setpoints: "uint64_t", refused_commands: "uint64_t",
+        operator_silent_stops: "uint64_t", joints: "JointSnapshot[32]",
+    ]));
+    v.extend(rows!(JointSnapshot, "JointSnapshot", [
+        commanded_pitch: "float", commanded_yaw: "float", measured_pitch: "float",
+        measured_yaw: "float", commanded_pitch_velocity: "float", commanded_yaw_velocity: "float",
+        measured_pitch_velocity: "float", measured_yaw_velocity: "float",
+        predicted_pitch_torque: "float", predicted_yaw_torque: "float",
+        measured_pitch_torque: "float", measured_yaw_torque: "float", node_state: "uint8_t",
+        node_alive: "uint8_t", reserved: "uint8_t[2]", node_errors: "uint32_t",
+    ]));
+    v.extend(rows!(GaitSnapshot, "GaitSnapshot", [
+        amplitude: "float", frequency: "float", turn: "float", pitch: "float",
+    ]));
+    v.extend(rows!(LoopSnapshot, "LoopSnapshot", [
+        period_ns: "uint32_t", jitter_p50_ns: "uint32_t", jitter_p99_ns: "uint32_t",
+        jitter_max_ns: "uint32_t", compute_p50_ns: "uint32_t", compute_p99_ns: "uint32_t",
+        compute_max_ns: "uint32_t", reserved: "uint32_t", periods: "uint64_t", overruns: "uint64_t",
+    ]));
+    v.extend(rows!(BusSnapshot, "BusSnapshot", [
+        tx_frames: "uint64_t", rx_frames: "uint64_t", tx_dropped: "uint64_t",
+        malformed: "uint64_t", errors: "uint64_t", rx_overruns: "uint64_t",
+        bus_off_count: "uint32_t", state: "uint8_t",
+        reserved: "uint8_t[3]",
+    ]));
+    v.extend(rows!(CommandRequest, "CommandRequest", [
+        layout_version: "uint32_t", code: "uint32_t", client_id: "uint64_t",
+        node_id_lo: "uint64_t", node_id_hi: "uint64_t", sequence: "uint32_t", amplitude: "float",
+        frequency: "float", turn: "float", pitch: "float", reserved: "uint32_t",
+    ]));
+    v.extend(rows!(CommandReply, "CommandReply", [
+        client_id: "uint64_t", sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
+        reason_len: "uint16_t", reason: "char[120]",
+    ]));
+    v
+}
+
+/// Renders [`layout_table`] as Markdown tables with each type's size.
+pub fn layout_markdown() -> String {
+    let sizes = [
+        ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
+        ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
+        ("GaitSnapshot", core::mem::size_of::<GaitSnapshot>()),
+        ("LoopSnapshot", core::mem::size_of::<LoopSnapshot>()),
+        ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
+        ("CommandRequest", core::mem::size_of::<CommandRequest>()),
+        ("CommandReply", core::mem::size_of::<CommandReply>()),
+    ];
+    let rows = layout_table();
+    let mut out = String::new();
+    for (ty, size) in sizes {
+        let _ = writeln!(out, "### `{ty}` ({size} bytes)\n");
+        let _ = writeln!(out, "| offset | size | C type | field |");
+        let _ = writeln!(out, "|---:|---:|---|---|");
+        for r in rows.iter().filter(|r| r.ty == ty) {
+            let _ = writeln!(
+                out,
+                "| {} | {} | `{}` | `{}` |",
+                r.offset, r.size, r.c_type, r.field
+            );
+        }
+        out.push('\n');
+    }
+    out
+}

@@ -1,0 +1,425 @@
+//! The `#[repr(C)]` payloads that cross shared memory: the state snapshot,
+//! the command request and its reply.
+
+use core::fmt::{self, Write as _};
+
+use iceoryx2::prelude::*;
+
+use crate::vocabulary::{Command, SwimParams};
+
+/// Most joints a snapshot carries.
+pub const MAX_JOINTS: usize = 32;
+/// Version of the payload layouts; bumped on any change.
+pub const LAYOUT_VERSION: u32 = 2;
+/// Bytes of reason text in a [`CommandReply`].
+pub const REASON_LEN: usize = 120;
+
+/// One joint in a [`StateSnapshot`]: angles (rad), velocities (rad/s) and
+/// torques (N·m) of its pitch and yaw axes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::JointSnapshot")]
+pub struct JointSnapshot {
+    /// Commanded pitch angle (rad).
+    pub commanded_pitch: f32,
+    /// Commanded yaw angle (rad).
+    pub commanded_yaw: f32,
+    /// Measured pitch angle (rad).
+    pub measured_pitch: f32,
+    /// Measured yaw angle (rad).
+    pub measured_yaw: f32,
+    /// Commanded pitch velocity (rad/s).
+    pub commanded_pitch_velocity: f32,
+    /// Commanded yaw velocity (rad/s).
+    pub commanded_yaw_velocity: f32,
+    /// Measured pitch velocity (rad/s).
+    pub measured_pitch_velocity: f32,
+    /// Measured yaw velocity (rad/s).
+    pub measured_yaw_velocity: f32,
+    /// The model's predicted pitch torque, sent as feedforward (N·m).
+    pub predicted_pitch_torque: f32,
+    /// The model's predicted yaw torque, sent as feedforward (N·m).
+    pub predicted_yaw_torque: f32,
+    /// Measured pitch torque (N·m).
+    pub measured_pitch_torque: f32,
+    /// Measured yaw torque (N·m).
+    pub measured_yaw_torque: f32,
+    /// The node's state as it last reported it (protocol encoding).
+    pub node_state: u8,
+    /// 1 if the node's heartbeat is current, 0 if it is overdue.
+    pub node_alive: u8,
+    /// Padding, always 0.
+    pub reserved: [u8; 2],
+    /// The node's error bits as it last reported them (protocol encoding).
+    pub node_errors: u32,
+}
+
+/// Gait parameters in a [`StateSnapshot`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::GaitSnapshot")]
+pub struct GaitSnapshot {
+    /// Amplitude, fraction of the configured maximum (0..=1).
+    pub amplitude: f32,
+    /// Frequency (Hz).
+    pub frequency: f32,
+    /// Yaw turn curvature K_c3 (1/m).
+    pub turn: f32,
+    /// Pitch curvature K_c2 (1/m).
+    pub pitch: f32,
+}
+
+impl From<SwimParams> for GaitSnapshot {
+    fn from(p: SwimParams) -> Self {
+        Self {
+            amplitude: p.amplitude as f32,
+            frequency: p.frequency as f32,
+            turn: p.turn as f32,
+            pitch: p.pitch as f32,
+        }
+    }
+}
+
+/// Control-loop timing statistics over a sliding window (nanoseconds).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::LoopSnapshot")]
+pub struct LoopSnapshot {
+    /// The configured period.
+    pub period_ns: u32,
+    /// Wake-up lateness, median.
+    pub jitter_p50_ns: u32,
+    /// Wake-up lateness, 99th percentile.
+    pub jitter_p99_ns: u32,
+    /// Wake-up lateness, maximum.
+    pub jitter_max_ns: u32,
+    /// Compute time of one period, median.
+    pub compute_p50_ns: u32,
+    /// Compute time of one period, 99th percentile.
+    pub compute_p99_ns: u32,
+    /// Compute time of one period, maximum.
+    pub compute_max_ns: u32,
+    /// Padding, always 0.
+    pub reserved: u32,
+    /// Periods run since start.
+    pub periods: u64,
+    /// Periods that started late by more than a whole period (skipped, never caught up).
+    pub overruns: u64,
+}
+
+/// Bus statistics since start.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::BusSnapshot")]
+pub struct BusSnapshot {
+    /// Frames sent.
+    pub tx_frames: u64,
+    /// Frames received.
+    pub rx_frames: u64,
+    /// Frames the driver could not send (queue full, bus-off).
+    pub tx_dropped: u64,
+    /// Frames received that did not decode (unknown id, bad length, bad value).
+    pub malformed: u64,
+    /// Bus error events reported by the driver.
+    pub errors: u64,
+    /// Frames lost on reception because a receive queue was full (the CAN
+    /// controller's, or the kernel's socket buffer on SocketCAN).
+    pub rx_overruns: u64,
+    /// Times the bus went bus-off.
+    pub bus_off_count: u32,
+    /// 0 error-active, 1 error-passive, 2 bus-off.
+    pub state: u8,
+    /// Padding, always 0.
+    pub reserved: [u8; 3],
+}
+
+/// Everything an operator tool shows, published every control period.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::StateSnapshot")]
+pub struct StateSnapshot {
+    /// [`LAYOUT_VERSION`] of the publisher.
+    pub layout_version: u32,
+    /// Joints in use (the first `joint_count` entries of `joints`).
+    pub joint_count: u32,
+    /// Increments with every publication.
+    pub sequence: u64,
+    /// The loop's clock at publication (ns).
+    pub time_ns: u64,
+    /// Operating mode (see the supervisor's `Mode`: 0 idle, 1 enabling,
+    /// 2 ready, 3 swimming, 4 stopping, 5 fault, 6 e-stop).
+    pub mode: u8,
+    /// Why the mode last changed (0 none, 1 command, 2 operator silent,
+    /// 3 fault, 4 progress).
+    pub cause: u8,
+    /// 1 while the torque feedforward is dropped (model diverged).
+    pub feedforward_dropped: u8,
+    /// Padding, always 0.
+    pub reserved: u8,
+    /// Latched faults, one bit per kind (supervisor's `FaultKind`).
+    pub fault_kinds: u32,
+    /// Nodes involved in the faults (bit = node id).
+    pub fault_nodes: u64,
+    /// Client holding control, 0 if none.
+    pub holder: u64,
+    /// The model's predicted forward speed of the head (m/s).
+    pub predicted_head_speed: f32,
+    /// The model's predicted turn rate of the head (rad/s, positive left).
+    pub predicted_turn_rate: f32,
+    /// The gait the operator asked for.
+    pub gait_target: GaitSnapshot,
+    /// The gait being executed (the target, shaped by trapezoidal profiles).
+    pub gait_actual: GaitSnapshot,
+    /// Loop timing.
+    pub loop_stats: LoopSnapshot,
+    /// Bus statistics.
+    pub bus: BusSnapshot,
+    /// Setpoints clamped to joint limits since start.
+    pub clamped_setpoints: u64,
+    /// Commands refused since start.
+    pub refused_commands: u64,
+    /// Swims stopped because the holder went silent.
+    pub operator_silent_stops: u64,
+    /// Per joint, from the head (index 0) to the tail.
+    pub joints: [JointSnapshot; MAX_JOINTS],
+}
+
+impl Default for StateSnapshot {
+    fn default() -> Self {
+        Self {
+            layout_version: LAYOUT_VERSION,
+            joint_count: 0,
+            sequence: 0,
+            time_ns: 0,
+            mode: 0,
+            cause: 0,
+            feedforward_dropped: 0,
+            reserved: 0,
+            fault_kinds: 0,
+            fault_nodes: 0,
+            holder: 0,
+            predicted_head_speed: 0.0,
+            predicted_turn_rate: 0.0,
+            gait_target: GaitSnapshot::default(),
+            gait_actual: GaitSnapshot::default(),
+            loop_stats: LoopSnapshot::default(),
+            bus: BusSnapshot::default(),
+            clamped_setpoints: 0,
+            refused_commands: 0,
+            operator_silent_stops: 0,
+            joints: [JointSnapshot::default(); MAX_JOINTS],
+        }
+    }
+}
+
+/// Command codes of [`CommandRequest::code`].
+pub mod code {
+    /// Enable the actuators.
+    pub const ENABLE: u32 = 1;
+    /// Disable the actuators.
+    pub const DISABLE: u32 = 2;
+    /// Swim with the request's gait fields.
+    pub const SWIM: u32 = 3;
+    /// Stop swimming smoothly.
+    pub const STOP: u32 = 4;
+    /// Emergency stop (accepted from any client).
+    pub const ESTOP: u32 = 5;
+    /// Clear a fault or an E-stop.
+    pub const RESET: u32 = 6;
+    /// Take control authority.
+    pub const TAKE_CONTROL: u32 = 7;
+    /// Release control authority.
+    pub const RELEASE_CONTROL: u32 = 8;
+    /// Keep control and the swim alive.
+    pub const KEEP_ALIVE: u32 = 9;
+}
+
+/// A command from an operator tool.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::CommandRequest")]
+pub struct CommandRequest {
+    /// [`LAYOUT_VERSION`] of the sender.
+    pub layout_version: u32,
+    /// One of the [`code`] constants.
+    pub code: u32,
+    /// The sender's identity (any non-zero number, stable for its session).
+    pub client_id: u64,
+    /// The sender's iceoryx2 node id, low 64 bits (lets the daemon release
+    /// control when that node dies).
+    pub node_id_lo: u64,
+    /// The sender's iceoryx2 node id, high 64 bits.
+    pub node_id_hi: u64,
+    /// Increases with every command from this client.
+    pub sequence: u32,
+    /// Swim amplitude, fraction of the maximum (0..=1), for SWIM.
+    pub amplitude: f32,
+    /// Swim frequency (Hz), for SWIM.
+    pub frequency: f32,
+    /// Yaw turn curvature (1/m), for SWIM.
+    pub turn: f32,
+    /// Pitch curvature (1/m), for SWIM.
+    pub pitch: f32,
+    /// Padding, always 0.
+    pub reserved: u32,
+}
+
+impl CommandRequest {
+    /// A request for `cmd` from `client_id` with sequence number `sequence`.
+    pub fn new(cmd: Command, client_id: u64, node_id: u128, sequence: u32) -> Self {
+        let (code, p) = match cmd {
+            Command::Enable => (code::ENABLE, SwimParams::REST),
+            Command::Disable => (code::DISABLE, SwimParams::REST),
+            Command::Swim(p) => (code::SWIM, p),
+            Command::Stop => (code::STOP, SwimParams::REST),
+            Command::EStop => (code::ESTOP, SwimParams::REST),
+            Command::Reset => (code::RESET, SwimParams::REST),
+            Command::TakeControl => (code::TAKE_CONTROL, SwimParams::REST),
+            Command::ReleaseControl => (code::RELEASE_CONTROL, SwimParams::REST),
+            Command::KeepAlive => (code::KEEP_ALIVE, SwimParams::REST),
+        };
+        Self {
+            layout_version: LAYOUT_VERSION,
+            code,
+            client_id,
+            node_id_lo: node_id as u64,
+            node_id_hi: (node_id >> 64) as u64,
+            sequence,
+            amplitude: p.amplitude as f32,
+            frequency: p.frequency as f32,
+            turn: p.turn as f32,
+            pitch: p.pitch as f32,
+            reserved: 0,
+        }
+    }
+
+    /// The sender's node id.
+    pub fn node_id(&self) -> u128 {
+        (self.node_id_hi as u128) << 64 | self.node_id_lo as u128
+    }
+
+    /// The command, or why the request cannot be read.
+    pub fn command(&self) -> Result<Command, RequestError> {
+        if self.layout_version != LAYOUT_VERSION {
+            return Err(RequestError::Version(self.layout_version));
+        }
+        if self.client_id == 0 {
+            return Err(RequestError::NoClientId);
+        }
+        Ok(match self.code {
+            code::ENABLE => Command::Enable,
+            code::DISABLE => Command::Disable,
+            code::SWIM => Command::Swim(SwimParams {
+                amplitude: self.amplitude as f64,
+                frequency: self.frequency as f64,
+                turn: self.turn as f64,
+                pitch: self.pitch as f64,
+            }),
+            code::STOP => Command::Stop,
+            code::ESTOP => Command::EStop,
+            code::RESET => Command::Reset,
+            code::TAKE_CONTROL => Command::TakeControl,
+            code::RELEASE_CONTROL => Command::ReleaseControl,
+            code::KEEP_ALIVE => Command::KeepAlive,
+            other => return Err(RequestError::UnknownCode(other)),
+        })
+    }
+}
+
+/// Why a [`CommandRequest`] could not be read at all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum RequestError {
+    /// The sender uses another layout version.
+    #[error("layout version {0} is not the daemon's ({LAYOUT_VERSION}); update the tool")]
+    Version(u32),
+    /// The client id was 0.
+    #[error("client id 0 is reserved (expected any non-zero number)")]
+    NoClientId,
+    /// The command code is not one of [`code`].
+    #[error("unknown command code {0} (expected 1..=9)")]
+    UnknownCode(u32),
+}
+
+/// The daemon's answer to one [`CommandRequest`].
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::CommandReply")]
+pub struct CommandReply {
+    /// The request's client id.
+    pub client_id: u64,
+    /// The request's sequence number.
+    pub sequence: u32,
+    /// 1 accepted, 0 refused.
+    pub accepted: u8,
+    /// The mode after handling the command (as in [`StateSnapshot::mode`]).
+    pub mode: u8,
+    /// Bytes of `reason` in use.
+    pub reason_len: u16,
+    /// Why it was refused: UTF-8, `reason_len` bytes, zero padded.
+    pub reason: [u8; REASON_LEN],
+}
+
+impl CommandReply {
+    /// An acceptance.
+    pub fn accepted(req: &CommandRequest, mode: u8) -> Self {
+        Self {
+            client_id: req.client_id,
+            sequence: req.sequence,
+            accepted: 1,
+            mode,
+            reason_len: 0,
+            reason: [0; REASON_LEN],
+        }
+    }
+
+    /// A refusal whose reason is `why`'s `Display` (cut to [`REASON_LEN`]
+    /// bytes on a character boundary). Allocates nothing.
+    pub fn refused(req: &CommandRequest, mode: u8, why: &dyn fmt::Display) -> Self {
+        let mut w = FixedText::default();
+        let _ = write!(w, "{why}");
+        Self {
+            client_id: req.client_id,
+            sequence: req.sequence,
+            accepted: 0,
+            mode,
+            reason_len: w.len as u16,
+            reason: w.buf,
+        }
+    }
+
+    /// The reason text ("" when accepted).
+    pub fn reason(&self) -> &str {
+        let n = (self.reason_len as usize).min(REASON_LEN);
+        core::str::from_utf8(&self.reason[..n]).unwrap_or("(reason is not UTF-8)")
+    }
+}
+
+#[derive(Debug)]
+struct FixedText {
+    buf: [u8; REASON_LEN],
+    len: usize,
+}
+
+impl Default for FixedText {
+    fn default() -> Self {
+        Self {
+            buf: [0; REASON_LEN],
+            len: 0,
+        }
+    }
+}
+
+impl fmt::Write for FixedText {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        for ch in s.chars() {
+            let mut tmp = [0u8; 4];
+            let enc = ch.encode_utf8(&mut tmp).as_bytes();
+            if self.len + enc.len() > REASON_LEN {
+                return Err(fmt::Error);
+            }
+            self.buf[self.len..self.len + enc.len()].copy_from_slice(enc);
+            self.len += enc.len();
+        }
+        Ok(())
+    }
+}

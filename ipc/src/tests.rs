@@ -1,0 +1,169 @@
+//! Unit tests of the payloads, the layout and a server/client round trip.
+
+use core::time::Duration;
+
+use crate::*;
+
+#[test]
+fn requests_roundtrip_and_bad_ones_are_named() {
+    let p = SwimParams {
+        amplitude: 0.5,
+        frequency: 1.25,
+        turn: -0.5,
+        pitch: 0.25,
+    };
+    let r = CommandRequest::new(Command::Swim(p), 7, 1 << 100 | 5, 3);
+    assert_eq!(r.command(), Ok(Command::Swim(p)));
+    assert_eq!(r.node_id(), 1 << 100 | 5);
+    let mut bad = r;
+    bad.code = 42;
+    assert_eq!(
+        bad.command().unwrap_err().to_string(),
+        "unknown command code 42 (expected 1..=9)"
+    );
+    bad = r;
+    bad.client_id = 0;
+    assert_eq!(bad.command(), Err(RequestError::NoClientId));
+    bad = r;
+    bad.layout_version = 99;
+    assert!(matches!(bad.command(), Err(RequestError::Version(99))));
+}
+
+#[test]
+fn node_watch_reports_dead_and_vanished_nodes_once() {
+    let mut w = NodeWatch::default();
+    w.watch(2);
+    w.watch(9);
+    w.watch(2);
+    assert!(w.update(&[1, 2, 3, 9], &[]).is_empty());
+    // 2 vanished (cleaned up by someone else), 9 seen dead; 5 is not watched.
+    let mut gone = w.update(&[1, 3], &[9, 5]);
+    gone.sort_unstable();
+    assert_eq!(gone, vec![2, 9]);
+    assert!(w.update(&[1, 3], &[]).is_empty(), "reported once");
+}
+
+#[test]
+fn reply_reason_is_cut_on_a_character_boundary() {
+    let req = CommandRequest::new(Command::Stop, 1, 0, 1);
+    let long = "é".repeat(100); // 200 bytes
+    let r = CommandReply::refused(&req, Mode::Idle as u8, &long);
+    assert_eq!(r.reason().len(), 120);
+    assert!(r.reason().chars().all(|c| c == 'é'));
+    let ok = CommandReply::accepted(&req, 2);
+    assert_eq!(ok.reason(), "");
+    let why = Refusal::NotInControl;
+    assert_eq!(
+        CommandReply::refused(&req, 0, &why).reason(),
+        "take control first"
+    );
+}
+
+#[test]
+fn layout_table_covers_every_byte() {
+    // Fields of each type tile it exactly: no hidden padding a C client
+    // would have to guess.
+    let rows = layout_table();
+    for (ty, size) in [
+        ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
+        ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
+        ("LoopSnapshot", core::mem::size_of::<LoopSnapshot>()),
+        ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
+        ("CommandRequest", core::mem::size_of::<CommandRequest>()),
+        ("CommandReply", core::mem::size_of::<CommandReply>()),
+    ] {
+        let mut end = 0;
+        for r in rows.iter().filter(|r| r.ty == ty) {
+            assert_eq!(r.offset, end, "{ty}.{} leaves a gap", r.field);
+            end = r.offset + r.size;
+        }
+        assert_eq!(end, size, "{ty} has trailing padding");
+    }
+}
+
+#[test]
+fn docs_match_the_generated_layout() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/ipc.md");
+    let doc = std::fs::read_to_string(path).unwrap();
+    let (begin, end) = ("<!-- layout:begin -->\n", "<!-- layout:end -->");
+    let (head, rest) = doc.split_once(begin).expect("layout:begin marker");
+    let (current, tail) = rest.split_once(end).expect("layout:end marker");
+    let generated = layout_markdown();
+    if std::env::var_os("ANGUILLA_BLESS").is_some() {
+        std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
+        return;
+    }
+    assert_eq!(
+        current, generated,
+        "docs/ipc.md is out of date: rerun this test with ANGUILLA_BLESS=1"
+    );
+}
+
+/// A unique prefix per test so parallel tests do not share services.
+fn prefix(tag: &str) -> String {
+    format!("anguilla-test/{tag}-{}", std::process::id())
+}
+
+#[test]
+fn server_and_client_talk() {
+    let p = prefix("talk");
+    // iceoryx2's ipc ports are not Send: the server lives on its thread.
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            let server = StatePublisher::new(&p).unwrap();
+            let commands = CommandServer::new(&p).unwrap();
+            let mut snap = StateSnapshot {
+                sequence: 9,
+                joint_count: 12,
+                ..Default::default()
+            };
+            snap.joints[3].measured_yaw = 0.25;
+            server.publish(&snap).unwrap();
+            ready_tx.send(snap).unwrap();
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                // Like the daemon: publish every period.
+                server.publish(&snap).unwrap();
+                let _ = commands.wait(Duration::from_millis(1));
+                commands
+                    .serve(|req| match req.command() {
+                        Ok(Command::TakeControl) => CommandReply::accepted(req, 0),
+                        Ok(other) => CommandReply::refused(req, 0, &other.name()),
+                        Err(e) => CommandReply::refused(req, 0, &e),
+                    })
+                    .unwrap();
+                std::thread::yield_now();
+            }
+        });
+        // Stop the server however this thread ends (a failed assert
+        // included), or the scope would wait for it forever.
+        struct StopOnDrop<'a>(&'a std::sync::atomic::AtomicBool);
+        impl Drop for StopOnDrop<'_> {
+            fn drop(&mut self) {
+                self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+        let _guard = StopOnDrop(&stop);
+        let snap = ready_rx
+            .recv_timeout(Duration::from_secs(10))
+            .expect("server up");
+        let mut client = Client::new(&p, "test-client", 42).unwrap();
+        let got = client
+            .wait_state(Duration::from_secs(1))
+            .unwrap()
+            .expect("state");
+        assert_eq!(got, snap);
+        let r = client
+            .request(Command::TakeControl, Duration::from_secs(2))
+            .unwrap();
+        assert_eq!(r.accepted, 1);
+        assert_eq!(r.client_id, 42);
+        let r = client
+            .request(Command::Stop, Duration::from_secs(2))
+            .unwrap();
+        assert_eq!(r.accepted, 0);
+        assert_eq!(r.reason(), "stop");
+        assert_eq!(client.awaiting(), 0);
+    });
+}

@@ -1,0 +1,382 @@
+//! The operator vocabulary: modes, causes, commands, swim parameters,
+//! refusals and fault sets — what the daemon and every operator tool say to
+//! each other, independent of the transport.
+
+use core::fmt;
+
+/// Monotonic time in nanoseconds, from the daemon loop's clock.
+pub type Nanos = u64;
+
+/// A client's identity, chosen by the client (e.g. a random 64-bit number).
+pub type ClientId = u64;
+
+/// The daemon's operating mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Mode {
+    /// Actuators disabled; the robot is limp.
+    Idle = 0,
+    /// Enable sent; waiting for every node to report it is enabled.
+    Enabling = 1,
+    /// Enabled and holding the body straight.
+    Ready = 2,
+    /// Swimming with the commanded gait.
+    Swimming = 3,
+    /// Ramping the gait down and straightening, then Ready.
+    Stopping = 4,
+    /// A fault stopped the swim; see the fault set. Cleared by reset.
+    Fault = 5,
+    /// Emergency stop: actuators disabled, latched until reset.
+    EStop = 6,
+}
+
+impl Mode {
+    /// Every mode, in the order of their codes (`mode as u8`).
+    pub const ALL: [Mode; 7] = [
+        Mode::Idle,
+        Mode::Enabling,
+        Mode::Ready,
+        Mode::Swimming,
+        Mode::Stopping,
+        Mode::Fault,
+        Mode::EStop,
+    ];
+
+    /// The mode of a snapshot's code (`StateSnapshot::mode`).
+    pub fn from_code(code: u8) -> Option<Mode> {
+        Self::ALL.get(code as usize).copied()
+    }
+
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Idle => "idle",
+            Mode::Enabling => "enabling",
+            Mode::Ready => "ready",
+            Mode::Swimming => "swimming",
+            Mode::Stopping => "stopping",
+            Mode::Fault => "fault",
+            Mode::EStop => "e-stop",
+        }
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Gait parameters an operator asks for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SwimParams {
+    /// Undulation amplitude as a fraction of the configured maximum, 0..=1
+    /// (the operator's "speed" knob).
+    pub amplitude: f64,
+    /// Undulation frequency (Hz).
+    pub frequency: f64,
+    /// Yaw turn curvature K_c3 (1/m): positive turns left.
+    pub turn: f64,
+    /// Pitch curvature K_c2 (1/m): positive dives.
+    pub pitch: f64,
+}
+
+impl SwimParams {
+    /// No undulation, straight (what Stopping ramps towards).
+    pub const REST: SwimParams = SwimParams {
+        amplitude: 0.0,
+        frequency: 0.0,
+        turn: 0.0,
+        pitch: 0.0,
+    };
+}
+
+/// The commands an operator tool can send.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Enable the actuators (Idle → Enabling → Ready).
+    Enable,
+    /// Disable the actuators (Ready or Fault → Idle).
+    Disable,
+    /// Swim, or change the gait while swimming.
+    Swim(SwimParams),
+    /// Stop swimming smoothly and hold straight.
+    Stop,
+    /// Emergency stop: accepted from any client, in any mode.
+    EStop,
+    /// Clear a fault or a latched E-stop (→ Idle).
+    Reset,
+    /// Ask for control authority.
+    TakeControl,
+    /// Give control authority up.
+    ReleaseControl,
+    /// Nothing but "I am still here" (keeps control and the swim alive).
+    KeepAlive,
+}
+
+impl Command {
+    /// Lower-case name, as shown to operators.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::Enable => "enable",
+            Command::Disable => "disable",
+            Command::Swim(_) => "swim",
+            Command::Stop => "stop",
+            Command::EStop => "e-stop",
+            Command::Reset => "reset",
+            Command::TakeControl => "take-control",
+            Command::ReleaseControl => "release-control",
+            Command::KeepAlive => "keep-alive",
+        }
+    }
+}
+
+/// Which swim parameter a range refusal is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Field {
+    /// [`SwimParams::amplitude`].
+    Amplitude,
+    /// [`SwimParams::frequency`].
+    Frequency,
+    /// [`SwimParams::turn`].
+    Turn,
+    /// [`SwimParams::pitch`].
+    Pitch,
+}
+
+impl Field {
+    fn name(self) -> &'static str {
+        match self {
+            Field::Amplitude => "amplitude",
+            Field::Frequency => "frequency (Hz)",
+            Field::Turn => "turn curvature (1/m)",
+            Field::Pitch => "pitch curvature (1/m)",
+        }
+    }
+}
+
+/// Why a command was refused. `Copy`; its `Display` is the text the client shows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Refusal {
+    /// The command needs control authority and another client holds it.
+    ControlHeldBy(ClientId),
+    /// The command needs control authority and nobody holds it.
+    NotInControl,
+    /// The command is not valid in the current mode.
+    InvalidInMode {
+        /// The command refused.
+        command: &'static str,
+        /// The mode it arrived in.
+        mode: Mode,
+        /// What would make it valid.
+        hint: &'static str,
+    },
+    /// A swim parameter was NaN or infinite.
+    NonFinite(Field),
+    /// A swim parameter was outside its configured range.
+    OutOfRange {
+        /// The parameter.
+        field: Field,
+        /// The value sent.
+        value: f64,
+        /// Smallest accepted value.
+        min: f64,
+        /// Largest accepted value.
+        max: f64,
+    },
+    /// The sequence number was not above the last one from this client.
+    StaleSequence {
+        /// Sequence number received.
+        got: u32,
+        /// Last sequence number accepted from that client.
+        last: u32,
+    },
+    /// Reset refused: the cause of the fault is still present.
+    FaultPersists(FaultSet),
+    /// More clients than the daemon tracks (their sequence numbers).
+    TooManyClients,
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Refusal::ControlHeldBy(c) => write!(
+                f,
+                "client {c:016x} holds control; ask it to release, or wait for it to time out"
+            ),
+            Refusal::NotInControl => write!(f, "take control first"),
+            Refusal::InvalidInMode {
+                command,
+                mode,
+                hint,
+            } => write!(f, "'{command}' is not valid in mode {mode}: {hint}"),
+            Refusal::NonFinite(field) => write!(f, "{} is not a finite number", field.name()),
+            Refusal::OutOfRange {
+                field,
+                value,
+                min,
+                max,
+            } => write!(
+                f,
+                "{} = {value} is out of range (expected {min} ..= {max})",
+                field.name()
+            ),
+            Refusal::StaleSequence { got, last } => write!(
+                f,
+                "sequence number {got} is not after the last one accepted ({last})"
+            ),
+            Refusal::FaultPersists(set) => {
+                write!(f, "the fault is still present ({set}); fix it, then reset")
+            }
+            Refusal::TooManyClients => write!(f, "too many clients"),
+        }
+    }
+}
+
+/// A cause of a fault or a stop, one bit each in a [`FaultSet`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum FaultKind {
+    /// A node's heartbeat stopped arriving.
+    HeartbeatLost = 1 << 0,
+    /// A node reported a fault in its heartbeat.
+    NodeFault = 1 << 1,
+    /// The bus went bus-off or the adapter disappeared.
+    BusOff = 1 << 2,
+    /// The model produced a non-finite or out-of-limit result.
+    ModelDiverged = 1 << 3,
+    /// An E-stop frame was seen on the bus (from a node or another tool).
+    BusEStop = 1 << 4,
+    /// An operator client sent an E-stop.
+    OperatorEStop = 1 << 5,
+    /// Nodes did not all report enabled within the enable timeout.
+    EnableTimeout = 1 << 6,
+}
+
+impl FaultKind {
+    /// Every kind, in bit order.
+    pub const ALL: [FaultKind; 7] = [
+        FaultKind::HeartbeatLost,
+        FaultKind::NodeFault,
+        FaultKind::BusOff,
+        FaultKind::ModelDiverged,
+        FaultKind::BusEStop,
+        FaultKind::OperatorEStop,
+        FaultKind::EnableTimeout,
+    ];
+
+    /// Short name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            FaultKind::HeartbeatLost => "heartbeat lost",
+            FaultKind::NodeFault => "actuator fault",
+            FaultKind::BusOff => "bus off",
+            FaultKind::ModelDiverged => "model diverged",
+            FaultKind::BusEStop => "e-stop on the bus",
+            FaultKind::OperatorEStop => "operator e-stop",
+            FaultKind::EnableTimeout => "enable timed out",
+        }
+    }
+}
+
+/// A set of [`FaultKind`]s and the nodes involved. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FaultSet {
+    /// One bit per [`FaultKind`].
+    pub kinds: u32,
+    /// Bit `i` set: node id `i` is involved (ids 0..=63).
+    pub nodes: u64,
+}
+
+impl FaultSet {
+    /// Whether there is no fault.
+    pub fn is_empty(&self) -> bool {
+        self.kinds == 0
+    }
+
+    /// Whether `kind` is in the set.
+    pub fn contains(&self, kind: FaultKind) -> bool {
+        self.kinds & kind as u32 != 0
+    }
+
+    /// Adds `kind` with the `nodes` involved.
+    pub fn insert(&mut self, kind: FaultKind, nodes: u64) {
+        self.kinds |= kind as u32;
+        self.nodes |= nodes;
+    }
+}
+
+impl fmt::Display for FaultSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.is_empty() {
+            return f.write_str("no fault");
+        }
+        let mut first = true;
+        for k in FaultKind::ALL {
+            if self.contains(k) {
+                if !first {
+                    f.write_str(", ")?;
+                }
+                f.write_str(k.name())?;
+                first = false;
+            }
+        }
+        if self.nodes != 0 {
+            f.write_str(" (node")?;
+            for i in 0..64 {
+                if self.nodes & (1 << i) != 0 {
+                    write!(f, " {i}")?;
+                }
+            }
+            f.write_str(")")?;
+        }
+        Ok(())
+    }
+}
+
+/// Why the swim stopped or the mode last changed, for the operator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cause {
+    /// No change yet.
+    None,
+    /// An operator command.
+    Command,
+    /// The holder stopped sending commands.
+    OperatorSilent,
+    /// A fault; see [`Supervisor::faults`].
+    Fault,
+    /// The nodes reported enabled, or the ramp down finished.
+    Progress,
+}
+
+impl Cause {
+    /// Every cause, in the order of their codes.
+    pub const ALL: [Cause; 5] = [
+        Cause::None,
+        Cause::Command,
+        Cause::OperatorSilent,
+        Cause::Fault,
+        Cause::Progress,
+    ];
+
+    /// Its code in a snapshot (`StateSnapshot::cause`).
+    pub fn code(self) -> u8 {
+        Self::ALL.iter().position(|&c| c == self).unwrap_or(0) as u8
+    }
+
+    /// The cause of a snapshot's code.
+    pub fn from_code(code: u8) -> Option<Cause> {
+        Self::ALL.get(code as usize).copied()
+    }
+
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            Cause::None => "none",
+            Cause::Command => "command",
+            Cause::OperatorSilent => "operator silent",
+            Cause::Fault => "fault",
+            Cause::Progress => "progress",
+        }
+    }
+}
