@@ -107,12 +107,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     };
     let prefix = cfg.ipc.prefix.clone();
     let running = run::spawn(cfg, bus, stop.clone())?;
-    let status = Client::new(
-        &prefix,
-        "anguilla-run-status",
-        std::process::id() as u64 | 1 << 40,
-    )
-    .context("reading the daemon's state")?;
+    let status =
+        Client::new(&prefix, "anguilla-run-status").context("reading the daemon's state")?;
     let start = Instant::now();
     let mut last_print = Instant::now();
     while !running.is_finished() {

@@ -74,7 +74,7 @@ fn loop_and_command_bench(seconds: f64) {
     }
     let mut listener = bus.participant();
     let running = run::spawn(cfg, Box::new(bus.participant()), stop.clone()).expect("daemon");
-    let mut client = Client::new(&prefix, "bench-client", 0xBE7C).expect("client");
+    let mut client = Client::new(&prefix, "bench-client").expect("client");
     let reply = |c: &mut Client, cmd| c.request(cmd, Duration::from_secs(5)).expect("reply");
     reply(&mut client, Command::TakeControl);
     // cyclictest at the same rate and priority, at the same time: both see
@@ -250,7 +250,7 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
             let _ = rx.recv_timeout(Duration::from_millis(100));
         }
     });
-    let client = Client::new(prefix, "bench-sub", 1).unwrap();
+    let client = Client::new(prefix, "bench-sub").unwrap();
     let mut ours = Vec::with_capacity(samples);
     std::thread::sleep(Duration::from_millis(200));
     let _ = client.latest();

@@ -33,12 +33,15 @@ use anguilla_protocol::message::{
 };
 
 use crate::config::{Config, FaultPolicyConfig};
-use crate::ipc::{CommandReply, CommandRequest, GaitSnapshot, MAX_JOINTS, StateSnapshot};
+use crate::ipc::{
+    CommandReply, CommandRequest, Envelope, GaitSnapshot, LimitsSnapshot, MAX_JOINTS, StateSnapshot,
+};
 use crate::nodes::NodeTable;
 use crate::profile::{Follower, Limits};
 use crate::record::Record;
 use crate::supervisor::{
-    Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig, SwimParams,
+    ClientId, Command, Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig,
+    SwimParams,
 };
 
 const MS: Nanos = 1_000_000;
@@ -116,7 +119,7 @@ pub struct Controller {
     last_model_error: Option<ModelError>,
     report: StepReport,
     counters: ControlCounters,
-    holder_node: Option<(u64, u128)>,
+    holder_node: Option<(ClientId, u128)>,
     new_holder_node: bool,
     snapshot: StateSnapshot,
     started: Nanos,
@@ -204,6 +207,14 @@ impl Controller {
         let n = ids.len();
         let snapshot = StateSnapshot {
             joint_count: n.min(MAX_JOINTS) as u32,
+            limits: LimitsSnapshot {
+                max_frequency: g.max_frequency as f32,
+                max_turn: g.max_turn as f32,
+                max_pitch: g.max_pitch as f32,
+                command_timeout_ms: (c.command_timeout * 1e3).round() as u32,
+                control_release_ms: (c.control_release_timeout * 1e3).round() as u32,
+                daemon_pid: std::process::id(),
+            },
             ..Default::default()
         };
         Ok(Self {
@@ -305,17 +316,19 @@ impl Controller {
         &self.snapshot
     }
 
-    /// Handles one operator request and says what to reply.
-    pub fn command(&mut self, now: Nanos, req: &CommandRequest) -> CommandReply {
-        self.record(Record::Command(now, *req));
+    /// Handles one operator request, from the client port the transport
+    /// names in `env`, and says what to reply.
+    pub fn command(&mut self, now: Nanos, env: &Envelope) -> CommandReply {
+        self.record(Record::Command(now, *env));
+        let req = &env.request;
         let reply = match req.command() {
             Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
-            Ok(cmd) => match self.sup.command(now, req.client_id, req.sequence, cmd) {
+            Ok(cmd) => match self.sup.command(now, env.origin, req.sequence, cmd) {
                 Ok(()) => {
-                    if self.sup.holder() == Some(req.client_id)
-                        && self.holder_node != Some((req.client_id, req.node_id()))
+                    if self.sup.holder() == Some(env.origin)
+                        && self.holder_node != Some((env.origin, env.node))
                     {
-                        self.holder_node = Some((req.client_id, req.node_id()));
+                        self.holder_node = Some((env.origin, env.node));
                         self.new_holder_node = true;
                     }
                     CommandReply::accepted(req, self.sup.mode() as u8)
@@ -327,6 +340,19 @@ impl Controller {
             self.counters.refused += 1;
         }
         reply
+    }
+
+    /// E-stops that arrived out of band (the reserved E-stop socket, with
+    /// no client port): recorded and handled like an operator's;
+    /// `total` is how many arrived since start, shown in the snapshot.
+    pub fn socket_estop(&mut self, now: Nanos, total: u64) {
+        let env = Envelope {
+            origin: 0,
+            node: 0,
+            request: CommandRequest::new(Command::EStop, 0),
+        };
+        self.snapshot.socket_estops = total;
+        self.command(now, &env);
     }
 
     /// The iceoryx2 node of a client that just took control, once (the
@@ -697,7 +723,7 @@ impl Controller {
         let faults = self.sup.faults();
         s.fault_kinds = faults.kinds;
         s.fault_nodes = faults.nodes;
-        s.holder = self.sup.holder().unwrap_or(0);
+        s.set_holder(self.sup.holder());
         s.predicted_head_speed = self.report.forward_speed as f32;
         s.predicted_turn_rate = self.report.turn_rate as f32;
         s.gait_target = GaitSnapshot::from(*target);

@@ -16,9 +16,12 @@
 //! `session.log` lines (`#` starts a comment):
 //!
 //! ```text
-//! anguilla-session 1        header
+//! anguilla-session 2        header
 //! start <ns>                the controller's creation time
-//! C <ns> <hex>              an operator request (the CommandRequest's bytes)
+//! C <ns> <origin> <node> <hex>
+//!                           an operator request: the client port it came
+//!                           on and that port's node (32 hex digits each;
+//!                           0 for the E-stop socket), the CommandRequest's bytes
 //! D <ns> <hex>              an iceoryx2 node that died (its id)
 //! S <ns>                    shutdown requested at this time
 //! P <ns> <bus state 0|1|2>  a period starts at this time
@@ -45,7 +48,7 @@ use crossbeam_channel::Receiver;
 
 use crate::config::{Config, ConfigError};
 use crate::control::{Controller, SetupError};
-use crate::ipc::{CommandRequest, StateSnapshot};
+use crate::ipc::{CommandRequest, Envelope, StateSnapshot};
 use crate::supervisor::Nanos;
 
 /// One recorded event. `Copy`: sending it allocates nothing.
@@ -61,7 +64,7 @@ pub enum Record {
         bus: u8,
     },
     /// An operator request handled at this time (before the next period).
-    Command(Nanos, CommandRequest),
+    Command(Nanos, Envelope),
     /// A client's iceoryx2 node was found dead at this time.
     Dead(Nanos, u128),
     /// Shutdown requested at this time.
@@ -139,7 +142,7 @@ pub fn recorder(
     let mut session = BufWriter::new(std::fs::File::create(dir.join("session.log"))?);
     let mut bus = candump::Writer::new(BufWriter::new(std::fs::File::create(dir.join("bus.log"))?));
     let mut state = BufWriter::new(std::fs::File::create(dir.join("state.bin"))?);
-    writeln!(session, "anguilla-session 1")?;
+    writeln!(session, "anguilla-session 2")?;
     let epoch = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
@@ -164,7 +167,7 @@ pub fn recorder(
                         writeln!(session, "start {t}")?;
                     }
                     Record::Period { now, bus } => writeln!(session, "P {now} {bus}")?,
-                    Record::Command(t, c) => writeln!(session, "C {t} {}", hex(&request_bytes(&c)))?,
+                    Record::Command(t, c) => writeln!(session, "C {t} {:032x} {:032x} {}", c.origin, c.node, hex(&request_bytes(&c.request)))?,
                     Record::Dead(t, id) => writeln!(session, "D {t} {id:032x}")?,
                     Record::Shutdown(t) => writeln!(session, "S {t}")?,
                     Record::End => writeln!(session, "E")?,
@@ -340,10 +343,13 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
             continue;
         }
         if n == 1 {
-            if line != "anguilla-session 1" {
+            if line != "anguilla-session 2" {
                 return Err(err(
                     n,
-                    format!("'{line}' (expected the header 'anguilla-session 1')"),
+                    format!(
+                        "'{line}' (expected the header 'anguilla-session 2'; sessions of \
+                         format 1, recorded before requests carried their origin, do not replay)"
+                    ),
                 ));
             }
             continue;
@@ -356,10 +362,25 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
         match tag {
             "start" => start = Some(num(rest, "start time")?),
             "C" => {
-                let (t, rest) = rest
-                    .split_once(' ')
-                    .ok_or_else(|| err(n, "command: expected '<ns> <hex>'".into()))?;
+                let mut parts = rest.split(' ');
+                let (Some(t), Some(origin), Some(node), Some(rest), None) = (
+                    parts.next(),
+                    parts.next(),
+                    parts.next(),
+                    parts.next(),
+                    parts.next(),
+                ) else {
+                    return Err(err(
+                        n,
+                        "command: expected '<ns> <origin> <node> <hex>'".into(),
+                    ));
+                };
                 let t = num(t, "command time")?;
+                let id = |s: &str, what: &str| {
+                    u128::from_str_radix(s, 16)
+                        .map_err(|_| err(n, format!("{what} '{s}' (expected 32 hex digits)")))
+                };
+                let (origin, node) = (id(origin, "origin")?, id(node, "node id")?);
                 let bytes =
                     unhex(rest).ok_or_else(|| err(n, "command: expected hex bytes".into()))?;
                 let req = request_from(&bytes).ok_or_else(|| {
@@ -372,7 +393,14 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
                         ),
                     )
                 })?;
-                pending.push(Record::Command(t, req));
+                pending.push(Record::Command(
+                    t,
+                    Envelope {
+                        origin,
+                        node,
+                        request: req,
+                    },
+                ));
             }
             "D" => {
                 let (t, rest) = rest
@@ -486,8 +514,8 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
     for (k, p) in periods.iter().enumerate() {
         for r in &p.before {
             match *r {
-                Record::Command(t, req) => {
-                    ctl.command(t, &req);
+                Record::Command(t, env) => {
+                    ctl.command(t, &env);
                 }
                 Record::Dead(t, id) => {
                     ctl.node_died(t, id);

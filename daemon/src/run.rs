@@ -12,11 +12,18 @@
 //!   only the newest snapshot is published; the others are counted);
 //! - the **command** thread waits for operator requests (clients announce
 //!   them on the `command-ready` event; it also polls every
-//!   [`COMMAND_POLL`]), hands them to the loop, which answers them at the
-//!   start of its next period, and sends the answers back;
+//!   [`COMMAND_POLL`]), hands them to the loop with the client port each
+//!   came on (the client's identity), and sends the loop's answers back.
+//!   Its work is bounded however clients behave: at most one round per
+//!   [`COMMAND_ROUND_MIN`], however many notifications arrive, and at most
+//!   [`COMMAND_BATCH`] requests a round (every client's in-flight
+//!   requests, so each client is served every round);
+//! - the **E-stop** thread receives on the reserved E-stop socket
+//!   ([`ipc::estop`]) and raises a flag the loop reads every period;
 //! - the **logger** receives [`Event`]s from the loop and writes them with
 //!   `tracing` (the loop never logs itself; when the channel is full the
-//!   event is dropped and counted);
+//!   event is dropped and counted); refused commands are summed up in one
+//!   line per [`REFUSAL_LOG_INTERVAL`], never one line per request;
 //! - the **reaper** scans iceoryx2's node registry every 250 ms and tells
 //!   the loop which client nodes are gone — died, or ended without releasing
 //!   control (their control is released).
@@ -34,7 +41,7 @@
 //! most `shutdown_grace`), then the actuators are disabled and the loop ends.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -43,7 +50,7 @@ use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::config::Config;
 use crate::control::{Controller, SetupError};
-use crate::ipc::{self, CommandReply, CommandRequest, LoopSnapshot, StateSnapshot};
+use crate::ipc::{self, CommandReply, Envelope, LoopSnapshot, StateSnapshot};
 use crate::rt::{self, RtRequest};
 use crate::stats::Window;
 use crate::supervisor::{FaultSet, Mode, Nanos};
@@ -61,7 +68,12 @@ pub enum Event {
         faults: FaultSet,
     },
     /// A command was refused; the reply carries the reason.
-    Refused(CommandReply),
+    Refused {
+        /// The client port it came on.
+        origin: u128,
+        /// The answer sent.
+        reply: CommandReply,
+    },
     /// A client died while holding control.
     HolderDied,
     /// The loop overran (periods skipped).
@@ -161,9 +173,15 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     // The loop keeps a receiver too: when the state thread falls behind, the
     // loop drops the oldest snapshot queued instead of the newest.
     let state_rx_loop = state_rx.clone();
-    let (req_tx, req_rx) = crossbeam_channel::bounded::<CommandRequest>(COMMAND_BATCH);
-    let (reply_tx, reply_rx) = crossbeam_channel::bounded::<CommandReply>(COMMAND_BATCH);
+    let (req_tx, req_rx) = crossbeam_channel::bounded::<Envelope>(COMMAND_BATCH);
+    let (reply_tx, reply_rx) = crossbeam_channel::bounded::<(u128, CommandReply)>(COMMAND_BATCH);
+    // E-stops taken out of band (the E-stop socket, or an operator E-stop
+    // the command queue had no room for): the loop handles them next period.
+    let estops = Arc::new(AtomicU64::new(0));
     let mut helpers = Vec::new();
+    // The E-stop socket first: a live daemon on the same prefix is found
+    // here, before any iceoryx2 service is touched.
+    let estop_listener = ipc::estop::EStopListener::bind(&cfg.ipc.prefix)?;
     // The iceoryx2 helpers first: their setup errors (a bad prefix, a
     // second daemon on the same services) are reported by `spawn`.
     let (ipc_ready_tx, ipc_ready_rx) = std::sync::mpsc::channel::<Result<(), ipc::IpcError>>();
@@ -182,6 +200,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             .map_err(|e| RunError::Thread("state", e))?,
     );
     let prefix = cfg.ipc.prefix.clone();
+    let cmd_estops = estops.clone();
     // Ten periods, and a second to spare for a loop that overruns: past
     // that the loop is stalled and the clients' own timeouts report it.
     let reply_wait =
@@ -193,8 +212,11 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
                 command_thread(
                     &prefix,
                     helper_rt,
-                    req_tx,
-                    reply_rx,
+                    CommandLinks {
+                        to_loop: req_tx,
+                        from_loop: reply_rx,
+                        estops: cmd_estops,
+                    },
                     reply_wait,
                     ipc_ready_tx,
                 )
@@ -215,6 +237,18 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             return Err(e.into());
         }
     }
+    let (sock_estops, estop_stop) = (estops.clone(), stop.clone());
+    helpers.push(
+        std::thread::Builder::new()
+            .name("anguilla-estop".into())
+            .spawn(move || {
+                for w in rt::apply(&helper_rt) {
+                    tracing::warn!("e-stop thread: {w}");
+                }
+                estop_thread(estop_listener, sock_estops, estop_stop)
+            })
+            .map_err(|e| RunError::Thread("e-stop", e))?,
+    );
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-log".into())
@@ -265,6 +299,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
                 states: (state_tx, state_rx_loop),
                 requests: req_rx,
                 replies: reply_tx,
+                estops,
             };
             control_loop(cfg, bus, loop_stop, links, recording)
         })
@@ -289,26 +324,120 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     }
 }
 
+/// Refused commands are logged as one summary line per interval at most.
+pub const REFUSAL_LOG_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Sums up refusals: the first of an interval is logged whole, the rest
+/// are counted and reported in one line when the interval ends.
+#[derive(Debug, Default)]
+struct RefusalLog {
+    since: Option<std::time::Instant>,
+    suppressed: u64,
+    latest: Option<(u128, CommandReply)>,
+}
+
+impl RefusalLog {
+    fn refused(&mut self, now: std::time::Instant, origin: u128, reply: CommandReply) {
+        match self.since {
+            Some(t) if now.duration_since(t) < REFUSAL_LOG_INTERVAL => {
+                self.suppressed += 1;
+                self.latest = Some((origin, reply));
+            }
+            _ => {
+                self.flush(now);
+                self.since = Some(now);
+                tracing::info!(
+                    "refused command {} from client {origin:032x}: {}",
+                    reply.sequence,
+                    reply.reason()
+                );
+            }
+        }
+    }
+
+    fn flush(&mut self, now: std::time::Instant) {
+        if self.suppressed > 0
+            && let Some((origin, reply)) = self.latest
+        {
+            tracing::info!(
+                "refused {} more command(s) in {:.1} s; latest from client {origin:032x}: {}",
+                self.suppressed,
+                self.since
+                    .map_or(0.0, |t| now.duration_since(t).as_secs_f64()),
+                reply.reason()
+            );
+        }
+        self.suppressed = 0;
+        self.latest = None;
+        self.since = None;
+    }
+
+    fn due(&self, now: std::time::Instant) -> bool {
+        self.since
+            .is_some_and(|t| now.duration_since(t) >= REFUSAL_LOG_INTERVAL)
+    }
+}
+
 fn logger(rx: Receiver<Event>) {
-    for ev in rx {
+    let mut refusals = RefusalLog::default();
+    loop {
+        let ev = match rx.recv_timeout(REFUSAL_LOG_INTERVAL / 4) {
+            Ok(ev) => Some(ev),
+            Err(crossbeam_channel::RecvTimeoutError::Timeout) => None,
+            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
+        };
+        let now = std::time::Instant::now();
+        if refusals.due(now) {
+            refusals.flush(now);
+        }
         match ev {
-            Event::Mode { from, to, faults } if faults.is_empty() => {
+            None => {}
+            Some(Event::Mode { from, to, faults }) if faults.is_empty() => {
                 tracing::info!("mode {from} -> {to}")
             }
-            Event::Mode { from, to, faults } => {
+            Some(Event::Mode { from, to, faults }) => {
                 tracing::warn!("mode {from} -> {to} ({faults})")
             }
-            Event::Refused(r) => tracing::info!(
-                "refused command {} from client {:016x}: {}",
-                r.sequence,
-                r.client_id,
-                r.reason()
-            ),
-            Event::HolderDied => {
+            Some(Event::Refused { origin, reply }) => refusals.refused(now, origin, reply),
+            Some(Event::HolderDied) => {
                 tracing::warn!("the client holding control died; control released")
             }
-            Event::Overrun { skipped } => {
+            Some(Event::Overrun { skipped }) => {
                 tracing::warn!("control loop overrun: {skipped} period(s) skipped")
+            }
+        }
+    }
+    refusals.flush(std::time::Instant::now());
+}
+
+/// Receives on the E-stop socket until `stop`; each datagram is an E-stop
+/// the loop takes next period. Logs at most one line per second.
+fn estop_thread(
+    listener: ipc::estop::EStopListener,
+    estops: Arc<AtomicU64>,
+    stop: Arc<AtomicBool>,
+) {
+    let mut last_log: Option<std::time::Instant> = None;
+    let mut unlogged = 0u64;
+    while !stop.load(Ordering::Relaxed) {
+        match listener.wait(Duration::from_millis(50), 1024) {
+            Ok(0) => {}
+            Ok(n) => {
+                estops.fetch_add(n as u64, Ordering::AcqRel);
+                unlogged += n as u64;
+                let now = std::time::Instant::now();
+                if last_log.is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1)) {
+                    tracing::warn!(
+                        "e-stop: {unlogged} datagram(s) on {}",
+                        listener.path().display()
+                    );
+                    last_log = Some(now);
+                    unlogged = 0;
+                }
+            }
+            Err(e) => {
+                tracing::error!("e-stop socket {}: {e}", listener.path().display());
+                std::thread::sleep(Duration::from_millis(50));
             }
         }
     }
@@ -337,8 +466,13 @@ fn reaper(watch_rx: Receiver<u128>, tx: Sender<u128>, stop: Arc<AtomicBool>) {
 
 /// Snapshots the state channel holds (the state thread publishes the newest).
 const STATE_QUEUE: usize = 4;
-/// Most operator requests handed to the loop at once.
-const COMMAND_BATCH: usize = 32;
+/// Most operator requests handed to the loop in one round: every client's
+/// requests in flight (iceoryx2 lets a client have no more), so one round
+/// serves every client.
+pub const COMMAND_BATCH: usize = ipc::MAX_TOOLS * ipc::MAX_REQUESTS_PER_CLIENT;
+/// Shortest time between two rounds of the command thread: a client that
+/// floods `command-ready` wakes it at most this often.
+pub const COMMAND_ROUND_MIN: Duration = Duration::from_millis(1);
 /// How often the command thread looks for requests that no client announced
 /// on `command-ready`.
 pub const COMMAND_POLL: Duration = Duration::from_millis(10);
@@ -385,21 +519,32 @@ pub fn state_thread(
     }
 }
 
+/// The command thread's channels to the loop.
+struct CommandLinks {
+    to_loop: Sender<Envelope>,
+    from_loop: Receiver<(u128, CommandReply)>,
+    estops: Arc<AtomicU64>,
+}
+
 /// Takes operator requests from iceoryx2, hands them to the loop and sends
 /// back the loop's answers.
 fn command_thread(
     prefix: &str,
     rt: RtRequest,
-    to_loop: Sender<CommandRequest>,
-    from_loop: Receiver<CommandReply>,
+    links: CommandLinks,
     reply_wait: Duration,
     ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
 ) {
     use crossbeam_channel::{RecvTimeoutError, TryRecvError};
+    let CommandLinks {
+        to_loop,
+        from_loop,
+        estops,
+    } = links;
     for w in rt::apply(&rt) {
         tracing::warn!("command thread: {w}");
     }
-    let server = match ipc::CommandServer::new(prefix) {
+    let mut server = match ipc::CommandServer::new(prefix) {
         Ok(s) => {
             let _ = ready.send(Ok(()));
             s
@@ -410,8 +555,9 @@ fn command_thread(
         }
     };
     drop(ready);
-    let mut waiting: Vec<ipc::ActiveRequest> = Vec::with_capacity(COMMAND_BATCH);
+    let mut waiting: Vec<(Envelope, ipc::ActiveRequest)> = Vec::with_capacity(COMMAND_BATCH);
     let mut failing = false;
+    let mut last_round = std::time::Instant::now();
     loop {
         // Serve until the loop has gone (it still answers while it stops a
         // swim at shutdown). Nothing is awaited here, so a reply found is a
@@ -419,14 +565,26 @@ fn command_thread(
         if let Err(TryRecvError::Disconnected) = from_loop.try_recv() {
             return;
         }
+        // Bounded wake-ups: a flood of notifications costs one round per
+        // COMMAND_ROUND_MIN, each round draining all of them at once.
+        let since = last_round.elapsed();
+        if since < COMMAND_ROUND_MIN {
+            std::thread::sleep(COMMAND_ROUND_MIN - since);
+        }
         let _ = server.wait(COMMAND_POLL);
+        last_round = std::time::Instant::now();
         while waiting.len() < COMMAND_BATCH {
             match server.take() {
-                Ok(Some(request)) => {
-                    if to_loop.try_send(*request.payload()).is_err() {
-                        break; // the loop is gone; the request is dropped
+                Ok(Some((env, request))) => {
+                    if to_loop.try_send(env).is_err() {
+                        // The loop is stalled or gone: an E-stop still
+                        // goes through, the rest wait for the client's retry.
+                        if env.request.is_estop() {
+                            estops.fetch_add(1, Ordering::AcqRel);
+                        }
+                        break;
                     }
-                    waiting.push(request);
+                    waiting.push((env, request));
                 }
                 Ok(None) => break,
                 Err(e) => {
@@ -438,17 +596,16 @@ fn command_thread(
                 }
             }
         }
-        // Answer in the loop's order; a reply is matched by client and
+        // Answer in the loop's order; a reply is matched by client port and
         // sequence so that a late answer to an abandoned batch is dropped.
         while !waiting.is_empty() {
             match from_loop.recv_timeout(reply_wait) {
-                Ok(reply) => {
-                    let at = waiting.iter().position(|r| {
-                        r.payload().client_id == reply.client_id
-                            && r.payload().sequence == reply.sequence
+                Ok((origin, reply)) => {
+                    let at = waiting.iter().position(|(env, _)| {
+                        env.origin == origin && env.request.sequence == reply.sequence
                     });
                     if let Some(at) = at {
-                        ipc::CommandServer::reply(waiting.remove(at), reply);
+                        ipc::CommandServer::reply(waiting.remove(at).1, reply);
                     }
                 }
                 Err(RecvTimeoutError::Timeout) => {
@@ -468,8 +625,9 @@ struct Links {
     watch: Sender<u128>,
     ready: std::sync::mpsc::Sender<()>,
     states: (Sender<StateSnapshot>, Receiver<StateSnapshot>),
-    requests: Receiver<CommandRequest>,
-    replies: Sender<CommandReply>,
+    requests: Receiver<Envelope>,
+    replies: Sender<(u128, CommandReply)>,
+    estops: Arc<AtomicU64>,
 }
 
 fn control_loop(
@@ -495,7 +653,9 @@ fn control_loop(
         states: (to_publish, unpublished),
         requests,
         replies,
+        estops,
     } = links;
+    let mut estops_seen = 0u64;
     for w in rt::apply(&rt_req) {
         tracing::warn!("{w}");
     }
@@ -539,14 +699,26 @@ fn control_loop(
             emit(Event::Overrun { skipped }, &mut dropped);
         }
         let now = wake;
-        // Operator commands, then dead clients, then the period itself.
-        while let Ok(req) = requests.try_recv() {
-            let reply = ctl.command(now, &req);
+        // Out-of-band E-stops first, then operator commands, then dead
+        // clients, then the period itself.
+        let estops_now = estops.load(Ordering::Acquire);
+        if estops_now != estops_seen {
+            estops_seen = estops_now;
+            ctl.socket_estop(now, estops_now);
+        }
+        while let Ok(env) = requests.try_recv() {
+            let reply = ctl.command(now, &env);
             if reply.accepted == 0 {
-                emit(Event::Refused(reply), &mut dropped);
+                emit(
+                    Event::Refused {
+                        origin: env.origin,
+                        reply,
+                    },
+                    &mut dropped,
+                );
             }
             // Room for every request handed over: the channels are the same size.
-            let _ = replies.try_send(reply);
+            let _ = replies.try_send((env.origin, reply));
         }
         if let Some(node) = ctl.take_new_holder_node() {
             let _ = watch.try_send(node);

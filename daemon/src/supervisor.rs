@@ -261,7 +261,8 @@ impl Supervisor {
         Ok(())
     }
 
-    /// Handles one operator command at time `now`; `Ok` means accepted.
+    /// Handles one operator command at time `now` from `client` (the
+    /// origin the transport vouches for); `Ok` means accepted.
     pub fn command(
         &mut self,
         now: Nanos,
@@ -269,12 +270,14 @@ impl Supervisor {
         seq: u32,
         cmd: Command,
     ) -> Result<(), Refusal> {
-        self.check_seq(client, seq)?;
-        // E-stop: from anyone, in any mode, never refused.
+        // E-stop: from anyone, in any mode, never refused: before the
+        // sequence check, so no duplicate, replayed or out-of-order number
+        // stands in its way.
         if cmd == Command::EStop {
             self.estop(now, FaultKind::OperatorEStop, 0);
             return Ok(());
         }
+        self.check_seq(client, seq)?;
         match self.holder {
             Some(h) if h.client == client => {
                 self.holder = Some(Holder {
@@ -703,6 +706,19 @@ mod tests {
     }
 
     #[test]
+    fn an_estop_is_never_refused_for_its_sequence_number() {
+        // The attack of issue 12: a number at the top of the range, then the
+        // real operator's E-stop with a lower one (or the same one, again).
+        let mut s = swimming();
+        assert_eq!(s.command(4 * MS, A, u32::MAX, Command::KeepAlive), Ok(()));
+        assert_eq!(s.command(5 * MS, A, 1, Command::EStop), Ok(()));
+        assert_eq!(s.mode(), Mode::EStop);
+        assert_eq!(s.command(6 * MS, A, 1, Command::EStop), Ok(()));
+        assert_eq!(s.command(6 * MS, B, 0, Command::EStop), Ok(()));
+        assert!(s.faults().contains(FaultKind::OperatorEStop));
+    }
+
+    #[test]
     fn faults_stop_the_swim_and_name_the_node() {
         let mut s = swimming();
         let obs = Observations {
@@ -847,8 +863,9 @@ mod tests {
     #[test]
     fn sequence_table_is_bounded_and_keeps_the_holder() {
         let mut s = swimming();
-        for c in 100..100 + 40u64 {
-            s.command(4 * MS, c, 1, Command::EStop).unwrap();
+        for c in 100..100 + 40u128 {
+            // Refused (A holds control), but the sequence is taken first.
+            let _ = s.command(4 * MS, c, 1, Command::KeepAlive);
         }
         // The holder's entry survived eviction: its old sequence is still stale.
         assert!(matches!(

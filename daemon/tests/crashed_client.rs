@@ -13,7 +13,6 @@ use anguilla_daemon::supervisor::Command;
 use anguilla_drivers::mem::MemBus;
 
 const CHILD_ENV: &str = "ANGUILLA_TEST_CHILD_PREFIX";
-const CHILD_ID: u64 = 0xC41D;
 
 /// Runs only as the child: take control, then die without cleaning up.
 #[test]
@@ -21,7 +20,9 @@ fn child_client_takes_control_then_crashes() {
     let Ok(prefix) = std::env::var(CHILD_ENV) else {
         return; // not the child: nothing to do in the parent's run
     };
-    let mut c = Client::new(&prefix, "crashing-client", CHILD_ID).expect("client");
+    let mut c = Client::new(&prefix, "crashing-client").expect("client");
+    // The parent learns who the child is from its output.
+    println!("child client {:032x}", c.id());
     let r = c
         .request(Command::TakeControl, Duration::from_secs(10))
         .expect("reply");
@@ -52,14 +53,20 @@ fn a_dead_holder_loses_control() {
         .output()
         .expect("child runs");
     assert!(!child.status.success(), "the child aborts");
-    let watcher = Client::new(&prefix, "watcher", 7).unwrap();
+    let out = String::from_utf8_lossy(&child.stdout);
+    let child_id = out
+        .lines()
+        .find_map(|l| l.strip_prefix("child client "))
+        .and_then(|h| u128::from_str_radix(h.trim(), 16).ok())
+        .unwrap_or_else(|| panic!("the child names its client: {out}"));
+    let watcher = Client::new(&prefix, "watcher").unwrap();
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut held = false;
     let mut released = false;
     while Instant::now() < deadline {
         if let Ok(Some(s)) = watcher.wait_state(Duration::from_millis(100)) {
-            held |= s.holder == CHILD_ID;
-            if held && s.holder == 0 {
+            held |= s.holder() == Some(child_id);
+            if held && s.holder().is_none() {
                 released = true;
                 break;
             }

@@ -136,8 +136,8 @@ fn the_running_loop_thread_allocates_nothing() {
     let sim = robot.spawn(clock).expect("simulated robot thread");
     let stop = Arc::new(AtomicBool::new(false));
     let running = run::spawn(cfg, Box::new(bus.participant()), stop).expect("daemon starts");
-    let mut client = Client::new(&prefix, "no-alloc-client", 1).expect("client");
-    let mut observer = Client::new(&prefix, "no-alloc-observer", 2).expect("observer");
+    let mut client = Client::new(&prefix, "no-alloc-client").expect("client");
+    let mut observer = Client::new(&prefix, "no-alloc-observer").expect("observer");
 
     // Warm-up, not counted: control taken, actuators enabled.
     accepted(&mut client, Command::TakeControl);

@@ -5,15 +5,23 @@ use core::time::Duration;
 use iceoryx2::prelude::*;
 
 use crate::payload::{CommandReply, CommandRequest, StateSnapshot};
-use crate::service::{IpcError, ice, new_node, open_services};
+use crate::service::{
+    CommandService, IpcError, MAX_REQUESTS_PER_CLIENT, Role, StateService, command_service,
+    event_service, ice, new_node, publisher_and_server_pids, state_service,
+};
 use crate::vocabulary::Command;
 
-/// Unanswered requests a client keeps (the service allows 8 per client).
-const MAX_PENDING: usize = 6;
+/// Unanswered requests a client keeps (the service allows
+/// [`MAX_REQUESTS_PER_CLIENT`]); the oldest is given up beyond.
+const MAX_PENDING: usize = MAX_REQUESTS_PER_CLIENT - 1;
 
 /// A tool's side: reads state, waits for new state, sends commands.
+///
+/// Each `Client` is one session: its iceoryx2 client port is its identity
+/// for the daemon ([`Client::id`]), so a tool that restarts is a new client
+/// and holds nothing the old one held.
 pub struct Client {
-    node: Node<ipc::Service>,
+    _node: Node<ipc::Service>,
     subscriber: iceoryx2::port::subscriber::Subscriber<ipc::Service, StateSnapshot, ()>,
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
     client: iceoryx2::port::client::Client<ipc::Service, CommandRequest, (), CommandReply, ()>,
@@ -27,57 +35,70 @@ pub struct Client {
             (),
         >,
     >,
-    client_id: u64,
+    state_service: StateService,
+    command_service: CommandService,
     sequence: u32,
 }
 
 impl Client {
-    /// Connects to the daemon's services under `prefix` as `client_id`
-    /// (non-zero), naming the iceoryx2 node `name`.
-    pub fn new(prefix: &str, name: &str, client_id: u64) -> Result<Self, IpcError> {
+    /// Connects to the daemon's services under `prefix` (they must exist:
+    /// a tool never creates them), naming the iceoryx2 node `name`.
+    pub fn new(prefix: &str, name: &str) -> Result<Self, IpcError> {
         let node = new_node(name)?;
-        let services = open_services(&node, prefix)?;
-        let subscriber = services
-            .state
+        let state_service = state_service(&node, prefix, Role::Tool)?;
+        let ready = event_service(&node, prefix, "state-ready", Role::Tool)?;
+        let command_service = command_service(&node, prefix, Role::Tool)?;
+        let command_ready = event_service(&node, prefix, "command-ready", Role::Tool)?;
+        let subscriber = state_service
             .subscriber_builder()
             .create()
             .map_err(ice("state subscriber"))?;
-        let listener = services
-            .ready
+        let listener = ready
             .listener_builder()
             .create()
             .map_err(ice("state-ready listener"))?;
-        let client = services
-            .command
+        let client = command_service
             .client_builder()
             .create()
             .map_err(ice("command client"))?;
-        let command_ready = services
-            .command_ready
+        let command_ready = command_ready
             .notifier_builder()
             .create()
             .map_err(ice("command-ready notifier"))?;
         Ok(Self {
-            node,
+            _node: node,
             subscriber,
             listener,
             client,
             command_ready,
             pending: Vec::new(),
-            client_id,
-            // Sequence numbers start from the wall clock so a restarted tool
-            // with the same id is not taken for a replay of old commands.
-            sequence: (std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map(|d| d.as_millis() as u64)
-                .unwrap_or(0)
-                & 0x3FFF_FFFF) as u32,
+            state_service,
+            command_service,
+            sequence: 0,
         })
     }
 
-    /// This client's id.
-    pub fn id(&self) -> u64 {
-        self.client_id
+    /// This client's identity as the daemon knows it: the unique id of its
+    /// iceoryx2 client port (what [`StateSnapshot::holder`] names).
+    pub fn id(&self) -> u128 {
+        self.client.id().value()
+    }
+
+    /// When the state this client reads is not published by the process
+    /// that serves its commands (a program squatting the state service, or
+    /// a daemon that has gone), says so; `None` when they are one process.
+    pub fn provenance_problem(&self) -> Option<String> {
+        let (publishers, servers) =
+            publisher_and_server_pids(&self.state_service, &self.command_service);
+        match (publishers.as_slice(), servers.as_slice()) {
+            ([p], [s]) if p == s => None,
+            ([], _) => Some("nobody publishes the state: is the daemon running?".into()),
+            (_, []) => Some("nobody serves commands: is the daemon running?".into()),
+            (p, s) => Some(format!(
+                "the state is published by pid {p:?} but commands are served by pid {s:?}: \
+                 the state shown may not be the robot's"
+            )),
+        }
     }
 
     /// Sends `cmd`; its reply arrives through [`Client::replies`].
@@ -89,7 +110,7 @@ impl Client {
             self.pending.remove(0);
         }
         self.sequence = self.sequence.wrapping_add(1);
-        let req = CommandRequest::new(cmd, self.client_id, self.node.id().value(), self.sequence);
+        let req = CommandRequest::new(cmd, self.sequence);
         let pending = self.client.send_copy(req).map_err(ice("send command"))?;
         self.pending.push(pending);
         // Wake the daemon's command thread at once; without this it would

@@ -41,11 +41,13 @@ pub fn layout_table() -> Vec<LayoutRow> {
     v.extend(rows!(StateSnapshot, "StateSnapshot", [
         layout_version: "uint32_t", joint_count: "uint32_t", sequence: "uint64_t",
         time_ns: "uint64_t", mode: "uint8_t", cause: "uint8_t", feedforward_dropped: "uint8_t",
-        reserved: "uint8_t", fault_kinds: "uint32_t", fault_nodes: "uint64_t", holder: "uint64_t",
+        reserved: "uint8_t", fault_kinds: "uint32_t", fault_nodes: "uint64_t", holder_lo: "uint64_t",
+        holder_hi: "uint64_t",
         predicted_head_speed: "float", predicted_turn_rate: "float",
         gait_target: "GaitSnapshot", gait_actual: "GaitSnapshot", loop_stats: "LoopSnapshot",
         bus: "BusSnapshot", clamped_setpoints: "uint64_t", refused_commands: "uint64_t",
-        operator_silent_stops: "uint64_t", joints: "JointSnapshot[32]",
+        operator_silent_stops: "uint64_t", socket_estops: "uint64_t",
+        limits: "LimitsSnapshot", joints: "JointSnapshot[32]",
     ]));
     v.extend(rows!(JointSnapshot, "JointSnapshot", [
         commanded_pitch: "float", commanded_yaw: "float", measured_pitch: "float",
@@ -69,13 +71,16 @@ pub fn layout_table() -> Vec<LayoutRow> {
         bus_off_count: "uint32_t", state: "uint8_t",
         reserved: "uint8_t[3]",
     ]));
+    v.extend(rows!(LimitsSnapshot, "LimitsSnapshot", [
+        max_frequency: "float", max_turn: "float", max_pitch: "float",
+        command_timeout_ms: "uint32_t", control_release_ms: "uint32_t", daemon_pid: "uint32_t",
+    ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
-        layout_version: "uint32_t", code: "uint32_t", client_id: "uint64_t",
-        node_id_lo: "uint64_t", node_id_hi: "uint64_t", sequence: "uint32_t", amplitude: "float",
+        layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", amplitude: "float",
         frequency: "float", turn: "float", pitch: "float", reserved: "uint32_t",
     ]));
     v.extend(rows!(CommandReply, "CommandReply", [
-        client_id: "uint64_t", sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
+        sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
         reason_len: "uint16_t", reason: "char[120]",
     ]));
     v
@@ -89,6 +94,7 @@ pub fn layout_markdown() -> String {
         ("GaitSnapshot", core::mem::size_of::<GaitSnapshot>()),
         ("LoopSnapshot", core::mem::size_of::<LoopSnapshot>()),
         ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
+        ("LimitsSnapshot", core::mem::size_of::<LimitsSnapshot>()),
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
         ("CommandReply", core::mem::size_of::<CommandReply>()),
     ];

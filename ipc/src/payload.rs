@@ -10,7 +10,7 @@ use crate::vocabulary::{Command, SwimParams};
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 2;
+pub const LAYOUT_VERSION: u32 = 3;
 /// Bytes of reason text in a [`CommandReply`].
 pub const REASON_LEN: usize = 120;
 
@@ -133,6 +133,27 @@ pub struct BusSnapshot {
     pub reserved: [u8; 3],
 }
 
+/// The daemon's limits, published so that tools need not read its
+/// configuration file.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::LimitsSnapshot")]
+pub struct LimitsSnapshot {
+    /// Largest swim frequency accepted (Hz); the smallest is 0.
+    pub max_frequency: f32,
+    /// Largest |turn curvature| accepted (1/m).
+    pub max_turn: f32,
+    /// Largest |pitch curvature| accepted (1/m).
+    pub max_pitch: f32,
+    /// The holder's silence after which a swim stops smoothly (ms): a
+    /// swimming tool resends within it.
+    pub command_timeout_ms: u32,
+    /// The holder's silence after which its control is released (ms).
+    pub control_release_ms: u32,
+    /// The daemon's process id.
+    pub daemon_pid: u32,
+}
+
 /// Everything an operator tool shows, published every control period.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
@@ -160,8 +181,12 @@ pub struct StateSnapshot {
     pub fault_kinds: u32,
     /// Nodes involved in the faults (bit = node id).
     pub fault_nodes: u64,
-    /// Client holding control, 0 if none.
-    pub holder: u64,
+    /// The client port holding control (its iceoryx2 `UniqueClientId`),
+    /// low 64 bits; 0 and 0 if nobody holds it. A tool compares it with
+    /// its own client port's id ([`crate::Client::id`]).
+    pub holder_lo: u64,
+    /// The holder's client port id, high 64 bits.
+    pub holder_hi: u64,
     /// The model's predicted forward speed of the head (m/s).
     pub predicted_head_speed: f32,
     /// The model's predicted turn rate of the head (rad/s, positive left).
@@ -180,8 +205,28 @@ pub struct StateSnapshot {
     pub refused_commands: u64,
     /// Swims stopped because the holder went silent.
     pub operator_silent_stops: u64,
+    /// E-stops taken out of band since start: datagrams on the reserved
+    /// E-stop socket, and operator E-stops the command queue had no room for.
+    pub socket_estops: u64,
+    /// The daemon's limits: what a command may ask for, and its timeouts.
+    pub limits: LimitsSnapshot,
     /// Per joint, from the head (index 0) to the tail.
     pub joints: [JointSnapshot; MAX_JOINTS],
+}
+
+impl StateSnapshot {
+    /// The client port holding control, if any.
+    pub fn holder(&self) -> Option<u128> {
+        let h = (self.holder_hi as u128) << 64 | self.holder_lo as u128;
+        (h != 0).then_some(h)
+    }
+
+    /// Sets [`StateSnapshot::holder_lo`] and `holder_hi`.
+    pub fn set_holder(&mut self, holder: Option<u128>) {
+        let h = holder.unwrap_or(0);
+        self.holder_lo = h as u64;
+        self.holder_hi = (h >> 64) as u64;
+    }
 }
 
 impl Default for StateSnapshot {
@@ -197,7 +242,8 @@ impl Default for StateSnapshot {
             reserved: 0,
             fault_kinds: 0,
             fault_nodes: 0,
-            holder: 0,
+            holder_lo: 0,
+            holder_hi: 0,
             predicted_head_speed: 0.0,
             predicted_turn_rate: 0.0,
             gait_target: GaitSnapshot::default(),
@@ -207,6 +253,8 @@ impl Default for StateSnapshot {
             clamped_setpoints: 0,
             refused_commands: 0,
             operator_silent_stops: 0,
+            socket_estops: 0,
+            limits: LimitsSnapshot::default(),
             joints: [JointSnapshot::default(); MAX_JOINTS],
         }
     }
@@ -234,7 +282,8 @@ pub mod code {
     pub const KEEP_ALIVE: u32 = 9;
 }
 
-/// A command from an operator tool.
+/// A command from an operator tool. Who sent it is not a field: the
+/// daemon knows it from the iceoryx2 client port it arrived on.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
 #[type_name("anguilla::CommandRequest")]
@@ -243,14 +292,8 @@ pub struct CommandRequest {
     pub layout_version: u32,
     /// One of the [`code`] constants.
     pub code: u32,
-    /// The sender's identity (any non-zero number, stable for its session).
-    pub client_id: u64,
-    /// The sender's iceoryx2 node id, low 64 bits (lets the daemon release
-    /// control when that node dies).
-    pub node_id_lo: u64,
-    /// The sender's iceoryx2 node id, high 64 bits.
-    pub node_id_hi: u64,
-    /// Increases with every command from this client.
+    /// Increases with every command from this client port (a repeated or
+    /// older number is refused as a duplicate, except for an E-stop).
     pub sequence: u32,
     /// Swim amplitude, fraction of the maximum (0..=1), for SWIM.
     pub amplitude: f32,
@@ -265,8 +308,8 @@ pub struct CommandRequest {
 }
 
 impl CommandRequest {
-    /// A request for `cmd` from `client_id` with sequence number `sequence`.
-    pub fn new(cmd: Command, client_id: u64, node_id: u128, sequence: u32) -> Self {
+    /// A request for `cmd` with sequence number `sequence`.
+    pub fn new(cmd: Command, sequence: u32) -> Self {
         let (code, p) = match cmd {
             Command::Enable => (code::ENABLE, SwimParams::REST),
             Command::Disable => (code::DISABLE, SwimParams::REST),
@@ -281,9 +324,6 @@ impl CommandRequest {
         Self {
             layout_version: LAYOUT_VERSION,
             code,
-            client_id,
-            node_id_lo: node_id as u64,
-            node_id_hi: (node_id >> 64) as u64,
             sequence,
             amplitude: p.amplitude as f32,
             frequency: p.frequency as f32,
@@ -293,18 +333,19 @@ impl CommandRequest {
         }
     }
 
-    /// The sender's node id.
-    pub fn node_id(&self) -> u128 {
-        (self.node_id_hi as u128) << 64 | self.node_id_lo as u128
+    /// Whether this is an E-stop, whatever else it says (the layout version
+    /// included): an E-stop is never refused for being malformed.
+    pub fn is_estop(&self) -> bool {
+        self.code == code::ESTOP
     }
 
     /// The command, or why the request cannot be read.
     pub fn command(&self) -> Result<Command, RequestError> {
+        if self.is_estop() {
+            return Ok(Command::EStop);
+        }
         if self.layout_version != LAYOUT_VERSION {
             return Err(RequestError::Version(self.layout_version));
-        }
-        if self.client_id == 0 {
-            return Err(RequestError::NoClientId);
         }
         Ok(match self.code {
             code::ENABLE => Command::Enable,
@@ -316,7 +357,6 @@ impl CommandRequest {
                 pitch: self.pitch as f64,
             }),
             code::STOP => Command::Stop,
-            code::ESTOP => Command::EStop,
             code::RESET => Command::Reset,
             code::TAKE_CONTROL => Command::TakeControl,
             code::RELEASE_CONTROL => Command::ReleaseControl,
@@ -332,9 +372,6 @@ pub enum RequestError {
     /// The sender uses another layout version.
     #[error("layout version {0} is not the daemon's ({LAYOUT_VERSION}); update the tool")]
     Version(u32),
-    /// The client id was 0.
-    #[error("client id 0 is reserved (expected any non-zero number)")]
-    NoClientId,
     /// The command code is not one of [`code`].
     #[error("unknown command code {0} (expected 1..=9)")]
     UnknownCode(u32),
@@ -345,8 +382,6 @@ pub enum RequestError {
 #[repr(C)]
 #[type_name("anguilla::CommandReply")]
 pub struct CommandReply {
-    /// The request's client id.
-    pub client_id: u64,
     /// The request's sequence number.
     pub sequence: u32,
     /// 1 accepted, 0 refused.
@@ -363,7 +398,6 @@ impl CommandReply {
     /// An acceptance.
     pub fn accepted(req: &CommandRequest, mode: u8) -> Self {
         Self {
-            client_id: req.client_id,
             sequence: req.sequence,
             accepted: 1,
             mode,
@@ -378,7 +412,6 @@ impl CommandReply {
         let mut w = FixedText::default();
         let _ = write!(w, "{why}");
         Self {
-            client_id: req.client_id,
             sequence: req.sequence,
             accepted: 0,
             mode,

@@ -1,4 +1,11 @@
-//! The services under a prefix and the daemon's two sides of them.
+//! The services under a prefix, their capacities, and the daemon's two
+//! sides of them.
+//!
+//! The daemon **creates** its services; tools only **open** them. A
+//! service that already exists when the daemon starts is either the trace
+//! of a dead daemon (its node is cleaned up, the service is reused) or held
+//! by a live process that publishes on it or serves it: then the daemon
+//! refuses to start and names the process ([`IpcError::Squatted`]).
 
 use core::fmt;
 use core::time::Duration;
@@ -12,12 +19,43 @@ use iceoryx2::service::port_factory::{
 
 use crate::payload::{CommandReply, CommandRequest, StateSnapshot};
 
+/// Most operator tools connected at once: subscribers of `state`,
+/// listeners of `state-ready`, clients of `command`, notifiers of
+/// `command-ready`. A tool uses one of each.
+pub const MAX_TOOLS: usize = 32;
+/// Most iceoryx2 nodes on one service: every tool's node and the daemon's.
+pub const MAX_NODES: usize = MAX_TOOLS + 4;
+/// Requests one client may have in flight; more are refused by iceoryx2
+/// at the client (`send` fails), so one tool cannot fill the server.
+pub const MAX_REQUESTS_PER_CLIENT: usize = 4;
+
 /// What went wrong setting up or using the operator interface.
 #[derive(Debug, thiserror::Error)]
 pub enum IpcError {
     /// The prefix does not make valid service names.
     #[error("IPC prefix '{0}' is not valid (expected letters, digits, '-', '_' and '/')")]
     BadPrefix(String),
+    /// A live process other than a daemon of ours holds a service.
+    #[error(
+        "service '{service}' is held by a live process ({holders}): another anguilla daemon, or a \
+         program that created it first; stop it, or give this daemon another [ipc] prefix"
+    )]
+    Squatted {
+        /// The service's full name.
+        service: String,
+        /// Who holds it ("pid 1234", ...).
+        holders: String,
+    },
+    /// No daemon serves the prefix.
+    #[error(
+        "no anguilla daemon serves '{prefix}' ({detail}); is `anguilla run` running with this [ipc] prefix?"
+    )]
+    NoDaemon {
+        /// The prefix tried.
+        prefix: String,
+        /// iceoryx2's words.
+        detail: String,
+    },
     /// iceoryx2 refused an operation; the text names it.
     #[error("iceoryx2: {0}")]
     Iceoryx(String),
@@ -27,67 +65,227 @@ pub(crate) fn ice<E: fmt::Debug>(what: &'static str) -> impl Fn(E) -> IpcError {
     move |e| IpcError::Iceoryx(format!("{what}: {e:?}"))
 }
 
-pub(crate) fn service_name(prefix: &str, leaf: &str) -> Result<ServiceName, IpcError> {
-    let ok = !prefix.is_empty()
+/// Whether `prefix` makes valid service names (letters, digits, '-', '_', '/').
+pub fn valid_prefix(prefix: &str) -> bool {
+    !prefix.is_empty()
+        && prefix.len() <= 200
         && prefix
             .chars()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '/'));
-    if !ok {
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '/'))
+}
+
+pub(crate) fn service_name(prefix: &str, leaf: &str) -> Result<ServiceName, IpcError> {
+    if !valid_prefix(prefix) {
         return Err(IpcError::BadPrefix(prefix.to_string()));
     }
     let full = format!("{prefix}/{leaf}");
     ServiceName::new(&full).map_err(|_| IpcError::BadPrefix(prefix.to_string()))
 }
 
-pub(crate) struct Services {
-    pub(crate) state: PubSubFactory<ipc::Service, StateSnapshot, ()>,
-    pub(crate) ready: EventFactory<ipc::Service>,
-    pub(crate) command: ReqResFactory<ipc::Service, CommandRequest, (), CommandReply, ()>,
-    pub(crate) command_ready: EventFactory<ipc::Service>,
+pub(crate) type StateService = PubSubFactory<ipc::Service, StateSnapshot, ()>;
+pub(crate) type CommandService = ReqResFactory<ipc::Service, CommandRequest, (), CommandReply, ()>;
+
+/// How a side gets a service: the daemon creates, a tool opens.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Role {
+    Daemon,
+    Tool,
 }
 
-/// Most clients (tools) at once.
-const MAX_CLIENTS: usize = 32;
+/// Creates (daemon) or opens (tool) a service with `build`, which applies
+/// the service's settings to a fresh builder and then `create`s or `open`s.
+/// A daemon that finds the service existing opens it, and `live_holders`
+/// names the live processes publishing on or serving it (then it refuses).
+fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
+    role: Role,
+    prefix: &str,
+    leaf: &str,
+    create: impl Fn() -> Result<F, E1>,
+    open: impl Fn() -> Result<F, E2>,
+    live_holders: impl Fn(&F) -> Vec<i32>,
+) -> Result<F, IpcError> {
+    let full = format!("{prefix}/{leaf}");
+    match role {
+        Role::Tool => open().map_err(|e| IpcError::NoDaemon {
+            prefix: prefix.to_string(),
+            detail: format!("{full}: {e:?}"),
+        }),
+        Role::Daemon => {
+            let create_err = match create() {
+                Ok(f) => return Ok(f),
+                Err(e) => e,
+            };
+            // It exists: a dead daemon's service that a tool still holds
+            // open (reuse it), or a live process's (refuse).
+            let f = open().map_err(|e| {
+                IpcError::Iceoryx(format!(
+                    "service '{full}' could be neither created ({create_err:?}) nor opened ({e:?}); \
+                     a program may have created it with other settings: stop it, or use another [ipc] prefix"
+                ))
+            })?;
+            let me = std::process::id() as i32;
+            let holders: Vec<i32> = live_holders(&f)
+                .into_iter()
+                .filter(|&p| p != me && pid_alive(p))
+                .collect();
+            if holders.is_empty() {
+                Ok(f)
+            } else {
+                Err(IpcError::Squatted {
+                    service: full,
+                    holders: holders
+                        .iter()
+                        .map(|p| format!("pid {p}{}", process_name(*p)))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
+            }
+        }
+    }
+}
 
-pub(crate) fn open_services(node: &Node<ipc::Service>, prefix: &str) -> Result<Services, IpcError> {
-    let state = node
-        .service_builder(&service_name(prefix, "state")?)
-        .publish_subscribe::<StateSnapshot>()
-        .history_size(1)
-        .subscriber_max_buffer_size(2)
-        .enable_safe_overflow(true)
-        .max_subscribers(MAX_CLIENTS)
-        .max_publishers(1)
-        .open_or_create()
-        .map_err(ice("state service"))?;
-    let ready = node
-        .service_builder(&service_name(prefix, "state-ready")?)
-        .event()
-        .max_listeners(MAX_CLIENTS)
-        .open_or_create()
-        .map_err(ice("state-ready event"))?;
-    let command_ready = node
-        .service_builder(&service_name(prefix, "command-ready")?)
-        .event()
-        .max_notifiers(MAX_CLIENTS)
-        .max_listeners(1)
-        .open_or_create()
-        .map_err(ice("command-ready event"))?;
-    let command = node
-        .service_builder(&service_name(prefix, "command")?)
-        .request_response::<CommandRequest, CommandReply>()
-        .max_clients(MAX_CLIENTS)
-        .max_servers(1)
-        .max_active_requests_per_client(8)
-        .enable_safe_overflow_for_requests(true)
-        .open_or_create()
-        .map_err(ice("command service"))?;
-    Ok(Services {
-        state,
-        ready,
-        command,
-        command_ready,
-    })
+fn pid_alive(pid: i32) -> bool {
+    // Signal 0 checks existence only; EPERM means it exists as another user's.
+    // SAFETY: kill with signal 0 sends nothing.
+    pid > 0
+        && (unsafe { libc::kill(pid, 0) } == 0
+            || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM))
+}
+
+fn process_name(pid: i32) -> String {
+    std::fs::read_to_string(format!("/proc/{pid}/comm"))
+        .map(|s| format!(" '{}'", s.trim()))
+        .unwrap_or_default()
+}
+
+fn node_pid(id: &iceoryx2::identifiers::UniqueNodeId) -> Option<i32> {
+    id.pid::<ipc::Service>().ok().map(|p| p.value())
+}
+
+pub(crate) fn state_service(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    role: Role,
+) -> Result<StateService, IpcError> {
+    let name = service_name(prefix, "state")?;
+    let builder = || {
+        node.service_builder(&name)
+            .publish_subscribe::<StateSnapshot>()
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .enable_safe_overflow(true)
+            .max_subscribers(MAX_TOOLS)
+            .max_publishers(1)
+            .max_nodes(MAX_NODES)
+    };
+    obtain(
+        role,
+        prefix,
+        "state",
+        || builder().create(),
+        || builder().open(),
+        |f: &StateService| {
+            let mut pids = Vec::new();
+            f.dynamic_config().list_publishers(|d| {
+                pids.extend(node_pid(&d.node_id));
+                CallbackProgression::Continue
+            });
+            pids
+        },
+    )
+}
+
+pub(crate) fn command_service(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    role: Role,
+) -> Result<CommandService, IpcError> {
+    let name = service_name(prefix, "command")?;
+    let builder = || {
+        node.service_builder(&name)
+            .request_response::<CommandRequest, CommandReply>()
+            .max_clients(MAX_TOOLS)
+            .max_servers(1)
+            .max_active_requests_per_client(MAX_REQUESTS_PER_CLIENT)
+            .enable_safe_overflow_for_requests(true)
+            .max_nodes(MAX_NODES)
+    };
+    obtain(
+        role,
+        prefix,
+        "command",
+        || builder().create(),
+        || builder().open(),
+        |f: &CommandService| {
+            let mut pids = Vec::new();
+            f.dynamic_config().list_servers(|d| {
+                pids.extend(node_pid(&d.node_id));
+                CallbackProgression::Continue
+            });
+            pids
+        },
+    )
+}
+
+/// `state-ready` (the daemon notifies) or `command-ready` (tools notify,
+/// the daemon listens).
+pub(crate) fn event_service(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    leaf: &'static str,
+    role: Role,
+) -> Result<EventFactory<ipc::Service>, IpcError> {
+    let name = service_name(prefix, leaf)?;
+    let daemon_listens = leaf == "command-ready";
+    let builder = || {
+        let b = node.service_builder(&name).event().max_nodes(MAX_NODES);
+        if daemon_listens {
+            b.max_notifiers(MAX_TOOLS).max_listeners(1)
+        } else {
+            b.max_notifiers(1).max_listeners(MAX_TOOLS)
+        }
+    };
+    obtain(
+        role,
+        prefix,
+        leaf,
+        || builder().create(),
+        || builder().open(),
+        |f: &EventFactory<ipc::Service>| {
+            let mut pids = Vec::new();
+            if daemon_listens {
+                f.dynamic_config().list_listeners(|d| {
+                    pids.extend(node_pid(&d.node_id));
+                    CallbackProgression::Continue
+                });
+            } else {
+                f.dynamic_config().list_notifiers(|d| {
+                    pids.extend(node_pid(&d.node_id));
+                    CallbackProgression::Continue
+                });
+            }
+            pids
+        },
+    )
+}
+
+/// The process ids of the nodes publishing `state` and serving `command`
+/// on `prefix`, as a tool sees them: when they differ, the state a tool
+/// shows does not come from the daemon that takes its commands.
+pub(crate) fn publisher_and_server_pids(
+    state: &StateService,
+    command: &CommandService,
+) -> (Vec<i32>, Vec<i32>) {
+    let (mut p, mut s) = (Vec::new(), Vec::new());
+    state.dynamic_config().list_publishers(|d| {
+        p.extend(node_pid(&d.node_id));
+        CallbackProgression::Continue
+    });
+    command.dynamic_config().list_servers(|d| {
+        s.extend(node_pid(&d.node_id));
+        CallbackProgression::Continue
+    });
+    (p, s)
 }
 
 pub(crate) fn new_node(name: &str) -> Result<Node<ipc::Service>, IpcError> {
@@ -95,11 +293,12 @@ pub(crate) fn new_node(name: &str) -> Result<Node<ipc::Service>, IpcError> {
     // loaded") out of tools whose stdout is data, unless asked for.
     set_log_level_from_env_or(LogLevel::Error);
     let name = NodeName::new(name).map_err(ice("node name"))?;
-    NodeBuilder::new()
+    let node = NodeBuilder::new()
         .name(&name)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
-        .map_err(ice("node"))
+        .map_err(ice("node"))?;
+    Ok(node)
 }
 
 /// The daemon's state side: publishes snapshots and wakes the listeners.
@@ -108,21 +307,24 @@ pub struct StatePublisher {
     _node: Node<ipc::Service>,
     publisher: iceoryx2::port::publisher::Publisher<ipc::Service, StateSnapshot, ()>,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
-    _services: Services,
+    _state: StateService,
+    _ready: EventFactory<ipc::Service>,
 }
 
 impl StatePublisher {
-    /// Opens (or creates) the services under `prefix` and the state ports.
+    /// Creates the `state` and `state-ready` services under `prefix` (or
+    /// takes over those a dead daemon left) and the state ports.
     pub fn new(prefix: &str) -> Result<Self, IpcError> {
         let node = new_node("anguilla-daemon-state")?;
-        let services = open_services(&node, prefix)?;
-        let publisher = services
-            .state
+        // Dead nodes' resources (a crashed daemon's) go first.
+        let _ = scan_nodes();
+        let state = state_service(&node, prefix, Role::Daemon)?;
+        let ready = event_service(&node, prefix, "state-ready", Role::Daemon)?;
+        let publisher = state
             .publisher_builder()
             .create()
             .map_err(ice("state publisher"))?;
-        let notifier = services
-            .ready
+        let notifier = ready
             .notifier_builder()
             .create()
             .map_err(ice("state-ready notifier"))?;
@@ -130,7 +332,8 @@ impl StatePublisher {
             _node: node,
             publisher,
             notifier,
-            _services: services,
+            _state: state,
+            _ready: ready,
         })
     }
 
@@ -153,27 +356,44 @@ impl StatePublisher {
 pub type ActiveRequest =
     iceoryx2::active_request::ActiveRequest<ipc::Service, CommandRequest, (), CommandReply, ()>;
 
+/// A request as the daemon received it, with who sent it as iceoryx2 knows
+/// it: the sending client port and its node. Neither is a field of the
+/// request, so a client cannot claim to be another.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Envelope {
+    /// The unique id of the client port that sent the request.
+    pub origin: u128,
+    /// The unique id of that port's iceoryx2 node (0 if unknown).
+    pub node: u128,
+    /// The request as sent.
+    pub request: CommandRequest,
+}
+
 /// The daemon's command side: waits for requests and answers them. Lives
 /// on the daemon's command thread (its ports are not `Send`).
 pub struct CommandServer {
     _node: Node<ipc::Service>,
     server: iceoryx2::port::server::Server<ipc::Service, CommandRequest, (), CommandReply, ()>,
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
-    _services: Services,
+    command: CommandService,
+    _ready: EventFactory<ipc::Service>,
+    /// Origin → node of the clients seen (refreshed when one is unknown).
+    nodes: Vec<(u128, u128)>,
 }
 
 impl CommandServer {
-    /// Opens (or creates) the services under `prefix` and the command ports.
+    /// Creates the `command` and `command-ready` services under `prefix`
+    /// (or takes over those a dead daemon left) and the command ports.
     pub fn new(prefix: &str) -> Result<Self, IpcError> {
         let node = new_node("anguilla-daemon-command")?;
-        let services = open_services(&node, prefix)?;
-        let server = services
-            .command
+        let _ = scan_nodes();
+        let command = command_service(&node, prefix, Role::Daemon)?;
+        let ready = event_service(&node, prefix, "command-ready", Role::Daemon)?;
+        let server = command
             .server_builder()
             .create()
             .map_err(ice("command server"))?;
-        let listener = services
-            .command_ready
+        let listener = ready
             .listener_builder()
             .create()
             .map_err(ice("command-ready listener"))?;
@@ -181,13 +401,16 @@ impl CommandServer {
             _node: node,
             server,
             listener,
-            _services: services,
+            command,
+            _ready: ready,
+            nodes: Vec::with_capacity(MAX_TOOLS),
         })
     }
 
     /// Blocks until a client announces a request on `command-ready`, or
     /// `timeout` passes (requests from clients that do not announce them
-    /// are still taken by the next [`CommandServer::take`]).
+    /// are still taken by the next [`CommandServer::take`]). However many
+    /// notifications arrived, one call consumes them all.
     pub fn wait(&self, timeout: Duration) -> Result<(), IpcError> {
         self.listener
             .timed_wait(|_| {}, timeout)
@@ -195,9 +418,35 @@ impl CommandServer {
         Ok(())
     }
 
-    /// The oldest request not yet taken, if any.
-    pub fn take(&self) -> Result<Option<ActiveRequest>, IpcError> {
-        self.server.receive().map_err(ice("receive command"))
+    /// The oldest request not yet taken, if any, with who sent it.
+    pub fn take(&mut self) -> Result<Option<(Envelope, ActiveRequest)>, IpcError> {
+        let Some(active) = self.server.receive().map_err(ice("receive command"))? else {
+            return Ok(None);
+        };
+        let origin = active.origin().value();
+        let node = self.node_of(origin);
+        let env = Envelope {
+            origin,
+            node,
+            request: *active.payload(),
+        };
+        Ok(Some((env, active)))
+    }
+
+    fn node_of(&mut self, origin: u128) -> u128 {
+        if let Some(&(_, n)) = self.nodes.iter().find(|(o, _)| *o == origin) {
+            return n;
+        }
+        self.nodes.clear();
+        let nodes = &mut self.nodes;
+        self.command.dynamic_config().list_clients(|d| {
+            nodes.push((d.client_id.value(), d.node_id.value()));
+            CallbackProgression::Continue
+        });
+        self.nodes
+            .iter()
+            .find(|(o, _)| *o == origin)
+            .map_or(0, |&(_, n)| n)
     }
 
     /// Answers `request`. A client that left before its reply is not an
@@ -209,12 +458,12 @@ impl CommandServer {
     /// Takes every pending request, in arrival order, and answers each with
     /// what `handle` returns. Returns how many were answered.
     pub fn serve(
-        &self,
-        mut handle: impl FnMut(&CommandRequest) -> CommandReply,
+        &mut self,
+        mut handle: impl FnMut(&Envelope) -> CommandReply,
     ) -> Result<usize, IpcError> {
         let mut n = 0;
-        while let Some(active) = self.take()? {
-            let reply = handle(active.payload());
+        while let Some((env, active)) = self.take()? {
+            let reply = handle(&env);
             Self::reply(active, reply);
             n += 1;
         }

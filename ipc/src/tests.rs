@@ -12,9 +12,8 @@ fn requests_roundtrip_and_bad_ones_are_named() {
         turn: -0.5,
         pitch: 0.25,
     };
-    let r = CommandRequest::new(Command::Swim(p), 7, 1 << 100 | 5, 3);
+    let r = CommandRequest::new(Command::Swim(p), 3);
     assert_eq!(r.command(), Ok(Command::Swim(p)));
-    assert_eq!(r.node_id(), 1 << 100 | 5);
     let mut bad = r;
     bad.code = 42;
     assert_eq!(
@@ -22,11 +21,13 @@ fn requests_roundtrip_and_bad_ones_are_named() {
         "unknown command code 42 (expected 1..=9)"
     );
     bad = r;
-    bad.client_id = 0;
-    assert_eq!(bad.command(), Err(RequestError::NoClientId));
-    bad = r;
     bad.layout_version = 99;
     assert!(matches!(bad.command(), Err(RequestError::Version(99))));
+    // An E-stop is read whatever else the request says.
+    let mut e = CommandRequest::new(Command::EStop, 0);
+    e.layout_version = 1;
+    e.amplitude = f32::NAN;
+    assert_eq!(e.command(), Ok(Command::EStop));
 }
 
 #[test]
@@ -45,7 +46,7 @@ fn node_watch_reports_dead_and_vanished_nodes_once() {
 
 #[test]
 fn reply_reason_is_cut_on_a_character_boundary() {
-    let req = CommandRequest::new(Command::Stop, 1, 0, 1);
+    let req = CommandRequest::new(Command::Stop, 1);
     let long = "é".repeat(100); // 200 bytes
     let r = CommandReply::refused(&req, Mode::Idle as u8, &long);
     assert_eq!(r.reason().len(), 120);
@@ -113,7 +114,7 @@ fn server_and_client_talk() {
     std::thread::scope(|s| {
         s.spawn(|| {
             let server = StatePublisher::new(&p).unwrap();
-            let commands = CommandServer::new(&p).unwrap();
+            let mut commands = CommandServer::new(&p).unwrap();
             let mut snap = StateSnapshot {
                 sequence: 9,
                 joint_count: 12,
@@ -126,11 +127,19 @@ fn server_and_client_talk() {
                 // Like the daemon: publish every period.
                 server.publish(&snap).unwrap();
                 let _ = commands.wait(Duration::from_millis(1));
+                // Answers with who sent the request, as the server knows it.
                 commands
-                    .serve(|req| match req.command() {
-                        Ok(Command::TakeControl) => CommandReply::accepted(req, 0),
-                        Ok(other) => CommandReply::refused(req, 0, &other.name()),
-                        Err(e) => CommandReply::refused(req, 0, &e),
+                    .serve(|env| {
+                        let req = &env.request;
+                        match req.command() {
+                            Ok(Command::TakeControl) => CommandReply::refused(
+                                req,
+                                1,
+                                &format_args!("{:032x} {:032x}", env.origin, env.node),
+                            ),
+                            Ok(other) => CommandReply::refused(req, 0, &other.name()),
+                            Err(e) => CommandReply::refused(req, 0, &e),
+                        }
                     })
                     .unwrap();
                 std::thread::yield_now();
@@ -148,7 +157,9 @@ fn server_and_client_talk() {
         let snap = ready_rx
             .recv_timeout(Duration::from_secs(10))
             .expect("server up");
-        let mut client = Client::new(&p, "test-client", 42).unwrap();
+        let mut client = Client::new(&p, "test-client").unwrap();
+        let mut other = Client::new(&p, "test-other").unwrap();
+        assert_eq!(client.provenance_problem(), None, "one process serves both");
         let got = client
             .wait_state(Duration::from_secs(1))
             .unwrap()
@@ -157,13 +168,39 @@ fn server_and_client_talk() {
         let r = client
             .request(Command::TakeControl, Duration::from_secs(2))
             .unwrap();
-        assert_eq!(r.accepted, 1);
-        assert_eq!(r.client_id, 42);
+        // The server names the request's origin: this client's own port,
+        // whatever the request says; another client is another origin.
+        let (origin, node) = r.reason().split_once(' ').unwrap();
+        assert_eq!(u128::from_str_radix(origin, 16).unwrap(), client.id());
+        assert_ne!(u128::from_str_radix(node, 16).unwrap(), 0, "node known");
+        let r2 = other
+            .request(Command::TakeControl, Duration::from_secs(2))
+            .unwrap();
+        let (origin2, _) = r2.reason().split_once(' ').unwrap();
+        assert_eq!(u128::from_str_radix(origin2, 16).unwrap(), other.id());
+        assert_ne!(client.id(), other.id());
         let r = client
             .request(Command::Stop, Duration::from_secs(2))
             .unwrap();
         assert_eq!(r.accepted, 0);
         assert_eq!(r.reason(), "stop");
         assert_eq!(client.awaiting(), 0);
+    });
+}
+
+#[test]
+fn a_tool_never_creates_the_services() {
+    let p = prefix("no-daemon");
+    let e = Client::new(&p, "early-tool").err().expect("no daemon yet");
+    assert!(matches!(e, IpcError::NoDaemon { .. }), "{e}");
+    assert!(e.to_string().contains("no anguilla daemon serves"), "{e}");
+    // Nothing was left behind: the daemon creates them afterwards.
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            let _state = StatePublisher::new(&p).unwrap();
+            let _commands = CommandServer::new(&p).unwrap();
+            let c = Client::new(&p, "late-tool").unwrap();
+            assert_eq!(c.provenance_problem(), None);
+        });
     });
 }

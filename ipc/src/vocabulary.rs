@@ -7,8 +7,9 @@ use core::fmt;
 /// Monotonic time in nanoseconds, from the daemon loop's clock.
 pub type Nanos = u64;
 
-/// A client's identity, chosen by the client (e.g. a random 64-bit number).
-pub type ClientId = u64;
+/// A client's identity: the unique id of the iceoryx2 client port its
+/// requests arrive on (chosen by iceoryx2, not by the client).
+pub type ClientId = u128;
 
 /// The daemon's operating mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -184,7 +185,8 @@ pub enum Refusal {
         /// Largest accepted value.
         max: f64,
     },
-    /// The sequence number was not above the last one from this client.
+    /// The sequence number was not above the last one from this client
+    /// port (a duplicate).
     StaleSequence {
         /// Sequence number received.
         got: u32,
@@ -202,7 +204,7 @@ impl fmt::Display for Refusal {
         match *self {
             Refusal::ControlHeldBy(c) => write!(
                 f,
-                "client {c:016x} holds control; ask it to release, or wait for it to time out"
+                "client {c:032x} holds control; ask it to release, or wait for it to time out"
             ),
             Refusal::NotInControl => write!(f, "take control first"),
             Refusal::InvalidInMode {

@@ -29,7 +29,7 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "fault_kinds": s.fault_kinds,
         "fault_nodes": s.fault_nodes,
         "faults": faults.to_string(),
-        "holder": s.holder,
+        "holder": s.holder().map(|h| format!("{h:032x}")),
         "predicted_head_speed": s.predicted_head_speed,
         "predicted_turn_rate": s.predicted_turn_rate,
         "gait_target": gait(&s.gait_target),
@@ -78,7 +78,8 @@ mod tests {
             mode: 6,
             cause: 1,
             fault_kinds: 1 << 5,
-            holder: 42,
+            holder_lo: 42,
+            holder_hi: 1,
             ..Default::default()
         };
         s.joints[1].measured_yaw = 0.5;
@@ -89,7 +90,7 @@ mod tests {
         assert_eq!(back["mode_name"], "e-stop");
         assert_eq!(back["cause_name"], "command");
         assert_eq!(back["faults"], "operator e-stop");
-        assert_eq!(back["holder"], 42);
+        assert_eq!(back["holder"], "0000000000000001000000000000002a");
         assert_eq!(back["joints"].as_array().unwrap().len(), 2);
         assert_eq!(back["joints"][1]["measured_yaw"], 0.5);
         assert_eq!(back["loop_stats"]["overruns"], 0);

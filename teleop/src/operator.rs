@@ -15,21 +15,6 @@ pub const STEADY_PERIOD: Duration = Duration::from_millis(100);
 /// How long the quit sequence waits for each reply.
 pub const QUIT_TIMEOUT: Duration = Duration::from_secs(1);
 
-/// A non-zero client id for this session, from the clock and the process id.
-pub fn new_client_id() -> u64 {
-    let t = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0);
-    // splitmix64 of time ^ pid: distinct for tools started together.
-    let mut z = t ^ (u64::from(std::process::id()) << 32);
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    z.max(1)
-}
-
 /// A refused command and the daemon's reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Refused {
@@ -58,13 +43,12 @@ impl std::fmt::Debug for Operator {
 }
 
 impl Operator {
-    /// Connects to the daemon under `prefix` as a new client (a fresh
-    /// random id); `tool` names the iceoryx2 node.
+    /// Connects to the daemon under `prefix` as a new client (a new
+    /// iceoryx2 client port, so a new identity); `tool` names the node.
     pub fn connect(prefix: &str, tool: &str) -> Result<Self, IpcError> {
-        let id = new_client_id();
-        let name = format!("{tool}-{id:016x}");
+        let name = format!("{tool}-{}", std::process::id());
         Ok(Self {
-            client: Client::new(prefix, &name, id)?,
+            client: Client::new(prefix, &name)?,
             sent: Vec::new(),
             state: None,
             last_refused: None,
@@ -73,7 +57,7 @@ impl Operator {
     }
 
     /// This client's id (compare with [`StateSnapshot::holder`]).
-    pub fn id(&self) -> u64 {
+    pub fn id(&self) -> u128 {
         self.client.id()
     }
 
@@ -145,7 +129,7 @@ impl Operator {
 
     /// Whether the newest state says this client holds control.
     pub fn holds_control(&self) -> bool {
-        self.state.is_some_and(|s| s.holder == self.id())
+        self.state.is_some_and(|s| s.holder() == Some(self.id()))
     }
 
     /// The last refused command and why.
@@ -232,18 +216,5 @@ impl Driver {
             self.op.request(Command::ReleaseControl, timeout)?;
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn client_ids_are_non_zero_and_differ() {
-        let a = new_client_id();
-        let b = new_client_id();
-        assert_ne!(a, 0);
-        assert_ne!(a, b);
     }
 }

@@ -56,7 +56,7 @@ pub struct ViewModel<'a> {
     /// The newest state, `None` before the daemon was heard.
     pub state: Option<&'a StateSnapshot>,
     /// This tool's client id, if it sends commands.
-    pub me: Option<u64>,
+    pub me: Option<u128>,
     /// The operator's intent (teleop): shows the target and the keys.
     pub intent: Option<&'a Intent>,
     /// The last refused command.
@@ -144,10 +144,10 @@ fn render_header(frame: &mut Frame, area: Rect, v: &ViewModel) {
             ));
             spans.push(Span::raw(format!(" ({})", cause_name(s.cause))));
             spans.push(Span::raw("  control: "));
-            let holder = match s.holder {
-                0 => "nobody".to_string(),
-                h if Some(h) == v.me => "YOU".to_string(),
-                h => format!("client {h:016x}"),
+            let holder = match s.holder() {
+                None => "nobody".to_string(),
+                Some(h) if Some(h) == v.me => "YOU".to_string(),
+                Some(h) => format!("client {:08x}", h as u32),
             };
             spans.push(Span::styled(
                 holder,
@@ -498,7 +498,7 @@ pub fn sample_snapshot() -> StateSnapshot {
         time_ns: 41_250_000_000,
         mode: Mode::Swimming as u8,
         cause: 1,
-        holder: 0x5eed_0000_0000_0001,
+        holder_lo: 0x5eed_0000_0000_0001,
         predicted_head_speed: 0.142,
         predicted_turn_rate: 0.087,
         gait_target: GaitSnapshot {
@@ -605,14 +605,14 @@ mod tests {
     #[test]
     fn another_holder_and_faults_are_named() {
         let mut s = sample_snapshot();
-        s.holder = 0xabc;
+        s.set_holder(Some(0xabc));
         s.mode = Mode::Fault as u8;
         s.fault_kinds = 1;
         s.fault_nodes = 1 << 7;
         let i = Intent::new(Limits::default());
         let text = draw(100, 30, &teleop_view(Some(&s), &i, None));
         assert!(text.contains("FAULT"), "{text}");
-        assert!(text.contains("client 0000000000000abc"), "{text}");
+        assert!(text.contains("client 00000abc"), "{text}");
         assert!(text.contains("heartbeat lost (node 7)"), "{text}");
         assert!(text.contains("no command refused"), "{text}");
     }

@@ -121,13 +121,15 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
     pad.axis(AbsoluteAxisCode::ABS_Y, -32768);
     pad.press(KeyCode::BTN_START, true);
     let st = wait_for(&mut s, &mut notices, "a few states", t, |_| true);
-    assert_eq!(st.holder, 0, "no control taken without the deadman");
+    assert_eq!(st.holder(), None, "no control taken without the deadman");
 
     // Deadman: control; start: enable; the stick (still forward) swims.
     pad.axis(AbsoluteAxisCode::ABS_Y, 0);
     pad.press(KeyCode::BTN_TL, true);
     let id = s.op.id();
-    wait_for(&mut s, &mut notices, "control", t, |st| st.holder == id);
+    wait_for(&mut s, &mut notices, "control", t, |st| {
+        st.holder() == Some(id)
+    });
     pad.press(KeyCode::BTN_START, true);
     pad.press(KeyCode::BTN_START, false);
     wait_for(&mut s, &mut notices, "ready", t, |st| {
@@ -195,6 +197,6 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
     });
     s.quit(Duration::from_secs(5)).unwrap();
     wait_for(&mut s, &mut notices, "control released", t, |st| {
-        st.holder == 0
+        st.holder().is_none()
     });
 }

@@ -59,7 +59,7 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     let mut c = {
         let end = Instant::now() + Duration::from_secs(10);
         loop {
-            if let Ok(c) = Client::new(&prefix, "slcan-operator", 0x51C) {
+            if let Ok(c) = Client::new(&prefix, "slcan-operator") {
                 break c;
             }
             assert!(Instant::now() < end, "no operator interface");

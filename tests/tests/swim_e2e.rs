@@ -45,7 +45,7 @@ impl System {
             Arc::new(AtomicBool::new(false)),
         )
         .expect("daemon");
-        let client = Client::new(&prefix, "e2e-operator", 0xE2E).expect("client");
+        let client = Client::new(&prefix, "e2e-operator").expect("client");
         Self {
             client,
             sim: Some(sim),

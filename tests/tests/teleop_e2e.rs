@@ -112,7 +112,7 @@ fn a_scripted_operator_drives_a_whole_session() {
         |_, _| true,
     );
     assert_eq!(s.mode, Mode::Idle as u8);
-    assert_eq!(s.holder, 0);
+    assert_eq!(s.holder(), None);
 
     // Enable → ready.
     assert_eq!(
@@ -127,7 +127,7 @@ fn a_scripted_operator_drives_a_whole_session() {
         no_window,
         mode_is(Mode::Ready),
     );
-    assert_eq!(s.holder, d.op.id(), "we hold control");
+    assert_eq!(s.holder(), Some(d.op.id()), "we hold control");
     assert!(d.op.holds_control());
 
     // Swim: six steps faster → amplitude 0.6 at 1 Hz; the tail swings.
@@ -216,8 +216,8 @@ fn a_scripted_operator_drives_a_whole_session() {
         },
     );
     assert_eq!(
-        s.holder,
-        d.op.id(),
+        s.holder(),
+        Some(d.op.id()),
         "still in control (keep-alives at 10 Hz)"
     );
 
@@ -279,7 +279,7 @@ fn a_scripted_operator_drives_a_whole_session() {
         "control released",
         Duration::from_secs(10),
         no_window,
-        |s, _| s.holder == 0,
+        |s, _| s.holder().is_none(),
     );
 }
 
@@ -361,7 +361,7 @@ fn a_second_client_cannot_take_control_but_can_estop() {
         none,
         mode_is(Mode::Swimming),
     );
-    assert_eq!(s.holder, a.op.id());
+    assert_eq!(s.holder(), Some(a.op.id()));
     assert!(!b.op.holds_control());
 
     // B's E-stop works.
@@ -400,7 +400,7 @@ fn a_second_client_cannot_take_control_but_can_estop() {
         "control released",
         Duration::from_secs(10),
         none,
-        |s, _| s.holder == 0,
+        |s, _| s.holder().is_none(),
     );
     assert_eq!(
         b.op.request(Command::TakeControl, REPLY).unwrap().accepted,

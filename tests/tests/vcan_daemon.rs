@@ -147,7 +147,7 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
     let mut client = {
         let end = Instant::now() + Duration::from_secs(10);
         loop {
-            if let Ok(c) = Client::new(&prefix, "vcan-operator", 0x7CA) {
+            if let Ok(c) = Client::new(&prefix, "vcan-operator") {
                 break c;
             }
             assert!(Instant::now() < end, "no operator interface");

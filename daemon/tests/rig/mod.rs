@@ -4,7 +4,7 @@
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::control::Controller;
-use anguilla_daemon::ipc::{CommandReply, CommandRequest};
+use anguilla_daemon::ipc::{CommandReply, CommandRequest, Envelope};
 use anguilla_daemon::supervisor::Command;
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::{MemBus, MemParticipant};
@@ -147,7 +147,11 @@ impl Rig {
     /// Sends `cmd` from client `client` (1..=7) and returns the reply.
     pub fn command(&mut self, client: u64, cmd: Command) -> CommandReply {
         self.seqs[client as usize] += 1;
-        let req = CommandRequest::new(cmd, client, client as u128, self.seqs[client as usize]);
-        self.ctl.command(self.now, &req)
+        let env = Envelope {
+            origin: client as u128,
+            node: client as u128,
+            request: CommandRequest::new(cmd, self.seqs[client as usize]),
+        };
+        self.ctl.command(self.now, &env)
     }
 }
