@@ -121,3 +121,51 @@ fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
     }
     let _ = std::fs::remove_file(&log);
 }
+
+#[test]
+fn ctl_without_a_daemon_exits_2_naming_the_prefix_and_bad_arguments_are_named() {
+    let prefix = format!("anguilla-cli/nobody-{}", std::process::id());
+    for cmd in [
+        &["status"][..],
+        &["estop"],
+        &["enable"],
+        &["swim", "--amplitude", "0.5", "--frequency", "1"],
+    ] {
+        let o = anguilla()
+            .args(["ctl", "--prefix", &prefix])
+            .args(cmd)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "ctl {cmd:?}: {err}");
+        assert!(err.contains(&prefix), "ctl {cmd:?} names the prefix: {err}");
+    }
+    let o = anguilla()
+        .args(["ctl", "--prefix", "a b", "status"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err.contains("--prefix 'a b' is not valid"), "{err}");
+    let o = anguilla()
+        .args([
+            "ctl",
+            "--prefix",
+            &prefix,
+            "swim",
+            "--amplitude",
+            "0.5",
+            "--frequency",
+            "1",
+            "--for",
+            "1e300",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--for 1e300 is invalid (expected seconds, 0 < S <= 86400)"),
+        "{err}"
+    );
+}

@@ -3,6 +3,7 @@
 //! layouts or control logic of its own.
 
 mod builtin_sim;
+mod ctl_cmd;
 mod dump_cmd;
 mod protocol_cmd;
 mod run_cmd;
@@ -52,6 +53,9 @@ enum Command {
     Joy(teleop_cmd::JoyArgs),
     /// Watch the robot (read-only): terminal view with plots, or --json lines.
     Monitor(teleop_cmd::MonitorArgs),
+    /// One operator command per call, for scripts: status, estop, enable,
+    /// disable, reset, stop, swim (exit 0 done, 1 refused, 2 no daemon).
+    Ctl(ctl_cmd::CtlArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -72,5 +76,6 @@ fn main() -> anyhow::Result<()> {
         Some(Command::Teleop(args)) => teleop_cmd::teleop(args),
         Some(Command::Joy(args)) => teleop_cmd::joy(args),
         Some(Command::Monitor(args)) => teleop_cmd::monitor(args),
+        Some(Command::Ctl(args)) => ctl_cmd::run(args),
     }
 }

@@ -20,7 +20,8 @@ use crossterm::event::{self, Event};
 /// Where to find the daemon (shared by the three tools).
 #[derive(clap::Args, Debug)]
 pub struct DaemonArgs {
-    /// The daemon's configuration file: its `ipc.prefix` and gait limits are used.
+    /// The daemon's configuration file: its `ipc.prefix` is used (the
+    /// limits come from the daemon's state).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// The daemon's iceoryx2 service prefix (overrides the configuration's).
@@ -29,14 +30,37 @@ pub struct DaemonArgs {
 }
 
 impl DaemonArgs {
-    fn resolve(&self) -> anyhow::Result<(String, Limits)> {
+    /// The prefix: --prefix, else the configuration's, else the default.
+    pub fn prefix(&self) -> anyhow::Result<String> {
+        if let Some(p) = &self.prefix {
+            anyhow::ensure!(
+                anguilla_ipc::valid_prefix(p),
+                "--prefix '{p}' is not valid (expected letters, digits, '-', '_' and '/')"
+            );
+            return Ok(p.clone());
+        }
         let cfg = match &self.config {
             Some(p) => Config::load(p)?,
             None => Config::default(),
         };
-        let prefix = self.prefix.clone().unwrap_or(cfg.ipc.prefix.clone());
-        Ok((prefix, Limits::from_config(&cfg)))
+        Ok(cfg.ipc.prefix)
     }
+}
+
+/// How long a tool waits for the daemon's first state.
+const FIRST_STATE: Duration = Duration::from_secs(2);
+
+/// The daemon's limits, from its first state; warns on stderr when that
+/// state does not come from the process serving the commands.
+fn daemon_limits(op: &mut Operator, prefix: &str) -> anyhow::Result<Limits> {
+    let s = op
+        .wait_state(FIRST_STATE)?
+        .copied()
+        .with_context(|| format!("no state from the daemon at prefix '{prefix}' within 2 s"))?;
+    if let Some(p) = op.provenance_problem() {
+        eprintln!("warning: {p}");
+    }
+    Ok(Limits::from_snapshot(&s.limits))
 }
 
 /// Arguments of `anguilla teleop`.
@@ -84,13 +108,13 @@ pub struct MonitorArgs {
     window: f64,
 }
 
-static SIGNALLED: AtomicBool = AtomicBool::new(false);
+pub(crate) static SIGNALLED: AtomicBool = AtomicBool::new(false);
 
 extern "C" fn on_signal(_: libc::c_int) {
     SIGNALLED.store(true, Ordering::SeqCst);
 }
 
-fn install_signal_handlers() {
+pub(crate) fn install_signal_handlers() {
     let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
     // SAFETY: the handler only stores to an atomic (async-signal-safe).
     unsafe {
@@ -121,9 +145,10 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
         "anguilla teleop",
         "run it in a terminal (for scripts, `anguilla monitor --json` streams the state)",
     )?;
-    let (prefix, limits) = args.daemon.resolve()?;
-    let op = Operator::connect(&prefix, "anguilla-teleop")
+    let prefix = args.daemon.prefix()?;
+    let mut op = Operator::connect(&prefix, "anguilla-teleop")
         .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    let limits = daemon_limits(&mut op, &prefix)?;
     let mut driver = Driver::new(op, Intent::new(limits));
     // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
     install_signal_handlers();
@@ -186,7 +211,7 @@ fn teleop_loop(
 
 /// `anguilla monitor`.
 pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
-    let (prefix, _) = args.daemon.resolve()?;
+    let prefix = args.daemon.prefix()?;
     if let Some(r) = args.rate
         && !(r.is_finite() && r > 0.0)
     {
@@ -204,6 +229,9 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
     // Read-only: this connection never sends a command.
     let mut op = Operator::connect(&prefix, "anguilla-monitor")
         .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    if let Some(p) = op.provenance_problem() {
+        eprintln!("warning: {p}");
+    }
     if args.json {
         return monitor_json(&mut op, &args, &prefix);
     }
@@ -306,7 +334,21 @@ fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::
 
 /// `anguilla joy`.
 pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
-    let (prefix, limits) = args.daemon.resolve()?;
+    let prefix = args.daemon.prefix()?;
+    // The mapping is checked against the daemon's limits; printing it needs
+    // no daemon (then the default configuration's limits apply).
+    let mut op = if args.print_mapping {
+        None
+    } else {
+        Some(
+            Operator::connect(&prefix, "anguilla-joy")
+                .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?,
+        )
+    };
+    let limits = match op.as_mut() {
+        Some(op) => daemon_limits(op, &prefix)?,
+        None => Limits::default(),
+    };
     let mapping = match &args.mapping {
         Some(p) => {
             let text =
@@ -319,8 +361,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
         print!("{}", mapping.to_toml());
         return Ok(());
     }
-    let op = Operator::connect(&prefix, "anguilla-joy")
-        .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    let op = op.context("connected above")?;
     // After iceoryx2 is set up, so these handlers are the ones in place.
     install_signal_handlers();
     eprintln!(

@@ -101,24 +101,38 @@ impl Client {
         }
     }
 
-    /// Sends `cmd`; its reply arrives through [`Client::replies`].
-    /// Returns the sequence number used.
-    pub fn send(&mut self, cmd: Command) -> Result<u32, IpcError> {
-        // A slow daemon must not exhaust the service's active requests: the
-        // oldest unanswered request is given up (its reply is not awaited).
+    /// Sends `req` exactly as given, its sequence number included (for a
+    /// tool that numbers its own requests, and for tests that play a
+    /// careless or hostile client); its reply arrives through
+    /// [`Client::replies`]. Returns the request's sequence number.
+    pub fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError> {
         if self.pending.len() >= MAX_PENDING {
             self.pending.remove(0);
         }
-        self.sequence = self.sequence.wrapping_add(1);
-        let req = CommandRequest::new(cmd, self.sequence);
         let pending = self.client.send_copy(req).map_err(ice("send command"))?;
         self.pending.push(pending);
-        // Wake the daemon's command thread at once; without this it would
-        // take the request at its next poll.
         self.command_ready
             .notify()
             .map_err(ice("notify command-ready"))?;
-        Ok(self.sequence)
+        Ok(req.sequence)
+    }
+
+    /// Wakes the daemon's command thread, as [`Client::send_request`] does
+    /// after each request (the daemon also polls every 10 ms).
+    pub fn notify_command_ready(&self) -> Result<(), IpcError> {
+        self.command_ready
+            .notify()
+            .map(|_| ())
+            .map_err(ice("notify command-ready"))
+    }
+
+    /// Sends `cmd`; its reply arrives through [`Client::replies`].
+    /// Returns the sequence number used.
+    pub fn send(&mut self, cmd: Command) -> Result<u32, IpcError> {
+        // A slow daemon must not exhaust the service's active requests:
+        // beyond MAX_PENDING the oldest unanswered request is given up.
+        self.sequence = self.sequence.wrapping_add(1);
+        self.send_request(CommandRequest::new(cmd, self.sequence))
     }
 
     /// Collects the replies that have arrived.
@@ -146,7 +160,18 @@ impl Client {
 
     /// Sends `cmd` and waits up to `timeout` for its reply.
     pub fn request(&mut self, cmd: Command, timeout: Duration) -> Result<CommandReply, IpcError> {
-        let seq = self.send(cmd)?;
+        self.sequence = self.sequence.wrapping_add(1);
+        self.request_raw(CommandRequest::new(cmd, self.sequence), timeout)
+    }
+
+    /// Sends `req` exactly as given (see [`Client::send_request`]) and
+    /// waits up to `timeout` for its reply.
+    pub fn request_raw(
+        &mut self,
+        req: CommandRequest,
+        timeout: Duration,
+    ) -> Result<CommandReply, IpcError> {
+        let seq = self.send_request(req)?;
         let deadline = std::time::Instant::now() + timeout;
         loop {
             let mut found = None;
@@ -160,8 +185,8 @@ impl Client {
             }
             if std::time::Instant::now() >= deadline {
                 return Err(IpcError::Iceoryx(format!(
-                    "no reply to '{}' within {timeout:?}: is the daemon running?",
-                    cmd.name()
+                    "no reply to request {seq} (code {}) within {timeout:?}: is the daemon running?",
+                    req.code
                 )));
             }
             let _ = self

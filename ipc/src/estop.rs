@@ -124,10 +124,7 @@ impl EStopListener {
                 // from a stale file.
                 let probe = UnixDatagram::unbound().map_err(|e| io_err("probing", e))?;
                 if probe.connect(&path).is_ok() {
-                    return Err(IpcError::Squatted {
-                        service: shown,
-                        holders: "a live process receives on it".into(),
-                    });
+                    return Err(IpcError::EStopSocketInUse(shown));
                 }
                 std::fs::remove_file(&path).map_err(|e| io_err("removing the stale", e))?;
                 UnixDatagram::bind(&path).map_err(|e| io_err("binding", e))?
@@ -192,7 +189,7 @@ mod tests {
         let l = EStopListener::bind(&prefix).unwrap();
         // A second daemon on the same prefix is refused while the first lives.
         let e = EStopListener::bind(&prefix).unwrap_err();
-        assert!(matches!(e, IpcError::Squatted { .. }), "{e}");
+        assert!(matches!(e, IpcError::EStopSocketInUse(_)), "{e}");
         send(&prefix).unwrap();
         send(&prefix).unwrap();
         assert_eq!(l.wait(Duration::from_secs(2), 16).unwrap(), 2);

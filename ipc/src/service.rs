@@ -46,6 +46,12 @@ pub enum IpcError {
         /// Who holds it ("pid 1234", ...).
         holders: String,
     },
+    /// A live process receives on the prefix's E-stop socket.
+    #[error(
+        "the e-stop socket {0} is in use by a live process: another anguilla daemon serves \
+         this prefix; stop it, or give this daemon another [ipc] prefix"
+    )]
+    EStopSocketInUse(String),
     /// No daemon serves the prefix.
     #[error(
         "no anguilla daemon serves '{prefix}' ({detail}); is `anguilla run` running with this [ipc] prefix?"

@@ -1,11 +1,11 @@
 //! The operator's intent: the gait the operator wants, stepped by keys and
 //! clamped to the daemon's ranges, and the command it turns into.
 
-use anguilla_daemon::config::Config;
-use anguilla_ipc::{Cause, Command, Mode, SwimParams};
+use anguilla_ipc::{Cause, Command, LimitsSnapshot, Mode, SwimParams};
 
 /// The daemon's accepted ranges for swim parameters (`[gait]` in its
-/// configuration); commands outside them would be refused.
+/// configuration, published in its state); commands outside them would be
+/// refused.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {
     /// Largest frequency (Hz).
@@ -17,20 +17,25 @@ pub struct Limits {
 }
 
 impl Limits {
-    /// The limits of a daemon configuration.
-    pub fn from_config(cfg: &Config) -> Self {
+    /// The limits a daemon publishes in its state.
+    pub fn from_snapshot(l: &LimitsSnapshot) -> Self {
         Self {
-            max_frequency: cfg.gait.max_frequency,
-            max_turn: cfg.gait.max_turn,
-            max_pitch: cfg.gait.max_pitch,
+            max_frequency: l.max_frequency as f64,
+            max_turn: l.max_turn as f64,
+            max_pitch: l.max_pitch as f64,
         }
     }
 }
 
 impl Default for Limits {
-    /// The daemon's defaults (2 Hz, 2 /m, 1 /m).
+    /// The daemon's default configuration's (2 Hz, 2 /m, 1 /m; a system
+    /// test checks they agree): used where no daemon is asked.
     fn default() -> Self {
-        Self::from_config(&Config::default())
+        Self {
+            max_frequency: 2.0,
+            max_turn: 2.0,
+            max_pitch: 1.0,
+        }
     }
 }
 

@@ -13,6 +13,7 @@
 //! - [`operator`]: a connection to the daemon and the steady 10 Hz sender;
 //! - [`pad`]: the gamepad session (evdev devices or a scripted pad, hot-plug);
 //! - [`view`]: the state view, drawn with ratatui on any backend;
+//! - [`ctl`]: `anguilla ctl`, one scripted command per call;
 //! - [`history`]: the monitor's ring buffers; [`json`]: `--json` lines.
 //!
 //! ```
@@ -27,6 +28,7 @@
 #![warn(missing_docs)]
 
 pub mod app;
+pub mod ctl;
 pub mod history;
 pub mod joy;
 pub mod json;

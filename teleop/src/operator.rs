@@ -61,6 +61,12 @@ impl Operator {
         self.client.id()
     }
 
+    /// When the state read does not come from the process that serves the
+    /// commands, says so (see [`anguilla_ipc::Client::provenance_problem`]).
+    pub fn provenance_problem(&self) -> Option<String> {
+        self.client.provenance_problem()
+    }
+
     /// Sends `cmd` without waiting; its reply is collected by [`Operator::poll`].
     pub fn send(&mut self, cmd: Command) -> Result<(), IpcError> {
         let seq = self.client.send(cmd)?;

@@ -97,8 +97,12 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
     let _dog = Watchdog::new("joy e2e", Duration::from_secs(180));
     let robot = Robot::start("joy-session").expect("daemon and robot start");
     let pad = ScriptedPad::default();
-    let limits = Limits::from_config(&robot.config);
-    let op = Operator::connect(&robot.prefix, "systest-joy").unwrap();
+    let mut op = Operator::connect(&robot.prefix, "systest-joy").unwrap();
+    let first = *op
+        .wait_state(Duration::from_secs(20))
+        .unwrap()
+        .expect("first state");
+    let limits = Limits::from_snapshot(&first.limits);
     let mut s = JoySession::new(op, Joy::new(JoyMapping::default(), limits), pad.clone());
     let mut notices = vec![];
     // Bounds, not speed goals: generous for a loaded 2-core CI machine.

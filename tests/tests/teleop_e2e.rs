@@ -94,12 +94,41 @@ fn tail_swing(states: &[StateSnapshot]) -> f64 {
     max - min
 }
 
+/// The limits the daemon publishes: its configuration's, and the tools'
+/// defaults are the default configuration's.
+fn published_limits(op: &mut Operator, cfg: &anguilla_daemon::config::Config) -> Limits {
+    let s = *op
+        .wait_state(Duration::from_secs(20))
+        .unwrap()
+        .expect("the daemon's first state");
+    let l = Limits::from_snapshot(&s.limits);
+    assert_eq!(l.max_frequency, cfg.gait.max_frequency as f32 as f64);
+    assert_eq!(l.max_turn, cfg.gait.max_turn as f32 as f64);
+    assert_eq!(l.max_pitch, cfg.gait.max_pitch as f32 as f64);
+    assert_eq!(
+        s.limits.daemon_pid,
+        std::process::id(),
+        "an in-process daemon"
+    );
+    let d = anguilla_daemon::config::Config::default().gait;
+    assert_eq!(
+        Limits::default(),
+        Limits {
+            max_frequency: d.max_frequency,
+            max_turn: d.max_turn,
+            max_pitch: d.max_pitch,
+        }
+    );
+    l
+}
+
 #[test]
 fn a_scripted_operator_drives_a_whole_session() {
     let _dog = Watchdog::new("teleop e2e session", Duration::from_secs(240));
     let robot = Robot::start("teleop-session").expect("daemon and robot start");
-    let op = Operator::connect(&robot.prefix, "systest-teleop").expect("connect");
-    let mut d = Driver::new(op, Intent::new(Limits::from_config(&robot.config)));
+    let mut op = Operator::connect(&robot.prefix, "systest-teleop").expect("connect");
+    let limits = published_limits(&mut op, &robot.config);
+    let mut d = Driver::new(op, Intent::new(limits));
     let no_window = Duration::ZERO;
     let window = Duration::from_secs(2);
 
@@ -287,11 +316,9 @@ fn a_scripted_operator_drives_a_whole_session() {
 fn a_second_client_cannot_take_control_but_can_estop() {
     let _dog = Watchdog::new("teleop e2e authority", Duration::from_secs(180));
     let robot = Robot::start("teleop-authority").expect("daemon and robot start");
-    let limits = Limits::from_config(&robot.config);
-    let mut a = Driver::new(
-        Operator::connect(&robot.prefix, "systest-a").unwrap(),
-        Intent::new(limits),
-    );
+    let mut op_a = Operator::connect(&robot.prefix, "systest-a").unwrap();
+    let limits = published_limits(&mut op_a, &robot.config);
+    let mut a = Driver::new(op_a, Intent::new(limits));
     let mut b = Driver::new(
         Operator::connect(&robot.prefix, "systest-b").unwrap(),
         Intent::new(limits),

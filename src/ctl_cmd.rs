@@ -1,0 +1,220 @@
+//! `anguilla ctl`: one operator command per call, for scripts. The session
+//! logic is `anguilla_teleop::ctl`; this file parses arguments, prints and
+//! turns the outcome into the exit status.
+
+use std::io::Write;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use anguilla_ipc::{FaultSet, StateSnapshot, SwimParams};
+use anguilla_teleop::ctl::{self, Ctl, CtlError};
+use anguilla_teleop::json;
+use anguilla_teleop::view::{cause_name, mode_name};
+
+use crate::teleop_cmd::{DaemonArgs, SIGNALLED, install_signal_handlers};
+
+/// Arguments of `anguilla ctl`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Exit status: 0 done, 1 refused (the daemon's reason on stderr), \
+    2 no daemon reachable (or a command line clap rejected)."
+)]
+pub struct CtlArgs {
+    #[command(flatten)]
+    daemon: DaemonArgs,
+    #[command(subcommand)]
+    cmd: CtlCmd,
+}
+
+/// What `anguilla ctl` does.
+#[derive(clap::Subcommand, Debug)]
+pub enum CtlCmd {
+    /// Print one state snapshot (--json: exactly `monitor --json`'s line).
+    Status {
+        /// One JSON line instead of the summary.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Emergency stop, by every path (the E-stop socket, then the command
+    /// service); any client, never refused.
+    Estop,
+    /// Take control, enable the actuators, wait for ready, release.
+    Enable,
+    /// Take control, disable the actuators, wait for idle, release.
+    Disable,
+    /// Take control, clear a fault or an E-stop, wait for idle, release.
+    Reset,
+    /// Take control, stop a swim, wait until at rest, release.
+    Stop,
+    /// Take control and swim, resending within the command timeout, for
+    /// --for seconds (until Ctrl-C without it); then stop, wait for ready and
+    /// release.
+    Swim {
+        /// Amplitude, fraction of the configured maximum (0..=1).
+        #[arg(long)]
+        amplitude: f64,
+        /// Undulation frequency (Hz).
+        #[arg(long)]
+        frequency: f64,
+        /// Yaw turn curvature (1/m), positive left.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        turn: f64,
+        /// Pitch curvature (1/m), positive dives.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        pitch: f64,
+        /// Seconds to swim (0 < S <= 86400); without it, until Ctrl-C.
+        #[arg(long = "for", value_name = "S")]
+        duration: Option<f64>,
+    },
+}
+
+/// `anguilla ctl`: exits with the documented status.
+pub fn run(args: CtlArgs) -> ! {
+    let code = match ctl(args) {
+        Ok(()) => 0,
+        Err(e) => {
+            let _ = writeln!(std::io::stderr(), "anguilla ctl: {e}");
+            e.exit_code()
+        }
+    };
+    std::process::exit(code)
+}
+
+fn out(text: &str) -> Result<(), CtlError> {
+    let mut o = std::io::stdout().lock();
+    match o.write_all(text.as_bytes()).and_then(|()| o.flush()) {
+        Ok(()) => Ok(()),
+        // A closed pipe (`| head`) ends quietly.
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(CtlError::Refused(format!("writing to stdout: {e}"))),
+    }
+}
+
+fn ctl(args: CtlArgs) -> Result<(), CtlError> {
+    let prefix = args
+        .daemon
+        .prefix()
+        .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?;
+    if let CtlCmd::Estop = args.cmd {
+        let r = ctl::estop(&prefix)?;
+        let how = match (r.socket, r.command) {
+            (true, true) => "on the e-stop socket and as a command",
+            (true, false) => "on the e-stop socket",
+            _ => "as a command",
+        };
+        let confirmed = match r.confirmed {
+            Some(true) => "; the daemon reports e-stop",
+            Some(false) => "; the daemon's state does not show it yet",
+            None => "; the state could not be read",
+        };
+        for n in &r.notes {
+            let _ = writeln!(std::io::stderr(), "note: {n}");
+        }
+        return out(&format!("e-stop sent {how}{confirmed}\n"));
+    }
+    if let CtlCmd::Swim {
+        duration: Some(d), ..
+    } = &args.cmd
+    {
+        // The daemon checks the gait; the duration is ours to check.
+        if !(d.is_finite() && *d > 0.0 && *d <= 86_400.0) {
+            let shown = if d.abs() >= 1e6 {
+                format!("{d:e}")
+            } else {
+                format!("{d}")
+            };
+            return Err(CtlError::Refused(format!(
+                "--for {shown} is invalid (expected seconds, 0 < S <= 86400)"
+            )));
+        }
+    }
+    install_signal_handlers();
+    let mut c = Ctl::connect(&prefix)?;
+    if let Some(p) = c.provenance_problem() {
+        let _ = writeln!(std::io::stderr(), "warning: {p}");
+    }
+    let outcome = match args.cmd {
+        CtlCmd::Status { json: true } => {
+            return out(&format!("{}\n", json::snapshot_json(c.state())));
+        }
+        CtlCmd::Status { json: false } => return out(&summary(c.state())),
+        CtlCmd::Estop => unreachable!("handled above"),
+        CtlCmd::Enable => c.enable()?,
+        CtlCmd::Disable => c.disable()?,
+        CtlCmd::Reset => c.reset()?,
+        CtlCmd::Stop => c.stop()?,
+        CtlCmd::Swim {
+            amplitude,
+            frequency,
+            turn,
+            pitch,
+            duration,
+        } => {
+            let p = SwimParams {
+                amplitude,
+                frequency,
+                turn,
+                pitch,
+            };
+            c.swim(p, duration.map(Duration::from_secs_f64), &|| {
+                SIGNALLED.load(Ordering::SeqCst)
+            })?
+        }
+    };
+    out(&format!("done: {}\n", outcome.mode))
+}
+
+/// The human summary of `ctl status`.
+fn summary(s: &StateSnapshot) -> String {
+    let faults = FaultSet {
+        kinds: s.fault_kinds,
+        nodes: s.fault_nodes,
+    };
+    let holder = match s.holder() {
+        None => "nobody".to_string(),
+        Some(h) => format!("client {h:032x}"),
+    };
+    let l = &s.limits;
+    let g = &s.gait_actual;
+    let period = s.loop_stats.period_ns.max(1) as f64;
+    let bus_state = match s.bus.state {
+        0 => "error-active",
+        1 => "error-passive",
+        2 => "bus-off",
+        _ => "unknown",
+    };
+    format!(
+        "mode      {} ({})\n\
+         faults    {faults}\n\
+         control   {holder}\n\
+         gait      amplitude {:.2}, frequency {:.2} Hz, turn {:.2} /m, pitch {:.2} /m\n\
+         head      {:.3} m/s, {:.3} rad/s (predicted)\n\
+         bus       {bus_state}; tx {}, rx {}, tx dropped {}, malformed {}\n\
+         loop      {:.1} Hz; jitter p99 {:.0} us; overruns {}\n\
+         refused   {} command(s); {} out-of-band e-stop(s)\n\
+         limits    frequency <= {} Hz, |turn| <= {} /m, |pitch| <= {} /m, command timeout {} ms\n\
+         daemon    pid {}\n",
+        mode_name(s.mode),
+        cause_name(s.cause),
+        g.amplitude,
+        g.frequency,
+        g.turn,
+        g.pitch,
+        s.predicted_head_speed,
+        s.predicted_turn_rate,
+        s.bus.tx_frames,
+        s.bus.rx_frames,
+        s.bus.tx_dropped,
+        s.bus.malformed,
+        1e9 / period,
+        s.loop_stats.jitter_p99_ns as f64 / 1e3,
+        s.loop_stats.overruns,
+        s.refused_commands,
+        s.socket_estops,
+        l.max_frequency,
+        l.max_turn,
+        l.max_pitch,
+        l.command_timeout_ms,
+        l.daemon_pid,
+    )
+}

@@ -1,0 +1,345 @@
+//! `anguilla ctl`: the scriptable operator, and the reference client.
+//!
+//! Each call is one client session (one iceoryx2 client port, so one
+//! identity for the daemon). A command that needs control takes it, waits
+//! until the daemon reports the outcome, and releases it; a swim is kept
+//! alive by resending it within the daemon's command timeout. The outcome
+//! is a [`CtlError`] whose [`CtlError::exit_code`] scripts test:
+//! 0 done, 1 refused (the daemon's reason), 2 no daemon reachable.
+//!
+//! ```no_run
+//! use anguilla_teleop::ctl::{Ctl, Outcome};
+//! use std::time::Duration;
+//! let mut ctl = Ctl::connect("anguilla")?;
+//! ctl.enable()?;                      // takes control, waits for Ready, releases
+//! let swim = anguilla_ipc::SwimParams { amplitude: 0.5, frequency: 1.0, turn: 0.0, pitch: 0.0 };
+//! ctl.swim(swim, Some(Duration::from_secs(3)), &|| false)?;
+//! # Ok::<(), anguilla_teleop::ctl::CtlError>(())
+//! ```
+
+use std::time::{Duration, Instant};
+
+use anguilla_ipc::{
+    Client, Command, CommandReply, FaultSet, IpcError, Mode, StateSnapshot, SwimParams,
+};
+
+/// How long `ctl` waits for the daemon's first state, and for each reply.
+pub const REPLY_TIMEOUT: Duration = Duration::from_secs(2);
+/// How long `ctl` waits for an outcome (Ready after enable, stop, ...).
+pub const OUTCOME_TIMEOUT: Duration = Duration::from_secs(15);
+
+/// Why a `ctl` call did not do what was asked.
+#[derive(Debug, thiserror::Error)]
+pub enum CtlError {
+    /// The daemon refused, or the outcome was not the one asked for.
+    #[error("{0}")]
+    Refused(String),
+    /// No daemon could be reached.
+    #[error("{0}")]
+    NoDaemon(String),
+}
+
+impl CtlError {
+    /// The process exit status: 1 refused, 2 no daemon reachable.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            CtlError::Refused(_) => 1,
+            CtlError::NoDaemon(_) => 2,
+        }
+    }
+}
+
+impl From<IpcError> for CtlError {
+    fn from(e: IpcError) -> Self {
+        CtlError::NoDaemon(e.to_string())
+    }
+}
+
+/// What a successful call reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outcome {
+    /// The mode the daemon reported at the end.
+    pub mode: Mode,
+}
+
+/// How an E-stop went out.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EStopReport {
+    /// Sent on the reserved E-stop socket.
+    pub socket: bool,
+    /// Accepted as an iceoryx2 command too.
+    pub command: bool,
+    /// The daemon's state showed E-stop afterwards (`None`: state not readable).
+    pub confirmed: Option<bool>,
+    /// What failed along the way (informational when the E-stop went out).
+    pub notes: Vec<String>,
+}
+
+/// Sends an E-stop to the daemon at `prefix` by every path there is: the
+/// reserved socket first (nothing can block it), then the command service,
+/// and confirms it in the state when the state can be read. Fails only when
+/// no path reached the daemon.
+pub fn estop(prefix: &str) -> Result<EStopReport, CtlError> {
+    let mut report = EStopReport {
+        socket: false,
+        command: false,
+        confirmed: None,
+        notes: Vec::new(),
+    };
+    match anguilla_ipc::estop::send(prefix) {
+        Ok(()) => report.socket = true,
+        Err(e) => report.notes.push(format!("e-stop socket: {e}")),
+    }
+    match Client::new(prefix, &format!("anguilla-ctl-{}", std::process::id())) {
+        Ok(mut c) => {
+            match c.request(Command::EStop, REPLY_TIMEOUT) {
+                Ok(r) if r.accepted == 1 => report.command = true,
+                Ok(r) => report
+                    .notes
+                    .push(format!("e-stop command refused: {}", r.reason())),
+                Err(e) => report.notes.push(format!("e-stop command: {e}")),
+            }
+            let deadline = Instant::now() + REPLY_TIMEOUT;
+            while Instant::now() < deadline {
+                if let Ok(Some(s)) = c.wait_state(Duration::from_millis(50))
+                    && s.mode == Mode::EStop as u8
+                {
+                    report.confirmed = Some(true);
+                    break;
+                }
+                report.confirmed = Some(false);
+            }
+        }
+        Err(e) => report.notes.push(format!("operator interface: {e}")),
+    }
+    if report.socket || report.command {
+        Ok(report)
+    } else {
+        Err(CtlError::NoDaemon(format!(
+            "the e-stop reached no daemon at prefix '{prefix}': {}",
+            report.notes.join("; ")
+        )))
+    }
+}
+
+/// One `ctl` session with the daemon.
+pub struct Ctl {
+    client: Client,
+    state: StateSnapshot,
+    holding: bool,
+}
+
+impl Ctl {
+    /// Connects to the daemon at `prefix` and reads its state.
+    pub fn connect(prefix: &str) -> Result<Self, CtlError> {
+        let client = Client::new(prefix, &format!("anguilla-ctl-{}", std::process::id()))?;
+        let state = client.wait_state(REPLY_TIMEOUT)?.ok_or_else(|| {
+            CtlError::NoDaemon(format!(
+                "no state from the daemon at prefix '{prefix}' within {REPLY_TIMEOUT:?}"
+            ))
+        })?;
+        Ok(Self {
+            client,
+            state,
+            holding: false,
+        })
+    }
+
+    /// The newest state read.
+    pub fn state(&self) -> &StateSnapshot {
+        &self.state
+    }
+
+    /// When the state does not come from the process serving commands.
+    pub fn provenance_problem(&self) -> Option<String> {
+        self.client.provenance_problem()
+    }
+
+    fn mode(&self) -> Mode {
+        Mode::from_code(self.state.mode).unwrap_or(Mode::Fault)
+    }
+
+    fn refresh(&mut self, timeout: Duration) -> Result<(), CtlError> {
+        if let Some(s) = self.client.wait_state(timeout)? {
+            self.state = s;
+        }
+        Ok(())
+    }
+
+    fn request(&mut self, cmd: Command) -> Result<CommandReply, CtlError> {
+        let r = self.client.request(cmd, REPLY_TIMEOUT)?;
+        if r.accepted == 0 {
+            return Err(CtlError::Refused(format!(
+                "'{}' refused: {}",
+                cmd.name(),
+                r.reason()
+            )));
+        }
+        Ok(r)
+    }
+
+    fn take_control(&mut self) -> Result<(), CtlError> {
+        self.request(Command::TakeControl)?;
+        self.holding = true;
+        Ok(())
+    }
+
+    fn release(&mut self) {
+        if std::mem::take(&mut self.holding) {
+            let _ = self.client.request(Command::ReleaseControl, REPLY_TIMEOUT);
+        }
+    }
+
+    /// Waits until `done` holds of the mode (keeping control alive), or a
+    /// fault or E-stop ends the wait, or [`OUTCOME_TIMEOUT`] passes.
+    fn wait_mode(&mut self, what: &str, done: impl Fn(Mode) -> bool) -> Result<Outcome, CtlError> {
+        let deadline = Instant::now() + OUTCOME_TIMEOUT;
+        let mut last_keep = Instant::now();
+        // The state already read may predate the command: judge only states
+        // published two periods after the reply.
+        self.refresh(Duration::ZERO)?;
+        let fresh_from = self.state.sequence + 2;
+        loop {
+            let m = self.mode();
+            if self.state.sequence < fresh_from {
+                self.refresh(Duration::from_millis(50))?;
+                if Instant::now() >= deadline {
+                    return Err(CtlError::NoDaemon(format!(
+                        "{what}: no new state from the daemon within {OUTCOME_TIMEOUT:?}"
+                    )));
+                }
+                continue;
+            }
+            if done(m) {
+                return Ok(Outcome { mode: m });
+            }
+            if matches!(m, Mode::Fault | Mode::EStop) {
+                return Err(CtlError::Refused(format!(
+                    "{what}: the daemon went to {m} ({})",
+                    self.faults()
+                )));
+            }
+            if Instant::now() >= deadline {
+                return Err(CtlError::Refused(format!(
+                    "{what}: still {m} after {OUTCOME_TIMEOUT:?}"
+                )));
+            }
+            if self.holding && last_keep.elapsed() >= self.keep_period() {
+                self.request(Command::KeepAlive)?;
+                last_keep = Instant::now();
+            }
+            self.refresh(Duration::from_millis(50))?;
+        }
+    }
+
+    fn faults(&self) -> FaultSet {
+        FaultSet {
+            kinds: self.state.fault_kinds,
+            nodes: self.state.fault_nodes,
+        }
+    }
+
+    /// A third of the daemon's command timeout: three chances per timeout.
+    fn keep_period(&self) -> Duration {
+        let ms = self.state.limits.command_timeout_ms.max(30);
+        Duration::from_millis(u64::from(ms) / 3)
+    }
+
+    /// Runs `cmd` under control and waits until `done` holds; releases
+    /// control whatever happens.
+    fn controlled(
+        &mut self,
+        cmd: Command,
+        what: &str,
+        done: impl Fn(Mode) -> bool,
+    ) -> Result<Outcome, CtlError> {
+        let r = self
+            .take_control()
+            .and_then(|()| self.request(cmd))
+            .and_then(|_| self.wait_mode(what, done));
+        self.release();
+        r
+    }
+
+    /// Enables the actuators and waits for Ready.
+    pub fn enable(&mut self) -> Result<Outcome, CtlError> {
+        self.controlled(Command::Enable, "enable", |m| m == Mode::Ready)
+    }
+
+    /// Disables the actuators and waits for Idle.
+    pub fn disable(&mut self) -> Result<Outcome, CtlError> {
+        self.controlled(Command::Disable, "disable", |m| m == Mode::Idle)
+    }
+
+    /// Clears a fault or an E-stop and waits for Idle.
+    pub fn reset(&mut self) -> Result<Outcome, CtlError> {
+        self.controlled(Command::Reset, "reset", |m| m == Mode::Idle)
+    }
+
+    /// Stops a swim and waits until the robot is at rest (Ready, or Idle if
+    /// it was not enabled).
+    pub fn stop(&mut self) -> Result<Outcome, CtlError> {
+        self.controlled(Command::Stop, "stop", |m| {
+            matches!(m, Mode::Ready | Mode::Idle)
+        })
+    }
+
+    /// Swims with `p` for `duration` (until `interrupted` says so without
+    /// one), resending within the command timeout; then stops, waits for
+    /// Ready and releases control. A swim ended by the daemon (a fault, an
+    /// E-stop, another reason) is an error naming why.
+    pub fn swim(
+        &mut self,
+        p: SwimParams,
+        duration: Option<Duration>,
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<Outcome, CtlError> {
+        let r = self
+            .take_control()
+            .and_then(|()| self.swim_held(p, duration, interrupted));
+        let stopped = if self.holding {
+            self.request(Command::Stop)
+                .and_then(|_| self.wait_mode("stop", |m| matches!(m, Mode::Ready | Mode::Idle)))
+        } else {
+            Ok(Outcome { mode: self.mode() })
+        };
+        self.release();
+        r?;
+        stopped
+    }
+
+    fn swim_held(
+        &mut self,
+        p: SwimParams,
+        duration: Option<Duration>,
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<(), CtlError> {
+        let start = Instant::now();
+        self.request(Command::Swim(p))?;
+        self.wait_mode("swim", |m| m == Mode::Swimming)?;
+        let mut last_send = Instant::now();
+        loop {
+            if duration.is_some_and(|d| start.elapsed() >= d) || interrupted() {
+                return Ok(());
+            }
+            if last_send.elapsed() >= self.keep_period() {
+                self.request(Command::Swim(p))?;
+                last_send = Instant::now();
+            }
+            self.refresh(Duration::from_millis(20))?;
+            let m = self.mode();
+            if m != Mode::Swimming {
+                return Err(CtlError::Refused(format!(
+                    "the swim ended: the daemon went to {m} ({})",
+                    self.faults()
+                )));
+            }
+        }
+    }
+}
+
+impl Drop for Ctl {
+    fn drop(&mut self) {
+        self.release();
+    }
+}

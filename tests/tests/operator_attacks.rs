@@ -1,0 +1,434 @@
+//! The operator interface against a buggy or hostile local program, the way
+//! issue 12 tried it: a forged holder, a restarted client's E-stop, every
+//! slot taken and a flood, a notification flood, a refusal flood, squatted
+//! and stale services. The daemon is `anguilla run` as its own process (the
+//! built-in simulated robot); the attacker is this test process.
+
+use std::io::Read as _;
+use std::process::{Command as Proc, Stdio};
+use std::time::{Duration, Instant};
+
+use anguilla_ipc::{Client, Command, CommandRequest, FaultKind, Mode, SwimParams};
+use anguilla_system_tests::Watchdog;
+use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
+
+const SWIM: SwimParams = SwimParams {
+    amplitude: 0.5,
+    frequency: 1.0,
+    turn: 0.0,
+    pitch: 0.0,
+};
+
+/// A prefix and a config file naming it, unique to the test.
+fn setup(tag: &str) -> (String, std::path::PathBuf) {
+    let prefix = format!("anguilla-attack/{tag}-{}", std::process::id());
+    let config =
+        std::env::temp_dir().join(format!("anguilla-attack-{tag}-{}.toml", std::process::id()));
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    (prefix, config)
+}
+
+/// `anguilla run` on the built-in simulated robot, its stderr to `log`.
+fn daemon(config: &std::path::Path, log: Option<&std::path::Path>) -> Killed {
+    let bin = anguilla_bin();
+    assert!(
+        bin.exists(),
+        "{} not built (cargo build --bin anguilla)",
+        bin.display()
+    );
+    let stderr = match log {
+        Some(p) => Stdio::from(std::fs::File::create(p).unwrap()),
+        None => Stdio::null(),
+    };
+    Killed(
+        Proc::new(&bin)
+            .args(["run", "--quiet", "--config"])
+            .arg(config)
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .expect("anguilla run starts"),
+    )
+}
+
+/// A client of the daemon at `prefix`, once it is up.
+fn connect(prefix: &str, name: &str) -> Client {
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        if let Ok(c) = Client::new(prefix, name) {
+            return c;
+        }
+        assert!(Instant::now() < end, "the daemon at {prefix} never came up");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Takes control, enables, and waits for Ready.
+fn enabled(c: &mut Client) {
+    ok(c, Command::TakeControl);
+    ok(c, Command::Enable);
+    wait_for(c, "ready", 30.0, |s| s.mode == Mode::Ready as u8);
+}
+
+fn raw(cmd: Command, sequence: u32) -> CommandRequest {
+    CommandRequest::new(cmd, sequence)
+}
+
+#[test]
+fn a_second_client_cannot_forge_its_way_to_control_and_the_holders_estop_goes_through() {
+    let _dog = Watchdog::new("forged holder", Duration::from_secs(120));
+    let (prefix, config) = setup("forge");
+    let _d = daemon(&config, None);
+    let mut a = connect(&prefix, "holder");
+    let mut b = connect(&prefix, "forger");
+    enabled(&mut a);
+    ok(&mut a, Command::Swim(SWIM));
+    let s = wait_for(&mut a, "swimming", 10.0, |s| s.mode == Mode::Swimming as u8);
+    // B sees who holds control (published), and has nothing to forge with:
+    // every request it can make, at the top of the sequence range, is
+    // refused as not the holder's.
+    assert_eq!(s.holder(), Some(a.id()));
+    for (i, cmd) in [
+        Command::TakeControl,
+        Command::Swim(SWIM),
+        Command::Stop,
+        Command::Disable,
+        Command::ReleaseControl,
+        Command::KeepAlive,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let seq = u32::MAX - 5 + i as u32;
+        let r = b
+            .request_raw(raw(cmd, seq), Duration::from_secs(5))
+            .unwrap();
+        assert_eq!(r.accepted, 0, "{} from the forger was accepted", cmd.name());
+        assert!(r.reason().contains("holds control"), "{}", r.reason());
+    }
+    // The holder still drives, with its own low sequence numbers...
+    let s = wait_for(&mut a, "still swimming", 5.0, |s| {
+        s.mode == Mode::Swimming as u8
+    });
+    assert_eq!(s.holder(), Some(a.id()));
+    ok(
+        &mut a,
+        Command::Swim(SwimParams {
+            amplitude: 0.3,
+            ..SWIM
+        }),
+    );
+    // ...and its E-stop goes through, even numbered below one it already used.
+    let r = a
+        .request_raw(raw(Command::EStop, 1), Duration::from_secs(5))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.reason());
+    let s = wait_for(&mut a, "e-stop", 5.0, |s| s.mode == Mode::EStop as u8);
+    assert!(s.fault_kinds & FaultKind::OperatorEStop as u32 != 0);
+    // The forger cannot reset; the holder can.
+    let r = b
+        .request_raw(raw(Command::Reset, u32::MAX), Duration::from_secs(5))
+        .unwrap();
+    assert_eq!(r.accepted, 0);
+    ok(&mut a, Command::Reset);
+    wait_for(&mut a, "idle", 5.0, |s| s.mode == Mode::Idle as u8);
+}
+
+#[test]
+fn a_restarted_client_is_a_new_client_and_its_estop_is_never_refused() {
+    let _dog = Watchdog::new("restarted client", Duration::from_secs(120));
+    let (prefix, config) = setup("restart");
+    let _d = daemon(&config, None);
+    let first_id;
+    {
+        // A tool with a fixed numbering sends the highest sequence number,
+        // then "restarts" (a new process would be a new client port too).
+        let mut c = connect(&prefix, "fixed-tool");
+        first_id = c.id();
+        let r = c
+            .request_raw(raw(Command::TakeControl, u32::MAX), Duration::from_secs(5))
+            .unwrap();
+        assert_eq!(r.accepted, 1, "{}", r.reason());
+        let r = c
+            .request_raw(raw(Command::Enable, u32::MAX), Duration::from_secs(5))
+            .unwrap();
+        assert_eq!(r.accepted, 0, "a duplicate number is refused");
+        assert!(r.reason().contains("sequence number"), "{}", r.reason());
+    }
+    let mut c = connect(&prefix, "fixed-tool");
+    assert_ne!(c.id(), first_id, "a restarted tool is a new client");
+    for seq in [0, 1, 1, u32::MAX, 0] {
+        let r = c
+            .request_raw(raw(Command::EStop, seq), Duration::from_secs(5))
+            .unwrap();
+        assert_eq!(
+            r.accepted,
+            1,
+            "e-stop numbered {seq} refused: {}",
+            r.reason()
+        );
+    }
+    wait_for(&mut c, "e-stop", 5.0, |s| s.mode == Mode::EStop as u8);
+}
+
+/// Opens clients until the daemon's services refuse one; returns them.
+fn take_every_slot(prefix: &str) -> Vec<Client> {
+    let mut hogs = Vec::new();
+    for i in 0..4 * anguilla_ipc::MAX_TOOLS {
+        match Client::new(prefix, &format!("hog-{i}")) {
+            Ok(c) => hogs.push(c),
+            Err(_) => return hogs,
+        }
+    }
+    panic!("{} clients and the services still accept more", hogs.len());
+}
+
+#[test]
+fn with_every_slot_taken_and_a_flood_ctl_estop_still_stops_the_robot() {
+    let _dog = Watchdog::new("exhausted slots", Duration::from_secs(180));
+    let (prefix, config) = setup("slots");
+    let _d = daemon(&config, None);
+    let mut a = connect(&prefix, "operator");
+    enabled(&mut a);
+    ok(&mut a, Command::Swim(SWIM));
+    wait_for(&mut a, "swimming", 10.0, |s| s.mode == Mode::Swimming as u8);
+    // The hostile program: every slot, then a flood from each of its clients.
+    let (full_tx, full_rx) = std::sync::mpsc::channel();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flood_stop = stop.clone();
+    let p = prefix.clone();
+    let hog = std::thread::spawn(move || {
+        let mut hogs = take_every_slot(&p);
+        full_tx.send(hogs.len()).unwrap();
+        let mut seq = 0u32;
+        while !flood_stop.load(std::sync::atomic::Ordering::Relaxed) {
+            for h in hogs.iter_mut() {
+                seq = seq.wrapping_add(1);
+                let _ = h.send_request(raw(Command::Swim(SWIM), seq));
+                let _ = h.replies(|_| {});
+            }
+        }
+    });
+    let hogs = full_rx
+        .recv_timeout(Duration::from_secs(60))
+        .expect("slots taken");
+    println!("the hostile program holds {hogs} clients, and floods");
+    // No new tool gets in: `ctl status` cannot connect.
+    let bin = anguilla_bin();
+    let status = Proc::new(&bin)
+        .args(["ctl", "--prefix", &prefix, "status"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        status.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    // The E-stop does.
+    let estop = Proc::new(&bin)
+        .args(["ctl", "--prefix", &prefix, "estop"])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&estop.stdout);
+    assert_eq!(
+        estop.status.code(),
+        Some(0),
+        "{said} {}",
+        String::from_utf8_lossy(&estop.stderr)
+    );
+    assert!(said.contains("e-stop socket"), "{said}");
+    let s = wait_for(&mut a, "e-stop", 5.0, |s| s.mode == Mode::EStop as u8);
+    assert!(s.socket_estops >= 1, "taken on the reserved path");
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    hog.join().unwrap();
+}
+
+/// CPU seconds a thread of `pid` named `comm` has used (utime + stime).
+fn thread_cpu(pid: u32, comm: &str) -> f64 {
+    let tick = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
+    for t in std::fs::read_dir(format!("/proc/{pid}/task"))
+        .unwrap()
+        .flatten()
+    {
+        let name = std::fs::read_to_string(t.path().join("comm")).unwrap_or_default();
+        if name.trim() != comm {
+            continue;
+        }
+        let stat = std::fs::read_to_string(t.path().join("stat")).unwrap();
+        // Fields after the ")" of the command name: state is field 3, utime 14, stime 15.
+        let rest = &stat[stat.rfind(')').unwrap() + 2..];
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let (u, s): (f64, f64) = (f[11].parse().unwrap(), f[12].parse().unwrap());
+        return (u + s) / tick;
+    }
+    panic!("no thread {comm} in process {pid}");
+}
+
+#[test]
+fn a_notification_and_refusal_flood_costs_bounded_cpu_and_log_lines() {
+    let _dog = Watchdog::new("floods", Duration::from_secs(180));
+    let (prefix, config) = setup("flood");
+    let log =
+        std::env::temp_dir().join(format!("anguilla-attack-flood-{}.log", std::process::id()));
+    let mut d = daemon(&config, Some(&log));
+    let pid = d.0.id();
+    let mut a = connect(&prefix, "operator");
+    enabled(&mut a);
+    let mut b = connect(&prefix, "flooder");
+    // 1. A notification flood on command-ready (no requests), 3 s.
+    let secs = 3.0;
+    let before = thread_cpu(pid, "anguilla-comman");
+    let start = Instant::now();
+    let mut notified = 0u64;
+    while start.elapsed().as_secs_f64() < secs {
+        for _ in 0..100 {
+            b.notify_command_ready().unwrap();
+        }
+        notified += 100;
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let used = thread_cpu(pid, "anguilla-comman") - before;
+    println!(
+        "notification flood: {notified} notifications in {wall:.1} s; the command thread used \
+         {used:.2} CPU s ({:.0} % of one core; issue 12 measured ~97 % before the round limit)",
+        100.0 * used / wall
+    );
+    // The bound is a resource bound, not a speed goal: one round a ms costs
+    // a few % of a core; an unbounded thread takes it all. Noise only lowers it.
+    assert!(
+        used / wall < 0.5,
+        "command thread at {:.0} % of a core",
+        100.0 * used / wall
+    );
+    // 2. A refusal flood: B holds no control; 3000 swims, three in flight.
+    let mut refused = 0u64;
+    let mut seq = 0u32;
+    while refused < 3000 {
+        for _ in 0..3 {
+            seq += 1;
+            b.send_request(raw(Command::Swim(SWIM), seq)).unwrap();
+        }
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let mut got = 0;
+        while got < 3 && Instant::now() < deadline {
+            b.replies(|r| {
+                got += 1;
+                refused += u64::from(r.accepted == 0);
+            })
+            .unwrap();
+            let _ = b.wait_state(Duration::from_millis(1));
+        }
+        assert_eq!(got, 3, "every request answered");
+    }
+    let s = wait_for(&mut a, "the refusals counted", 5.0, |s| {
+        s.refused_commands >= 3000
+    });
+    assert!(s.refused_commands >= 3000);
+    let flood_secs = start.elapsed().as_secs_f64() - wall;
+    // SIGTERM: a clean stop flushes the log summary.
+    unsafe { libc::kill(pid as i32, libc::SIGTERM) };
+    let _ = d.0.wait();
+    let mut text = String::new();
+    std::fs::File::open(&log)
+        .unwrap()
+        .read_to_string(&mut text)
+        .unwrap();
+    let lines = text.lines().filter(|l| l.contains("refused")).count();
+    println!("refusal flood: {refused} refusals in {flood_secs:.1} s logged as {lines} line(s)");
+    // One whole line and one summary per second at most, plus the last.
+    let bound = 2 * (flood_secs.ceil() as usize + 1) + 2;
+    assert!(
+        lines <= bound,
+        "{lines} refusal lines (bound {bound}):\n{text}"
+    );
+    assert!(text.contains("more command(s)"), "a summary line:\n{text}");
+}
+
+/// A program that creates `<prefix>/state` before the daemon, with the
+/// documented settings, and publishes a fake state on it.
+struct Squatter {
+    _node: iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+    _service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<
+        iceoryx2::prelude::ipc::Service,
+        anguilla_ipc::StateSnapshot,
+        (),
+    >,
+    _publisher: iceoryx2::port::publisher::Publisher<
+        iceoryx2::prelude::ipc::Service,
+        anguilla_ipc::StateSnapshot,
+        (),
+    >,
+}
+
+impl Squatter {
+    fn publish_state(prefix: &str) -> Self {
+        use iceoryx2::prelude::*;
+        let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
+        let name = ServiceName::new(&format!("{prefix}/state")).unwrap();
+        let service = node
+            .service_builder(&name)
+            .publish_subscribe::<anguilla_ipc::StateSnapshot>()
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .enable_safe_overflow(true)
+            .max_subscribers(anguilla_ipc::MAX_TOOLS)
+            .max_publishers(1)
+            .max_nodes(anguilla_ipc::MAX_NODES)
+            .create()
+            .unwrap();
+        let publisher = service.publisher_builder().create().unwrap();
+        let fake = anguilla_ipc::StateSnapshot {
+            mode: Mode::Ready as u8,
+            ..Default::default()
+        };
+        publisher.send_copy(fake).unwrap();
+        Self {
+            _node: node,
+            _service: service,
+            _publisher: publisher,
+        }
+    }
+}
+
+#[test]
+fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
+    let _dog = Watchdog::new("squatting", Duration::from_secs(120));
+    let bin = anguilla_bin();
+    let (prefix, config) = setup("squat");
+    let run_for_a_second = || {
+        Proc::new(&bin)
+            .args(["run", "--quiet", "--duration", "1", "--config"])
+            .arg(&config)
+            .stdout(Stdio::null())
+            .output()
+            .unwrap()
+    };
+    {
+        // This process creates the state service and publishes fake state.
+        let squatter = Squatter::publish_state(&prefix);
+        let out = run_for_a_second();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "the daemon ran beside a squatter");
+        let want = format!(
+            "service '{prefix}/state' is held by a live process (pid {}",
+            std::process::id()
+        );
+        assert!(err.contains(&want), "{err}");
+        drop(squatter);
+    }
+    // A daemon killed outright leaves its services and its E-stop socket.
+    let mut d = daemon(&config, None);
+    let mut c = connect(&prefix, "watcher");
+    wait_for(&mut c, "first state", 10.0, |_| true);
+    unsafe { libc::kill(d.0.id() as i32, libc::SIGKILL) };
+    let _ = d.0.wait();
+    // The watcher still holds the services open; the new daemon takes them over.
+    let out = run_for_a_second();
+    assert!(
+        out.status.success(),
+        "after a dead daemon: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    drop(c);
+}
