@@ -8,7 +8,9 @@
 //! text `ESTOP` by convention). A datagram socket holds no connection and no
 //! slot per sender; a flood of datagrams is a flood of E-stops, which only
 //! keeps the robot stopped. The socket is mode 0660: only the daemon's user
-//! and group may send.
+//! and group may send. `/tmp/anguilla` is shared like `/tmp` (mode 1777);
+//! a program that creates a prefix's directory or socket first keeps the
+//! daemon from starting (it says so), never from being stopped.
 //!
 //! ```no_run
 //! // What `anguilla ctl estop` does first.
@@ -108,13 +110,17 @@ impl EStopListener {
     pub fn bind(prefix: &str) -> Result<Self, IpcError> {
         let path = socket_path(prefix)?;
         let shown = path.display().to_string();
-        let io_err = |what: &str, e: io::Error| IpcError::Iceoryx(format!("{what} {shown}: {e}"));
+        let io_err =
+            |what: &str, e: io::Error| IpcError::EStopSocket(format!("{what} {shown}: {e}"));
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| io_err("creating the directory of", e))?;
+            // The root is shared by the daemons of every user, like /tmp
+            // (sticky, world-writable); a prefix's directories are its
+            // daemon's, searchable by all (the socket's mode decides who
+            // sends). Best effort: another user's directory stays as it is.
             for d in dir.ancestors().take_while(|d| d.starts_with(ROOT)) {
-                // Group members must reach the socket; others need nothing
-                // here. Best effort: another user's directory stays as it is.
-                let _ = std::fs::set_permissions(d, std::fs::Permissions::from_mode(0o755));
+                let mode = if d == Path::new(ROOT) { 0o1777 } else { 0o755 };
+                let _ = std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode));
             }
         }
         let sock = match UnixDatagram::bind(&path) {

@@ -52,6 +52,9 @@ pub enum IpcError {
          this prefix; stop it, or give this daemon another [ipc] prefix"
     )]
     EStopSocketInUse(String),
+    /// The E-stop socket could not be set up; the text names the step.
+    #[error("e-stop socket: {0}")]
+    EStopSocket(String),
     /// No daemon serves the prefix.
     #[error(
         "no anguilla daemon serves '{prefix}' ({detail}); is `anguilla run` running with this [ipc] prefix?"
