@@ -115,3 +115,48 @@ pub fn layout_markdown() -> String {
     }
     out
 }
+
+/// The numeric codes of the payloads' enumerations (command codes, modes,
+/// causes, fault bits) as Markdown tables: the source of `docs/ipc.md`'s
+/// codes section.
+pub fn codes_markdown() -> String {
+    use crate::payload::code;
+    use crate::vocabulary::{Cause, FaultKind, Mode};
+    let mut out = String::new();
+    let _ = writeln!(out, "`CommandRequest.code`:\n");
+    let _ = writeln!(out, "| code | command | needs control |");
+    let _ = writeln!(out, "|---:|---|---|");
+    for (c, name, control) in [
+        (code::ENABLE, "enable", "yes"),
+        (code::DISABLE, "disable", "yes"),
+        (code::SWIM, "swim (amplitude, frequency, turn, pitch)", "yes"),
+        (code::STOP, "stop", "yes"),
+        (code::ESTOP, "e-stop", "**no: never refused**"),
+        (code::RESET, "reset", "yes"),
+        (code::TAKE_CONTROL, "take-control", "no (refused while another client holds it)"),
+        (code::RELEASE_CONTROL, "release-control", "yes"),
+        (code::KEEP_ALIVE, "keep-alive", "yes"),
+    ] {
+        let _ = writeln!(out, "| {c} | {name} | {control} |");
+    }
+    let _ = writeln!(out, "\n`StateSnapshot.mode` and `CommandReply.mode`:\n");
+    let _ = writeln!(out, "| code | mode |");
+    let _ = writeln!(out, "|---:|---|");
+    for m in Mode::ALL {
+        let _ = writeln!(out, "| {} | {} |", m as u8, m.name());
+    }
+    let _ = writeln!(out, "\n`StateSnapshot.cause` (why the mode last changed):\n");
+    let _ = writeln!(out, "| code | cause |");
+    let _ = writeln!(out, "|---:|---|");
+    for c in Cause::ALL {
+        let _ = writeln!(out, "| {} | {} |", c.code(), c.name());
+    }
+    let _ = writeln!(out, "\n`StateSnapshot.fault_kinds` (one bit each; latched until reset):\n");
+    let _ = writeln!(out, "| bit | value | fault |");
+    let _ = writeln!(out, "|---:|---:|---|");
+    for k in FaultKind::ALL {
+        let v = k as u32;
+        let _ = writeln!(out, "| {} | {v:#x} | {} |", v.trailing_zeros(), k.name());
+    }
+    out
+}

@@ -84,12 +84,25 @@ fn layout_table_covers_every_byte() {
 
 #[test]
 fn docs_match_the_generated_layout() {
+    docs_section_is("layout", &layout_markdown());
+}
+
+#[test]
+fn docs_match_the_generated_codes() {
+    docs_section_is("codes", &layout::codes_markdown());
+}
+
+/// `docs/ipc.md` between `<!-- NAME:begin -->` and `<!-- NAME:end -->` is
+/// `generated` (rewritten with ANGUILLA_BLESS=1).
+fn docs_section_is(name: &str, generated: &str) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/ipc.md");
     let doc = std::fs::read_to_string(path).unwrap();
-    let (begin, end) = ("<!-- layout:begin -->\n", "<!-- layout:end -->");
-    let (head, rest) = doc.split_once(begin).expect("layout:begin marker");
-    let (current, tail) = rest.split_once(end).expect("layout:end marker");
-    let generated = layout_markdown();
+    let (begin, end) = (
+        format!("<!-- {name}:begin -->\n"),
+        format!("<!-- {name}:end -->"),
+    );
+    let (head, rest) = doc.split_once(&begin).expect("begin marker");
+    let (current, tail) = rest.split_once(&end).expect("end marker");
     if std::env::var_os("ANGUILLA_BLESS").is_some() {
         std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
         return;
