@@ -1,5 +1,5 @@
 //! The running control loop thread allocates nothing, operator interface
-//! included: a counting allocator counts the allocations made on the thread
+//! included (the E-stop socket too): a counting allocator counts the allocations made on the thread
 //! named `anguilla-loop` (and on no other), while a client drives the
 //! simulated robot through iceoryx2 — swim, turn, dive, stop, a refused
 //! command, an E-stop and a reset — and reads the state every period.
@@ -166,6 +166,14 @@ fn the_running_loop_thread_allocates_nothing() {
     accepted(&mut observer, Command::EStop);
     wait_mode(&mut client, Mode::EStop, 5.0);
     accepted(&mut client, Command::TakeControl);
+    accepted(&mut client, Command::Reset);
+    accepted(&mut client, Command::Enable);
+    wait_mode(&mut client, Mode::Ready, 10.0);
+    // An E-stop on the reserved socket, then reset again.
+    anguilla_daemon::ipc::estop::send(&prefix).expect("e-stop socket");
+    wait_mode(&mut client, Mode::EStop, 5.0);
+    let (stopped, _) = hold(&mut client, 0.1);
+    assert_eq!(stopped.socket_estops, 1, "taken on the reserved path");
     accepted(&mut client, Command::Reset);
     accepted(&mut client, Command::Enable);
     wait_mode(&mut client, Mode::Ready, 10.0);
