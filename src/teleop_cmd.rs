@@ -167,9 +167,16 @@ fn teleop_loop(
     driver: &mut Driver,
     prefix: &str,
 ) -> anyhow::Result<()> {
+    // Whether the state shown is the commanding daemon's, checked every 2 s.
+    let mut provenance = (driver.op.provenance_problem(), Instant::now());
     while !SIGNALLED.load(Ordering::SeqCst) {
         let next = driver.pump(Instant::now())?;
-        let status = if driver.op.holds_control() {
+        if provenance.1.elapsed() >= Duration::from_secs(2) {
+            provenance = (driver.op.provenance_problem(), Instant::now());
+        }
+        let status = if let Some(p) = &provenance.0 {
+            format!("WARNING: {p}")
+        } else if driver.op.holds_control() {
             format!("prefix '{prefix}' · you hold control: sending your command at 10 Hz")
         } else {
             format!("prefix '{prefix}' · watching: press t to take control")

@@ -129,11 +129,19 @@ pub fn codes_markdown() -> String {
     for (c, name, control) in [
         (code::ENABLE, "enable", "yes"),
         (code::DISABLE, "disable", "yes"),
-        (code::SWIM, "swim (amplitude, frequency, turn, pitch)", "yes"),
+        (
+            code::SWIM,
+            "swim (amplitude, frequency, turn, pitch)",
+            "yes",
+        ),
         (code::STOP, "stop", "yes"),
         (code::ESTOP, "e-stop", "**no: never refused**"),
         (code::RESET, "reset", "yes"),
-        (code::TAKE_CONTROL, "take-control", "no (refused while another client holds it)"),
+        (
+            code::TAKE_CONTROL,
+            "take-control",
+            "no (refused while another client holds it)",
+        ),
         (code::RELEASE_CONTROL, "release-control", "yes"),
         (code::KEEP_ALIVE, "keep-alive", "yes"),
     ] {
@@ -145,13 +153,19 @@ pub fn codes_markdown() -> String {
     for m in Mode::ALL {
         let _ = writeln!(out, "| {} | {} |", m as u8, m.name());
     }
-    let _ = writeln!(out, "\n`StateSnapshot.cause` (why the mode last changed):\n");
+    let _ = writeln!(
+        out,
+        "\n`StateSnapshot.cause` (why the mode last changed):\n"
+    );
     let _ = writeln!(out, "| code | cause |");
     let _ = writeln!(out, "|---:|---|");
     for c in Cause::ALL {
         let _ = writeln!(out, "| {} | {} |", c.code(), c.name());
     }
-    let _ = writeln!(out, "\n`StateSnapshot.fault_kinds` (one bit each; latched until reset):\n");
+    let _ = writeln!(
+        out,
+        "\n`StateSnapshot.fault_kinds` (one bit each; latched until reset):\n"
+    );
     let _ = writeln!(out, "| bit | value | fault |");
     let _ = writeln!(out, "|---:|---:|---|");
     for k in FaultKind::ALL {
