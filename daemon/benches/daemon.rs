@@ -242,6 +242,17 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     };
     let state = std::thread::spawn(move || run::state_thread(&p, rt, state_rx, ready_tx));
     ready_rx.recv().unwrap().unwrap();
+    // A tool opens the command side too: a server stands by, idle.
+    let (p, s3) = (prefix.to_owned(), stop.clone());
+    let (up_tx, up_rx) = std::sync::mpsc::channel();
+    let server = std::thread::spawn(move || {
+        let _server = anguilla_daemon::ipc::CommandServer::new(&p).unwrap();
+        up_tx.send(()).unwrap();
+        while !s3.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    });
+    up_rx.recv().unwrap();
     let publisher = std::thread::spawn(move || {
         let mut snap = StateSnapshot::default();
         while !s2.load(Ordering::Relaxed) {
@@ -264,6 +275,7 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     let _ = tx.send(0);
     let _ = publisher.join();
     let _ = state.join();
+    let _ = server.join();
     ours.sort_unstable();
     ours
 }

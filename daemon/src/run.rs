@@ -14,9 +14,11 @@
 //!   them on the `command-ready` event; it also polls every
 //!   [`COMMAND_POLL`]), hands them to the loop with the client port each
 //!   came on (the client's identity), and sends the loop's answers back.
-//!   Its work is bounded however clients behave: at most one round per
-//!   [`COMMAND_ROUND_MIN`], however many notifications arrive, and at most
-//!   [`COMMAND_BATCH`] requests a round (every client's in-flight
+//!   Its work is bounded however clients behave: a wake-up that finds no
+//!   request is followed by none for [`COMMAND_ROUND_MIN`] (a notification
+//!   flood costs little, a real command waits for nothing), a round with
+//!   requests waits for the loop's answers (one period), and a round takes
+//!   at most [`COMMAND_BATCH`] requests (every client's in-flight
 //!   requests, so each client is served every round);
 //! - the **E-stop** thread receives on the reserved E-stop socket
 //!   ([`ipc::estop`]) and raises a flag the loop reads every period;
@@ -470,8 +472,9 @@ const STATE_QUEUE: usize = 4;
 /// requests in flight (iceoryx2 lets a client have no more), so one round
 /// serves every client.
 pub const COMMAND_BATCH: usize = ipc::MAX_TOOLS * ipc::MAX_REQUESTS_PER_CLIENT;
-/// Shortest time between two rounds of the command thread: a client that
-/// floods `command-ready` wakes it at most this often.
+/// Shortest time between a round of the command thread that found no
+/// request and the next: a client that floods `command-ready` without
+/// requests wakes it at most this often.
 pub const COMMAND_ROUND_MIN: Duration = Duration::from_millis(1);
 /// How often the command thread looks for requests that no client announced
 /// on `command-ready`.
@@ -558,6 +561,7 @@ fn command_thread(
     let mut waiting: Vec<(Envelope, ipc::ActiveRequest)> = Vec::with_capacity(COMMAND_BATCH);
     let mut failing = false;
     let mut last_round = std::time::Instant::now();
+    let mut last_round_empty = false;
     loop {
         // Serve until the loop has gone (it still answers while it stops a
         // swim at shutdown). Nothing is awaited here, so a reply found is a
@@ -565,14 +569,17 @@ fn command_thread(
         if let Err(TryRecvError::Disconnected) = from_loop.try_recv() {
             return;
         }
-        // Bounded wake-ups: a flood of notifications costs one round per
-        // COMMAND_ROUND_MIN, each round draining all of them at once.
+        // Bounded wake-ups: after a round that found nothing, a flood of
+        // notifications costs one round per COMMAND_ROUND_MIN, each draining
+        // all of them at once. A round with requests already waited for
+        // the loop's answers.
         let since = last_round.elapsed();
-        if since < COMMAND_ROUND_MIN {
+        if last_round_empty && since < COMMAND_ROUND_MIN {
             std::thread::sleep(COMMAND_ROUND_MIN - since);
         }
         let _ = server.wait(COMMAND_POLL);
         last_round = std::time::Instant::now();
+        last_round_empty = true;
         while waiting.len() < COMMAND_BATCH {
             match server.take() {
                 Ok(Some((env, request))) => {
@@ -585,6 +592,7 @@ fn command_thread(
                         break;
                     }
                     waiting.push((env, request));
+                    last_round_empty = false;
                 }
                 Ok(None) => break,
                 Err(e) => {

@@ -12,6 +12,7 @@ use core::time::Duration;
 
 use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
+use iceoryx2::service::messaging_pattern::MessagingPattern;
 use iceoryx2::service::port_factory::{
     event::PortFactory as EventFactory, publish_subscribe::PortFactory as PubSubFactory,
     request_response::PortFactory as ReqResFactory,
@@ -109,6 +110,7 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
     role: Role,
     prefix: &str,
     leaf: &str,
+    pattern: MessagingPattern,
     create: impl Fn() -> Result<F, E1>,
     open: impl Fn() -> Result<F, E2>,
     live_holders: impl Fn(&F) -> Vec<i32>,
@@ -127,9 +129,18 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
             // It exists: a dead daemon's service that a tool still holds
             // open (reuse it), or a live process's (refuse).
             let f = open().map_err(|e| {
+                let pids = attached_pids(&full, pattern);
+                let who = if pids.is_empty() {
+                    "a program".to_string()
+                } else {
+                    pids.iter()
+                        .map(|p| format!("pid {p}{}", process_name(*p)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
                 IpcError::Iceoryx(format!(
-                    "service '{full}' could be neither created ({create_err:?}) nor opened ({e:?}); \
-                     a program may have created it with other settings: stop it, or use another [ipc] prefix"
+                    "service '{full}' could be neither created ({create_err:?}) nor opened ({e:?}): \
+                     {who} created it with other settings; stop it, or use another [ipc] prefix"
                 ))
             })?;
             let me = std::process::id() as i32;
@@ -167,6 +178,31 @@ fn process_name(pid: i32) -> String {
         .unwrap_or_default()
 }
 
+/// The live processes with a node on the service `full` (any settings).
+fn attached_pids(full: &str, pattern: MessagingPattern) -> Vec<i32> {
+    let Ok(name) = ServiceName::new(full) else {
+        return Vec::new();
+    };
+    let me = std::process::id() as i32;
+    let Ok(Some(details)) = ipc::Service::details(&name, Config::global_config(), pattern) else {
+        return Vec::new();
+    };
+    let mut pids: Vec<i32> = details
+        .dynamic_details
+        .map(|d| d.nodes)
+        .unwrap_or_default()
+        .iter()
+        .filter_map(|n| match n {
+            NodeState::Alive(view) => node_pid(view.id()),
+            _ => None,
+        })
+        .filter(|&p| p != me)
+        .collect();
+    pids.sort_unstable();
+    pids.dedup();
+    pids
+}
+
 fn node_pid(id: &iceoryx2::identifiers::UniqueNodeId) -> Option<i32> {
     id.pid::<ipc::Service>().ok().map(|p| p.value())
 }
@@ -191,6 +227,7 @@ pub(crate) fn state_service(
         role,
         prefix,
         "state",
+        MessagingPattern::PublishSubscribe,
         || builder().create(),
         || builder().open(),
         |f: &StateService| {
@@ -223,6 +260,7 @@ pub(crate) fn command_service(
         role,
         prefix,
         "command",
+        MessagingPattern::RequestResponse,
         || builder().create(),
         || builder().open(),
         |f: &CommandService| {
@@ -258,6 +296,7 @@ pub(crate) fn event_service(
         role,
         prefix,
         leaf,
+        MessagingPattern::Event,
         || builder().create(),
         || builder().open(),
         |f: &EventFactory<ipc::Service>| {

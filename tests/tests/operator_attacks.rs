@@ -417,6 +417,29 @@ fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
         assert!(err.contains(&want), "{err}");
         drop(squatter);
     }
+    {
+        // A careless tool: open_or_create with iceoryx2's default settings,
+        // before the daemon. It publishes nothing, but the settings differ.
+        use iceoryx2::prelude::*;
+        let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
+        let name = ServiceName::new(&format!("{prefix}/command")).unwrap();
+        let _svc = node
+            .service_builder(&name)
+            .request_response::<anguilla_ipc::CommandRequest, anguilla_ipc::CommandReply>()
+            .open_or_create()
+            .unwrap();
+        let out = run_for_a_second();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success(),
+            "the daemon ran on a mis-made service"
+        );
+        let want = format!("pid {}", std::process::id());
+        assert!(
+            err.contains(&format!("service '{prefix}/command'")) && err.contains(&want),
+            "names the service and the process: {err}"
+        );
+    }
     // A daemon killed outright leaves its services and its E-stop socket.
     let mut d = daemon(&config, None);
     let mut c = connect(&prefix, "watcher");
