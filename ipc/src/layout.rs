@@ -86,9 +86,9 @@ pub fn layout_table() -> Vec<LayoutRow> {
     v
 }
 
-/// Renders [`layout_table`] as Markdown tables with each type's size.
-pub fn layout_markdown() -> String {
-    let sizes = [
+/// Every payload type documented, with its size in bytes.
+pub fn payload_sizes() -> [(&'static str, usize); 8] {
+    [
         ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
         ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
         ("GaitSnapshot", core::mem::size_of::<GaitSnapshot>()),
@@ -97,7 +97,12 @@ pub fn layout_markdown() -> String {
         ("LimitsSnapshot", core::mem::size_of::<LimitsSnapshot>()),
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
         ("CommandReply", core::mem::size_of::<CommandReply>()),
-    ];
+    ]
+}
+
+/// Renders [`layout_table`] as Markdown tables with each type's size.
+pub fn layout_markdown() -> String {
+    let sizes = payload_sizes();
     let rows = layout_table();
     let mut out = String::new();
     for (ty, size) in sizes {

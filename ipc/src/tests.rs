@@ -65,14 +65,7 @@ fn layout_table_covers_every_byte() {
     // Fields of each type tile it exactly: no hidden padding a C client
     // would have to guess.
     let rows = layout_table();
-    for (ty, size) in [
-        ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
-        ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
-        ("LoopSnapshot", core::mem::size_of::<LoopSnapshot>()),
-        ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
-        ("CommandRequest", core::mem::size_of::<CommandRequest>()),
-        ("CommandReply", core::mem::size_of::<CommandReply>()),
-    ] {
+    for (ty, size) in layout::payload_sizes() {
         let mut end = 0;
         for r in rows.iter().filter(|r| r.ty == ty) {
             assert_eq!(r.offset, end, "{ty}.{} leaves a gap", r.field);
