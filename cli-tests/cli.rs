@@ -169,3 +169,120 @@ fn ctl_without_a_daemon_exits_2_naming_the_prefix_and_bad_arguments_are_named() 
         "{err}"
     );
 }
+
+/// A pipe whose reading end is already closed: every write gets EPIPE.
+fn closed_pipe() -> Stdio {
+    use std::os::fd::{FromRawFd, OwnedFd};
+    let mut fds = [0; 2];
+    // SAFETY: pipe() fills two new descriptors; each is owned once below.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    drop(unsafe { OwnedFd::from_raw_fd(fds[0]) });
+    Stdio::from(unsafe { OwnedFd::from_raw_fd(fds[1]) })
+}
+
+fn dev_full() -> Stdio {
+    Stdio::from(
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap(),
+    )
+}
+
+#[test]
+fn a_full_or_closed_stdout_is_an_error_or_a_quiet_end_never_a_panic() {
+    let cfg = std::env::temp_dir().join(format!("anguilla-cli-out-{}.toml", std::process::id()));
+    std::fs::write(&cfg, "").unwrap();
+    let cfg = cfg.to_str().unwrap().to_owned();
+    let commands: [&[&str]; 7] = [
+        &["config", "default"],
+        &["config", "check", &cfg],
+        &["swim", "--gait", "F1", "--duration", "0.2"],
+        &["protocol", "layout"],
+        &["protocol", "budget"],
+        &["protocol", "dbc"],
+        &["joy", "--print-mapping"],
+    ];
+    for args in commands {
+        let o = anguilla().args(args).stdout(dev_full()).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{args:?} > /dev/full: {err}");
+        assert_eq!(o.status.code(), Some(1), "{args:?} > /dev/full: {err}");
+        assert!(
+            err.contains("writing to standard output"),
+            "{args:?}: {err}"
+        );
+        let o = anguilla()
+            .args(args)
+            .stdout(closed_pipe())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{args:?} | closed: {err}");
+        assert_eq!(o.status.code(), Some(0), "{args:?} | closed: {err}");
+        assert!(err.is_empty(), "a closed pipe ends quietly: {err}");
+    }
+}
+
+#[test]
+fn the_daemon_and_the_simulator_outlive_their_stdout() {
+    let cfg =
+        std::env::temp_dir().join(format!("anguilla-cli-outlive-{}.toml", std::process::id()));
+    let prefix = format!("anguilla-cli/outlive-{}", std::process::id());
+    std::fs::write(&cfg, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    for out in [closed_pipe(), dev_full()] {
+        let o = anguilla()
+            .args(["run", "--duration", "2", "--config", cfg.to_str().unwrap()])
+            .stdout(out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(o.status.code(), Some(0), "run: {err}");
+        assert!(
+            err.contains("mode idle") || err.contains("control loop"),
+            "{err}"
+        );
+    }
+    let o = anguilla()
+        .args(["sim", "--bus", "mem:cli-sim-out", "--duration", "1.5"])
+        .stdout(dev_full())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "sim: {err}");
+    assert!(err.contains("no more status lines"), "{err}");
+}
+
+#[test]
+fn sighup_stops_the_daemon_smoothly() {
+    let prefix = format!("anguilla-cli/hup-{}", std::process::id());
+    let cfg = std::env::temp_dir().join(format!("anguilla-cli-hup-{}.toml", std::process::id()));
+    std::fs::write(&cfg, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    let mut child = anguilla()
+        .args(["run", "--config", cfg.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait for the first status line: the daemon is up.
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let first = lines.next().expect("a status line").unwrap();
+    assert!(first.starts_with("t="), "{first}");
+    unsafe { libc::kill(child.id() as i32, libc::SIGHUP) };
+    let end = Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < end, "the daemon ignored SIGHUP");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert_eq!(status.code(), Some(0), "{rest:?}");
+    assert!(
+        rest.iter().any(|l| l.starts_with("stopped in mode idle")),
+        "a clean stop: {rest:?}"
+    );
+}

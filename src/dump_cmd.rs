@@ -74,11 +74,14 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     unsafe {
         libc::signal(libc::SIGINT, handler);
         libc::signal(libc::SIGTERM, handler);
+        libc::signal(libc::SIGHUP, handler);
     }
     let start = std::time::Instant::now();
     let mut n = 0u64;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
+    // A failing stdout ends the dump (the log is still flushed).
+    let mut write_failed = None;
     while !SIGNALLED.load(Ordering::SeqCst)
         && args.count.is_none_or(|c| n < c)
         && args
@@ -103,11 +106,13 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
             Ok(m) => format!("{m:?}"),
             Err(e) => format!("(not ours: {e})"),
         };
-        let _ = writeln!(
+        if let Err(e) = writeln!(
             out,
             "({}.{:06}) {:<24} {decoded}",
             ts.secs, ts.micros, r.frame
-        );
+        ) {
+            write_failed = Some(e);
+        }
         if let Some(w) = log.as_mut() {
             w.write(&LogEntry {
                 timestamp: ts,
@@ -116,11 +121,17 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
             })
             .context("writing the log")?;
         }
+        if write_failed.is_some() {
+            break;
+        }
     }
     if let Some(w) = log {
         w.into_inner()
             .and_then(|mut b| b.flush())
             .context("flushing the log")?;
+    }
+    if let Some(e) = write_failed {
+        return Err(anyhow::Error::new(e).context("writing to standard output"));
     }
     eprintln!("{n} frames");
     Ok(())

@@ -5,6 +5,7 @@
 mod builtin_sim;
 mod ctl_cmd;
 mod dump_cmd;
+mod output;
 mod protocol_cmd;
 mod run_cmd;
 mod sim_cmd;
@@ -58,8 +59,21 @@ enum Command {
     Ctl(ctl_cmd::CtlArgs),
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        // `anguilla ... | head`: the reader has what it wanted.
+        Err(e) if output::closed_pipe(&e) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), "Error: {e:?}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         None => {
             use clap::CommandFactory;

@@ -1,5 +1,6 @@
 //! `anguilla protocol ...`: bus budget and DBC generation.
 
+use crate::output::out;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -72,7 +73,7 @@ pub fn run(cmd: ProtocolCmd) -> anyhow::Result<()> {
         ProtocolCmd::Dbc(a) => run_dbc(a),
         ProtocolCmd::Layout { fd } => {
             let variant = if fd { Variant::Fd } else { Variant::Classic };
-            print!("{}", anguilla_protocol::doc::layout_markdown(variant));
+            out!("{}", anguilla_protocol::doc::layout_markdown(variant))?;
             Ok(())
         }
     }
@@ -94,9 +95,9 @@ fn run_budget(a: BudgetArgs) -> anyhow::Result<()> {
     let max = budget::max_rate(a.joints, rates, a.max_load).context("invalid --max-load")?;
     let mut out = std::io::stdout().lock();
     if a.json {
-        print_json(&mut out, &b, a.max_load, max)?;
+        print_json(&mut out, &b, a.max_load, max).context("writing to standard output")?;
     } else {
-        print_table(&mut out, &b, a.max_load, max)?;
+        print_table(&mut out, &b, a.max_load, max).context("writing to standard output")?;
     }
     Ok(())
 }
@@ -207,7 +208,7 @@ fn run_dbc(a: DbcArgs) -> anyhow::Result<()> {
         Some(path) => {
             std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?
         }
-        None => std::io::stdout().lock().write_all(text.as_bytes())?,
+        None => crate::output::write_fmt(format_args!("{text}"))?,
     }
     Ok(())
 }

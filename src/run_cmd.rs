@@ -1,5 +1,6 @@
 //! `anguilla run` and `anguilla config`: parse, load, hand over to the daemon.
 
+use crate::output::{out, outln};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -13,6 +14,12 @@ use anyhow::Context;
 
 /// Arguments of `anguilla run`.
 #[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Signals: SIGINT, SIGTERM and SIGHUP each stop a swim smoothly (at most \
+    3 s), disable the actuators and exit 0. There is no configuration reload: restart the daemon \
+    to apply a new configuration. Status lines go to stdout; when it fails (a closed pipe, a full \
+    disk) they stop and the daemon goes on."
+)]
 pub struct RunArgs {
     /// Configuration file (TOML); every key is optional (see `anguilla config default`).
     #[arg(long, value_name = "FILE")]
@@ -55,6 +62,9 @@ fn install_signal_handlers() {
     unsafe {
         libc::signal(libc::SIGINT, handler);
         libc::signal(libc::SIGTERM, handler);
+        // Hang-up (the terminal closed, or `kill -HUP`): the same smooth
+        // stop. There is no configuration reload: restart to apply one.
+        libc::signal(libc::SIGHUP, handler);
     }
 }
 
@@ -111,6 +121,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         Client::new(&prefix, "anguilla-run-status").context("reading the daemon's state")?;
     let start = Instant::now();
     let mut last_print = Instant::now();
+    // Status lines never touch the loop: a failing stdout only ends them.
+    let mut out = crate::output::Status::default();
     while !running.is_finished() {
         if SIGNALLED.load(Ordering::SeqCst)
             || args
@@ -126,7 +138,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         {
             last_print = Instant::now();
             let truth = sim.as_ref().map(|s| s.truth_line()).unwrap_or_default();
-            println!(
+            out.line(format_args!(
                 "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}",
                 s.time_ns as f64 * 1e-9,
                 mode_name(s.mode),
@@ -140,14 +152,14 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 s.bus.rx_frames,
                 s.bus.malformed,
                 truth,
-            );
+            ));
         }
     }
     let report = running.join()?;
     if let Some(sim) = sim {
         sim.stop();
     }
-    println!(
+    out.line(format_args!(
         "stopped in mode {}: {} periods, {} overruns (latest wake-up {:.0} µs, longest period {:.0} µs), last second's jitter p50/p99/max {:.0}/{:.0}/{:.0} µs, compute p99 {:.0} µs",
         report.final_mode,
         report.periods,
@@ -158,12 +170,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         report.jitter.p99 as f64 / 1e3,
         report.jitter.max as f64 / 1e3,
         report.compute.p99 as f64 / 1e3,
-    );
+    ));
     if report.states_dropped > 0 {
-        println!(
+        out.line(format_args!(
             "the state thread fell behind: {} snapshots were not published (newer ones were)",
             report.states_dropped
-        );
+        ));
     }
     Ok(())
 }
@@ -171,13 +183,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
 pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
     match cmd {
         ConfigCmd::Default => {
-            print!("{}", default_toml());
-            Ok(())
+            out!("{}", default_toml())
         }
         ConfigCmd::Check { file } => {
             let cfg = Config::load(&file)?;
             let period = anguilla_daemon::control::period_ns(&cfg);
-            println!(
+            outln!(
                 "{}: valid; {} joints, control rate {:.1} Hz, bus {}",
                 file.display(),
                 cfg.robot.joints,
@@ -187,8 +198,7 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
                 } else {
                     &cfg.bus.spec
                 }
-            );
-            Ok(())
+            )
         }
     }
 }
@@ -205,13 +215,12 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         .with_context(|| format!("replaying {}", args.dir.display()))?;
     match &report.mismatch {
         None => {
-            println!(
+            outln!(
                 "{}: identical: {} periods, {} frames replayed bit for bit",
                 args.dir.display(),
                 report.periods,
                 report.frames
-            );
-            Ok(())
+            )
         }
         Some((period, what)) => anyhow::bail!(
             "{}: differs at period {period} after {} identical frames: {what}",

@@ -116,14 +116,18 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         None => None,
     };
 
-    // SIGINT and SIGTERM are blocked in every thread and awaited by one.
+    // SIGINT, SIGTERM and SIGHUP are blocked in every thread and awaited
+    // by one: each stops the simulation cleanly.
     let stop = Arc::new(AtomicBool::new(false));
     let mut signals = nix::sys::signal::SigSet::empty();
     signals.add(nix::sys::signal::Signal::SIGINT);
     signals.add(nix::sys::signal::Signal::SIGTERM);
+    signals.add(nix::sys::signal::Signal::SIGHUP);
     signals
         .thread_block()
-        .context("blocking SIGINT/SIGTERM for a clean stop")?;
+        .context("blocking SIGINT/SIGTERM/SIGHUP for a clean stop")?;
+    // Status lines: a failing stdout ends them, never the simulation.
+    let mut out = crate::output::Status::default();
     {
         let stop = stop.clone();
         std::thread::Builder::new()
@@ -150,10 +154,10 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         )
         .context("creating the SLCAN pseudo-terminal")?;
         let path = emu.path().unwrap_or("?").to_owned();
-        println!(
+        out.line(format_args!(
             "slcan device: {path} (open it with slcan:{path}@{})",
             args.bitrate
-        );
+        ));
         _emulator = Some(emu);
         let clock = bus.clock();
         let robot = SimRobot::on_mem(cfg, bus.participant(), clock.now())
@@ -179,13 +183,13 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             .load_scenario(text)
             .with_context(|| format!("in the scenario file {name}"))?;
     }
-    println!(
+    out.line(format_args!(
         "simulated robot: {} joints ({} CAN), nodes 1..={}, on {}; Ctrl-C stops",
         args.joints,
         if args.fd { "FD" } else { "classic" },
         args.joints,
         robot.bus().spec()
-    );
+    ));
 
     let running = robot
         .spawn(clock)
@@ -201,7 +205,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             next_status += Duration::from_secs(1);
             let t = running.truth();
             let s = running.status();
-            println!(
+            out.line(format_args!(
                 "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
                 t.time.as_secs_f64(),
                 t.forward_speed + 0.0, // no "-0.000" at rest
@@ -211,7 +215,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
                 s.stats.frames_out,
                 s.stats.send_errors,
                 s.stats.slipped.as_secs_f64(),
-            );
+            ));
         }
         std::thread::sleep(Duration::from_millis(50));
     }
@@ -219,7 +223,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         .stop()
         .context("the simulation thread stopped unexpectedly")?;
     let s = robot.stats();
-    println!(
+    out.line(format_args!(
         "stopped at t {:.1} s: {} ticks, {} frames in, {} out, {} send errors, {} model errors, {} scenario events, {:.2} s slipped behind real time",
         robot.time().as_secs_f64(),
         s.ticks,
@@ -229,6 +233,6 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.model_errors,
         s.events,
         s.slipped.as_secs_f64()
-    );
+    ));
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `anguilla swim`: runs the swimming model on a gait of the paper and writes
 //! a CSV trace, an SVG plot, a JSON summary or the paper reproduction table.
 
+use crate::output::outln;
 use anguilla_model::gait::{self, NamedGait};
 use anguilla_model::run::{self, Metric, PaperRow, Summary};
 use anguilla_model::{Model, ModelConfig};
@@ -187,43 +188,44 @@ pub fn run(args: &SwimArgs) -> Result<()> {
             "wall_seconds": wall,
             "realtime_factor": summary.duration / wall,
         });
-        println!("{v}");
+        outln!("{v}")?;
     } else {
-        print_summary(&g, &model, &summary, wall);
+        print_summary(&g, &model, &summary, wall)?;
     }
     Ok(())
 }
 
-fn print_summary(g: &NamedGait, model: &Model, s: &Summary, wall: f64) {
-    println!(
+fn print_summary(g: &NamedGait, model: &Model, s: &Summary, wall: f64) -> anyhow::Result<()> {
+    outln!(
         "gait {}: {} s simulated, {} intervals, dt {} s, {} joints",
         g.name,
         s.duration,
         model.intervals(),
         model.dt(),
         model.joints()
-    );
-    println!(
+    )?;
+    outln!(
         "  mean forward speed -V1 (last 5 periods): {:.4} m/s",
         s.mean_forward_speed
-    );
-    println!(
+    )?;
+    outln!(
         "  mean head yaw (last 5 s):                {:.2} deg",
         s.mean_yaw_deg
-    );
-    println!(
+    )?;
+    outln!(
         "  mean roll rate (whole run):              {:.4} rad/s",
         s.mean_roll_rate
-    );
-    println!(
+    )?;
+    outln!(
         "  final V1:                                {:.4} m/s",
         s.final_v1
-    );
-    println!(
+    )?;
+    outln!(
         "  wall time {:.3} s, {:.0} x real time",
         wall,
         s.duration / wall
-    );
+    )?;
+    Ok(())
 }
 
 fn window(r: &PaperRow, g: &NamedGait) -> String {
@@ -275,22 +277,27 @@ fn paper(args: &SwimArgs) -> Result<()> {
                 })
             })
             .collect();
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"nodes": model.intervals(), "dt": model.dt(), "rows": v})
-        );
+        )?;
         return Ok(());
     }
-    println!(
+    outln!(
         "Paper (Boyer et al. 2008, Tables 2, 4, 6, section 7.5) vs ours: {} intervals, dt = {} s, RK4 in space and time",
         model.intervals(),
         model.dt()
-    );
-    println!("difference = (ours - S-M) / |S-M|, for STOP / |V_init| (the paper's Table 6 ratio)");
-    println!(
+    )?;
+    outln!("difference = (ours - S-M) / |S-M|, for STOP / |V_init| (the paper's Table 6 ratio)")?;
+    outln!(
         "{:<7}{:<18}{:>10}{:>10}{:>10}{:>10}  averaging window",
-        "gait", "quantity", "N-S", "S-M", "ours", "vs S-M"
-    );
+        "gait",
+        "quantity",
+        "N-S",
+        "S-M",
+        "ours",
+        "vs S-M"
+    )?;
     for (r, g, ours) in &rows {
         let (q, unit) = match r.metric {
             Metric::ForwardSpeed => ("-V1 (m/s)", ""),
@@ -299,7 +306,7 @@ fn paper(args: &SwimArgs) -> Result<()> {
             Metric::RollRate => ("roll rate (rad/s)", ""),
         };
         let ns = r.ns.map_or("-".to_string(), |v| format!("{v:.3}"));
-        println!(
+        outln!(
             "{:<7}{:<18}{:>10}{:>10.3}{:>10.3}{:>9.1}%  {}{}",
             r.gait,
             q,
@@ -309,7 +316,7 @@ fn paper(args: &SwimArgs) -> Result<()> {
             diff_percent(r, g, *ours),
             window(r, g),
             unit
-        );
+        )?;
     }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! `anguilla teleop`, `anguilla joy` and `anguilla monitor`: terminal and
 //! device plumbing around the `anguilla-teleop` library.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -300,7 +300,6 @@ fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::
     let mut lines = 0u64;
     let mut silent_since = Instant::now();
     let mut warned = false;
-    let stdout = std::io::stdout();
     while !SIGNALLED.load(Ordering::SeqCst) && args.count.is_none_or(|c| lines < c) {
         let Some(s) = interrupted(
             op.wait_state(Duration::from_millis(100))
@@ -326,14 +325,9 @@ fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::
         }
         last_seq = Some(s.sequence);
         last_line = Some(Instant::now());
-        let mut out = stdout.lock();
-        // A closed pipe (`| head`) ends the stream quietly.
-        if writeln!(out, "{}", json::snapshot_json(&s))
-            .and_then(|_| out.flush())
-            .is_err()
-        {
-            return Ok(());
-        }
+        // A closed pipe (`| head`) ends the stream quietly (main sees to
+        // it); any other failure is an error naming stdout.
+        crate::output::write_fmt(format_args!("{}\n", json::snapshot_json(&s)))?;
         lines += 1;
     }
     Ok(())
@@ -365,8 +359,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
         None => JoyMapping::default(),
     };
     if args.print_mapping {
-        print!("{}", mapping.to_toml());
-        return Ok(());
+        return crate::output::write_fmt(format_args!("{}", mapping.to_toml()));
     }
     let op = op.context("connected above")?;
     // After iceoryx2 is set up, so these handlers are the ones in place.

@@ -1,0 +1,61 @@
+//! Standard output for every command: a write that fails is an error that
+//! names standard output, never a panic (`println!` panics). A closed pipe
+//! (`anguilla ... | head`) ends the command quietly: [`closed_pipe`] tells
+//! `main` so. Status lines of long-running commands (`run`, `sim`) go
+//! through [`Status`], which stops printing on the first failure and never
+//! stops the work.
+
+use std::io::Write as _;
+
+/// Writes formatted text to standard output and flushes it.
+pub fn write_fmt(args: std::fmt::Arguments) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_fmt(args)
+        .and_then(|()| out.flush())
+        .map_err(|e| anyhow::Error::new(e).context("writing to standard output"))
+}
+
+/// `print!` that returns an error instead of panicking.
+macro_rules! out {
+    ($($arg:tt)*) => { $crate::output::write_fmt(format_args!($($arg)*)) };
+}
+
+/// `println!` that returns an error instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => { $crate::output::write_fmt(format_args!("{}\n", format_args!($($arg)*))) };
+}
+
+pub(crate) use {out, outln};
+
+/// Whether `e` is standard output's reader having gone away (EPIPE).
+pub fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// The status lines of a long-running command: printed while standard
+/// output takes them; after a failure, none (said once on stderr).
+#[derive(Debug, Default)]
+pub struct Status {
+    failed: bool,
+}
+
+impl Status {
+    /// Prints one status line unless an earlier one failed.
+    pub fn line(&mut self, args: std::fmt::Arguments) {
+        if self.failed {
+            return;
+        }
+        if let Err(e) = write_fmt(format_args!("{args}\n")) {
+            self.failed = true;
+            if !closed_pipe(&e) {
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "warning: {e:#}; no more status lines (the work goes on)"
+                );
+            }
+        }
+    }
+}
