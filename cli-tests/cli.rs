@@ -286,3 +286,33 @@ fn sighup_stops_the_daemon_smoothly() {
         "a clean stop: {rest:?}"
     );
 }
+
+#[test]
+fn numbers_a_user_types_are_bounded_and_named() {
+    for (args, want) in [
+        (
+            &["swim", "--gait", "F1", "--dt", "1e-300"][..],
+            "--dt 1e-300 is out of range (expected 0.00001 ..= 0.05 s)",
+        ),
+        (
+            &["swim", "--gait", "F1", "--duration", "1e300"],
+            "--duration 1e300 is out of range (expected 0 < S <= 3600 s)",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--bitrate", "0"],
+            "--bitrate: nominal bit rate 0 bit/s (expected 10000..=1000000)",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--duration", "1e300"],
+            "--duration 1e300: expected seconds, 0 < S <= 1e6",
+        ),
+    ] {
+        let (ok, _, err) = run(args);
+        assert!(!ok, "{args:?} accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(
+            !err.contains("panicked") && !err.contains("backtrace"),
+            "{err}"
+        );
+    }
+}

@@ -67,7 +67,7 @@ fn main() -> std::process::ExitCode {
         Err(e) if output::closed_pipe(&e) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             use std::io::Write as _;
-            let _ = writeln!(std::io::stderr(), "Error: {e:?}");
+            let _ = writeln!(std::io::stderr(), "Error: {e:#}");
             std::process::ExitCode::FAILURE
         }
     }

@@ -75,10 +75,19 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         bail!("--joints {}: expected 1..=63", args.joints);
     }
     if let Some(d) = args.duration
-        && !(d.is_finite() && d > 0.0)
+        && !(d > 0.0 && d <= 1e6)
     {
-        bail!("--duration {d}: expected a positive number of seconds");
+        bail!(
+            "--duration {}: expected seconds, 0 < S <= 1e6",
+            anguilla_daemon::config::fmt_number(d)
+        );
     }
+    anguilla_protocol::budget::Bitrates {
+        nominal: args.bitrate,
+        data: args.fd.then_some(5_000_000.max(args.bitrate)),
+    }
+    .validate()
+    .map_err(|e| anyhow::anyhow!("--bitrate: {e}"))?;
     if args.bus.is_none() && !args.slcan_pty {
         bail!("give --bus SPEC (e.g. socketcan:vcan0) or --slcan-pty");
     }

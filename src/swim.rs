@@ -2,6 +2,7 @@
 //! a CSV trace, an SVG plot, a JSON summary or the paper reproduction table.
 
 use crate::output::outln;
+use anguilla_daemon::config::fmt_number;
 use anguilla_model::gait::{self, NamedGait};
 use anguilla_model::run::{self, Metric, PaperRow, Summary};
 use anguilla_model::{Model, ModelConfig};
@@ -46,12 +47,21 @@ fn find_gait(name: &str) -> Result<NamedGait> {
         .with_context(|| format!("unknown gait `{name}`; known gaits: {}", gait::gait_names()))
 }
 
+/// Smallest model step `swim` takes (s): below it a run takes hours.
+const MIN_DT: f64 = 1e-5;
+/// Longest simulated run `swim` takes (s).
+const MAX_DURATION: f64 = 3600.0;
+
 fn model(args: &SwimArgs) -> Result<Model> {
     if args.nodes == 0 {
         bail!("--nodes must be a positive integer (got 0)");
     }
-    if !(args.dt.is_finite() && args.dt > 0.0) {
-        bail!("--dt must be finite and > 0 (got {})", args.dt);
+    if !(MIN_DT..=anguilla_model::MAX_DT).contains(&args.dt) {
+        bail!(
+            "--dt {} is out of range (expected {MIN_DT} ..= {} s)",
+            fmt_number(args.dt),
+            anguilla_model::MAX_DT
+        );
     }
     Model::new(ModelConfig {
         nodes: args.nodes,
@@ -69,10 +79,10 @@ pub fn run(args: &SwimArgs) -> Result<()> {
     }
     let name = args.gait.as_deref().unwrap_or_default();
     let g = find_gait(name)?;
-    if !(args.duration.is_finite() && args.duration > 0.0) {
+    if !(args.duration > 0.0 && args.duration <= MAX_DURATION) {
         bail!(
-            "--duration must be finite and > 0 s (got {})",
-            args.duration
+            "--duration {} is out of range (expected 0 < S <= {MAX_DURATION} s)",
+            fmt_number(args.duration)
         );
     }
     let model = model(args)?;

@@ -40,6 +40,10 @@ pub enum ConfigError {
         /// The accepted range.
         expected: &'static str,
     },
+    /// The keys are each in range, but together ask for what the bus or
+    /// the model cannot do; the text names the keys and the figures.
+    #[error("configuration: {0}")]
+    Derived(String),
 }
 
 /// What to do with an actuator fault or a lost heartbeat.
@@ -113,6 +117,7 @@ pub struct GaitConfig {
     /// Wavelength λ of the body wave (m).
     pub wavelength: f64,
     /// Amplitude polynomial f_a(X) = a0 + a1·X + a2·X² at full amplitude (1/m).
+    #[serde(deserialize_with = "three_numbers")]
     pub amplitude_polynomial: [f64; 3],
     /// Largest frequency an operator may ask for (Hz).
     pub max_frequency: f64,
@@ -300,13 +305,95 @@ fn range(
     } else {
         Err(ConfigError::Range {
             key,
-            value: value.to_string(),
+            value: fmt_number(value),
             expected,
         })
     }
 }
 
+/// Exactly three numbers (serde truncates a longer array into `[f64; 3]`
+/// without a word, extra elements of any type included).
+fn three_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "expected exactly three numbers [a0, a1, a2], got {}",
+            v.len()
+        ))
+    })
+}
+
+/// Writes `v` readably: scientific notation when it is huge or tiny.
+pub fn fmt_number(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 impl Config {
+    /// The control rate (Hz): `control.rate-hz`, or with 0 the highest rate
+    /// at which the configured bus carries the robot's traffic within
+    /// `bus.max-load`. Checked by [`Config::validate`]: at least the
+    /// model's slowest step (1 / `MAX_DT`), and within `bus.max-load`.
+    pub fn control_rate(&self) -> Result<f64, ConfigError> {
+        let rates = self.bitrates();
+        let joints = self.robot.joints as u32;
+        let bus_text = || {
+            format!(
+                "{} joints on {} at {} bit/s",
+                self.robot.joints,
+                if self.bus.fd { "CAN FD" } else { "classic CAN" },
+                self.bus.bitrate
+            )
+        };
+        let max = anguilla_protocol::budget::max_rate(joints, rates, self.bus.max_load)
+            .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;
+        let min = 1.0 / anguilla_model::MAX_DT;
+        let rate = if self.control.rate_hz > 0.0 {
+            self.control.rate_hz
+        } else {
+            if max < min {
+                return Err(ConfigError::Derived(format!(
+                    "control.rate-hz = 0 (automatic) finds no rate: {} within bus.max-load = {} \
+                     allow {:.1} Hz, and the model needs at least {min} Hz (a step of at most \
+                     {} s); raise bus.max-load or the bit rate, use CAN FD, or fewer joints",
+                    bus_text(),
+                    self.bus.max_load,
+                    max,
+                    anguilla_model::MAX_DT
+                )));
+            }
+            max
+        };
+        let load = anguilla_protocol::budget::budget(joints, rate, rates)
+            .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?
+            .load;
+        // The automatic rate sits exactly at the limit; allow rounding.
+        if load > self.bus.max_load * (1.0 + 1e-9) {
+            return Err(ConfigError::Derived(format!(
+                "control.rate-hz = {} puts {:.0} % load on the bus ({}), above bus.max-load = {} \
+                 ({:.0} %): at most {:.1} Hz, or 0 for the automatic rate",
+                fmt_number(rate),
+                load * 100.0,
+                bus_text(),
+                self.bus.max_load,
+                self.bus.max_load * 100.0,
+                max
+            )));
+        }
+        Ok(rate)
+    }
+
+    /// The bus's bit rates, as the budget arithmetic takes them.
+    pub fn bitrates(&self) -> anguilla_protocol::budget::Bitrates {
+        anguilla_protocol::budget::Bitrates {
+            nominal: self.bus.bitrate,
+            data: self.bus.fd.then_some(self.bus.data_bitrate),
+        }
+    }
+
     /// Parses and validates TOML text; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
         let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
@@ -366,12 +453,13 @@ impl Config {
         }
         let c = &self.control;
         if c.rate_hz != 0.0 {
+            // The model's step is 1 / rate: at most MAX_DT (0.05 s).
             range(
                 "control.rate-hz",
                 c.rate_hz,
-                10.0,
+                1.0 / anguilla_model::MAX_DT,
                 5000.0,
-                "0 (automatic) or 10 ..= 5000",
+                "0 (automatic) or 20 ..= 5000",
             )?;
         }
         range(
@@ -483,15 +571,13 @@ impl Config {
             "-1 (none) ..= 1023",
         )?;
         let p = &self.ipc.prefix;
-        if p.is_empty()
-            || !p
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '/'))
-        {
+        // The services' names and the E-stop socket's path come from it.
+        if anguilla_ipc::estop::socket_path(p).is_err() {
             return Err(ConfigError::Range {
                 key: "ipc.prefix",
                 value: format!("{p:?}"),
-                expected: "a non-empty name of letters, digits, '-', '_' and '/'",
+                expected: "names of letters, digits, '-' and '_' joined by '/', \
+                           at most 80 characters",
             });
         }
         range(
@@ -501,6 +587,9 @@ impl Config {
             2000.0,
             "5 ..= 2000",
         )?;
+        // What the keys ask for together: a rate the bus and the model can
+        // run (the same check `anguilla run` depends on).
+        self.control_rate()?;
         Ok(())
     }
 }
@@ -533,6 +622,7 @@ pub fn default_toml() -> String {
     w(String::new());
     w("[control]".into());
     w("# Control rate (Hz). 0: the highest rate the bus carries within bus.max-load.".into());
+    w("# Else 20..=5000, and its bus load at most bus.max-load (checked).".into());
     w(format!("rate-hz = {}", fmt_f(d.control.rate_hz)));
     w("# The controlling operator must send a command at least this often (s),".into());
     w("# or the swim stops smoothly. 0.02..=10".into());
@@ -712,6 +802,72 @@ mod tests {
         assert!(e.to_string().contains("bus.max-load"), "{e}");
         let e = Config::from_toml("[ipc]\nprefix = \"a b\"\n", "t").unwrap_err();
         assert!(e.to_string().contains("ipc.prefix"), "{e}");
+    }
+
+    #[test]
+    fn check_and_run_agree_on_the_derived_rate_and_load() {
+        // Each was accepted by `config check`, then refused by `run`, or
+        // ran a bus past saturation (issue 13.3).
+        let err = |t: &str| Config::from_toml(t, "t").unwrap_err().to_string();
+        let e = err("[control]\nrate-hz = 15\n");
+        assert!(
+            e.contains("'control.rate-hz' = 15") && e.contains("20 ..= 5000"),
+            "{e}"
+        );
+        let e = err("[robot]\njoints = 32\n[control]\nrate-hz = 1000\n");
+        assert!(
+            e.contains("control.rate-hz = 1000 puts 875 % load on the bus")
+                && e.contains("bus.max-load = 0.6")
+                && e.contains("at most 64.6 Hz"),
+            "{e}"
+        );
+        let e = err("[robot]\njoints = 32\n[bus]\nmax-load = 0.05\n");
+        assert!(
+            e.contains("finds no rate") && e.contains("at least 20 Hz"),
+            "{e}"
+        );
+        // Every accepted configuration has a rate the model takes.
+        for t in [
+            "",
+            "[robot]\njoints = 32\n",
+            "[bus]\nfd = true\n",
+            "[control]\nrate-hz = 20\n",
+        ] {
+            let c = Config::from_toml(t, "t").unwrap();
+            let rate = c.control_rate().unwrap();
+            assert!(1.0 / rate <= anguilla_model::MAX_DT, "{t}: {rate} Hz");
+        }
+    }
+
+    #[test]
+    fn the_amplitude_polynomial_takes_exactly_three_numbers() {
+        for (t, want) in [
+            (
+                "[1, 2, 3, 4]",
+                "expected exactly three numbers [a0, a1, a2], got 4",
+            ),
+            (
+                "[1, 2]",
+                "expected exactly three numbers [a0, a1, a2], got 2",
+            ),
+            ("[1, 2, 3, \"junk\"]", "invalid type: string \"junk\""),
+        ] {
+            let e = Config::from_toml(&format!("[gait]\namplitude-polynomial = {t}\n"), "t")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(want), "{t}: {e}");
+        }
+        let c = Config::from_toml("[gait]\namplitude-polynomial = [1, 0, 2]\n", "t").unwrap();
+        assert_eq!(c.gait.amplitude_polynomial, [1.0, 0.0, 2.0]);
+    }
+
+    #[test]
+    fn huge_numbers_print_short() {
+        assert_eq!(fmt_number(1e300), "1e300");
+        assert_eq!(fmt_number(1e-300), "1e-300");
+        assert_eq!(fmt_number(176.8), "176.8");
+        let e = Config::from_toml("[gait]\nwavelength = 1e300\n", "t").unwrap_err();
+        assert!(e.to_string().contains("= 1e300 is out of range"), "{e}");
     }
 
     #[test]

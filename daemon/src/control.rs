@@ -135,24 +135,10 @@ fn node_ids(cfg: &Config) -> Result<Vec<NodeId>, SetupError> {
         .collect()
 }
 
-/// The control period (ns) for `cfg`: its `control.rate-hz`, or with 0 the
-/// highest rate at which the configured bus carries the robot's traffic
-/// within `bus.max-load`.
+/// The control period (ns) for `cfg`: 1 / [`Config::control_rate`] (a
+/// validated configuration always has one; 100 Hz otherwise).
 pub fn period_ns(cfg: &Config) -> Nanos {
-    let rate = if cfg.control.rate_hz > 0.0 {
-        cfg.control.rate_hz
-    } else {
-        let rates = anguilla_protocol::budget::Bitrates {
-            nominal: cfg.bus.bitrate,
-            data: if cfg.bus.fd {
-                Some(cfg.bus.data_bitrate)
-            } else {
-                None
-            },
-        };
-        anguilla_protocol::budget::max_rate(cfg.robot.joints as u32, rates, cfg.bus.max_load)
-            .unwrap_or(100.0)
-    };
+    let rate = cfg.control_rate().unwrap_or(100.0);
     (1e9 / rate).ceil() as Nanos
 }
 

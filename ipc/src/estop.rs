@@ -33,11 +33,12 @@ pub fn socket_path(prefix: &str) -> Result<PathBuf, IpcError> {
     if !valid_prefix(prefix) || prefix.split('/').any(|p| p.is_empty() || p == "..") {
         return Err(IpcError::BadPrefix(prefix.to_string()));
     }
-    let p = Path::new(ROOT).join(prefix).join("estop");
-    // sun_path holds 108 bytes with its terminating NUL.
-    if p.as_os_str().len() > 107 {
+    // sun_path holds 108 bytes with its terminating NUL: a prefix of at
+    // most 80 characters always fits.
+    if prefix.len() > 80 {
         return Err(IpcError::BadPrefix(prefix.to_string()));
     }
+    let p = Path::new(ROOT).join(prefix).join("estop");
     Ok(p)
 }
 
