@@ -133,6 +133,9 @@ pub struct RunReport {
 /// A running daemon loop.
 pub struct Running {
     stop: Arc<AtomicBool>,
+    /// Ends the E-stop thread and the reaper, once the loop has ended: a
+    /// swim being stopped at shutdown can still be E-stopped.
+    helpers_stop: Arc<AtomicBool>,
     loop_thread: JoinHandle<Result<RunReport, RunError>>,
     helpers: Vec<JoinHandle<()>>,
 }
@@ -155,6 +158,7 @@ impl Running {
             .join()
             .unwrap_or_else(|_| panic!("the control loop thread panicked"));
         self.stop.store(true, Ordering::SeqCst);
+        self.helpers_stop.store(true, Ordering::SeqCst);
         for h in self.helpers {
             let _ = h.join();
         }
@@ -239,7 +243,8 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             return Err(e.into());
         }
     }
-    let (sock_estops, estop_stop) = (estops.clone(), stop.clone());
+    let helpers_stop = Arc::new(AtomicBool::new(false));
+    let (sock_estops, estop_stop) = (estops.clone(), helpers_stop.clone());
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-estop".into())
@@ -257,7 +262,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             .spawn(move || logger(ev_rx))
             .map_err(|e| RunError::Thread("logger", e))?,
     );
-    let reaper_stop = stop.clone();
+    let reaper_stop = helpers_stop.clone();
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-reaper".into())
@@ -310,11 +315,13 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     match ready_rx.recv() {
         Ok(()) => Ok(Running {
             stop,
+            helpers_stop,
             loop_thread,
             helpers,
         }),
         Err(_) => {
             stop.store(true, Ordering::SeqCst);
+            helpers_stop.store(true, Ordering::SeqCst);
             let r = loop_thread
                 .join()
                 .unwrap_or_else(|_| panic!("the control loop thread panicked"));
@@ -564,10 +571,15 @@ fn command_thread(
     let mut last_round_empty = false;
     loop {
         // Serve until the loop has gone (it still answers while it stops a
-        // swim at shutdown). Nothing is awaited here, so a reply found is a
-        // late one to an abandoned batch.
-        if let Err(TryRecvError::Disconnected) = from_loop.try_recv() {
-            return;
+        // swim at shutdown). Nothing is awaited here, so replies found are
+        // late ones to an abandoned batch: drop them all, or they would
+        // crowd out the next batch's.
+        loop {
+            match from_loop.try_recv() {
+                Ok(_) => continue,
+                Err(TryRecvError::Disconnected) => return,
+                Err(TryRecvError::Empty) => break,
+            }
         }
         // Bounded wake-ups: after a round that found nothing, a flood of
         // notifications costs one round per COMMAND_ROUND_MIN, each draining

@@ -207,13 +207,20 @@ impl Client {
 
     /// Waits up to `timeout` for the daemon to announce new state, then
     /// returns the newest one (`None` on timeout).
+    /// A zero `timeout` does not wait (iceoryx2 would take it as "no
+    /// timeout"); a wait a signal interrupts ends early, without error.
     pub fn wait_state(&self, timeout: Duration) -> Result<Option<StateSnapshot>, IpcError> {
         if let Some(s) = self.latest()? {
             return Ok(Some(s));
         }
-        self.listener
-            .timed_wait(|_| {}, timeout)
-            .map_err(ice("wait for state"))?;
+        if timeout.is_zero() {
+            return Ok(None);
+        }
+        match self.listener.timed_wait(|_| {}, timeout) {
+            Ok(_) => {}
+            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => return Ok(None),
+            Err(e) => return Err(ice("wait for state")(e)),
+        }
         self.latest()
     }
 }

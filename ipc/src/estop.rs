@@ -9,8 +9,9 @@
 //! slot per sender; a flood of datagrams is a flood of E-stops, which only
 //! keeps the robot stopped. The socket is mode 0660: only the daemon's user
 //! and group may send. `/tmp/anguilla` is shared like `/tmp` (mode 1777);
-//! a program that creates a prefix's directory or socket first keeps the
-//! daemon from starting (it says so), never from being stopped.
+//! a prefix's directories belong to its daemon's user, writable by it
+//! alone. A directory another user created first (or a symlink) keeps the
+//! daemon from starting, naming it, never from being stopped.
 //!
 //! ```no_run
 //! // What `anguilla ctl estop` does first.
@@ -101,27 +102,81 @@ pub fn send(prefix: &str) -> Result<(), EStopError> {
 pub struct EStopListener {
     sock: UnixDatagram,
     path: PathBuf,
+    /// The socket file's (device, inode): only ours is removed on drop.
+    file: (u64, u64),
+}
+
+/// Why a directory on the way to the socket cannot be trusted, if so: the
+/// root must be root's or ours, sticky when others may write it; every
+/// directory below it ours and writable by us alone; none a symlink.
+/// Otherwise another user could replace the socket with one of their own.
+fn untrusted(dir: &Path, uid: u32) -> Option<String> {
+    use std::os::unix::fs::MetadataExt as _;
+    let m = match std::fs::symlink_metadata(dir) {
+        Ok(m) => m,
+        Err(e) => return Some(format!("{}: {e}", dir.display())),
+    };
+    let mode = m.mode();
+    if !m.file_type().is_dir() {
+        return Some(format!("{} is not a directory (a symlink?)", dir.display()));
+    }
+    if dir == Path::new(ROOT) {
+        if m.uid() != 0 && m.uid() != uid {
+            return Some(format!(
+                "{ROOT} belongs to uid {} (expected root or this daemon's uid {uid}): remove it",
+                m.uid()
+            ));
+        }
+        if mode & 0o022 != 0 && mode & 0o1000 == 0 {
+            return Some(format!(
+                "{ROOT} is writable by others without the sticky bit"
+            ));
+        }
+    } else if m.uid() != uid || mode & 0o022 != 0 {
+        return Some(format!(
+            "{} belongs to uid {} with mode {:o} (expected this daemon's uid {uid}, writable by it \
+             alone): another user may have created it; remove it",
+            dir.display(),
+            m.uid(),
+            mode & 0o7777
+        ));
+    }
+    None
 }
 
 impl EStopListener {
     /// Binds the E-stop socket of `prefix`. A socket file left by a dead
     /// daemon (nobody receives on it) is replaced; one a live process
     /// receives on is not, and the daemon refuses to start
-    /// ([`IpcError::Squatted`]).
+    /// ([`IpcError::EStopSocketInUse`]). Directories another user could
+    /// tamper with are refused too.
     pub fn bind(prefix: &str) -> Result<Self, IpcError> {
+        use std::os::unix::fs::MetadataExt as _;
         let path = socket_path(prefix)?;
         let shown = path.display().to_string();
         let io_err =
             |what: &str, e: io::Error| IpcError::EStopSocket(format!("{what} {shown}: {e}"));
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| io_err("creating the directory of", e))?;
-            // The root is shared by the daemons of every user, like /tmp
-            // (sticky, world-writable); a prefix's directories are its
-            // daemon's, searchable by all (the socket's mode decides who
-            // sends). Best effort: another user's directory stays as it is.
-            for d in dir.ancestors().take_while(|d| d.starts_with(ROOT)) {
-                let mode = if d == Path::new(ROOT) { 0o1777 } else { 0o755 };
-                let _ = std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode));
+        // SAFETY: geteuid has no preconditions.
+        let uid = unsafe { libc::geteuid() };
+        let dir = path.parent().unwrap_or(Path::new(ROOT));
+        // The root is shared by the daemons of every user, like /tmp (sticky,
+        // world-writable); a prefix's directories are its daemon's,
+        // searchable by all (the socket's mode decides who sends).
+        let mut dirs: Vec<&Path> = dir
+            .ancestors()
+            .take_while(|d| d.starts_with(ROOT))
+            .collect();
+        dirs.reverse();
+        for d in dirs {
+            let mode = if d == Path::new(ROOT) { 0o1777 } else { 0o755 };
+            match std::fs::create_dir(d) {
+                Ok(()) => std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode))
+                    .map_err(|e| io_err("setting the mode of a directory of", e))?,
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {}
+                Err(e) => return Err(io_err("creating the directory of", e)),
+            }
+            if let Some(why) = untrusted(d, uid) {
+                return Err(IpcError::EStopSocket(why));
             }
         }
         let sock = match UnixDatagram::bind(&path) {
@@ -140,7 +195,14 @@ impl EStopListener {
         };
         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o660))
             .map_err(|e| io_err("setting the mode of", e))?;
-        Ok(Self { sock, path })
+        let m = std::fs::symlink_metadata(&path).map_err(|e| io_err("reading", e))?;
+        sock.set_nonblocking(true)
+            .map_err(|e| io_err("configuring", e))?;
+        Ok(Self {
+            sock,
+            path,
+            file: (m.dev(), m.ino()),
+        })
     }
 
     /// The socket's path.
@@ -149,40 +211,49 @@ impl EStopListener {
     }
 
     /// Waits up to `timeout` for datagrams; returns how many arrived (each
-    /// one an E-stop), having drained them all (at most `max` per call, so
-    /// a flood costs bounded work per wake-up).
+    /// one an E-stop), having drained them (at most `max` per call, so a
+    /// flood costs bounded work per wake-up). A wait a signal interrupts
+    /// returns what it has.
     pub fn wait(&self, timeout: Duration, max: usize) -> io::Result<usize> {
-        let mut buf = [0u8; 64];
-        self.sock
-            .set_read_timeout(Some(timeout.max(Duration::from_micros(1))))?;
-        let mut n = 0;
-        match self.sock.recv(&mut buf) {
-            Ok(_) => n += 1,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                return Ok(0);
-            }
-            Err(e) => return Err(e),
+        use std::os::fd::AsRawFd as _;
+        let mut pfd = libc::pollfd {
+            fd: self.sock.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        let ms = timeout.as_millis().min(i32::MAX as u128) as i32;
+        // SAFETY: one valid pollfd for the duration of the call.
+        let r = unsafe { libc::poll(&mut pfd, 1, ms) };
+        if r < 0 {
+            let e = io::Error::last_os_error();
+            return if e.kind() == io::ErrorKind::Interrupted {
+                Ok(0)
+            } else {
+                Err(e)
+            };
         }
-        self.sock.set_nonblocking(true)?;
+        let mut buf = [0u8; 64];
+        let mut n = 0;
+        // The socket is non-blocking: drain what is there.
         while n < max {
             match self.sock.recv(&mut buf) {
                 Ok(_) => n += 1,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(_) => break,
             }
         }
-        self.sock.set_nonblocking(false)?;
         Ok(n)
     }
 }
 
 impl Drop for EStopListener {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
+        use std::os::unix::fs::MetadataExt as _;
+        // Only our own socket file: another daemon may have replaced a
+        // stale one at this path since.
+        if std::fs::symlink_metadata(&self.path).is_ok_and(|m| (m.dev(), m.ino()) == self.file) {
+            let _ = std::fs::remove_file(&self.path);
+        }
     }
 }
 
@@ -210,6 +281,37 @@ mod tests {
         let l2 = EStopListener::bind(&p2).unwrap();
         send(&p2).unwrap();
         assert_eq!(l2.wait(Duration::from_secs(2), 16).unwrap(), 1);
+    }
+
+    #[test]
+    fn a_directory_others_could_write_or_a_symlink_is_refused() {
+        // Someone made the prefix's directory first, writable by all: they
+        // could swap the socket for their own.
+        let prefix = format!("anguilla-test/estop-open-{}", std::process::id());
+        let dir = socket_path(&prefix)
+            .unwrap()
+            .parent()
+            .unwrap()
+            .to_path_buf();
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777)).unwrap();
+        let e = EStopListener::bind(&prefix).unwrap_err().to_string();
+        assert!(
+            e.contains("writable by it alone") && e.contains("remove it"),
+            "{e}"
+        );
+        // A symlink in its place.
+        std::fs::remove_dir(&dir).unwrap();
+        std::os::unix::fs::symlink("/tmp", &dir).unwrap();
+        let e = EStopListener::bind(&prefix).unwrap_err().to_string();
+        assert!(e.contains("is not a directory"), "{e}");
+        std::fs::remove_file(&dir).unwrap();
+        // Cleaned up, the daemon binds, and dropping it removes its socket.
+        let l = EStopListener::bind(&prefix).unwrap();
+        let path = l.path().to_path_buf();
+        drop(l);
+        assert!(!path.exists());
     }
 
     #[test]

@@ -104,8 +104,12 @@ pub(crate) enum Role {
 
 /// Creates (daemon) or opens (tool) a service with `build`, which applies
 /// the service's settings to a fresh builder and then `create`s or `open`s.
-/// A daemon that finds the service existing opens it, and `live_holders`
-/// names the live processes publishing on or serving it (then it refuses).
+/// A daemon that finds the service existing opens it; `mismatch` says how
+/// its settings differ from ours (iceoryx2 opens a service whose capacities
+/// are at least those asked for: a second publisher's or server's room
+/// would let a program in beside the daemon), and `live_holders` names the
+/// live processes publishing on or serving it. Either refuses.
+#[allow(clippy::too_many_arguments)]
 fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
     role: Role,
     prefix: &str,
@@ -113,6 +117,7 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
     pattern: MessagingPattern,
     create: impl Fn() -> Result<F, E1>,
     open: impl Fn() -> Result<F, E2>,
+    mismatch: impl Fn(&F) -> Option<String>,
     live_holders: impl Fn(&F) -> Vec<i32>,
 ) -> Result<F, IpcError> {
     let full = format!("{prefix}/{leaf}");
@@ -128,7 +133,7 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
             };
             // It exists: a dead daemon's service that a tool still holds
             // open (reuse it), or a live process's (refuse).
-            let f = open().map_err(|e| {
+            let other_settings = |what: String| {
                 let pids = attached_pids(&full, pattern);
                 let who = if pids.is_empty() {
                     "a program".to_string()
@@ -139,10 +144,16 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
                         .join(", ")
                 };
                 IpcError::Iceoryx(format!(
-                    "service '{full}' could be neither created ({create_err:?}) nor opened ({e:?}): \
-                     {who} created it with other settings; stop it, or use another [ipc] prefix"
+                    "service '{full}' exists with other settings than the daemon's ({what}): \
+                     {who} created it; stop it, or use another [ipc] prefix"
                 ))
+            };
+            let f = open().map_err(|e| {
+                other_settings(format!("not created: {create_err:?}; not opened: {e:?}"))
             })?;
+            if let Some(what) = mismatch(&f) {
+                return Err(other_settings(what));
+            }
             let me = std::process::id() as i32;
             let holders: Vec<i32> = live_holders(&f)
                 .into_iter()
@@ -162,6 +173,16 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
             }
         }
     }
+}
+
+/// The settings that are not the daemon's, named, if any.
+fn differs(settings: &[(&str, usize, usize)]) -> Option<String> {
+    let off: Vec<String> = settings
+        .iter()
+        .filter(|(_, got, want)| got != want)
+        .map(|(name, got, want)| format!("{name} {got}, expected {want}"))
+        .collect();
+    (!off.is_empty()).then(|| off.join(", "))
 }
 
 fn pid_alive(pid: i32) -> bool {
@@ -231,6 +252,15 @@ pub(crate) fn state_service(
         || builder().create(),
         || builder().open(),
         |f: &StateService| {
+            let c = f.static_config();
+            differs(&[
+                ("max publishers", c.max_publishers(), 1),
+                ("max subscribers", c.max_subscribers(), MAX_TOOLS),
+                ("max nodes", c.max_nodes(), MAX_NODES),
+                ("history", c.history_size(), 1),
+            ])
+        },
+        |f: &StateService| {
             let mut pids = Vec::new();
             f.dynamic_config().list_publishers(|d| {
                 pids.extend(node_pid(&d.node_id));
@@ -263,6 +293,19 @@ pub(crate) fn command_service(
         MessagingPattern::RequestResponse,
         || builder().create(),
         || builder().open(),
+        |f: &CommandService| {
+            let c = f.static_config();
+            differs(&[
+                ("max servers", c.max_servers(), 1),
+                ("max clients", c.max_clients(), MAX_TOOLS),
+                ("max nodes", c.max_nodes(), MAX_NODES),
+                (
+                    "max active requests per client",
+                    c.max_active_requests_per_client(),
+                    MAX_REQUESTS_PER_CLIENT,
+                ),
+            ])
+        },
         |f: &CommandService| {
             let mut pids = Vec::new();
             f.dynamic_config().list_servers(|d| {
@@ -299,6 +342,19 @@ pub(crate) fn event_service(
         MessagingPattern::Event,
         || builder().create(),
         || builder().open(),
+        |f: &EventFactory<ipc::Service>| {
+            let c = f.static_config();
+            let (notifiers, listeners) = if daemon_listens {
+                (MAX_TOOLS, 1)
+            } else {
+                (1, MAX_TOOLS)
+            };
+            differs(&[
+                ("max notifiers", c.max_notifiers(), notifiers),
+                ("max listeners", c.max_listeners(), listeners),
+                ("max nodes", c.max_nodes(), MAX_NODES),
+            ])
+        },
         |f: &EventFactory<ipc::Service>| {
             let mut pids = Vec::new();
             if daemon_listens {

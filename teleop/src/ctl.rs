@@ -112,7 +112,14 @@ pub fn estop(prefix: &str) -> Result<EStopReport, CtlError> {
         }
         Err(e) => report.notes.push(format!("operator interface: {e}")),
     }
-    if report.socket || report.command {
+    if report.confirmed == Some(false) {
+        // It went out, yet the daemon whose state is read does not show it.
+        Err(CtlError::Refused(format!(
+            "the e-stop was sent ({}) but the daemon at prefix '{prefix}' does not report \
+             e-stop after {REPLY_TIMEOUT:?}",
+            report.notes.join("; ")
+        )))
+    } else if report.socket || report.command {
         Ok(report)
     } else {
         Err(CtlError::NoDaemon(format!(

@@ -418,6 +418,33 @@ fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
         drop(squatter);
     }
     {
+        // Room for a second publisher, held with no port: the daemon would
+        // open it (iceoryx2 opens a service with at least the capacities
+        // asked for) and the program publish beside it later.
+        use iceoryx2::prelude::*;
+        let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
+        let name = ServiceName::new(&format!("{prefix}/state")).unwrap();
+        let _svc = node
+            .service_builder(&name)
+            .publish_subscribe::<anguilla_ipc::StateSnapshot>()
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .enable_safe_overflow(true)
+            .max_subscribers(anguilla_ipc::MAX_TOOLS)
+            .max_publishers(2)
+            .max_nodes(anguilla_ipc::MAX_NODES)
+            .create()
+            .unwrap();
+        let out = run_for_a_second();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "the daemon shared its state service");
+        assert!(
+            err.contains("max publishers 2, expected 1")
+                && err.contains(&format!("pid {}", std::process::id())),
+            "{err}"
+        );
+    }
+    {
         // A careless tool: open_or_create with iceoryx2's default settings,
         // before the daemon. It publishes nothing, but the settings differ.
         use iceoryx2::prelude::*;
@@ -454,4 +481,41 @@ fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
         String::from_utf8_lossy(&out.stderr)
     );
     drop(c);
+}
+
+#[test]
+fn an_estop_while_shutdown_stops_a_swim_still_goes_through() {
+    let _dog = Watchdog::new("e-stop at shutdown", Duration::from_secs(120));
+    let (prefix, config) = setup("shutdown-estop");
+    let bin = anguilla_bin();
+    let mut d = Killed(
+        Proc::new(&bin)
+            .args(["run", "--config"])
+            .arg(&config)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let mut a = connect(&prefix, "operator");
+    enabled(&mut a);
+    ok(
+        &mut a,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            ..SWIM
+        }),
+    );
+    wait_for(&mut a, "swimming", 10.0, |s| s.mode == Mode::Swimming as u8);
+    std::thread::sleep(Duration::from_millis(500));
+    // SIGTERM starts the smooth stop (up to 3 s); the E-stop socket must
+    // stay open until the loop has ended.
+    unsafe { libc::kill(d.0.id() as i32, libc::SIGTERM) };
+    std::thread::sleep(Duration::from_millis(100));
+    anguilla_ipc::estop::send(&prefix).expect("the e-stop socket is open during the stop");
+    let status = d.0.wait().unwrap();
+    let mut out = String::new();
+    d.0.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    assert!(status.success(), "{out}");
+    assert!(out.contains("stopped in mode e-stop"), "{out}");
 }
