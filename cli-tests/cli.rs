@@ -316,3 +316,14 @@ fn numbers_a_user_types_are_bounded_and_named() {
         );
     }
 }
+
+#[test]
+fn bare_anguilla_is_a_usage_error_with_the_help() {
+    let o = anguilla().output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("Usage: anguilla") && err.contains("ctl"),
+        "{err}"
+    );
+}

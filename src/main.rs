@@ -17,7 +17,8 @@ mod swim;
 
 /// Software for eel-like swimming robots.
 #[derive(Parser, Debug)]
-#[command(name = "anguilla", version, about, long_about = None)]
+// Without a subcommand: the help on stderr, exit status 2 (a usage error).
+#[command(name = "anguilla", version, about, long_about = None, arg_required_else_help = true)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,

@@ -1,0 +1,122 @@
+//! `anguilla ctl` against `anguilla run` (the built-in simulated robot):
+//! each call one session that waits for the outcome and releases control;
+//! exit status 0 done, 1 refused, 2 no daemon.
+
+use std::process::{Command as Proc, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use anguilla_system_tests::Watchdog;
+use anguilla_system_tests::process::{Killed, anguilla_bin};
+
+fn ctl(prefix: &str, args: &[&str]) -> Output {
+    Proc::new(anguilla_bin())
+        .args(["ctl", "--prefix", prefix])
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "status {:?}; stdout {}; stderr {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+#[test]
+fn ctl_drives_a_session_and_says_how_it_ended() {
+    let _dog = Watchdog::new("ctl", Duration::from_secs(180));
+    let prefix = format!("anguilla-ctl/session-{}", std::process::id());
+    let config = std::env::temp_dir().join(format!("anguilla-ctl-{}.toml", std::process::id()));
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    let _d = Killed(
+        Proc::new(anguilla_bin())
+            .args(["run", "--quiet", "--config"])
+            .arg(&config)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let end = Instant::now() + Duration::from_secs(20);
+    while ctl(&prefix, &["status"]).status.code() != Some(0) {
+        assert!(Instant::now() < end, "the daemon never came up");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // A refusal: exit 1 with the daemon's reason.
+    let o = ctl(&prefix, &["reset"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("nothing to reset"), "{}", text(&o));
+    // Enable waits for ready; swim for a second stops and waits for ready.
+    let o = ctl(&prefix, &["enable"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("done: ready"), "{}", text(&o));
+    let o = ctl(
+        &prefix,
+        &[
+            "swim",
+            "--amplitude",
+            "0.5",
+            "--frequency",
+            "1",
+            "--for",
+            "1",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("done: ready"), "{}", text(&o));
+    // Control was released after each call.
+    let o = ctl(&prefix, &["status", "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("\"holder\":null"), "{}", text(&o));
+    // A swim without --for ends at Ctrl-C: stopped, ready, exit 0.
+    let mut swim = Proc::new(anguilla_bin())
+        .args([
+            "ctl",
+            "--prefix",
+            &prefix,
+            "swim",
+            "--amplitude",
+            "0.5",
+            "--frequency",
+            "1",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        let o = ctl(&prefix, &["status", "--json"]);
+        if text(&o).contains("\"mode_name\":\"swimming\"") {
+            break;
+        }
+        assert!(Instant::now() < end, "the swim never started: {}", text(&o));
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    unsafe { libc::kill(swim.id() as i32, libc::SIGINT) };
+    let end = Instant::now() + Duration::from_secs(30);
+    while swim.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < end, "ctl swim ignored Ctrl-C");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let o = swim.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("done: ready"), "{}", text(&o));
+    // E-stop, then a command refused in e-stop, then reset.
+    let o = ctl(&prefix, &["estop"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("the daemon reports e-stop"),
+        "{}",
+        text(&o)
+    );
+    let o = ctl(&prefix, &["enable"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("reset first"), "{}", text(&o));
+    let o = ctl(&prefix, &["reset"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("done: idle"), "{}", text(&o));
+}
