@@ -327,3 +327,51 @@ fn bare_anguilla_is_a_usage_error_with_the_help() {
         "{err}"
     );
 }
+
+#[test]
+fn replay_tells_a_cut_recording_from_a_different_one() {
+    let base = std::env::temp_dir().join(format!("anguilla-cli-rec-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let cfg = base.with_extension("toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/rec-{}\"\n[recording]\ndir = {:?}\n",
+            std::process::id(),
+            base.display().to_string()
+        ),
+    )
+    .unwrap();
+    let (ok, _, err) = run(&[
+        "run",
+        "--quiet",
+        "--duration",
+        "1",
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let session = std::fs::read_dir(&base)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let (ok, out, err) = run(&["replay", session.to_str().unwrap()]);
+    assert!(ok && out.contains("identical"), "{out} {err}");
+    // Cut as a SIGKILL or a full disk would leave it.
+    let log = session.join("session.log");
+    let text = std::fs::read_to_string(&log).unwrap();
+    std::fs::write(&log, &text[..text.len() / 2]).unwrap();
+    let o = anguilla()
+        .args(["replay", session.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(3), "{out}");
+    assert!(
+        out.contains("truncated at line") && out.contains("match bit for bit"),
+        "{out}"
+    );
+    let _ = std::fs::remove_dir_all(&base);
+}

@@ -203,8 +203,16 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
     }
 }
 
+/// `anguilla replay`'s exit status for a recording that is cut short but
+/// matches as far as it goes.
+pub const REPLAY_TRUNCATED: i32 = 3;
+
 /// Arguments of `anguilla replay`.
 #[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Exit status: 0 identical, 1 a difference (or an unreadable recording), \
+    3 a recording cut short (no end line) whose periods all match."
+)]
 pub struct ReplayArgs {
     /// A session directory written by `anguilla run` with `recording.dir` set.
     dir: PathBuf,
@@ -213,16 +221,27 @@ pub struct ReplayArgs {
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let report = anguilla_daemon::record::replay(&args.dir)
         .with_context(|| format!("replaying {}", args.dir.display()))?;
-    match &report.mismatch {
-        None => {
+    match (&report.mismatch, report.truncated_at) {
+        (None, None) => outln!(
+            "{}: identical: {} periods, {} frames replayed bit for bit",
+            args.dir.display(),
+            report.periods,
+            report.frames
+        ),
+        (None, Some(line)) => {
             outln!(
-                "{}: identical: {} periods, {} frames replayed bit for bit",
+                "{}: truncated at line {line} (period {}): the {} periods before it match bit \
+                 for bit ({} frames); the recording has no end (the daemon was killed, or the \
+                 disk filled)",
                 args.dir.display(),
+                report.periods + 1,
                 report.periods,
                 report.frames
-            )
+            )?;
+            // Distinct from a mismatch (1): what there is matches.
+            std::process::exit(REPLAY_TRUNCATED)
         }
-        Some((period, what)) => anyhow::bail!(
+        (Some((period, what)), _) => anyhow::bail!(
             "{}: differs at period {period} after {} identical frames: {what}",
             args.dir.display(),
             report.frames

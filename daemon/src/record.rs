@@ -38,7 +38,7 @@
 //! with the recorded ones.
 
 use std::fmt::Write as _;
-use std::io::{BufRead, BufWriter, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use anguilla_drivers::{Bus, BusCounters, BusState, Capabilities, Received, TimestampBase};
@@ -246,6 +246,10 @@ pub struct ReplayReport {
     pub frames: usize,
     /// The first difference, if any: (period index, what differed).
     pub mismatch: Option<(usize, String)>,
+    /// When the recording has no end (the daemon was killed, the disk
+    /// filled): the line it stops at. Its last period may be incomplete,
+    /// so it is not compared; every period before it was.
+    pub truncated_at: Option<usize>,
 }
 
 impl ReplayReport {
@@ -313,9 +317,16 @@ impl Bus for ReplayBus {
 struct Session {
     start: Nanos,
     periods: Vec<PeriodIn>,
+    /// Records after the last period (a shutdown request).
+    trailing: Vec<Record>,
     /// Frames sent at shutdown, if the session ended with `E`.
     end: Option<Vec<(Frame, bool)>>,
+    /// Without `E`: the number of the last line read (the recording was cut).
+    cut_at: Option<usize>,
 }
+
+/// Longest `session.log` line read (the longest written is about 300 bytes).
+pub const MAX_LINE: usize = 4096;
 
 fn parse_session(path: &Path) -> Result<Session, ReplayError> {
     let p = path.display().to_string();
@@ -332,12 +343,32 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
     let mut periods: Vec<PeriodIn> = Vec::new();
     let mut pending: Vec<Record> = Vec::new();
     let mut end: Option<Vec<(Frame, bool)>> = None;
-    for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
-        let n = i + 1;
-        let line = line.map_err(|source| ReplayError::Read {
-            path: p.clone(),
-            source,
-        })?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut buf = Vec::with_capacity(256);
+    let mut n = 0;
+    loop {
+        use std::io::{BufRead as _, Read as _};
+        buf.clear();
+        let got = (&mut reader)
+            .take(MAX_LINE as u64 + 1)
+            .read_until(b'\n', &mut buf)
+            .map_err(|source| ReplayError::Read {
+                path: p.clone(),
+                source,
+            })?;
+        if got == 0 {
+            break;
+        }
+        n += 1;
+        if buf.last() != Some(&b'\n') {
+            if buf.len() > MAX_LINE {
+                return Err(err(n, format!("a line longer than {MAX_LINE} bytes")));
+            }
+            // The last line, cut short: the recording ends before it.
+            n -= 1;
+            break;
+        }
+        let line = std::str::from_utf8(&buf).map_err(|_| err(n, "not UTF-8 text".into()))?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
@@ -450,19 +481,29 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
         }
     }
     let start = start.ok_or_else(|| err(0, "no 'start' line".into()))?;
-    // Shutdown requests after the last period belong to the end.
-    if !pending.is_empty() {
-        periods.push(PeriodIn {
-            now: u64::MAX,
-            before: pending,
-            ..Default::default()
-        });
-    }
+    let cut_at = end.is_none().then_some(n);
     Ok(Session {
         start,
         periods,
+        // Shutdown requests after the last period belong to the end.
+        trailing: pending,
         end,
+        cut_at,
     })
+}
+
+/// Feeds one recorded input to the controller.
+fn apply(ctl: &mut Controller, r: &Record) {
+    match *r {
+        Record::Command(t, env) => {
+            ctl.command(t, &env);
+        }
+        Record::Dead(t, id) => {
+            ctl.node_died(t, id);
+        }
+        Record::Shutdown(t) => ctl.begin_shutdown(t),
+        _ => {}
+    }
 }
 
 /// Replays the recording in `dir` and compares every frame sent.
@@ -471,9 +512,15 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
     let cfg = Config::load(&cfg_path)?;
     let Session {
         start,
-        periods,
+        mut periods,
+        trailing,
         end,
+        cut_at,
     } = parse_session(&dir.join("session.log"))?;
+    // A cut recording's last period may have lost frames: not compared.
+    if cut_at.is_some() {
+        periods.pop();
+    }
     let mut ctl = Controller::new(&cfg, start)?;
     let mut bus = ReplayBus {
         rx: Default::default(),
@@ -485,6 +532,7 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         periods: 0,
         frames: 0,
         mismatch: None,
+        truncated_at: cut_at,
     };
     let compare =
         |k: usize, expected: &[(Frame, bool)], got: &[(Frame, bool)], report: &mut ReplayReport| {
@@ -513,19 +561,7 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         };
     for (k, p) in periods.iter().enumerate() {
         for r in &p.before {
-            match *r {
-                Record::Command(t, env) => {
-                    ctl.command(t, &env);
-                }
-                Record::Dead(t, id) => {
-                    ctl.node_died(t, id);
-                }
-                Record::Shutdown(t) => ctl.begin_shutdown(t),
-                _ => {}
-            }
-        }
-        if p.now == u64::MAX {
-            break;
+            apply(&mut ctl, r);
         }
         bus.rx = p.rx.iter().copied().collect();
         bus.expected.clone_from(&p.tx);
@@ -541,6 +577,9 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         if report.mismatch.is_some() {
             return Ok(report);
         }
+    }
+    for r in &trailing {
+        apply(&mut ctl, r);
     }
     if let Some(end) = end {
         bus.expected.clone_from(&end);

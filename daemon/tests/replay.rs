@@ -63,6 +63,8 @@ fn record_session_with(name: &str, refusals: bool) -> std::path::PathBuf {
     }
     r.command(2, Command::EStop);
     r.run_for(0.2);
+    // A clean end, as the daemon's shutdown writes it (the `E` line).
+    r.ctl.disable_all(&mut r.host);
     st_tx.send(*r.ctl.snapshot()).unwrap();
     drop(st_tx);
     assert_eq!(r.ctl.tap_dropped(), 0);
@@ -146,6 +148,55 @@ fn a_tampered_recording_is_a_mismatch_or_an_error_naming_the_line() {
         Err(ReplayError::Line { line, what, .. }) => {
             assert_eq!(line, line_no);
             assert!(what.contains("unknown line tag 'Q'"), "{what}");
+        }
+        other => panic!("expected a line error, got {other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_cut_recording_is_truncated_not_different() {
+    let dir = record_session("replay-cut");
+    let path = dir.join("session.log");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let full = record::replay(&dir).unwrap();
+    assert!(full.identical() && full.truncated_at.is_none());
+    // Killed mid-session: cut in the middle of a line two thirds in.
+    let cut = text.len() * 2 / 3;
+    std::fs::write(&path, &text[..cut]).unwrap();
+    let r = record::replay(&dir).unwrap();
+    assert!(r.identical(), "{:?}", r.mismatch);
+    let whole_lines = text[..cut].matches('\n').count();
+    assert_eq!(r.truncated_at, Some(whole_lines));
+    assert!(
+        r.periods > 10 && r.periods < full.periods,
+        "{} of {}",
+        r.periods,
+        full.periods
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_period_at_the_end_of_time_and_an_endless_line_are_not_taken_for_an_end() {
+    let dir = record_session("replay-sentinel");
+    let path = dir.join("session.log");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // A period line at u64::MAX used to end the replay as "identical".
+    let at = text.find("\nP ").unwrap() + 1;
+    let line_end = at + text[at..].find('\n').unwrap();
+    let mut forged = text.clone();
+    forged.replace_range(at..line_end, "P 18446744073709551615 0");
+    std::fs::write(&path, &forged).unwrap();
+    let r = record::replay(&dir).unwrap();
+    assert!(!r.identical(), "a forged period must not pass");
+    // A line of 10 MB is refused at once, naming it, not read whole.
+    let mut huge = text.clone();
+    huge.insert_str(at, &format!("R {}\n", "7".repeat(10 << 20)));
+    std::fs::write(&path, &huge).unwrap();
+    match record::replay(&dir) {
+        Err(ReplayError::Line { what, .. }) => {
+            assert!(what.contains("a line longer than 4096 bytes"), "{what}")
         }
         other => panic!("expected a line error, got {other:?}"),
     }
