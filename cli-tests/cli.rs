@@ -375,3 +375,67 @@ fn replay_tells_a_cut_recording_from_a_different_one() {
     );
     let _ = std::fs::remove_dir_all(&base);
 }
+
+#[test]
+fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-full-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A 64 kB file system fills within a second of recording.
+    let mounted = Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&dir)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        println!("full disk: skipped: cannot mount a small tmpfs here (needs root)");
+        return;
+    }
+    struct Unmount<'a>(&'a std::path::Path);
+    impl Drop for Unmount<'_> {
+        fn drop(&mut self) {
+            let _ = Command::new("umount").arg(self.0).status();
+            let _ = std::fs::remove_dir(self.0);
+        }
+    }
+    let _unmount = Unmount(&dir);
+    let cfg = std::env::temp_dir().join(format!("anguilla-cli-full-{}.toml", std::process::id()));
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/full-{}\"\n[recording]\ndir = {:?}\n",
+            std::process::id(),
+            dir.display().to_string()
+        ),
+    )
+    .unwrap();
+    let (ok, out, err) = run(&["run", "--duration", "3", "--config", cfg.to_str().unwrap()]);
+    assert!(ok, "the daemon goes on: {err}");
+    assert!(err.contains("failed"), "the failure is logged: {err}");
+    assert!(
+        out.contains("RECORDING LOST"),
+        "the status line says so: {out}"
+    );
+    assert!(
+        out.contains("the recording lost"),
+        "the run report says so: {out}"
+    );
+    // What reached the disk replays as far as it goes.
+    let session = std::fs::read_dir(&dir)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let o = anguilla()
+        .args(["replay", session.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{said} {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(said.contains("truncated at line"), "{said}");
+}

@@ -191,7 +191,7 @@ fn summary(s: &StateSnapshot) -> String {
          head      {:.3} m/s, {:.3} rad/s (predicted)\n\
          bus       {bus_state}; tx {}, rx {}, tx dropped {}, malformed {}\n\
          loop      {:.1} Hz; jitter p99 {:.0} us; overruns {}\n\
-         refused   {} command(s); {} out-of-band e-stop(s)\n\
+         refused   {} command(s); {} out-of-band e-stop(s); {} recording record(s) lost\n\
          limits    frequency <= {} Hz, |turn| <= {} /m, |pitch| <= {} /m, command timeout {} ms\n\
          daemon    pid {}\n",
         mode_name(s.mode),
@@ -211,6 +211,7 @@ fn summary(s: &StateSnapshot) -> String {
         s.loop_stats.overruns,
         s.refused_commands,
         s.socket_estops,
+        s.records_lost,
         l.max_frequency,
         l.max_turn,
         l.max_pitch,

@@ -139,7 +139,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             last_print = Instant::now();
             let truth = sim.as_ref().map(|s| s.truth_line()).unwrap_or_default();
             out.line(format_args!(
-                "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}",
+                "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}{}",
                 s.time_ns as f64 * 1e-9,
                 mode_name(s.mode),
                 s.predicted_head_speed,
@@ -151,6 +151,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 s.bus.tx_frames,
                 s.bus.rx_frames,
                 s.bus.malformed,
+                if s.records_lost > 0 {
+                    format!(" | RECORDING LOST {} records", s.records_lost)
+                } else {
+                    String::new()
+                },
                 truth,
             ));
         }
@@ -171,6 +176,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         report.jitter.max as f64 / 1e3,
         report.compute.p99 as f64 / 1e3,
     ));
+    if report.records_dropped > 0 {
+        out.line(format_args!(
+            "the recording lost {} records (the recorder fell behind or failed; replay says where it ends)",
+            report.records_dropped
+        ));
+    }
     if report.states_dropped > 0 {
         out.line(format_args!(
             "the state thread fell behind: {} snapshots were not published (newer ones were)",

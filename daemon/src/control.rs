@@ -731,6 +731,7 @@ impl Controller {
         s.bus.state = bus_state;
         s.clamped_setpoints = self.counters.clamped;
         s.refused_commands = self.counters.refused;
+        s.records_lost = self.tap_dropped;
         s.operator_silent_stops = self.sup.operator_silent_count();
         for (j, e) in self.table.entries().iter().enumerate().take(MAX_JOINTS) {
             let js = &mut s.joints[j];

@@ -135,7 +135,7 @@ pub fn recorder(
     dir: PathBuf,
     cfg: Config,
     records: Receiver<Record>,
-    states: Receiver<StateSnapshot>,
+    mut states: Receiver<StateSnapshot>,
 ) -> std::io::Result<()> {
     std::fs::create_dir_all(&dir)?;
     std::fs::write(dir.join("config.toml"), cfg.to_toml())?;
@@ -156,9 +156,22 @@ pub fn recorder(
             micros: ((t % 1_000_000_000) / 1000) as u32,
         }
     };
-    let mut states_open = true;
+    // What is written reaches the disk at most SYNC_INTERVAL late: a power
+    // cut or a kill loses at most that much (replay then says where the
+    // recording ends).
+    let ticks = crossbeam_channel::tick(SYNC_INTERVAL);
+    let sync = |session: &mut BufWriter<std::fs::File>,
+                bus: &mut candump::Writer<BufWriter<std::fs::File>>,
+                state: &mut BufWriter<std::fs::File>| {
+        for w in [&mut *session, bus.get_mut(), &mut *state] {
+            w.flush()?;
+            w.get_ref().sync_data()?;
+        }
+        std::io::Result::Ok(())
+    };
     loop {
         crossbeam_channel::select! {
+            recv(ticks) -> _ => sync(&mut session, &mut bus, &mut state)?,
             recv(records) -> r => {
                 let Ok(r) = r else { break };
                 match r {
@@ -182,9 +195,9 @@ pub fn recorder(
             recv(states) -> s => {
                 match s {
                     Ok(s) => state.write_all(snapshot_bytes(&s))?,
-                    Err(_) => states_open = false,
+                    // Closed: wait on the records alone from now on.
+                    Err(_) => states = crossbeam_channel::never(),
                 }
-                if !states_open { continue; }
             }
         }
     }
@@ -192,11 +205,11 @@ pub fn recorder(
     for s in states.try_iter() {
         state.write_all(snapshot_bytes(&s))?;
     }
-    session.flush()?;
-    bus.into_inner()?.flush()?;
-    state.flush()?;
-    Ok(())
+    sync(&mut session, &mut bus, &mut state)
 }
+
+/// How often the recorder flushes its files and syncs them to the disk.
+pub const SYNC_INTERVAL: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// What is wrong with a recording, or with replaying it.
 #[derive(Debug, thiserror::Error)]

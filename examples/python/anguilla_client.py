@@ -16,7 +16,7 @@ import time
 
 import iceoryx2 as iox2
 
-LAYOUT_VERSION = 3
+LAYOUT_VERSION = 4
 ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE = range(1, 10)
 IDLE, ENABLING, READY, SWIMMING, STOPPING, FAULT, E_STOP = range(7)
 MODES = ["idle", "enabling", "ready", "swimming", "stopping", "fault", "e-stop"]
@@ -74,7 +74,7 @@ class StateSnapshot(_Payload):
         ("gait_target", GaitSnapshot), ("gait_actual", GaitSnapshot),
         ("loop_stats", LoopSnapshot), ("bus", BusSnapshot),
         ("clamped_setpoints", u64), ("refused_commands", u64),
-        ("operator_silent_stops", u64), ("socket_estops", u64),
+        ("operator_silent_stops", u64), ("socket_estops", u64), ("records_lost", u64),
         ("limits", LimitsSnapshot), ("joints", JointSnapshot * 32)]
 
     def holder(self):
@@ -96,7 +96,7 @@ class CommandReply(_Payload):
 
 
 for _t, _size in ((JointSnapshot, 56), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
-                  (LimitsSnapshot, 24), (StateSnapshot, 2048), (CommandRequest, 32),
+                  (LimitsSnapshot, 24), (StateSnapshot, 2056), (CommandRequest, 32),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))
 

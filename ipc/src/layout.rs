@@ -47,6 +47,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
         gait_target: "GaitSnapshot", gait_actual: "GaitSnapshot", loop_stats: "LoopSnapshot",
         bus: "BusSnapshot", clamped_setpoints: "uint64_t", refused_commands: "uint64_t",
         operator_silent_stops: "uint64_t", socket_estops: "uint64_t",
+        records_lost: "uint64_t",
         limits: "LimitsSnapshot", joints: "JointSnapshot[32]",
     ]));
     v.extend(rows!(JointSnapshot, "JointSnapshot", [

@@ -10,7 +10,7 @@ use crate::vocabulary::{Command, SwimParams};
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 3;
+pub const LAYOUT_VERSION: u32 = 4;
 /// Bytes of reason text in a [`CommandReply`].
 pub const REASON_LEN: usize = 120;
 
@@ -208,6 +208,9 @@ pub struct StateSnapshot {
     /// E-stops taken out of band since start: datagrams on the reserved
     /// E-stop socket, and operator E-stops the command queue had no room for.
     pub socket_estops: u64,
+    /// Recording records lost since start (the recorder fell behind, or
+    /// failed: a full disk); 0 without a recording.
+    pub records_lost: u64,
     /// The daemon's limits: what a command may ask for, and its timeouts.
     pub limits: LimitsSnapshot,
     /// Per joint, from the head (index 0) to the tail.
@@ -254,6 +257,7 @@ impl Default for StateSnapshot {
             refused_commands: 0,
             operator_silent_stops: 0,
             socket_estops: 0,
+            records_lost: 0,
             limits: LimitsSnapshot::default(),
             joints: [JointSnapshot::default(); MAX_JOINTS],
         }

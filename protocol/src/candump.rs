@@ -343,6 +343,11 @@ impl<W: Write> Writer<W> {
         writeln!(self.inner, "{entry}")
     }
 
+    /// The inner writer (to flush or sync it).
+    pub fn get_mut(&mut self) -> &mut W {
+        &mut self.inner
+    }
+
     /// Flushes and returns the inner writer.
     pub fn into_inner(mut self) -> io::Result<W> {
         self.inner.flush()?;

@@ -48,6 +48,8 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         },
         "clamped_setpoints": s.clamped_setpoints,
         "refused_commands": s.refused_commands,
+        "socket_estops": s.socket_estops,
+        "records_lost": s.records_lost,
         "operator_silent_stops": s.operator_silent_stops,
         "joint_count": s.joint_count,
         "joints": s.joints[..n].iter().map(|j| json!({
