@@ -50,20 +50,8 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
         ))),
         None => None,
     };
-    // The interface name in the log: the spec's device, shortened to fit.
-    // `socketcan:can0` → can0, `slcan:/dev/ttyACM0@1000000` → ttyACM0.
-    let name: String = args
-        .bus
-        .split(['@', '?'])
-        .next()
-        .and_then(|s| s.rsplit([':', '/']).next())
-        .unwrap_or("can0")
-        .chars()
-        .filter(|c| c.is_ascii_graphic())
-        .take(15)
-        .collect();
-    let iface = Interface::new(if name.is_empty() { "can0" } else { &name })
-        .map_err(|e| anyhow::anyhow!("interface name: {e}"))?;
+    let name = log_interface(&args.bus);
+    let iface = Interface::new(&name).map_err(|e| anyhow::anyhow!("interface name: {e}"))?;
     let variant = if args.fd {
         Variant::Fd
     } else {
@@ -135,4 +123,39 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     }
     eprintln!("{n} frames");
     Ok(())
+}
+
+/// The interface name a `--log` line carries for bus `spec`: a SocketCAN
+/// interface's own name; `slcan0` for a serial adapter (the name `slcand`
+/// gives it); `can0` otherwise. A device path's basename (`/dev/pts/1` →
+/// `1`) is no interface name for the tools that read the log.
+fn log_interface(spec: &str) -> String {
+    let (kind, rest) = spec.split_once(':').unwrap_or(("", spec));
+    let own: String = rest
+        .split(['@', '?'])
+        .next()
+        .unwrap_or_default()
+        .chars()
+        .take(15)
+        .collect();
+    match kind {
+        "socketcan" if !own.is_empty() && own.chars().all(|c| c.is_ascii_graphic()) => own,
+        "slcan" => "slcan0".into(),
+        _ => "can0".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn logs_name_a_real_interface() {
+        use super::log_interface;
+        assert_eq!(log_interface("socketcan:vcan0?fd=1"), "vcan0");
+        assert_eq!(log_interface("slcan:/dev/pts/1@1000000"), "slcan0");
+        assert_eq!(
+            log_interface("slcan:/dev/ttyACM0@1000000?baud=115200"),
+            "slcan0"
+        );
+        assert_eq!(log_interface("mem:test"), "can0");
+    }
 }

@@ -76,8 +76,12 @@ pub enum Event {
         /// The answer sent.
         reply: CommandReply,
     },
-    /// A client died while holding control.
-    HolderDied,
+    /// The client holding control is gone, its control released.
+    HolderGone {
+        /// Its process was seen dead (else its node left the registry:
+        /// the process ended, or died and was cleaned up by another).
+        crashed: bool,
+    },
     /// The loop overran (periods skipped).
     Overrun {
         /// Periods skipped this time.
@@ -173,7 +177,7 @@ const SHUTDOWN_GRACE: Nanos = 3_000_000_000;
 /// Starts the daemon on `bus` with `cfg`; `stop` ends it (smoothly).
 pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Running, RunError> {
     let (ev_tx, ev_rx) = crossbeam_channel::bounded::<Event>(1024);
-    let (dead_tx, dead_rx) = crossbeam_channel::bounded::<u128>(64);
+    let (dead_tx, dead_rx) = crossbeam_channel::bounded::<(u128, bool)>(64);
     let (watch_tx, watch_rx) = crossbeam_channel::bounded::<u128>(64);
     let (state_tx, state_rx) = crossbeam_channel::bounded::<StateSnapshot>(STATE_QUEUE);
     // The loop keeps a receiver too: when the state thread falls behind, the
@@ -408,9 +412,12 @@ fn logger(rx: Receiver<Event>) {
                 tracing::warn!("mode {from} -> {to} ({faults})")
             }
             Some(Event::Refused { origin, reply }) => refusals.refused(now, origin, reply),
-            Some(Event::HolderDied) => {
+            Some(Event::HolderGone { crashed: true }) => {
                 tracing::warn!("the client holding control died; control released")
             }
+            Some(Event::HolderGone { crashed: false }) => tracing::warn!(
+                "the client holding control left without releasing it; control released"
+            ),
             Some(Event::Overrun { skipped }) => {
                 tracing::warn!("control loop overrun: {skipped} period(s) skipped")
             }
@@ -452,15 +459,15 @@ fn estop_thread(
     }
 }
 
-fn reaper(watch_rx: Receiver<u128>, tx: Sender<u128>, stop: Arc<AtomicBool>) {
+fn reaper(watch_rx: Receiver<u128>, tx: Sender<(u128, bool)>, stop: Arc<AtomicBool>) {
     let mut watch = ipc::NodeWatch::default();
     while !stop.load(Ordering::Relaxed) {
         for id in watch_rx.try_iter() {
             watch.watch(id);
         }
         if let Some((alive, dead)) = ipc::scan_nodes() {
-            for id in watch.update(&alive, &dead) {
-                let _ = tx.try_send(id);
+            for gone in watch.update(&alive, &dead) {
+                let _ = tx.try_send(gone);
             }
         }
         // Poll the stop flag often; scan every 250 ms.
@@ -641,7 +648,7 @@ fn command_thread(
 /// The loop thread's channels to its helpers.
 struct Links {
     events: Sender<Event>,
-    dead: Receiver<u128>,
+    dead: Receiver<(u128, bool)>,
     watch: Sender<u128>,
     ready: std::sync::mpsc::Sender<()>,
     states: (Sender<StateSnapshot>, Receiver<StateSnapshot>),
@@ -743,9 +750,9 @@ fn control_loop(
         if let Some(node) = ctl.take_new_holder_node() {
             let _ = watch.try_send(node);
         }
-        while let Ok(node) = dead.try_recv() {
+        while let Ok((node, crashed)) = dead.try_recv() {
             if ctl.node_died(now, node) {
-                emit(Event::HolderDied, &mut dropped);
+                emit(Event::HolderGone { crashed }, &mut dropped);
             }
         }
         if stop.load(Ordering::Relaxed) {

@@ -411,10 +411,20 @@ impl CommandReply {
     }
 
     /// A refusal whose reason is `why`'s `Display` (cut to [`REASON_LEN`]
-    /// bytes on a character boundary). Allocates nothing.
+    /// bytes on a character boundary, ending in "…" when cut). Allocates
+    /// nothing.
     pub fn refused(req: &CommandRequest, mode: u8, why: &dyn fmt::Display) -> Self {
         let mut w = FixedText::default();
-        let _ = write!(w, "{why}");
+        if write!(w, "{why}").is_err() {
+            // Cut: say so with "…" (3 bytes), on a character boundary.
+            let mut end = w.len.min(REASON_LEN - 3);
+            while end > 0 && (w.buf[end] & 0xC0) == 0x80 {
+                end -= 1;
+            }
+            w.buf[end..end + 3].copy_from_slice("…".as_bytes());
+            w.buf[end + 3..].fill(0);
+            w.len = end + 3;
+        }
         Self {
             sequence: req.sequence,
             accepted: 0,

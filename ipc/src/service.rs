@@ -614,13 +614,18 @@ impl NodeWatch {
         }
     }
 
-    /// Feeds one scan; returns the watched ids that are gone (and forgets them).
-    pub fn update(&mut self, alive: &[u128], dead: &[u128]) -> Vec<u128> {
+    /// Feeds one scan; returns the watched ids that are gone (and forgets
+    /// them), each with whether its process was seen dead (`true`) or the
+    /// node simply left the registry (an ended process, or a dead one that
+    /// another process cleaned up first).
+    pub fn update(&mut self, alive: &[u128], dead: &[u128]) -> Vec<(u128, bool)> {
         let (gone, kept): (Vec<u128>, Vec<u128>) = self
             .watched
             .iter()
             .partition(|id| dead.contains(id) || !alive.contains(id));
         self.watched = kept;
-        gone
+        gone.into_iter()
+            .map(|id| (id, dead.contains(&id)))
+            .collect()
     }
 }

@@ -40,7 +40,7 @@ fn node_watch_reports_dead_and_vanished_nodes_once() {
     // 2 vanished (cleaned up by someone else), 9 seen dead; 5 is not watched.
     let mut gone = w.update(&[1, 3], &[9, 5]);
     gone.sort_unstable();
-    assert_eq!(gone, vec![2, 9]);
+    assert_eq!(gone, vec![(2, false), (9, true)]);
     assert!(w.update(&[1, 3], &[]).is_empty(), "reported once");
 }
 
@@ -49,8 +49,24 @@ fn reply_reason_is_cut_on_a_character_boundary() {
     let req = CommandRequest::new(Command::Stop, 1);
     let long = "é".repeat(100); // 200 bytes
     let r = CommandReply::refused(&req, Mode::Idle as u8, &long);
-    assert_eq!(r.reason().len(), 120);
-    assert!(r.reason().chars().all(|c| c == 'é'));
+    assert!(r.reason().len() <= 120);
+    assert!(
+        r.reason().ends_with('…'),
+        "a cut reason says so: {}",
+        r.reason()
+    );
+    assert!(r.reason().trim_end_matches('…').chars().all(|c| c == 'é'));
+    // A long list of nodes is cut visibly, not mid-list in silence.
+    let faults = FaultSet {
+        kinds: u32::MAX,
+        nodes: u64::MAX,
+    };
+    let r = CommandReply::refused(&req, 5, &Refusal::FaultPersists(faults));
+    assert!(
+        r.reason().ends_with('…') && r.reason().len() <= 120,
+        "{}",
+        r.reason()
+    );
     let ok = CommandReply::accepted(&req, 2);
     assert_eq!(ok.reason(), "");
     let why = Refusal::NotInControl;

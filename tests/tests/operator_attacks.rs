@@ -519,3 +519,36 @@ fn an_estop_while_shutdown_stops_a_swim_still_goes_through() {
     assert!(status.success(), "{out}");
     assert!(out.contains("stopped in mode e-stop"), "{out}");
 }
+
+#[test]
+fn a_holder_that_leaves_without_releasing_is_not_called_dead() {
+    let _dog = Watchdog::new("holder leaves", Duration::from_secs(120));
+    let (prefix, config) = setup("leaves");
+    let log =
+        std::env::temp_dir().join(format!("anguilla-attack-leaves-{}.log", std::process::id()));
+    let mut d = daemon(&config, Some(&log));
+    let watcher = connect(&prefix, "watcher");
+    {
+        let mut c = connect(&prefix, "leaving-tool");
+        ok(&mut c, Command::TakeControl);
+        // Dropped here: its node ends cleanly, control still held.
+    }
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        if let Ok(Some(s)) = watcher.wait_state(Duration::from_millis(100))
+            && s.holder().is_none()
+        {
+            break;
+        }
+        assert!(Instant::now() < end, "control never released");
+    }
+    unsafe { libc::kill(d.0.id() as i32, libc::SIGTERM) };
+    let _ = d.0.wait();
+    let mut text = String::new();
+    std::fs::File::open(&log)
+        .unwrap()
+        .read_to_string(&mut text)
+        .unwrap();
+    assert!(text.contains("left without releasing it"), "{text}");
+    assert!(!text.contains("died"), "{text}");
+}
