@@ -123,9 +123,10 @@ pub struct Capabilities {
 /// [`send`](Bus::send), [`try_recv`](Bus::try_recv) and
 /// [`drain`](Bus::drain) never block for long (at most one serial write or
 /// one socket write) and do not allocate: the daemon calls them every
-/// control period (`tests/no_alloc.rs` checks the in-process bus and SLCAN;
-/// SocketCAN is written the same way). The exception is automatic recovery
-/// after a fault, which reopens the device.
+/// control period (`tests/no_alloc.rs` checks the in-process bus and SLCAN,
+/// and SocketCAN, its automatic reconnection included, in the vcan VM). The
+/// exception is a device opened again from scratch (one that disappeared),
+/// which allocates as setup does.
 pub trait Bus: Send {
     /// Queues one frame for transmission. Fails with [`BusError::BusOff`]
     /// while the node is bus-off: a frame is never held back to be sent late.
