@@ -346,7 +346,8 @@ fn a_notification_and_refusal_flood_costs_bounded_cpu_and_log_lines() {
 }
 
 /// A program that creates `<prefix>/state` before the daemon, with the
-/// documented settings, and publishes a fake state on it.
+/// documented settings but room for `max_publishers`, and (with
+/// `publish`) publishes a fake state on it.
 struct Squatter {
     _node: iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
     _service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<
@@ -354,15 +355,17 @@ struct Squatter {
         anguilla_ipc::StateSnapshot,
         (),
     >,
-    _publisher: iceoryx2::port::publisher::Publisher<
-        iceoryx2::prelude::ipc::Service,
-        anguilla_ipc::StateSnapshot,
-        (),
+    _publisher: Option<
+        iceoryx2::port::publisher::Publisher<
+            iceoryx2::prelude::ipc::Service,
+            anguilla_ipc::StateSnapshot,
+            (),
+        >,
     >,
 }
 
 impl Squatter {
-    fn publish_state(prefix: &str) -> Self {
+    fn state(prefix: &str, max_publishers: usize, publish: bool) -> Self {
         use iceoryx2::prelude::*;
         let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
         let name = ServiceName::new(&format!("{prefix}/state")).unwrap();
@@ -373,16 +376,19 @@ impl Squatter {
             .subscriber_max_buffer_size(2)
             .enable_safe_overflow(true)
             .max_subscribers(anguilla_ipc::MAX_TOOLS)
-            .max_publishers(1)
+            .max_publishers(max_publishers)
             .max_nodes(anguilla_ipc::MAX_NODES)
             .create()
             .unwrap();
-        let publisher = service.publisher_builder().create().unwrap();
-        let fake = anguilla_ipc::StateSnapshot {
-            mode: Mode::Ready as u8,
-            ..Default::default()
-        };
-        publisher.send_copy(fake).unwrap();
+        let publisher = publish.then(|| {
+            let p = service.publisher_builder().create().unwrap();
+            let fake = anguilla_ipc::StateSnapshot {
+                mode: Mode::Ready as u8,
+                ..Default::default()
+            };
+            p.send_copy(fake).unwrap();
+            p
+        });
         Self {
             _node: node,
             _service: service,
@@ -406,7 +412,7 @@ fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
     };
     {
         // This process creates the state service and publishes fake state.
-        let squatter = Squatter::publish_state(&prefix);
+        let squatter = Squatter::state(&prefix, 1, true);
         let out = run_for_a_second();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "the daemon ran beside a squatter");
@@ -421,20 +427,7 @@ fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
         // Room for a second publisher, held with no port: the daemon would
         // open it (iceoryx2 opens a service with at least the capacities
         // asked for) and the program publish beside it later.
-        use iceoryx2::prelude::*;
-        let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
-        let name = ServiceName::new(&format!("{prefix}/state")).unwrap();
-        let _svc = node
-            .service_builder(&name)
-            .publish_subscribe::<anguilla_ipc::StateSnapshot>()
-            .history_size(1)
-            .subscriber_max_buffer_size(2)
-            .enable_safe_overflow(true)
-            .max_subscribers(anguilla_ipc::MAX_TOOLS)
-            .max_publishers(2)
-            .max_nodes(anguilla_ipc::MAX_NODES)
-            .create()
-            .unwrap();
+        let _squatter = Squatter::state(&prefix, 2, false);
         let out = run_for_a_second();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "the daemon shared its state service");
