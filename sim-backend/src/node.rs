@@ -406,7 +406,9 @@ impl VertebraNode {
                 self.go(NodeState::Enabled, now, tx);
             }
             (Command::Disable, NodeState::Enabled) => self.go(NodeState::Disabled, now, tx),
-            (Command::Disable, NodeState::Disabled) => {}
+            // Idempotent: the host repeats Disable to hold its nodes off, and
+            // outside Enabled the motors are off already (protocol/README.md).
+            (Command::Disable, _) => {}
             (Command::ClearFaults, NodeState::Fault | NodeState::EStop) => {
                 if self.injected_fault != 0 {
                     // The cause persists: stay in Fault with the bit set.
@@ -800,6 +802,33 @@ mod tests {
         b.command(Command::ClearFaults);
         assert_eq!(b.node.state(), NodeState::Disabled);
         assert!(!b.node.errors().any(ErrorBits::WATCHDOG));
+    }
+
+    #[test]
+    fn disable_is_accepted_in_every_state_without_a_bad_frame() {
+        // The daemon broadcasts Disable every 100 ms while its nodes are off:
+        // no state may take it for a bad frame (issue 13.6).
+        let mut b = Bench::new(Variant::Classic);
+        b.wait(100 * MS);
+        assert_eq!(b.node.state(), NodeState::Disabled);
+        for _ in 0..10 {
+            b.command(Command::Disable);
+        }
+        assert!(!b.node.errors().any(ErrorBits::BAD_FRAME), "in Disabled");
+        b.enable_and_run(10, 0.2);
+        for c in 11..20 {
+            b.sync(c);
+            b.wait(10 * MS);
+        }
+        assert_eq!(b.node.state(), NodeState::Fault);
+        for _ in 0..10 {
+            b.command(Command::Disable);
+        }
+        assert_eq!(b.node.state(), NodeState::Fault, "a fault stays latched");
+        assert!(!b.node.errors().any(ErrorBits::BAD_FRAME), "in Fault");
+        // Enable outside Disabled is still a bad frame.
+        b.command(Command::Enable);
+        assert!(b.node.errors().any(ErrorBits::BAD_FRAME));
     }
 
     #[test]
