@@ -177,12 +177,7 @@ fn summary(s: &StateSnapshot) -> String {
     let l = &s.limits;
     let g = &s.gait_actual;
     let period = s.loop_stats.period_ns.max(1) as f64;
-    let bus_state = match s.bus.state {
-        0 => "error-active",
-        1 => "error-passive",
-        2 => "bus-off",
-        _ => "unknown",
-    };
+    let bus_state = anguilla_ipc::bus_state_name(s.bus.state);
     format!(
         "mode      {} ({})\n\
          faults    {faults}\n\

@@ -139,7 +139,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             last_print = Instant::now();
             let truth = sim.as_ref().map(|s| s.truth_line()).unwrap_or_default();
             out.line(format_args!(
-                "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}{}",
+                "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}{}{}",
                 s.time_ns as f64 * 1e-9,
                 mode_name(s.mode),
                 s.predicted_head_speed,
@@ -151,6 +151,14 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 s.bus.tx_frames,
                 s.bus.rx_frames,
                 s.bus.malformed,
+                if s.bus.state >= 2 {
+                    format!(
+                        " | BUS {}",
+                        anguilla_ipc::bus_state_name(s.bus.state).to_uppercase()
+                    )
+                } else {
+                    String::new()
+                },
                 if s.records_lost > 0 {
                     format!(" | RECORDING LOST {} records", s.records_lost)
                 } else {

@@ -403,11 +403,13 @@ impl Controller {
         // meanwhile refuses the sends, recorded as such): a replay sees the
         // same period.
         let period_state = bus.state();
-        let bus_off = period_state == BusState::BusOff;
+        // Nothing is sent while bus-off or while the adapter is gone.
+        let bus_off = matches!(period_state, BusState::BusOff | BusState::Gone);
         let bus_state = match period_state {
             BusState::ErrorActive => 0,
             BusState::ErrorPassive => 1,
             BusState::BusOff => 2,
+            BusState::Gone => 3,
         };
         self.record(Record::Period {
             now,
@@ -434,7 +436,8 @@ impl Controller {
             node_fault: fault,
             estop_nodes: estop,
             bus_estop: self.table.take_bus_estop(),
-            bus_off,
+            bus_off: period_state == BusState::BusOff,
+            bus_gone: period_state == BusState::Gone,
             model_diverged: self.model_failed,
             gait_at_rest: self.at_rest(),
         };

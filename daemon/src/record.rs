@@ -26,7 +26,7 @@
 //!                           0 for the E-stop socket), the CommandRequest's bytes
 //! D <ns> <hex>              an iceoryx2 node that died (its id)
 //! S <ns>                    shutdown requested at this time
-//! P <ns> <bus state 0|1|2>  a period starts at this time
+//! P <ns> <bus state 0-3>    a period starts at this time (3: adapter gone)
 //! R <frame>                 a frame received in this period (cansend notation)
 //! T <frame>                 a frame sent
 //! X <frame>                 a frame the bus refused to send (bus-off, an
@@ -463,8 +463,8 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
                     .split_once(' ')
                     .ok_or_else(|| err(n, "period: expected '<ns> <bus state>'".into()))?;
                 let bus = num(b, "bus state")?;
-                if bus > 2 {
-                    return Err(err(n, format!("bus state {bus} (expected 0, 1 or 2)")));
+                if bus > 3 {
+                    return Err(err(n, format!("bus state {bus} (expected 0, 1, 2 or 3)")));
                 }
                 periods.push(PeriodIn {
                     now: num(t, "period time")?,
@@ -584,6 +584,7 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         bus.state = match p.bus {
             1 => BusState::ErrorPassive,
             2 => BusState::BusOff,
+            3 => BusState::Gone,
             _ => BusState::ErrorActive,
         };
         ctl.run_period(p.now, &mut bus);

@@ -82,6 +82,12 @@ pub enum Event {
         /// the process ended, or died and was cleaned up by another).
         crashed: bool,
     },
+    /// The bus changed state (a `BusSnapshot::state` code: 2 bus-off,
+    /// 3 adapter gone, 0 back to normal).
+    Bus {
+        /// The new state's code.
+        state: u8,
+    },
     /// The loop overran (periods skipped).
     Overrun {
         /// Periods skipped this time.
@@ -260,10 +266,11 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             })
             .map_err(|e| RunError::Thread("e-stop", e))?,
     );
+    let bus_spec = bus.spec().to_string();
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-log".into())
-            .spawn(move || logger(ev_rx))
+            .spawn(move || logger(ev_rx, bus_spec))
             .map_err(|e| RunError::Thread("logger", e))?,
     );
     let reaper_stop = helpers_stop.clone();
@@ -391,7 +398,7 @@ impl RefusalLog {
     }
 }
 
-fn logger(rx: Receiver<Event>) {
+fn logger(rx: Receiver<Event>, bus_spec: String) {
     let mut refusals = RefusalLog::default();
     loop {
         let ev = match rx.recv_timeout(REFUSAL_LOG_INTERVAL / 4) {
@@ -418,6 +425,12 @@ fn logger(rx: Receiver<Event>) {
             Some(Event::HolderGone { crashed: false }) => tracing::warn!(
                 "the client holding control left without releasing it; control released"
             ),
+            Some(Event::Bus { state: 3 }) => tracing::error!(
+                "adapter gone: {bus_spec}; nothing is sent until it is back (reconnecting)"
+            ),
+            Some(Event::Bus { state }) => {
+                tracing::warn!("bus {bus_spec}: {}", ipc::bus_state_name(state))
+            }
             Some(Event::Overrun { skipped }) => {
                 tracing::warn!("control loop overrun: {skipped} period(s) skipped")
             }
@@ -712,6 +725,7 @@ fn control_loop(
     };
     let mut deadline = rt::monotonic_ns() + period;
     let mut mode = ctl.supervisor().mode();
+    let mut bus_state = 0u8;
     let mut stopping_since: Option<Nanos> = None;
     loop {
         rt::sleep_until_ns(deadline);
@@ -767,6 +781,11 @@ fn control_loop(
         }
         ctl.run_period(now, bus.as_mut());
         periods += 1;
+        let now_bus = ctl.snapshot().bus.state;
+        if now_bus != bus_state {
+            emit(Event::Bus { state: now_bus }, &mut dropped);
+            bus_state = now_bus;
+        }
         let new_mode = ctl.supervisor().mode();
         if new_mode != mode {
             emit(

@@ -36,8 +36,10 @@ pub struct Observations {
     pub estop_nodes: u64,
     /// An E-stop frame was seen on the bus.
     pub bus_estop: bool,
-    /// The bus is bus-off or the adapter is gone.
+    /// The bus is bus-off.
     pub bus_off: bool,
+    /// The bus adapter is gone (unplugged; the driver reconnects).
+    pub bus_gone: bool,
     /// The model's step failed or produced a non-finite value.
     pub model_diverged: bool,
     /// The gait has ramped to zero amplitude and the body is straight.
@@ -366,6 +368,9 @@ impl Supervisor {
                     if o.bus_off {
                         persists.insert(FaultKind::BusOff, 0);
                     }
+                    if o.bus_gone {
+                        persists.insert(FaultKind::AdapterGone, 0);
+                    }
                     if !persists.is_empty() {
                         return Err(Refusal::FaultPersists(persists));
                     }
@@ -421,7 +426,12 @@ impl Supervisor {
         match self.mode {
             Mode::EStop => {}
             Mode::Fault => {}
-            Mode::Idle if kind != FaultKind::BusOff && kind != FaultKind::ModelDiverged => {
+            Mode::Idle
+                if !matches!(
+                    kind,
+                    FaultKind::BusOff | FaultKind::AdapterGone | FaultKind::ModelDiverged
+                ) =>
+            {
                 // A node problem while limp is reported but changes nothing.
             }
             _ => {
@@ -466,6 +476,9 @@ impl Supervisor {
         if obs.bus_off {
             self.fault(now, FaultKind::BusOff, 0);
         }
+        if obs.bus_gone {
+            self.fault(now, FaultKind::AdapterGone, 0);
+        }
         if obs.heartbeat_lost != 0 {
             self.fault(now, FaultKind::HeartbeatLost, obs.heartbeat_lost);
         }
@@ -493,7 +506,7 @@ impl Supervisor {
             Mode::Fault => match self.cfg.fault_policy {
                 FaultPolicy::Disable => Drive::Disabled,
                 // Without a bus or a model, holding is not possible.
-                FaultPolicy::Hold if obs.bus_off => Drive::Disabled,
+                FaultPolicy::Hold if obs.bus_off || obs.bus_gone => Drive::Disabled,
                 FaultPolicy::Hold => Drive::Setpoints,
             },
         };
@@ -803,6 +816,28 @@ mod tests {
         );
         assert_eq!(s.mode(), Mode::Fault);
         assert_eq!(d.drive, Drive::Disabled);
+    }
+
+    #[test]
+    fn a_gone_adapter_is_a_fault_named_as_such_until_it_is_back() {
+        let mut s = swimming();
+        let gone = Observations {
+            bus_gone: true,
+            ..ok_obs()
+        };
+        let d = s.tick(4 * MS, &gone);
+        assert_eq!(s.mode(), Mode::Fault);
+        assert_eq!(d.drive, Drive::Disabled, "nothing to hold with");
+        assert!(s.faults().contains(FaultKind::AdapterGone));
+        assert_eq!(s.faults().to_string(), "adapter gone");
+        let r = s.command(5 * MS, A, 4, Command::Reset).unwrap_err();
+        assert_eq!(
+            r.to_string(),
+            "the fault is still present (adapter gone); fix it, then reset"
+        );
+        s.tick(6 * MS, &ok_obs());
+        assert_eq!(s.command(7 * MS, A, 5, Command::Reset), Ok(()));
+        assert_eq!(s.mode(), Mode::Idle);
     }
 
     #[test]

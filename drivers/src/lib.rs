@@ -68,6 +68,10 @@ pub enum BusState {
     /// The transmit error counter passed 255: the node is off the bus until
     /// it recovers ([`Bus::reopen`] or the driver's automatic recovery).
     BusOff,
+    /// The adapter is gone (unplugged, its device closed): nothing is sent
+    /// or received until the driver reconnects it, with back-off, at the
+    /// same path.
+    Gone,
 }
 
 /// Monotonic counters of one bus handle since it was opened (they survive

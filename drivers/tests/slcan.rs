@@ -216,10 +216,64 @@ fn unplugged_adapter_is_reported_as_disconnected() {
                 Err(e) => panic!("unexpected {e:?}"),
             }
         }
-        // It keeps answering (no panic) while the adapter is gone.
+        // It says so in its state, and keeps answering (no panic).
+        assert_eq!(drv.state(), anguilla_drivers::BusState::Gone);
         let _ = drv.recv(Duration::from_millis(1));
         let f = Frame::new_standard(1, &[]).unwrap();
         assert!(drv.send(&f).is_err());
+    });
+}
+
+#[test]
+fn a_replugged_adapter_at_the_same_path_is_reconnected() {
+    watchdog(|| {
+        // A stable link to the device, as /dev/serial/by-id gives one; the
+        // emulated adapter is unplugged (its pty closed) and plugged in
+        // again (a new pty behind the same link).
+        let link = std::env::temp_dir().join(format!("anguilla-slcan-link-{}", std::process::id()));
+        let (bus1, emu1) = emulator(EmulatorConfig::default());
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(emu1.path().unwrap(), &link).unwrap();
+        let mut c = SlcanConfig::new(link.to_str().unwrap(), Bitrate::B1M);
+        c.recovery_reply_timeout = Duration::from_millis(500);
+        let mut drv = SlcanBus::open(&c).unwrap();
+        drop(emu1.stop());
+        drop(bus1);
+        let t0 = Instant::now();
+        while drv.state() != anguilla_drivers::BusState::Gone {
+            assert!(t0.elapsed() < PATIENCE, "the unplug went unnoticed");
+            let _ = drv.recv(Duration::from_millis(20));
+        }
+        let reopens = drv.counters().reopens;
+        let bus2 = MemBus::builder("slcan-replug").build();
+        let mut peer = bus2.participant();
+        let emu2 =
+            SlcanEmulator::on_pty(Box::new(bus2.participant()), EmulatorConfig::default()).unwrap();
+        std::fs::remove_file(&link).unwrap();
+        std::os::unix::fs::symlink(emu2.path().unwrap(), &link).unwrap();
+        let t0 = Instant::now();
+        while drv.state() == anguilla_drivers::BusState::Gone {
+            assert!(t0.elapsed() < 2 * PATIENCE, "never reconnected");
+            let _ = drv.recv(Duration::from_millis(20));
+        }
+        assert_eq!(drv.state(), anguilla_drivers::BusState::ErrorActive);
+        assert!(drv.counters().reopens > reopens);
+        let f = Frame::new_standard(0x42, &[7]).unwrap();
+        drv.send(&f).unwrap();
+        let t0 = Instant::now();
+        loop {
+            assert!(
+                t0.elapsed() < PATIENCE,
+                "nothing reached the new adapter's bus"
+            );
+            if let Some(r) = peer.recv(Duration::from_millis(50)).unwrap() {
+                assert_eq!(r.frame, f);
+                break;
+            }
+        }
+        drop(drv);
+        drop(emu2.stop());
+        let _ = std::fs::remove_file(&link);
     });
 }
 

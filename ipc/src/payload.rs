@@ -127,7 +127,7 @@ pub struct BusSnapshot {
     pub rx_overruns: u64,
     /// Times the bus went bus-off.
     pub bus_off_count: u32,
-    /// 0 error-active, 1 error-passive, 2 bus-off.
+    /// 0 error-active, 1 error-passive, 2 bus-off, 3 adapter gone.
     pub state: u8,
     /// Padding, always 0.
     pub reserved: [u8; 3],
@@ -152,6 +152,17 @@ pub struct LimitsSnapshot {
     pub control_release_ms: u32,
     /// The daemon's process id.
     pub daemon_pid: u32,
+}
+
+/// The name of a [`BusSnapshot::state`] code, as operators see it.
+pub fn bus_state_name(code: u8) -> &'static str {
+    match code {
+        0 => "error-active",
+        1 => "error-passive",
+        2 => "bus-off",
+        3 => "adapter gone",
+        _ => "unknown",
+    }
 }
 
 /// Everything an operator tool shows, published every control period.

@@ -253,11 +253,13 @@ pub enum FaultKind {
     OperatorEStop = 1 << 5,
     /// Nodes did not all report enabled within the enable timeout.
     EnableTimeout = 1 << 6,
+    /// The bus adapter is gone (unplugged, its device closed).
+    AdapterGone = 1 << 7,
 }
 
 impl FaultKind {
     /// Every kind, in bit order.
-    pub const ALL: [FaultKind; 7] = [
+    pub const ALL: [FaultKind; 8] = [
         FaultKind::HeartbeatLost,
         FaultKind::NodeFault,
         FaultKind::BusOff,
@@ -265,6 +267,7 @@ impl FaultKind {
         FaultKind::BusEStop,
         FaultKind::OperatorEStop,
         FaultKind::EnableTimeout,
+        FaultKind::AdapterGone,
     ];
 
     /// Short name, as shown to operators.
@@ -277,6 +280,7 @@ impl FaultKind {
             FaultKind::BusEStop => "e-stop on the bus",
             FaultKind::OperatorEStop => "operator e-stop",
             FaultKind::EnableTimeout => "enable timed out",
+            FaultKind::AdapterGone => "adapter gone",
         }
     }
 }

@@ -327,11 +327,10 @@ fn render_status(frame: &mut Frame, area: Rect, v: &ViewModel) {
             l.periods,
             l.overruns
         )));
+        // Anything but error-active shouts.
         let bus_state = match b.state {
-            0 => "error-active",
-            1 => "error-passive",
-            2 => "BUS-OFF",
-            _ => "?",
+            0 | 1 => anguilla_ipc::bus_state_name(b.state).to_string(),
+            _ => anguilla_ipc::bus_state_name(b.state).to_uppercase(),
         };
         lines.push(Line::from(format!(
             "bus {bus_state}: tx {} rx {} dropped {} rx lost {} malformed {} errors {} bus-off {}",

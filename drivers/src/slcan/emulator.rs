@@ -167,7 +167,7 @@ impl<S: Read + Write> Adapter<S> {
                 let mut flags = match self.bus.state() {
                     BusState::ErrorActive => 0,
                     BusState::ErrorPassive => StatusFlags::ERROR_PASSIVE,
-                    BusState::BusOff => StatusFlags::BUS_ERROR,
+                    BusState::BusOff | BusState::Gone => StatusFlags::BUS_ERROR,
                 };
                 let overruns = self.bus.counters().rx_overruns;
                 if overruns != self.last_overruns {

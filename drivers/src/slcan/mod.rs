@@ -504,7 +504,11 @@ impl Bus for SlcanBus {
     }
 
     fn state(&self) -> BusState {
-        self.side.state
+        if self.port.is_none() {
+            BusState::Gone
+        } else {
+            self.side.state
+        }
     }
 
     fn counters(&self) -> BusCounters {
