@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use anguilla_ipc::Client;
 use anguilla_ipc::{Command, Mode, SwimParams};
-use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
+use anguilla_system_tests::process::{Killed, anguilla_bin, keep_alive_for, ok, wait_for};
 
 #[test]
 fn daemon_and_simulator_processes_over_an_slcan_pty() {
@@ -100,4 +100,104 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     });
     let _ = std::fs::remove_file(&config);
     drop(sim);
+}
+
+/// `anguilla sim --slcan-pty`, its device read from its first lines; the
+/// rest of its output drained.
+fn sim_on_pty(bin: &std::path::Path) -> (Killed, String) {
+    let mut sim = Killed(
+        Proc::new(bin)
+            .args(["sim", "--slcan-pty", "--duration", "120"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("anguilla sim starts"),
+    );
+    let mut lines = BufReader::new(sim.0.stdout.take().unwrap()).lines();
+    let device = lines
+        .by_ref()
+        .take(20)
+        .filter_map(|l| l.ok())
+        .find_map(|l| {
+            l.split_whitespace()
+                .find(|w| w.starts_with("/dev/"))
+                .map(str::to_string)
+        })
+        .expect("the simulator prints its device");
+    std::thread::spawn(move || for _ in lines {});
+    (sim, device)
+}
+
+#[test]
+fn an_unplugged_adapter_is_a_named_fault_until_it_is_back() {
+    let bin = anguilla_bin();
+    assert!(bin.exists(), "{} not built", bin.display());
+    // The daemon opens a stable link (as /dev/serial/by-id gives one); the
+    // adapter behind it is unplugged (the simulator killed) and plugged in
+    // again (a new simulator, a new pty, the link moved).
+    let tag = std::process::id();
+    let link = std::env::temp_dir().join(format!("anguilla-slcan-adapter-{tag}"));
+    let (sim, device) = sim_on_pty(&bin);
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&device, &link).unwrap();
+    let prefix = format!("anguilla-test/slcan-unplug-{tag}");
+    let config = std::env::temp_dir().join(format!("anguilla-slcan-unplug-{tag}.toml"));
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    let log = std::env::temp_dir().join(format!("anguilla-slcan-unplug-{tag}.log"));
+    let spec = format!("slcan:{}@1000000", link.display());
+    let mut daemon = Killed(
+        Proc::new(&bin)
+            .args(["run", "--quiet", "--bus", &spec, "--config"])
+            .arg(&config)
+            .stdout(Stdio::null())
+            .stderr(Stdio::from(std::fs::File::create(&log).unwrap()))
+            .spawn()
+            .expect("anguilla run starts"),
+    );
+    let mut c = {
+        let end = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Ok(c) = Client::new(&prefix, "unplug-operator") {
+                break c;
+            }
+            assert!(Instant::now() < end, "no operator interface");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    ok(&mut c, Command::TakeControl);
+    ok(&mut c, Command::Enable);
+    wait_for(&mut c, "ready", 15.0, |s| s.mode == Mode::Ready as u8);
+    drop(sim); // unplugged
+    let s = wait_for(&mut c, "adapter gone", 10.0, |s| {
+        s.bus.state == 3 && s.mode == Mode::Fault as u8
+    });
+    assert!(
+        s.fault_kinds & anguilla_ipc::FaultKind::AdapterGone as u32 != 0,
+        "named as such: {:#x}",
+        s.fault_kinds
+    );
+    let r = c.request(Command::Reset, Duration::from_secs(5)).unwrap();
+    assert_eq!(r.accepted, 0);
+    assert!(r.reason().contains("adapter gone"), "{}", r.reason());
+    let (_sim2, device2) = sim_on_pty(&bin);
+    std::fs::remove_file(&link).unwrap();
+    std::os::unix::fs::symlink(&device2, &link).unwrap();
+    wait_for(&mut c, "the adapter back", 15.0, |s| s.bus.state == 0);
+    // Once every node's heartbeat is back too, a reset clears the fault.
+    let end = Instant::now() + Duration::from_secs(15);
+    loop {
+        let r = c.request(Command::Reset, Duration::from_secs(5)).unwrap();
+        if r.accepted == 1 {
+            break;
+        }
+        assert!(Instant::now() < end, "reset still refused: {}", r.reason());
+        keep_alive_for(&mut c, 0.3, |_| {});
+    }
+    wait_for(&mut c, "idle", 5.0, |s| s.mode == Mode::Idle as u8);
+    unsafe { libc::kill(daemon.0.id() as i32, libc::SIGTERM) };
+    let _ = daemon.0.wait();
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.contains(&format!("adapter gone: {spec}")), "{text}");
+    let _ = std::fs::remove_file(&link);
+    let _ = std::fs::remove_file(&config);
 }
