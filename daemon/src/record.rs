@@ -19,6 +19,8 @@
 //!
 //! ```text
 //! anguilla-session 2        header
+//! config <hex>              FNV-1a 64 of the configuration (as written to
+//!                           config.toml): replay refuses another
 //! start <ns>                the controller's creation time
 //! C <ns> <origin> <node> <hex>
 //!                           an operator request: the client port it came
@@ -140,11 +142,14 @@ pub fn recorder(
     mut states: Receiver<StateSnapshot>,
 ) -> std::io::Result<()> {
     std::fs::create_dir_all(&dir)?;
-    std::fs::write(dir.join("config.toml"), cfg.to_toml())?;
+    let cfg_text = cfg.to_toml();
+    std::fs::write(dir.join("config.toml"), &cfg_text)?;
     let mut session = BufWriter::new(std::fs::File::create(dir.join("session.log"))?);
     let mut bus = candump::Writer::new(BufWriter::new(std::fs::File::create(dir.join("bus.log"))?));
     let mut state = BufWriter::new(std::fs::File::create(dir.join("state.bin"))?);
     writeln!(session, "anguilla-session 2")?;
+    // Which config.toml this session ran with: replay checks it.
+    writeln!(session, "config {:016x}", fnv1a(cfg_text.as_bytes()))?;
     let epoch = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
@@ -240,6 +245,15 @@ pub enum ReplayError {
     /// The controller could not be rebuilt.
     #[error(transparent)]
     Setup(#[from] SetupError),
+    /// `config.toml` is not the configuration the session was recorded with.
+    #[error(
+        "{path} is not the configuration this session was recorded with (its fingerprint differs \
+         from session.log's 'config' line); put the recorded one back to replay"
+    )]
+    ForeignConfig {
+        /// The file.
+        path: String,
+    },
 }
 
 #[derive(Debug, Default)]
@@ -338,6 +352,15 @@ struct Session {
     end: Option<Vec<(Frame, bool)>>,
     /// Without `E`: the number of the last line read (the recording was cut).
     cut_at: Option<usize>,
+    /// The recorded configuration's hash (sessions since it was added).
+    config_hash: Option<u64>,
+}
+
+/// FNV-1a, 64 bits: a recording's fingerprint of its `config.toml`.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// Longest `session.log` line read (the longest written is about 300 bytes).
@@ -355,6 +378,7 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
         what,
     };
     let mut start = None;
+    let mut config_hash = None;
     let mut periods: Vec<PeriodIn> = Vec::new();
     let mut pending: Vec<Record> = Vec::new();
     let mut end: Option<Vec<(Frame, bool)>> = None;
@@ -407,6 +431,11 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
         };
         match tag {
             "start" => start = Some(num(rest, "start time")?),
+            "config" => {
+                config_hash = Some(u64::from_str_radix(rest, 16).map_err(|_| {
+                    err(n, format!("config hash '{rest}' (expected 16 hex digits)"))
+                })?)
+            }
             "C" => {
                 let mut parts = rest.split(' ');
                 let (Some(t), Some(origin), Some(node), Some(rest), None) = (
@@ -489,7 +518,7 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
                 return Err(err(
                     n,
                     format!(
-                        "unknown line tag '{other}' (expected start, C, D, S, P, R, T, X or E)"
+                        "unknown line tag '{other}' (expected config, start, C, D, S, P, R, T, X or E)"
                     ),
                 ));
             }
@@ -504,6 +533,7 @@ fn parse_session(path: &Path) -> Result<Session, ReplayError> {
         trailing: pending,
         end,
         cut_at,
+        config_hash,
     })
 }
 
@@ -531,7 +561,16 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         trailing,
         end,
         cut_at,
+        config_hash,
     } = parse_session(&dir.join("session.log"))?;
+    // The configuration, not its spelling: comments and layout may differ.
+    if let Some(h) = config_hash
+        && h != fnv1a(cfg.to_toml().as_bytes())
+    {
+        return Err(ReplayError::ForeignConfig {
+            path: cfg_path.display().to_string(),
+        });
+    }
     // A cut recording's last period may have lost frames: not compared.
     if cut_at.is_some() {
         periods.pop();

@@ -202,3 +202,28 @@ fn a_period_at_the_end_of_time_and_an_endless_line_are_not_taken_for_an_end() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_replay_with_another_configuration_says_so() {
+    let dir = record_session("replay-foreign-config");
+    let path = dir.join("config.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // Comments and layout do not matter...
+    std::fs::write(&path, format!("# edited by hand\n{text}")).unwrap();
+    assert!(record::replay(&dir).unwrap().identical());
+    // ...another configuration does.
+    let mut cfg = Config::from_toml(&text, "recorded").unwrap();
+    cfg.gait.max_turn += 0.5;
+    std::fs::write(&path, cfg.to_toml()).unwrap();
+    match record::replay(&dir) {
+        Err(e @ ReplayError::ForeignConfig { .. }) => {
+            assert!(
+                e.to_string()
+                    .contains("not the configuration this session was recorded with"),
+                "{e}"
+            )
+        }
+        other => panic!("expected a foreign-configuration error, got {other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
