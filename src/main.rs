@@ -21,7 +21,7 @@ mod swim;
 #[command(name = "anguilla", version, about, long_about = None, arg_required_else_help = true)]
 struct Cli {
     #[command(subcommand)]
-    command: Option<Command>,
+    command: Command,
 }
 
 #[derive(Subcommand, Debug)]
@@ -76,21 +76,16 @@ fn main() -> std::process::ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        None => {
-            use clap::CommandFactory;
-            Cli::command().print_help()?;
-            Ok(())
-        }
-        Some(Command::Run(args)) => run_cmd::run(args),
-        Some(Command::Config { cmd }) => run_cmd::config(cmd),
-        Some(Command::Replay(args)) => run_cmd::replay(args),
-        Some(Command::Swim(args)) => swim::run(&args),
-        Some(Command::Protocol { cmd }) => protocol_cmd::run(cmd),
-        Some(Command::Sim(args)) => sim_cmd::run(&args),
-        Some(Command::Dump(args)) => dump_cmd::run(args),
-        Some(Command::Teleop(args)) => teleop_cmd::teleop(args),
-        Some(Command::Joy(args)) => teleop_cmd::joy(args),
-        Some(Command::Monitor(args)) => teleop_cmd::monitor(args),
-        Some(Command::Ctl(args)) => ctl_cmd::run(args),
+        Command::Run(args) => run_cmd::run(args),
+        Command::Config { cmd } => run_cmd::config(cmd),
+        Command::Replay(args) => run_cmd::replay(args),
+        Command::Swim(args) => swim::run(&args),
+        Command::Protocol { cmd } => protocol_cmd::run(cmd),
+        Command::Sim(args) => sim_cmd::run(&args),
+        Command::Dump(args) => dump_cmd::run(args),
+        Command::Teleop(args) => teleop_cmd::teleop(args),
+        Command::Joy(args) => teleop_cmd::joy(args),
+        Command::Monitor(args) => teleop_cmd::monitor(args),
+        Command::Ctl(args) => ctl_cmd::run(args),
     }
 }

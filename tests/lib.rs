@@ -193,6 +193,29 @@ pub mod process {
             })
     }
 
+    /// Polls `f` every 50 ms until it gives a value, for at most `timeout`;
+    /// panics naming `what` otherwise. For conditions no event announces
+    /// (a process starting, a file appearing); the state has `wait_for`.
+    pub fn poll_until<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<T>) -> T {
+        let end = Instant::now() + timeout;
+        loop {
+            if let Some(v) = f() {
+                return v;
+            }
+            assert!(Instant::now() < end, "{what}: not within {timeout:?}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// A client of the daemon at `prefix`, once its services are up.
+    pub fn connect(prefix: &str, name: &str) -> Client {
+        poll_until(
+            &format!("the daemon at {prefix} serving"),
+            Duration::from_secs(20),
+            || Client::new(prefix, name).ok(),
+        )
+    }
+
     /// A child process killed (and reaped) when dropped.
     #[derive(Debug)]
     pub struct Killed(pub Child);

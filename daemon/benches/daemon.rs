@@ -243,14 +243,14 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     let state = std::thread::spawn(move || run::state_thread(&p, rt, state_rx, ready_tx));
     ready_rx.recv().unwrap().unwrap();
     // A tool opens the command side too: a server stands by, idle.
-    let (p, s3) = (prefix.to_owned(), stop.clone());
+    let p = prefix.to_owned();
     let (up_tx, up_rx) = std::sync::mpsc::channel();
+    let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
     let server = std::thread::spawn(move || {
         let _server = anguilla_daemon::ipc::CommandServer::new(&p).unwrap();
         up_tx.send(()).unwrap();
-        while !s3.load(Ordering::Relaxed) {
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        // Held until the measurement ends (its sender dropped).
+        let _ = done_rx.recv();
     });
     up_rx.recv().unwrap();
     let publisher = std::thread::spawn(move || {
@@ -275,6 +275,7 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     let _ = tx.send(0);
     let _ = publisher.join();
     let _ = state.join();
+    drop(done_tx);
     let _ = server.join();
     ours.sort_unstable();
     ours

@@ -3,10 +3,10 @@
 //! exit status 0 done, 1 refused, 2 no daemon.
 
 use std::process::{Command as Proc, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{Killed, anguilla_bin};
+use anguilla_system_tests::process::{Killed, anguilla_bin, poll_until};
 
 fn ctl(prefix: &str, args: &[&str]) -> Output {
     Proc::new(anguilla_bin())
@@ -40,11 +40,9 @@ fn ctl_drives_a_session_and_says_how_it_ended() {
             .spawn()
             .unwrap(),
     );
-    let end = Instant::now() + Duration::from_secs(20);
-    while ctl(&prefix, &["status"]).status.code() != Some(0) {
-        assert!(Instant::now() < end, "the daemon never came up");
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    poll_until("the daemon up", Duration::from_secs(20), || {
+        (ctl(&prefix, &["status"]).status.code() == Some(0)).then_some(())
+    });
     // A refusal: exit 1 with the daemon's reason.
     let o = ctl(&prefix, &["reset"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
@@ -87,21 +85,15 @@ fn ctl_drives_a_session_and_says_how_it_ended() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let end = Instant::now() + Duration::from_secs(20);
-    loop {
-        let o = ctl(&prefix, &["status", "--json"]);
-        if text(&o).contains("\"mode_name\":\"swimming\"") {
-            break;
-        }
-        assert!(Instant::now() < end, "the swim never started: {}", text(&o));
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    poll_until("the swim started", Duration::from_secs(20), || {
+        text(&ctl(&prefix, &["status", "--json"]))
+            .contains("\"mode_name\":\"swimming\"")
+            .then_some(())
+    });
     unsafe { libc::kill(swim.id() as i32, libc::SIGINT) };
-    let end = Instant::now() + Duration::from_secs(30);
-    while swim.try_wait().unwrap().is_none() {
-        assert!(Instant::now() < end, "ctl swim ignored Ctrl-C");
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    poll_until("ctl swim ending at Ctrl-C", Duration::from_secs(30), || {
+        swim.try_wait().unwrap()
+    });
     let o = swim.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert!(text(&o).contains("done: ready"), "{}", text(&o));

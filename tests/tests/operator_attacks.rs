@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use anguilla_ipc::{Client, Command, CommandRequest, FaultKind, Mode, SwimParams};
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{Killed, anguilla_bin, ok, wait_for};
+use anguilla_system_tests::process::{Killed, anguilla_bin, connect, ok, wait_for};
 
 const SWIM: SwimParams = SwimParams {
     amplitude: 0.5,
@@ -26,6 +26,11 @@ fn setup(tag: &str) -> (String, std::path::PathBuf) {
         std::env::temp_dir().join(format!("anguilla-attack-{tag}-{}.toml", std::process::id()));
     std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
     (prefix, config)
+}
+
+/// A log file for the daemon of test `tag`.
+fn log_path(tag: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("anguilla-attack-{tag}-{}.log", std::process::id()))
 }
 
 /// `anguilla run` on the built-in simulated robot, its stderr to `log`.
@@ -49,18 +54,6 @@ fn daemon(config: &std::path::Path, log: Option<&std::path::Path>) -> Killed {
             .spawn()
             .expect("anguilla run starts"),
     )
-}
-
-/// A client of the daemon at `prefix`, once it is up.
-fn connect(prefix: &str, name: &str) -> Client {
-    let end = Instant::now() + Duration::from_secs(20);
-    loop {
-        if let Ok(c) = Client::new(prefix, name) {
-            return c;
-        }
-        assert!(Instant::now() < end, "the daemon at {prefix} never came up");
-        std::thread::sleep(Duration::from_millis(50));
-    }
 }
 
 /// Takes control, enables, and waits for Ready.
@@ -269,8 +262,7 @@ fn thread_cpu(pid: u32, comm: &str) -> f64 {
 fn a_notification_and_refusal_flood_costs_bounded_cpu_and_log_lines() {
     let _dog = Watchdog::new("floods", Duration::from_secs(180));
     let (prefix, config) = setup("flood");
-    let log =
-        std::env::temp_dir().join(format!("anguilla-attack-flood-{}.log", std::process::id()));
+    let log = log_path("flood");
     let mut d = daemon(&config, Some(&log));
     let pid = d.0.id();
     let mut a = connect(&prefix, "operator");
@@ -499,12 +491,16 @@ fn an_estop_while_shutdown_stops_a_swim_still_goes_through() {
             ..SWIM
         }),
     );
-    wait_for(&mut a, "swimming", 10.0, |s| s.mode == Mode::Swimming as u8);
-    std::thread::sleep(Duration::from_millis(500));
+    // Well into the swim: its ramp-down then takes a while.
+    wait_for(&mut a, "swimming hard", 10.0, |s| {
+        s.mode == Mode::Swimming as u8 && s.gait_actual.amplitude > 0.5
+    });
     // SIGTERM starts the smooth stop (up to 3 s); the E-stop socket must
     // stay open until the loop has ended.
     unsafe { libc::kill(d.0.id() as i32, libc::SIGTERM) };
-    std::thread::sleep(Duration::from_millis(100));
+    wait_for(&mut a, "the shutdown's smooth stop", 5.0, |s| {
+        s.mode == Mode::Stopping as u8
+    });
     anguilla_ipc::estop::send(&prefix).expect("the e-stop socket is open during the stop");
     let status = d.0.wait().unwrap();
     let mut out = String::new();
@@ -517,8 +513,7 @@ fn an_estop_while_shutdown_stops_a_swim_still_goes_through() {
 fn a_holder_that_leaves_without_releasing_is_not_called_dead() {
     let _dog = Watchdog::new("holder leaves", Duration::from_secs(120));
     let (prefix, config) = setup("leaves");
-    let log =
-        std::env::temp_dir().join(format!("anguilla-attack-leaves-{}.log", std::process::id()));
+    let log = log_path("leaves");
     let mut d = daemon(&config, Some(&log));
     let watcher = connect(&prefix, "watcher");
     {

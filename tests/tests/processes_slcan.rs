@@ -7,9 +7,8 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
-use anguilla_ipc::Client;
 use anguilla_ipc::{Command, Mode, SwimParams};
-use anguilla_system_tests::process::{Killed, anguilla_bin, keep_alive_for, ok, wait_for};
+use anguilla_system_tests::process::{Killed, anguilla_bin, connect, keep_alive_for, ok, wait_for};
 
 #[test]
 fn daemon_and_simulator_processes_over_an_slcan_pty() {
@@ -17,27 +16,7 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     if !bin.exists() {
         panic!("{} not built (cargo build --bin anguilla)", bin.display());
     }
-    let mut sim = Killed(
-        Proc::new(&bin)
-            .args(["sim", "--slcan-pty", "--duration", "120"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("anguilla sim starts"),
-    );
-    let mut lines = BufReader::new(sim.0.stdout.take().unwrap()).lines();
-    let device = lines
-        .by_ref()
-        .take(20)
-        .filter_map(|l| l.ok())
-        .find_map(|l| {
-            l.split_whitespace()
-                .find(|w| w.starts_with("/dev/"))
-                .map(str::to_string)
-        })
-        .expect("the simulator prints its device");
-    // Keep draining its status lines so it never blocks on a full pipe.
-    std::thread::spawn(move || for _ in lines {});
+    let (sim, device) = sim_on_pty(&bin);
     let prefix = format!("anguilla-test/slcan-processes-{}", std::process::id());
     let config = std::env::temp_dir().join(format!("anguilla-slcan-{}.toml", std::process::id()));
     std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
@@ -56,16 +35,7 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
             .spawn()
             .expect("anguilla run starts"),
     );
-    let mut c = {
-        let end = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Ok(c) = Client::new(&prefix, "slcan-operator") {
-                break c;
-            }
-            assert!(Instant::now() < end, "no operator interface");
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    };
+    let mut c = connect(&prefix, "slcan-operator");
     wait_for(&mut c, "the daemon's first state", 15.0, |_| true);
     ok(&mut c, Command::TakeControl);
     ok(&mut c, Command::Enable);
@@ -154,16 +124,7 @@ fn an_unplugged_adapter_is_a_named_fault_until_it_is_back() {
             .spawn()
             .expect("anguilla run starts"),
     );
-    let mut c = {
-        let end = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Ok(c) = Client::new(&prefix, "unplug-operator") {
-                break c;
-            }
-            assert!(Instant::now() < end, "no operator interface");
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    };
+    let mut c = connect(&prefix, "unplug-operator");
     ok(&mut c, Command::TakeControl);
     ok(&mut c, Command::Enable);
     wait_for(&mut c, "ready", 15.0, |s| s.mode == Mode::Ready as u8);

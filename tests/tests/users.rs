@@ -10,10 +10,10 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command as Proc, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{Killed, anguilla_bin};
+use anguilla_system_tests::process::{Killed, anguilla_bin, poll_until};
 
 /// Users and a group made for the test, removed when dropped.
 struct Users {
@@ -148,19 +148,14 @@ fn only_the_daemons_user_and_group_reach_it() {
             .spawn()
             .unwrap(),
     );
-    let end = Instant::now() + Duration::from_secs(30);
-    let status = loop {
-        let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
-        if o.status.success() {
-            break o;
-        }
-        assert!(
-            Instant::now() < end,
-            "the daemon never answered its own user: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        std::thread::sleep(Duration::from_millis(200));
-    };
+    let status = poll_until(
+        "the daemon answering its own user",
+        Duration::from_secs(30),
+        || {
+            let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
+            o.status.success().then_some(o)
+        },
+    );
     assert_eq!(mode_of(&status), Some(0), "idle");
 
     // The outsider: no state, no command, no E-stop.
@@ -184,15 +179,14 @@ fn only_the_daemons_user_and_group_reach_it() {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
-    let end = Instant::now() + Duration::from_secs(10);
-    loop {
-        let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
-        if mode_of(&o) == Some(6) {
-            break;
-        }
-        assert!(Instant::now() < end, "the operator's e-stop did not latch");
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    poll_until(
+        "the operator's e-stop latched",
+        Duration::from_secs(10),
+        || {
+            let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
+            (mode_of(&o) == Some(6)).then_some(())
+        },
+    );
     // The daemon's user drives it (as operators do through sudo -u).
     let o = ctl(daemon_user, &bin, &dir, &prefix, &["reset"]);
     assert_eq!(

@@ -20,9 +20,8 @@ use std::process::{Command as Proc, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use anguilla_ipc::Client;
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
-use anguilla_system_tests::process::{Killed, anguilla_bin, keep_alive_for, ok, wait_for};
+use anguilla_system_tests::process::{Killed, anguilla_bin, connect, keep_alive_for, ok, wait_for};
 
 fn iface() -> String {
     std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".into())
@@ -144,16 +143,7 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
             .spawn()
             .expect("candump starts"),
     );
-    let mut client = {
-        let end = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Ok(c) = Client::new(&prefix, "vcan-operator") {
-                break c;
-            }
-            assert!(Instant::now() < end, "no operator interface");
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    };
+    let mut client = connect(&prefix, "vcan-operator");
     wait_for(&mut client, "first state", 10.0, |_| true);
     ok(&mut client, Command::TakeControl);
     ok(&mut client, Command::Enable);
