@@ -1,7 +1,7 @@
 //! The `anguilla` binary: subcommands run, and bad arguments get clear
 //! errors naming what was wrong (never a panic).
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -118,6 +118,11 @@ fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
         // not the device's basename ("1" for /dev/pts/1).
         assert_eq!(e.interface.as_str(), "slcan0");
     }
+    // Decoded offline, the log prints what the live dump printed.
+    let (ok, offline, err) = run(&["dump", "--file", log.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert_eq!(offline, out);
+    assert!(err.contains("12 frames"), "{err}");
     let _ = std::fs::remove_file(&log);
 }
 
@@ -438,3 +443,146 @@ fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
     );
     assert!(said.contains("truncated at line"), "{said}");
 }
+
+fn corpus(name: &str) -> String {
+    format!(
+        "{}/protocol/tests/data/candump-corpus/{name}",
+        env!("CARGO_MANIFEST_DIR")
+    )
+}
+
+#[test]
+fn dump_file_decodes_can_utils_and_python_can_logs_error_frames_included() {
+    for (name, lines) in [("can-utils.log", 14), ("python-can.log", 13)] {
+        let (ok, out, err) = run(&["dump", "--file", &corpus(name)]);
+        assert!(ok, "{name}: {err}");
+        assert_eq!(out.lines().count(), lines, "{out}");
+        assert!(err.contains(&format!("{lines} frames")), "{err}");
+        assert!(
+            out.lines().any(|l| l.contains("20000080#0000000000000000")
+                && l.ends_with("error frame: bus-error")),
+            "{out}"
+        );
+    }
+    // The protocol's own frames decode: a SYNC from python-can's log.
+    let (_, out, _) = run(&["dump", "--file", &corpus("python-can.log")]);
+    assert!(
+        out.contains("040#0700") && out.contains("Sync { counter: 7 }"),
+        "{out}"
+    );
+
+    // Standard input, and a count.
+    let text = std::fs::read_to_string(corpus("can-utils.log")).unwrap();
+    let mut child = anguilla()
+        .args(["dump", "--file", "-", "--count", "3"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(text.as_bytes())
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success());
+    assert_eq!(String::from_utf8_lossy(&o.stdout).lines().count(), 3);
+}
+
+#[test]
+fn dump_file_reports_bad_lines_by_number_and_keeps_the_good_ones() {
+    let path = std::env::temp_dir().join(format!("anguilla-bad-{}.log", std::process::id()));
+    let long = "(1.000000) can0 123#".to_string() + &"0".repeat(5000);
+    std::fs::write(
+        &path,
+        format!(
+            "(1.000000) can0 123#00\n(1.1) can0 1234#00\n{long}\n(1.200000) can0 00123#80:00:11223344#AA\n(1.300000) can0 040#0100\n"
+        ),
+    )
+    .unwrap();
+    let (ok, out, err) = run(&["dump", "--file", path.to_str().unwrap()]);
+    let _ = std::fs::remove_file(&path);
+    assert!(!ok);
+    assert_eq!(out.lines().count(), 2, "{out}");
+    assert!(out.contains("Sync { counter: 1 }"), "{out}");
+    assert!(
+        err.contains("candump log line 2: bad CAN id (expected"),
+        "{err}"
+    );
+    assert!(
+        err.contains("candump log line 3: line longer than 1024 bytes"),
+        "{err}"
+    );
+    assert!(err.contains("candump log line 4: CAN XL frame"), "{err}");
+    assert!(
+        err.contains("3 bad lines skipped, 2 frames decoded"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+
+    let (ok, _, err) = run(&["dump", "--file", "/nonexistent/x.log"]);
+    assert!(!ok && err.contains("/nonexistent/x.log"), "{err}");
+    let (ok, _, err) = run(&["dump"]);
+    assert!(
+        !ok && err.contains("--bus") && err.contains("--file"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&["dump", "--bus", "mem:x", "--file", "x.log"]);
+    assert!(!ok && err.contains("cannot be used with"), "{err}");
+}
+
+/// can-utils' own converter (`asc2log`, Vector ASC to candump log) writes
+/// error frames, remote frames with a DLC, FD frames and direction markers;
+/// `dump --file` reads all of it.
+#[test]
+fn dump_file_reads_what_can_utils_asc2log_writes() {
+    let on_path = std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("asc2log").is_file()));
+    if !on_path {
+        eprintln!("skipping: asc2log (can-utils) is not installed; apt-get install can-utils");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("anguilla-asc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let asc = dir.join("in.asc");
+    let log = dir.join("out.log");
+    std::fs::write(&asc, ASC).unwrap();
+    let st = Command::new("asc2log")
+        .arg("-I")
+        .arg(&asc)
+        .arg("-O")
+        .arg(&log)
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let written = std::fs::read_to_string(&log).unwrap();
+    let (ok, out, err) = run(&["dump", "--file", log.to_str().unwrap()]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(ok, "{err}\n{written}");
+    assert_eq!(out.lines().count(), 8, "{written}\n{out}");
+    for want in ["#R8", "20000080#", "12345678#", "##"] {
+        assert!(written.contains(want), "asc2log wrote no {want}: {written}");
+    }
+    assert!(out.contains("error frame: bus-error"), "{out}");
+    assert!(out.contains("1FFFFFFF#R8"), "{out}");
+}
+
+const ASC: &str = "date Tue Nov 14 12:00:00.000 am 2023
+base hex  timestamps absolute
+no internal events logged
+// version 9.0.0
+Begin Triggerblock Tue Nov 14 12:00:00.000 am 2023
+   0.000000 Start of measurement
+   0.001000 1  123             Rx   d 4 DE AD BE EF
+   0.002000 1  12345678x       Tx   d 0
+   0.003000 1  7FF             Rx   r
+   0.003500 1  1FFFFFFFx       Rx   r 8
+   0.004000 1  ErrorFrame
+   0.005000 2  0C1             Rx   d 8 00 11 22 33 44 55 66 77
+   0.006000 CANFD   1 Rx        10                                   1 0 9 12 00 00 00 00 00 00 00 00 00 00 00 00        0    0      1000        0        0        0        0        0
+   0.007000 CANFD   1 Tx  1abcdef0x                                   0 1 8  8 01 02 03 04 05 06 07 08        0    0      1000        0        0        0        0        0
+End TriggerBlock
+";

@@ -1,21 +1,27 @@
 //! `anguilla dump`: print a bus's frames live, decoded with our protocol, and
-//! optionally log them in can-utils' `candump -l` format.
+//! optionally log them in can-utils' `candump -l` format; or decode such a
+//! log offline (`--file`), with the same output.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use anguilla_protocol::candump::{Interface, LogEntry, Timestamp, Writer};
+use anguilla_protocol::candump::{Interface, LogEntry, Reader, Record, Timestamp, Writer};
 use anguilla_protocol::message::{self, NodeSet, Variant};
 use anyhow::Context;
 
 /// Arguments of `anguilla dump`.
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["bus", "file"])))]
 pub struct DumpArgs {
     /// Bus to listen on, e.g. `socketcan:can0`, `slcan:/dev/ttyACM0@1000000`.
     #[arg(long, value_name = "SPEC")]
-    bus: String,
+    bus: Option<String>,
+    /// Decode this `candump -l` log instead of a live bus (`-` for standard
+    /// input): can-utils' and python-can's forms, error frames included.
+    #[arg(long, value_name = "LOG", conflicts_with_all = ["bus", "log", "duration"])]
+    file: Option<PathBuf>,
     /// Also write every frame to this file (`candump -l` format).
     #[arg(long, value_name = "FILE")]
     log: Option<PathBuf>,
@@ -36,27 +42,112 @@ extern "C" fn on_signal(_: libc::c_int) {
     SIGNALLED.store(true, Ordering::SeqCst);
 }
 
+/// One line of `dump`'s output: the timestamp, the frame in candump
+/// notation, and what the anguilla protocol makes of it.
+fn print_line(
+    out: &mut impl Write,
+    ts: Timestamp,
+    record: &Record,
+    suffix: &str,
+    variant: Variant,
+) -> std::io::Result<()> {
+    let decoded = match record {
+        Record::Frame(f) => match message::decode(f, variant, NodeSet::all()) {
+            Ok(m) => format!("{m:?}"),
+            Err(e) => format!("(not ours: {e})"),
+        },
+        Record::Error(e) => format!("error frame: {}", e.describe()),
+    };
+    let shown = format!("{record}{suffix}");
+    writeln!(out, "({}.{:06}) {shown:<24} {decoded}", ts.secs, ts.micros)
+}
+
+/// Bad lines of a `--file` log printed one by one; the rest are counted.
+const BAD_LINES_SHOWN: usize = 20;
+
+/// `dump --file`: decode a candump log offline. Bad lines are reported on
+/// standard error with their numbers and skipped; the exit status is an
+/// error when there were any.
+fn run_file(path: &std::path::Path, count: Option<u64>, variant: Variant) -> anyhow::Result<()> {
+    let input: Box<dyn std::io::BufRead> = if path.as_os_str() == "-" {
+        Box::new(std::io::stdin().lock())
+    } else {
+        Box::new(std::io::BufReader::new(
+            std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?,
+        ))
+    };
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let (mut n, mut bad) = (0u64, 0usize);
+    for entry in Reader::new(input) {
+        if count.is_some_and(|c| n >= c) {
+            break;
+        }
+        match entry {
+            Ok(e) => {
+                n += 1;
+                let mut suffix = String::new();
+                if let Some(dlc) = e.len8_dlc {
+                    suffix = format!("_{dlc:X}");
+                }
+                print_line(&mut out, e.timestamp, &e.record, &suffix, variant)
+                    .context("writing to standard output")?;
+            }
+            Err(e) => {
+                if let anguilla_protocol::candump::LogErrorKind::Io(kind) = e.kind {
+                    out.flush().context("writing to standard output")?;
+                    anyhow::bail!("reading {}: {}", path.display(), std::io::Error::from(kind));
+                }
+                bad += 1;
+                if bad <= BAD_LINES_SHOWN {
+                    out.flush().context("writing to standard output")?;
+                    eprintln!("{}: {e}", path.display());
+                }
+            }
+        }
+    }
+    out.flush().context("writing to standard output")?;
+    if bad > 0 {
+        if bad > BAD_LINES_SHOWN {
+            eprintln!("({} more bad lines not shown)", bad - BAD_LINES_SHOWN);
+        }
+        anyhow::bail!(
+            "{}: {bad} bad line{} skipped, {n} frames decoded",
+            path.display(),
+            if bad == 1 { "" } else { "s" }
+        );
+    }
+    eprintln!("{n} frames");
+    Ok(())
+}
+
 pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     if let Some(d) = args.duration
         && !(d.is_finite() && d > 0.0)
     {
         anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
     }
-    let mut bus =
-        anguilla_drivers::open(&args.bus).with_context(|| format!("opening bus '{}'", args.bus))?;
+    let variant = if args.fd {
+        Variant::Fd
+    } else {
+        Variant::Classic
+    };
+    let spec = match (&args.bus, &args.file) {
+        (_, Some(path)) => {
+            return run_file(path, args.count, variant);
+        }
+        (Some(spec), None) => spec.clone(),
+        (None, None) => anyhow::bail!("give --bus SPEC (live) or --file LOG (offline)"),
+    };
+    let mut bus = anguilla_drivers::open(&spec).with_context(|| format!("opening bus '{spec}'"))?;
     let mut log = match &args.log {
         Some(p) => Some(Writer::new(std::io::BufWriter::new(
             std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
         ))),
         None => None,
     };
-    let name = log_interface(&args.bus);
+    let name = log_interface(&spec);
     let iface = Interface::new(&name).map_err(|e| anyhow::anyhow!("interface name: {e}"))?;
-    let variant = if args.fd {
-        Variant::Fd
-    } else {
-        Variant::Classic
-    };
     let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
     // SAFETY: the handler only stores to an atomic.
     unsafe {
@@ -78,7 +169,7 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     {
         let Some(r) = bus
             .recv(Duration::from_millis(100))
-            .with_context(|| format!("reading {}", args.bus))?
+            .with_context(|| format!("reading {spec}"))?
         else {
             continue;
         };
@@ -90,24 +181,12 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
             secs: now.as_secs(),
             micros: now.subsec_micros(),
         };
-        let decoded = match message::decode(&r.frame, variant, NodeSet::all()) {
-            Ok(m) => format!("{m:?}"),
-            Err(e) => format!("(not ours: {e})"),
-        };
-        if let Err(e) = writeln!(
-            out,
-            "({}.{:06}) {:<24} {decoded}",
-            ts.secs, ts.micros, r.frame
-        ) {
+        if let Err(e) = print_line(&mut out, ts, &Record::Frame(r.frame), "", variant) {
             write_failed = Some(e);
         }
         if let Some(w) = log.as_mut() {
-            w.write(&LogEntry {
-                timestamp: ts,
-                interface: iface,
-                frame: r.frame,
-            })
-            .context("writing the log")?;
+            w.write(&LogEntry::new(ts, iface, r.frame))
+                .context("writing the log")?;
         }
         if write_failed.is_some() {
             break;

@@ -45,7 +45,8 @@ enum Command {
         cmd: protocol_cmd::ProtocolCmd,
     },
     /// Print a bus's frames live, decoded with the anguilla protocol (and
-    /// optionally log them in candump -l format).
+    /// optionally log them in candump -l format), or decode a candump log
+    /// offline (--file).
     Dump(dump_cmd::DumpArgs),
     /// Run the simulated robot on a bus (or behind an emulated SLCAN adapter) in real time.
     Sim(sim_cmd::SimArgs),

@@ -207,6 +207,45 @@ pub mod process {
         }
     }
 
+    /// Raw CAN sockets that receive every frame on `ifname`, as the kernel
+    /// lists them (`/proc/net/can/rcvlist_all`, one line per receiver:
+    /// device, id, mask, function, data, matches, `raw`); `None` without
+    /// that file (no can-raw module, or no CAN in this kernel).
+    pub fn can_receivers(ifname: &str) -> Option<usize> {
+        let text = std::fs::read_to_string("/proc/net/can/rcvlist_all").ok()?;
+        Some(
+            text.lines()
+                .filter(|l| {
+                    let mut w = l.split_whitespace();
+                    w.next() == Some(ifname) && l.trim_end().ends_with(" raw")
+                })
+                .count(),
+        )
+    }
+
+    /// Starts `cmd` (a can-utils program such as `candump` listening on
+    /// `ifname` without filters) and returns once the kernel lists one more
+    /// receiver on `ifname` than before: its socket is bound, so it sees
+    /// every frame sent from now on. The readiness signal can-utils does not
+    /// print. Test binaries on vcan run one test at a time, so no other
+    /// socket appears meanwhile.
+    pub fn spawn_listening(cmd: &mut std::process::Command, ifname: &str) -> Child {
+        let before = can_receivers(ifname)
+            .expect("/proc/net/can/rcvlist_all: the kernel's CAN receive lists (can-raw loaded)");
+        let mut child = cmd.spawn().expect("the CAN listener starts");
+        poll_until(
+            &format!("{cmd:?} listening on {ifname}"),
+            Duration::from_secs(10),
+            || {
+                if let Ok(Some(status)) = child.try_wait() {
+                    panic!("{cmd:?} exited before listening: {status}");
+                }
+                (can_receivers(ifname)? > before).then_some(())
+            },
+        );
+        child
+    }
+
     /// A client of the daemon at `prefix`, once its services are up.
     pub fn connect(prefix: &str, name: &str) -> Client {
         poll_until(

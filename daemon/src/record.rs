@@ -195,7 +195,7 @@ pub fn recorder(
                     Record::Rx(now, f) | Record::Tx(now, f) => {
                         let tag = if matches!(r, Record::Rx(..)) { 'R' } else { 'T' };
                         writeln!(session, "{tag} {f}")?;
-                        bus.write(&LogEntry { timestamp: stamp(now, start), interface: iface, frame: f })?;
+                        bus.write(&LogEntry::new(stamp(now, start), iface, f))?;
                     }
                 }
             }

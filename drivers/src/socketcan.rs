@@ -33,6 +33,13 @@ use std::io;
 use std::os::fd::AsFd;
 use std::time::{Duration, Instant, UNIX_EPOCH};
 
+use anguilla_protocol::frame::controller::{
+    ACTIVE as CAN_ERR_CRTL_ACTIVE, RX_OVERFLOW as CAN_ERR_CRTL_RX_OVERFLOW,
+    RX_PASSIVE as CAN_ERR_CRTL_RX_PASSIVE, TX_PASSIVE as CAN_ERR_CRTL_TX_PASSIVE,
+};
+use anguilla_protocol::frame::error_class::{
+    BUSOFF as CAN_ERR_BUSOFF, CRTL as CAN_ERR_CRTL, RESTARTED as CAN_ERR_RESTARTED,
+};
 use anguilla_protocol::frame::{Id, Kind};
 use socketcan::{
     CanAnyFrame, CanDataFrame, CanFdFrame, CanFdSocket, CanRemoteFrame, EmbeddedFrame, ExtendedId,
@@ -68,16 +75,6 @@ impl SocketCanConfig {
         }
     }
 }
-
-// Error classes of `linux/can/error.h` (in the CAN id of an error frame).
-const CAN_ERR_CRTL: u32 = 0x0000_0004;
-const CAN_ERR_BUSOFF: u32 = 0x0000_0040;
-const CAN_ERR_RESTARTED: u32 = 0x0000_0100;
-// Controller status bits (data[1] of a CAN_ERR_CRTL frame).
-const CAN_ERR_CRTL_RX_OVERFLOW: u8 = 0x01;
-const CAN_ERR_CRTL_RX_PASSIVE: u8 = 0x10;
-const CAN_ERR_CRTL_TX_PASSIVE: u8 = 0x20;
-const CAN_ERR_CRTL_ACTIVE: u8 = 0x40;
 
 /// A SocketCAN interface; implements [`Bus`].
 #[derive(Debug)]

@@ -9,12 +9,27 @@
 //! what `candump -l` writes and `canplayer`, python-can (`CanutilsLogReader`),
 //! SavvyCAN and cantools (`cantools decode` of candump output) read.
 //!
+//! The reader takes every form can-utils (`candump -l`, `candump -L`,
+//! `cansend` notation) and python-can (`CanutilsLogWriter`) write:
+//! - error frames: 8 hex digits with bit 29 (`CAN_ERR_FLAG`) set, e.g.
+//!   `20000080#0000000000000000` (an [`ErrorFrame`], not a frame);
+//! - a trailing direction marker, ` R` (received) or ` T` (transmitted),
+//!   which python-can writes on every frame and `candump -x` adds;
+//! - a classic frame's raw DLC 9..=15 after 8 data bytes or `R8`:
+//!   `123#1122334455667788_C`, `123#R8_C` (can-utils since 2021);
+//! - `.` between data bytes (`cansend` notation);
+//! - interface names padded with spaces (`candump -l` on several interfaces).
+//!
+//! CAN XL lines (`<5 hex digits>#<flags>:<sdt>:<af>#<data>`) are refused by
+//! name: no anguilla bus carries CAN XL. Lines over [`MAX_LINE`] bytes are
+//! an error for that line; reading goes on after them.
+//!
 //! ```
 //! use anguilla_protocol::candump::{Reader, Writer};
 //! let log = "(1700000000.123456) can0 123#DEADBEEF\n(1700000000.200000) can0 040##10700\n";
 //! let entries: Result<Vec<_>, _> = Reader::new(log.as_bytes()).collect();
 //! let entries = entries?;
-//! assert_eq!(entries[0].frame.data(), &[0xDE, 0xAD, 0xBE, 0xEF]);
+//! assert_eq!(entries[0].frame().unwrap().data(), &[0xDE, 0xAD, 0xBE, 0xEF]);
 //! let mut out = Vec::new();
 //! let mut w = Writer::new(&mut out);
 //! for e in &entries { w.write(e)?; }
@@ -23,12 +38,16 @@
 //! ```
 
 use core::fmt;
-use std::io::{self, BufRead, Write};
+use std::io::{self, BufRead, Read, Write};
 
-use crate::frame::{Frame, FrameError, Id};
+use crate::frame::{CAN_ERR_FLAG, ErrorFrame, Frame, FrameError, Id, MAX_CLASSIC_LEN};
 
 /// Longest interface name (Linux `IFNAMSIZ` - 1).
 pub const MAX_INTERFACE_LEN: usize = 15;
+
+/// Longest line the reader takes, in bytes (the longest valid line, an FD
+/// frame of 64 bytes with a padded interface name, is under 200).
+pub const MAX_LINE: usize = 1024;
 
 /// A log timestamp: seconds and microseconds since the Unix epoch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -89,6 +108,33 @@ impl fmt::Display for Interface {
     }
 }
 
+/// What a log line records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Record {
+    /// A frame that crossed the bus.
+    Frame(Frame),
+    /// SocketCAN's report of a bus or controller error.
+    Error(ErrorFrame),
+}
+
+impl fmt::Display for Record {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Record::Frame(fr) => fr.fmt(f),
+            Record::Error(e) => e.fmt(f),
+        }
+    }
+}
+
+/// The direction marker some writers append (`candump -x`, python-can).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Direction {
+    /// ` R`: received.
+    Rx,
+    /// ` T`: transmitted.
+    Tx,
+}
+
 /// One line of a candump log.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LogEntry {
@@ -96,8 +142,34 @@ pub struct LogEntry {
     pub timestamp: Timestamp,
     /// On which interface.
     pub interface: Interface,
-    /// The frame.
-    pub frame: Frame,
+    /// The frame or error frame.
+    pub record: Record,
+    /// A classic frame's raw DLC 9..=15 (`_9`..`_F`), only on 8-byte data
+    /// frames and `R8` remote frames; the frame itself says 8.
+    pub len8_dlc: Option<u8>,
+    /// The direction marker, if the line had one.
+    pub direction: Option<Direction>,
+}
+
+impl LogEntry {
+    /// An entry for a frame, without raw DLC or direction marker.
+    pub fn new(timestamp: Timestamp, interface: Interface, frame: Frame) -> Self {
+        LogEntry {
+            timestamp,
+            interface,
+            record: Record::Frame(frame),
+            len8_dlc: None,
+            direction: None,
+        }
+    }
+
+    /// The frame, unless the line is an error frame.
+    pub fn frame(&self) -> Option<&Frame> {
+        match &self.record {
+            Record::Frame(f) => Some(f),
+            Record::Error(_) => None,
+        }
+    }
 }
 
 impl fmt::Display for LogEntry {
@@ -106,8 +178,16 @@ impl fmt::Display for LogEntry {
         write!(
             f,
             "({}.{:06}) {} {}",
-            self.timestamp.secs, self.timestamp.micros, self.interface, self.frame
-        )
+            self.timestamp.secs, self.timestamp.micros, self.interface, self.record
+        )?;
+        if let Some(dlc) = self.len8_dlc {
+            write!(f, "_{dlc:X}")?;
+        }
+        match self.direction {
+            Some(Direction::Rx) => f.write_str(" R"),
+            Some(Direction::Tx) => f.write_str(" T"),
+            None => Ok(()),
+        }
     }
 }
 
@@ -148,8 +228,25 @@ pub enum LogErrorKind {
     #[error("bad length: {0}")]
     BadLength(FrameError),
     /// Text after the frame.
-    #[error("unexpected text after the frame (expected end of line)")]
+    #[error("unexpected text after the frame (expected end of line, or ` R` / ` T`)")]
     TrailingText,
+    /// An error frame that is not data bytes.
+    #[error(
+        "bad error frame (expected `<8 hex digits>#<0..=8 data bytes>`, e.g. `20000080#0000000000000000`)"
+    )]
+    BadErrorFrame,
+    /// A raw DLC suffix that is not `_9`..`_F` after 8 bytes or `R8`.
+    #[error("bad raw DLC (expected `_9`..`_F`, only after 8 data bytes or `R8`)")]
+    BadRawDlc,
+    /// A CAN XL frame.
+    #[error("CAN XL frame (anguilla's buses carry classic CAN and CAN FD only)")]
+    CanXl,
+    /// An error frame or raw DLC where a plain frame is expected.
+    #[error("expected a plain frame, found an error frame or a raw DLC")]
+    NotAPlainFrame,
+    /// A line longer than [`MAX_LINE`].
+    #[error("line longer than {MAX_LINE} bytes (expected one candump line)")]
+    LineTooLong,
 }
 
 /// A malformed line or read failure, with its 1-based line number.
@@ -171,20 +268,27 @@ fn hex_nibble(c: u8) -> Option<u8> {
     }
 }
 
+/// Data bytes as hex pairs, each optionally preceded by `.` (`cansend`
+/// notation).
 fn hex_bytes<'a>(s: &[u8], out: &'a mut [u8; 64]) -> Result<&'a [u8], LogErrorKind> {
-    if !s.len().is_multiple_of(2) || s.len() / 2 > 64 {
-        return Err(if s.len() / 2 > 64 {
-            LogErrorKind::BadLength(FrameError::BadFdLength(s.len() / 2))
-        } else {
-            LogErrorKind::BadData
-        });
-    }
-    for (i, pair) in s.chunks_exact(2).enumerate() {
+    let mut n = 0;
+    let mut i = 0;
+    while i < s.len() {
+        if s[i] == b'.' {
+            i += 1;
+        }
+        let pair = s.get(i..i + 2).ok_or(LogErrorKind::BadData)?;
         let hi = hex_nibble(pair[0]).ok_or(LogErrorKind::BadData)?;
         let lo = hex_nibble(pair[1]).ok_or(LogErrorKind::BadData)?;
-        out[i] = hi << 4 | lo;
+        if n == out.len() {
+            let pairs = s.iter().filter(|&&c| c != b'.').count() / 2;
+            return Err(LogErrorKind::BadLength(FrameError::BadFdLength(pairs)));
+        }
+        out[n] = hi << 4 | lo;
+        n += 1;
+        i += 2;
     }
-    Ok(&out[..s.len() / 2])
+    Ok(&out[..n])
 }
 
 fn parse_timestamp(s: &str) -> Result<Timestamp, LogErrorKind> {
@@ -207,8 +311,18 @@ fn parse_timestamp(s: &str) -> Result<Timestamp, LogErrorKind> {
 }
 
 /// Parses a frame in `cansend` / candump notation (`123#DEAD`, `123#R`,
-/// `12345678##1DEAD`).
+/// `12345678##1DEAD`); an error frame or a raw DLC is refused
+/// ([`LogErrorKind::NotAPlainFrame`]): see [`parse_record`].
 pub fn parse_frame(s: &str) -> Result<Frame, LogErrorKind> {
+    match parse_record(s)? {
+        (Record::Frame(f), None) => Ok(f),
+        _ => Err(LogErrorKind::NotAPlainFrame),
+    }
+}
+
+/// Parses a frame or an error frame in candump notation, with the raw DLC
+/// suffix of a classic 8-byte frame if present (`123#R8_C` gives `Some(12)`).
+pub fn parse_record(s: &str) -> Result<(Record, Option<u8>), LogErrorKind> {
     let (id_str, rest) = s.split_once('#').ok_or(LogErrorKind::MissingSeparator)?;
     let hex_id = |t: &str| -> Result<u32, LogErrorKind> {
         if !t.bytes().all(|b| hex_nibble(b).is_some()) {
@@ -216,37 +330,73 @@ pub fn parse_frame(s: &str) -> Result<Frame, LogErrorKind> {
         }
         u32::from_str_radix(t, 16).map_err(|_| LogErrorKind::BadId)
     };
-    let id = match id_str.len() {
-        3 => Id::standard(hex_id(id_str)? as u16).map_err(|_| LogErrorKind::BadId)?,
-        8 => Id::extended(hex_id(id_str)?).map_err(|_| LogErrorKind::BadId)?,
-        _ => return Err(LogErrorKind::BadId),
-    };
     let rest = rest.as_bytes();
     let mut buf = [0u8; 64];
-    match rest.first() {
+    let id = match id_str.len() {
+        3 => Id::standard(hex_id(id_str)? as u16).map_err(|_| LogErrorKind::BadId)?,
+        // CAN XL: `PPPPP#FF:SS:AAAAAAAA#data` (VCID and priority, header).
+        5 if hex_id(id_str).is_ok() && rest.get(2) == Some(&b':') => {
+            return Err(LogErrorKind::CanXl);
+        }
+        8 => {
+            let raw = hex_id(id_str)?;
+            if raw & !(CAN_ERR_FLAG | crate::frame::MAX_EXTENDED_ID) != 0 {
+                return Err(LogErrorKind::BadId);
+            }
+            if raw & CAN_ERR_FLAG != 0 {
+                if matches!(rest.first(), Some(b'R' | b'r' | b'#')) {
+                    return Err(LogErrorKind::BadErrorFrame);
+                }
+                let data = hex_bytes(rest, &mut buf)?;
+                let e =
+                    ErrorFrame::new(raw & !CAN_ERR_FLAG, data).map_err(LogErrorKind::BadLength)?;
+                return Ok((Record::Error(e), None));
+            }
+            Id::extended(raw).map_err(|_| LogErrorKind::BadId)?
+        }
+        _ => return Err(LogErrorKind::BadId),
+    };
+    // A classic frame's raw DLC: `_9`..`_F` at the very end.
+    let (body, len8_dlc) = match rest.iter().position(|&c| c == b'_') {
+        Some(p) => {
+            let dlc = match &rest[p + 1..] {
+                [d] => hex_nibble(*d)
+                    .filter(|&d| d > 8)
+                    .ok_or(LogErrorKind::BadRawDlc)?,
+                _ => return Err(LogErrorKind::BadRawDlc),
+            };
+            (&rest[..p], Some(dlc))
+        }
+        None => (rest, None),
+    };
+    let frame = match body.first() {
         Some(b'R') | Some(b'r') => {
-            let dlc = match &rest[1..] {
+            let dlc = match &body[1..] {
                 [] => 0,
                 [d @ b'0'..=b'8'] => d - b'0',
                 _ => return Err(LogErrorKind::BadRemoteDlc),
             };
-            Frame::new_remote(id, dlc).map_err(LogErrorKind::BadLength)
+            Frame::new_remote(id, dlc).map_err(LogErrorKind::BadLength)?
         }
         Some(b'#') => {
-            let flags = rest
+            let flags = body
                 .get(1)
                 .and_then(|&c| hex_nibble(c))
                 .filter(|&f| f <= 7)
                 .ok_or(LogErrorKind::BadFdFlags)?;
-            let data = hex_bytes(&rest[2..], &mut buf)?;
+            let data = hex_bytes(&body[2..], &mut buf)?;
             let frame = Frame::new_fd(id, data, flags & 1 == 1).map_err(LogErrorKind::BadLength)?;
-            Ok(frame.with_esi(flags & 2 == 2))
+            frame.with_esi(flags & 2 == 2)
         }
         _ => {
-            let data = hex_bytes(rest, &mut buf)?;
-            Frame::new(id, data).map_err(LogErrorKind::BadLength)
+            let data = hex_bytes(body, &mut buf)?;
+            Frame::new(id, data).map_err(LogErrorKind::BadLength)?
         }
+    };
+    if len8_dlc.is_some() && (frame.is_fd() || frame.dlc() as usize != MAX_CLASSIC_LEN) {
+        return Err(LogErrorKind::BadRawDlc);
     }
+    Ok((Record::Frame(frame), len8_dlc))
 }
 
 /// Parses one `candump -l` line (without its newline).
@@ -254,16 +404,20 @@ pub fn parse_line(line: &str) -> Result<LogEntry, LogErrorKind> {
     let mut fields = line.split_ascii_whitespace();
     let timestamp = parse_timestamp(fields.next().ok_or(LogErrorKind::BadTimestamp)?)?;
     let interface = Interface::new(fields.next().ok_or(LogErrorKind::BadInterface)?)?;
-    let frame = parse_frame(fields.next().ok_or(LogErrorKind::MissingFrame)?)?;
-    // Newer can-utils may append a direction marker (`R` / `T`); accept it.
-    match (fields.next(), fields.next()) {
-        (None, _) | (Some("R" | "T"), None) => Ok(LogEntry {
-            timestamp,
-            interface,
-            frame,
-        }),
-        _ => Err(LogErrorKind::TrailingText),
-    }
+    let (record, len8_dlc) = parse_record(fields.next().ok_or(LogErrorKind::MissingFrame)?)?;
+    let direction = match (fields.next(), fields.next()) {
+        (None, _) => None,
+        (Some("R"), None) => Some(Direction::Rx),
+        (Some("T"), None) => Some(Direction::Tx),
+        _ => return Err(LogErrorKind::TrailingText),
+    };
+    Ok(LogEntry {
+        timestamp,
+        interface,
+        record,
+        len8_dlc,
+        direction,
+    })
 }
 
 /// Reads a candump log: an iterator of entries or numbered errors. Blank
@@ -298,7 +452,10 @@ impl<R: BufRead> Iterator for Reader<R> {
             self.buf.clear();
             self.line += 1;
             let line = self.line;
-            match self.inner.read_until(b'\n', &mut self.buf) {
+            match (&mut self.inner)
+                .take(MAX_LINE as u64 + 1)
+                .read_until(b'\n', &mut self.buf)
+            {
                 Ok(0) => {
                     self.done = true;
                     return None;
@@ -311,6 +468,31 @@ impl<R: BufRead> Iterator for Reader<R> {
                         kind: LogErrorKind::Io(e.kind()),
                     }));
                 }
+            }
+            if self.buf.len() > MAX_LINE && self.buf.last() != Some(&b'\n') {
+                // Skip the rest of the over-long line, without holding it.
+                loop {
+                    self.buf.clear();
+                    match (&mut self.inner)
+                        .take(MAX_LINE as u64)
+                        .read_until(b'\n', &mut self.buf)
+                    {
+                        Ok(0) => break,
+                        Ok(_) if self.buf.last() == Some(&b'\n') => break,
+                        Ok(_) => {}
+                        Err(e) => {
+                            self.done = true;
+                            return Some(Err(LogError {
+                                line,
+                                kind: LogErrorKind::Io(e.kind()),
+                            }));
+                        }
+                    }
+                }
+                return Some(Err(LogError {
+                    line,
+                    kind: LogErrorKind::LineTooLong,
+                }));
             }
             let Ok(text) = core::str::from_utf8(&self.buf) else {
                 return Some(Err(LogError {
@@ -390,14 +572,27 @@ mod tests {
     proptest! {
         #[test]
         fn write_then_read_roundtrips(
-            frames in prop::collection::vec((arb_frame(), any::<u32>(), 0u32..1_000_000, "[a-z]{1,5}[0-9]{0,2}"), 1..20)
+            frames in prop::collection::vec((arb_frame(), any::<u32>(), 0u32..1_000_000, "[a-z]{1,5}[0-9]{0,2}", any::<u8>()), 1..20)
         ) {
             let entries: Vec<LogEntry> = frames
                 .iter()
-                .map(|(frame, secs, micros, iface)| LogEntry {
-                    timestamp: Timestamp { secs: *secs as u64, micros: *micros },
-                    interface: Interface::new(iface).unwrap(),
-                    frame: *frame,
+                .map(|(frame, secs, micros, iface, extra)| {
+                    let mut e = LogEntry::new(
+                        Timestamp { secs: *secs as u64, micros: *micros },
+                        Interface::new(iface).unwrap(),
+                        *frame,
+                    );
+                    e.direction = [None, Some(Direction::Rx), Some(Direction::Tx)][(extra % 3) as usize];
+                    let eight = !frame.is_fd() && frame.dlc() == 8;
+                    if eight && extra & 4 != 0 {
+                        e.len8_dlc = Some(9 + (extra >> 3) % 7);
+                    }
+                    if extra & 0x40 != 0 {
+                        let data = &frame.data()[..frame.len().min(8)];
+                        e.record = Record::Error(ErrorFrame::new(frame.id().raw() & 0x3FF, data).unwrap());
+                        e.len8_dlc = None;
+                    }
+                    e
                 })
                 .collect();
             let mut w = Writer::new(Vec::new());
@@ -431,20 +626,22 @@ mod tests {
             .collect::<Result<_, _>>()
             .unwrap();
         assert_eq!(e.len(), 7);
-        assert_eq!(e[0].frame.id(), Id::Standard(0x123));
-        assert_eq!(e[1].frame.id(), Id::Extended(0x1234_5678));
+        let f = |i: usize| *e[i].frame().unwrap();
+        assert_eq!(f(0).id(), Id::Standard(0x123));
+        assert_eq!(f(1).id(), Id::Extended(0x1234_5678));
         assert_eq!(e[2].timestamp.micros, 500_000);
-        assert_eq!(e[3].frame.dlc(), 8);
-        assert!(e[4].frame.is_fd());
+        assert_eq!(f(3).dlc(), 8);
+        assert!(f(4).is_fd());
+        assert_eq!(e[5].direction, Some(Direction::Rx));
         assert_eq!(
-            e[5].frame.kind(),
+            f(5).kind(),
             crate::frame::Kind::Fd {
                 brs: true,
                 esi: false
             }
         );
         assert_eq!(
-            e[6].frame.kind(),
+            f(6).kind(),
             crate::frame::Kind::Fd {
                 brs: true,
                 esi: true
@@ -476,6 +673,35 @@ mod tests {
             (
                 "(1700000000.1) can0 123#00 extra",
                 LogErrorKind::TrailingText,
+            ),
+            ("(1700000000.1) can0 123#00 R T", LogErrorKind::TrailingText),
+            ("(1700000000.1) can0 40000000#00", LogErrorKind::BadId),
+            (
+                "(1700000000.1) can0 20000080#R",
+                LogErrorKind::BadErrorFrame,
+            ),
+            (
+                "(1700000000.1) can0 20000080##100",
+                LogErrorKind::BadErrorFrame,
+            ),
+            (
+                "(1700000000.1) can0 20000080#001122334455667788",
+                LogErrorKind::BadLength(FrameError::ClassicTooLong(9)),
+            ),
+            ("(1700000000.1) can0 123#0011_C", LogErrorKind::BadRawDlc),
+            (
+                "(1700000000.1) can0 123#0011223344556677_8",
+                LogErrorKind::BadRawDlc,
+            ),
+            ("(1700000000.1) can0 123#R7_C", LogErrorKind::BadRawDlc),
+            (
+                "(1700000000.1) can0 123##10011223344556677_C",
+                LogErrorKind::BadRawDlc,
+            ),
+            ("(1700000000.1) can0 123#00.", LogErrorKind::BadData),
+            (
+                "(1700000000.1) can0 00123#80:00:11223344#AABB",
+                LogErrorKind::CanXl,
             ),
         ];
         for (line, kind) in cases {

@@ -285,6 +285,170 @@ pub fn fd_padded_len(len: usize) -> Option<usize> {
     FD_LENGTHS.iter().map(|&l| l as usize).find(|&l| l >= len)
 }
 
+/// Error classes of Linux's `linux/can/error.h`: the bits of an error
+/// frame's class (its CAN id without `CAN_ERR_FLAG`), with can-utils' names.
+pub mod error_class {
+    /// TX timeout (by netdevice driver).
+    pub const TX_TIMEOUT: u32 = 0x001;
+    /// Lost arbitration (data\[0\]: the bit).
+    pub const LOSTARB: u32 = 0x002;
+    /// Controller problems (data\[1\]: [`super::controller`] bits).
+    pub const CRTL: u32 = 0x004;
+    /// Protocol violations (data\[2\] type, data\[3\] location).
+    pub const PROT: u32 = 0x008;
+    /// Transceiver status (data\[4\]).
+    pub const TRX: u32 = 0x010;
+    /// No acknowledge on transmission.
+    pub const ACK: u32 = 0x020;
+    /// Bus off.
+    pub const BUSOFF: u32 = 0x040;
+    /// Bus error (may flood).
+    pub const BUSERROR: u32 = 0x080;
+    /// Controller restarted after bus off.
+    pub const RESTARTED: u32 = 0x100;
+    /// Error counters (data\[6\] TX, data\[7\] RX).
+    pub const CNT: u32 = 0x200;
+    /// Each class bit with the name can-utils prints for it.
+    pub const NAMES: [(u32, &str); 10] = [
+        (TX_TIMEOUT, "tx-timeout"),
+        (LOSTARB, "lost-arbitration"),
+        (CRTL, "controller-problem"),
+        (PROT, "protocol-violation"),
+        (TRX, "transceiver-status"),
+        (ACK, "no-acknowledgement-on-tx"),
+        (BUSOFF, "bus-off"),
+        (BUSERROR, "bus-error"),
+        (RESTARTED, "restarted-after-bus-off"),
+        (CNT, "error-counter-tx-rx"),
+    ];
+}
+
+/// Controller-problem bits (data\[1\] of an [`error_class::CRTL`] error
+/// frame), with can-utils' names.
+pub mod controller {
+    /// RX buffer overflow.
+    pub const RX_OVERFLOW: u8 = 0x01;
+    /// TX buffer overflow.
+    pub const TX_OVERFLOW: u8 = 0x02;
+    /// Reached warning level for RX errors.
+    pub const RX_WARNING: u8 = 0x04;
+    /// Reached warning level for TX errors.
+    pub const TX_WARNING: u8 = 0x08;
+    /// Reached error-passive status for RX.
+    pub const RX_PASSIVE: u8 = 0x10;
+    /// Reached error-passive status for TX.
+    pub const TX_PASSIVE: u8 = 0x20;
+    /// Recovered to error-active state.
+    pub const ACTIVE: u8 = 0x40;
+    /// Each bit with the name can-utils prints for it.
+    pub const NAMES: [(u8, &str); 7] = [
+        (RX_OVERFLOW, "rx-overflow"),
+        (TX_OVERFLOW, "tx-overflow"),
+        (RX_WARNING, "rx-error-warning"),
+        (TX_WARNING, "tx-error-warning"),
+        (RX_PASSIVE, "rx-error-passive"),
+        (TX_PASSIVE, "tx-error-passive"),
+        (ACTIVE, "back-to-error-active"),
+    ];
+}
+
+/// Linux's `CAN_ERR_FLAG`: bit 29 of a `can_id`, set on an error frame.
+pub const CAN_ERR_FLAG: u32 = 0x2000_0000;
+
+/// An error frame: SocketCAN's report of a bus or controller error (not a
+/// frame on the wire; nothing sends one). Its class is the 29-bit CAN id
+/// without [`CAN_ERR_FLAG`]; up to 8 data bytes give the details. candump
+/// and python-can log it as `20000080#0000000000000000` (class, flag set).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ErrorFrame {
+    class: u32,
+    len: u8,
+    data: [u8; MAX_CLASSIC_LEN],
+}
+
+impl ErrorFrame {
+    /// An error frame of `class` (29 bits, without [`CAN_ERR_FLAG`]) and up
+    /// to 8 data bytes.
+    pub fn new(class: u32, data: &[u8]) -> Result<Self, FrameError> {
+        if class > MAX_EXTENDED_ID {
+            return Err(FrameError::ExtendedIdOutOfRange(class));
+        }
+        if data.len() > MAX_CLASSIC_LEN {
+            return Err(FrameError::ClassicTooLong(data.len()));
+        }
+        let mut buf = [0u8; MAX_CLASSIC_LEN];
+        buf[..data.len()].copy_from_slice(data);
+        Ok(Self {
+            class,
+            len: data.len() as u8,
+            data: buf,
+        })
+    }
+
+    /// The error class bits ([`error_class`]).
+    pub const fn class(&self) -> u32 {
+        self.class
+    }
+
+    /// The detail bytes.
+    pub fn data(&self) -> &[u8] {
+        &self.data[..self.len as usize]
+    }
+
+    /// What happened, in can-utils' words: `bus-error`,
+    /// `controller-problem{rx-error-passive}`, `error-counter-tx-rx{{96}{0}}`;
+    /// unknown class bits as hex.
+    pub fn describe(&self) -> String {
+        let byte = |i: usize| self.data().get(i).copied().unwrap_or(0);
+        let mut parts: Vec<String> = Vec::new();
+        for (bit, name) in error_class::NAMES {
+            if self.class & bit == 0 {
+                continue;
+            }
+            let detail = match bit {
+                error_class::LOSTARB => format!("{{at bit {}}}", byte(0)),
+                error_class::CRTL => {
+                    let names: Vec<&str> = controller::NAMES
+                        .iter()
+                        .filter(|(b, _)| byte(1) & b != 0)
+                        .map(|(_, n)| *n)
+                        .collect();
+                    format!("{{{}}}", names.join(","))
+                }
+                error_class::CNT => format!("{{{{{}}}{{{}}}}}", byte(6), byte(7)),
+                _ => String::new(),
+            };
+            parts.push(format!("{name}{detail}"));
+        }
+        let known = error_class::NAMES.iter().fold(0, |m, (b, _)| m | b);
+        if self.class & !known != 0 {
+            parts.push(format!("unknown class 0x{:X}", self.class & !known));
+        }
+        if parts.is_empty() {
+            parts.push("no class".into());
+        }
+        parts.join(",")
+    }
+}
+
+impl fmt::Debug for ErrorFrame {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ErrorFrame({self})")
+    }
+}
+
+impl fmt::Display for ErrorFrame {
+    /// can-utils' notation: the class with [`CAN_ERR_FLAG`] in 8 hex digits,
+    /// `#`, the data (`20000080#0000000000000000`).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:08X}#", self.class | CAN_ERR_FLAG)?;
+        for b in self.data() {
+            write!(f, "{b:02X}")?;
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -324,6 +488,37 @@ mod tests {
         assert_eq!(r.to_string(), "00001234#R2");
         let fd = Frame::new_fd(Id::Standard(0x10), &[1], true).unwrap();
         assert_eq!(fd.to_string(), "010##101");
+    }
+
+    #[test]
+    fn error_frames_print_as_can_utils_does() {
+        let e = ErrorFrame::new(error_class::BUSERROR, &[0; 8]).unwrap();
+        assert_eq!(e.to_string(), "20000080#0000000000000000");
+        assert_eq!(e.describe(), "bus-error");
+        let e = ErrorFrame::new(
+            error_class::CRTL | error_class::CNT,
+            &[
+                0,
+                controller::RX_PASSIVE | controller::TX_WARNING,
+                0,
+                0,
+                0,
+                0,
+                96,
+                3,
+            ],
+        )
+        .unwrap();
+        assert_eq!(
+            e.describe(),
+            "controller-problem{tx-error-warning,rx-error-passive},error-counter-tx-rx{{96}{3}}"
+        );
+        assert_eq!(
+            ErrorFrame::new(0x400, &[]).unwrap().describe(),
+            "unknown class 0x400"
+        );
+        assert!(ErrorFrame::new(0x2000_0000, &[]).is_err());
+        assert!(ErrorFrame::new(1, &[0; 9]).is_err());
     }
 
     #[test]

@@ -115,14 +115,14 @@ fn sample(variant: Variant) -> (String, String) {
     let iface = Interface::new("can0").unwrap();
     for (i, m) in messages(variant).iter().enumerate() {
         let frame = m.encode(variant).unwrap();
-        let entry = LogEntry {
-            timestamp: Timestamp {
+        let entry = LogEntry::new(
+            Timestamp {
                 secs: 1_700_000_000,
                 micros: 1000 * i as u32,
             },
-            interface: iface,
+            iface,
             frame,
-        };
+        );
         log.write(&entry).unwrap();
         let def = definitions(variant)
             .iter()

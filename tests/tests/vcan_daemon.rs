@@ -21,7 +21,9 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
-use anguilla_system_tests::process::{Killed, anguilla_bin, connect, keep_alive_for, ok, wait_for};
+use anguilla_system_tests::process::{
+    Killed, anguilla_bin, connect, keep_alive_for, ok, spawn_listening, wait_for,
+};
 
 fn iface() -> String {
     std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".into())
@@ -134,15 +136,14 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         .expect("anguilla run starts");
     let mut daemon = Killed(daemon);
     // candump -l logs the session into dir/candump-*.log.
-    let candump = Killed(
+    let candump = Killed(spawn_listening(
         Proc::new("candump")
             .args(["-l", &dev])
             .current_dir(&dir)
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("candump starts"),
-    );
+            .stderr(Stdio::null()),
+        &dev,
+    ));
     let mut client = connect(&prefix, "vcan-operator");
     wait_for(&mut client, "first state", 10.0, |_| true);
     ok(&mut client, Command::TakeControl);
@@ -308,12 +309,12 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         .map(|e| e.path())
         .next()
         .expect("a recorded session");
-    let watch = Proc::new("candump")
-        .args(["-n", "20", &dev])
-        .stdout(Stdio::piped())
-        .spawn()
-        .expect("candump");
-    std::thread::sleep(Duration::from_millis(200));
+    let watch = spawn_listening(
+        Proc::new("candump")
+            .args(["-n", "20", &dev])
+            .stdout(Stdio::piped()),
+        &dev,
+    );
     let played = Proc::new("canplayer")
         .args(["-t", "-I"])
         .arg(session.join("bus.log"))

@@ -461,9 +461,13 @@ fn on_path(program: &str) -> bool {
 }
 
 /// can-utils' log round trip, which anguilla's log tests build on: frames
-/// logged by `candump -l` come back on the bus through `canplayer -I`.
+/// logged by `candump -l` come back on the bus through `canplayer -I`; and
+/// the log, a standard, an extended and a remote frame, reads in anguilla's
+/// candump reader.
 #[test]
-fn candump_log_replays_with_canplayer() {
+fn candump_log_replays_with_canplayer_and_reads_in_anguilla() {
+    use anguilla_protocol::candump::Reader;
+    use anguilla_protocol::frame::{Id, Kind};
     let ifname = interface();
     if !on_path("candump") || !on_path("canplayer") {
         eprintln!("skipping: candump/canplayer (can-utils) are not installed");
@@ -475,18 +479,20 @@ fn candump_log_replays_with_canplayer() {
     let dir = std::env::temp_dir().join(format!("vcan-smoke-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
-    // -l: log to candump-<date>.log in the current directory; -n 2: stop
-    // after two frames; -T: give up after 5 s.
-    let candump = std::process::Command::new("candump")
-        .args(["-l", "-n", "2", "-T", "5000", &ifname])
-        .current_dir(&dir)
-        .spawn()
-        .expect("start candump");
-    let mut candump = Child(candump);
-    std::thread::sleep(Duration::from_millis(500)); // let candump bind
-    let frames: [(u32, [u8; 8], u8); 2] = [
+    // -l: log to candump-<date>.log in the current directory; -n 3: stop
+    // after three frames; -T: give up after 5 s.
+    let mut cmd = std::process::Command::new("candump");
+    cmd.args(["-l", "-n", "3", "-T", "5000", &ifname])
+        .current_dir(&dir);
+    let mut candump = Child(anguilla_system_tests::process::spawn_listening(
+        &mut cmd, &ifname,
+    ));
+    const EFF: u32 = 0x8000_0000;
+    const RTR: u32 = 0x4000_0000;
+    let frames: [(u32, [u8; 8], u8); 3] = [
         (0x2a1, [1, 2, 3, 0, 0, 0, 0, 0], 3),
-        (0x2a2, [0xCA, 0xFE, 0, 0, 0, 0, 0, 0], 2),
+        (EFF | 0x1234_5678, [0xCA, 0xFE, 0, 0, 0, 0, 0, 0], 2),
+        (RTR | 0x2a3, [0; 8], 4),
     ];
     for (id, data, len) in frames {
         let f = CanFrame {
@@ -509,10 +515,29 @@ fn candump_log_replays_with_canplayer() {
         .expect("candump -l wrote no log");
     let text = std::fs::read_to_string(&log).expect("read the log");
     assert!(text.contains(&format!("{ifname} 2A1#010203")), "{text}");
-    assert!(text.contains(&format!("{ifname} 2A2#CAFE")), "{text}");
+    assert!(text.contains(&format!("{ifname} 12345678#CAFE")), "{text}");
+    assert!(text.contains(&format!("{ifname} 2A3#R4")), "{text}");
+    let entries: Vec<_> = Reader::new(text.as_bytes())
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("{e}: {text}"));
+    let got: Vec<_> = entries
+        .iter()
+        .map(|e| {
+            let f = e.frame().expect("a frame");
+            (f.id(), f.kind(), f.data().to_vec())
+        })
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (Id::Standard(0x2a1), Kind::Data, vec![1, 2, 3]),
+            (Id::Extended(0x1234_5678), Kind::Data, vec![0xCA, 0xFE]),
+            (Id::Standard(0x2a3), Kind::Remote { dlc: 4 }, vec![]),
+        ]
+    );
 
     // Drain what rx saw live, then replay the log and see it again.
-    for _ in 0..2 {
+    for _ in 0..3 {
         rx.recv().expect("live frame");
     }
     let replay = std::process::Command::new("canplayer")
