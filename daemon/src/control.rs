@@ -114,6 +114,8 @@ pub struct Controller {
     torque_ff: Vec<[f64; 2]>,
     counter: u16,
     mode_before: Mode,
+    /// Nodes that get no setpoint this period (lost, in Fault).
+    setpoint_skip: u64,
     last_command_sent: Nanos,
     model_failed: bool,
     last_model_error: Option<ModelError>,
@@ -227,6 +229,7 @@ impl Controller {
             torque_ff: vec![[0.0; 2]; n],
             counter: 0,
             mode_before: Mode::Idle,
+            setpoint_skip: 0,
             last_command_sent: 0,
             model_failed: false,
             last_model_error: None,
@@ -430,9 +433,11 @@ impl Controller {
         // 2. Supervisor.
         let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
         let (all_enabled, lost, fault, estop) = self.table.observe(now, hb_timeout);
+        let configured = self.ids.iter().fold(0u64, |m, id| m | 1 << id.get());
         let obs = Observations {
             all_enabled,
             heartbeat_lost: lost,
+            all_lost: configured != 0 && lost & configured == configured,
             node_fault: fault,
             estop_nodes: estop,
             bus_estop: self.table.take_bus_estop(),
@@ -443,6 +448,8 @@ impl Controller {
         };
         let d = self.sup.tick(now, &obs);
         let mode = self.sup.mode();
+        // In Fault, setpoints go to the nodes still answering only.
+        self.setpoint_skip = if mode == Mode::Fault { lost } else { 0 };
         if d.send_estop {
             // Nothing queued before the E-stop may follow it.
             let _ = bus.flush_tx();
@@ -661,6 +668,9 @@ impl Controller {
         match self.variant {
             Variant::Classic => {
                 for i in 0..self.ids.len() {
+                    if self.setpoint_skip & 1 << self.ids[i].get() != 0 {
+                        continue;
+                    }
                     let m = Message::Setpoint(message::Setpoint {
                         node: self.ids[i],
                         cycle,
@@ -678,6 +688,9 @@ impl Controller {
                 }; 11];
                 let mut used = 0u16;
                 for (i, id) in self.ids.iter().enumerate() {
+                    if self.setpoint_skip & 1 << id.get() != 0 {
+                        continue;
+                    }
                     let (g, slot) = SetpointGroup::locate(*id);
                     let g = g as usize;
                     groups[g].group = g as u8;

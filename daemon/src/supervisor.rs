@@ -29,6 +29,9 @@ pub struct Observations {
     pub all_enabled: bool,
     /// Nodes whose heartbeat is overdue (bit = node id).
     pub heartbeat_lost: u64,
+    /// Every configured node's heartbeat is overdue: no actuator is left to
+    /// hold, and setpoints would only load a bus that may be the cause.
+    pub all_lost: bool,
     /// Nodes that report a fault (bit = node id).
     pub node_fault: u64,
     /// Nodes that sent or report an E-stop (bit = node id); `bus_estop`
@@ -505,8 +508,9 @@ impl Supervisor {
             Mode::Fault if self.disabled_in_fault => Drive::Disabled,
             Mode::Fault => match self.cfg.fault_policy {
                 FaultPolicy::Disable => Drive::Disabled,
-                // Without a bus or a model, holding is not possible.
-                FaultPolicy::Hold if obs.bus_off || obs.bus_gone => Drive::Disabled,
+                // Without a bus, or with no node left answering, holding is
+                // not possible: send nothing but Disable and SYNC.
+                FaultPolicy::Hold if obs.bus_off || obs.bus_gone || obs.all_lost => Drive::Disabled,
                 FaultPolicy::Hold => Drive::Setpoints,
             },
         };
@@ -816,6 +820,29 @@ mod tests {
         );
         assert_eq!(s.mode(), Mode::Fault);
         assert_eq!(d.drive, Drive::Disabled);
+    }
+
+    #[test]
+    fn hold_with_every_node_lost_drives_nothing() {
+        let mut s = swimming();
+        let d = s.tick(
+            4 * MS,
+            &Observations {
+                heartbeat_lost: 0b110,
+                ..ok_obs()
+            },
+        );
+        assert_eq!(s.mode(), Mode::Fault);
+        assert_eq!(d.drive, Drive::Setpoints, "the healthy ones hold");
+        let d = s.tick(
+            5 * MS,
+            &Observations {
+                heartbeat_lost: 0b110,
+                all_lost: true,
+                ..ok_obs()
+            },
+        );
+        assert_eq!(d.drive, Drive::Disabled, "no one left to hold");
     }
 
     #[test]

@@ -285,3 +285,61 @@ fn setpoints_beyond_joint_limits_are_clamped_and_counted() {
         .fold(0.0f32, f32::max);
     assert!(worst <= 0.05 + 1e-3, "{worst}");
 }
+
+/// Setpoint frames seen by `spy` since the last call, per node id.
+fn setpoints_seen(spy: &mut anguilla_drivers::mem::MemParticipant) -> [u32; 64] {
+    use anguilla_drivers::Bus;
+    use anguilla_protocol::message::{Message, NodeSet, Variant, decode};
+    let mut seen = [0u32; 64];
+    while let Ok(Some(r)) = spy.try_recv() {
+        if let Ok(Message::Setpoint(s)) = decode(&r.frame, Variant::Classic, NodeSet::all()) {
+            seen[s.node.get() as usize] += 1;
+        }
+    }
+    seen
+}
+
+/// In Fault under the "hold" policy the daemon keeps only the nodes that
+/// still answer busy: a silent node gets no setpoints (they would be load
+/// on a bus that may be why it is silent), and with every node silent it
+/// sends nothing but SYNC and Disable, so the heartbeats can come back and
+/// a reset succeeds (issue 13.3: a saturated bus kept every node lost and
+/// the reset refused forever).
+#[test]
+fn in_fault_the_daemon_does_not_fill_the_bus() {
+    let mut r = ready("lifecycle-fault-traffic");
+    let mut spy = r.bus.participant();
+    r.command(1, swim(0.5, 1.0));
+    r.run_for(0.3);
+    r.nodes[6].set_silent(true);
+    r.run_for(0.6);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault);
+    setpoints_seen(&mut spy);
+    r.run_for(0.2);
+    let seen = setpoints_seen(&mut spy);
+    assert_eq!(seen[7], 0, "the silent node gets no setpoints");
+    for id in (1..=12).filter(|&i| i != 7) {
+        assert!(
+            seen[id] >= 15,
+            "node {id} still held: {} setpoints",
+            seen[id]
+        );
+    }
+    // Every node silent: no setpoints at all.
+    for n in &mut r.nodes {
+        n.set_silent(true);
+    }
+    r.run_for(0.6);
+    setpoints_seen(&mut spy);
+    r.run_for(0.3);
+    assert_eq!(setpoints_seen(&mut spy), [0; 64], "nothing to hold");
+    assert_eq!(r.command(1, Command::Reset).accepted, 0, "still silent");
+    // They answer again: the reset is accepted and the daemon is idle.
+    for n in &mut r.nodes {
+        n.set_silent(false);
+    }
+    r.run_for(0.3);
+    assert_eq!(r.command(1, Command::Reset).accepted, 1);
+    r.run_for(0.5);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Idle);
+}
