@@ -64,7 +64,7 @@ pub enum Record {
     Period {
         /// The period's time.
         now: Nanos,
-        /// 0 error-active, 1 error-passive, 2 bus-off.
+        /// 0 error-active, 1 error-passive, 2 bus-off, 3 adapter gone.
         bus: u8,
     },
     /// An operator request handled at this time (before the next period).

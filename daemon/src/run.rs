@@ -101,15 +101,23 @@ pub enum RunError {
     /// The controller could not be built from the configuration.
     #[error(transparent)]
     Setup(#[from] SetupError),
-    /// The operator interface could not be created.
+    /// The operator interface could not be created. Its message shows the
+    /// cause, so the cause is not also its `source` (an error chain printed
+    /// with `{:#}` would say it twice).
     #[error("operator interface: {0}")]
-    Ipc(#[from] ipc::IpcError),
+    Ipc(ipc::IpcError),
     /// A thread could not be started.
     #[error("cannot start the {0} thread: {1}")]
     Thread(&'static str, std::io::Error),
     /// The loop thread ended before it was ready, without saying why.
     #[error("the control loop ended during start-up")]
     EndedEarly,
+}
+
+impl From<ipc::IpcError> for RunError {
+    fn from(e: ipc::IpcError) -> Self {
+        Self::Ipc(e)
+    }
 }
 
 /// Figures of a finished run.

@@ -129,8 +129,8 @@ pub struct Capabilities {
 /// one socket write) and do not allocate: the daemon calls them every
 /// control period (`tests/no_alloc.rs` checks the in-process bus and SLCAN,
 /// and SocketCAN, its automatic reconnection included, in the vcan VM). The
-/// exception is a device opened again from scratch (one that disappeared),
-/// which allocates as setup does.
+/// exception is an SLCAN adapter that disappeared ([`BusState::Gone`]): its
+/// serial port is opened again from scratch, which allocates as setup does.
 pub trait Bus: Send {
     /// Queues one frame for transmission. Fails with [`BusError::BusOff`]
     /// while the node is bus-off: a frame is never held back to be sent late.

@@ -199,30 +199,99 @@ fn discrete_chain_converges_to_the_beam() {
     assert!(errs[2] < 0.3, "{errs:?}");
 }
 
+/// The band within which one gait's signed deviation from the paper's
+/// simplified-model (S-M) value must lie, and why it sits there.
+struct Band {
+    gait: &'static str,
+    /// Lowest and highest accepted `(ours - S-M) / |S-M|`.
+    lo: f64,
+    hi: f64,
+}
+
+const fn band(gait: &'static str, lo: f64, hi: f64) -> Band {
+    Band { gait, lo, hi }
+}
+
+// Each band is the deviation measured here (52 intervals, dt = 0.02 s;
+// the value in each comment) +- 1 percentage point. The point covers what
+// is not physics: the test's discretization against the converged one
+// (F1 +0.2 %, README "Convergence"); the time step (dt 0.04 / 0.02 /
+// 0.01 s move the speeds by < 0.03 points and the yaws by < 0.3 points,
+// except T5, below); libm differences between machines (far smaller). A
+// change of the model that moves a gait by more fails here: re-measure,
+// explain the new deviation, then update the band and the README table.
+//
+// Why the centres are not at zero: the paper gives neither its averaging
+// windows nor its run lengths, and several details are read, not given
+// (docs/MODEL-NOTES.md, "What to expect against the tables": a faithful
+// reading lands 3-13 % from S-M; no coefficient is tuned to the tables).
+// The paper's values are printed in its tables, not read off figures:
+// speeds to 1e-3 m/s (0.2 % of F7's 0.306, the smallest), yaws to whole
+// degrees (+-0.5 deg: 1 % of T5's 49 deg, the smallest).
+const BANDS: [Band; 13] = [
+    // Forward speeds, Table 2: -V1(0), mean over the last 5 periods of 30 s.
+    // F1-F6 swim 3-8 % faster than S-M, F2 (a0 = 0, lambda = 1.25) the
+    // most: its cause is not isolated (model/README.md).
+    band("F1", 0.057, 0.077), // measured +6.74 %
+    band("F2", 0.106, 0.126), // measured +11.56 %
+    band("F3", 0.054, 0.074), // measured +6.36 %
+    band("F4", 0.064, 0.084), // measured +7.44 %
+    band("F5", 0.040, 0.060), // measured +4.95 %
+    band("F6", 0.021, 0.041), // measured +3.06 %
+    // F7 (a2 = 3.5, a1 = -4.5: the slowest swimmer) is the low-Reynolds
+    // case: the paper says its friction law (41) is unreliable there (its
+    // own S-M is 9 % from N-S, the most of Table 2), and MODEL-NOTES that it
+    // depends strongly on run length and window. Ours is slower than S-M,
+    // 2.9 % from N-S.
+    band("F7", -0.129, -0.109), // measured -11.92 %
+    // Turns, Table 4: yaw mean over 10-15 s of a 15 s run. We turn 2-9 %
+    // more than S-M, except T5.
+    band("T1", -0.098, -0.078), // measured -8.78 %
+    band("T2", -0.085, -0.065), // measured -7.51 %
+    band("T3", -0.072, -0.052), // measured -6.22 %
+    band("T4", -0.051, -0.031), // measured -4.09 %
+    // T5, the smallest turn, turns less than S-M. Its mean yaw averages a
+    // head oscillation large against the turn at the steps, and moves with
+    // dt (+6.25 / +7.20 / +6.69 % at dt 0.04 / 0.02 / 0.01 s): +-1.5 points.
+    band("T5", 0.057, 0.087),   // measured +7.20 %
+    band("T6", -0.029, -0.009), // measured -1.89 %
+];
+
 #[test]
-fn forward_and_turning_gaits_within_12_percent_of_the_paper() {
+fn forward_and_turning_gaits_each_within_its_band_of_the_paper() {
     // Converged discretization (52 intervals, dt = 0.02 s), the run lengths
     // and averaging windows of `anguilla swim --paper`.
     let m = model(Body::paper(), 52, 0.02, 0);
-    for row in PAPER_ROWS
+    let rows: Vec<_> = PAPER_ROWS
         .iter()
         .filter(|r| r.gait.starts_with('F') || r.gait.starts_with('T'))
-    {
-        if row.gait == "F7" {
-            continue; // reported, not checked: see model/README.md
-        }
+        .collect();
+    assert_eq!(
+        rows.iter().map(|r| r.gait).collect::<Vec<_>>(),
+        BANDS.iter().map(|b| b.gait).collect::<Vec<_>>(),
+        "every forward and turning gait of the paper has a band"
+    );
+    let mut outside = Vec::new();
+    for (row, b) in rows.iter().zip(&BANDS) {
         let g = gait::named_gait(row.gait).unwrap();
         let s = run::run_gait(&m, &g, row.duration, |_, _, _, _, _| {}).unwrap();
         let ours = run::metric_value(row.metric, &s);
-        let e = (ours - row.sm).abs() / row.sm.abs();
-        assert!(
-            e < 0.12,
-            "{}: ours {ours}, paper S-M {}, {:.1} %",
+        let e = (ours - row.sm) / row.sm.abs();
+        let ok = (b.lo..=b.hi).contains(&e);
+        eprintln!(
+            "{:3} ours {ours:9.4}  S-M {:9.4}  deviation {:+6.2} %  band {:+6.2} ..= {:+6.2} %{}",
             row.gait,
             row.sm,
-            100.0 * e
+            100.0 * e,
+            100.0 * b.lo,
+            100.0 * b.hi,
+            if ok { "" } else { "  OUTSIDE" }
         );
+        if !ok {
+            outside.push(row.gait);
+        }
     }
+    assert!(outside.is_empty(), "outside their bands: {outside:?}");
 }
 
 #[test]

@@ -321,8 +321,8 @@ impl VertebraNode {
         let func = raw >> 6;
         let me = self.cfg.id.get();
         match func {
-            // Sync.
-            1 => true,
+            // Sync: 0x040 only (0x041..=0x07F are not used: ignored).
+            1 => low == 0,
             // SetpointGroup: the group that carries this node.
             4 => self.cfg.variant == Variant::Fd && low as usize == (me as usize - 1) / 6,
             // Node-to-host messages are never for a node.
@@ -915,6 +915,7 @@ mod tests {
         );
         // Unknown ids, extended ids, remote frames, other nodes: silent.
         b.send_frame(&Frame::new_standard(0x7FF, &[1]).unwrap());
+        b.send_frame(&Frame::new_standard(0x041, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(0x240 + ID as u16, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(0x3C0 + ID as u16, &[]).unwrap());
         b.send_frame(&Frame::new(Id::extended(0x1234).unwrap(), &[1]).unwrap());

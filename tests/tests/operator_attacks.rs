@@ -469,6 +469,40 @@ fn a_squatter_is_named_and_a_dead_daemons_services_are_taken_over() {
 }
 
 #[test]
+fn a_second_daemon_on_a_prefix_is_told_another_daemon_serves_it() {
+    let _dog = Watchdog::new("second daemon", Duration::from_secs(120));
+    let (prefix, config) = setup("second");
+    let _first = daemon(&config, None);
+    let mut c = connect(&prefix, "watcher");
+    wait_for(&mut c, "first state", 10.0, |_| true);
+    let out = Proc::new(anguilla_bin())
+        .args(["run", "--quiet", "--duration", "1", "--config"])
+        .arg(&config)
+        .stdout(Stdio::null())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "the second daemon ran: {err}");
+    // The operator's words, once, and none of iceoryx2's.
+    let want = "another anguilla daemon serves this prefix";
+    assert_eq!(err.matches(want).count(), 1, "{err}");
+    for name in [
+        "iceoryx2",
+        "Error::",
+        "OpenOrCreate",
+        "AlreadyExists",
+        "InUse",
+    ] {
+        assert!(!err.contains(name), "'{name}' in: {err}");
+    }
+    // The first daemon serves on, undisturbed.
+    let before = wait_for(&mut c, "state", 10.0, |_| true).loop_stats.periods;
+    wait_for(&mut c, "the first daemon still running", 10.0, |s| {
+        s.loop_stats.periods > before
+    });
+}
+
+#[test]
 fn an_estop_while_shutdown_stops_a_swim_still_goes_through() {
     let _dog = Watchdog::new("e-stop at shutdown", Duration::from_secs(120));
     let (prefix, config) = setup("shutdown-estop");
