@@ -32,6 +32,15 @@ pub struct BudgetArgs {
     /// Actuated joints (one node of two axes each), 1..=63.
     #[arg(long, default_value_t = 12)]
     joints: u32,
+    /// The nodes' ids instead of 1..=joints, e.g. `1,7,13` (on CAN FD sparse
+    /// ids take more setpoint-group frames).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "IDS",
+        conflicts_with = "joints"
+    )]
+    node_ids: Vec<u8>,
     /// Control rate in Hz (setpoints + SYNC + feedback per period).
     #[arg(long, default_value_t = 100.0)]
     rate: f64,
@@ -91,8 +100,22 @@ fn run_budget(a: BudgetArgs) -> anyhow::Result<()> {
             data: Some(d.unwrap_or(5_000_000)),
         },
     };
-    let b = budget::budget(a.joints, a.rate, rates).context("invalid budget arguments")?;
-    let max = budget::max_rate(a.joints, rates, a.max_load).context("invalid --max-load")?;
+    let nodes = if a.node_ids.is_empty() {
+        budget::first_nodes(a.joints).context("invalid --joints")?
+    } else {
+        let mut set = anguilla_protocol::NodeSet::empty();
+        for &id in &a.node_ids {
+            let node = anguilla_protocol::NodeId::new(id)
+                .map_err(|e| anyhow::anyhow!("--node-ids: {e}"))?;
+            if set.contains(id) {
+                anyhow::bail!("--node-ids: {id} given twice (expected distinct ids)");
+            }
+            set = set.with(node);
+        }
+        set
+    };
+    let b = budget::budget(nodes, a.rate, rates).context("invalid budget arguments")?;
+    let max = budget::max_rate(nodes, rates, a.max_load).context("invalid --max-load")?;
     let mut out = std::io::stdout().lock();
     if a.json {
         print_json(&mut out, &b, a.max_load, max).context("writing to standard output")?;
@@ -112,7 +135,7 @@ fn print_table(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> any
         "{} at {} kbit/s{data}: {} joints (nodes), {} Hz, period {:.0} us",
         b.variant,
         b.rates.nominal / 1000,
-        b.joints,
+        b.nodes.len(),
         b.rate,
         1e6 / b.rate
     )?;
@@ -187,7 +210,7 @@ fn print_json(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> anyh
         },
         b.rates.nominal,
         b.rates.data.map_or("null".to_string(), |d| d.to_string()),
-        b.joints,
+        b.nodes.len(),
         b.rate,
         lines.join(","),
         b.busy_per_period * 1e6,
@@ -220,6 +243,7 @@ mod tests {
     fn args() -> BudgetArgs {
         BudgetArgs {
             joints: 12,
+            node_ids: Vec::new(),
             rate: 100.0,
             bitrate: 1_000_000,
             fd: false,
@@ -227,6 +251,22 @@ mod tests {
             max_load: 0.6,
             json: true,
         }
+    }
+
+    #[test]
+    fn node_ids_are_checked_and_sparse_fd_ids_cost_more() {
+        let e = run_budget(BudgetArgs {
+            node_ids: vec![1, 64],
+            ..args()
+        })
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("--node-ids"), "{e:#}");
+        let e = run_budget(BudgetArgs {
+            node_ids: vec![3, 3],
+            ..args()
+        })
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("3 given twice"), "{e:#}");
     }
 
     #[test]

@@ -339,7 +339,7 @@ impl Config {
     /// model's slowest step (1 / `MAX_DT`), and within `bus.max-load`.
     pub fn control_rate(&self) -> Result<f64, ConfigError> {
         let rates = self.bitrates();
-        let joints = self.robot.joints as u32;
+        let nodes = self.node_set();
         let bus_text = || {
             format!(
                 "{} joints on {} at {} bit/s",
@@ -348,7 +348,7 @@ impl Config {
                 self.bus.bitrate
             )
         };
-        let max = anguilla_protocol::budget::max_rate(joints, rates, self.bus.max_load)
+        let max = anguilla_protocol::budget::max_rate(nodes, rates, self.bus.max_load)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;
         let min = 1.0 / anguilla_model::MAX_DT;
         let rate = if self.control.rate_hz > 0.0 {
@@ -367,7 +367,7 @@ impl Config {
             }
             max
         };
-        let load = anguilla_protocol::budget::budget(joints, rate, rates)
+        let load = anguilla_protocol::budget::budget(nodes, rate, rates)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?
             .load;
         // The automatic rate sits exactly at the limit; allow rounding.
@@ -384,6 +384,16 @@ impl Config {
             )));
         }
         Ok(rate)
+    }
+
+    /// The nodes' ids as a set, for the bus budget (ids out of range are
+    /// left out; validation names them).
+    pub fn node_set(&self) -> anguilla_protocol::NodeSet {
+        anguilla_protocol::NodeSet::of(
+            self.node_ids()
+                .into_iter()
+                .filter_map(|id| anguilla_protocol::NodeId::new(id).ok()),
+        )
     }
 
     /// The bus's bit rates, as the budget arithmetic takes them.

@@ -28,8 +28,7 @@ use anguilla_model::{
 };
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
-    self, AxisSetpoint, Command as NodeCommand, GROUP_SLOTS, Message, NodeId, SetpointGroup,
-    Target, Variant,
+    self, AxisSetpoint, Command as NodeCommand, Message, NodeId, Target, Variant,
 };
 
 use crate::config::{Config, FaultPolicyConfig};
@@ -664,47 +663,24 @@ impl Controller {
     }
 
     fn send_setpoints(&mut self, bus: &mut dyn Bus) {
-        let cycle = self.variant.cycle_tag(self.counter);
-        match self.variant {
-            Variant::Classic => {
-                for i in 0..self.ids.len() {
-                    if self.setpoint_skip & 1 << self.ids[i].get() != 0 {
-                        continue;
-                    }
-                    let m = Message::Setpoint(message::Setpoint {
-                        node: self.ids[i],
-                        cycle,
-                        axes: self.setpoints[i],
-                    });
-                    self.send(bus, m);
-                }
-            }
-            Variant::Fd => {
-                // Up to 11 groups of six; nodes land in the group of their id.
-                let mut groups = [SetpointGroup {
-                    group: 0,
-                    cycle,
-                    slots: [None; GROUP_SLOTS],
-                }; 11];
-                let mut used = 0u16;
-                for (i, id) in self.ids.iter().enumerate() {
-                    if self.setpoint_skip & 1 << id.get() != 0 {
-                        continue;
-                    }
-                    let (g, slot) = SetpointGroup::locate(*id);
-                    let g = g as usize;
-                    groups[g].group = g as u8;
-                    groups[g].slots[slot] = Some(self.setpoints[i]);
-                    used |= 1 << g;
-                }
-                for (g, group) in groups.iter().enumerate() {
-                    if used & (1 << g) != 0 {
-                        let m = Message::SetpointGroup(*group);
-                        self.send(bus, m);
-                    }
-                }
-            }
+        // The ids and setpoints are lent out while the frames go to the bus
+        // (moving a Vec allocates nothing).
+        let ids = std::mem::take(&mut self.ids);
+        let setpoints = std::mem::take(&mut self.setpoints);
+        let skip = self.setpoint_skip;
+        let pairs = ids
+            .iter()
+            .zip(setpoints.iter())
+            .filter(|(id, _)| skip & 1 << id.get() == 0)
+            .map(|(id, axes)| (*id, *axes));
+        let r = message::encode_setpoints(self.variant, self.counter, pairs, |f| {
+            self.send_frame(bus, &f)
+        });
+        if r.is_err() {
+            self.counters.tx_errors += 1;
         }
+        self.ids = ids;
+        self.setpoints = setpoints;
     }
 
     fn fill_snapshot(

@@ -343,3 +343,50 @@ fn in_fault_the_daemon_does_not_fill_the_bus() {
     r.run_for(0.5);
     assert_eq!(r.ctl.supervisor().mode(), Mode::Idle);
 }
+
+/// Sparse node ids on CAN FD (issue 14.1): the daemon drives every node
+/// through the setpoint group of its id, and the automatic rate is budgeted
+/// for the group frames it actually sends (eleven for these twelve ids, not
+/// the two that twelve contiguous ids take), so the bus stays within
+/// `bus.max-load`.
+#[test]
+fn sparse_fd_ids_are_driven_and_budgeted_by_the_frames_sent() {
+    use anguilla_drivers::Bus;
+    use anguilla_protocol::budget::{Cadence, budget, control_traffic};
+    use anguilla_protocol::message::{Message, NodeSet, Variant, decode};
+    let mut cfg = Config::default();
+    cfg.bus.fd = true;
+    cfg.robot.node_ids = vec![1, 7, 13, 19, 25, 31, 37, 43, 49, 55, 60, 63];
+    let rate = cfg.control_rate().expect("a rate within the budget");
+    let nodes = cfg.node_set();
+    assert!(budget(nodes, rate, cfg.bitrates()).unwrap().load <= cfg.bus.max_load + 1e-9);
+    let Cadence::PerPeriod(budgeted) = control_traffic(Variant::Fd, nodes)[0].cadence else {
+        panic!("setpoints are per period")
+    };
+    let mut r = Rig::new("lifecycle-sparse-fd", &cfg);
+    let mut spy = r.bus.participant();
+    r.run_for(0.1);
+    assert_eq!(r.command(1, Command::TakeControl).accepted, 1);
+    assert_eq!(r.command(1, Command::Enable).accepted, 1);
+    r.run_for(0.3);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+    assert_eq!(r.command(1, swim(0.5, 1.0)).accepted, 1);
+    r.run_for(0.5);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Swimming);
+    assert!(r.nodes.iter().all(|n| n.state() == NodeState::Enabled));
+    while let Ok(Some(_)) = spy.try_recv() {}
+    let (mut groups, mut syncs) = (0u32, 0u32);
+    for _ in 0..10 {
+        r.step();
+    }
+    while let Ok(Some(f)) = spy.try_recv() {
+        match decode(&f.frame, Variant::Fd, NodeSet::all()) {
+            Ok(Message::SetpointGroup(_)) => groups += 1,
+            Ok(Message::Sync { .. }) => syncs += 1,
+            _ => {}
+        }
+    }
+    assert_eq!(syncs, 10);
+    assert_eq!(groups, 10 * 11, "one frame per group of an id");
+    assert_eq!(budgeted, 11, "the budget counts the frames sent");
+}

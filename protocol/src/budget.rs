@@ -28,8 +28,8 @@
 
 use crate::frame::{Frame, Id, Kind};
 use crate::message::{
-    AxisFeedback, ErrorBits, Feedback, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId, NodeState,
-    Variant, encode_setpoints,
+    AxisFeedback, ErrorBits, Feedback, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId, NodeSet,
+    NodeState, Variant, encode_setpoints,
 };
 
 /// Worst-case length of one frame: bits at the nominal rate and at the data
@@ -188,13 +188,20 @@ impl BudgetLine {
     }
 }
 
-/// The cyclic traffic of a robot of `joints` nodes, computed by encoding
-/// the actual frames: setpoints, SYNC, feedback, heartbeats. Event messages
-/// (E-stop, commands, configuration) are not cyclic and not counted.
-pub fn control_traffic(variant: Variant, joints: u8) -> [BudgetLine; 4] {
-    let joints = joints.clamp(1, crate::message::MAX_NODE_ID);
+/// The cyclic traffic of a robot whose nodes have the ids in `nodes`,
+/// computed by encoding the actual frames: setpoints, SYNC, feedback,
+/// heartbeats. Event messages (E-stop, commands, configuration) are not
+/// cyclic and not counted. On CAN FD the setpoint frames depend on the ids,
+/// not only their number: ids 1..=6 share one group frame, ids 1, 7, 13
+/// take three. An empty set counts as node 1.
+pub fn control_traffic(variant: Variant, nodes: NodeSet) -> [BudgetLine; 4] {
+    let nodes = if nodes.is_empty() {
+        NodeSet::first(1)
+    } else {
+        nodes
+    };
+    let joints = nodes.len() as u32;
     // Setpoints: encode a real period's frames and sum them.
-    let setpoints = [[Default::default(); 2]; crate::message::MAX_NODE_ID as usize];
     let (mut sp_count, mut sp_bytes, mut sp_bits) = (
         0u32,
         0u8,
@@ -203,7 +210,8 @@ pub fn control_traffic(variant: Variant, joints: u8) -> [BudgetLine; 4] {
             data: 0,
         },
     );
-    encode_setpoints(variant, 0, &setpoints[..joints as usize], |f| {
+    let setpoints = nodes.iter().map(|id| (id, [Default::default(); 2]));
+    encode_setpoints(variant, 0, setpoints, |f| {
         let b = worst_case_bits(&f);
         sp_count += 1;
         sp_bytes = sp_bytes.max(f.len() as u8);
@@ -254,10 +262,10 @@ pub fn control_traffic(variant: Variant, joints: u8) -> [BudgetLine; 4] {
         BudgetLine {
             name: "Feedback",
             bytes: feedback.len() as u8,
-            cadence: Cadence::PerPeriod(joints as u32),
+            cadence: Cadence::PerPeriod(joints),
             bits: FrameBits {
-                nominal: fb.nominal * joints as u32,
-                data: fb.data * joints as u32,
+                nominal: fb.nominal * joints,
+                data: fb.data * joints,
             },
         },
         BudgetLine {
@@ -276,8 +284,8 @@ pub struct Budget {
     pub variant: Variant,
     /// Bit rates.
     pub rates: Bitrates,
-    /// Joints (= nodes).
-    pub joints: u8,
+    /// The nodes' ids (one node per joint).
+    pub nodes: NodeSet,
     /// Control rate, Hz.
     pub rate: f64,
     /// The traffic.
@@ -289,29 +297,39 @@ pub struct Budget {
     pub load: f64,
 }
 
-fn check_joints(joints: u32) -> Result<u8, BudgetError> {
+fn check_nodes(nodes: NodeSet) -> Result<NodeSet, BudgetError> {
+    if nodes.is_empty() {
+        Err(BudgetError::Joints(0))
+    } else {
+        Ok(nodes)
+    }
+}
+
+/// Ids 1..=`joints`: the nodes of a robot of `joints` vertebrae numbered
+/// from 1 (an error outside 1..=63).
+pub fn first_nodes(joints: u32) -> Result<NodeSet, BudgetError> {
     if (1..=crate::message::MAX_NODE_ID as u32).contains(&joints) {
-        Ok(joints as u8)
+        Ok(NodeSet::first(joints as u8))
     } else {
         Err(BudgetError::Joints(joints))
     }
 }
 
-/// The worst-case bus load of `joints` nodes at control rate `rate` Hz.
+/// The worst-case bus load of the nodes `nodes` at control rate `rate` Hz.
 /// The variant follows from `rates` (a data rate means CAN FD).
-pub fn budget(joints: u32, rate: f64, rates: Bitrates) -> Result<Budget, BudgetError> {
-    let joints = check_joints(joints)?;
+pub fn budget(nodes: NodeSet, rate: f64, rates: Bitrates) -> Result<Budget, BudgetError> {
+    let nodes = check_nodes(nodes)?;
     let rates = rates.validate()?;
     if !(rate.is_finite() && rate > 0.0 && rate <= 20_000.0) {
         return Err(BudgetError::Rate(rate));
     }
     let variant = rates.variant();
-    let lines = control_traffic(variant, joints);
+    let lines = control_traffic(variant, nodes);
     let busy: f64 = lines.iter().map(|l| l.busy_per_second(rates, rate)).sum();
     Ok(Budget {
         variant,
         rates,
-        joints,
+        nodes,
         rate,
         lines,
         busy_per_period: busy / rate,
@@ -319,15 +337,15 @@ pub fn budget(joints: u32, rate: f64, rates: Bitrates) -> Result<Budget, BudgetE
     })
 }
 
-/// The highest control rate, Hz, at which `joints` nodes' cyclic traffic
-/// stays within `max_load` (a fraction, e.g. 0.6) of the bus.
-pub fn max_rate(joints: u32, rates: Bitrates, max_load: f64) -> Result<f64, BudgetError> {
-    let joints = check_joints(joints)?;
+/// The highest control rate, Hz, at which the cyclic traffic of the nodes
+/// `nodes` stays within `max_load` (a fraction, e.g. 0.6) of the bus.
+pub fn max_rate(nodes: NodeSet, rates: Bitrates, max_load: f64) -> Result<f64, BudgetError> {
+    let nodes = check_nodes(nodes)?;
     let rates = rates.validate()?;
     if !(max_load > 0.0 && max_load <= 1.0) {
         return Err(BudgetError::Load(max_load));
     }
-    let lines = control_traffic(rates.variant(), joints);
+    let lines = control_traffic(rates.variant(), nodes);
     // load(rate) = fixed + rate * per_period
     let fixed: f64 = lines
         .iter()
@@ -372,6 +390,31 @@ mod tests {
         assert_eq!(worst_case_bits(&empty).nominal, 34 + 8 + 13);
     }
 
+    /// On CAN FD the setpoint frames follow the ids: six nodes 1..=6 share
+    /// one group frame, six nodes 1, 7, .., 31 need six. Counting the nodes
+    /// only (as the budget did) under-counts sparse ids and lets the
+    /// automatic rate overload the bus.
+    #[test]
+    fn sparse_ids_on_fd_count_every_group_frame() {
+        let ids = |v: &[u8]| NodeSet::of(v.iter().map(|&i| NodeId::new(i).unwrap()));
+        let dense = ids(&[1, 2, 3, 4, 5, 6]);
+        let sparse = ids(&[1, 7, 13, 19, 25, 31]);
+        let frames = |n| match control_traffic(Variant::Fd, n)[0].cadence {
+            Cadence::PerPeriod(c) => c,
+            Cadence::PerSecond(_) => unreachable!("setpoints are per period"),
+        };
+        assert_eq!((frames(dense), frames(sparse)), (1, 6));
+        let (d, s) = (
+            max_rate(dense, FD_1_5M, 0.6).unwrap(),
+            max_rate(sparse, FD_1_5M, 0.6).unwrap(),
+        );
+        assert!(s < d * 0.8, "sparse {s} Hz vs dense {d} Hz");
+        assert!((budget(sparse, s, FD_1_5M).unwrap().load - 0.6).abs() < 1e-9);
+        // Classic CAN: one frame per node wherever the ids are.
+        let c = |n| control_traffic(Variant::Classic, n)[0].cadence;
+        assert_eq!(c(dense), c(sparse));
+    }
+
     #[test]
     fn fd_frame_lengths() {
         let f = Frame::new_fd(Id::Standard(0x100), &[0; 64], true).unwrap();
@@ -385,20 +428,20 @@ mod tests {
 
     #[test]
     fn goals_are_met() {
-        let c = budget(12, 100.0, CLASSIC_1M).unwrap();
+        let c = budget(NodeSet::first(12), 100.0, CLASSIC_1M).unwrap();
         assert!(c.load <= 0.60, "classic load {}", c.load);
-        let f = budget(12, 500.0, FD_1_5M).unwrap();
+        let f = budget(NodeSet::first(12), 500.0, FD_1_5M).unwrap();
         assert!(f.load <= 0.60, "fd load {}", f.load);
-        assert!(max_rate(12, CLASSIC_1M, 0.6).unwrap() >= 100.0);
-        assert!(max_rate(12, FD_1_5M, 0.6).unwrap() >= 500.0);
+        assert!(max_rate(NodeSet::first(12), CLASSIC_1M, 0.6).unwrap() >= 100.0);
+        assert!(max_rate(NodeSet::first(12), FD_1_5M, 0.6).unwrap() >= 500.0);
     }
 
     #[test]
     fn max_rate_is_where_the_load_hits_the_limit() {
         for rates in [CLASSIC_1M, FD_1_5M] {
             for joints in [1, 6, 12, 13, 30] {
-                let r = max_rate(joints, rates, 0.6).unwrap();
-                let b = budget(joints, r, rates).unwrap();
+                let r = max_rate(NodeSet::first(joints), rates, 0.6).unwrap();
+                let b = budget(NodeSet::first(joints), r, rates).unwrap();
                 // Linear in the rate: equal up to float rounding.
                 assert!((b.load - 0.6).abs() < 1e-9, "{joints} {r} {}", b.load);
             }
@@ -407,21 +450,21 @@ mod tests {
 
     #[test]
     fn bad_inputs_are_errors() {
-        assert!(budget(0, 100.0, CLASSIC_1M).is_err());
-        assert!(budget(12, 0.0, CLASSIC_1M).is_err());
-        assert!(budget(12, f64::NAN, CLASSIC_1M).is_err());
+        assert!(budget(NodeSet::empty(), 100.0, CLASSIC_1M).is_err());
+        assert!(budget(NodeSet::first(12), 0.0, CLASSIC_1M).is_err());
+        assert!(budget(NodeSet::first(12), f64::NAN, CLASSIC_1M).is_err());
         let absurd = Bitrates {
             nominal: 5_000_000,
             data: None,
         };
         assert_eq!(
-            budget(12, 100.0, absurd),
+            budget(NodeSet::first(12), 100.0, absurd),
             Err(BudgetError::NominalRate(5_000_000))
         );
         let slow_data = Bitrates {
             nominal: 1_000_000,
             data: Some(500_000),
         };
-        assert!(budget(12, 100.0, slow_data).is_err());
+        assert!(budget(NodeSet::first(12), 100.0, slow_data).is_err());
     }
 }

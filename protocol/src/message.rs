@@ -119,6 +119,28 @@ impl NodeSet {
     pub const fn contains(self, id: u8) -> bool {
         id < 64 && (self.0 >> id) & 1 == 1
     }
+
+    /// The set of the given ids.
+    pub fn of(ids: impl IntoIterator<Item = NodeId>) -> Self {
+        ids.into_iter().fold(Self::empty(), Self::with)
+    }
+
+    /// How many ids the set holds.
+    pub const fn len(self) -> usize {
+        self.0.count_ones() as usize
+    }
+
+    /// Whether the set is empty.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The ids, ascending.
+    pub fn iter(self) -> impl Iterator<Item = NodeId> {
+        (1..=MAX_NODE_ID)
+            .filter(move |&i| self.contains(i))
+            .map(NodeId)
+    }
 }
 
 /// Who a command is for.
@@ -1872,47 +1894,58 @@ pub fn decode(frame: &Frame, variant: Variant, nodes: NodeSet) -> Result<Message
     }
 }
 
+/// `setpoints[i]` paired with node `i + 1`, for [`encode_setpoints`]: a
+/// robot whose nodes are numbered from 1 (at most 63 nodes; any further
+/// setpoints are left out).
+pub fn from_node_one(
+    setpoints: &[[AxisSetpoint; 2]],
+) -> impl Iterator<Item = (NodeId, [AxisSetpoint; 2])> + '_ {
+    (1..=MAX_NODE_ID).map(NodeId).zip(setpoints.iter().copied())
+}
+
+/// Setpoint groups a CAN FD bus can carry: node ids 1..=63 in groups of
+/// [`GROUP_SLOTS`].
+pub const MAX_GROUPS: usize = (MAX_NODE_ID as usize).div_ceil(GROUP_SLOTS);
+
 /// Encodes one period's setpoints for `variant` and hands each frame to
-/// `send`, in identifier order, without allocating: one [`Setpoint`] frame
-/// per node on classic CAN, one [`SetpointGroup`] frame per six nodes on CAN
-/// FD. `setpoints[i]` is for node `i + 1`. The caller sends SYNC `counter`
-/// after these frames.
+/// `send`, without allocating: one [`Setpoint`] frame per node on classic
+/// CAN, in the order given; on CAN FD one [`SetpointGroup`] frame per group
+/// that holds at least one of the nodes (the group of node `n` is
+/// `(n - 1) / 6`, [`SetpointGroup::locate`]), in group order. Node ids need
+/// not be contiguous: ids 1, 7 and 13 take three FD frames. The caller sends
+/// SYNC `counter` after these frames. A node given twice keeps its last
+/// setpoint on CAN FD and is sent twice on classic CAN.
 pub fn encode_setpoints(
     variant: Variant,
     counter: u16,
-    setpoints: &[[AxisSetpoint; 2]],
+    setpoints: impl IntoIterator<Item = (NodeId, [AxisSetpoint; 2])>,
     mut send: impl FnMut(Frame),
 ) -> Result<(), EncodeError> {
-    if setpoints.len() > MAX_NODE_ID as usize {
-        return Err(EncodeError::BadNodeId(setpoints.len().min(255) as u8));
-    }
     let cycle = variant.cycle_tag(counter);
     match variant {
         Variant::Classic => {
-            for (i, axes) in setpoints.iter().enumerate() {
-                let node = NodeId(i as u8 + 1);
-                send(
-                    Message::Setpoint(Setpoint {
-                        node,
-                        cycle,
-                        axes: *axes,
-                    })
-                    .encode(variant)?,
-                );
+            for (node, axes) in setpoints {
+                send(Message::Setpoint(Setpoint { node, cycle, axes }).encode(variant)?);
             }
         }
         Variant::Fd => {
-            for (g, chunk) in setpoints.chunks(GROUP_SLOTS).enumerate() {
-                let mut slots = [None; GROUP_SLOTS];
-                for (slot, axes) in slots.iter_mut().zip(chunk) {
-                    *slot = Some(*axes);
+            let mut groups = [SetpointGroup {
+                group: 0,
+                cycle,
+                slots: [None; GROUP_SLOTS],
+            }; MAX_GROUPS];
+            let mut used = 0u16;
+            for (node, axes) in setpoints {
+                let (g, slot) = SetpointGroup::locate(node);
+                let g = g as usize;
+                groups[g].group = g as u8;
+                groups[g].slots[slot] = Some(axes);
+                used |= 1 << g;
+            }
+            for (g, group) in groups.iter().enumerate() {
+                if used & (1 << g) != 0 {
+                    send(Message::SetpointGroup(*group).encode(variant)?);
                 }
-                let group = SetpointGroup {
-                    group: g as u8,
-                    cycle,
-                    slots,
-                };
-                send(Message::SetpointGroup(group).encode(variant)?);
             }
         }
     }

@@ -608,10 +608,16 @@ fn setpoint_frames_for_a_period() {
         torque: 0.25,
     }; 2]; 13];
     let mut frames = Vec::new();
-    encode_setpoints(Variant::Classic, 0x1234, &sp, |f| frames.push(f)).unwrap();
+    encode_setpoints(Variant::Classic, 0x1234, from_node_one(&sp), |f| {
+        frames.push(f)
+    })
+    .unwrap();
     assert_eq!(frames.len(), 13);
     let mut fd_frames = Vec::new();
-    encode_setpoints(Variant::Fd, 0x1234, &sp, |f| fd_frames.push(f)).unwrap();
+    encode_setpoints(Variant::Fd, 0x1234, from_node_one(&sp), |f| {
+        fd_frames.push(f)
+    })
+    .unwrap();
     assert_eq!(
         fd_frames.iter().map(Frame::len).collect::<Vec<_>>(),
         [64, 64, 12]
@@ -632,4 +638,36 @@ fn setpoint_frames_for_a_period() {
         let axes = grp.for_node(node).unwrap();
         assert!((axes[1].position - 0.5).abs() < 1e-4);
     }
+}
+
+/// CAN FD groups follow the ids, not their count: nodes 1, 7 and 13 are in
+/// groups 0, 1 and 2, one frame each, each slot where its id puts it; a
+/// node left out of the iterator gets no slot.
+#[test]
+fn sparse_ids_take_the_group_frames_of_their_ids() {
+    let at = |p: f32| {
+        [AxisSetpoint {
+            position: p,
+            velocity: 0.0,
+            torque: 0.0,
+        }; 2]
+    };
+    let id = |n| NodeId::new(n).unwrap();
+    let mut frames = Vec::new();
+    let sp = [(id(1), at(0.1)), (id(7), at(0.7)), (id(13), at(1.3))];
+    encode_setpoints(Variant::Fd, 5, sp, |f| frames.push(f)).unwrap();
+    assert_eq!(frames.len(), 3);
+    for (f, (node, axes)) in frames.iter().zip(sp) {
+        let Ok(Message::SetpointGroup(g)) = decode(f, Variant::Fd, NodeSet::all()) else {
+            panic!("{f}")
+        };
+        assert_eq!(g.group, SetpointGroup::locate(node).0);
+        let got = g.for_node(node).unwrap();
+        assert!((got[0].position - axes[0].position).abs() < 1e-4);
+        assert_eq!(g.slots.iter().filter(|s| s.is_some()).count(), 1);
+    }
+    let mut classic = Vec::new();
+    encode_setpoints(Variant::Classic, 5, sp, |f| classic.push(f)).unwrap();
+    assert_eq!(classic.len(), 3);
+    assert_eq!(classic[2].id().raw(), 0x0C0 + 13);
 }

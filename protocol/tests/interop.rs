@@ -76,7 +76,7 @@ fn messages(variant: Variant) -> Vec<Message> {
                 ]
             })
             .collect();
-        encode_setpoints(variant, cycle, &sp, |f| {
+        encode_setpoints(variant, cycle, from_node_one(&sp), |f| {
             out.push(decode(&f, variant, NodeSet::first(NODES)).unwrap())
         })
         .unwrap();

@@ -37,11 +37,16 @@ fn a_period_of_encoding_and_decoding_allocates_nothing() {
     let mut decoded = 0usize;
     let before = ALLOCATIONS.load(Ordering::Relaxed);
     for variant in [Variant::Classic, Variant::Fd] {
-        encode_setpoints(variant, 42, &setpoints, |f| {
-            if decode(&f, variant, nodes).is_ok() {
-                decoded += 1;
-            }
-        })
+        encode_setpoints(
+            variant,
+            42,
+            anguilla_protocol::message::from_node_one(&setpoints),
+            |f| {
+                if decode(&f, variant, nodes).is_ok() {
+                    decoded += 1;
+                }
+            },
+        )
         .unwrap();
         let sync = Message::Sync { counter: 42 }.encode(variant).unwrap();
         decoded += decode(&sync, variant, nodes).is_ok() as usize;

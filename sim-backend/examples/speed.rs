@@ -77,8 +77,13 @@ fn main() {
             })
             .collect();
         let counter = k as u16;
-        message::encode_setpoints(Variant::Classic, counter, &sp, |f| host.send(&f).unwrap())
-            .unwrap();
+        message::encode_setpoints(
+            Variant::Classic,
+            counter,
+            message::from_node_one(&sp),
+            |f| host.send(&f).unwrap(),
+        )
+        .unwrap();
         host.send(&Message::Sync { counter }.encode(Variant::Classic).unwrap())
             .unwrap();
         step(&mut robot, &clock);

@@ -98,9 +98,12 @@ fn torque_limit_caps_the_motor_torque_and_is_reported() {
         h.counter = h.counter.wrapping_add(1);
         let c = h.counter;
         let host = &mut h.host;
-        anguilla_protocol::message::encode_setpoints(h.variant, c, &vec![[sp, sp]; n], |f| {
-            host.send(&f).unwrap()
-        })
+        anguilla_protocol::message::encode_setpoints(
+            h.variant,
+            c,
+            anguilla_protocol::message::from_node_one(&vec![[sp, sp]; n]),
+            |f| host.send(&f).unwrap(),
+        )
         .unwrap();
         h.send(Message::Sync { counter: c });
         for _ in 0..10 {

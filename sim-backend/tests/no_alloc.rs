@@ -61,8 +61,13 @@ fn step_until_allocates_nothing_in_steady_state() {
             for (j, sp) in setpoints.iter_mut().enumerate() {
                 sp[1].position = 0.2 * ((k as f32) * 0.01 + j as f32).sin();
             }
-            message::encode_setpoints(Variant::Classic, k, &setpoints, |f| host.send(&f).unwrap())
-                .unwrap();
+            message::encode_setpoints(
+                Variant::Classic,
+                k,
+                message::from_node_one(&setpoints),
+                |f| host.send(&f).unwrap(),
+            )
+            .unwrap();
             let sync = Message::Sync { counter: k }
                 .encode(Variant::Classic)
                 .unwrap();

@@ -101,9 +101,12 @@ impl Host {
     pub fn cycle(&mut self, setpoints: &[[AxisSetpoint; 2]], period: Duration) {
         self.counter = self.counter.wrapping_add(1);
         let host = &mut self.host;
-        message::encode_setpoints(self.variant, self.counter, setpoints, |f| {
-            host.send(&f).unwrap()
-        })
+        message::encode_setpoints(
+            self.variant,
+            self.counter,
+            message::from_node_one(setpoints),
+            |f| host.send(&f).unwrap(),
+        )
         .unwrap();
         self.send(Message::Sync {
             counter: self.counter,
