@@ -152,6 +152,14 @@ fn conform_passes_the_simulated_node_behind_an_slcan_pty() {
         &format!("slcan:{device}@1000000"),
         "--node",
         "2",
+        // Real time on a shared machine: the "heartbeat at once" bound and
+        // the window are widened so that a scheduling stall is not taken
+        // for the node's fault (the 50 ms default is tested on simulated
+        // time in conform/tests/suite.rs).
+        "--prompt-ms",
+        "300",
+        "--window-ms",
+        "400",
     ]);
     let _ = sim.kill();
     let _ = sim.wait();
@@ -164,10 +172,19 @@ fn conform_passes_the_simulated_node_behind_an_slcan_pty() {
     );
     assert!(out.contains("ok        Fault × Enable: BAD_FRAME"), "{out}");
     // A node id outside 1..=63 is named.
-    let (ok, _, err) = run(&["conform", "--bus", "mem:x", "--node", "0"]);
-    assert!(!ok);
-    assert!(err.contains("--node"), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
+    for (args, want) in [
+        (&["--node", "0"][..], "--node"),
+        (&["--node", "1", "--window-ms", "10"], "--window-ms"),
+        (
+            &["--node", "1", "--prompt-ms", "900", "--window-ms", "300"],
+            "--prompt-ms 900 is longer than --window-ms 300",
+        ),
+    ] {
+        let (ok, _, err) = run(&[&["conform", "--bus", "mem:x"][..], args].concat());
+        assert!(!ok, "{args:?} accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
 }
 
 #[test]

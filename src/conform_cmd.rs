@@ -37,6 +37,16 @@ pub struct ConformArgs {
     /// CAN FD (setpoint groups) instead of classic CAN.
     #[arg(long)]
     fd: bool,
+    /// How long to watch the node after each input, ms (200..=5000: at
+    /// least two heartbeat periods).
+    #[arg(long, default_value_t = 250, value_name = "MS",
+          value_parser = clap::value_parser!(u64).range(200..=5000))]
+    window_ms: u64,
+    /// A state change must be announced by a heartbeat within this many
+    /// ms of the input (1..=window; the protocol says "at once").
+    #[arg(long, default_value_t = 50, value_name = "MS",
+          value_parser = clap::value_parser!(u64).range(1..=5000))]
+    prompt_ms: u64,
 }
 
 /// Runs the suite and prints the report; an error if the node does not
@@ -48,7 +58,18 @@ pub fn run(args: ConformArgs) -> anyhow::Result<()> {
     } else {
         Variant::Classic
     };
-    let opts = Options::new(node, variant);
+    if args.prompt_ms > args.window_ms {
+        bail!(
+            "--prompt-ms {} is longer than --window-ms {} (expected 1 ..= window)",
+            args.prompt_ms,
+            args.window_ms
+        );
+    }
+    let opts = Options {
+        window: Duration::from_millis(args.window_ms),
+        prompt: Duration::from_millis(args.prompt_ms),
+        ..Options::new(node, variant)
+    };
     let report = match &args.bus {
         Some(spec) => {
             let bus = anguilla_drivers::open(spec).with_context(|| format!("opening {spec}"))?;
