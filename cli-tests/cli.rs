@@ -127,6 +127,72 @@ fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
 }
 
 #[test]
+fn conform_passes_the_simulated_node_behind_an_slcan_pty() {
+    // The firmware author's path: another process's node, over a real bus
+    // driver (SLCAN on a pseudo-terminal), in real time.
+    let mut sim = anguilla()
+        .args(["sim", "--slcan-pty", "--joints", "3", "--duration", "120"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("sim starts");
+    let mut lines = BufReader::new(sim.stdout.take().unwrap()).lines();
+    let deadline = Instant::now() + Duration::from_secs(15);
+    let mut device = None;
+    while device.is_none() && Instant::now() < deadline {
+        match lines.next() {
+            Some(Ok(l)) => {
+                device = l
+                    .split_whitespace()
+                    .find(|w| w.starts_with("/dev/"))
+                    .map(|s| s.trim_end_matches(')').to_string())
+            }
+            _ => break,
+        }
+    }
+    let device = device.expect("the sim prints its device path");
+    let (ok, out, err) = run(&[
+        "conform",
+        "--bus",
+        &format!("slcan:{device}@1000000"),
+        "--node",
+        "2",
+        // Real time on a shared machine: the "heartbeat at once" bound and
+        // the window are widened so that a scheduling stall is not taken
+        // for the node's fault (the 50 ms default is tested on simulated
+        // time in conform/tests/suite.rs).
+        "--prompt-ms",
+        "300",
+        "--window-ms",
+        "400",
+    ]);
+    let _ = sim.kill();
+    let _ = sim.wait();
+    assert!(ok, "{out}\n{err}");
+    assert!(
+        out.contains(
+            "node 2: 35 rows: 28 agree, 0 disagree, 0 not reached, 7 not checked — conforms"
+        ),
+        "{out}"
+    );
+    assert!(out.contains("ok        Fault × Enable: BAD_FRAME"), "{out}");
+    // A node id outside 1..=63 is named.
+    for (args, want) in [
+        (&["--node", "0"][..], "--node"),
+        (&["--node", "1", "--window-ms", "10"], "--window-ms"),
+        (
+            &["--node", "1", "--prompt-ms", "900", "--window-ms", "300"],
+            "--prompt-ms 900 is longer than --window-ms 300",
+        ),
+    ] {
+        let (ok, _, err) = run(&[&["conform", "--bus", "mem:x"][..], args].concat());
+        assert!(!ok, "{args:?} accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
 fn ctl_without_a_daemon_exits_2_naming_the_prefix_and_bad_arguments_are_named() {
     let prefix = format!("anguilla-cli/nobody-{}", std::process::id());
     for cmd in [

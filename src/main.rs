@@ -3,6 +3,7 @@
 //! layouts or control logic of its own.
 
 mod builtin_sim;
+mod conform_cmd;
 mod ctl_cmd;
 mod dump_cmd;
 mod output;
@@ -44,6 +45,9 @@ enum Command {
         #[command(subcommand)]
         cmd: protocol_cmd::ProtocolCmd,
     },
+    /// Check a node against the protocol: drive it through every row of the
+    /// transition table and report each disagreement.
+    Conform(conform_cmd::ConformArgs),
     /// Print a bus's frames live, decoded with the anguilla protocol (and
     /// optionally log them in candump -l format), or decode a candump log
     /// offline (--file).
@@ -84,6 +88,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Protocol { cmd } => protocol_cmd::run(cmd),
         Command::Sim(args) => sim_cmd::run(&args),
         Command::Dump(args) => dump_cmd::run(args),
+        Command::Conform(args) => conform_cmd::run(args),
         Command::Teleop(args) => teleop_cmd::teleop(args),
         Command::Joy(args) => teleop_cmd::joy(args),
         Command::Monitor(args) => teleop_cmd::monitor(args),

@@ -24,6 +24,8 @@ pub enum ProtocolCmd {
         #[arg(long)]
         fd: bool,
     },
+    /// Print the node's transition table (state × input) of protocol/README.md.
+    Transitions,
 }
 
 /// Arguments of `anguilla protocol budget`.
@@ -83,6 +85,10 @@ pub fn run(cmd: ProtocolCmd) -> anyhow::Result<()> {
         ProtocolCmd::Layout { fd } => {
             let variant = if fd { Variant::Fd } else { Variant::Classic };
             out!("{}", anguilla_protocol::doc::layout_markdown(variant))?;
+            Ok(())
+        }
+        ProtocolCmd::Transitions => {
+            out!("{}", anguilla_protocol::doc::transitions_markdown())?;
             Ok(())
         }
     }

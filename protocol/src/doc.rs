@@ -1,10 +1,14 @@
-//! Markdown tables of the message layouts, for `protocol/README.md`.
+//! Markdown tables of the message layouts and of the node's transitions,
+//! for `protocol/README.md`.
 //!
-//! The README's layout tables are this function's output (a test checks it),
-//! so the document a firmware engineer implements from is the codec's layout.
+//! The README's layout tables and its transition table are these functions'
+//! output (a test checks it), so the document a firmware engineer implements
+//! from is the codec's layout and the rule table the conformance suite
+//! checks ([`crate::behaviour::TRANSITIONS`]).
 
 use core::fmt::Write;
 
+use crate::behaviour::{Input, STATES, describe, expected, state_name};
 use crate::message::{Addressing, Direction, Variant, definitions};
 use crate::signal::{Mux, Signal};
 
@@ -80,6 +84,30 @@ pub fn layout_markdown(variant: Variant) -> String {
     out
 }
 
+/// The transition table of the node's state machine (state × input), as
+/// Markdown: one row per state, one column per [`Input`].
+pub fn transitions_markdown() -> String {
+    let mut out = String::new();
+    let w = &mut out;
+    let _ = write!(w, "| state |");
+    for i in Input::ALL {
+        let _ = write!(w, " {} |", i.name());
+    }
+    let _ = write!(w, "\n|---|");
+    for _ in Input::ALL {
+        let _ = write!(w, "---|");
+    }
+    let _ = writeln!(w);
+    for s in STATES {
+        let _ = write!(w, "| {} ({}) |", state_name(s), s as u8);
+        for i in Input::ALL {
+            let _ = write!(w, " {} |", describe(s, &expected(s, i)));
+        }
+        let _ = writeln!(w);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,5 +123,10 @@ mod tests {
                  `cargo run -- protocol layout{flag}` between the markers"
             );
         }
+        assert!(
+            readme.contains(&transitions_markdown()),
+            "protocol/README.md transition table is stale: paste the output of \
+             `cargo run -- protocol transitions` in its place"
+        );
     }
 }

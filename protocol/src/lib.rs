@@ -4,8 +4,9 @@
 //! the [`frame::Frame`] type shared by every bus, the message definitions
 //! ([`message`]) with their encoders and decoders, the field descriptors
 //! they are built from ([`signal`]), the bus-load arithmetic ([`budget`]),
-//! the DBC file generator ([`dbc`]) and can-utils' candump log format
-//! ([`candump`]). `protocol/README.md` is the contract a node's firmware
+//! the DBC file generator ([`dbc`]), can-utils' candump log format
+//! ([`candump`]) and the node's state machine as a rule table
+//! ([`behaviour`]). `protocol/README.md` is the contract a node's firmware
 //! implements.
 //!
 //! ```
@@ -22,6 +23,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod behaviour;
 pub mod budget;
 pub mod candump;
 pub mod dbc;
