@@ -238,7 +238,7 @@ pub struct ReplayArgs {
 }
 
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
-    let report = anguilla_daemon::record::replay(&args.dir)
+    let report = anguilla_daemon::replay::replay(&args.dir)
         .with_context(|| format!("replaying {}", args.dir.display()))?;
     match (&report.mismatch, report.truncated_at) {
         (None, None) => outln!(

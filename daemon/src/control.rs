@@ -37,7 +37,7 @@ use crate::ipc::{
 };
 use crate::nodes::NodeTable;
 use crate::profile::{Follower, Limits};
-use crate::record::Record;
+use crate::session::Record;
 use crate::supervisor::{
     ClientId, Command, Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig,
     SwimParams,
@@ -407,15 +407,10 @@ impl Controller {
         let period_state = bus.state();
         // Nothing is sent while bus-off or while the adapter is gone.
         let bus_off = matches!(period_state, BusState::BusOff | BusState::Gone);
-        let bus_state = match period_state {
-            BusState::ErrorActive => 0,
-            BusState::ErrorPassive => 1,
-            BusState::BusOff => 2,
-            BusState::Gone => 3,
-        };
+        let bus_state = period_state.code();
         self.record(Record::Period {
             now,
-            bus: bus_state,
+            bus: period_state,
         });
         // 1. Everything the nodes said since the last period.
         let table = &mut self.table;

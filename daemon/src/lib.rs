@@ -4,6 +4,14 @@
 //! its trapezoidal [`profile`]s, the operator interface (iceoryx2), recording
 //! and configuration. It holds no model maths (see `anguilla-model`) and no
 //! frame layouts (see `anguilla-protocol`).
+//!
+//! Layers, each using only those below it: [`config`]; [`supervisor`]
+//! (modes, authority, faults) and [`nodes`] (what the nodes report);
+//! [`session`] (the recorded events and the `session.log` format);
+//! [`control`] (one period: the [`control::Controller`]); [`record`] (the
+//! recorder thread) and [`replay`] (a recording replayed bit for bit
+//! through the controller); [`run`] (the threads of `anguilla run`), with
+//! [`rt`] and [`stats`].
 #![warn(missing_docs)]
 
 pub mod config;
@@ -12,7 +20,9 @@ pub use anguilla_ipc as ipc;
 pub mod nodes;
 pub mod profile;
 pub mod record;
+pub mod replay;
 pub mod rt;
 pub mod run;
+pub mod session;
 pub mod stats;
 pub mod supervisor;

@@ -684,7 +684,7 @@ fn control_loop(
     stop: Arc<AtomicBool>,
     links: Links,
     recording: Option<(
-        Sender<crate::record::Record>,
+        Sender<crate::session::Record>,
         Sender<crate::ipc::StateSnapshot>,
     )>,
 ) -> Result<RunReport, RunError> {

@@ -3,7 +3,9 @@
 mod rig;
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::record::{self, ReplayError};
+use anguilla_daemon::record;
+use anguilla_daemon::replay::{self, ReplayError};
+use anguilla_daemon::session::SessionError;
 use anguilla_daemon::supervisor::{Command, SwimParams};
 use anguilla_protocol::frame::Frame;
 use rig::{Hooked, Rig};
@@ -84,7 +86,7 @@ fn a_recorded_session_replays_bit_for_bit() {
     let entries: Vec<_> = anguilla_protocol::candump::Reader::new(log.as_bytes()).collect();
     assert!(entries.len() > 1000);
     assert!(entries.iter().all(|e| e.is_ok()));
-    let report = record::replay(&dir).expect("replays");
+    let report = replay::replay(&dir).expect("replays");
     assert!(report.identical(), "{:?}", report.mismatch);
     assert!(report.periods > 400);
     assert!(report.frames > 5000);
@@ -102,7 +104,7 @@ fn sends_the_bus_refused_are_recorded_and_refused_again_in_the_replay() {
     let sent = session.lines().filter(|l| l.starts_with("T ")).count();
     let received = session.lines().filter(|l| l.starts_with("R ")).count();
     assert_eq!(log.lines().count(), sent + received);
-    let report = record::replay(&dir).expect("replays");
+    let report = replay::replay(&dir).expect("replays");
     assert!(report.identical(), "{:?}", report.mismatch);
     // Without the first refusal, the replay sends that frame where the
     // recording has the next one refused: a mismatch that says so.
@@ -111,7 +113,7 @@ fn sends_the_bus_refused_are_recorded_and_refused_again_in_the_replay() {
     let mut changed = session.clone();
     changed.replace_range(i..end, "");
     std::fs::write(dir.join("session.log"), &changed).unwrap();
-    let report = record::replay(&dir).unwrap();
+    let report = replay::replay(&dir).unwrap();
     let (_, what) = report.mismatch.expect("a mismatch");
     assert!(
         what.contains("(refused), replayed") && what.ends_with("(sent)"),
@@ -137,15 +139,15 @@ fn a_tampered_recording_is_a_mismatch_or_an_error_naming_the_line() {
     };
     changed.replace_range(last..line_end, flipped);
     std::fs::write(&path, &changed).unwrap();
-    let report = record::replay(&dir).unwrap();
+    let report = replay::replay(&dir).unwrap();
     assert!(!report.identical());
     // A malformed line is an error that names it.
     let line_no = changed[..i].lines().count() + 1;
     let mut broken = changed.clone();
     broken.replace_range(i..i + 1, "Q");
     std::fs::write(&path, &broken).unwrap();
-    match record::replay(&dir) {
-        Err(ReplayError::Line { line, what, .. }) => {
+    match replay::replay(&dir) {
+        Err(ReplayError::Session(SessionError::Line { line, what, .. })) => {
             assert_eq!(line, line_no);
             assert!(what.contains("unknown line tag 'Q'"), "{what}");
         }
@@ -159,12 +161,12 @@ fn a_cut_recording_is_truncated_not_different() {
     let dir = record_session("replay-cut");
     let path = dir.join("session.log");
     let text = std::fs::read_to_string(&path).unwrap();
-    let full = record::replay(&dir).unwrap();
+    let full = replay::replay(&dir).unwrap();
     assert!(full.identical() && full.truncated_at.is_none());
     // Killed mid-session: cut in the middle of a line two thirds in.
     let cut = text.len() * 2 / 3;
     std::fs::write(&path, &text[..cut]).unwrap();
-    let r = record::replay(&dir).unwrap();
+    let r = replay::replay(&dir).unwrap();
     assert!(r.identical(), "{:?}", r.mismatch);
     let whole_lines = text[..cut].matches('\n').count();
     assert_eq!(r.truncated_at, Some(whole_lines));
@@ -188,14 +190,14 @@ fn a_period_at_the_end_of_time_and_an_endless_line_are_not_taken_for_an_end() {
     let mut forged = text.clone();
     forged.replace_range(at..line_end, "P 18446744073709551615 0");
     std::fs::write(&path, &forged).unwrap();
-    let r = record::replay(&dir).unwrap();
+    let r = replay::replay(&dir).unwrap();
     assert!(!r.identical(), "a forged period must not pass");
     // A line of 10 MB is refused at once, naming it, not read whole.
     let mut huge = text.clone();
     huge.insert_str(at, &format!("R {}\n", "7".repeat(10 << 20)));
     std::fs::write(&path, &huge).unwrap();
-    match record::replay(&dir) {
-        Err(ReplayError::Line { what, .. }) => {
+    match replay::replay(&dir) {
+        Err(ReplayError::Session(SessionError::Line { what, .. })) => {
             assert!(what.contains("a line longer than 4096 bytes"), "{what}")
         }
         other => panic!("expected a line error, got {other:?}"),
@@ -210,12 +212,12 @@ fn a_replay_with_another_configuration_says_so() {
     let text = std::fs::read_to_string(&path).unwrap();
     // Comments and layout do not matter...
     std::fs::write(&path, format!("# edited by hand\n{text}")).unwrap();
-    assert!(record::replay(&dir).unwrap().identical());
+    assert!(replay::replay(&dir).unwrap().identical());
     // ...another configuration does.
     let mut cfg = Config::from_toml(&text, "recorded").unwrap();
     cfg.gait.max_turn += 0.5;
     std::fs::write(&path, cfg.to_toml()).unwrap();
-    match record::replay(&dir) {
+    match replay::replay(&dir) {
         Err(e @ ReplayError::ForeignConfig { .. }) => {
             assert!(
                 e.to_string()

@@ -74,6 +74,39 @@ pub enum BusState {
     Gone,
 }
 
+impl BusState {
+    /// Every state, in code order.
+    pub const ALL: [BusState; 4] = [
+        BusState::ErrorActive,
+        BusState::ErrorPassive,
+        BusState::BusOff,
+        BusState::Gone,
+    ];
+
+    /// The state's number where it is published and recorded
+    /// (`StateSnapshot::bus.state`, `session.log` period lines): 0
+    /// error-active, 1 error-passive, 2 bus-off, 3 adapter gone.
+    pub const fn code(self) -> u8 {
+        match self {
+            BusState::ErrorActive => 0,
+            BusState::ErrorPassive => 1,
+            BusState::BusOff => 2,
+            BusState::Gone => 3,
+        }
+    }
+
+    /// The state of a [`code`](Self::code), if it is one.
+    pub const fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(BusState::ErrorActive),
+            1 => Some(BusState::ErrorPassive),
+            2 => Some(BusState::BusOff),
+            3 => Some(BusState::Gone),
+            _ => None,
+        }
+    }
+}
+
 /// Monotonic counters of one bus handle since it was opened (they survive
 /// [`Bus::reopen`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

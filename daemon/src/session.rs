@@ -1,0 +1,438 @@
+//! The session format: what the controller records of each period, and
+//! the `session.log` lines that carry it (written by the recorder thread,
+//! [`crate::record`], read by [`crate::replay`]). Like
+//! `anguilla_protocol::candump`, it knows nothing of the controller.
+//!
+//! `session.log` lines (`#` starts a comment):
+//!
+//! ```text
+//! anguilla-session 2        header
+//! config <hex>              FNV-1a 64 of the configuration (as written to
+//!                           config.toml): replay refuses another
+//! start <ns>                the controller's creation time
+//! C <ns> <origin> <node> <hex>
+//!                           an operator request: the client port it came
+//!                           on and that port's node (32 hex digits each;
+//!                           0 for the E-stop socket), the CommandRequest's bytes
+//! D <ns> <hex>              an iceoryx2 node that died (its id)
+//! S <ns>                    shutdown requested at this time
+//! P <ns> <bus state 0-3>    a period starts at this time (3: adapter gone)
+//! R <frame>                 a frame received in this period (cansend notation)
+//! T <frame>                 a frame sent
+//! X <frame>                 a frame the bus refused to send (bus-off, an
+//!                           interface gone down): not on the wire, so not
+//!                           in bus.log
+//! E                         shutdown: actuators disabled
+//! ```
+//!
+
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::Path;
+
+use anguilla_drivers::BusState;
+use anguilla_protocol::candump;
+use anguilla_protocol::frame::Frame;
+
+use crate::ipc::{CommandRequest, Envelope};
+use crate::supervisor::Nanos;
+
+/// One recorded event. `Copy`: sending it allocates nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Record {
+    /// The controller was created at this time.
+    Start(Nanos),
+    /// A period starts; the bus state as the controller read it.
+    Period {
+        /// The period's time.
+        now: Nanos,
+        /// The bus state the period acts on (written as its
+        /// [`BusState::code`]).
+        bus: BusState,
+    },
+    /// An operator request handled at this time (before the next period).
+    Command(Nanos, Envelope),
+    /// A client's iceoryx2 node was found dead at this time.
+    Dead(Nanos, u128),
+    /// Shutdown requested at this time.
+    Shutdown(Nanos),
+    /// Shutdown: the actuators were disabled.
+    End,
+    /// A frame received.
+    Rx(Nanos, Frame),
+    /// A frame sent.
+    Tx(Nanos, Frame),
+    /// A frame the bus refused to send.
+    Refused(Nanos, Frame),
+}
+
+fn request_bytes(r: &CommandRequest) -> [u8; core::mem::size_of::<CommandRequest>()] {
+    // SAFETY: CommandRequest is #[repr(C)], Copy, and has no padding (the
+    // layout test in ipc.rs checks that its fields tile it exactly).
+    unsafe { core::mem::transmute_copy(r) }
+}
+
+fn request_from(bytes: &[u8]) -> Option<CommandRequest> {
+    if bytes.len() != core::mem::size_of::<CommandRequest>() {
+        return None;
+    }
+    let mut r = CommandRequest::default();
+    // SAFETY: same size, and every bit pattern is a valid CommandRequest
+    // (integers and floats only).
+    unsafe {
+        core::ptr::copy_nonoverlapping(
+            bytes.as_ptr(),
+            &mut r as *mut CommandRequest as *mut u8,
+            bytes.len(),
+        );
+    }
+    Some(r)
+}
+
+pub(crate) fn snapshot_bytes(s: &crate::ipc::StateSnapshot) -> &[u8] {
+    // SAFETY: StateSnapshot is #[repr(C)] with no padding (tested in ipc.rs).
+    unsafe {
+        core::slice::from_raw_parts(
+            s as *const crate::ipc::StateSnapshot as *const u8,
+            core::mem::size_of::<crate::ipc::StateSnapshot>(),
+        )
+    }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    let mut s = String::with_capacity(bytes.len() * 2);
+    for b in bytes {
+        let _ = write!(s, "{b:02x}");
+    }
+    s
+}
+
+fn unhex(s: &str) -> Option<Vec<u8>> {
+    if !s.len().is_multiple_of(2) {
+        return None;
+    }
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(s.get(i..i + 2)?, 16).ok())
+        .collect()
+}
+
+/// The first line of a `session.log` of this format.
+pub const HEADER: &str = "anguilla-session 2";
+
+/// Writes the header lines: the format and the fingerprint of the
+/// configuration text the session runs with (as written to `config.toml`).
+pub fn write_header(w: &mut impl Write, config_text: &str) -> std::io::Result<()> {
+    writeln!(w, "{HEADER}")?;
+    writeln!(w, "config {:016x}", fnv1a(config_text.as_bytes()))
+}
+
+/// Writes `r` as its `session.log` line.
+pub fn write_line(w: &mut impl Write, r: &Record) -> std::io::Result<()> {
+    match *r {
+        Record::Start(t) => writeln!(w, "start {t}"),
+        Record::Period { now, bus } => writeln!(w, "P {now} {}", bus.code()),
+        Record::Command(t, c) => writeln!(
+            w,
+            "C {t} {:032x} {:032x} {}",
+            c.origin,
+            c.node,
+            hex(&request_bytes(&c.request))
+        ),
+        Record::Dead(t, id) => writeln!(w, "D {t} {id:032x}"),
+        Record::Shutdown(t) => writeln!(w, "S {t}"),
+        Record::End => writeln!(w, "E"),
+        Record::Refused(_, f) => writeln!(w, "X {f}"),
+        Record::Rx(_, f) => writeln!(w, "R {f}"),
+        Record::Tx(_, f) => writeln!(w, "T {f}"),
+    }
+}
+
+/// A `session.log` that cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A line is malformed.
+    #[error("{path}:{line}: {what}")]
+    Line {
+        /// The file.
+        path: String,
+        /// Line number (1-based).
+        line: usize,
+        /// What was wrong and what was expected.
+        what: String,
+    },
+}
+
+/// One period of a recording: its inputs and the frames the controller
+/// sent in it.
+#[derive(Debug, Default)]
+pub struct PeriodIn {
+    /// The period's time.
+    pub now: Nanos,
+    /// The bus state it acted on.
+    pub bus: BusState,
+    /// Inputs handled before it (commands, dead nodes, shutdown).
+    pub before: Vec<Record>,
+    /// Frames received in it.
+    pub rx: Vec<Frame>,
+    /// Frames the controller sent, `false` where the bus refused them.
+    pub tx: Vec<(Frame, bool)>,
+}
+
+/// A parsed `session.log`.
+pub struct Session {
+    /// The controller's creation time.
+    pub start: Nanos,
+    /// The periods, in order.
+    pub periods: Vec<PeriodIn>,
+    /// Records after the last period (a shutdown request).
+    pub trailing: Vec<Record>,
+    /// Frames sent at shutdown, if the session ended with `E`.
+    pub end: Option<Vec<(Frame, bool)>>,
+    /// Without `E`: the number of the last line read (the recording was cut).
+    pub cut_at: Option<usize>,
+    /// The recorded configuration's hash (sessions since it was added).
+    pub config_hash: Option<u64>,
+}
+
+/// FNV-1a, 64 bits: a recording's fingerprint of its `config.toml`.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// Longest `session.log` line read (the longest written is about 300 bytes).
+pub const MAX_LINE: usize = 4096;
+
+/// Reads `session.log` at `path`. A last line cut short (the recording
+/// ended mid-write) is not an error: the session is then cut there.
+pub fn parse(path: &Path) -> Result<Session, SessionError> {
+    let p = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|source| SessionError::Read {
+        path: p.clone(),
+        source,
+    })?;
+    let err = |line: usize, what: String| SessionError::Line {
+        path: p.clone(),
+        line,
+        what,
+    };
+    let mut start = None;
+    let mut config_hash = None;
+    let mut periods: Vec<PeriodIn> = Vec::new();
+    let mut pending: Vec<Record> = Vec::new();
+    let mut end: Option<Vec<(Frame, bool)>> = None;
+    let mut reader = std::io::BufReader::new(file);
+    let mut buf = Vec::with_capacity(256);
+    let mut n = 0;
+    loop {
+        use std::io::{BufRead as _, Read as _};
+        buf.clear();
+        let got = (&mut reader)
+            .take(MAX_LINE as u64 + 1)
+            .read_until(b'\n', &mut buf)
+            .map_err(|source| SessionError::Read {
+                path: p.clone(),
+                source,
+            })?;
+        if got == 0 {
+            break;
+        }
+        n += 1;
+        if buf.last() != Some(&b'\n') {
+            if buf.len() > MAX_LINE {
+                return Err(err(n, format!("a line longer than {MAX_LINE} bytes")));
+            }
+            // The last line, cut short: the recording ends before it.
+            n -= 1;
+            break;
+        }
+        let line = std::str::from_utf8(&buf).map_err(|_| err(n, "not UTF-8 text".into()))?;
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        if n == 1 {
+            if line != HEADER {
+                return Err(err(
+                    n,
+                    format!(
+                        "'{line}' (expected the header 'anguilla-session 2'; sessions of \
+                         format 1, recorded before requests carried their origin, do not replay)"
+                    ),
+                ));
+            }
+            continue;
+        }
+        let (tag, rest) = line.split_once(' ').unwrap_or((line, ""));
+        let num = |s: &str, what: &str| {
+            s.parse::<u64>()
+                .map_err(|_| err(n, format!("{what} '{s}' is not a whole number")))
+        };
+        match tag {
+            "start" => start = Some(num(rest, "start time")?),
+            "config" => {
+                config_hash = Some(u64::from_str_radix(rest, 16).map_err(|_| {
+                    err(n, format!("config hash '{rest}' (expected 16 hex digits)"))
+                })?)
+            }
+            "C" => {
+                let mut parts = rest.split(' ');
+                let (Some(t), Some(origin), Some(node), Some(rest), None) = (
+                    parts.next(),
+                    parts.next(),
+                    parts.next(),
+                    parts.next(),
+                    parts.next(),
+                ) else {
+                    return Err(err(
+                        n,
+                        "command: expected '<ns> <origin> <node> <hex>'".into(),
+                    ));
+                };
+                let t = num(t, "command time")?;
+                let id = |s: &str, what: &str| {
+                    u128::from_str_radix(s, 16)
+                        .map_err(|_| err(n, format!("{what} '{s}' (expected 32 hex digits)")))
+                };
+                let (origin, node) = (id(origin, "origin")?, id(node, "node id")?);
+                let bytes =
+                    unhex(rest).ok_or_else(|| err(n, "command: expected hex bytes".into()))?;
+                let req = request_from(&bytes).ok_or_else(|| {
+                    err(
+                        n,
+                        format!(
+                            "command of {} bytes (expected {})",
+                            bytes.len(),
+                            core::mem::size_of::<CommandRequest>()
+                        ),
+                    )
+                })?;
+                pending.push(Record::Command(
+                    t,
+                    Envelope {
+                        origin,
+                        node,
+                        request: req,
+                    },
+                ));
+            }
+            "D" => {
+                let (t, rest) = rest
+                    .split_once(' ')
+                    .ok_or_else(|| err(n, "dead node: expected '<ns> <hex>'".into()))?;
+                let t = num(t, "time")?;
+                let id = u128::from_str_radix(rest, 16)
+                    .map_err(|_| err(n, format!("node id '{rest}' (expected 32 hex digits)")))?;
+                pending.push(Record::Dead(t, id));
+            }
+            "S" => pending.push(Record::Shutdown(num(rest, "shutdown time")?)),
+            "P" => {
+                let (t, b) = rest
+                    .split_once(' ')
+                    .ok_or_else(|| err(n, "period: expected '<ns> <bus state>'".into()))?;
+                let code = num(b, "bus state")?;
+                let bus = u8::try_from(code)
+                    .ok()
+                    .and_then(BusState::from_code)
+                    .ok_or_else(|| err(n, format!("bus state {code} (expected 0, 1, 2 or 3)")))?;
+                periods.push(PeriodIn {
+                    now: num(t, "period time")?,
+                    bus,
+                    before: std::mem::take(&mut pending),
+                    ..Default::default()
+                });
+            }
+            "R" | "T" | "X" => {
+                let f = candump::parse_frame(rest)
+                    .map_err(|e| err(n, format!("frame '{rest}': {e}")))?;
+                let sent = tag == "T";
+                match (tag, end.as_mut(), periods.last_mut()) {
+                    ("T" | "X", Some(e), _) => e.push((f, sent)),
+                    ("R", _, Some(p)) => p.rx.push(f),
+                    ("T" | "X", None, Some(p)) => p.tx.push((f, sent)),
+                    _ => return Err(err(n, "a frame before the first period".into())),
+                }
+            }
+            "E" => end = Some(Vec::new()),
+            other => {
+                return Err(err(
+                    n,
+                    format!(
+                        "unknown line tag '{other}' (expected config, start, C, D, S, P, R, T, X or E)"
+                    ),
+                ));
+            }
+        }
+    }
+    let start = start.ok_or_else(|| err(0, "no 'start' line".into()))?;
+    let cut_at = end.is_none().then_some(n);
+    Ok(Session {
+        start,
+        periods,
+        // Shutdown requests after the last period belong to the end.
+        trailing: pending,
+        end,
+        cut_at,
+        config_hash,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every bus state is written as the code the state snapshot publishes
+    /// (named by `ipc::bus_state_name`) and reads back as itself.
+    #[test]
+    fn period_lines_carry_the_published_bus_state_codes() {
+        let names: Vec<_> = BusState::ALL
+            .iter()
+            .map(|s| crate::ipc::bus_state_name(s.code()))
+            .collect();
+        assert_eq!(
+            names,
+            ["error-active", "error-passive", "bus-off", "adapter gone"]
+        );
+        let dir = std::env::temp_dir().join(format!("anguilla-session-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("session.log");
+        let mut text = Vec::new();
+        write_header(&mut text, "x = 1\n").unwrap();
+        write_line(&mut text, &Record::Start(5)).unwrap();
+        for (i, s) in BusState::ALL.into_iter().enumerate() {
+            write_line(
+                &mut text,
+                &Record::Period {
+                    now: 10 + i as u64,
+                    bus: s,
+                },
+            )
+            .unwrap();
+        }
+        write_line(&mut text, &Record::End).unwrap();
+        std::fs::write(&path, &text).unwrap();
+        let session = parse(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let got: Vec<_> = session.periods.iter().map(|p| (p.now, p.bus)).collect();
+        assert_eq!(
+            got,
+            BusState::ALL
+                .into_iter()
+                .enumerate()
+                .map(|(i, s)| (10 + i as u64, s))
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(session.config_hash, Some(fnv1a(b"x = 1\n")));
+        assert!(session.end.is_some() && session.cut_at.is_none());
+    }
+}
