@@ -8,7 +8,6 @@ use std::time::Duration;
 use anguilla_daemon::config::Config;
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::MemBus;
-use anguilla_protocol::message::Variant;
 use anguilla_sim::robot::{RobotConfig, RunningSim, SimRobot};
 use anyhow::Context;
 
@@ -48,11 +47,7 @@ pub fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)>
     let host: Box<dyn Bus> = Box::new(bus.participant());
     let rc = RobotConfig {
         node_ids: cfg.node_ids(),
-        variant: if cfg.bus.fd {
-            Variant::Fd
-        } else {
-            Variant::Classic
-        },
+        variant: cfg.bus.variant(),
         boot_time: Duration::from_millis(50),
         ..RobotConfig::with_joints(cfg.robot.joints)
     };

@@ -3,7 +3,6 @@
 //! turns the outcome into the exit status.
 
 use std::io::Write;
-use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anguilla_ipc::{FaultSet, StateSnapshot, SwimParams};
@@ -11,7 +10,7 @@ use anguilla_teleop::ctl::{self, Ctl, CtlError};
 use anguilla_teleop::json;
 use anguilla_teleop::view::{cause_name, mode_name};
 
-use crate::teleop_cmd::{DaemonArgs, SIGNALLED, install_signal_handlers};
+use crate::teleop_cmd::DaemonArgs;
 
 /// Arguments of `anguilla ctl`.
 #[derive(clap::Args, Debug)]
@@ -128,7 +127,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
             )));
         }
     }
-    install_signal_handlers();
+    crate::signals::install();
     let mut c = Ctl::connect(&prefix)?;
     if let Some(p) = c.provenance_problem() {
         let _ = writeln!(std::io::stderr(), "warning: {p}");
@@ -157,7 +156,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
                 pitch,
             };
             c.swim(p, duration.map(Duration::from_secs_f64), &|| {
-                SIGNALLED.load(Ordering::SeqCst)
+                crate::signals::requested()
             })?
         }
     };

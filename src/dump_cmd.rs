@@ -4,7 +4,6 @@
 
 use std::io::Write;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anguilla_protocol::candump::{Interface, LogEntry, Reader, Record, Timestamp, Writer};
@@ -34,12 +33,6 @@ pub struct DumpArgs {
     /// Stop after this many seconds.
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
-}
-
-static SIGNALLED: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_signal(_: libc::c_int) {
-    SIGNALLED.store(true, Ordering::SeqCst);
 }
 
 /// One line of `dump`'s output: the timestamp, the frame in candump
@@ -148,20 +141,14 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     };
     let name = log_interface(&spec);
     let iface = Interface::new(&name).map_err(|e| anyhow::anyhow!("interface name: {e}"))?;
-    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-    // SAFETY: the handler only stores to an atomic.
-    unsafe {
-        libc::signal(libc::SIGINT, handler);
-        libc::signal(libc::SIGTERM, handler);
-        libc::signal(libc::SIGHUP, handler);
-    }
+    crate::signals::install();
     let start = std::time::Instant::now();
     let mut n = 0u64;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     // A failing stdout ends the dump (the log is still flushed).
     let mut write_failed = None;
-    while !SIGNALLED.load(Ordering::SeqCst)
+    while !crate::signals::requested()
         && args.count.is_none_or(|c| n < c)
         && args
             .duration

@@ -9,6 +9,7 @@ mod dump_cmd;
 mod output;
 mod protocol_cmd;
 mod run_cmd;
+mod signals;
 mod sim_cmd;
 mod teleop_cmd;
 

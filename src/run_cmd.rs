@@ -3,7 +3,7 @@
 use crate::output::{out, outln};
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::{Config, default_toml};
@@ -50,24 +50,6 @@ pub enum ConfigCmd {
     },
 }
 
-static SIGNALLED: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_signal(_: libc::c_int) {
-    SIGNALLED.store(true, Ordering::SeqCst);
-}
-
-fn install_signal_handlers() {
-    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-    // SAFETY: the handler only stores to an atomic (async-signal-safe).
-    unsafe {
-        libc::signal(libc::SIGINT, handler);
-        libc::signal(libc::SIGTERM, handler);
-        // Hang-up (the terminal closed, or `kill -HUP`): the same smooth
-        // stop. There is no configuration reload: restart to apply one.
-        libc::signal(libc::SIGHUP, handler);
-    }
-}
-
 pub fn init_logging() {
     use std::io::IsTerminal;
     let filter = tracing_subscriber::EnvFilter::try_from_env("ANGUILLA_LOG")
@@ -104,7 +86,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
     }
-    install_signal_handlers();
+    crate::signals::install();
     let stop = Arc::new(AtomicBool::new(false));
     let (bus, sim) = if cfg.bus.spec.is_empty() {
         let (bus, sim) = crate::builtin_sim::start_builtin(&cfg)?;
@@ -124,7 +106,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     // Status lines never touch the loop: a failing stdout only ends them.
     let mut out = crate::output::Status::default();
     while !running.is_finished() {
-        if SIGNALLED.load(Ordering::SeqCst)
+        if crate::signals::requested()
             || args
                 .duration
                 .is_some_and(|d| start.elapsed().as_secs_f64() >= d)

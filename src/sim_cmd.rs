@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_drivers::mem::MemBus;
@@ -125,29 +124,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         None => None,
     };
 
-    // SIGINT, SIGTERM and SIGHUP are blocked in every thread and awaited
-    // by one: each stops the simulation cleanly.
-    let stop = Arc::new(AtomicBool::new(false));
-    let mut signals = nix::sys::signal::SigSet::empty();
-    signals.add(nix::sys::signal::Signal::SIGINT);
-    signals.add(nix::sys::signal::Signal::SIGTERM);
-    signals.add(nix::sys::signal::Signal::SIGHUP);
-    signals
-        .thread_block()
-        .context("blocking SIGINT/SIGTERM/SIGHUP for a clean stop")?;
+    crate::signals::install();
     // Status lines: a failing stdout ends them, never the simulation.
     let mut out = crate::output::Status::default();
-    {
-        let stop = stop.clone();
-        std::thread::Builder::new()
-            .name("signals".into())
-            .spawn(move || {
-                if signals.wait().is_ok() {
-                    stop.store(true, Ordering::Release);
-                }
-            })
-            .context("starting the signal thread")?;
-    }
 
     let mut _emulator = None;
     let (mut robot, clock): (SimRobot, Arc<dyn Clock>) = if args.slcan_pty {
@@ -205,7 +184,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         .context("starting the simulation thread")?;
     let started = Instant::now();
     let mut next_status = Duration::from_secs(1);
-    while !stop.load(Ordering::Acquire) {
+    while !crate::signals::requested() {
         let el = started.elapsed();
         if args.duration.is_some_and(|d| el.as_secs_f64() >= d) {
             break;

@@ -3,7 +3,6 @@
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
@@ -108,26 +107,11 @@ pub struct MonitorArgs {
     window: f64,
 }
 
-pub(crate) static SIGNALLED: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_signal(_: libc::c_int) {
-    SIGNALLED.store(true, Ordering::SeqCst);
-}
-
-pub(crate) fn install_signal_handlers() {
-    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-    // SAFETY: the handler only stores to an atomic (async-signal-safe).
-    unsafe {
-        libc::signal(libc::SIGINT, handler);
-        libc::signal(libc::SIGTERM, handler);
-    }
-}
-
 /// An error of a wait that a signal interrupted is the signal, not a failure.
 fn interrupted<T>(r: Result<T, anguilla_ipc::IpcError>) -> anyhow::Result<Option<T>> {
     match r {
         Ok(v) => Ok(Some(v)),
-        Err(_) if SIGNALLED.load(Ordering::SeqCst) => Ok(None),
+        Err(_) if crate::signals::requested() => Ok(None),
         Err(e) => Err(e.into()),
     }
 }
@@ -151,7 +135,7 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
     let limits = daemon_limits(&mut op, &prefix)?;
     let mut driver = Driver::new(op, Intent::new(limits));
     // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
-    install_signal_handlers();
+    crate::signals::install();
     let mut terminal = ratatui::init();
     let result = teleop_loop(&mut terminal, &mut driver, &prefix);
     // Whatever happened, stop the swim and release control before leaving.
@@ -169,7 +153,7 @@ fn teleop_loop(
 ) -> anyhow::Result<()> {
     // Whether the state shown is the commanding daemon's, checked every 2 s.
     let mut provenance = (driver.op.provenance_problem(), Instant::now());
-    while !SIGNALLED.load(Ordering::SeqCst) {
+    while !crate::signals::requested() {
         let next = driver.pump(Instant::now())?;
         if provenance.1.elapsed() >= Duration::from_secs(2) {
             provenance = (driver.op.provenance_problem(), Instant::now());
@@ -244,11 +228,11 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
     }
     let joint = args.joint.map(|j| j.saturating_sub(1));
     let mut history: Option<History> = None;
-    install_signal_handlers();
+    crate::signals::install();
     let mut terminal = ratatui::init();
     let result = (|| -> anyhow::Result<()> {
         let mut last_draw = Instant::now() - Duration::from_secs(1);
-        while !SIGNALLED.load(Ordering::SeqCst) {
+        while !crate::signals::requested() {
             if interrupted(op.wait_state(Duration::from_millis(20)).map(|_| ()))?.is_none() {
                 return Ok(());
             }
@@ -293,14 +277,14 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
 }
 
 fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::Result<()> {
-    install_signal_handlers();
+    crate::signals::install();
     let min_gap = args.rate.map(|r| Duration::from_secs_f64(1.0 / r));
     let mut last_line: Option<Instant> = None;
     let mut last_seq = None;
     let mut lines = 0u64;
     let mut silent_since = Instant::now();
     let mut warned = false;
-    while !SIGNALLED.load(Ordering::SeqCst) && args.count.is_none_or(|c| lines < c) {
+    while !crate::signals::requested() && args.count.is_none_or(|c| lines < c) {
         let Some(s) = interrupted(
             op.wait_state(Duration::from_millis(100))
                 .map(|s| s.copied()),
@@ -363,7 +347,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
     }
     let op = op.context("connected above")?;
     // After iceoryx2 is set up, so these handlers are the ones in place.
-    install_signal_handlers();
+    crate::signals::install();
     eprintln!(
         "anguilla joy: daemon prefix '{prefix}'; hold {:?} to drive, {:?} is E-stop (Ctrl-C quits)",
         mapping.deadman, mapping.estop
@@ -377,7 +361,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
     };
     let pads = EvdevPads::new(args.device.clone(), mapping);
     let mut session = JoySession::new(op, Joy::new(mapping, limits), pads);
-    while !SIGNALLED.load(Ordering::SeqCst) {
+    while !crate::signals::requested() {
         let step = session.step(|n| match n {
             JoyNotice::Waiting => eprintln!(
                 "anguilla joy: no gamepad found ({looking}); waiting for one to be plugged in"

@@ -14,7 +14,7 @@ use anguilla_daemon::config::Config;
 use anguilla_daemon::run::{self, Running};
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::MemBus;
-use anguilla_protocol::message::{NodeId, Variant};
+use anguilla_protocol::message::NodeId;
 use anguilla_sim::actuator::ActuatorParams;
 use anguilla_sim::node::{NodeConfig, VertebraNode};
 
@@ -119,11 +119,7 @@ fn start_nodes(cfg: &Config) -> anyhow::Result<Nodes> {
     let bus = b.build();
     let host: Box<dyn Bus> = Box::new(bus.participant());
     let mut port = bus.participant();
-    let variant = if cfg.bus.fd {
-        Variant::Fd
-    } else {
-        Variant::Classic
-    };
+    let variant = cfg.bus.variant();
     let clock = std::time::Instant::now();
     let ns = move || clock.elapsed().as_nanos() as u64;
     let mut nodes = cfg

@@ -197,6 +197,17 @@ pub struct BusConfig {
     pub max_load: f64,
 }
 
+impl BusConfig {
+    /// The protocol variant the bus carries: CAN FD with `fd = true`.
+    pub fn variant(&self) -> anguilla_protocol::Variant {
+        if self.fd {
+            anguilla_protocol::Variant::Fd
+        } else {
+            anguilla_protocol::Variant::Classic
+        }
+    }
+}
+
 impl Default for BusConfig {
     fn default() -> Self {
         Self {
@@ -344,7 +355,7 @@ impl Config {
             format!(
                 "{} joints on {} at {} bit/s",
                 self.robot.joints,
-                if self.bus.fd { "CAN FD" } else { "classic CAN" },
+                self.bus.variant(),
                 self.bus.bitrate
             )
         };

@@ -150,11 +150,7 @@ impl Controller {
         let period_ns = period_ns(cfg);
         let dt = period_ns as f64 * 1e-9;
         let ids = node_ids(cfg)?;
-        let variant = if cfg.bus.fd {
-            Variant::Fd
-        } else {
-            Variant::Classic
-        };
+        let variant = cfg.bus.variant();
         let model = Model::new(ModelConfig {
             body: Body::paper(),
             nodes: cfg.model.nodes,

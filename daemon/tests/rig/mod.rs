@@ -9,7 +9,7 @@ use anguilla_daemon::supervisor::Command;
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::{MemBus, MemParticipant};
 use anguilla_protocol::frame::Frame;
-use anguilla_protocol::message::{NodeId, Variant};
+use anguilla_protocol::message::NodeId;
 use anguilla_sim::actuator::ActuatorParams;
 use anguilla_sim::node::{NodeConfig, VertebraNode};
 
@@ -77,11 +77,7 @@ impl Rig {
         let host = bus.participant();
         let node_port = bus.participant();
         let ctl = Controller::new(cfg, 0).expect("controller");
-        let variant = if cfg.bus.fd {
-            Variant::Fd
-        } else {
-            Variant::Classic
-        };
+        let variant = cfg.bus.variant();
         let nodes = cfg
             .node_ids()
             .into_iter()
