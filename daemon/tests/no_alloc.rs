@@ -5,50 +5,24 @@
 
 mod rig;
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
 use rig::Rig;
 
-struct Counting;
+#[global_allocator]
+static GLOBAL: anguilla_testkit::CountingAlloc = anguilla_testkit::CountingAlloc;
 
 thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    /// Allocator calls of the counted regions since the last reset.
     static COUNT: Cell<u64> = const { Cell::new(0) };
 }
 
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        // try_with: the thread-locals may be gone while a thread exits.
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = COUNT.try_with(|n| n.set(n.get() + 1));
-            }
-        });
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = COUNT.try_with(|n| n.set(n.get() + 1));
-            }
-        });
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
+/// Runs `f`, adding its allocator calls on this thread to `COUNT`.
 fn counted<T>(f: impl FnOnce() -> T) -> T {
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
+    let (r, calls) = anguilla_testkit::count(f);
+    COUNT.with(|n| n.set(n.get() + calls));
     r
 }
 

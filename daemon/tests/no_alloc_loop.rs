@@ -8,9 +8,8 @@
 //! its ports live on the daemon's state and command threads; this test is
 //! what keeps them there.
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU64, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
@@ -20,40 +19,8 @@ use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
 use anguilla_drivers::mem::MemBus;
 use anguilla_sim::robot::{RobotConfig, SimRobot};
 
-/// The thread whose allocations count (0: none).
-static WATCHED: AtomicI32 = AtomicI32::new(0);
-static COUNT: AtomicU64 = AtomicU64::new(0);
-
-struct Counting;
-
-impl Counting {
-    fn note(&self) {
-        let watched = WATCHED.load(Ordering::Relaxed);
-        // gettid is a plain system call: it does not allocate.
-        if watched != 0 && watched == unsafe { libc::gettid() } {
-            COUNT.fetch_add(1, Ordering::Relaxed);
-        }
-    }
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        self.note();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // Freeing is an allocator call in the period too.
-        self.note();
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        self.note();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: anguilla_testkit::CountingAlloc = anguilla_testkit::CountingAlloc;
 
 /// The kernel thread id of this process's thread named `name`.
 fn thread_named(name: &str) -> Option<i32> {
@@ -145,8 +112,7 @@ fn the_running_loop_thread_allocates_nothing() {
     wait_mode(&mut client, Mode::Ready, 10.0);
     let loop_tid = thread_named("anguilla-loop").expect("the loop thread is named");
 
-    COUNT.store(0, Ordering::SeqCst);
-    WATCHED.store(loop_tid, Ordering::SeqCst);
+    anguilla_testkit::watch_thread(loop_tid);
     let (first, _) = hold(&mut client, 0.05);
     accepted(&mut client, swim(0.0, 0.0));
     hold(&mut client, 1.0);
@@ -178,8 +144,8 @@ fn the_running_loop_thread_allocates_nothing() {
     accepted(&mut client, Command::Enable);
     wait_mode(&mut client, Mode::Ready, 10.0);
     let (last, read) = hold(&mut client, 0.2);
-    WATCHED.store(0, Ordering::SeqCst);
-    let n = COUNT.load(Ordering::SeqCst);
+    anguilla_testkit::watch_thread(0);
+    let n = anguilla_testkit::watched_calls();
 
     let periods = last.sequence - first.sequence;
     running.request_stop();

@@ -2,9 +2,7 @@
 //! in-process robot does not disturb the daemon's allocation-free control
 //! period (nor its counting-allocator tests).
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use anguilla_drivers::mem::MemBus;
@@ -12,29 +10,8 @@ use anguilla_drivers::{Bus, Clock, ManualClock};
 use anguilla_protocol::message::{self, AxisSetpoint, Command, Message, Target, Variant};
 use anguilla_sim::{RobotConfig, SimRobot};
 
-struct Counting;
-
-static ALLOCS: AtomicU64 = AtomicU64::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: anguilla_testkit::CountingAlloc = anguilla_testkit::CountingAlloc;
 
 #[test]
 fn step_until_allocates_nothing_in_steady_state() {
@@ -87,10 +64,10 @@ fn step_until_allocates_nothing_in_steady_state() {
         cycle(k, &mut robot, &mut host);
     }
     assert_eq!(robot.state_counts()[2], 12);
-    let before = ALLOCS.load(Ordering::Relaxed);
-    for k in 300..800 {
-        cycle(k, &mut robot, &mut host);
-    }
-    let n = ALLOCS.load(Ordering::Relaxed) - before;
-    assert_eq!(n, 0, "{n} allocations in 500 control periods (1 s)");
+    let ((), n) = anguilla_testkit::count(|| {
+        for k in 300..800 {
+            cycle(k, &mut robot, &mut host);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocator calls in 500 control periods (1 s)");
 }
