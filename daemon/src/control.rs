@@ -28,7 +28,7 @@ use anguilla_model::{
 };
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
-    self, AxisSetpoint, Command as NodeCommand, Message, NodeId, Target, Variant,
+    self, AxisSetpoint, Command as NodeCommand, Message, NodeId, NodeSet, Target, Variant,
 };
 
 use crate::config::{Config, FaultPolicyConfig};
@@ -114,7 +114,7 @@ pub struct Controller {
     counter: u16,
     mode_before: Mode,
     /// Nodes that get no setpoint this period (lost, in Fault).
-    setpoint_skip: u64,
+    setpoint_skip: NodeSet,
     last_command_sent: Nanos,
     model_failed: bool,
     last_model_error: Option<ModelError>,
@@ -224,7 +224,7 @@ impl Controller {
             torque_ff: vec![[0.0; 2]; n],
             counter: 0,
             mode_before: Mode::Idle,
-            setpoint_skip: 0,
+            setpoint_skip: NodeSet::empty(),
             last_command_sent: 0,
             model_failed: false,
             last_model_error: None,
@@ -422,14 +422,14 @@ impl Controller {
         });
         // 2. Supervisor.
         let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
-        let (all_enabled, lost, fault, estop) = self.table.observe(now, hb_timeout);
-        let configured = self.ids.iter().fold(0u64, |m, id| m | 1 << id.get());
+        let report = self.table.observe(now, hb_timeout);
+        let configured = NodeSet::of(self.ids.iter().copied());
         let obs = Observations {
-            all_enabled,
-            heartbeat_lost: lost,
-            all_lost: configured != 0 && lost & configured == configured,
-            node_fault: fault,
-            estop_nodes: estop,
+            all_enabled: report.all_enabled,
+            heartbeat_lost: report.lost,
+            all_lost: !configured.is_empty() && report.lost.covers(configured),
+            node_fault: report.fault,
+            estop_nodes: report.estop,
             bus_estop: self.table.take_bus_estop(),
             bus_off: period_state == BusState::BusOff,
             bus_gone: period_state == BusState::Gone,
@@ -439,7 +439,11 @@ impl Controller {
         let d = self.sup.tick(now, &obs);
         let mode = self.sup.mode();
         // In Fault, setpoints go to the nodes still answering only.
-        self.setpoint_skip = if mode == Mode::Fault { lost } else { 0 };
+        self.setpoint_skip = if mode == Mode::Fault {
+            report.lost
+        } else {
+            NodeSet::empty()
+        };
         if d.send_estop {
             // Nothing queued before the E-stop may follow it.
             let _ = bus.flush_tx();
@@ -662,7 +666,7 @@ impl Controller {
         let pairs = ids
             .iter()
             .zip(setpoints.iter())
-            .filter(|(id, _)| skip & 1 << id.get() == 0)
+            .filter(|(id, _)| !skip.contains(id.get()))
             .map(|(id, axes)| (*id, *axes));
         let r = message::encode_setpoints(self.variant, self.counter, pairs, |f| {
             self.send_frame(bus, &f)

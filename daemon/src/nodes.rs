@@ -44,6 +44,30 @@ pub struct RxCounters {
     pub estops_seen: u64,
 }
 
+/// The nodes' reports at one instant ([`NodeTable::observe`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NodeReport {
+    /// Every configured node reports Enabled.
+    pub all_enabled: bool,
+    /// Nodes whose heartbeat is overdue.
+    pub lost: NodeSet,
+    /// Nodes in Fault.
+    pub fault: NodeSet,
+    /// Nodes in EStop.
+    pub estop: NodeSet,
+}
+
+impl Default for NodeReport {
+    fn default() -> Self {
+        NodeReport {
+            all_enabled: false,
+            lost: NodeSet::empty(),
+            fault: NodeSet::empty(),
+            estop: NodeSet::empty(),
+        }
+    }
+}
+
 /// The table of nodes, in joint order (head to tail).
 #[derive(Debug, Clone)]
 pub struct NodeTable {
@@ -149,32 +173,32 @@ impl NodeTable {
         core::mem::take(&mut self.bus_estop)
     }
 
-    /// Summary for the supervisor: (all enabled, heartbeat-lost mask,
-    /// fault mask, e-stop mask), bits by node id. A node never heard of is
+    /// What the nodes report, for the supervisor. A node never heard of is
     /// lost once `heartbeat_timeout` has passed since the table was made.
-    pub fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> (bool, u64, u64, u64) {
-        let mut all_enabled = true;
-        let (mut lost, mut fault, mut estop) = (0u64, 0u64, 0u64);
+    pub fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
+        let mut r = NodeReport {
+            all_enabled: true,
+            ..NodeReport::default()
+        };
         for e in &self.entries {
-            let bit = 1u64 << e.id.get();
             let since = now.saturating_sub(e.last_heartbeat.unwrap_or(self.started));
             if since > heartbeat_timeout {
-                lost |= bit;
+                r.lost = r.lost.with(e.id);
             }
             match e.state {
                 Some(NodeState::Enabled) => {}
                 Some(NodeState::Fault) => {
-                    fault |= bit;
-                    all_enabled = false;
+                    r.fault = r.fault.with(e.id);
+                    r.all_enabled = false;
                 }
                 Some(NodeState::EStop) => {
-                    estop |= bit;
-                    all_enabled = false;
+                    r.estop = r.estop.with(e.id);
+                    r.all_enabled = false;
                 }
-                _ => all_enabled = false,
+                _ => r.all_enabled = false,
             }
         }
-        (all_enabled, lost, fault, estop)
+        r
     }
 
     /// Forgets every node's state (after a clear-faults, the old reports
@@ -228,9 +252,10 @@ mod tests {
         .encode(Variant::Classic)
         .unwrap();
         t.ingest(MS, &fb);
-        let (all, lost, fault, estop) = t.observe(2 * MS, 350 * MS);
-        assert!(all);
-        assert_eq!((lost, fault, estop), (0, 0, 0));
+        let r = t.observe(2 * MS, 350 * MS);
+        assert!(r.all_enabled);
+        let none = NodeSet::empty();
+        assert_eq!((r.lost, r.fault, r.estop), (none, none, none));
         let p = t.entries()[1].feedback.unwrap().axes[0].position;
         assert!((p - 0.25).abs() < 1e-3);
     }
@@ -242,11 +267,12 @@ mod tests {
         t.ingest(0, &hb(2, NodeState::Fault));
         t.ingest(400 * MS, &hb(1, NodeState::Enabled));
         t.ingest(400 * MS, &hb(3, NodeState::EStop));
-        let (all, lost, fault, estop) = t.observe(400 * MS, 350 * MS);
-        assert!(!all);
-        assert_eq!(lost, 1 << 2, "node 2 silent for 400 ms");
-        assert_eq!(fault, 1 << 2);
-        assert_eq!(estop, 1 << 3);
+        let r = t.observe(400 * MS, 350 * MS);
+        let only = |n| NodeSet::empty().with(NodeId::new(n).unwrap());
+        assert!(!r.all_enabled);
+        assert_eq!(r.lost, only(2), "node 2 silent for 400 ms");
+        assert_eq!(r.fault, only(2));
+        assert_eq!(r.estop, only(3));
     }
 
     #[test]

@@ -18,6 +18,8 @@
 //!  EStop ◄── E-stop from any client or from the bus (any mode); latched until reset
 //! ```
 
+use anguilla_protocol::NodeSet;
+
 pub use anguilla_ipc::vocabulary::{
     Cause, ClientId, Command, FaultKind, FaultSet, Field, Mode, Nanos, Refusal, SwimParams,
 };
@@ -27,16 +29,16 @@ pub use anguilla_ipc::vocabulary::{
 pub struct Observations {
     /// Every configured node reports it is enabled.
     pub all_enabled: bool,
-    /// Nodes whose heartbeat is overdue (bit = node id).
-    pub heartbeat_lost: u64,
+    /// Nodes whose heartbeat is overdue.
+    pub heartbeat_lost: NodeSet,
     /// Every configured node's heartbeat is overdue: no actuator is left to
     /// hold, and setpoints would only load a bus that may be the cause.
     pub all_lost: bool,
-    /// Nodes that report a fault (bit = node id).
-    pub node_fault: u64,
+    /// Nodes that report a fault.
+    pub node_fault: NodeSet,
     /// Nodes that sent or report an E-stop (bit = node id); `bus_estop`
     /// covers E-stops whose sender is not a node.
-    pub estop_nodes: u64,
+    pub estop_nodes: NodeSet,
     /// An E-stop frame was seen on the bus.
     pub bus_estop: bool,
     /// The bus is bus-off.
@@ -365,8 +367,8 @@ impl Supervisor {
                     // not, so a reset waits for them to come back.
                     let o = &self.last_obs;
                     let mut persists = FaultSet::default();
-                    if o.heartbeat_lost != 0 {
-                        persists.insert(FaultKind::HeartbeatLost, o.heartbeat_lost);
+                    if !o.heartbeat_lost.is_empty() {
+                        persists.insert(FaultKind::HeartbeatLost, o.heartbeat_lost.bits());
                     }
                     if o.bus_off {
                         persists.insert(FaultKind::BusOff, 0);
@@ -473,8 +475,8 @@ impl Supervisor {
             None => false,
         };
         // Safety reactions (DESIGN.md's table).
-        if !settling && (obs.bus_estop || obs.estop_nodes != 0) {
-            self.estop(now, FaultKind::BusEStop, obs.estop_nodes);
+        if !settling && (obs.bus_estop || !obs.estop_nodes.is_empty()) {
+            self.estop(now, FaultKind::BusEStop, obs.estop_nodes.bits());
         }
         if obs.bus_off {
             self.fault(now, FaultKind::BusOff, 0);
@@ -482,11 +484,11 @@ impl Supervisor {
         if obs.bus_gone {
             self.fault(now, FaultKind::AdapterGone, 0);
         }
-        if obs.heartbeat_lost != 0 {
-            self.fault(now, FaultKind::HeartbeatLost, obs.heartbeat_lost);
+        if !obs.heartbeat_lost.is_empty() {
+            self.fault(now, FaultKind::HeartbeatLost, obs.heartbeat_lost.bits());
         }
-        if !settling && obs.node_fault != 0 {
-            self.fault(now, FaultKind::NodeFault, obs.node_fault);
+        if !settling && !obs.node_fault.is_empty() {
+            self.fault(now, FaultKind::NodeFault, obs.node_fault.bits());
         }
         if obs.model_diverged {
             self.fault(now, FaultKind::ModelDiverged, 0);
@@ -546,6 +548,13 @@ mod tests {
             turn: 0.0,
             pitch: 0.0,
         })
+    }
+
+    fn nodes(ids: &[u8]) -> NodeSet {
+        NodeSet::of(
+            ids.iter()
+                .map(|&i| anguilla_protocol::NodeId::new(i).unwrap()),
+        )
     }
 
     fn ok_obs() -> Observations {
@@ -739,7 +748,7 @@ mod tests {
     fn faults_stop_the_swim_and_name_the_node() {
         let mut s = swimming();
         let obs = Observations {
-            heartbeat_lost: 1 << 7,
+            heartbeat_lost: nodes(&[7]),
             ..ok_obs()
         };
         let d = s.tick(4 * MS, &obs);
@@ -764,7 +773,7 @@ mod tests {
     fn reset_clears_node_faults_and_ignores_their_stale_reports() {
         let mut s = swimming();
         let faulty = Observations {
-            node_fault: 1 << 3,
+            node_fault: nodes(&[3]),
             ..ok_obs()
         };
         s.tick(4 * MS, &faulty);
@@ -783,7 +792,7 @@ mod tests {
     fn disable_in_fault_goes_limp_but_keeps_the_fault() {
         let mut s = swimming();
         let faulty = Observations {
-            node_fault: 1,
+            node_fault: nodes(&[1]),
             ..ok_obs()
         };
         assert_eq!(s.tick(4 * MS, &faulty).drive, Drive::Setpoints);
@@ -805,7 +814,7 @@ mod tests {
         let d = s.tick(
             2 * MS,
             &Observations {
-                node_fault: 1 << 2,
+                node_fault: nodes(&[2]),
                 ..ok_obs()
             },
         );
@@ -828,7 +837,7 @@ mod tests {
         let d = s.tick(
             4 * MS,
             &Observations {
-                heartbeat_lost: 0b110,
+                heartbeat_lost: nodes(&[1, 2]),
                 ..ok_obs()
             },
         );
@@ -837,7 +846,7 @@ mod tests {
         let d = s.tick(
             5 * MS,
             &Observations {
-                heartbeat_lost: 0b110,
+                heartbeat_lost: nodes(&[1, 2]),
                 all_lost: true,
                 ..ok_obs()
             },

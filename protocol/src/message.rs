@@ -90,7 +90,7 @@ impl NodeId {
 }
 
 /// The set of node ids a decoder accepts; others are [`DecodeError::UnknownNode`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct NodeSet(u64);
 
 impl NodeSet {
@@ -113,6 +113,22 @@ impl NodeSet {
     /// The same set with `id` added.
     pub const fn with(self, id: NodeId) -> Self {
         NodeSet(self.0 | (1 << id.0))
+    }
+
+    /// The set as bits by node id (bit `n` for node `n`), as published in
+    /// the operator interface's fault masks.
+    pub const fn bits(self) -> u64 {
+        self.0
+    }
+
+    /// The nodes in `self` and not in `other`.
+    pub const fn without(self, other: NodeSet) -> Self {
+        NodeSet(self.0 & !other.0)
+    }
+
+    /// Whether every node of `other` is in `self`.
+    pub const fn covers(self, other: NodeSet) -> bool {
+        other.0 & !self.0 == 0
     }
 
     /// Whether `id` (raw) is in the set.
