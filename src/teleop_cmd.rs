@@ -352,24 +352,21 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
         "anguilla joy: daemon prefix '{prefix}'; hold {:?} to drive, {:?} is E-stop (Ctrl-C quits)",
         mapping.deadman, mapping.estop
     );
-    let looking = match &args.device {
-        Some(p) => format!("cannot open {}", p.display()),
-        None => format!(
-            "no readable /dev/input/event* device with a {:?} button and a {:?} axis",
-            mapping.deadman, mapping.speed.code
-        ),
-    };
     let pads = EvdevPads::new(args.device.clone(), mapping);
     let mut session = JoySession::new(op, Joy::new(mapping, limits), pads);
     while !crate::signals::requested() {
         let step = session.step(|n| match n {
-            JoyNotice::Waiting => eprintln!(
-                "anguilla joy: no gamepad found ({looking}); waiting for one to be plugged in"
+            JoyNotice::Waiting(why) => eprintln!(
+                "anguilla joy: no gamepad found ({why}); waiting for one to be plugged in"
             ),
             JoyNotice::Connected(name) => eprintln!("anguilla joy: using {name}"),
             JoyNotice::Disconnected { stop_sent } => eprintln!(
-                "anguilla joy: the gamepad disappeared{}; the daemon's command timeout stops the robot anyway; waiting for it",
-                if stop_sent { " (one stop sent)" } else { "" }
+                "anguilla joy: the gamepad disappeared ({}); waiting for it",
+                if stop_sent {
+                    "one stop sent"
+                } else {
+                    "the deadman was up: nothing sent, the daemon's command timeout is the backstop"
+                }
             ),
             JoyNotice::Mode(m) => eprintln!("anguilla joy: mode {}", view::mode_name(m)),
             JoyNotice::Refused(r) => {

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use anguilla_ipc::Command;
 use anguilla_ipc::IpcError;
-use evdev::AbsoluteAxisCode;
+use evdev::{AbsoluteAxisCode, KeyCode};
 
 use crate::joy::{AxisRange, Joy, JoyInput, JoyMapping};
 use crate::operator::{Operator, Refused, STEADY_PERIOD};
@@ -16,10 +16,42 @@ use crate::operator::{Operator, Refused, STEADY_PERIOD};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PadGone;
 
+/// Why no pad could be opened.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NoPad {
+    /// No event device has the mapping's deadman button and speed axis.
+    #[error("no readable /dev/input/event* device with a {deadman:?} button and a {speed:?} axis")]
+    NotFound {
+        /// The mapping's deadman button.
+        deadman: KeyCode,
+        /// The mapping's speed axis.
+        speed: AbsoluteAxisCode,
+    },
+    /// The device given cannot be opened (absent, or no permission).
+    #[error("cannot open {}: {kind}", .path.display())]
+    CannotOpen {
+        /// The device given.
+        path: PathBuf,
+        /// Why.
+        kind: std::io::ErrorKind,
+    },
+    /// The device given is not a gamepad the mapping can drive with (its
+    /// event node now belongs to another device, or it is the wrong one).
+    #[error("{} is {name:?}, which has no {missing}", .path.display())]
+    NotAGamepad {
+        /// The device given.
+        path: PathBuf,
+        /// The device's name.
+        name: String,
+        /// What it lacks, e.g. `BTN_TL button`.
+        missing: String,
+    },
+}
+
 /// Where gamepad inputs come from.
 pub trait PadSource {
-    /// Looks for a pad and opens it; its name when one is open.
-    fn open(&mut self) -> Option<String>;
+    /// Looks for a pad and opens it; its name when one is open, else why not.
+    fn open(&mut self) -> Result<String, NoPad>;
     /// The raw ranges of the open pad's axes.
     fn ranges(&self) -> Vec<(AbsoluteAxisCode, AxisRange)>;
     /// Waits up to `timeout` for inputs of the open pad and appends them
@@ -29,6 +61,12 @@ pub trait PadSource {
 
 /// Gamepads through Linux evdev: the device given, or the first one under
 /// `/dev/input` with the mapping's deadman button and speed axis.
+///
+/// The device given is opened again by its path after an unplug, so give a
+/// path that follows the pad (udev's `/dev/input/by-id/*-event-joystick`):
+/// a replugged pad may get another `eventN`, and its old node may go to
+/// another device, which is then refused ([`NoPad::NotAGamepad`]). Without
+/// a device, `/dev/input` is scanned again, wherever the pad reappears.
 pub struct EvdevPads {
     device: Option<PathBuf>,
     mapping: JoyMapping,
@@ -55,25 +93,56 @@ impl EvdevPads {
     }
 }
 
+/// What `dev` lacks to be driven with `m` (its deadman button or its
+/// speed axis), if anything.
+fn lacks(dev: &evdev::Device, m: &JoyMapping) -> Option<String> {
+    if !dev.supported_keys().is_some_and(|k| k.contains(m.deadman)) {
+        Some(format!("{:?} button", m.deadman))
+    } else if !dev
+        .supported_absolute_axes()
+        .is_some_and(|a| a.contains(m.speed.code))
+    {
+        Some(format!("{:?} axis", m.speed.code))
+    } else {
+        None
+    }
+}
+
 impl PadSource for EvdevPads {
-    fn open(&mut self) -> Option<String> {
+    fn open(&mut self) -> Result<String, NoPad> {
         let m = self.mapping;
         let (path, dev) = match &self.device {
-            Some(p) => (p.clone(), evdev::Device::open(p).ok()?),
-            None => evdev::enumerate().find(|(_, d)| {
-                d.supported_keys().is_some_and(|k| k.contains(m.deadman))
-                    && d.supported_absolute_axes()
-                        .is_some_and(|a| a.contains(m.speed.code))
-            })?,
+            Some(p) => {
+                let cannot = |e: std::io::Error| NoPad::CannotOpen {
+                    path: p.clone(),
+                    kind: e.kind(),
+                };
+                let dev = evdev::Device::open(p).map_err(cannot)?;
+                if let Some(missing) = lacks(&dev, &m) {
+                    return Err(NoPad::NotAGamepad {
+                        path: p.clone(),
+                        name: dev.name().unwrap_or("unnamed device").to_string(),
+                        missing,
+                    });
+                }
+                dev.set_nonblocking(true).map_err(cannot)?;
+                (p.clone(), dev)
+            }
+            None => evdev::enumerate()
+                .filter(|(_, d)| lacks(d, &m).is_none())
+                .find(|(_, d)| d.set_nonblocking(true).is_ok())
+                .ok_or(NoPad::NotFound {
+                    deadman: m.deadman,
+                    speed: m.speed.code,
+                })?,
         };
-        dev.set_nonblocking(true).ok()?;
         let name = format!(
             "{} ({})",
             dev.name().unwrap_or("unnamed device"),
             path.display()
         );
         self.open = Some(dev);
-        Some(name)
+        Ok(name)
     }
 
     fn ranges(&self) -> Vec<(AbsoluteAxisCode, AxisRange)> {
@@ -124,16 +193,27 @@ impl PadSource for EvdevPads {
     }
 }
 
+/// A deadman release this recent when the pad goes counts as its stop: the
+/// kernel releases a disappearing device's held buttons microseconds before
+/// reading it fails; a second covers a loaded machine, and a stop that
+/// recent is worth reporting anyway.
+const RELEASED_AT_UNPLUG: Duration = Duration::from_secs(1);
+
 /// What a [`JoySession`] tells its user.
 #[derive(Debug, Clone, PartialEq)]
 pub enum JoyNotice {
-    /// No pad found; waiting for one (said once per wait).
-    Waiting,
+    /// No pad found; waiting for one (said once per wait, and again
+    /// when the reason changes).
+    Waiting(NoPad),
     /// A pad was opened (its name).
     Connected(String),
     /// The pad disappeared; `stop_sent` if it was driving.
     Disconnected {
-        /// One stop was sent (the deadman was held).
+        /// One stop was sent: at the disconnection (the deadman was held),
+        /// or for the deadman's release just before it. A real device's
+        /// held buttons are released by the kernel as it goes (before
+        /// reading it fails), so a pad unplugged while driving usually
+        /// ends with a release; either way only one stop goes out.
         stop_sent: bool,
     },
     /// The daemon's mode changed (snapshot code).
@@ -151,7 +231,9 @@ pub struct JoySession<P: PadSource> {
     /// The pads.
     pub pads: P,
     connected: bool,
-    said_waiting: bool,
+    said_waiting: Option<NoPad>,
+    /// When the deadman's release last sent a stop.
+    release_stop: Option<Instant>,
     next_look: Instant,
     next_tick: Instant,
     mode: Option<u8>,
@@ -177,7 +259,8 @@ impl<P: PadSource> JoySession<P> {
             joy,
             pads,
             connected: false,
-            said_waiting: false,
+            said_waiting: None,
+            release_stop: None,
             next_look: now,
             next_tick: now,
             mode: None,
@@ -206,19 +289,19 @@ impl<P: PadSource> JoySession<P> {
         if !self.connected && now >= self.next_look {
             self.next_look = now + Duration::from_secs(1);
             match self.pads.open() {
-                Some(name) => {
+                Ok(name) => {
                     for (code, r) in self.pads.ranges() {
                         self.joy.set_range(code, r);
                     }
                     self.connected = true;
-                    self.said_waiting = false;
+                    self.said_waiting = None;
                     notice(JoyNotice::Connected(name));
                 }
-                None if !self.said_waiting => {
-                    self.said_waiting = true;
-                    notice(JoyNotice::Waiting);
+                Err(why) if self.said_waiting.as_ref() != Some(&why) => {
+                    self.said_waiting = Some(why.clone());
+                    notice(JoyNotice::Waiting(why));
                 }
-                None => {}
+                Err(_) => {}
             }
         }
         if self.connected {
@@ -227,6 +310,10 @@ impl<P: PadSource> JoySession<P> {
             let read = self.pads.read(Duration::from_millis(10), &mut inputs);
             for i in inputs.drain(..) {
                 if let Some(c) = self.joy.handle(i) {
+                    if c == Command::Stop {
+                        // Only the deadman's release stops from an input.
+                        self.release_stop = Some(Instant::now());
+                    }
                     self.send(c)?;
                 }
             }
@@ -238,8 +325,11 @@ impl<P: PadSource> JoySession<P> {
                 if let Some(c) = stop {
                     self.send(c)?;
                 }
+                let released = self
+                    .release_stop
+                    .is_some_and(|t| t.elapsed() < RELEASED_AT_UNPLUG);
                 notice(JoyNotice::Disconnected {
-                    stop_sent: stop.is_some(),
+                    stop_sent: stop.is_some() || released,
                 });
             }
         } else {
