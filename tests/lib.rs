@@ -1,22 +1,19 @@
 //! System tests: the daemon and the simulated robot end to end, on each bus.
 //!
 //! The tests live in `tests/*.rs`; this library holds their shared fixtures:
-//! [`Robot`] (the real daemon loop and simulated vertebra nodes on an
-//! in-process bus, like `anguilla run` without a bus) and [`Watchdog`].
+//! [`Robot`] (the real daemon loop and the simulated robot `anguilla run`
+//! drives without a bus: nodes, actuators and swimming body on an
+//! in-process bus) and [`Watchdog`].
 #![warn(missing_docs)]
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::thread::JoinHandle;
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::run::{self, Running};
 use anguilla_drivers::Bus;
-use anguilla_drivers::mem::MemBus;
-use anguilla_protocol::message::NodeId;
-use anguilla_sim::actuator::ActuatorParams;
-use anguilla_sim::node::{NodeConfig, VertebraNode};
+use anguilla_sim::builtin::{Builtin, BuiltinConfig};
 
 /// Aborts the test process if it is not dropped within a time limit, so a
 /// hung test fails instead of blocking CI.
@@ -56,8 +53,7 @@ pub struct Robot {
     /// The configuration the daemon runs.
     pub config: Config,
     running: Option<Running>,
-    sim_stop: Arc<AtomicBool>,
-    sim: Option<JoinHandle<()>>,
+    sim: Option<Builtin>,
 }
 
 impl std::fmt::Debug for Robot {
@@ -79,13 +75,12 @@ impl Robot {
 
     /// Starts the simulated nodes and the daemon with `cfg`.
     pub fn start_with(cfg: Config) -> anyhow::Result<Self> {
-        let (bus, sim_stop, sim) = start_nodes(&cfg)?;
+        let (bus, sim) = start_builtin(&cfg)?;
         let running = run::spawn(cfg.clone(), bus, Arc::new(AtomicBool::new(false)))?;
         Ok(Self {
             prefix: cfg.ipc.prefix.clone(),
             config: cfg,
             running: Some(running),
-            sim_stop,
             sim: Some(sim),
         })
     }
@@ -97,76 +92,25 @@ impl Drop for Robot {
             r.request_stop();
             let _ = r.join();
         }
-        self.sim_stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.sim.take() {
-            let _ = t.join();
+        if let Some(sim) = self.sim.take() {
+            sim.stop();
         }
     }
 }
 
-/// The daemon's end of the bus, the nodes' stop flag and their thread.
-type Nodes = (Box<dyn Bus>, Arc<AtomicBool>, JoinHandle<()>);
-
-/// The vertebra nodes of `cfg` on an in-process bus, served by a thread in
-/// real time (as `anguilla run` hosts them); returns the daemon's end.
-fn start_nodes(cfg: &Config) -> anyhow::Result<Nodes> {
-    let mut b = MemBus::builder(&format!("{}-bus", cfg.ipc.prefix))
-        .bitrate(cfg.bus.bitrate)
-        .capacity(4096);
-    if cfg.bus.fd {
-        b = b.data_bitrate(cfg.bus.data_bitrate);
-    }
-    let bus = b.build();
-    let host: Box<dyn Bus> = Box::new(bus.participant());
-    let mut port = bus.participant();
-    let variant = cfg.bus.variant();
-    let clock = std::time::Instant::now();
-    let ns = move || clock.elapsed().as_nanos() as u64;
-    let mut nodes = cfg
-        .node_ids()
-        .into_iter()
-        .enumerate()
-        .map(|(i, id)| {
-            Ok(VertebraNode::new(
-                NodeConfig {
-                    id: NodeId::new(id).map_err(|e| anyhow::anyhow!("{e}"))?,
-                    variant,
-                    axes: [ActuatorParams::default(); 2],
-                    boot_time: 50_000_000,
-                    seed: i as u64,
-                },
-                ns(),
-            ))
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    let thread = std::thread::Builder::new()
-        .name("systest-sim".into())
-        .spawn(move || {
-            let mut out = Vec::with_capacity(256);
-            while !flag.load(Ordering::Relaxed) {
-                if let Ok(Some(first)) = port.recv(Duration::from_micros(500)) {
-                    let now = ns();
-                    for n in nodes.iter_mut() {
-                        n.receive(now, &first.frame, &mut |f| out.push(f));
-                    }
-                    let _ = port.drain(&mut |r| {
-                        for n in nodes.iter_mut() {
-                            n.receive(now, &r.frame, &mut |f| out.push(f));
-                        }
-                    });
-                }
-                let now = ns();
-                for n in nodes.iter_mut() {
-                    n.advance(now, &mut |f| out.push(f));
-                }
-                for f in out.drain(..) {
-                    let _ = port.send(&f);
-                }
-            }
-        })?;
-    Ok((host, stop, thread))
+/// The robot `anguilla run` drives without a bus (`anguilla_sim::builtin`:
+/// nodes, actuators and the swimming body, in real time), on a bus named
+/// after the daemon's prefix; returns the daemon's end.
+fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, Builtin)> {
+    let bc = BuiltinConfig {
+        bus_name: format!("{}-bus", cfg.ipc.prefix),
+        bitrate: cfg.bus.bitrate,
+        data_bitrate: cfg.bus.fd.then_some(cfg.bus.data_bitrate),
+        node_ids: cfg.node_ids(),
+        variant: cfg.bus.variant(),
+        fifo_priority: None,
+    };
+    Ok(Builtin::start(&bc)?)
 }
 
 /// Fixtures for tests that run `anguilla` as separate processes and talk to

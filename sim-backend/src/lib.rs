@@ -43,6 +43,7 @@
 #![warn(missing_docs)]
 
 pub mod actuator;
+pub mod builtin;
 pub mod node;
 pub mod plant;
 pub mod rng;

@@ -61,6 +61,9 @@ pub enum SimError {
     /// The bus failed.
     #[error("bus: {0}")]
     Bus(#[from] anguilla_drivers::BusError),
+    /// The robot's thread could not be started.
+    #[error("starting the simulated robot's thread: {0}")]
+    Thread(std::io::Error),
 }
 
 /// Result of this crate's operations.

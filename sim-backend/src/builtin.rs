@@ -1,0 +1,82 @@
+//! The in-process robot: an in-process bus with CAN wire time at the given
+//! bit rates, and the whole simulated robot on it (vertebra nodes, actuators
+//! and the swimming body) on its own thread in real time. `anguilla run`
+//! drives it when no bus is named, and the system tests drive the same one.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use anguilla_drivers::mem::MemBus;
+use anguilla_drivers::{Bus, Clock};
+use anguilla_protocol::message::Variant;
+
+use crate::robot::{RobotConfig, RunningSim, SimError, SimRobot};
+
+/// What the in-process robot is made of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BuiltinConfig {
+    /// The in-process bus's name (unique in the process).
+    pub bus_name: String,
+    /// Nominal bit rate, bit/s (wire time of every frame).
+    pub bitrate: u32,
+    /// CAN FD data-phase bit rate, bit/s (FD only).
+    pub data_bitrate: Option<u32>,
+    /// The nodes' ids, joint 1 (head end) first.
+    pub node_ids: Vec<u8>,
+    /// Classic CAN or CAN FD nodes.
+    pub variant: Variant,
+    /// The robot thread's SCHED_FIFO priority, if any (keep it below a
+    /// real-time control loop's, so the loop never waits on the bus lock
+    /// held by a preempted robot thread).
+    pub fifo_priority: Option<u8>,
+}
+
+/// The in-process robot, running.
+pub struct Builtin {
+    running: RunningSim,
+    /// A priority the system refused (the robot runs without it).
+    pub priority_refused: Option<std::io::Error>,
+}
+
+impl Builtin {
+    /// Starts the robot; returns the controller's end of the bus.
+    pub fn start(cfg: &BuiltinConfig) -> Result<(Box<dyn Bus>, Builtin), SimError> {
+        let mut b = MemBus::builder(&cfg.bus_name)
+            .bitrate(cfg.bitrate)
+            .capacity(4096);
+        if let Some(d) = cfg.data_bitrate {
+            b = b.data_bitrate(d);
+        }
+        let bus = b.build();
+        let host: Box<dyn Bus> = Box::new(bus.participant());
+        let rc = RobotConfig {
+            node_ids: cfg.node_ids.clone(),
+            variant: cfg.variant,
+            boot_time: Duration::from_millis(50),
+            ..RobotConfig::with_joints(cfg.node_ids.len())
+        };
+        let clock: Arc<dyn Clock> = bus.clock();
+        let robot = SimRobot::on_mem(rc, bus.participant(), clock.now())?;
+        let running = robot.spawn(clock).map_err(SimError::Thread)?;
+        let priority_refused = cfg
+            .fifo_priority
+            .and_then(|p| running.set_fifo_priority(p).err());
+        Ok((
+            host,
+            Builtin {
+                running,
+                priority_refused,
+            },
+        ))
+    }
+
+    /// The simulation's ground truth.
+    pub fn truth(&self) -> crate::robot::Truth {
+        self.running.truth()
+    }
+
+    /// Stops the robot's thread.
+    pub fn stop(self) {
+        let _ = self.running.stop();
+    }
+}
