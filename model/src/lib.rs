@@ -11,6 +11,14 @@
 //! I/O and a [`step`] allocates nothing: the [`Model`] is immutable and
 //! validated, the [`Workspace`] is preallocated.
 //!
+//! Modules: [`body`] (geometry, inertia, hydrodynamic coefficients), [`gait`]
+//! (curvature laws and sources), [`dynamics`] (the algorithm, one file per
+//! pass as in Pinocchio: `model` and `workspace` (the model and its
+//! preallocated data), `kinematics` (34)–(36) and the joints, `forward`
+//! `G_ext`, `inverse` `G_int`, `integrate` ([`evaluate`], [`step`]),
+//! `diagnostics`), [`run`] (a named gait run and averaged like the paper's
+//! tables), [`error`].
+//!
 //! ```
 //! use anguilla_model::{HeadState, Model, ModelConfig, Workspace, gait, step};
 //!
