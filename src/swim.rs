@@ -400,6 +400,33 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 
+    /// README.md and model/README.md show `anguilla swim --paper`'s table
+    /// between their paper-table markers; `ANGUILLA_BLESS=1` rewrites both.
+    #[test]
+    fn the_readmes_show_the_paper_table() {
+        use clap::Parser as _;
+        let cli = crate::Cli::try_parse_from(["anguilla", "swim", "--paper"]).unwrap();
+        let crate::Command::Swim(args) = cli.command else {
+            panic!("`anguilla swim --paper` parses as swim")
+        };
+        let block = format!("```text\n{}\n```\n", paper_table(&args).unwrap());
+        let (begin, end) = ("<!-- paper-table:begin -->\n", "<!-- paper-table:end -->");
+        for readme in ["README.md", "model/README.md"] {
+            let path = format!("{}/{readme}", env!("CARGO_MANIFEST_DIR"));
+            let text = std::fs::read_to_string(&path).unwrap();
+            let (head, rest) = text.split_once(begin).expect("paper-table:begin marker");
+            let (current, tail) = rest.split_once(end).expect("paper-table:end marker");
+            if std::env::var_os("ANGUILLA_BLESS").is_some() {
+                std::fs::write(&path, format!("{head}{begin}{block}{end}{tail}")).unwrap();
+                continue;
+            }
+            assert_eq!(
+                current, block,
+                "{readme}'s paper table is not what `anguilla swim --paper` prints: rerun with ANGUILLA_BLESS=1"
+            );
+        }
+    }
+
     #[test]
     fn bad_arguments_are_errors_naming_them() {
         let e = run(&args("F9")).unwrap_err().to_string();
