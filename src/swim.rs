@@ -4,7 +4,8 @@
 use crate::output::outln;
 use anguilla_daemon::config::fmt_number;
 use anguilla_model::gait::{self, NamedGait};
-use anguilla_model::run::{self, Metric, PaperRow, Summary};
+use anguilla_model::paper;
+use anguilla_model::run::{self, Summary};
 use anguilla_model::{Model, ModelConfig};
 use anyhow::{Context, Result, bail};
 use std::io::Write;
@@ -238,96 +239,47 @@ fn print_summary(g: &NamedGait, model: &Model, s: &Summary, wall: f64) -> anyhow
     Ok(())
 }
 
-fn window(r: &PaperRow, g: &NamedGait) -> String {
-    match r.metric {
-        Metric::ForwardSpeed => format!(
-            "-V1(0) mean over last 5 periods ({:.1}-{:.0} s)",
-            r.duration - 5.0 * run::gait_period(g),
-            r.duration
-        ),
-        Metric::YawDeg => format!("yaw mean over {:.0}-{:.0} s", r.duration - 5.0, r.duration),
-        Metric::FinalV1 => format!("V1(0) at t = {:.0} s", r.duration),
-        Metric::RollRate => format!("Omega1(0) mean over 0-{:.0} s", r.duration),
+/// Runs every row of the paper's tables on the model of `args`.
+fn paper_table(args: &SwimArgs) -> Result<paper::Table> {
+    let model = model(args)?;
+    let mut rows = Vec::new();
+    for r in paper::PAPER_ROWS {
+        let g = find_gait(r.gait)?;
+        rows.push(
+            paper::Comparison::run(&model, r, g)
+                .with_context(|| format!("simulating gait {}", g.name))?,
+        );
     }
-}
-
-/// `(ours - S-M) / |S-M|`, or `/ |V_init|` for the stopping gait as in the
-/// paper's Table 6, in percent.
-fn diff_percent(r: &PaperRow, g: &NamedGait, ours: f64) -> f64 {
-    let scale = match r.metric {
-        Metric::FinalV1 => g.v_init.abs(),
-        _ => r.sm.abs(),
-    };
-    100.0 * (ours - r.sm) / scale
+    Ok(paper::Table::new(&model, rows))
 }
 
 fn paper(args: &SwimArgs) -> Result<()> {
-    let model = model(args)?;
-    let mut rows = Vec::new();
-    for r in run::PAPER_ROWS {
-        let g = find_gait(r.gait)?;
-        let s = run::run_gait(&model, &g, r.duration, |_, _, _, _, _| {})
-            .with_context(|| format!("simulating gait {}", g.name))?;
-        let ours = run::metric_value(r.metric, &s);
-        rows.push((r, g, ours));
-    }
+    let table = paper_table(args)?;
     if args.json {
-        let v: Vec<_> = rows
+        let v: Vec<_> = table
+            .rows
             .iter()
-            .map(|(r, g, ours)| {
+            .map(|c| {
+                let r = &c.row;
                 serde_json::json!({
                     "gait": r.gait,
                     "quantity": format!("{:?}", r.metric),
                     "paper_ns": r.ns,
                     "paper_sm": r.sm,
-                    "ours": ours,
-                    "diff_vs_sm_percent": diff_percent(r, g, *ours),
-                    "window": window(r, g),
+                    "ours": c.ours,
+                    "diff_vs_sm_percent": c.diff_percent(),
+                    "window": c.window(),
                     "duration": r.duration,
                 })
             })
             .collect();
         outln!(
             "{}",
-            serde_json::json!({"nodes": model.intervals(), "dt": model.dt(), "rows": v})
+            serde_json::json!({"nodes": table.intervals, "dt": table.dt, "rows": v})
         )?;
         return Ok(());
     }
-    outln!(
-        "Paper (Boyer et al. 2008, Tables 2, 4, 6, section 7.5) vs ours: {} intervals, dt = {} s, RK4 in space and time",
-        model.intervals(),
-        model.dt()
-    )?;
-    outln!("difference = (ours - S-M) / |S-M|, for STOP / |V_init| (the paper's Table 6 ratio)")?;
-    outln!(
-        "{:<7}{:<18}{:>10}{:>10}{:>10}{:>10}  averaging window",
-        "gait",
-        "quantity",
-        "N-S",
-        "S-M",
-        "ours",
-        "vs S-M"
-    )?;
-    for (r, g, ours) in &rows {
-        let (q, unit) = match r.metric {
-            Metric::ForwardSpeed => ("-V1 (m/s)", ""),
-            Metric::YawDeg => ("yaw (deg)", ""),
-            Metric::FinalV1 => ("V1 final (m/s)", ""),
-            Metric::RollRate => ("roll rate (rad/s)", ""),
-        };
-        let ns = r.ns.map_or("-".to_string(), |v| format!("{v:.3}"));
-        outln!(
-            "{:<7}{:<18}{:>10}{:>10.3}{:>10.3}{:>9.1}%  {}{}",
-            r.gait,
-            q,
-            ns,
-            r.sm,
-            ours,
-            diff_percent(r, g, *ours),
-            window(r, g),
-            unit
-        )?;
-    }
+    outln!("{table}")?;
     Ok(())
 }
 
@@ -446,6 +398,33 @@ mod tests {
         assert!(!text.contains("NaN"));
         assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// README.md and model/README.md show `anguilla swim --paper`'s table
+    /// between their paper-table markers; `ANGUILLA_BLESS=1` rewrites both.
+    #[test]
+    fn the_readmes_show_the_paper_table() {
+        use clap::Parser as _;
+        let cli = crate::Cli::try_parse_from(["anguilla", "swim", "--paper"]).unwrap();
+        let crate::Command::Swim(args) = cli.command else {
+            panic!("`anguilla swim --paper` parses as swim")
+        };
+        let block = format!("```text\n{}\n```\n", paper_table(&args).unwrap());
+        let (begin, end) = ("<!-- paper-table:begin -->\n", "<!-- paper-table:end -->");
+        for readme in ["README.md", "model/README.md"] {
+            let path = format!("{}/{readme}", env!("CARGO_MANIFEST_DIR"));
+            let text = std::fs::read_to_string(&path).unwrap();
+            let (head, rest) = text.split_once(begin).expect("paper-table:begin marker");
+            let (current, tail) = rest.split_once(end).expect("paper-table:end marker");
+            if std::env::var_os("ANGUILLA_BLESS").is_some() {
+                std::fs::write(&path, format!("{head}{begin}{block}{end}{tail}")).unwrap();
+                continue;
+            }
+            assert_eq!(
+                current, block,
+                "{readme}'s paper table is not what `anguilla swim --paper` prints: rerun with ANGUILLA_BLESS=1"
+            );
+        }
     }
 
     #[test]

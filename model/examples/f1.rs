@@ -11,11 +11,11 @@ fn main() {
         ..Default::default()
     })
     .unwrap();
-    for r in run::PAPER_ROWS {
+    for r in paper::PAPER_ROWS {
         let g = gait::named_gait(r.gait).unwrap();
         let t0 = std::time::Instant::now();
         let s = run::run_gait(&model, &g, r.duration, |_, _, _, _, _| {}).unwrap();
-        let v = run::metric_value(r.metric, &s);
+        let v = paper::metric_value(r.metric, &s);
         println!(
             "{:6} sm {:8.3} ours {:8.4} ({:+.1}%) rt {:.0} {:?}",
             r.gait,

@@ -11,6 +11,15 @@
 //! I/O and a [`step`] allocates nothing: the [`Model`] is immutable and
 //! validated, the [`Workspace`] is preallocated.
 //!
+//! Modules: [`body`] (geometry, inertia, hydrodynamic coefficients), [`gait`]
+//! (curvature laws and sources), [`dynamics`] (the algorithm, one file per
+//! pass as in Pinocchio: `model` and `workspace` (the model and its
+//! preallocated data), `kinematics` (34)–(36) and the joints, `forward`
+//! `G_ext`, `inverse` `G_int`, `integrate` ([`evaluate`], [`step`]),
+//! `diagnostics`), [`run`] (a named gait run and averaged like the paper's
+//! tables), [`paper`] (the paper's Tables 2, 4, 6 and section 7.5 and our
+//! reproduction table), [`error`].
+//!
 //! ```
 //! use anguilla_model::{HeadState, Model, ModelConfig, Workspace, gait, step};
 //!
@@ -34,6 +43,7 @@ pub mod body;
 pub mod dynamics;
 pub mod error;
 pub mod gait;
+pub mod paper;
 pub mod run;
 
 pub use body::{Body, Profile};

@@ -1,5 +1,6 @@
 //! Running a named gait and summarizing it the way the paper's tables do
-//! (no I/O: the caller observes each step through a closure).
+//! (no I/O: the caller observes each step through a closure). The tables
+//! themselves are in [`crate::paper`].
 
 use crate::dynamics::{HeadState, Model, StepReport, Workspace, step};
 use crate::error::Result;
@@ -98,77 +99,4 @@ pub fn run_gait(
         last_period_forward_speed: avg(s_last, n_last),
         duration: t_end,
     })
-}
-
-/// What a row of the paper's tables compares.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Metric {
-    /// Mean forward speed `-V1(0)` (m/s), Table 2.
-    ForwardSpeed,
-    /// Mean head yaw after the turn (deg), Table 4.
-    YawDeg,
-    /// Head `V1` at the final time 20 s (m/s), Table 6.
-    FinalV1,
-    /// Mean roll rate (rad/s), section 7.5.
-    RollRate,
-}
-
-/// One row of the paper's tables.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PaperRow {
-    /// Gait name.
-    pub gait: &'static str,
-    /// Compared quantity.
-    pub metric: Metric,
-    /// Navier–Stokes value, when the paper gives one.
-    pub ns: Option<f64>,
-    /// The paper's simplified-model value.
-    pub sm: f64,
-    /// Run duration used here (s).
-    pub duration: f64,
-}
-
-const fn row(
-    gait: &'static str,
-    metric: Metric,
-    ns: Option<f64>,
-    sm: f64,
-    duration: f64,
-) -> PaperRow {
-    PaperRow {
-        gait,
-        metric,
-        ns,
-        sm,
-        duration,
-    }
-}
-
-/// Tables 2, 4, 6 and section 7.5 of the paper.
-pub const PAPER_ROWS: [PaperRow; 15] = [
-    row("F1", Metric::ForwardSpeed, Some(0.642), 0.619, 30.0),
-    row("F2", Metric::ForwardSpeed, Some(0.613), 0.614, 30.0),
-    row("F3", Metric::ForwardSpeed, Some(1.310), 1.270, 30.0),
-    row("F4", Metric::ForwardSpeed, Some(0.412), 0.407, 30.0),
-    row("F5", Metric::ForwardSpeed, Some(0.753), 0.721, 30.0),
-    row("F6", Metric::ForwardSpeed, Some(0.452), 0.456, 30.0),
-    row("F7", Metric::ForwardSpeed, Some(0.278), 0.306, 30.0),
-    row("T1", Metric::YawDeg, Some(-88.0), -86.0, 15.0),
-    row("T2", Metric::YawDeg, Some(-116.0), -117.0, 15.0),
-    row("T3", Metric::YawDeg, Some(-163.0), -166.0, 15.0),
-    row("T4", Metric::YawDeg, Some(-94.0), -98.0, 15.0),
-    row("T5", Metric::YawDeg, Some(-45.0), -49.0, 15.0),
-    row("T6", Metric::YawDeg, Some(-157.0), -167.0, 15.0),
-    row("STOP", Metric::FinalV1, Some(0.0321), -0.0581, 20.0),
-    row("SPIRAL", Metric::RollRate, None, 0.31, 10.0),
-];
-
-/// Our value of `row`'s metric from a run summary.
-pub fn metric_value(metric: Metric, s: &Summary) -> f64 {
-    match metric {
-        Metric::ForwardSpeed => s.mean_forward_speed,
-        Metric::YawDeg => s.mean_yaw_deg,
-        Metric::FinalV1 => s.final_v1,
-        Metric::RollRate => s.mean_roll_rate,
-    }
 }

@@ -2,7 +2,8 @@
 //! comparison with the paper's simplified-model column.
 
 use anguilla_model::gait::{self, LawSource};
-use anguilla_model::run::{self, PAPER_ROWS};
+use anguilla_model::paper::{self, PAPER_ROWS};
+use anguilla_model::run;
 use anguilla_model::*;
 use nalgebra::Vector3;
 
@@ -275,7 +276,7 @@ fn forward_and_turning_gaits_each_within_its_band_of_the_paper() {
     for (row, b) in rows.iter().zip(&BANDS) {
         let g = gait::named_gait(row.gait).unwrap();
         let s = run::run_gait(&m, &g, row.duration, |_, _, _, _, _| {}).unwrap();
-        let ours = run::metric_value(row.metric, &s);
+        let ours = paper::metric_value(row.metric, &s);
         let e = (ours - row.sm) / row.sm.abs();
         let ok = (b.lo..=b.hi).contains(&e);
         eprintln!(

@@ -1,0 +1,167 @@
+//! Forward dynamics `G_ext` (29)–(31): the head inertia `I_o` and wrench
+//! `F_o` assembled over the body, and the head acceleration they give.
+
+use super::kinematics::shape;
+use super::model::Model;
+use super::workspace::Workspace;
+use crate::body::friction_coefficient;
+use crate::error::{ModelError, Result};
+use crate::gait::CurvatureSource;
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+
+/// Forward dynamics `G_ext` (29)–(31) at one instant, head frame. Fills the
+/// workspace fields and returns `(omega_dot_o, v_dot_o)` in the head frame.
+pub(super) fn forward_head(
+    model: &Model,
+    ws: &mut Workspace,
+    omega_h: Vector3<f64>,
+    vel_h: Vector3<f64>,
+    grav_h: Vector3<f64>,
+    t: f64,
+) -> Result<(Vector3<f64>, Vector3<f64>)> {
+    let rho = model.body.rho_fluid;
+    let nu = model.body.nu;
+    let len = model.body.length;
+    let mut a_vv = Matrix3::zeros();
+    let mut a_wv = Matrix3::zeros();
+    let mut a_ww = Matrix3::zeros();
+    let mut rhs_f = Vector3::zeros();
+    let mut rhs_t = Vector3::zeros();
+    for i in 0..=model.n {
+        let s = &model.sec[i];
+        let q = ws.q[i];
+        let qt = q.transpose();
+        let p = ws.p[i];
+        // superpose the head twist on the deformation fields (rigid transport
+        // plus Coriolis 2 w_o x v_e and centripetal w_o x (w_o x p) terms)
+        let wo_p = omega_h.cross(&p);
+        let w_full = omega_h + ws.we[i];
+        let v_full = vel_h + wo_p + ws.ve[i];
+        let al_full = ws.al[i] + omega_h.cross(&ws.we[i]);
+        let ac_full = ws.ac[i] + omega_h.cross(&wo_p) + 2.0 * omega_h.cross(&ws.ve[i]);
+        ws.w[i] = w_full;
+        ws.v[i] = v_full;
+        let om = qt * w_full;
+        let vl = qt * v_full;
+        ws.om_loc[i] = om;
+        ws.v_loc[i] = vl;
+        let mm = Vector3::from(s.mm);
+        let mi = Vector3::from(s.mi);
+        let mf = Vector3::from(s.mf);
+        // resistive wrench (24) and buoyancy (25), local frame
+        let x = i as f64 / model.n as f64 * len;
+        let k1 = if s.perimeter > 0.0 && x > 0.0 && vl.x != 0.0 {
+            friction_coefficient(x * vl.x.abs() / nu) * s.perimeter
+        } else {
+            0.0
+        };
+        let nbar = -0.5
+            * rho
+            * Vector3::new(
+                k1 * vl.x * vl.x.abs(),
+                s.k2 * vl.y * vl.y.abs(),
+                s.k3 * vl.z * vl.z.abs(),
+            )
+            + if s.buoyancy != 0.0 {
+                s.buoyancy * (qt * grav_h)
+            } else {
+                Vector3::zeros()
+            };
+        let cbar_x = -0.5 * rho * s.k4 * om.x * om.x.abs();
+        let mfv = mf.component_mul(&vl);
+        let bf = mm.component_mul(&(qt * ac_full)) + om.cross(&mfv)
+            - mf.component_mul(&om.cross(&vl))
+            - nbar;
+        let mut bt =
+            mi.component_mul(&(qt * al_full)) + om.cross(&mi.component_mul(&om)) + vl.cross(&mfv);
+        bt.x -= cbar_x;
+        ws.bf[i] = bf;
+        ws.bt[i] = bt;
+        let wi = model.w[i];
+        // R diag(m) R^T = m1 I + (m2 - m1) t2 t2^T + (m3 - m1) t3 t3^T
+        let t2 = q.column(1).into_owned();
+        let t3 = q.column(2).into_owned();
+        let sym = |m: &Vector3<f64>| {
+            let mut a = t2 * (t2.transpose() * (m.y - m.x)) + t3 * (t3.transpose() * (m.z - m.x));
+            a[(0, 0)] += m.x;
+            a[(1, 1)] += m.x;
+            a[(2, 2)] += m.x;
+            a
+        };
+        let mmh = sym(&mm);
+        let mih = sym(&mi);
+        // p^ M column by column, then (p^ M) p^ row by row (r^T p^ = (r x p)^T)
+        let pm = Matrix3::from_columns(&[
+            p.cross(&mmh.column(0).into_owned()),
+            p.cross(&mmh.column(1).into_owned()),
+            p.cross(&mmh.column(2).into_owned()),
+        ]);
+        let pmp = Matrix3::from_rows(&[
+            pm.row(0).transpose().cross(&p).transpose(),
+            pm.row(1).transpose().cross(&p).transpose(),
+            pm.row(2).transpose().cross(&p).transpose(),
+        ]);
+        a_vv += mmh * wi;
+        a_wv += pm * wi;
+        a_ww += (mih - pmp) * wi;
+        let bfh = q * bf;
+        rhs_f -= bfh * wi;
+        rhs_t -= (q * bt + p.cross(&bfh)) * wi;
+    }
+    // tail boundary terms (16), (18), (20)
+    let n = model.n;
+    let s = &model.sec[n];
+    let (om, vl) = (ws.om_loc[n], ws.v_loc[n]);
+    let mf = Vector3::from(s.mf);
+    let tf = 0.5 * (s.if1 * om.x * om.x + s.mf[1] * vl.y * vl.y + s.mf[2] * vl.z * vl.z);
+    let nt = ws.q[n] * (vl.x * mf.component_mul(&vl) - Vector3::new(tf, 0.0, 0.0));
+    let ct = ws.q[n] * Vector3::new(vl.x * s.if1 * om.x, 0.0, 0.0);
+    ws.tail_n = nt;
+    ws.tail_c = ct;
+    rhs_f += nt;
+    rhs_t += ct + ws.p[n].cross(&nt);
+    // nose pressure drag (22) and added mass (23)
+    let v1 = vel_h.x;
+    ws.head_v1 = v1;
+    rhs_f.x -= 0.5 * rho * model.k_o * v1 * v1.abs();
+    a_vv[(0, 0)] += model.m_o;
+    let mut a = Matrix6::zeros();
+    a.fixed_view_mut::<3, 3>(0, 0).copy_from(&a_ww);
+    a.fixed_view_mut::<3, 3>(0, 3).copy_from(&a_wv);
+    a.fixed_view_mut::<3, 3>(3, 0).copy_from(&a_wv.transpose());
+    a.fixed_view_mut::<3, 3>(3, 3).copy_from(&a_vv);
+    let rhs = Vector6::new(rhs_t.x, rhs_t.y, rhs_t.z, rhs_f.x, rhs_f.y, rhs_f.z);
+    if !rhs.iter().all(|v| v.is_finite()) {
+        return Err(ModelError::NonFinite {
+            quantity: "head wrench F_o (31)",
+            time: t,
+        });
+    }
+    let chol = a
+        .cholesky()
+        .ok_or(ModelError::SingularInertia { time: t })?;
+    let u = chol.solve(&rhs);
+    Ok((
+        Vector3::new(u[0], u[1], u[2]),
+        Vector3::new(u[3], u[4], u[5]),
+    ))
+}
+
+/// Forward dynamics (29) in the earth frame for `head` with the curvature of
+/// `src` at `src.time() + tau`: returns `(omega_dot_o, v_dot_o)`.
+#[allow(clippy::too_many_arguments)] // internal stage helper
+pub(super) fn forward_earth<S: CurvatureSource + ?Sized>(
+    model: &Model,
+    ws: &mut Workspace,
+    src: &S,
+    tau: f64,
+    rot: &Matrix3<f64>,
+    omega: Vector3<f64>,
+    vel: Vector3<f64>,
+    t: f64,
+) -> Result<(Vector3<f64>, Vector3<f64>)> {
+    shape(model, ws, src, tau);
+    let rt = rot.transpose();
+    let (wd, vd) = forward_head(model, ws, rt * omega, rt * vel, rt * model.gravity, t)?;
+    Ok((rot * wd, rot * vd))
+}

@@ -1,0 +1,94 @@
+//! The preallocated workspace (Pinocchio's `Data`): every per-node buffer
+//! the passes write, sized once for a [`Model`].
+
+use super::JointState;
+use super::model::Model;
+use crate::gait::Curvature;
+use nalgebra::{Matrix3, Vector3, Vector6};
+
+/// Preallocated per-node buffers; a step writes here and allocates nothing.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    pub(super) curv: Vec<Curvature>,
+    pub(super) q: Vec<Matrix3<f64>>,
+    pub(super) p: Vec<Vector3<f64>>,
+    pub(super) w: Vec<Vector3<f64>>,
+    pub(super) v: Vec<Vector3<f64>>,
+    pub(super) we: Vec<Vector3<f64>>,
+    pub(super) ve: Vec<Vector3<f64>>,
+    pub(super) al: Vec<Vector3<f64>>,
+    pub(super) ac: Vec<Vector3<f64>>,
+    pub(super) shape_tau: Option<f64>,
+    pub(super) om_loc: Vec<Vector3<f64>>,
+    pub(super) v_loc: Vec<Vector3<f64>>,
+    pub(super) bf: Vec<Vector3<f64>>,
+    pub(super) bt: Vec<Vector3<f64>>,
+    pub(super) f: Vec<Vector3<f64>>,
+    pub(super) nstar: Vec<Vector3<f64>>,
+    pub(super) cstar: Vec<Vector3<f64>>,
+    pub(super) torque: Vec<[f64; 2]>,
+    pub(super) joints: Vec<JointState>,
+    pub(super) tail_n: Vector3<f64>,
+    pub(super) tail_c: Vector3<f64>,
+    pub(super) residual: Vector6<f64>,
+    pub(super) head_v1: f64,
+}
+
+impl Workspace {
+    /// Buffers sized for `model`.
+    pub fn new(model: &Model) -> Self {
+        let n = model.n + 1;
+        let z = vec![Vector3::zeros(); n];
+        Self {
+            curv: vec![Curvature::default(); 2 * model.n + 1],
+            q: vec![Matrix3::identity(); n],
+            p: z.clone(),
+            w: z.clone(),
+            v: z.clone(),
+            we: z.clone(),
+            ve: z.clone(),
+            shape_tau: None,
+            al: z.clone(),
+            ac: z.clone(),
+            om_loc: z.clone(),
+            v_loc: z.clone(),
+            bf: z.clone(),
+            bt: z.clone(),
+            f: z.clone(),
+            nstar: z.clone(),
+            cstar: z,
+            torque: vec![[0.0; 2]; n],
+            joints: vec![JointState::default(); model.joints],
+            tail_n: Vector3::zeros(),
+            tail_c: Vector3::zeros(),
+            residual: Vector6::zeros(),
+            head_v1: 0.0,
+        }
+    }
+
+    /// Joints of the discrete robot at the last evaluated instant.
+    pub fn joints(&self) -> &[JointState] {
+        &self.joints
+    }
+    /// `(C2, C3)` (N m) at every node of the last evaluated instant.
+    pub fn torques(&self) -> &[[f64; 2]] {
+        &self.torque
+    }
+    /// Node positions relative to the nose, in the head frame (m).
+    pub fn shape(&self) -> &[Vector3<f64>] {
+        &self.p
+    }
+    /// Internal force `n_*` (head frame) at every node.
+    pub fn n_star(&self) -> &[Vector3<f64>] {
+        &self.nstar
+    }
+    /// Internal torque `c_*` (head frame) at every node.
+    pub fn c_star(&self) -> &[Vector3<f64>] {
+        &self.cstar
+    }
+    /// Tail closure residual `(c_*(1) - c_d, n_*(1) - n_d)` of (18), (20),
+    /// (head frame), of the last inverse dynamics: the figure-20 check.
+    pub fn tail_residual(&self) -> Vector6<f64> {
+        self.residual
+    }
+}
