@@ -159,6 +159,15 @@ impl Target {
             Target::Node(n) => n.0,
         }
     }
+
+    /// Whether a message for this target is for node `node`: every node, or
+    /// that one.
+    pub const fn includes(self, node: NodeId) -> bool {
+        match self {
+            Target::All => true,
+            Target::Node(n) => n.0 == node.0,
+        }
+    }
 }
 
 /// The two axes of a vertebra's universal joint.
@@ -503,9 +512,39 @@ impl Function {
 
     /// The identifier of this function for node (or group) `low`.
     pub const fn id(self, low: u8) -> u16 {
-        ((self as u16) << 6) | (low as u16 & 0x3F)
+        ((self as u16) << LOW_BITS) | (low as u16 & LOW_MASK)
+    }
+
+    /// The function and the low six bits (node, 0 = all, or setpoint
+    /// group) of 11-bit identifier `id`: the inverse of [`Function::id`].
+    /// `None` for identifiers no function uses ([`FIRST_UNUSED_ID`] and up).
+    pub const fn split_id(id: u16) -> Option<(Function, u8)> {
+        let code = (id >> LOW_BITS) as usize;
+        if code < Function::ALL.len() {
+            Some((Function::ALL[code], (id & LOW_MASK) as u8))
+        } else {
+            None
+        }
+    }
+
+    /// The function of 11-bit identifier `id` (its high five bits), `None`
+    /// for identifiers no function uses ([`FIRST_UNUSED_ID`] and up).
+    pub const fn from_id(id: u16) -> Option<Function> {
+        match Function::split_id(id) {
+            Some((f, _)) => Some(f),
+            None => None,
+        }
     }
 }
+
+/// Bits of an identifier below the function code: the node or group.
+const LOW_BITS: u16 = 6;
+/// Mask of the low bits of an identifier.
+const LOW_MASK: u16 = (1 << LOW_BITS) - 1;
+
+/// The first identifier above every function's range (0x240): ids from
+/// here to 0x7FF are not used by the protocol, and nodes ignore them.
+pub const FIRST_UNUSED_ID: u16 = (Function::ALL.len() as u16) << LOW_BITS;
 
 /// Who sends a message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -527,6 +566,22 @@ pub enum Addressing {
     Node,
     /// A setpoint group index 0..=10.
     Group,
+}
+
+impl Addressing {
+    /// Whether an identifier whose low six bits are `low` reaches node
+    /// `node` under this addressing: [`Addressing::Broadcast`] only with
+    /// 0, [`Addressing::AllOrNode`] with 0 or the node's id,
+    /// [`Addressing::Node`] with the node's id, [`Addressing::Group`] with
+    /// the group that carries the node ([`SetpointGroup::locate`]).
+    pub const fn reaches(self, low: u8, node: NodeId) -> bool {
+        match self {
+            Addressing::Broadcast => low == 0,
+            Addressing::AllOrNode => low == 0 || low == node.0,
+            Addressing::Node => low == node.0,
+            Addressing::Group => low == SetpointGroup::locate(node).0,
+        }
+    }
 }
 
 /// The definition of a message in one variant: the table the codec, the
@@ -1249,6 +1304,42 @@ pub fn definition(variant: Variant, function: Function) -> Option<&'static Messa
     definitions(variant).iter().find(|d| d.function == function)
 }
 
+/// Whether a frame on `id` is, on `variant`, addressed to node `node`: a
+/// standard identifier of a host-to-node message of that variant whose low
+/// bits reach the node ([`Addressing::reaches`]). This is the node
+/// contract's "addressed to this node" (protocol/README.md): such a frame
+/// that does not decode counts as `BAD_FRAME`; one on an E-stop identifier
+/// is an E-stop whatever it holds ([`estop_target`]). Extended ids,
+/// node-to-host messages, the other variant's messages and unused ids
+/// address no node.
+pub fn addressed_to(variant: Variant, id: Id, node: NodeId) -> bool {
+    let Id::Standard(raw) = id else {
+        return false;
+    };
+    let Some((function, low)) = Function::split_id(raw) else {
+        return false;
+    };
+    match definition(variant, function) {
+        Some(def) => def.direction == Direction::HostToNode && def.addressing.reaches(low, node),
+        None => false,
+    }
+}
+
+/// Who an E-stop identifier stops: [`Target::All`] on 0x000,
+/// [`Target::Node`] on 0x000 + node; `None` for any other identifier. The
+/// identifier alone decides, whatever the frame holds (fail safe: nodes and
+/// the host act on any frame there, protocol/README.md "E-stop").
+pub const fn estop_target(id: Id) -> Option<Target> {
+    let Id::Standard(raw) = id else {
+        return None;
+    };
+    match Function::split_id(raw) {
+        Some((Function::EStop, 0)) => Some(Target::All),
+        Some((Function::EStop, low)) => Some(Target::Node(NodeId(low))),
+        _ => None,
+    }
+}
+
 /// Why a message could not be encoded.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum EncodeError {
@@ -1604,10 +1695,6 @@ pub const fn function_name(f: Function) -> &'static str {
     }
 }
 
-fn function_from_id(id: u16) -> Option<Function> {
-    Function::ALL.get((id >> 6) as usize).copied()
-}
-
 fn decode_param(
     data: &[u8],
     axis_sig: &Signal,
@@ -1694,9 +1781,8 @@ pub fn decode(frame: &Frame, variant: Variant, nodes: NodeSet) -> Result<Message
             });
         }
     }
-    let function = function_from_id(id).ok_or(DecodeError::UnknownId(id))?;
+    let (function, low) = Function::split_id(id).ok_or(DecodeError::UnknownId(id))?;
     let def = definition(variant, function).ok_or(DecodeError::UnknownId(id))?;
-    let low = (id & 0x3F) as u8;
     let message = def.name;
     let data = frame.data();
     let node = || -> Result<NodeId, DecodeError> {
@@ -1799,7 +1885,7 @@ pub fn decode(frame: &Frame, variant: Variant, nodes: NodeSet) -> Result<Message
                     continue;
                 }
                 let raw_node = group as usize * GROUP_SLOTS + s + 1;
-                if raw_node > 63 || !nodes.contains(raw_node as u8) {
+                if raw_node > MAX_NODE_ID as usize || !nodes.contains(raw_node as u8) {
                     return Err(DecodeError::UnknownNode {
                         message,
                         node: raw_node.min(255) as u8,
@@ -1950,4 +2036,102 @@ pub fn encode_setpoints(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn node(n: u8) -> NodeId {
+        NodeId::new(n).unwrap()
+    }
+
+    #[test]
+    fn split_id_inverts_function_id() {
+        for f in Function::ALL {
+            assert_eq!(Function::from_id(f.id(0)), Some(f));
+            for low in 0..=MAX_NODE_ID {
+                assert_eq!(Function::split_id(f.id(low)), Some((f, low)), "{f:?} {low}");
+            }
+        }
+        // README identifiers: SYNC 0x040, heartbeat of node 5 0x185.
+        assert_eq!(Function::split_id(0x040), Some((Function::Sync, 0)));
+        assert_eq!(Function::split_id(0x185), Some((Function::Heartbeat, 5)));
+        assert_eq!(Function::split_id(0x23F), Some((Function::ConfigAck, 63)));
+        assert_eq!(FIRST_UNUSED_ID, 0x240);
+        for id in FIRST_UNUSED_ID..=crate::frame::MAX_STANDARD_ID {
+            assert_eq!(Function::split_id(id), None, "0x{id:03X}");
+            assert_eq!(Function::from_id(id), None, "0x{id:03X}");
+        }
+    }
+
+    /// The identifiers of protocol/README.md, as seen by node 5 (group 0)
+    /// and node 7 (group 1).
+    #[test]
+    fn addressed_to_follows_the_readme_identifiers() {
+        use Variant::{Classic, Fd};
+        let std = |raw| Id::Standard(raw);
+        let cases: [(u16, Variant, u8, bool); 25] = [
+            (0x000, Classic, 5, true), // E-stop all
+            (0x005, Classic, 5, true), // E-stop node 5
+            (0x006, Classic, 5, false),
+            (0x040, Classic, 5, true), // SYNC
+            (0x040, Fd, 7, true),
+            (0x041, Classic, 1, false), // SYNC is broadcast only
+            (0x080, Fd, 5, true),       // Command all
+            (0x085, Classic, 5, true),
+            (0x087, Classic, 5, false),
+            (0x0C5, Classic, 5, true), // Setpoint: classic only
+            (0x0C5, Fd, 5, false),
+            (0x100, Fd, 5, true), // SetpointGroup 0: nodes 1..=6
+            (0x100, Fd, 6, true),
+            (0x100, Fd, 7, false),
+            (0x101, Fd, 7, true), // group 1: nodes 7..=12
+            (0x101, Fd, 5, false),
+            (0x100, Classic, 5, false), // no groups on classic CAN
+            (0x145, Classic, 5, false), // Feedback: node to host
+            (0x185, Fd, 5, false),      // Heartbeat: node to host
+            (0x1C5, Classic, 5, true),  // ConfigWrite
+            (0x1C0, Classic, 5, false), // ConfigWrite is never broadcast
+            (0x1C7, Fd, 7, true),
+            (0x205, Classic, 5, false), // ConfigAck: node to host
+            (0x245, Classic, 5, false), // unused
+            (0x7FF, Fd, 5, false),
+        ];
+        for (raw, variant, n, expected) in cases {
+            assert_eq!(
+                addressed_to(variant, std(raw), node(n)),
+                expected,
+                "0x{raw:03X} on {variant} for node {n}"
+            );
+        }
+        let ext = Id::extended(0x005).unwrap();
+        assert!(!addressed_to(Classic, ext, node(5)));
+    }
+
+    #[test]
+    fn estop_target_reads_the_identifier_only() {
+        assert_eq!(estop_target(Id::Standard(0x000)), Some(Target::All));
+        assert_eq!(
+            estop_target(Id::Standard(0x03F)),
+            Some(Target::Node(node(63)))
+        );
+        assert_eq!(estop_target(Id::Standard(0x040)), None);
+        assert_eq!(estop_target(Id::extended(0).unwrap()), None);
+        assert!(Target::All.includes(node(1)));
+        assert!(Target::Node(node(2)).includes(node(2)));
+        assert!(!Target::Node(node(2)).includes(node(3)));
+    }
+
+    #[test]
+    fn addressing_reaches() {
+        assert!(Addressing::Broadcast.reaches(0, node(9)));
+        assert!(!Addressing::Broadcast.reaches(9, node(9)));
+        assert!(Addressing::AllOrNode.reaches(0, node(9)));
+        assert!(Addressing::AllOrNode.reaches(9, node(9)));
+        assert!(!Addressing::Node.reaches(0, node(9)));
+        assert!(Addressing::Group.reaches(10, node(61)));
+        assert!(Addressing::Group.reaches(10, node(63)));
+        assert!(!Addressing::Group.reaches(9, node(61)));
+    }
 }
