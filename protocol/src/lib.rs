@@ -32,5 +32,5 @@ pub mod frame;
 pub mod message;
 pub mod signal;
 
-pub use frame::{Frame, FrameError, Id, Kind};
+pub use frame::{ExtendedId, Frame, FrameError, Id, Kind, StandardId};
 pub use message::{DecodeError, EncodeError, Message, NodeId, NodeSet, Variant, decode};

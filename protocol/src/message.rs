@@ -515,6 +515,13 @@ impl Function {
         ((self as u16) << LOW_BITS) | (low as u16 & LOW_MASK)
     }
 
+    /// The CAN identifier of this function for node (or group) `low`: a
+    /// standard id, always in range (the highest, ConfigAck for node 63, is
+    /// 0x23F).
+    pub const fn can_id(self, low: u8) -> Id {
+        Id::standard_literal(self.id(low))
+    }
+
     /// The function and the low six bits (node, 0 = all, or setpoint
     /// group) of 11-bit identifier `id`: the inverse of [`Function::id`].
     /// `None` for identifiers no function uses ([`FIRST_UNUSED_ID`] and up).
@@ -1313,7 +1320,7 @@ pub fn definition(variant: Variant, function: Function) -> Option<&'static Messa
 /// node-to-host messages, the other variant's messages and unused ids
 /// address no node.
 pub fn addressed_to(variant: Variant, id: Id, node: NodeId) -> bool {
-    let Id::Standard(raw) = id else {
+    let Some(raw) = id.as_standard() else {
         return false;
     };
     let Some((function, low)) = Function::split_id(raw) else {
@@ -1330,7 +1337,7 @@ pub fn addressed_to(variant: Variant, id: Id, node: NodeId) -> bool {
 /// identifier alone decides, whatever the frame holds (fail safe: nodes and
 /// the host act on any frame there, protocol/README.md "E-stop").
 pub const fn estop_target(id: Id) -> Option<Target> {
-    let Id::Standard(raw) = id else {
+    let Some(raw) = id.as_standard() else {
         return None;
     };
     match Function::split_id(raw) {
@@ -1650,7 +1657,7 @@ impl Message {
                 node.0
             }
         };
-        let id = Id::Standard(function.id(low));
+        let id = function.can_id(low);
         Ok(match variant {
             Variant::Classic => Frame::new(id, &buf[..len])?,
             Variant::Fd => Frame::new_fd(id, &buf[..len], true)?,
@@ -1760,8 +1767,8 @@ fn decode_param(
 /// ([`SetpointGroup::for_node`]).
 pub fn decode(frame: &Frame, variant: Variant, nodes: NodeSet) -> Result<Message, DecodeError> {
     let id = match frame.id() {
-        Id::Standard(id) => id,
-        Id::Extended(id) => return Err(DecodeError::ExtendedId(id)),
+        Id::Standard(id) => id.as_raw(),
+        Id::Extended(id) => return Err(DecodeError::ExtendedId(id.as_raw())),
     };
     match (frame.kind(), variant) {
         (Kind::Remote { .. }, _) => return Err(DecodeError::RemoteFrame(id)),
@@ -2070,7 +2077,7 @@ mod tests {
     #[test]
     fn addressed_to_follows_the_readme_identifiers() {
         use Variant::{Classic, Fd};
-        let std = |raw| Id::Standard(raw);
+        let std = Id::standard_literal;
         let cases: [(u16, Variant, u8, bool); 25] = [
             (0x000, Classic, 5, true), // E-stop all
             (0x005, Classic, 5, true), // E-stop node 5
@@ -2111,12 +2118,12 @@ mod tests {
 
     #[test]
     fn estop_target_reads_the_identifier_only() {
-        assert_eq!(estop_target(Id::Standard(0x000)), Some(Target::All));
+        assert_eq!(estop_target(Id::standard_literal(0x000)), Some(Target::All));
         assert_eq!(
-            estop_target(Id::Standard(0x03F)),
+            estop_target(Id::standard_literal(0x03F)),
             Some(Target::Node(node(63)))
         );
-        assert_eq!(estop_target(Id::Standard(0x040)), None);
+        assert_eq!(estop_target(Id::standard_literal(0x040)), None);
         assert_eq!(estop_target(Id::extended(0).unwrap()), None);
         assert!(Target::All.includes(node(1)));
         assert!(Target::Node(node(2)).includes(node(2)));

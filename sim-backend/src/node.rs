@@ -984,7 +984,7 @@ mod tests {
         b.send_frame(&Frame::new_standard(FIRST_UNUSED_ID + ID as u16, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(0x3C0 + ID as u16, &[]).unwrap());
         b.send_frame(&Frame::new(Id::extended(0x1234).unwrap(), &[1]).unwrap());
-        b.send_frame(&Frame::new_remote(Id::Standard(Function::Setpoint.id(ID)), 8).unwrap());
+        b.send_frame(&Frame::new_remote(Function::Setpoint.can_id(ID), 8).unwrap());
         b.send_frame(&Frame::new_standard(Function::Setpoint.id(ID + 1), &[0; 5]).unwrap());
         assert_eq!(b.node.counters().bad_frames, 2);
     }
@@ -1082,7 +1082,7 @@ mod tests {
             .encode(Variant::Classic)
             .unwrap();
         node.receive(MS, &sync, &mut |f| out.push(f));
-        let is_fb = |f: &Frame| f.id() == Id::Standard(Function::Feedback.id(ID));
+        let is_fb = |f: &Frame| f.id() == Function::Feedback.can_id(ID);
         assert!(!out.iter().any(is_fb));
         node.receive(30 * MS, &sync, &mut |f| out.push(f));
         assert!(out.iter().any(is_fb));

@@ -71,7 +71,7 @@ proptest! {
             let id = if *extended {
                 Id::extended(u32::from(*id) << 7 | 0x5A).unwrap()
             } else {
-                Id::Standard(*id)
+                Id::standard(*id).unwrap()
             };
             // kind: 0 classic data, 1 remote, 2 CAN FD.
             let f = match kind {
