@@ -13,8 +13,8 @@ use anguilla_drivers::{Bus, Clock, ManualClock};
 use anguilla_protocol::Frame;
 use anguilla_protocol::behaviour::{FeedbackFlags, Input, Outcome, TRANSITIONS, expected};
 use anguilla_protocol::message::{
-    self, AxisFeedback, ConfigParam, ErrorBits, Feedback, Heartbeat, Message, NodeId, NodeSet,
-    NodeState, Target, Variant,
+    self, AxisFeedback, ConfigParam, ErrorBits, Feedback, Function, Heartbeat, Message, NodeId,
+    NodeSet, NodeState, Target, Variant,
 };
 use anguilla_sim::{RobotConfig, SimRobot};
 
@@ -215,11 +215,9 @@ impl FakeNode {
     }
 
     fn receive(&mut self, now: Duration, f: &Frame) {
-        let raw = f.id().raw();
+        let command_to_me = f.id().raw() == u32::from(Function::Command.id(self.id.get()));
         match message::decode(f, Variant::Classic, NodeSet::all()) {
-            Err(_) if raw == 0x080 + u32::from(self.id.get()) => {
-                self.input(now, Input::BadFrame, None)
-            }
+            Err(_) if command_to_me => self.input(now, Input::BadFrame, None),
             Err(_) => {}
             Ok(Message::EStop(t)) if t == Target::Node(self.id) || t == Target::All => {
                 self.input(now, Input::EStop, None)

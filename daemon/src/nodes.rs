@@ -7,9 +7,9 @@
 //! (never a panic). [`NodeTable::observe`] turns the table into the
 //! supervisor's [`Observations`](crate::supervisor::Observations).
 
-use anguilla_protocol::frame::{Frame, Id};
+use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
-    self, DecodeError, ErrorBits, Feedback, Message, NodeId, NodeSet, NodeState, Variant,
+    self, DecodeError, ErrorBits, Feedback, Message, NodeId, NodeSet, NodeState, Target, Variant,
 };
 
 use crate::supervisor::Nanos;
@@ -131,9 +131,12 @@ impl NodeTable {
     pub fn ingest(&mut self, now: Nanos, frame: &Frame) {
         // An E-stop from anyone else on the bus (a node, cansend, another
         // tool): act on it whatever its payload, as the nodes do.
-        if let Id::Standard(raw) = frame.id()
-            && (raw == 0 || (raw < 64 && self.set.contains(raw as u8)))
-        {
+        let estop = match message::estop_target(frame.id()) {
+            Some(Target::All) => true,
+            Some(Target::Node(n)) => self.set.contains(n.get()),
+            None => false,
+        };
+        if estop {
             self.counters.estops_seen += 1;
             self.bus_estop = true;
             return;
@@ -213,6 +216,7 @@ impl NodeTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use anguilla_protocol::frame::Id;
     use anguilla_protocol::message::{AxisFeedback, Heartbeat};
 
     const MS: Nanos = 1_000_000;

@@ -7,7 +7,10 @@
 //! called twice gives two nodes of the same bus.
 //!
 //! **Wire time.** With a bit rate set, frames take their worst-case bit time
-//! (bit stuffing included) on the bus's [`Clock`], one at a time; when the
+//! on the bus's [`Clock`] — the protocol's
+//! [`worst_case_bits`](anguilla_protocol::budget::worst_case_bits), bit
+//! stuffing and interframe space included, the same figure the bus budget
+//! counts — one at a time; when the
 //! bus frees, the pending frame with the lowest
 //! [`arbitration_key`](anguilla_protocol::Id::arbitration_key) wins, as on a
 //! real bus (each node sends its own frames in order). Time is read from the
@@ -30,6 +33,7 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::{Arc, Condvar, LazyLock, Mutex, MutexGuard, Weak};
 use std::time::{Duration, Instant};
 
+use anguilla_protocol::budget::worst_case_bits;
 use anguilla_protocol::frame::Kind;
 
 use crate::{
@@ -219,42 +223,6 @@ fn lock_registry() -> MutexGuard<'static, HashMap<String, Weak<Core>>> {
     REGISTRY.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// Worst-case number of bits a frame occupies on the wire, split into bits
-/// at the nominal rate and bits at the data rate (CAN FD with BRS), with
-/// worst-case bit stuffing and the 3-bit interframe space.
-///
-/// Classic frames: `8n + 47 + ⌊(34 + 8n − 1)/4⌋` (standard id) and
-/// `8n + 67 + ⌊(54 + 8n − 1)/4⌋` (extended id) — 135 bits for 8 bytes on a
-/// standard id. CAN FD frames: an approximation (arbitration and
-/// end-of-frame fields at the nominal rate; ESI, DLC, data, stuff count and
-/// CRC with fixed stuff bits at the data rate).
-pub fn frame_bits(frame: &Frame) -> (u64, u64) {
-    let ext = frame.id().is_extended();
-    let n = frame.len() as u64;
-    match frame.kind() {
-        Kind::Data | Kind::Remote { .. } => {
-            let n = if frame.is_remote() { 0 } else { n };
-            let bits = if ext {
-                8 * n + 67 + (54 + 8 * n - 1) / 4
-            } else {
-                8 * n + 47 + (34 + 8 * n - 1) / 4
-            };
-            (bits, 0)
-        }
-        Kind::Fd { brs, .. } => {
-            let header: u64 = if ext { 36 } else { 17 };
-            let nominal = header + (header - 1) / 4 + 13;
-            let crc: u64 = if n <= 16 { 17 } else { 21 };
-            let data = 1 + 4 + 8 * n + 4 + crc + (5 + 8 * n) / 4 + crc.div_ceil(4);
-            if brs {
-                (nominal, data)
-            } else {
-                (nominal + data, 0)
-            }
-        }
-    }
-}
-
 fn bits_time(bits: u64, bps: u32) -> Duration {
     Duration::from_nanos(bits.saturating_mul(1_000_000_000) / u64::from(bps.max(1)))
 }
@@ -268,8 +236,9 @@ impl Core {
         match self.config.bitrate {
             None => Duration::ZERO,
             Some(bps) => {
-                let (nominal, data) = frame_bits(frame);
-                bits_time(nominal, bps) + bits_time(data, self.config.data_bitrate.unwrap_or(bps))
+                let bits = worst_case_bits(frame);
+                bits_time(bits.nominal.into(), bps)
+                    + bits_time(bits.data.into(), self.config.data_bitrate.unwrap_or(bps))
             }
         }
     }
@@ -690,12 +659,37 @@ mod tests {
         Frame::new_standard(id, data).unwrap()
     }
 
+    /// The wire time is the protocol's worst-case figure, the one the bus
+    /// budget counts (protocol/README.md, "Bus budget"): 135 bits for 8
+    /// bytes on a standard id; 34 nominal + 678 data-phase bits for a
+    /// 64-byte CAN FD frame with BRS (the README's SetpointGroup line: the
+    /// CRC-21 field is 4 + 21 + 7 fixed stuff bits).
     #[test]
-    fn frame_bits_match_the_classic_formula() {
-        // PEERS.md: 8 bytes on a standard id = 111 bits + 24 stuff bits.
-        assert_eq!(frame_bits(&std_frame(0x123, &[0; 8])), (135, 0));
-        let ext = Frame::new(Id::extended(0x1234_5678).unwrap(), &[0; 8]).unwrap();
-        assert_eq!(frame_bits(&ext).0, 64 + 67 + (54 + 64 - 1) / 4);
+    fn wire_time_is_the_protocols_worst_case_bit_count() {
+        let clock = ManualClock::new();
+        let bus = MemBus::builder("bits")
+            .bitrate(1_000_000)
+            .data_bitrate(4_000_000)
+            .clock(Arc::new(clock.clone()))
+            .build();
+        let mut a = bus.participant();
+        let mut rx = bus.participant();
+        let classic = std_frame(0x123, &[0; 8]);
+        let fd = Frame::new_fd(Id::standard(0x100).unwrap(), &[0; 64], true).unwrap();
+        let ext = Frame::new_fd(Id::extended(0x1234_5678).unwrap(), &[0; 12], true).unwrap();
+        for f in [classic, fd, ext] {
+            let bits = worst_case_bits(&f);
+            let expected =
+                bits_time(bits.nominal.into(), 1_000_000) + bits_time(bits.data.into(), 4_000_000);
+            let t0 = clock.now();
+            a.send(&f).unwrap();
+            clock.advance(Duration::from_millis(1));
+            let r = rx.try_recv().unwrap().unwrap();
+            assert_eq!(r.timestamp.unwrap() - t0, expected, "{f}");
+        }
+        assert_eq!(worst_case_bits(&classic).nominal, 135);
+        let b = worst_case_bits(&fd);
+        assert_eq!((b.nominal, b.data), (34, 678));
     }
 
     #[test]
@@ -933,7 +927,7 @@ mod tests {
                 prop_assert_eq!(got.len(), plan.len());
                 let wire = |seq: usize| {
                     let f = Frame::new_standard(plan[seq].id, &[0; 8][..plan[seq].len.max(2)]).unwrap();
-                    bits_time(frame_bits(&f).0, 500_000)
+                    bits_time(worst_case_bits(&f).nominal.into(), 500_000)
                 };
                 let submit = |seq: usize| Duration::from_micros(plan[seq].at_us);
                 let mut delivered = vec![false; plan.len()];

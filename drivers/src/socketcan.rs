@@ -512,8 +512,8 @@ fn from_classic<F: socketcan::Frame>(f: &F, data: &[u8]) -> Option<Frame> {
 
 fn sc_id(id: Id) -> Option<socketcan::Id> {
     match id {
-        Id::Standard(r) => StandardId::new(r).map(socketcan::Id::Standard),
-        Id::Extended(r) => ExtendedId::new(r).map(socketcan::Id::Extended),
+        Id::Standard(r) => StandardId::new(r.as_raw()).map(socketcan::Id::Standard),
+        Id::Extended(r) => ExtendedId::new(r.as_raw()).map(socketcan::Id::Extended),
     }
 }
 

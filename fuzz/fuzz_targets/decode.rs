@@ -13,10 +13,11 @@ fuzz_target!(|input: &[u8]| {
     let raw = u32::from_le_bytes([*a, *b, *c, *d]);
     // Mostly standard ids in the protocol's range, sometimes anything.
     let id = match ctl & 0b11 {
-        0 | 1 => Id::Standard((raw & 0x3FF) as u16),
-        2 => Id::Standard((raw & 0x7FF) as u16),
-        _ => Id::Extended(raw & 0x1FFF_FFFF),
+        0 | 1 => Id::standard((raw & 0x3FF) as u16),
+        2 => Id::standard((raw & 0x7FF) as u16),
+        _ => Id::extended(raw & 0x1FFF_FFFF),
     };
+    let Ok(id) = id else { return };
     let frame = match (ctl >> 2) & 0b11 {
         0 => Frame::new(id, &rest[..rest.len().min(8)]),
         1 => Frame::new_remote(id, (ctl >> 4) % 9),

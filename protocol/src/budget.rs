@@ -26,7 +26,7 @@
 //! back happens inside the CRC delimiter, so this slightly overestimates).
 //! Without BRS every bit is at the nominal rate.
 
-use crate::frame::{Frame, Id, Kind};
+use crate::frame::{Frame, Kind};
 use crate::message::{
     AxisFeedback, ErrorBits, Feedback, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId, NodeSet,
     NodeState, Variant, encode_setpoints,
@@ -63,10 +63,7 @@ pub fn worst_case_bits(frame: &Frame) -> FrameBits {
             }
         }
         Kind::Fd { brs, .. } => {
-            let arbitration = match frame.id() {
-                Id::Standard(_) => 17,
-                Id::Extended(_) => 36,
-            };
+            let arbitration = if frame.id().is_extended() { 36 } else { 17 };
             let dynamic = arbitration + 5 + 8 * n;
             let stuff = (dynamic - 1) / 4;
             let arb_stuff = (arbitration - 1) / 4;
@@ -363,6 +360,7 @@ pub fn max_rate(nodes: NodeSet, rates: Bitrates, max_load: f64) -> Result<f64, B
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::Id;
 
     const CLASSIC_1M: Bitrates = Bitrates {
         nominal: 1_000_000,
@@ -384,7 +382,7 @@ mod tests {
                 data: 0
             }
         );
-        let e = Frame::new(Id::Extended(1), &[0; 8]).unwrap();
+        let e = Frame::new(Id::extended_literal(1), &[0; 8]).unwrap();
         assert_eq!(worst_case_bits(&e).nominal, 118 + 13 + 29);
         let empty = Frame::new_standard(0, &[]).unwrap();
         assert_eq!(worst_case_bits(&empty).nominal, 34 + 8 + 13);
@@ -417,12 +415,12 @@ mod tests {
 
     #[test]
     fn fd_frame_lengths() {
-        let f = Frame::new_fd(Id::Standard(0x100), &[0; 64], true).unwrap();
+        let f = Frame::new_fd(Id::standard_literal(0x100), &[0; 64], true).unwrap();
         let b = worst_case_bits(&f);
         assert_eq!(b.nominal, 17 + 4 + 13);
         // 5 + 512 data bits, 129 stuff bits in the data phase, 32 CRC field.
         assert_eq!(b.data, 5 + 512 + (533 / 4 - 4) + 32);
-        let slow = Frame::new_fd(Id::Standard(0x100), &[0; 64], false).unwrap();
+        let slow = Frame::new_fd(Id::standard_literal(0x100), &[0; 64], false).unwrap();
         assert_eq!(worst_case_bits(&slow).nominal, b.nominal + b.data);
     }
 

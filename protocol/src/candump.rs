@@ -544,8 +544,8 @@ mod tests {
 
     fn arb_frame() -> impl Strategy<Value = Frame> {
         let id = prop_oneof![
-            (0u16..=0x7FF).prop_map(Id::Standard),
-            (0u32..=0x1FFF_FFFF).prop_map(Id::Extended),
+            (0u16..=0x7FF).prop_map(Id::standard_literal),
+            (0u32..=0x1FFF_FFFF).prop_map(Id::extended_literal),
         ];
         let fd_len = prop::sample::select(crate::frame::FD_LENGTHS.to_vec());
         prop_oneof![
@@ -627,8 +627,8 @@ mod tests {
             .unwrap();
         assert_eq!(e.len(), 7);
         let f = |i: usize| *e[i].frame().unwrap();
-        assert_eq!(f(0).id(), Id::Standard(0x123));
-        assert_eq!(f(1).id(), Id::Extended(0x1234_5678));
+        assert_eq!(f(0).id(), Id::standard_literal(0x123));
+        assert_eq!(f(1).id(), Id::extended_literal(0x1234_5678));
         assert_eq!(e[2].timestamp.micros, 500_000);
         assert_eq!(f(3).dlc(), 8);
         assert!(f(4).is_fd());

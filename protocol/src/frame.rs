@@ -3,8 +3,10 @@
 //! A [`Frame`] is what crosses a bus: an identifier (11-bit standard or 29-bit
 //! extended), a kind (classic data, classic remote, or CAN FD) and up to 64
 //! data bytes. Constructors check every field, so a `Frame` that exists is
-//! always valid: a standard id fits in 11 bits, a classic frame carries at
-//! most 8 bytes, an FD frame carries one of the lengths a DLC can express.
+//! always valid: a standard id fits in 11 bits (an [`Id`] holds a
+//! [`StandardId`] or an [`ExtendedId`], whose values are private and
+//! range-checked), a classic frame carries at most 8 bytes, an FD frame
+//! carries one of the lengths a DLC can express.
 
 use core::fmt;
 
@@ -40,39 +42,131 @@ pub enum FrameError {
     BadRemoteDlc(u8),
 }
 
-/// A CAN identifier, standard (11-bit) or extended (29-bit).
+/// An 11-bit CAN identifier (CAN 2.0A), always in 0x000..=0x7FF: the value
+/// is private and every constructor checks it, as `embedded-can`'s
+/// `StandardId` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct StandardId(u16);
+
+impl StandardId {
+    /// Identifier 0x000 (the highest priority).
+    pub const ZERO: Self = StandardId(0);
+    /// Identifier 0x7FF (the lowest priority).
+    pub const MAX: Self = StandardId(MAX_STANDARD_ID);
+
+    /// A standard id, checked to fit in 11 bits.
+    pub const fn new(raw: u16) -> Result<Self, FrameError> {
+        if raw > MAX_STANDARD_ID {
+            Err(FrameError::StandardIdOutOfRange(raw as u32))
+        } else {
+            Ok(StandardId(raw))
+        }
+    }
+
+    /// A standard id from a literal: `const ID: StandardId =
+    /// StandardId::literal(0x123);`. Out of range, it fails to compile in a
+    /// constant and panics elsewhere, so give it only literals and use
+    /// [`StandardId::new`] for values from outside.
+    pub const fn literal(raw: u16) -> Self {
+        match Self::new(raw) {
+            Ok(id) => id,
+            Err(_) => panic!("standard CAN id out of range (expected 0x000..=0x7FF)"),
+        }
+    }
+
+    /// The 11 identifier bits.
+    pub const fn as_raw(self) -> u16 {
+        self.0
+    }
+}
+
+/// A 29-bit CAN identifier (CAN 2.0B), always in 0x00000000..=0x1FFFFFFF:
+/// the value is private and every constructor checks it, as
+/// `embedded-can`'s `ExtendedId` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ExtendedId(u32);
+
+impl ExtendedId {
+    /// Identifier 0x00000000.
+    pub const ZERO: Self = ExtendedId(0);
+    /// Identifier 0x1FFFFFFF.
+    pub const MAX: Self = ExtendedId(MAX_EXTENDED_ID);
+
+    /// An extended id, checked to fit in 29 bits.
+    pub const fn new(raw: u32) -> Result<Self, FrameError> {
+        if raw > MAX_EXTENDED_ID {
+            Err(FrameError::ExtendedIdOutOfRange(raw))
+        } else {
+            Ok(ExtendedId(raw))
+        }
+    }
+
+    /// An extended id from a literal (see [`StandardId::literal`]): out of
+    /// range, it fails to compile in a constant and panics elsewhere.
+    pub const fn literal(raw: u32) -> Self {
+        match Self::new(raw) {
+            Ok(id) => id,
+            Err(_) => panic!("extended CAN id out of range (expected 0x00000000..=0x1FFFFFFF)"),
+        }
+    }
+
+    /// The 29 identifier bits.
+    pub const fn as_raw(self) -> u32 {
+        self.0
+    }
+}
+
+/// A CAN identifier, standard (11-bit) or extended (29-bit). Its variants
+/// hold [`StandardId`] / [`ExtendedId`], which cannot be built out of
+/// range, so an `Id` that exists is always valid.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Id {
     /// An 11-bit identifier (CAN 2.0A).
-    Standard(u16),
+    Standard(StandardId),
     /// A 29-bit identifier (CAN 2.0B).
-    Extended(u32),
+    Extended(ExtendedId),
 }
 
 impl Id {
     /// A standard id, checked to fit in 11 bits.
     pub const fn standard(raw: u16) -> Result<Self, FrameError> {
-        if raw > MAX_STANDARD_ID {
-            Err(FrameError::StandardIdOutOfRange(raw as u32))
-        } else {
-            Ok(Id::Standard(raw))
+        match StandardId::new(raw) {
+            Ok(id) => Ok(Id::Standard(id)),
+            Err(e) => Err(e),
         }
     }
 
     /// An extended id, checked to fit in 29 bits.
     pub const fn extended(raw: u32) -> Result<Self, FrameError> {
-        if raw > MAX_EXTENDED_ID {
-            Err(FrameError::ExtendedIdOutOfRange(raw))
-        } else {
-            Ok(Id::Extended(raw))
+        match ExtendedId::new(raw) {
+            Ok(id) => Ok(Id::Extended(id)),
+            Err(e) => Err(e),
         }
+    }
+
+    /// A standard id from a literal ([`StandardId::literal`]).
+    pub const fn standard_literal(raw: u16) -> Self {
+        Id::Standard(StandardId::literal(raw))
+    }
+
+    /// An extended id from a literal ([`ExtendedId::literal`]).
+    pub const fn extended_literal(raw: u32) -> Self {
+        Id::Extended(ExtendedId::literal(raw))
     }
 
     /// The raw identifier bits.
     pub const fn raw(self) -> u32 {
         match self {
-            Id::Standard(r) => r as u32,
-            Id::Extended(r) => r,
+            Id::Standard(r) => r.0 as u32,
+            Id::Extended(r) => r.0,
+        }
+    }
+
+    /// The 11 bits of a standard id; `None` for an extended id.
+    pub const fn as_standard(self) -> Option<u16> {
+        match self {
+            Id::Standard(r) => Some(r.0),
+            Id::Extended(_) => None,
         }
     }
 
@@ -87,21 +181,33 @@ impl Id {
     pub const fn arbitration_key(self) -> u64 {
         // Bits in wire order: base id (11), SRR/RTR, IDE, extension (18).
         match self {
-            Id::Standard(r) => (r as u64) << 20,
+            Id::Standard(r) => (r.0 as u64) << 20,
             Id::Extended(r) => {
-                let base = (r >> 18) as u64;
-                let ext = (r & 0x3FFFF) as u64;
+                let base = (r.0 >> 18) as u64;
+                let ext = (r.0 & 0x3FFFF) as u64;
                 (base << 20) | (1 << 19) | (1 << 18) | ext
             }
         }
     }
 }
 
+impl From<StandardId> for Id {
+    fn from(id: StandardId) -> Self {
+        Id::Standard(id)
+    }
+}
+
+impl From<ExtendedId> for Id {
+    fn from(id: ExtendedId) -> Self {
+        Id::Extended(id)
+    }
+}
+
 impl fmt::Display for Id {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Id::Standard(r) => write!(f, "{r:03X}"),
-            Id::Extended(r) => write!(f, "{r:08X}"),
+            Id::Standard(r) => write!(f, "{:03X}", r.0),
+            Id::Extended(r) => write!(f, "{:08X}", r.0),
         }
     }
 }
@@ -453,20 +559,81 @@ impl fmt::Display for ErrorFrame {
 mod tests {
     use super::*;
 
+    /// Every way to make an id checks its range, so `Frame::new(Id::..)`
+    /// can no longer carry 0xFFFF as a standard id.
     #[test]
-    fn ids_are_range_checked() {
-        assert!(Id::standard(0x7FF).is_ok());
+    fn every_id_constructor_rejects_out_of_range_values() {
+        let std_err = Err(FrameError::StandardIdOutOfRange(0x800));
+        let ext_err = Err(FrameError::ExtendedIdOutOfRange(0x2000_0000));
+        assert_eq!(StandardId::new(0x800), std_err);
         assert_eq!(
-            Id::standard(0x800),
-            Err(FrameError::StandardIdOutOfRange(0x800))
+            StandardId::new(0xFFFF).map(StandardId::as_raw),
+            Err(FrameError::StandardIdOutOfRange(0xFFFF))
         );
-        assert!(Id::extended(0x1FFF_FFFF).is_ok());
-        assert!(Id::extended(0x2000_0000).is_err());
+        assert_eq!(Id::standard(0x800), std_err.map(Id::Standard));
+        assert_eq!(ExtendedId::new(0x2000_0000), ext_err);
+        assert_eq!(Id::extended(0x2000_0000), ext_err.map(Id::Extended));
+        assert_eq!(
+            Id::extended(u32::MAX),
+            Err(FrameError::ExtendedIdOutOfRange(u32::MAX))
+        );
+        assert_eq!(
+            Frame::new_standard(0xFFFF, &[]),
+            Err(FrameError::StandardIdOutOfRange(0xFFFF))
+        );
+        for bad in [0x800u16, 0x1000, u16::MAX] {
+            assert!(std::panic::catch_unwind(|| StandardId::literal(bad)).is_err());
+            assert!(std::panic::catch_unwind(|| Id::standard_literal(bad)).is_err());
+        }
+        for bad in [0x2000_0000u32, u32::MAX] {
+            assert!(std::panic::catch_unwind(|| ExtendedId::literal(bad)).is_err());
+            assert!(std::panic::catch_unwind(|| Id::extended_literal(bad)).is_err());
+        }
+        // The edges are in range, and every constructor agrees on them.
+        const TOP: StandardId = StandardId::literal(0x7FF);
+        assert_eq!(TOP, StandardId::MAX);
+        assert_eq!(Id::standard(0x7FF), Ok(Id::Standard(TOP)));
+        assert_eq!(Id::standard_literal(0), Id::Standard(StandardId::ZERO));
+        assert_eq!(ExtendedId::new(0x1FFF_FFFF), Ok(ExtendedId::MAX));
+        assert_eq!(Id::extended_literal(0x1FFF_FFFF), Id::from(ExtendedId::MAX));
+        assert_eq!(Id::from(StandardId::MAX).raw(), 0x7FF);
+        assert_eq!(Id::extended_literal(5).as_standard(), None);
+        assert_eq!(Id::standard_literal(5).as_standard(), Some(5));
+    }
+
+    /// A frame gives back the id it was built with, whichever constructor
+    /// built the id, for the edges of both ranges and every frame kind.
+    #[test]
+    fn frames_round_trip_their_ids() {
+        let ids = [
+            Id::Standard(StandardId::ZERO),
+            Id::standard(0x123).unwrap(),
+            Id::standard_literal(0x7FF),
+            Id::Extended(ExtendedId::ZERO),
+            Id::extended(0x1234_5678).unwrap(),
+            Id::extended_literal(0x1FFF_FFFF),
+        ];
+        for id in ids {
+            let frames = [
+                Frame::new(id, &[1, 2]).unwrap(),
+                Frame::new_remote(id, 3).unwrap(),
+                Frame::new_fd(id, &[0; 12], true).unwrap(),
+            ];
+            for f in frames {
+                assert_eq!(f.id(), id, "{f}");
+                let again = match id {
+                    Id::Standard(s) => Id::standard(s.as_raw()),
+                    Id::Extended(e) => Id::extended(e.as_raw()),
+                };
+                assert_eq!(again, Ok(f.id()));
+                assert_eq!(f.id().raw(), id.raw());
+            }
+        }
     }
 
     #[test]
     fn lengths_are_checked() {
-        let id = Id::Standard(0x123);
+        let id = Id::standard_literal(0x123);
         assert!(Frame::new(id, &[0; 8]).is_ok());
         assert_eq!(Frame::new(id, &[0; 9]), Err(FrameError::ClassicTooLong(9)));
         assert!(Frame::new_fd(id, &[0; 12], true).is_ok());
@@ -482,11 +649,11 @@ mod tests {
 
     #[test]
     fn display_matches_cansend_notation() {
-        let f = Frame::new(Id::Standard(0x123), &[0xDE, 0xAD]).unwrap();
+        let f = Frame::new(Id::standard_literal(0x123), &[0xDE, 0xAD]).unwrap();
         assert_eq!(f.to_string(), "123#DEAD");
-        let r = Frame::new_remote(Id::Extended(0x1234), 2).unwrap();
+        let r = Frame::new_remote(Id::extended_literal(0x1234), 2).unwrap();
         assert_eq!(r.to_string(), "00001234#R2");
-        let fd = Frame::new_fd(Id::Standard(0x10), &[1], true).unwrap();
+        let fd = Frame::new_fd(Id::standard_literal(0x10), &[1], true).unwrap();
         assert_eq!(fd.to_string(), "010##101");
     }
 
@@ -523,9 +690,9 @@ mod tests {
 
     #[test]
     fn standard_wins_arbitration_over_extended_with_same_base() {
-        let s = Id::Standard(0x100);
-        let e = Id::Extended(0x100 << 18);
+        let s = Id::standard_literal(0x100);
+        let e = Id::extended_literal(0x100 << 18);
         assert!(s.arbitration_key() < e.arbitration_key());
-        assert!(Id::Standard(0x0FF).arbitration_key() < s.arbitration_key());
+        assert!(Id::standard_literal(0x0FF).arbitration_key() < s.arbitration_key());
     }
 }

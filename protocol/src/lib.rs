@@ -1,13 +1,19 @@
 //! The anguilla vertebra CAN protocol.
 //!
 //! This crate owns everything about the wire that does not need a socket:
-//! the [`frame::Frame`] type shared by every bus, the message definitions
-//! ([`message`]) with their encoders and decoders, the field descriptors
-//! they are built from ([`signal`]), the bus-load arithmetic ([`budget`]),
-//! the DBC file generator ([`dbc`]), can-utils' candump log format
-//! ([`candump`]) and the node's state machine as a rule table
-//! ([`behaviour`]). `protocol/README.md` is the contract a node's firmware
-//! implements.
+//! the [`frame::Frame`] type shared by every bus and its range-checked ids
+//! ([`frame::Id`], [`frame::StandardId`], [`frame::ExtendedId`]); the
+//! messages ([`message`]), whose source is split along its seams — the
+//! message types (`message/types.rs`), the layouts ([`message::common`],
+//! [`message::classic`], [`message::fd`]), the message-definition table
+//! (`message/definitions.rs`, [`message::definitions`]) and the codec
+//! (`message/codec.rs`: [`Message::encode`] and [`decode`], one encoder and
+//! one decoder per message), all re-exported from [`message`]; the field
+//! descriptors the layouts are built from ([`signal`]); the bus-load
+//! arithmetic ([`budget`]); the DBC file generator ([`dbc`]); can-utils'
+//! candump log format ([`candump`]); and the node's state machine as a rule
+//! table ([`behaviour`]). `protocol/README.md` is the contract a node's
+//! firmware implements.
 //!
 //! ```
 //! use anguilla_protocol::frame::{Frame, Id};
@@ -32,5 +38,5 @@ pub mod frame;
 pub mod message;
 pub mod signal;
 
-pub use frame::{Frame, FrameError, Id, Kind};
+pub use frame::{ExtendedId, Frame, FrameError, Id, Kind, StandardId};
 pub use message::{DecodeError, EncodeError, Message, NodeId, NodeSet, Variant, decode};

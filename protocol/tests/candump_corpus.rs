@@ -61,11 +61,11 @@ fn can_utils_forms() {
     let (text, e) = read("can-utils.log");
     assert_eq!(e.len(), 14);
     assert_eq!(frame(&e[0]).data(), &[0xDE, 0xAD, 0xBE, 0xEF]);
-    assert_eq!(frame(&e[1]).id(), Id::Extended(0x1234_5678));
+    assert_eq!(frame(&e[1]).id(), Id::extended_literal(0x1234_5678));
     assert!(frame(&e[1]).is_empty());
     assert_eq!(frame(&e[2]).kind(), Kind::Remote { dlc: 0 });
     assert_eq!(frame(&e[3]).kind(), Kind::Remote { dlc: 8 });
-    assert_eq!(frame(&e[3]).id(), Id::Extended(0x1FFF_FFFF));
+    assert_eq!(frame(&e[3]).id(), Id::extended_literal(0x1FFF_FFFF));
     assert_eq!(
         (frame(&e[4]).kind(), e[4].len8_dlc),
         (Kind::Remote { dlc: 8 }, Some(15))
@@ -141,10 +141,10 @@ fn python_can_forms() {
             Some(Rx)
         ]
     );
-    assert_eq!(frame(&e[0]).id(), Id::Standard(0x123));
+    assert_eq!(frame(&e[0]).id(), Id::standard_literal(0x123));
     assert_eq!(frame(&e[3]).data(), &[0, 1, 2, 3, 4, 5, 6, 7]);
     assert_eq!(frame(&e[4]).kind(), Kind::Remote { dlc: 0 });
-    assert_eq!(frame(&e[5]).id(), Id::Extended(1));
+    assert_eq!(frame(&e[5]).id(), Id::extended_literal(1));
     assert_eq!(
         frame(&e[6]).kind(),
         Kind::Fd {

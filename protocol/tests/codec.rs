@@ -585,7 +585,7 @@ fn decode_errors_say_what_was_wrong() {
     // Reserved bits of the FD feedback must be zero.
     let mut d = [0u8; 12];
     d[0] = 0x10;
-    let fd = Frame::new_fd(Id::Standard(0x141), &d, true).unwrap();
+    let fd = Frame::new_fd(Id::standard_literal(0x141), &d, true).unwrap();
     assert_eq!(
         decode(&fd, Variant::Fd, nodes),
         Err(DecodeError::ReservedBits {
@@ -593,7 +593,7 @@ fn decode_errors_say_what_was_wrong() {
             byte: 0
         })
     );
-    let remote = Frame::new_remote(Id::Standard(0x040), 2).unwrap();
+    let remote = Frame::new_remote(Id::standard_literal(0x040), 2).unwrap();
     assert_eq!(
         decode(&remote, c, nodes),
         Err(DecodeError::RemoteFrame(0x040))

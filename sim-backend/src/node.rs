@@ -11,7 +11,7 @@
 //! Time comes from the caller (`now`, in nanoseconds), so a simulation is
 //! deterministic and runs as fast as the host allows.
 
-use anguilla_protocol::frame::{Frame, Id};
+use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
     self, AxisFeedback, AxisSetpoint, Command, ConfigParam, ConfigResult, ErrorBits, Feedback,
     Heartbeat, Message, NodeId, NodeSet, NodeState, SafeAction, Target, Variant,
@@ -315,41 +315,18 @@ impl VertebraNode {
         }
     }
 
-    /// Whether a frame that did not decode was addressed to this node.
-    fn addressed_to_me(&self, raw: u16) -> bool {
-        let low = (raw & 0x3F) as u8;
-        let func = raw >> 6;
-        let me = self.cfg.id.get();
-        match func {
-            // Sync: 0x040 only (0x041..=0x07F are not used: ignored).
-            1 => low == 0,
-            // SetpointGroup: the group that carries this node.
-            4 => self.cfg.variant == Variant::Fd && low as usize == (me as usize - 1) / 6,
-            // Node-to-host messages are never for a node.
-            5 | 6 | 8 => false,
-            // EStop, Command (0 = all).
-            0 | 2 => low == 0 || low == me,
-            // Setpoint (classic only), ConfigWrite.
-            3 => self.cfg.variant == Variant::Classic && low == me,
-            7 => low == me,
-            // Ids from 0x240 up are not used by the protocol: ignored.
-            _ => false,
-        }
-    }
-
     /// Handles one frame seen on the bus at time `now`.
     pub fn receive(&mut self, now: Nanos, frame: &Frame, tx: &mut impl FnMut(Frame)) {
         self.advance(now, tx);
         if self.silent {
             return;
         }
-        let Id::Standard(raw) = frame.id() else {
+        if frame.id().is_extended() {
             return;
-        };
-        let me = self.cfg.id.get();
+        }
         // E-stop: any frame on 0x000 or 0x000 + own id, whatever its length
         // or kind (fail safe).
-        if raw == 0 || raw == me as u16 {
+        if message::estop_target(frame.id()).is_some_and(|t| t.includes(self.cfg.id)) {
             self.latched |= ErrorBits::ESTOP_LATCHED;
             self.go(NodeState::EStop, now, tx);
             return;
@@ -361,17 +338,16 @@ impl VertebraNode {
         let msg = match message::decode(frame, self.cfg.variant, NodeSet::all()) {
             Ok(m) => m,
             Err(_) => {
-                if self.addressed_to_me(raw) {
+                // Addressed to this node (protocol's definitions table):
+                // counted; for other nodes, node-to-host or unused: ignored.
+                if message::addressed_to(self.cfg.variant, frame.id(), self.cfg.id) {
                     self.warnings |= ErrorBits::BAD_FRAME;
                     self.counters.bad_frames += 1;
                 }
                 return;
             }
         };
-        let for_me = |t: Target| match t {
-            Target::All => true,
-            Target::Node(n) => n == self.cfg.id,
-        };
+        let for_me = |t: Target| t.includes(self.cfg.id);
         match msg {
             Message::EStop(_) => {}
             Message::Sync { counter } => self.on_sync(now, counter, tx),
@@ -577,7 +553,8 @@ impl VertebraNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use anguilla_protocol::message::{Axis, Setpoint};
+    use anguilla_protocol::frame::Id;
+    use anguilla_protocol::message::{Axis, FIRST_UNUSED_ID, Function, Setpoint};
 
     const ID: u8 = 3;
 
@@ -977,7 +954,7 @@ mod tests {
         let mut b = Bench::new(Variant::Classic);
         b.command(Command::Enable);
         // A setpoint frame for this node with a wrong length.
-        b.send_frame(&Frame::new_standard(0x0C0 + ID as u16, &[0; 5]).unwrap());
+        b.send_frame(&Frame::new_standard(Function::Setpoint.id(ID), &[0; 5]).unwrap());
         assert_eq!(b.node.counters().bad_frames, 1);
         assert!(b.node.errors().any(ErrorBits::BAD_FRAME));
         // Pitch position raw 8000 (bits 4..=17) is beyond the documented
@@ -993,7 +970,7 @@ mod tests {
             0,
             0,
         ];
-        b.send_frame(&Frame::new_standard(0x0C0 + ID as u16, &data).unwrap());
+        b.send_frame(&Frame::new_standard(Function::Setpoint.id(ID), &data).unwrap());
         assert_eq!(b.node.counters().bad_frames, 2);
         b.sync(1);
         assert_eq!(
@@ -1004,11 +981,11 @@ mod tests {
         // Unknown ids, extended ids, remote frames, other nodes: silent.
         b.send_frame(&Frame::new_standard(0x7FF, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(0x041, &[1]).unwrap());
-        b.send_frame(&Frame::new_standard(0x240 + ID as u16, &[1]).unwrap());
+        b.send_frame(&Frame::new_standard(FIRST_UNUSED_ID + ID as u16, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(0x3C0 + ID as u16, &[]).unwrap());
         b.send_frame(&Frame::new(Id::extended(0x1234).unwrap(), &[1]).unwrap());
-        b.send_frame(&Frame::new_remote(Id::Standard(0x0C0 + ID as u16), 8).unwrap());
-        b.send_frame(&Frame::new_standard(0x0C0 + ID as u16 + 1, &[0; 5]).unwrap());
+        b.send_frame(&Frame::new_remote(Function::Setpoint.can_id(ID), 8).unwrap());
+        b.send_frame(&Frame::new_standard(Function::Setpoint.id(ID + 1), &[0; 5]).unwrap());
         assert_eq!(b.node.counters().bad_frames, 2);
     }
 
@@ -1105,7 +1082,7 @@ mod tests {
             .encode(Variant::Classic)
             .unwrap();
         node.receive(MS, &sync, &mut |f| out.push(f));
-        let is_fb = |f: &Frame| f.id().raw() == 0x140 + ID as u32;
+        let is_fb = |f: &Frame| f.id() == Function::Feedback.can_id(ID);
         assert!(!out.iter().any(is_fb));
         node.receive(30 * MS, &sync, &mut |f| out.push(f));
         assert!(out.iter().any(is_fb));

@@ -22,7 +22,8 @@ use std::time::Duration;
 use anguilla_drivers::mem::{MemBus, MemParticipant, ParticipantId};
 use anguilla_drivers::{Bus, BusState, Clock, Frame, Received, TimestampBase};
 use anguilla_model::{HeadState, ModelError};
-use anguilla_protocol::message::{NodeId, NodeState, Variant};
+use anguilla_protocol::frame::MAX_STANDARD_ID;
+use anguilla_protocol::message::{FIRST_UNUSED_ID, NodeId, NodeState, Variant};
 
 use crate::actuator::ActuatorParams;
 use crate::node::{Nanos, NodeConfig, VertebraNode};
@@ -564,8 +565,9 @@ impl SimRobot {
             fl.left.div_ceil(fl.ticks_left)
         };
         for _ in 0..n {
-            // Ids 0x240..=0x7FF are not used by the protocol.
-            let id = 0x240 + (self.rng.next_u64() % (0x800 - 0x240)) as u16;
+            // Ids FIRST_UNUSED_ID..=0x7FF are not used by the protocol.
+            let unused = u64::from(MAX_STANDARD_ID - FIRST_UNUSED_ID) + 1;
+            let id = FIRST_UNUSED_ID + (self.rng.next_u64() % unused) as u16;
             let len = (self.rng.next_u64() % 9) as usize;
             let bytes = self.rng.next_u64().to_le_bytes();
             let Ok(frame) = Frame::new_standard(id, &bytes[..len]) else {

@@ -7,8 +7,9 @@ use std::time::Duration;
 
 use anguilla_drivers::{Bus, BusState};
 use anguilla_protocol::Frame;
-use anguilla_protocol::frame::Id;
-use anguilla_protocol::message::{ErrorBits, Message, NodeState};
+use anguilla_protocol::message::{
+    Direction, ErrorBits, FIRST_UNUSED_ID, Function, Message, NodeState, Variant, definition,
+};
 use anguilla_sim::actuator::ActuatorParams;
 use anguilla_sim::{RobotConfig, SimError};
 use common::{Host, MS};
@@ -39,7 +40,10 @@ fn silent_node_sends_nothing_then_speaks_again() {
         .iter()
         .filter(|(t, _)| *t > secs(0.101) && *t < secs(0.4))
         .collect();
-    let from3 = |f: &Frame| matches!(f.id(), Id::Standard(r) if r & 0x3F == 3 && r >= 0x140);
+    let from3 = |f: &Frame| {
+        matches!(f.id().as_standard().and_then(Function::split_id), Some((f, 3))
+            if definition(Variant::Classic, f).is_some_and(|d| d.direction == Direction::NodeToHost))
+    };
     assert!(!during.is_empty(), "the other nodes keep talking");
     assert!(!during.iter().any(|(_, f)| from3(f)), "node 3 was silent");
     assert!(h.node_spoke_since(3, secs(0.4)), "node 3 speaks again");
@@ -193,7 +197,7 @@ fn bus_delay_makes_frames_late() {
     let first_fb = h
         .heard
         .iter()
-        .find(|(_, f)| matches!(f.id(), Id::Standard(r) if (0x140..0x180).contains(&r)))
+        .find(|(_, f)| f.id().as_standard().and_then(Function::from_id) == Some(Function::Feedback))
         .map(|(t, _)| *t)
         .expect("feedback");
     // 4 setpoints and the SYNC take 2 ms each on the wire, then the first
@@ -232,7 +236,7 @@ fn flood_of_unknown_frames_leaves_nodes_unaffected() {
     let unknown = h
         .heard
         .iter()
-        .filter(|(_, f)| matches!(f.id(), Id::Standard(r) if r >= 0x240))
+        .filter(|(_, f)| f.id().as_standard().is_some_and(|r| r >= FIRST_UNUSED_ID))
         .count();
     assert_eq!(unknown, 1000, "the host heard the whole flood");
     assert_eq!(h.robot.stats().flood_frames, 1000);

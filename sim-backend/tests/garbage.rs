@@ -12,7 +12,7 @@ use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::{Bus, Clock, ManualClock};
 use anguilla_protocol::Frame;
 use anguilla_protocol::frame::Id;
-use anguilla_protocol::message::{self, Addressing, Direction, Function, NodeSet, Variant};
+use anguilla_protocol::message::{self, FIRST_UNUSED_ID, Function, NodeId, NodeSet, Variant};
 use anguilla_sim::{RobotConfig, SimRobot};
 use proptest::prelude::*;
 
@@ -22,37 +22,27 @@ use proptest::prelude::*;
 /// addressed to every node or to `me`, that does not decode. Any frame on
 /// 0x000 or on `me`'s own E-stop id is an E-stop, whatever it holds;
 /// extended ids, remote frames, ids the protocol does not use and frames for
-/// other nodes are ignored.
+/// other nodes are ignored. "Addressed to" is the protocol's
+/// [`message::addressed_to`], made from the definitions table and
+/// unit-tested there against the README's identifiers.
 fn is_bad_frame_for(me: u8, frame: &Frame) -> bool {
-    let Id::Standard(raw) = frame.id() else {
-        return false;
-    };
-    if raw == 0 || raw == u16::from(me) || frame.is_remote() {
+    let me = NodeId::new(me).unwrap();
+    if message::estop_target(frame.id()).is_some_and(|t| t.includes(me)) || frame.is_remote() {
         return false;
     }
-    let Some(&function) = Function::ALL.get(usize::from(raw >> 6)) else {
-        return false;
-    };
-    let Some(def) = message::definition(Variant::Classic, function) else {
-        return false;
-    };
-    let low = (raw & 0x3F) as u8;
-    let addressed = def.direction == Direction::HostToNode
-        && match def.addressing {
-            Addressing::Broadcast => low == 0,
-            Addressing::AllOrNode => low == 0 || low == me,
-            Addressing::Node => low == me,
-            Addressing::Group => false,
-        };
-    addressed && message::decode(frame, Variant::Classic, NodeSet::all()).is_err()
+    message::addressed_to(Variant::Classic, frame.id(), me)
+        && message::decode(frame, Variant::Classic, NodeSet::all()).is_err()
 }
 
-/// Identifiers: anywhere, or near the nodes' own (function code, low bits
-/// 0..=4), where a random id rarely falls.
+/// Identifiers: anywhere, or near the nodes' own (each function's, or the
+/// first unused ones, with low bits 0..=4), where a random id rarely falls.
 fn ids() -> impl Strategy<Value = u16> {
     prop_oneof![
         0u16..0x800,
-        (0u16..10, 0u16..5).prop_map(|(f, low)| (f << 6) | low),
+        (0..=Function::ALL.len(), 0u8..5).prop_map(|(f, low)| match Function::ALL.get(f) {
+            Some(f) => f.id(low),
+            None => FIRST_UNUSED_ID + u16::from(low),
+        }),
     ]
 }
 
@@ -81,7 +71,7 @@ proptest! {
             let id = if *extended {
                 Id::extended(u32::from(*id) << 7 | 0x5A).unwrap()
             } else {
-                Id::Standard(*id)
+                Id::standard(*id).unwrap()
             };
             // kind: 0 classic data, 1 remote, 2 CAN FD.
             let f = match kind {

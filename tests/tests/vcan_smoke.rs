@@ -530,9 +530,13 @@ fn candump_log_replays_with_canplayer_and_reads_in_anguilla() {
     assert_eq!(
         got,
         [
-            (Id::Standard(0x2a1), Kind::Data, vec![1, 2, 3]),
-            (Id::Extended(0x1234_5678), Kind::Data, vec![0xCA, 0xFE]),
-            (Id::Standard(0x2a3), Kind::Remote { dlc: 4 }, vec![]),
+            (Id::standard_literal(0x2a1), Kind::Data, vec![1, 2, 3]),
+            (
+                Id::extended_literal(0x1234_5678),
+                Kind::Data,
+                vec![0xCA, 0xFE]
+            ),
+            (Id::standard_literal(0x2a3), Kind::Remote { dlc: 4 }, vec![]),
         ]
     );
 
