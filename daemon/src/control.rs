@@ -549,12 +549,10 @@ impl Controller {
         {
             let off = &mut self.offsets[j];
             let o = [off[0].advance(self.dt), off[1].advance(self.dt)];
-            // The actuator's torque is −C (MODEL-NOTES: C is what the rear
-            // exerts on the front).
             let ff = if d.drop_feedforward {
                 [0.0, 0.0]
             } else {
-                [-js.c2, -js.c3]
+                js.actuator_torque()
             };
             self.torque_ff[j] = ff;
             let ang = [js.pitch + o[0].position, js.yaw + o[1].position];

@@ -11,7 +11,7 @@
 //! `docs/MODEL-NOTES.md`); the actuator of a joint turns the rear platform
 //! relative to the front one, so the torque it must produce for the motion
 //! is `−C` (a rigid-body library's joint torque). The load of an axis is
-//! therefore `[−C2, −C3]`: an ideal servo's motor torque equals it, and the
+//! therefore `[−C2, −C3]` (`JointState::actuator_torque`): an ideal servo's motor torque equals it, and the
 //! actuators do positive net work on the fluid while swimming (checked by a
 //! test below).
 //!
@@ -131,7 +131,7 @@ impl Plant {
         let mut src = JointCurvature::new(n, self.model.body().length);
         let head = HeadState::launch(0.0);
         evaluate(&self.model, &mut ws, &src, &head)?;
-        let base: Vec<[f64; 2]> = ws.joints().iter().map(|j| [j.c2, j.c3]).collect();
+        let base: Vec<[f64; 2]> = ws.joints().iter().map(|j| j.actuator_torque()).collect();
         let mut out = vec![0.0; m * m];
         for col in 0..m {
             for (j, jm) in src.joints_mut().iter_mut().enumerate() {
@@ -140,9 +140,9 @@ impl Plant {
             }
             evaluate(&self.model, &mut ws, &src, &head)?;
             for (k, js) in ws.joints().iter().enumerate() {
-                // load = -C
-                out[(2 * k) * m + col] = -(js.c2 - base[k][0]);
-                out[(2 * k + 1) * m + col] = -(js.c3 - base[k][1]);
+                let load = js.actuator_torque();
+                out[(2 * k) * m + col] = load[0] - base[k][0];
+                out[(2 * k + 1) * m + col] = load[1] - base[k][1];
             }
         }
         Ok(out)
@@ -284,7 +284,7 @@ impl Plant {
             match evaluate(&self.model, &mut self.ws, &self.src, &self.head) {
                 Ok(_) => {
                     for (l, js) in rl.iter_mut().zip(self.ws.joints()) {
-                        *l = [-js.c2, -js.c3];
+                        *l = js.actuator_torque();
                     }
                 }
                 Err(_) => rl.iter_mut().for_each(|l| *l = [0.0; 2]),
@@ -297,7 +297,7 @@ impl Plant {
         match step(&self.model, &mut self.ws, &mut self.src, &mut self.head) {
             Ok(_) => {
                 for (l, js) in self.loads.iter_mut().zip(self.ws.joints()) {
-                    *l = [-js.c2, -js.c3];
+                    *l = js.actuator_torque();
                 }
                 Ok(&self.loads)
             }

@@ -111,6 +111,18 @@ pub struct JointState {
     pub c3: f64,
 }
 
+impl JointState {
+    /// The torques `[pitch, yaw]` (N m) the joint's actuators must produce
+    /// for this motion: `[-C2, -C3]`. `C` is what the rear exerts on the
+    /// front (the paper's sign, MODEL-NOTES); the actuator in the joint
+    /// exerts the opposite, as a rigid-body library's joint torque does.
+    /// Every user of the model's torques (the daemon's feed-forward, the
+    /// simulated actuators' load) takes them from here.
+    pub fn actuator_torque(&self) -> [f64; 2] {
+        [-self.c2, -self.c3]
+    }
+}
+
 /// What a step reports (values at the start of the step, time `t`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepReport {
