@@ -7,12 +7,12 @@ use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
 use anguilla_teleop::app::{Action, Intent, Limits};
-use anguilla_teleop::history::History;
 use anguilla_teleop::joy::{Joy, JoyMapping};
+use anguilla_teleop::keys;
 use anguilla_teleop::operator::{Driver, Operator, QUIT_TIMEOUT};
 use anguilla_teleop::pad::{EvdevPads, JoyNotice, JoySession};
-use anguilla_teleop::view::{self, ViewModel};
-use anguilla_teleop::{json, keys};
+use anguilla_teleop::session::{JsonPacer, MonitorSession, Paced, TeleopSession};
+use anguilla_teleop::view;
 use anyhow::Context;
 use crossterm::event::{self, Event};
 
@@ -133,13 +133,13 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
     let mut op = Operator::connect(&prefix, "anguilla-teleop")
         .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
     let limits = daemon_limits(&mut op, &prefix)?;
-    let mut driver = Driver::new(op, Intent::new(limits));
+    let mut session = TeleopSession::new(Driver::new(op, Intent::new(limits)), &prefix);
     // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
     crate::signals::install();
     let mut terminal = ratatui::init();
-    let result = teleop_loop(&mut terminal, &mut driver, &prefix);
+    let result = teleop_loop(&mut terminal, &mut session);
     // Whatever happened, stop the swim and release control before leaving.
-    let quit = driver.quit(QUIT_TIMEOUT);
+    let quit = session.driver.quit(QUIT_TIMEOUT);
     ratatui::restore();
     result?;
     quit.context("stopping and releasing control on quit")?;
@@ -148,38 +148,11 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
 
 fn teleop_loop(
     terminal: &mut ratatui::DefaultTerminal,
-    driver: &mut Driver,
-    prefix: &str,
+    session: &mut TeleopSession,
 ) -> anyhow::Result<()> {
-    // Whether the state shown is the commanding daemon's, checked every 2 s.
-    let mut provenance = (driver.op.provenance_problem(), Instant::now());
     while !crate::signals::requested() {
-        let next = driver.pump(Instant::now())?;
-        if provenance.1.elapsed() >= Duration::from_secs(2) {
-            provenance = (driver.op.provenance_problem(), Instant::now());
-        }
-        let status = if let Some(p) = &provenance.0 {
-            format!("WARNING: {p}")
-        } else if driver.op.holds_control() {
-            format!("prefix '{prefix}' · you hold control: sending your command at 10 Hz")
-        } else {
-            format!("prefix '{prefix}' · watching: press t to take control")
-        };
-        let intent = driver.intent;
-        terminal.draw(|f| {
-            view::render(
-                f,
-                &ViewModel {
-                    title: "anguilla teleop",
-                    state: driver.op.state(),
-                    me: Some(driver.op.id()),
-                    intent: Some(&intent),
-                    refused: driver.op.last_refused(),
-                    history: None,
-                    status: &status,
-                },
-            )
-        })?;
+        let next = session.pump(Instant::now())?;
+        terminal.draw(|f| view::render(f, &session.view()))?;
         let wait = next
             .saturating_duration_since(Instant::now())
             .min(Duration::from_millis(50));
@@ -191,7 +164,7 @@ fn teleop_loop(
                     if a == Action::Quit {
                         return Ok(());
                     }
-                    driver.act(a)?;
+                    session.act(a)?;
                 }
                 event::poll(Duration::ZERO)?
             } {}
@@ -227,40 +200,18 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
         return monitor_json(&mut op, &args, &prefix);
     }
     let joint = args.joint.map(|j| j.saturating_sub(1));
-    let mut history: Option<History> = None;
+    let mut session = MonitorSession::new(op, &prefix, args.window, joint);
     crate::signals::install();
     let mut terminal = ratatui::init();
     let result = (|| -> anyhow::Result<()> {
         let mut last_draw = Instant::now() - Duration::from_secs(1);
         while !crate::signals::requested() {
-            if interrupted(op.wait_state(Duration::from_millis(20)).map(|_| ()))?.is_none() {
+            if interrupted(session.poll(Duration::from_millis(20)))?.is_none() {
                 return Ok(());
-            }
-            if let Some(s) = op.state() {
-                let h = history.get_or_insert_with(|| {
-                    let last = (s.joint_count as usize).max(1) - 1;
-                    History::new(args.window, joint.unwrap_or(last).min(last))
-                });
-                h.push(s);
             }
             if last_draw.elapsed() >= Duration::from_millis(50) {
                 last_draw = Instant::now();
-                let status = format!("prefix '{prefix}' · read-only monitor · q quits");
-                let empty = History::new(args.window, 0);
-                terminal.draw(|f| {
-                    view::render(
-                        f,
-                        &ViewModel {
-                            title: "anguilla monitor",
-                            state: op.state(),
-                            me: None,
-                            intent: None,
-                            refused: None,
-                            history: Some(history.as_ref().unwrap_or(&empty)),
-                            status: &status,
-                        },
-                    )
-                })?;
+                terminal.draw(|f| view::render(f, &session.view()))?;
             }
             while event::poll(Duration::ZERO)? {
                 if let Event::Key(k) = event::read()?
@@ -278,12 +229,8 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
 
 fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::Result<()> {
     crate::signals::install();
-    let min_gap = args.rate.map(|r| Duration::from_secs_f64(1.0 / r));
-    let mut last_line: Option<Instant> = None;
-    let mut last_seq = None;
+    let mut pacer = JsonPacer::new(prefix, args.rate, Instant::now());
     let mut lines = 0u64;
-    let mut silent_since = Instant::now();
-    let mut warned = false;
     while !crate::signals::requested() && args.count.is_none_or(|c| lines < c) {
         let Some(s) = interrupted(
             op.wait_state(Duration::from_millis(100))
@@ -292,27 +239,16 @@ fn monitor_json(op: &mut Operator, args: &MonitorArgs, prefix: &str) -> anyhow::
         else {
             break;
         };
-        let Some(s) = s.filter(|s| Some(s.sequence) != last_seq) else {
-            if !warned && silent_since.elapsed() > Duration::from_secs(2) {
-                eprintln!(
-                    "no state from a daemon at prefix '{prefix}' yet: is it running? (waiting)"
-                );
-                warned = true;
+        match pacer.offer(s.as_ref(), Instant::now()) {
+            Paced::Skip => {}
+            Paced::Silent(w) => eprintln!("{w}"),
+            Paced::Line(l) => {
+                // A closed pipe (`| head`) ends the stream quietly (main sees
+                // to it); any other failure is an error naming stdout.
+                crate::output::write_fmt(format_args!("{l}\n"))?;
+                lines += 1;
             }
-            continue;
-        };
-        silent_since = Instant::now();
-        if let (Some(gap), Some(t)) = (min_gap, last_line)
-            && t.elapsed() < gap
-        {
-            continue;
         }
-        last_seq = Some(s.sequence);
-        last_line = Some(Instant::now());
-        // A closed pipe (`| head`) ends the stream quietly (main sees to
-        // it); any other failure is an error naming stdout.
-        crate::output::write_fmt(format_args!("{}\n", json::snapshot_json(&s)))?;
-        lines += 1;
     }
     Ok(())
 }

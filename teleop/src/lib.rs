@@ -12,6 +12,7 @@
 //! - [`joy`]: evdev event → command, with the deadman rules;
 //! - [`operator`]: a connection to the daemon and the steady 10 Hz sender;
 //! - [`pad`]: the gamepad session (evdev devices or a scripted pad, hot-plug);
+//! - [`session`]: the teleop and monitor sessions and the `--json` pace;
 //! - [`view`]: the state view, drawn with ratatui on any backend;
 //! - [`ctl`]: `anguilla ctl`, one scripted command per call;
 //! - [`history`]: the monitor's ring buffers; [`json`]: `--json` lines.
@@ -35,4 +36,5 @@ pub mod json;
 pub mod keys;
 pub mod operator;
 pub mod pad;
+pub mod session;
 pub mod view;

@@ -112,3 +112,60 @@ fn ctl_drives_a_session_and_says_how_it_ended() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert!(text(&o).contains("done: idle"), "{}", text(&o));
 }
+
+/// `anguilla monitor --json` streams each state once, at most `--rate`
+/// lines a second, and ends after `--count`; without a daemon it is an
+/// error naming the prefix.
+#[test]
+fn monitor_json_streams_paced_states() {
+    let _dog = Watchdog::new("monitor", Duration::from_secs(120));
+    let prefix = format!("anguilla-ctl/monitor-{}", std::process::id());
+    let o = Proc::new(anguilla_bin())
+        .args(["monitor", "--json", "--prefix", &prefix])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("no anguilla daemon serves '{prefix}'")),
+        "{}",
+        text(&o)
+    );
+    assert!(o.stdout.is_empty());
+
+    let config = std::env::temp_dir().join(format!("anguilla-mon-{}.toml", std::process::id()));
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    let _d = Killed(
+        Proc::new(anguilla_bin())
+            .args(["run", "--quiet", "--config"])
+            .arg(&config)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    poll_until("the daemon up", Duration::from_secs(20), || {
+        (ctl(&prefix, &["status"]).status.code() == Some(0)).then_some(())
+    });
+    let start = std::time::Instant::now();
+    let o = Proc::new(anguilla_bin())
+        .args([
+            "monitor", "--json", "--prefix", &prefix, "--rate", "5", "--count", "4",
+        ])
+        .output()
+        .unwrap();
+    let took = start.elapsed();
+    let _ = std::fs::remove_file(&config);
+    assert!(o.status.success(), "{}", text(&o));
+    let seqs: Vec<u64> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).expect("a JSON line");
+            v["sequence"].as_u64().expect("a sequence number")
+        })
+        .collect();
+    assert_eq!(seqs.len(), 4);
+    assert!(seqs.windows(2).all(|w| w[1] > w[0]), "{seqs:?}");
+    // At 5 lines a second, four lines take at least three gaps of 200 ms
+    // (a lower bound: the pace never runs faster, however loaded).
+    assert!(took >= Duration::from_millis(600), "{took:?}");
+}
