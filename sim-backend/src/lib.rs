@@ -9,11 +9,14 @@
 //!   joints' achieved motion), which gives each actuator its load;
 //! - [`robot`]: the whole robot on a bus ([`SimRobot`]): deterministic
 //!   stepping on any clock, a real-time runner, and the ground truth;
+//! - [`builtin`]: the robot `anguilla run` drives without a bus (and the
+//!   system tests drive too), on an in-process bus in real time;
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 //!
-//! In process, `anguilla run` puts the robot on `mem:NAME` with
-//! [`open_robot`] and runs it with [`SimRobot::spawn`] on the bus's clock;
+//! In process, `anguilla run` starts [`builtin::Builtin`], which puts the
+//! robot on an in-process bus and runs it with [`SimRobot::spawn`] on the
+//! bus's clock; `anguilla sim` opens any bus with [`open_robot`];
 //! tests drive [`SimRobot::step_until`] on a
 //! [`ManualClock`](anguilla_drivers::ManualClock), faster than real time and
 //! deterministically:
