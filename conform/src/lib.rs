@@ -35,7 +35,7 @@
 use std::fmt;
 use std::time::{Duration, Instant};
 
-use anguilla_drivers::{Bus, BusError};
+use anguilla_drivers::{Bus, LinkError};
 use anguilla_protocol::behaviour::{
     FeedbackFlags, Input, Outcome, STATES, describe, expected, result_name, state_name,
 };
@@ -49,9 +49,15 @@ use anguilla_protocol::{Frame, FrameError};
 /// reported in the [`Report`]).
 #[derive(Debug, thiserror::Error)]
 pub enum ConformError {
-    /// The bus failed.
-    #[error("bus: {0}")]
-    Bus(#[from] BusError),
+    /// Sending or receiving on the bus failed.
+    #[error("bus {spec}: {source}")]
+    Bus {
+        /// The bus spec.
+        spec: String,
+        /// What went wrong.
+        #[source]
+        source: LinkError,
+    },
     /// A frame could not be built (a bug of the suite, not of the node).
     #[error("encoding a frame: {0}")]
     Encode(#[from] EncodeError),
@@ -68,6 +74,16 @@ pub enum ConformError {
         /// How long the suite listened.
         waited_ms: u64,
     },
+}
+
+impl ConformError {
+    /// A send or receive error of `bus`, named by its spec.
+    pub fn on_bus<B: Bus + ?Sized>(bus: &B, source: LinkError) -> Self {
+        ConformError::Bus {
+            spec: bus.spec().to_owned(),
+            source,
+        }
+    }
 }
 
 /// The crate's result type.
@@ -102,11 +118,16 @@ impl<B: Bus> BusWire<B> {
 
 impl<B: Bus> Wire for BusWire<B> {
     fn send(&mut self, frame: &Frame) -> Result<()> {
-        Ok(self.bus.send(frame)?)
+        self.bus
+            .send(frame)
+            .map_err(|e| ConformError::on_bus(&self.bus, e))
     }
     fn recv_until(&mut self, deadline: Duration) -> Result<Option<Frame>> {
         let left = deadline.saturating_sub(self.now());
-        Ok(self.bus.recv(left)?.map(|r| r.frame))
+        match self.bus.recv(left) {
+            Ok(r) => Ok(r.map(|r| r.frame)),
+            Err(e) => Err(ConformError::on_bus(&self.bus, e)),
+        }
     }
     fn now(&self) -> Duration {
         self.origin.elapsed()

@@ -47,11 +47,17 @@ impl SimWire {
 
 impl Wire for SimWire {
     fn send(&mut self, frame: &Frame) -> anguilla_conform::Result<()> {
-        Ok(self.host.send(frame)?)
+        self.host
+            .send(frame)
+            .map_err(|e| ConformError::on_bus(&self.host, e))
     }
     fn recv_until(&mut self, deadline: Duration) -> anguilla_conform::Result<Option<Frame>> {
         loop {
-            if let Some(r) = self.host.try_recv()? {
+            if let Some(r) = self
+                .host
+                .try_recv()
+                .map_err(|e| ConformError::on_bus(&self.host, e))?
+            {
                 return Ok(Some(r.frame));
             }
             let now = self.clock.now();

@@ -76,7 +76,7 @@ impl Bus for ReplayBus {
             .is_some_and(|&(f, sent)| !sent && f == *frame);
         self.tx.push((*frame, !refused));
         if refused {
-            Err(anguilla_drivers::BusError::BusOff)
+            Err(anguilla_drivers::LinkError::BusOff)
         } else {
             Ok(())
         }
@@ -104,7 +104,7 @@ impl Bus for ReplayBus {
     fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
         Ok(())
     }
-    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
+    fn reopen(&mut self) -> anguilla_drivers::OpenResult<()> {
         Ok(())
     }
     fn spec(&self) -> &str {

@@ -52,7 +52,7 @@ fn record_session_with(name: &str, refusals: bool) -> std::path::PathBuf {
                     inner: &mut r.host,
                     hook: |_: &Frame| {
                         if left == 0 {
-                            return Err(anguilla_drivers::BusError::BusOff);
+                            return Err(anguilla_drivers::LinkError::BusOff);
                         }
                         left -= 1;
                         Ok(())

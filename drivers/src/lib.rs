@@ -44,7 +44,7 @@ use std::time::Duration;
 
 pub use anguilla_protocol::Frame;
 pub use clock::{Clock, ManualClock, MonotonicClock};
-pub use error::{BusError, Result};
+pub use error::{IoCause, LinkError, LostReason, OpenError, OpenResult, Result, Unsendable};
 pub use spec::{BusSpec, SpecError};
 
 /// A frame taken off a bus, with the time it arrived if the bus knows it.
@@ -164,8 +164,13 @@ pub struct Capabilities {
 /// and SocketCAN, its automatic reconnection included, in the vcan VM). The
 /// exception is an SLCAN adapter that disappeared ([`BusState::Gone`]): its
 /// serial port is opened again from scratch, which allocates as setup does.
+///
+/// Errors come in two families: these calls fail with a `Copy`
+/// [`LinkError`], which owns nothing (callers add [`spec`](Bus::spec) to
+/// their messages); opening and [`reopen`](Bus::reopen) fail with an
+/// [`OpenError`], which names the spec and the device.
 pub trait Bus: Send {
-    /// Queues one frame for transmission. Fails with [`BusError::BusOff`]
+    /// Queues one frame for transmission. Fails with [`LinkError::BusOff`]
     /// while the node is bus-off: a frame is never held back to be sent late.
     fn send(&mut self, frame: &Frame) -> Result<()>;
 
@@ -204,7 +209,7 @@ pub trait Bus: Send {
 
     /// Closes and reopens the bus: queued frames in both directions are
     /// discarded, the state returns to error-active if the bus allows it.
-    fn reopen(&mut self) -> Result<()>;
+    fn reopen(&mut self) -> OpenResult<()>;
 
     /// The spec this bus was opened from, for messages.
     fn spec(&self) -> &str;
@@ -235,7 +240,7 @@ impl<B: Bus + ?Sized> Bus for Box<B> {
     fn flush_tx(&mut self) -> Result<()> {
         (**self).flush_tx()
     }
-    fn reopen(&mut self) -> Result<()> {
+    fn reopen(&mut self) -> OpenResult<()> {
         (**self).reopen()
     }
     fn spec(&self) -> &str {
@@ -247,6 +252,6 @@ impl<B: Bus + ?Sized> Bus for Box<B> {
 ///
 /// `mem:NAME` joins (or creates, with the options given) the in-process bus
 /// `NAME` as a new participant.
-pub fn open(spec: &str) -> Result<Box<dyn Bus>> {
+pub fn open(spec: &str) -> OpenResult<Box<dyn Bus>> {
     BusSpec::parse(spec)?.open()
 }

@@ -37,8 +37,8 @@ use anguilla_protocol::budget::worst_case_bits;
 use anguilla_protocol::frame::Kind;
 
 use crate::{
-    Bus, BusCounters, BusError, BusState, Capabilities, Clock, Frame, MonotonicClock, Received,
-    Result, TimestampBase,
+    Bus, BusCounters, BusState, Capabilities, Clock, Frame, LinkError, MonotonicClock, OpenResult,
+    Received, Result, TimestampBase,
 };
 
 /// Default queue capacity (frames) of each participant.
@@ -458,7 +458,7 @@ impl MemBus {
 
     /// Forces a node's controller state. Going bus-off discards the node's
     /// queued frames (counted as `tx_dropped`) and makes its `send` fail with
-    /// [`BusError::BusOff`] until it reopens or is forced error-active.
+    /// [`LinkError::BusOff`] until it reopens or is forced error-active.
     pub fn force_state(&self, id: ParticipantId, state: BusState) {
         let mut inner = self.core.lock();
         if let Some(slot) = inner.slots.get_mut(id.0).filter(|s| s.alive) {
@@ -535,11 +535,11 @@ impl Bus for MemParticipant {
         let seq = inner.next_seq;
         let slot = &mut inner.slots[self.idx];
         if slot.state == BusState::BusOff {
-            return Err(BusError::BusOff);
+            return Err(LinkError::BusOff);
         }
         if slot.tx.len() >= cap {
             slot.counters.tx_dropped += 1;
-            return Err(BusError::TxQueueFull);
+            return Err(LinkError::TxQueueFull);
         }
         slot.counters.tx += 1;
         slot.tx.push_back(Pending {
@@ -633,7 +633,7 @@ impl Bus for MemParticipant {
         Ok(())
     }
 
-    fn reopen(&mut self) -> Result<()> {
+    fn reopen(&mut self) -> OpenResult<()> {
         let mut inner = self.core.lock();
         let slot = &mut inner.slots[self.idx];
         slot.counters.tx_dropped += slot.tx.len() as u64;
@@ -742,7 +742,7 @@ mod tests {
         );
         bus.force_state(a.id(), BusState::BusOff);
         assert_eq!(a.state(), BusState::BusOff);
-        assert!(matches!(a.send(&std_frame(1, &[])), Err(BusError::BusOff)));
+        assert!(matches!(a.send(&std_frame(1, &[])), Err(LinkError::BusOff)));
         b.send(&std_frame(2, &[])).unwrap();
         assert!(
             a.try_recv().unwrap().is_none(),

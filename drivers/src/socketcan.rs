@@ -11,7 +11,7 @@
 //! still queued in it: setpoints queued before the fault are never sent late
 //! (frames already handed to the device queue are the kernel's; the CAN
 //! layer drops them when the controller goes bus-off). `send` then fails
-//! with [`BusError::BusOff`] while the driver reopens the socket with
+//! with [`LinkError::BusOff`] while the driver reopens the socket with
 //! exponential back-off (20 ms doubling to 2 s), once the interface is up
 //! and has its carrier back (`/sys/class/net/IF/flags` and `carrier`; an
 //! interface set down counts as one bus-off until it is up again). Restarting the controller
@@ -48,7 +48,8 @@ use socketcan::{
 
 use crate::backoff::Backoff;
 use crate::{
-    Bus, BusCounters, BusError, BusState, Capabilities, Frame, Received, Result, TimestampBase,
+    Bus, BusCounters, BusState, Capabilities, Frame, LinkError, LostReason, OpenError, OpenResult,
+    Received, Result, TimestampBase, Unsendable,
 };
 
 /// Options of a SocketCAN bus.
@@ -112,7 +113,7 @@ fn probe_kernel() -> std::result::Result<(), nix::Error> {
 impl SocketCanBus {
     /// Opens the interface. Errors name the spec: no kernel CAN support,
     /// missing interface, permission denied.
-    pub fn open(config: &SocketCanConfig) -> Result<Self> {
+    pub fn open(config: &SocketCanConfig) -> OpenResult<Self> {
         let mut bus = SocketCanBus {
             config: config.clone(),
             sock: None,
@@ -128,25 +129,25 @@ impl SocketCanBus {
         Ok(bus)
     }
 
-    fn map_open_error(&self, e: io::Error) -> BusError {
+    fn map_open_error(&self, e: io::Error) -> OpenError {
         let c = &self.config;
         match e.raw_os_error() {
-            Some(libc_errno::EAFNOSUPPORT) => BusError::NoKernelCan {
+            Some(libc_errno::EAFNOSUPPORT) => OpenError::NoKernelCan {
                 spec: c.spec.clone(),
             },
-            Some(libc_errno::ENODEV) => BusError::MissingInterface {
+            Some(libc_errno::ENODEV) => OpenError::MissingInterface {
                 spec: c.spec.clone(),
                 interface: c.interface.clone(),
             },
-            Some(libc_errno::EPERM | libc_errno::EACCES) => BusError::PermissionDenied {
+            Some(libc_errno::EPERM | libc_errno::EACCES) => OpenError::PermissionDenied {
                 spec: c.spec.clone(),
                 path: c.interface.clone(),
             },
-            _ => BusError::io(&c.spec, e),
+            _ => OpenError::io(&c.spec, e),
         }
     }
 
-    fn connect(&mut self) -> Result<()> {
+    fn connect(&mut self) -> OpenResult<()> {
         self.connect_raw().map_err(|e| self.map_open_error(e))
     }
 
@@ -265,10 +266,7 @@ impl SocketCanBus {
                 }
                 Err(e) => {
                     self.close();
-                    return Err(BusError::Disconnected {
-                        spec: self.config.spec.clone(),
-                        reason: e.to_string(),
-                    });
+                    return Err(LinkError::Disconnected(LostReason::Io((&e).into())));
                 }
             };
             let frame = match raw {
@@ -350,7 +348,7 @@ mod tests {
         assert!(b.flush_tx().is_ok());
         assert!(b.sock.is_none());
         let f = Frame::new_standard(0x000, &[]).unwrap();
-        assert!(matches!(b.send(&f), Err(BusError::BusOff)));
+        assert!(matches!(b.send(&f), Err(LinkError::BusOff)));
         assert_eq!(b.state(), BusState::BusOff);
         assert_eq!(b.counters().bus_off_count, 1);
         assert_eq!(b.counters().reopens, 0);
@@ -409,11 +407,11 @@ mod tests {
         // Recovery needs a kernel with CAN; here (or while the back-off
         // runs) the frame is refused, never queued.
         if !kernel_has_can() {
-            assert!(matches!(b.send(&f), Err(BusError::BusOff)));
+            assert!(matches!(b.send(&f), Err(LinkError::BusOff)));
             assert_eq!(b.counters().tx, 0);
         }
         let fd = Frame::new_fd(Id::standard(1).unwrap(), &[0; 12], false).unwrap();
-        assert!(matches!(b.send(&fd), Err(BusError::Unsupported(_))));
+        assert!(matches!(b.send(&fd), Err(LinkError::Unsupported(_))));
     }
 }
 
@@ -531,27 +529,25 @@ mod libc_errno {
 impl Bus for SocketCanBus {
     fn send(&mut self, frame: &Frame) -> Result<()> {
         if frame.is_fd() && !self.fd {
-            return Err(BusError::Unsupported(
-                "CAN FD frames (open with ?fd=1 an interface with mtu 72)",
-            ));
+            return Err(LinkError::Unsupported(Unsendable::FdNotEnabledOrMtu));
         }
         if !self.recover() {
-            return Err(BusError::BusOff);
+            return Err(LinkError::BusOff);
         }
         let Some(id) = sc_id(frame.id()) else {
-            return Err(BusError::Unsupported("this identifier"));
+            return Err(LinkError::Unsupported(Unsendable::Identifier));
         };
         let Some(sock) = self.sock.as_ref() else {
-            return Err(BusError::BusOff);
+            return Err(LinkError::BusOff);
         };
         let res = match frame.kind() {
             Kind::Data => match CanDataFrame::new(id, frame.data()) {
                 Some(f) => sock.write_frame(&f),
-                None => return Err(BusError::Unsupported("this data length")),
+                None => return Err(LinkError::Unsupported(Unsendable::DataLength)),
             },
             Kind::Remote { dlc } => match CanRemoteFrame::new_remote(id, dlc as usize) {
                 Some(f) => sock.write_frame(&f),
-                None => return Err(BusError::Unsupported("this remote DLC")),
+                None => return Err(LinkError::Unsupported(Unsendable::RemoteDlc)),
             },
             Kind::Fd { brs, esi } => match CanFdFrame::new(id, frame.data()) {
                 Some(mut f) => {
@@ -559,7 +555,7 @@ impl Bus for SocketCanBus {
                     f.set_esi(esi);
                     sock.write_frame(&f)
                 }
-                None => return Err(BusError::Unsupported("this FD data length")),
+                None => return Err(LinkError::Unsupported(Unsendable::FdDataLength)),
             },
         };
         match res {
@@ -570,20 +566,20 @@ impl Bus for SocketCanBus {
             Err(e) => match e.raw_os_error() {
                 Some(libc_errno::ENOBUFS) => {
                     self.counters.tx_dropped += 1;
-                    Err(BusError::TxQueueFull)
+                    Err(LinkError::TxQueueFull)
                 }
                 _ if e.kind() == io::ErrorKind::WouldBlock => {
                     self.counters.tx_dropped += 1;
-                    Err(BusError::TxQueueFull)
+                    Err(LinkError::TxQueueFull)
                 }
                 Some(libc_errno::ENETDOWN) => {
                     self.enter_bus_off();
-                    Err(BusError::BusOff)
+                    Err(LinkError::BusOff)
                 }
-                Some(libc_errno::EINVAL) if frame.is_fd() => Err(BusError::Unsupported(
-                    "CAN FD frames on this interface (MTU 16)",
-                )),
-                _ => Err(BusError::io(&self.config.spec, e)),
+                Some(libc_errno::EINVAL) if frame.is_fd() => {
+                    Err(LinkError::Unsupported(Unsendable::FdOnClassicInterface))
+                }
+                _ => Err(LinkError::io(&e)),
             },
         }
     }
@@ -614,7 +610,7 @@ impl Bus for SocketCanBus {
                 PollTimeout::try_from(ms).unwrap_or(PollTimeout::MAX),
             ) {
                 Ok(_) | Err(nix::Error::EINTR) => {}
-                Err(e) => return Err(BusError::io(&self.config.spec, e.into())),
+                Err(e) => return Err(LinkError::io(&e.into())),
             }
         }
     }
@@ -660,10 +656,11 @@ impl Bus for SocketCanBus {
         if self.sock.is_none() && self.state == BusState::BusOff {
             return Ok(());
         }
-        self.connect()
+        // `connect_raw` allocates nothing; its error is the OS's.
+        self.connect_raw().map_err(|e| LinkError::io(&e))
     }
 
-    fn reopen(&mut self) -> Result<()> {
+    fn reopen(&mut self) -> OpenResult<()> {
         self.counters.reopens += 1;
         self.connect()?;
         self.backoff.reset();

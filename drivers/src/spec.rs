@@ -179,7 +179,7 @@ impl BusSpec {
     }
 
     /// Opens the bus.
-    pub fn open(&self) -> Result<Box<dyn Bus>> {
+    pub fn open(&self) -> crate::OpenResult<Box<dyn Bus>> {
         Ok(match self {
             BusSpec::SocketCan(c) => Box::new(crate::socketcan::SocketCanBus::open(c)?),
             BusSpec::Slcan(c) => Box::new(crate::slcan::SlcanBus::open(c)?),

@@ -18,7 +18,7 @@ use std::cell::Cell;
 use std::sync::Mutex;
 
 use anguilla_drivers::socketcan::{SocketCanBus, SocketCanConfig};
-use anguilla_drivers::{Bus, BusError};
+use anguilla_drivers::{Bus, LinkError, OpenError};
 use conformance::{BusFactory, Pair};
 
 static VCAN_LOCK: Mutex<()> = Mutex::new(());
@@ -33,7 +33,7 @@ fn open_vcan() -> Option<SocketCanBus> {
     c.fd = true;
     match SocketCanBus::open(&c) {
         Ok(b) => Some(b),
-        Err(e @ (BusError::NoKernelCan { .. } | BusError::MissingInterface { .. })) => {
+        Err(e @ (OpenError::NoKernelCan { .. } | OpenError::MissingInterface { .. })) => {
             eprintln!("skipping: {e} (set ANGUILLA_VCAN to a vcan interface to run)");
             None
         }
@@ -85,8 +85,8 @@ fn open_errors_name_the_spec_and_the_cause() {
     let msg = e.to_string();
     assert!(msg.contains(spec), "{msg}");
     match e {
-        BusError::NoKernelCan { .. } => assert!(msg.contains("EAFNOSUPPORT"), "{msg}"),
-        BusError::MissingInterface { .. } => assert!(msg.contains("anguillanope0"), "{msg}"),
+        OpenError::NoKernelCan { .. } => assert!(msg.contains("EAFNOSUPPORT"), "{msg}"),
+        OpenError::MissingInterface { .. } => assert!(msg.contains("anguillanope0"), "{msg}"),
         other => panic!("unexpected error {other:?}"),
     }
 }
@@ -110,7 +110,7 @@ fn frames_dropped_by_a_full_socket_queue_are_counted() {
         match sender.send(&frame) {
             Ok(()) => sent += 1,
             // The sender's own queue is full: retry until it has room.
-            Err(BusError::TxQueueFull) => {
+            Err(LinkError::TxQueueFull) => {
                 assert!(
                     std::time::Instant::now() < deadline,
                     "sender queue full for 10 s"

@@ -10,7 +10,7 @@ use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::codec::Bitrate;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
 use anguilla_drivers::slcan::{SlcanBus, SlcanConfig};
-use anguilla_drivers::{Bus, BusError, Frame, open};
+use anguilla_drivers::{Bus, Frame, LinkError, LostReason, OpenError, open};
 use serialport::{SerialPort, TTYPort};
 
 const PATIENCE: Duration = Duration::from_secs(5);
@@ -42,7 +42,7 @@ fn emulator(config: EmulatorConfig) -> (MemBus, SlcanEmulator) {
 fn missing_device_is_named() {
     let spec = "slcan:/dev/anguilla-no-such-tty@1000000";
     let e = open(spec).err().unwrap();
-    assert!(matches!(e, BusError::MissingDevice { .. }), "{e:?}");
+    assert!(matches!(e, OpenError::MissingDevice { .. }), "{e:?}");
     let msg = e.to_string();
     assert!(
         msg.contains("/dev/anguilla-no-such-tty") && msg.contains(spec),
@@ -74,7 +74,7 @@ fn permission_denied_is_named() {
     let spec = format!("slcan:{}@1000000", path.display());
     let e = open(&spec).err().unwrap();
     let _ = std::fs::remove_file(&path);
-    assert!(matches!(e, BusError::PermissionDenied { .. }), "{e:?}");
+    assert!(matches!(e, OpenError::PermissionDenied { .. }), "{e:?}");
     assert!(e.to_string().contains(&spec));
 }
 
@@ -87,7 +87,7 @@ fn adapter_answering_bel_is_a_clear_error() {
         });
         let path = emu.path().unwrap().to_owned();
         let e = open(&format!("slcan:{path}@1000000")).err().unwrap();
-        assert!(matches!(e, BusError::AdapterRejected { .. }), "{e:?}");
+        assert!(matches!(e, OpenError::AdapterRejected { .. }), "{e:?}");
         let msg = e.to_string();
         assert!(
             msg.contains(&path) && msg.contains("'S8'") && msg.contains("BEL"),
@@ -104,7 +104,7 @@ fn silent_device_times_out_with_a_clear_error() {
         let mut c = SlcanConfig::new(&path, Bitrate::B500k);
         c.reply_timeout = Duration::from_millis(100);
         let e = SlcanBus::open(&c).err().unwrap();
-        assert!(matches!(e, BusError::AdapterTimeout { .. }), "{e:?}");
+        assert!(matches!(e, OpenError::AdapterTimeout { .. }), "{e:?}");
         assert!(e.to_string().contains(&path), "{e}");
     });
 }
@@ -128,7 +128,7 @@ fn garbage_instead_of_an_adapter_is_a_clear_error() {
         let e = SlcanBus::open(&c).err().unwrap();
         stop.store(true, Ordering::Relaxed);
         gps.join().unwrap();
-        assert!(matches!(e, BusError::AdapterGarbage { .. }), "{e:?}");
+        assert!(matches!(e, OpenError::AdapterGarbage { .. }), "{e:?}");
         let msg = e.to_string();
         // Whole lines are quoted: the reader keeps its place in the stream.
         assert!(
@@ -208,8 +208,15 @@ fn unplugged_adapter_is_reported_as_disconnected() {
         loop {
             assert!(t0.elapsed() < PATIENCE, "no disconnection reported");
             match drv.recv(Duration::from_millis(20)) {
-                Err(e @ BusError::Disconnected { .. }) => {
-                    assert!(e.to_string().contains(&spec), "{e}");
+                Err(e @ LinkError::Disconnected(reason)) => {
+                    // The error owns nothing: the caller names the bus
+                    // from `spec()` ("adapter gone: SPEC" in the daemon).
+                    assert_eq!(drv.spec(), spec);
+                    assert!(
+                        matches!(reason, LostReason::EndOfFile | LostReason::Io(_)),
+                        "{reason:?}"
+                    );
+                    assert_eq!(e.to_string(), format!("disconnected ({reason})"));
                     break;
                 }
                 Ok(_) => {}
@@ -340,7 +347,7 @@ fn listen_only_refuses_to_send() {
         let (_bus, emu) = emulator(EmulatorConfig::default());
         let mut drv = open(&format!("slcan:{}@250000?listen=1", emu.path().unwrap())).unwrap();
         let f = Frame::new_standard(1, &[]).unwrap();
-        assert!(matches!(drv.send(&f), Err(BusError::Unsupported(_))));
+        assert!(matches!(drv.send(&f), Err(LinkError::Unsupported(_))));
     });
 }
 

@@ -59,9 +59,9 @@ pub enum SimError {
         /// The bus spec.
         bus: String,
     },
-    /// The bus failed.
+    /// The bus could not be opened.
     #[error("bus: {0}")]
-    Bus(#[from] anguilla_drivers::BusError),
+    Bus(#[from] anguilla_drivers::OpenError),
     /// The robot's thread could not be started.
     #[error("starting the simulated robot's thread: {0}")]
     Thread(std::io::Error),

@@ -284,7 +284,7 @@ impl Bus for Plain {
     fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
         self.0.flush_tx()
     }
-    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
+    fn reopen(&mut self) -> anguilla_drivers::OpenResult<()> {
         self.0.reopen()
     }
     fn spec(&self) -> &str {

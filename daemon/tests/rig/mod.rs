@@ -50,7 +50,7 @@ where
     fn flush_tx(&mut self) -> anguilla_drivers::Result<()> {
         self.inner.flush_tx()
     }
-    fn reopen(&mut self) -> anguilla_drivers::Result<()> {
+    fn reopen(&mut self) -> anguilla_drivers::OpenResult<()> {
         self.inner.reopen()
     }
     fn spec(&self) -> &str {

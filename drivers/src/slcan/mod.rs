@@ -24,7 +24,8 @@ use serialport::{ClearBuffer, SerialPort, TTYPort};
 
 use crate::backoff::Backoff;
 use crate::{
-    Bus, BusCounters, BusError, BusState, Capabilities, Frame, Received, Result, TimestampBase,
+    Bus, BusCounters, BusState, Capabilities, Frame, LinkError, LostReason, OpenError, OpenResult,
+    Received, Result, TimestampBase, Unsendable,
 };
 use codec::{Bitrate, Command, LineReader, MAX_LINE, Reply, Token};
 
@@ -201,7 +202,7 @@ fn command_text(cmd: &Command) -> String {
 
 impl SlcanBus {
     /// Opens the device and sets the adapter up.
-    pub fn open(config: &SlcanConfig) -> Result<Self> {
+    pub fn open(config: &SlcanConfig) -> OpenResult<Self> {
         let mut bus = SlcanBus {
             config: config.clone(),
             port: None,
@@ -218,7 +219,7 @@ impl SlcanBus {
         Ok(bus)
     }
 
-    fn open_port(&self) -> Result<TTYPort> {
+    fn open_port(&self) -> OpenResult<TTYPort> {
         let c = &self.config;
         serialport::new(&c.path, c.baud)
             .timeout(Duration::from_millis(10))
@@ -226,15 +227,15 @@ impl SlcanBus {
             .map_err(|e| {
                 let io: io::Error = e.into();
                 match io.kind() {
-                    io::ErrorKind::NotFound => BusError::MissingDevice {
+                    io::ErrorKind::NotFound => OpenError::MissingDevice {
                         spec: c.spec.clone(),
                         path: c.path.clone(),
                     },
-                    io::ErrorKind::PermissionDenied => BusError::PermissionDenied {
+                    io::ErrorKind::PermissionDenied => OpenError::PermissionDenied {
                         spec: c.spec.clone(),
                         path: c.path.clone(),
                     },
-                    _ => BusError::Io {
+                    _ => OpenError::Io {
                         spec: format!("{} ({})", c.spec, c.path),
                         source: io,
                     },
@@ -243,7 +244,7 @@ impl SlcanBus {
     }
 
     /// Opens the port and runs the setup sequence.
-    fn connect(&mut self, reply_timeout: Duration) -> Result<()> {
+    fn connect(&mut self, reply_timeout: Duration) -> OpenResult<()> {
         self.port = None;
         let mut port = self.open_port()?;
         self.reader.reset();
@@ -252,7 +253,7 @@ impl SlcanBus {
         // frames, answers to status polls and to this `C`, ok or BEL) is
         // discarded, so it is not taken for the answer to a setup command.
         port.write_all(b"C\rV\r")
-            .map_err(|e| BusError::io(&self.config.spec, e))?;
+            .map_err(|e| OpenError::io(&self.config.spec, e))?;
         // The reader keeps its place in the byte stream, so the next
         // command sees whole lines.
         discard_until_version(&mut port, &mut self.reader, reply_timeout);
@@ -278,18 +279,19 @@ impl SlcanBus {
     }
 
     /// Sends a setup command and waits for its answer.
-    fn command(&mut self, port: &mut TTYPort, cmd: &Command, timeout: Duration) -> Result<()> {
+    fn command(&mut self, port: &mut TTYPort, cmd: &Command, timeout: Duration) -> OpenResult<()> {
         let spec = &self.config.spec;
         let mut b = [0; MAX_LINE];
         let n = codec::encode_command(cmd, &mut b);
-        port.write_all(&b[..n]).map_err(|e| BusError::io(spec, e))?;
+        port.write_all(&b[..n])
+            .map_err(|e| OpenError::io(spec, e))?;
         let deadline = Instant::now() + timeout;
-        let mut outcome: Option<Result<()>> = None;
+        let mut outcome: Option<OpenResult<()>> = None;
         let mut buf = [0u8; 256];
         while outcome.is_none() {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
-                return Err(BusError::AdapterTimeout {
+                return Err(OpenError::AdapterTimeout {
                     spec: spec.clone(),
                     command: command_text(cmd),
                     timeout_ms: timeout.as_millis() as u64,
@@ -298,9 +300,9 @@ impl SlcanBus {
             let _ = port.set_timeout(left);
             let got = match port.read(&mut buf) {
                 Ok(0) => {
-                    return Err(BusError::Disconnected {
+                    return Err(OpenError::Disconnected {
                         spec: spec.clone(),
-                        reason: "end of file on the serial port".into(),
+                        reason: LostReason::EndOfFile,
                     });
                 }
                 Ok(k) => k,
@@ -314,13 +316,13 @@ impl SlcanBus {
                 {
                     continue;
                 }
-                Err(e) => return Err(BusError::io(spec, e)),
+                Err(e) => return Err(OpenError::io(spec, e)),
             };
             self.reader.feed(&buf[..got], &mut |t| {
                 if outcome.is_some() {
                     return;
                 }
-                let rejected = || BusError::AdapterRejected {
+                let rejected = || OpenError::AdapterRejected {
                     spec: spec.clone(),
                     command: command_text(cmd),
                 };
@@ -331,7 +333,7 @@ impl SlcanBus {
                         // Frames and late answers during setup are dropped.
                         Ok(_) => {}
                         Err(e) => {
-                            outcome = Some(Err(BusError::AdapterGarbage {
+                            outcome = Some(Err(OpenError::AdapterGarbage {
                                 spec: spec.clone(),
                                 command: command_text(cmd),
                                 detail: format!("{e}: \"{}\"", escape(line)),
@@ -339,7 +341,7 @@ impl SlcanBus {
                         }
                     },
                     Token::Error(e) => {
-                        outcome = Some(Err(BusError::AdapterGarbage {
+                        outcome = Some(Err(OpenError::AdapterGarbage {
                             spec: spec.clone(),
                             command: command_text(cmd),
                             detail: e.to_string(),
@@ -351,12 +353,11 @@ impl SlcanBus {
         outcome.unwrap_or(Ok(()))
     }
 
-    fn disconnected(&mut self, reason: &str) -> BusError {
+    /// Drops the port (the state becomes [`BusState::Gone`]); allocates
+    /// nothing.
+    fn disconnected(&mut self, reason: LostReason) -> LinkError {
         self.port = None;
-        BusError::Disconnected {
-            spec: self.config.spec.clone(),
-            reason: reason.to_owned(),
-        }
+        LinkError::Disconnected(reason)
     }
 
     /// While bus-off or disconnected, tries to reconnect when the back-off
@@ -389,7 +390,7 @@ impl SlcanBus {
             return Ok(());
         };
         if let Err(e) = port.write_all(b"F\r") {
-            return Err(self.disconnected(&e.to_string()));
+            return Err(self.disconnected(LostReason::Io((&e).into())));
         }
         Ok(())
     }
@@ -407,7 +408,7 @@ impl SlcanBus {
         }
         let _ = port.set_timeout(Duration::ZERO);
         match port.read(&mut buf) {
-            Ok(0) => Err(self.disconnected("end of file on the serial port")),
+            Ok(0) => Err(self.disconnected(LostReason::EndOfFile)),
             Ok(n) => {
                 let side = &mut self.side;
                 self.reader.feed(&buf[..n], &mut |t| side.token(t));
@@ -427,7 +428,7 @@ impl SlcanBus {
             {
                 Ok(())
             }
-            Err(e) => Err(self.disconnected(&e.to_string())),
+            Err(e) => Err(self.disconnected(LostReason::Io((&e).into()))),
         }
     }
 
@@ -449,22 +450,22 @@ impl Drop for SlcanBus {
 impl Bus for SlcanBus {
     fn send(&mut self, frame: &Frame) -> Result<()> {
         if self.config.listen_only {
-            return Err(BusError::Unsupported("frames in listen-only mode"));
+            return Err(LinkError::Unsupported(Unsendable::ListenOnly));
         }
         if frame.is_fd() && !self.config.fd {
-            return Err(BusError::Unsupported("CAN FD frames (open with ?fd=1)"));
+            return Err(LinkError::Unsupported(Unsendable::FdNotEnabled));
         }
         if !self.recover() {
             return Err(if self.side.state == BusState::BusOff {
-                BusError::BusOff
+                LinkError::BusOff
             } else {
-                self.disconnected("serial port closed, reconnecting")
+                self.disconnected(LostReason::Reconnecting)
             });
         }
         let mut b = [0; MAX_LINE];
         let n = codec::encode_frame(frame, None, &mut b);
         let Some(port) = self.port.as_mut() else {
-            return Err(BusError::BusOff);
+            return Err(LinkError::BusOff);
         };
         match port.write_all(&b[..n]) {
             Ok(()) => {
@@ -473,9 +474,9 @@ impl Bus for SlcanBus {
             }
             Err(e) if e.kind() == io::ErrorKind::TimedOut => {
                 self.side.counters.tx_dropped += 1;
-                Err(BusError::TxQueueFull)
+                Err(LinkError::TxQueueFull)
             }
-            Err(e) => Err(self.disconnected(&e.to_string())),
+            Err(e) => Err(self.disconnected(LostReason::Io((&e).into()))),
         }
     }
 
@@ -535,12 +536,12 @@ impl Bus for SlcanBus {
     fn flush_tx(&mut self) -> Result<()> {
         if let Some(port) = self.port.as_mut() {
             port.clear(ClearBuffer::Output)
-                .map_err(|e| BusError::io(&self.config.spec, e.into()))?;
+                .map_err(|e| LinkError::io(&e.into()))?;
         }
         Ok(())
     }
 
-    fn reopen(&mut self) -> Result<()> {
+    fn reopen(&mut self) -> OpenResult<()> {
         if let Some(port) = self.port.as_mut() {
             let _ = port.clear(ClearBuffer::Output);
         }

@@ -8,7 +8,7 @@ use std::any::Any;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use anguilla_drivers::{Bus, BusError, BusState, Frame, Received, TimestampBase};
+use anguilla_drivers::{Bus, BusState, Frame, LinkError, Received, TimestampBase};
 use anguilla_protocol::frame::Id;
 
 /// Generous bound for a frame to cross any bus under test, on a loaded
@@ -163,7 +163,7 @@ pub fn roundtrip_fd(mut p: Pair) {
     ] {
         let f = Frame::new_fd(id, &data[..len], brs).unwrap();
         match p.a.send(&f) {
-            Err(BusError::Unsupported(what)) => {
+            Err(LinkError::Unsupported(what)) => {
                 eprintln!("skipping: {} refuses {what}", p.a.spec());
                 return;
             }
