@@ -8,7 +8,7 @@
 //!
 //! **Wire time.** With a bit rate set, frames take their worst-case bit time
 //! on the bus's [`Clock`] — the protocol's
-//! [`worst_case_bits`](anguilla_protocol::budget::worst_case_bits), bit
+//! [`anguilla_protocol::budget::worst_case_bits`], bit
 //! stuffing and interframe space included, the same figure the bus budget
 //! counts — one at a time; when the
 //! bus frees, the pending frame with the lowest

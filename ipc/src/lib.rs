@@ -30,7 +30,7 @@
 //! loans a sample or answers a request): [`StatePublisher`] and
 //! [`CommandServer`]. A tool uses one [`Client`].
 //!
-//! Every payload is `#[repr(C)]`, `Copy` and [`ZeroCopySend`], made of fixed
+//! Every payload is `#[repr(C)]`, `Copy` and `ZeroCopySend` (iceoryx2), made of fixed
 //! size integers, floats and arrays, so C, C++ and Python iceoryx2 clients can
 //! read it with the layout documented in `docs/ipc.md` (generated from
 //! [`layout_table`] and checked by a test).

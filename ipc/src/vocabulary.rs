@@ -349,7 +349,7 @@ pub enum Cause {
     Command,
     /// The holder stopped sending commands.
     OperatorSilent,
-    /// A fault; see [`Supervisor::faults`].
+    /// A fault; see the daemon's `Supervisor::faults`.
     Fault,
     /// The nodes reported enabled, or the ramp down finished.
     Progress,
