@@ -193,7 +193,7 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
                 "{}: valid; {} joints, control rate {:.1} Hz, bus {}",
                 file.display(),
                 cfg.robot.joints,
-                1e9 / period as f64,
+                1e9 / period.as_nanos() as f64,
                 if cfg.bus.spec.is_empty() {
                     "built-in simulated robot"
                 } else {

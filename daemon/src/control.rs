@@ -43,7 +43,7 @@ use crate::supervisor::{
     SwimParams,
 };
 
-const MS: Nanos = 1_000_000;
+const MS: Nanos = Nanos::from_millis(1);
 /// Plausibility limits of the model's predictions for a 1 m robot: beyond
 /// them the model is taken as diverged (DESIGN.md: "NaN, non-finite,
 /// limits"). The fastest anguilliform swimmers manage about 2 body lengths
@@ -140,7 +140,7 @@ fn node_ids(cfg: &Config) -> Result<Vec<NodeId>, SetupError> {
 /// validated configuration always has one; 100 Hz otherwise).
 pub fn period_ns(cfg: &Config) -> Nanos {
     let rate = cfg.control_rate().unwrap_or(100.0);
-    (1e9 / rate).ceil() as Nanos
+    Nanos::from_nanos((1e9 / rate).ceil() as u64)
 }
 
 impl Controller {
@@ -148,7 +148,7 @@ impl Controller {
     /// the periods will use.
     pub fn new(cfg: &Config, now: Nanos) -> Result<Self, SetupError> {
         let period_ns = period_ns(cfg);
-        let dt = period_ns as f64 * 1e-9;
+        let dt = period_ns.as_nanos() as f64 * 1e-9;
         let ids = node_ids(cfg)?;
         let variant = cfg.bus.variant();
         let model = Model::new(ModelConfig {
@@ -175,9 +175,9 @@ impl Controller {
         };
         let c = &cfg.control;
         let sup = Supervisor::new(SupervisorConfig {
-            command_timeout: (c.command_timeout * 1e9) as Nanos,
-            control_release_timeout: (c.control_release_timeout * 1e9) as Nanos,
-            enable_timeout: (c.enable_timeout * 1e9) as Nanos,
+            command_timeout: Nanos::from_secs_f64(c.command_timeout),
+            control_release_timeout: Nanos::from_secs_f64(c.control_release_timeout),
+            enable_timeout: Nanos::from_secs_f64(c.enable_timeout),
             max_frequency: g.max_frequency,
             max_turn: g.max_turn,
             max_pitch: g.max_pitch,
@@ -225,7 +225,7 @@ impl Controller {
             counter: 0,
             mode_before: Mode::Idle,
             setpoint_skip: NodeSet::empty(),
-            last_command_sent: 0,
+            last_command_sent: Nanos::ZERO,
             model_failed: false,
             last_model_error: None,
             report: StepReport::default(),
@@ -421,7 +421,7 @@ impl Controller {
             }
         });
         // 2. Supervisor.
-        let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
+        let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
         let report = self.table.observe(now, hb_timeout);
         let configured = NodeSet::of(self.ids.iter().copied());
         let obs = Observations {
@@ -592,7 +592,7 @@ impl Controller {
                         // not real-time (no SCHED_FIFO) can stall for tens of
                         // milliseconds on a busy machine.
                         0.0 => (5 * self.period_ns).max(100 * MS),
-                        s => (s * 1e9) as Nanos,
+                        s => Nanos::from_secs_f64(s),
                     };
                     let ms = (wd / MS).clamp(
                         message::WATCHDOG_RANGE_MS.0 as u64,
@@ -687,7 +687,7 @@ impl Controller {
     ) {
         let s = &mut self.snapshot;
         s.sequence += 1;
-        s.time_ns = now.saturating_sub(self.started);
+        s.time_ns = now.saturating_sub(self.started).as_nanos();
         s.mode = self.sup.mode() as u8;
         s.cause = self.sup.cause().code();
         s.feedforward_dropped = ff_dropped as u8;
@@ -736,7 +736,7 @@ impl Controller {
                 js.measured_yaw_torque = fb.axes[1].torque;
             }
             js.node_state = e.state.map(|s| s as u8).unwrap_or(0xFF);
-            let hb_timeout = (self.cfg.control.heartbeat_timeout * 1e9) as Nanos;
+            let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
             js.node_alive =
                 e.last_heartbeat
                     .is_some_and(|t| now.saturating_sub(t) <= hb_timeout) as u8;

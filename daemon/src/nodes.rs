@@ -219,7 +219,7 @@ mod tests {
     use anguilla_protocol::frame::Id;
     use anguilla_protocol::message::{AxisFeedback, Heartbeat};
 
-    const MS: Nanos = 1_000_000;
+    const MS: Nanos = Nanos::from_millis(1);
 
     fn ids(n: u8) -> Vec<NodeId> {
         (1..=n).map(|i| NodeId::new(i).unwrap()).collect()
@@ -240,7 +240,7 @@ mod tests {
 
     #[test]
     fn heartbeats_and_feedback_update_the_table() {
-        let mut t = NodeTable::new(Variant::Classic, &ids(3), 0);
+        let mut t = NodeTable::new(Variant::Classic, &ids(3), Nanos::ZERO);
         for n in 1..=3 {
             t.ingest(MS, &hb(n, NodeState::Enabled));
         }
@@ -266,9 +266,9 @@ mod tests {
 
     #[test]
     fn silence_faults_and_estops_are_reported_by_node_bit() {
-        let mut t = NodeTable::new(Variant::Classic, &ids(3), 0);
-        t.ingest(0, &hb(1, NodeState::Enabled));
-        t.ingest(0, &hb(2, NodeState::Fault));
+        let mut t = NodeTable::new(Variant::Classic, &ids(3), Nanos::ZERO);
+        t.ingest(Nanos::ZERO, &hb(1, NodeState::Enabled));
+        t.ingest(Nanos::ZERO, &hb(2, NodeState::Fault));
         t.ingest(400 * MS, &hb(1, NodeState::Enabled));
         t.ingest(400 * MS, &hb(3, NodeState::EStop));
         let r = t.observe(400 * MS, 350 * MS);
@@ -281,14 +281,17 @@ mod tests {
 
     #[test]
     fn junk_is_counted_and_an_estop_frame_is_noticed() {
-        let mut t = NodeTable::new(Variant::Classic, &ids(3), 0);
-        t.ingest(0, &Frame::new_standard(0x7FF, &[1, 2]).unwrap());
-        t.ingest(0, &Frame::new(Id::extended(5).unwrap(), &[]).unwrap());
-        t.ingest(0, &hb(9, NodeState::Enabled)); // not a configured node
+        let mut t = NodeTable::new(Variant::Classic, &ids(3), Nanos::ZERO);
+        t.ingest(Nanos::ZERO, &Frame::new_standard(0x7FF, &[1, 2]).unwrap());
+        t.ingest(
+            Nanos::ZERO,
+            &Frame::new(Id::extended(5).unwrap(), &[]).unwrap(),
+        );
+        t.ingest(Nanos::ZERO, &hb(9, NodeState::Enabled)); // not a configured node
         assert_eq!(t.counters().malformed, 3);
         assert!(t.counters().last_error.is_some());
         assert!(!t.take_bus_estop());
-        t.ingest(0, &Frame::new_standard(0x000, &[]).unwrap());
+        t.ingest(Nanos::ZERO, &Frame::new_standard(0x000, &[]).unwrap());
         assert!(t.take_bus_estop());
         assert!(!t.take_bus_estop(), "taken once");
     }

@@ -52,7 +52,7 @@ pub fn recorder(
     let iface = Interface::new("anguilla0").map_err(|_| std::io::ErrorKind::InvalidInput)?;
     let mut start = None;
     let stamp = |now: Nanos, start: Option<Nanos>| {
-        let t = epoch + now.saturating_sub(start.unwrap_or(now));
+        let t = epoch + now.saturating_sub(start.unwrap_or(now)).as_nanos();
         Timestamp {
             secs: t / 1_000_000_000,
             micros: ((t % 1_000_000_000) / 1000) as u32,

@@ -186,7 +186,7 @@ impl Running {
 
 /// How long a smooth stop may take at shutdown before the actuators are
 /// disabled anyway.
-const SHUTDOWN_GRACE: Nanos = 3_000_000_000;
+const SHUTDOWN_GRACE: Nanos = Nanos::from_millis(3_000);
 
 /// Starts the daemon on `bus` with `cfg`; `stop` ends it (smoothly).
 pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Running, RunError> {
@@ -227,8 +227,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     let cmd_estops = estops.clone();
     // Ten periods, and a second to spare for a loop that overruns: past
     // that the loop is stalled and the clients' own timeouts report it.
-    let reply_wait =
-        Duration::from_secs(1) + 10 * Duration::from_nanos(crate::control::period_ns(&cfg));
+    let reply_wait = Duration::from_secs(1) + 10 * Duration::from(crate::control::period_ns(&cfg));
     helpers.push(
         std::thread::Builder::new()
             .name("anguilla-command".into())
@@ -707,12 +706,13 @@ fn control_loop(
     for w in rt::apply(&rt_req) {
         tracing::warn!("{w}");
     }
-    let mut ctl = Controller::new(&cfg, rt::monotonic_ns())?;
+    let mut ctl = Controller::new(&cfg, Nanos::from_nanos(rt::monotonic_ns()))?;
     let states = recording.map(|(records, states)| {
         ctl.set_tap(records);
         states
     });
-    let period = ctl.period_ns();
+    // The loop's clock arithmetic is in raw nanoseconds, as `rt` reads them.
+    let period = ctl.period_ns().as_nanos();
     tracing::info!(
         "control loop at {:.1} Hz ({} joints, bus {})",
         1e9 / period as f64,
@@ -747,7 +747,7 @@ fn control_loop(
             deadline += skipped * period;
             emit(Event::Overrun { skipped }, &mut dropped);
         }
-        let now = wake;
+        let now = Nanos::from_nanos(wake);
         // Out-of-band E-stops first, then operator commands, then dead
         // clients, then the period itself.
         let estops_now = estops.load(Ordering::Acquire);

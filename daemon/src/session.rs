@@ -278,8 +278,9 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
             s.parse::<u64>()
                 .map_err(|_| err(n, format!("{what} '{s}' is not a whole number")))
         };
+        let time = |s: &str, what: &str| num(s, what).map(Nanos::from_nanos);
         match tag {
-            "start" => start = Some(num(rest, "start time")?),
+            "start" => start = Some(time(rest, "start time")?),
             "config" => {
                 config_hash = Some(u64::from_str_radix(rest, 16).map_err(|_| {
                     err(n, format!("config hash '{rest}' (expected 16 hex digits)"))
@@ -299,7 +300,7 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
                         "command: expected '<ns> <origin> <node> <hex>'".into(),
                     ));
                 };
-                let t = num(t, "command time")?;
+                let t = time(t, "command time")?;
                 let id = |s: &str, what: &str| {
                     u128::from_str_radix(s, 16)
                         .map_err(|_| err(n, format!("{what} '{s}' (expected 32 hex digits)")))
@@ -330,12 +331,12 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
                 let (t, rest) = rest
                     .split_once(' ')
                     .ok_or_else(|| err(n, "dead node: expected '<ns> <hex>'".into()))?;
-                let t = num(t, "time")?;
+                let t = time(t, "time")?;
                 let id = u128::from_str_radix(rest, 16)
                     .map_err(|_| err(n, format!("node id '{rest}' (expected 32 hex digits)")))?;
                 pending.push(Record::Dead(t, id));
             }
-            "S" => pending.push(Record::Shutdown(num(rest, "shutdown time")?)),
+            "S" => pending.push(Record::Shutdown(time(rest, "shutdown time")?)),
             "P" => {
                 let (t, b) = rest
                     .split_once(' ')
@@ -346,7 +347,7 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
                     .and_then(BusState::from_code)
                     .ok_or_else(|| err(n, format!("bus state {code} (expected 0, 1, 2 or 3)")))?;
                 periods.push(PeriodIn {
-                    now: num(t, "period time")?,
+                    now: time(t, "period time")?,
                     bus,
                     before: std::mem::take(&mut pending),
                     ..Default::default()
@@ -408,12 +409,12 @@ mod tests {
         let path = dir.join("session.log");
         let mut text = Vec::new();
         write_header(&mut text, "x = 1\n").unwrap();
-        write_line(&mut text, &Record::Start(5)).unwrap();
+        write_line(&mut text, &Record::Start(Nanos::from_nanos(5))).unwrap();
         for (i, s) in BusState::ALL.into_iter().enumerate() {
             write_line(
                 &mut text,
                 &Record::Period {
-                    now: 10 + i as u64,
+                    now: Nanos::from_nanos(10 + i as u64),
                     bus: s,
                 },
             )
@@ -429,7 +430,7 @@ mod tests {
             BusState::ALL
                 .into_iter()
                 .enumerate()
-                .map(|(i, s)| (10 + i as u64, s))
+                .map(|(i, s)| (Nanos::from_nanos(10 + i as u64), s))
                 .collect::<Vec<_>>()
         );
         assert_eq!(session.config_hash, Some(fnv1a(b"x = 1\n")));

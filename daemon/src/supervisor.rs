@@ -111,14 +111,14 @@ pub struct SupervisorConfig {
 impl Default for SupervisorConfig {
     fn default() -> Self {
         Self {
-            command_timeout: 500_000_000,
-            control_release_timeout: 3_000_000_000,
-            enable_timeout: 1_000_000_000,
+            command_timeout: Nanos::from_millis(500),
+            control_release_timeout: Nanos::from_millis(3_000),
+            enable_timeout: Nanos::from_millis(1_000),
             max_frequency: 3.0,
             max_turn: 4.0,
             max_pitch: 2.0,
             fault_policy: FaultPolicy::Hold,
-            clear_settle_time: 300_000_000,
+            clear_settle_time: Nanos::from_millis(300),
         }
     }
 }
@@ -165,7 +165,7 @@ impl Supervisor {
             seq_count: 0,
             faults: FaultSet::default(),
             swim: SwimParams::REST,
-            entered: 0,
+            entered: Nanos::ZERO,
             estop_pending: false,
             clear_pending: false,
             operator_silent_count: 0,
@@ -537,7 +537,7 @@ impl Supervisor {
 mod tests {
     use super::*;
 
-    const MS: Nanos = 1_000_000;
+    const MS: Nanos = Nanos::from_millis(1);
     const A: ClientId = 0xA;
     const B: ClientId = 0xB;
 
@@ -568,7 +568,7 @@ mod tests {
     /// A supervisor swimming under client A at t = 3 ms.
     fn swimming() -> Supervisor {
         let mut s = Supervisor::new(SupervisorConfig::default());
-        s.command(0, A, 1, Command::TakeControl).unwrap();
+        s.command(Nanos::ZERO, A, 1, Command::TakeControl).unwrap();
         s.command(MS, A, 2, Command::Enable).unwrap();
         s.tick(2 * MS, &ok_obs());
         assert_eq!(s.mode(), Mode::Ready);
@@ -808,8 +808,8 @@ mod tests {
             ..Default::default()
         };
         let mut s = Supervisor::new(cfg);
-        s.command(0, A, 1, Command::TakeControl).unwrap();
-        s.command(0, A, 2, Command::Enable).unwrap();
+        s.command(Nanos::ZERO, A, 1, Command::TakeControl).unwrap();
+        s.command(Nanos::ZERO, A, 2, Command::Enable).unwrap();
         s.tick(MS, &ok_obs());
         let d = s.tick(
             2 * MS,
@@ -879,8 +879,8 @@ mod tests {
     #[test]
     fn enable_times_out_into_a_fault() {
         let mut s = Supervisor::new(SupervisorConfig::default());
-        s.command(0, A, 1, Command::TakeControl).unwrap();
-        s.command(0, A, 2, Command::Enable).unwrap();
+        s.command(Nanos::ZERO, A, 1, Command::TakeControl).unwrap();
+        s.command(Nanos::ZERO, A, 2, Command::Enable).unwrap();
         let none = Observations::default();
         s.tick(999 * MS, &none);
         assert_eq!(s.mode(), Mode::Enabling);
@@ -920,8 +920,8 @@ mod tests {
     #[test]
     fn invalid_transitions_say_what_to_do() {
         let mut s = Supervisor::new(SupervisorConfig::default());
-        s.command(0, A, 1, Command::TakeControl).unwrap();
-        let r = s.command(0, A, 2, swim()).unwrap_err();
+        s.command(Nanos::ZERO, A, 1, Command::TakeControl).unwrap();
+        let r = s.command(Nanos::ZERO, A, 2, swim()).unwrap_err();
         assert_eq!(
             r.to_string(),
             "'swim' is not valid in mode idle: enable and wait for ready"

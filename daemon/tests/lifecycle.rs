@@ -35,9 +35,9 @@ fn enable_swim_stop_and_the_joints_follow() {
     assert_eq!(r.command(1, swim(1.0, 1.0)).accepted, 1);
     let mut max_err = 0.0f64;
     let mut max_angle = 0.0f64;
-    for i in 0..(4.0e9 / r.ctl.period_ns() as f64) as usize {
+    for i in 0..(4.0e9 / r.ctl.period_ns().as_nanos() as f64) as usize {
         r.step();
-        if r.now > 3_000_000_000 {
+        if r.now.as_nanos() > 3_000_000_000 {
             for (j, n) in r.nodes.iter().enumerate() {
                 let cmd = n.active_setpoint()[1].position as f64;
                 let (th, _, _) = n.kinematics(1);

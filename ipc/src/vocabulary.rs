@@ -4,8 +4,9 @@
 
 use core::fmt;
 
-/// Monotonic time in nanoseconds, from the daemon loop's clock.
-pub type Nanos = u64;
+/// Monotonic time in nanoseconds, from the daemon loop's clock (the one
+/// time type of the bus, defined in `anguilla_protocol::time`).
+pub use anguilla_protocol::time::Nanos;
 
 /// A client's identity: the unique id of the iceoryx2 client port its
 /// requests arrive on (chosen by iceoryx2, not by the client).

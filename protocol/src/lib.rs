@@ -11,8 +11,10 @@
 //! one decoder per message), all re-exported from [`message`]; the field
 //! descriptors the layouts are built from ([`signal`]); the bus-load
 //! arithmetic ([`budget`]); the DBC file generator ([`dbc`]); can-utils'
-//! candump log format ([`candump`]); and the node's state machine as a rule
-//! table ([`behaviour`]). `protocol/README.md` is the contract a node's
+//! candump log format ([`candump`]); the node's state machine as a rule
+//! table ([`behaviour`]); and time on the bus ([`time::Nanos`], the one
+//! nanosecond type of the daemon's clock, the simulated firmware's clock,
+//! watchdog timeouts and heartbeat periods). `protocol/README.md` is the contract a node's
 //! firmware implements.
 //!
 //! ```
@@ -37,6 +39,7 @@ pub mod doc;
 pub mod frame;
 pub mod message;
 pub mod signal;
+pub mod time;
 
 pub use frame::{ExtendedId, Frame, FrameError, Id, Kind, StandardId};
 pub use message::{DecodeError, EncodeError, Message, NodeId, NodeSet, Variant, decode};

@@ -20,13 +20,12 @@ use anguilla_protocol::message::{
 use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive};
 use crate::rng::Rng;
 
-/// Nanoseconds of simulated time.
-pub type Nanos = u64;
+/// Nanoseconds of simulated time (the bus's one time type).
+pub use anguilla_protocol::time::Nanos;
 
-const MS: Nanos = 1_000_000;
 /// Servo integration step inside the node (s).
 const SERVO_DT: f64 = 2.5e-4;
-const SERVO_DT_NS: Nanos = 250_000;
+const SERVO_DT_NS: Nanos = Nanos::from_nanos(250_000);
 
 /// Configuration of one simulated node.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -253,7 +252,7 @@ impl VertebraNode {
         }
         self.hb_counter = self.hb_counter.wrapping_add(1);
         self.warnings = 0;
-        self.next_heartbeat = now + message::HEARTBEAT_PERIOD_MS as Nanos * MS;
+        self.next_heartbeat = now + Nanos::from_millis(message::HEARTBEAT_PERIOD_MS.into());
     }
 
     fn drive(&self, axis: usize) -> Drive {
@@ -303,7 +302,7 @@ impl VertebraNode {
                 self.go(NodeState::Disabled, t, tx);
             }
             if self.state == NodeState::Enabled
-                && t.saturating_sub(self.last_applied) > self.watchdog_ms as Nanos * MS
+                && t.saturating_sub(self.last_applied) > Nanos::from_millis(self.watchdog_ms.into())
             {
                 self.latched |= ErrorBits::WATCHDOG;
                 self.counters.watchdog_expiries += 1;
@@ -556,6 +555,8 @@ mod tests {
     use anguilla_protocol::frame::Id;
     use anguilla_protocol::message::{Axis, FIRST_UNUSED_ID, Function, Setpoint};
 
+    const MS: Nanos = Nanos::from_millis(1);
+
     const ID: u8 = 3;
 
     /// Node `ID`, default actuators, booting in 20 ms.
@@ -580,9 +581,9 @@ mod tests {
         fn new(variant: Variant) -> Self {
             let cfg = test_config(variant);
             let mut b = Self {
-                node: VertebraNode::new(cfg, 0),
+                node: VertebraNode::new(cfg, Nanos::ZERO),
                 out: Vec::new(),
-                now: 0,
+                now: Nanos::ZERO,
                 variant,
             };
             b.wait(30 * MS);
@@ -688,9 +689,9 @@ mod tests {
         let variant = Variant::Classic;
         if state == NodeState::Boot {
             return Bench {
-                node: VertebraNode::new(test_config(variant), 0),
+                node: VertebraNode::new(test_config(variant), Nanos::ZERO),
                 out: Vec::new(),
-                now: 0,
+                now: Nanos::ZERO,
                 variant,
             };
         }
@@ -771,7 +772,7 @@ mod tests {
     #[test]
     fn boots_into_disabled_with_heartbeats() {
         let cfg = test_config(Variant::Classic);
-        let mut node = VertebraNode::new(cfg, 0);
+        let mut node = VertebraNode::new(cfg, Nanos::ZERO);
         let mut out = Vec::new();
         node.advance(250 * MS, &mut |f| out.push(f));
         let states: Vec<_> = out
@@ -1076,7 +1077,7 @@ mod tests {
     #[test]
     fn feedback_on_sync_except_while_booting() {
         let cfg = test_config(Variant::Classic);
-        let mut node = VertebraNode::new(cfg, 0);
+        let mut node = VertebraNode::new(cfg, Nanos::ZERO);
         let mut out = Vec::new();
         let sync = Message::Sync { counter: 1 }
             .encode(Variant::Classic)

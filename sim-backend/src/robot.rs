@@ -251,10 +251,6 @@ impl std::fmt::Debug for SimRobot {
     }
 }
 
-fn nanos(d: Duration) -> Nanos {
-    d.as_nanos().min(u64::MAX as u128) as u64
-}
-
 impl SimRobot {
     /// A robot on `bus`, powered on at `start` (the bus clock's time; zero
     /// for a fresh clock). Bus faults of scenarios are refused on this bus:
@@ -288,7 +284,7 @@ impl SimRobot {
         if !cfg.actuator.ideal {
             plant.couple_servos(&vec![[cfg.actuator.inertia; 2]; n])?;
         }
-        let start = nanos(start);
+        let start = Nanos::from(start);
         let mut rng = Rng::new(cfg.seed);
         let nodes = cfg
             .node_ids
@@ -298,7 +294,7 @@ impl SimRobot {
                     id: NodeId::new(id).expect("validated"),
                     variant: cfg.variant,
                     axes: [cfg.actuator; 2],
-                    boot_time: nanos(cfg.boot_time),
+                    boot_time: Nanos::from(cfg.boot_time),
                     seed: rng.next_u64(),
                 };
                 VertebraNode::new(nc, start)
@@ -306,7 +302,7 @@ impl SimRobot {
             .collect();
         let stamps = bus.capabilities().timestamps;
         Ok(Self {
-            tick: nanos(cfg.tick),
+            tick: Nanos::from(cfg.tick),
             nodes,
             plant,
             rng,
@@ -359,7 +355,7 @@ impl SimRobot {
 
     /// Time of the last tick.
     pub fn time(&self) -> Duration {
-        Duration::from_nanos(self.time)
+        Duration::from(self.time)
     }
 
     /// The nodes, joint 1 first.
@@ -421,7 +417,7 @@ impl SimRobot {
     pub fn truth_into(&self, t: &mut Truth) {
         let h: &HeadState = self.plant.head();
         let q = h.orientation.quaternion();
-        t.time = Duration::from_nanos(self.time);
+        t.time = Duration::from(self.time);
         t.position = [h.position.x, h.position.y, h.position.z];
         t.orientation = [q.w, q.i, q.j, q.k];
         t.velocity = [h.velocity.x, h.velocity.y, h.velocity.z];
@@ -454,14 +450,14 @@ impl SimRobot {
     /// Hands over a frame received outside [`step_until`](Self::step_until)
     /// (by a runner waiting on the bus), stamped at `at`.
     pub fn accept(&mut self, r: Received, at: Duration) {
-        let ts = self.stamp(&r, nanos(at));
+        let ts = self.stamp(&r, Nanos::from(at));
         self.pending.push_back((ts, r.frame));
         self.stats.frames_in += 1;
     }
 
     fn stamp(&self, r: &Received, now: Nanos) -> Nanos {
         let ts = match (self.stamps, r.timestamp) {
-            (TimestampBase::BusClock, Some(t)) => nanos(t),
+            (TimestampBase::BusClock, Some(t)) => Nanos::from(t),
             _ => now,
         };
         let floor = self
@@ -476,7 +472,7 @@ impl SimRobot {
     /// physics in ticks, applies due scenario events and sends the nodes'
     /// frames. Never blocks.
     pub fn step_until(&mut self, now: Duration) {
-        let now = nanos(now);
+        let now = Nanos::from(now);
         // Take everything the bus has.
         {
             let (pending, stamps, time, stats) =
@@ -484,7 +480,7 @@ impl SimRobot {
             let mut floor = pending.back().map_or(time, |p| p.0.max(time));
             let r = self.bus.drain(&mut |r: Received| {
                 let ts = match (stamps, r.timestamp) {
-                    (TimestampBase::BusClock, Some(t)) => nanos(t),
+                    (TimestampBase::BusClock, Some(t)) => Nanos::from(t),
                     _ => now,
                 };
                 let ts = ts.clamp(floor, now.max(floor));
@@ -608,7 +604,7 @@ impl SimRobot {
             }
         }
         while let Some(e) = self.scenario.events.get(self.next_event).copied() {
-            let at = self.start + nanos(e.at);
+            let at = self.start + Nanos::from(e.at);
             if at > t {
                 break;
             }
@@ -652,7 +648,7 @@ impl SimRobot {
                     NodeFault::Silent(d) => {
                         self.nodes[k].set_silent(true);
                         if let Some(d) = d {
-                            self.undo.push((at + nanos(d), Undo::Speak(k)));
+                            self.undo.push((at + Nanos::from(d), Undo::Speak(k)));
                         }
                     }
                     NodeFault::Speak => self.nodes[k].set_silent(false),
@@ -675,7 +671,7 @@ impl SimRobot {
                 }
             }
             Action::Bus(BusFault::Flood { count, over }) => {
-                let ticks = (nanos(over) / self.tick).max(1);
+                let ticks = (Nanos::from(over) / self.tick).max(1);
                 self.flood = Some(Flood {
                     left: count,
                     ticks_left: ticks,
@@ -690,7 +686,7 @@ impl SimRobot {
                     BusFault::Corrupt(n) => bus.corrupt_next(n),
                     BusFault::BusOff(d) => {
                         bus.force_state(*id, BusState::BusOff);
-                        self.undo.push((at + nanos(d), Undo::BusOn));
+                        self.undo.push((at + Nanos::from(d), Undo::BusOn));
                     }
                     BusFault::Clear => bus.clear_faults(),
                     BusFault::Flood { .. } => {}
@@ -716,7 +712,7 @@ impl SimRobot {
                 now = self.time() + MAX_CATCH_UP;
                 // Frames stamped before the slip (taken in during the
                 // stall) are due now, not a stall's length from now.
-                let cap = nanos(now);
+                let cap = Nanos::from(now);
                 for p in &mut self.pending {
                     p.0 = p.0.min(cap);
                 }
@@ -725,7 +721,7 @@ impl SimRobot {
             let sim_now = || clock.now().saturating_sub(slip);
             self.step_until(now);
             observe(self);
-            let next = Duration::from_nanos(self.time + self.tick);
+            let next = Duration::from(self.time + self.tick);
             match self.bus.recv(next.saturating_sub(sim_now())) {
                 Ok(Some(r)) => self.accept(r, sim_now()),
                 Ok(None) => {}

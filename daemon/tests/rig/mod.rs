@@ -5,7 +5,7 @@
 use anguilla_daemon::config::Config;
 use anguilla_daemon::control::Controller;
 use anguilla_daemon::ipc::{CommandReply, CommandRequest, Envelope};
-use anguilla_daemon::supervisor::Command;
+use anguilla_daemon::supervisor::{Command, Nanos};
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::{MemBus, MemParticipant};
 use anguilla_protocol::frame::Frame;
@@ -65,7 +65,7 @@ pub struct Rig {
     pub bus: MemBus,
     pub nodes: Vec<VertebraNode>,
     node_port: MemParticipant,
-    pub now: u64,
+    pub now: Nanos,
     seqs: [u32; 8],
     out: Vec<Frame>,
 }
@@ -76,7 +76,7 @@ impl Rig {
         let bus = MemBus::builder(name).capacity(4096).build();
         let host = bus.participant();
         let node_port = bus.participant();
-        let ctl = Controller::new(cfg, 0).expect("controller");
+        let ctl = Controller::new(cfg, Nanos::ZERO).expect("controller");
         let variant = cfg.bus.variant();
         let nodes = cfg
             .node_ids()
@@ -88,10 +88,10 @@ impl Rig {
                         id: NodeId::new(id).unwrap(),
                         variant,
                         axes: [ActuatorParams::default(); 2],
-                        boot_time: 20_000_000,
+                        boot_time: Nanos::from_millis(20),
                         seed: i as u64,
                     },
-                    0,
+                    Nanos::ZERO,
                 )
             })
             .collect();
@@ -101,7 +101,7 @@ impl Rig {
             bus,
             nodes,
             node_port,
-            now: 0,
+            now: Nanos::ZERO,
             seqs: [0; 8],
             out: Vec::with_capacity(1024),
         }
@@ -134,7 +134,7 @@ impl Rig {
     }
 
     pub fn run_for(&mut self, seconds: f64) {
-        let periods = (seconds * 1e9 / self.ctl.period_ns() as f64).ceil() as usize;
+        let periods = (seconds * 1e9 / self.ctl.period_ns().as_nanos() as f64).ceil() as usize;
         for _ in 0..periods {
             self.step();
         }
