@@ -69,10 +69,11 @@ fn bad_arguments_are_errors_that_name_them() {
     assert!(err.contains("--model-nodes 1: expected"), "{err}");
 }
 
-#[test]
-fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
+/// `anguilla sim --slcan-pty ARGS` started, and the device path it prints.
+fn sim_behind_a_pty(args: &[&str]) -> (std::process::Child, String) {
     let mut sim = anguilla()
-        .args(["sim", "--slcan-pty", "--duration", "20"])
+        .args(["sim", "--slcan-pty"])
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -92,6 +93,12 @@ fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
         }
     }
     let device = device.expect("the sim prints its device path");
+    (sim, device)
+}
+
+#[test]
+fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
+    let (mut sim, device) = sim_behind_a_pty(&["--duration", "20"]);
     let log = std::env::temp_dir().join(format!("anguilla-dump-{}.log", std::process::id()));
     let (ok, out, err) = run(&[
         "dump",
@@ -130,27 +137,7 @@ fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
 fn conform_passes_the_simulated_node_behind_an_slcan_pty() {
     // The firmware author's path: another process's node, over a real bus
     // driver (SLCAN on a pseudo-terminal), in real time.
-    let mut sim = anguilla()
-        .args(["sim", "--slcan-pty", "--joints", "3", "--duration", "120"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("sim starts");
-    let mut lines = BufReader::new(sim.stdout.take().unwrap()).lines();
-    let deadline = Instant::now() + Duration::from_secs(15);
-    let mut device = None;
-    while device.is_none() && Instant::now() < deadline {
-        match lines.next() {
-            Some(Ok(l)) => {
-                device = l
-                    .split_whitespace()
-                    .find(|w| w.starts_with("/dev/"))
-                    .map(|s| s.trim_end_matches(')').to_string())
-            }
-            _ => break,
-        }
-    }
-    let device = device.expect("the sim prints its device path");
+    let (mut sim, device) = sim_behind_a_pty(&["--joints", "3", "--duration", "120"]);
     let (ok, out, err) = run(&[
         "conform",
         "--bus",

@@ -441,6 +441,20 @@ impl<R: BufRead> Reader<R> {
     }
 }
 
+impl<R: BufRead> Reader<R> {
+    /// Reads up to `limit` bytes of a line into the buffer; a read error
+    /// ends the reader.
+    fn read_part(&mut self, limit: usize) -> Result<usize, LogErrorKind> {
+        (&mut self.inner)
+            .take(limit as u64)
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|e| {
+                self.done = true;
+                LogErrorKind::Io(e.kind())
+            })
+    }
+}
+
 impl<R: BufRead> Iterator for Reader<R> {
     type Item = Result<LogEntry, LogError>;
 
@@ -452,41 +466,23 @@ impl<R: BufRead> Iterator for Reader<R> {
             self.buf.clear();
             self.line += 1;
             let line = self.line;
-            match (&mut self.inner)
-                .take(MAX_LINE as u64 + 1)
-                .read_until(b'\n', &mut self.buf)
-            {
+            match self.read_part(MAX_LINE + 1) {
                 Ok(0) => {
                     self.done = true;
                     return None;
                 }
                 Ok(_) => {}
-                Err(e) => {
-                    self.done = true;
-                    return Some(Err(LogError {
-                        line,
-                        kind: LogErrorKind::Io(e.kind()),
-                    }));
-                }
+                Err(kind) => return Some(Err(LogError { line, kind })),
             }
             if self.buf.len() > MAX_LINE && self.buf.last() != Some(&b'\n') {
                 // Skip the rest of the over-long line, without holding it.
                 loop {
                     self.buf.clear();
-                    match (&mut self.inner)
-                        .take(MAX_LINE as u64)
-                        .read_until(b'\n', &mut self.buf)
-                    {
+                    match self.read_part(MAX_LINE) {
                         Ok(0) => break,
                         Ok(_) if self.buf.last() == Some(&b'\n') => break,
                         Ok(_) => {}
-                        Err(e) => {
-                            self.done = true;
-                            return Some(Err(LogError {
-                                line,
-                                kind: LogErrorKind::Io(e.kind()),
-                            }));
-                        }
+                        Err(kind) => return Some(Err(LogError { line, kind })),
                     }
                 }
                 return Some(Err(LogError {

@@ -25,13 +25,11 @@ fn text(o: &Output) -> String {
     )
 }
 
-#[test]
-fn ctl_drives_a_session_and_says_how_it_ended() {
-    let _dog = Watchdog::new("ctl", Duration::from_secs(180));
-    let prefix = format!("anguilla-ctl/session-{}", std::process::id());
-    let config = std::env::temp_dir().join(format!("anguilla-ctl-{}.toml", std::process::id()));
+/// `anguilla run` (the built-in robot) serving `prefix`, once it answers.
+fn daemon(prefix: &str, tag: &str) -> Killed {
+    let config = std::env::temp_dir().join(format!("anguilla-{tag}-{}.toml", std::process::id()));
     std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
-    let _d = Killed(
+    let d = Killed(
         Proc::new(anguilla_bin())
             .args(["run", "--quiet", "--config"])
             .arg(&config)
@@ -41,8 +39,17 @@ fn ctl_drives_a_session_and_says_how_it_ended() {
             .unwrap(),
     );
     poll_until("the daemon up", Duration::from_secs(20), || {
-        (ctl(&prefix, &["status"]).status.code() == Some(0)).then_some(())
+        (ctl(prefix, &["status"]).status.code() == Some(0)).then_some(())
     });
+    let _ = std::fs::remove_file(&config);
+    d
+}
+
+#[test]
+fn ctl_drives_a_session_and_says_how_it_ended() {
+    let _dog = Watchdog::new("ctl", Duration::from_secs(180));
+    let prefix = format!("anguilla-ctl/session-{}", std::process::id());
+    let _d = daemon(&prefix, "ctl");
     // A refusal: exit 1 with the daemon's reason.
     let o = ctl(&prefix, &["reset"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
@@ -132,20 +139,7 @@ fn monitor_json_streams_paced_states() {
     );
     assert!(o.stdout.is_empty());
 
-    let config = std::env::temp_dir().join(format!("anguilla-mon-{}.toml", std::process::id()));
-    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
-    let _d = Killed(
-        Proc::new(anguilla_bin())
-            .args(["run", "--quiet", "--config"])
-            .arg(&config)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    poll_until("the daemon up", Duration::from_secs(20), || {
-        (ctl(&prefix, &["status"]).status.code() == Some(0)).then_some(())
-    });
+    let _d = daemon(&prefix, "mon");
     let start = std::time::Instant::now();
     let o = Proc::new(anguilla_bin())
         .args([
@@ -154,7 +148,6 @@ fn monitor_json_streams_paced_states() {
         .output()
         .unwrap();
     let took = start.elapsed();
-    let _ = std::fs::remove_file(&config);
     assert!(o.status.success(), "{}", text(&o));
     let seqs: Vec<u64> = String::from_utf8_lossy(&o.stdout)
         .lines()
