@@ -14,7 +14,8 @@
 //! candump log format ([`candump`]); the node's state machine as a rule
 //! table ([`behaviour`]); and time on the bus ([`time::Nanos`], the one
 //! nanosecond type of the daemon's clock, the simulated firmware's clock,
-//! watchdog timeouts and heartbeat periods). `protocol/README.md` is the contract a node's
+//! watchdog timeouts and heartbeat periods); and the wire codec of a bought
+//! drive family, ODrive's CANSimple ([`odrive`]). `protocol/README.md` is the contract a node's
 //! firmware implements.
 //!
 //! ```
@@ -38,6 +39,7 @@ pub mod dbc;
 pub mod doc;
 pub mod frame;
 pub mod message;
+pub mod odrive;
 pub mod signal;
 pub mod time;
 

@@ -51,3 +51,40 @@ fn a_period_of_encoding_and_decoding_allocates_nothing() {
     let (v, calls) = anguilla_testkit::count(|| std::hint::black_box(vec![1u8; 16]));
     assert!(calls > 0 && v.len() == 16, "the counter counts");
 }
+
+#[test]
+fn odrive_encoding_and_decoding_allocates_nothing() {
+    use anguilla_protocol::odrive::{self, Body, Cmd, InputPos};
+    let mut decoded = 0usize;
+    let ((), calls) = anguilla_testkit::count(|| {
+        for n in 0..=63 {
+            let node = odrive::NodeId::new(n).unwrap();
+            for body in [
+                Body::SetInputPos(InputPos {
+                    input_pos: 0.3,
+                    vel_ff: 1.0,
+                    torque_ff: -0.5,
+                }),
+                Body::Request(Cmd::GetEncoderEstimates),
+                Body::Estop,
+            ] {
+                let f = odrive::Message { node, body }.encode().unwrap();
+                decoded += odrive::decode(&f).is_ok() as usize;
+            }
+        }
+        // Errors are Copy values too, on both sides.
+        let bad = anguilla_protocol::Frame::new_standard(0x023, &[0; 8]).unwrap();
+        assert!(odrive::decode(&bad).is_err());
+        let too_fast = odrive::Message {
+            node: odrive::NodeId::new(1).unwrap(),
+            body: Body::SetInputPos(InputPos {
+                input_pos: 0.0,
+                vel_ff: 100.0,
+                torque_ff: 0.0,
+            }),
+        };
+        assert!(too_fast.encode().is_err());
+    });
+    assert_eq!(decoded, 64 * 3);
+    assert_eq!(calls, 0, "odrive encode/decode called the allocator");
+}
