@@ -15,7 +15,8 @@
 //! table ([`behaviour`]); and time on the bus ([`time::Nanos`], the one
 //! nanosecond type of the daemon's clock, the simulated firmware's clock,
 //! watchdog timeouts and heartbeat periods); and the wire codec of a bought
-//! drive family, ODrive's CANSimple ([`odrive`]). `protocol/README.md` is the contract a node's
+//! drive families, ODrive's CANSimple ([`odrive`]) and CANopen CiA
+//! 301/402 ([`canopen`]). `protocol/README.md` is the contract a node's
 //! firmware implements.
 //!
 //! ```
@@ -35,6 +36,7 @@
 pub mod behaviour;
 pub mod budget;
 pub mod candump;
+pub mod canopen;
 pub mod dbc;
 pub mod doc;
 pub mod frame;

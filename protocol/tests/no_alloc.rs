@@ -88,3 +88,45 @@ fn odrive_encoding_and_decoding_allocates_nothing() {
     assert_eq!(decoded, 64 * 3);
     assert_eq!(calls, 0, "odrive encode/decode called the allocator");
 }
+
+#[test]
+fn canopen_encoding_and_decoding_allocates_nothing() {
+    use anguilla_protocol::canopen::{
+        self, AbortCode, Message, Object, SdoData, SdoRequest, SdoResponse, cia402,
+    };
+    let mut decoded = 0usize;
+    let ((), calls) = anguilla_testkit::count(|| {
+        for n in 1..=127 {
+            let node = canopen::NodeId::new(n).unwrap();
+            let object = Object::new(cia402::TARGET_POSITION, 0);
+            for m in [
+                Message::SdoRequest {
+                    node,
+                    sdo: SdoRequest::Download {
+                        object,
+                        data: SdoData::new(&(n as i32).to_le_bytes()).unwrap(),
+                    },
+                },
+                Message::SdoResponse {
+                    node,
+                    sdo: SdoResponse::Abort {
+                        object,
+                        code: AbortCode::from_raw(0x0609_0030),
+                    },
+                },
+                Message::Sync { counter: None },
+            ] {
+                decoded += canopen::decode(&m.encode()).is_ok() as usize;
+            }
+            let state = cia402::DriveState::from_statusword(0x0237).unwrap();
+            decoded += state.next_toward_enabled().is_some() as usize;
+        }
+        // Errors are Copy values too, on both sides.
+        let bad = anguilla_protocol::Frame::new_standard(0x100, &[0; 6]).unwrap();
+        assert!(canopen::decode(&bad).is_err());
+        assert!(SdoData::new(&[0; 5]).is_err());
+        assert!(canopen::NodeId::new(0).is_err());
+    });
+    assert_eq!(decoded, 127 * 4);
+    assert_eq!(calls, 0, "canopen encode/decode called the allocator");
+}
