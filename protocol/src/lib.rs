@@ -16,7 +16,7 @@
 //! nanosecond type of the daemon's clock, the simulated firmware's clock,
 //! watchdog timeouts and heartbeat periods); and the wire codec of a bought
 //! drive families, ODrive's CANSimple ([`odrive`]) and CANopen CiA
-//! 301/402 ([`canopen`]). `protocol/README.md` is the contract a node's
+//! 301/402 ([`canopen`]), and which of them a robot uses ([`Family`]). `protocol/README.md` is the contract a node's
 //! firmware implements.
 //!
 //! ```
@@ -39,11 +39,13 @@ pub mod candump;
 pub mod canopen;
 pub mod dbc;
 pub mod doc;
+pub mod family;
 pub mod frame;
 pub mod message;
 pub mod odrive;
 pub mod signal;
 pub mod time;
 
+pub use family::Family;
 pub use frame::{ExtendedId, Frame, FrameError, Id, Kind, StandardId};
 pub use message::{DecodeError, EncodeError, Message, NodeId, NodeSet, Variant, decode};

@@ -47,6 +47,7 @@
 
 pub mod actuator;
 pub mod builtin;
+pub mod device;
 pub mod node;
 pub mod plant;
 pub mod rng;

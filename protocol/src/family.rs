@@ -1,0 +1,107 @@
+//! The drive families anguilla drives: its own vertebra protocol
+//! ([`crate::message`]), CANopen CiA 402 drives ([`crate::canopen`]) and
+//! ODrive's CANSimple ([`crate::odrive`]).
+//!
+//! A vertebra node of the anguilla protocol carries a joint's two axes;
+//! a bought drive carries one axis, so a joint is two drives.
+
+use core::fmt;
+use core::str::FromStr;
+
+/// Which protocol the joints' drives speak (config `[robot] drive`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Family {
+    /// anguilla's vertebra nodes (one node, two axes, per joint).
+    #[default]
+    Anguilla,
+    /// CANopen CiA 301/402 drives in cyclic synchronous position mode (one
+    /// drive per axis).
+    Cia402,
+    /// ODrive CANSimple axes in position control, passthrough input (one
+    /// axis per node id).
+    Odrive,
+}
+
+impl Family {
+    /// Every family.
+    pub const ALL: [Family; 3] = [Family::Anguilla, Family::Cia402, Family::Odrive];
+
+    /// The name used in configuration files and on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Family::Anguilla => "anguilla",
+            Family::Cia402 => "cia402",
+            Family::Odrive => "odrive",
+        }
+    }
+
+    /// Whether a joint is two drives of this family (one per axis), rather
+    /// than one node carrying both axes.
+    pub const fn drive_per_axis(self) -> bool {
+        !matches!(self, Family::Anguilla)
+    }
+
+    /// The range of node ids a drive of this family takes.
+    pub const fn id_range(self) -> (u8, u8) {
+        match self {
+            Family::Anguilla => (1, 63),
+            Family::Cia402 => (1, crate::canopen::MAX_NODE_ID),
+            Family::Odrive => (0, crate::odrive::MAX_NODE_ID),
+        }
+    }
+
+    /// The default node ids of joint `j` (0 = head end): one node `j + 1`
+    /// for anguilla, drives `2j + 1` (pitch) and `2j + 2` (yaw) for the
+    /// bought families.
+    pub const fn default_ids(self, j: usize) -> [u8; 2] {
+        match self {
+            Family::Anguilla => [j as u8 + 1, j as u8 + 1],
+            _ => [2 * j as u8 + 1, 2 * j as u8 + 2],
+        }
+    }
+}
+
+impl fmt::Display for Family {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A family name that is none of [`Family::ALL`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown drive family {0:?} (expected \"anguilla\", \"cia402\" or \"odrive\")")]
+pub struct UnknownFamily(pub String);
+
+impl FromStr for Family {
+    type Err = UnknownFamily;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Family::ALL
+            .into_iter()
+            .find(|f| f.name() == s)
+            .ok_or_else(|| UnknownFamily(s.to_owned()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_unknown_names_are_refused() {
+        for f in Family::ALL {
+            assert_eq!(f.name().parse::<Family>(), Ok(f));
+        }
+        let e = "canopen".parse::<Family>().unwrap_err();
+        assert!(e.to_string().contains("\"canopen\""), "{e}");
+        assert!(e.to_string().contains("cia402"), "{e}");
+    }
+
+    #[test]
+    fn bought_families_put_two_drives_on_a_joint() {
+        assert_eq!(Family::Anguilla.default_ids(2), [3, 3]);
+        assert_eq!(Family::Cia402.default_ids(0), [1, 2]);
+        assert_eq!(Family::Odrive.default_ids(30), [61, 62]);
+        assert!(!Family::Anguilla.drive_per_axis());
+        assert!(Family::Odrive.drive_per_axis());
+    }
+}
