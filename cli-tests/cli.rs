@@ -545,6 +545,50 @@ fn dump_file_decodes_can_utils_and_python_can_logs_error_frames_included() {
 }
 
 #[test]
+fn dump_decodes_each_drive_family() {
+    let path = std::env::temp_dir().join(format!("anguilla-families-{}.log", std::process::id()));
+    // A CANopen SDO write of 0x6060 = 8 to node 5, a boot-up, an ODrive
+    // Set_Input_Pos to axis 1 (the odrive module's doc example).
+    std::fs::write(
+        &path,
+        "(1.0) can0 605#2F60600008000000\n(1.1) can0 705#00\n(1.2) can0 02C#0000803FF40106FF\n",
+    )
+    .unwrap();
+    let file = path.to_str().unwrap();
+    let (ok, out, err) = run(&["dump", "--drive", "cia402", "--file", file]);
+    assert!(ok, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(
+        lines[0].contains(
+            "SdoRequest { node: NodeId(5), sdo: Download { object: Object { index: 24672, sub: 0 }"
+        ),
+        "{out}"
+    );
+    assert!(
+        lines[1].contains("Heartbeat { node: NodeId(5), state: BootUp }"),
+        "{out}"
+    );
+    assert!(lines[2].contains("(not ours: COB-ID 0x02C"), "{out}");
+    let (ok, out, _) = run(&["dump", "--drive", "odrive", "--file", file]);
+    assert!(ok);
+    assert!(
+        out.lines()
+            .nth(2)
+            .unwrap()
+            .contains("SetInputPos(InputPos { input_pos: 1.0, vel_ff: 0.5, torque_ff: -0.25 })"),
+        "{out}"
+    );
+    let (ok, _, err) = run(&["dump", "--drive", "odrive", "--fd", "--file", file]);
+    assert!(!ok && err.contains("classic CAN"), "{err}");
+    let (ok, _, err) = run(&["dump", "--drive", "canopen", "--file", file]);
+    assert!(
+        !ok && err.contains("expected \"anguilla\", \"cia402\" or \"odrive\""),
+        "{err}"
+    );
+    let _ = std::fs::remove_file(&path);
+}
+
+#[test]
 fn dump_file_reports_bad_lines_by_number_and_keeps_the_good_ones() {
     let path = std::env::temp_dir().join(format!("anguilla-bad-{}.log", std::process::id()));
     let long = "(1.000000) can0 123#".to_string() + &"0".repeat(5000);

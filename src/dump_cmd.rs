@@ -1,4 +1,5 @@
-//! `anguilla dump`: print a bus's frames live, decoded with our protocol, and
+//! `anguilla dump`: print a bus's frames live, decoded with the drive
+//! family's protocol (anguilla's own, CiA 402/CANopen or ODrive CANSimple), and
 //! optionally log them in can-utils' `candump -l` format; or decode such a
 //! log offline (`--file`), with the same output.
 
@@ -6,6 +7,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Duration;
 
+use anguilla_protocol::Family;
 use anguilla_protocol::candump::{Interface, LogEntry, Reader, Record, Timestamp, Writer};
 use anguilla_protocol::message::{self, NodeSet, Variant};
 use anyhow::Context;
@@ -27,6 +29,10 @@ pub struct DumpArgs {
     /// Decode as CAN FD (default: classic CAN).
     #[arg(long)]
     fd: bool,
+    /// Decode with this family's protocol: anguilla, cia402 (CANopen) or
+    /// odrive (CANSimple).
+    #[arg(long, default_value = "anguilla", value_parser = parse_family)]
+    drive: Family,
     /// Stop after this many frames.
     #[arg(long, value_name = "N")]
     count: Option<u64>,
@@ -35,20 +41,49 @@ pub struct DumpArgs {
     duration: Option<f64>,
 }
 
+fn parse_family(s: &str) -> Result<Family, String> {
+    s.parse()
+        .map_err(|e: anguilla_protocol::family::UnknownFamily| e.to_string())
+}
+
+/// How `dump` decodes frames: the family, and for anguilla the variant.
+#[derive(Debug, Clone, Copy)]
+struct Decoder {
+    family: Family,
+    variant: Variant,
+}
+
+impl Decoder {
+    fn decode(&self, f: &anguilla_protocol::Frame) -> String {
+        let shown = match self.family {
+            Family::Anguilla => message::decode(f, self.variant, NodeSet::all())
+                .map(|m| format!("{m:?}"))
+                .map_err(|e| e.to_string()),
+            Family::Cia402 => anguilla_protocol::canopen::decode(f)
+                .map(|m| format!("{m:?}"))
+                .map_err(|e| e.to_string()),
+            Family::Odrive => anguilla_protocol::odrive::decode(f)
+                .map(|m| format!("{m:?}"))
+                .map_err(|e| e.to_string()),
+        };
+        match shown {
+            Ok(s) => s,
+            Err(e) => format!("(not ours: {e})"),
+        }
+    }
+}
+
 /// One line of `dump`'s output: the timestamp, the frame in candump
-/// notation, and what the anguilla protocol makes of it.
+/// notation, and what the family's protocol makes of it.
 fn print_line(
     out: &mut impl Write,
     ts: Timestamp,
     record: &Record,
     suffix: &str,
-    variant: Variant,
+    decoder: Decoder,
 ) -> std::io::Result<()> {
     let decoded = match record {
-        Record::Frame(f) => match message::decode(f, variant, NodeSet::all()) {
-            Ok(m) => format!("{m:?}"),
-            Err(e) => format!("(not ours: {e})"),
-        },
+        Record::Frame(f) => decoder.decode(f),
         Record::Error(e) => format!("error frame: {}", e.describe()),
     };
     let shown = format!("{record}{suffix}");
@@ -61,7 +96,7 @@ const BAD_LINES_SHOWN: usize = 20;
 /// `dump --file`: decode a candump log offline. Bad lines are reported on
 /// standard error with their numbers and skipped; the exit status is an
 /// error when there were any.
-fn run_file(path: &std::path::Path, count: Option<u64>, variant: Variant) -> anyhow::Result<()> {
+fn run_file(path: &std::path::Path, count: Option<u64>, decoder: Decoder) -> anyhow::Result<()> {
     let input: Box<dyn std::io::BufRead> = if path.as_os_str() == "-" {
         Box::new(std::io::stdin().lock())
     } else {
@@ -83,7 +118,7 @@ fn run_file(path: &std::path::Path, count: Option<u64>, variant: Variant) -> any
                 if let Some(dlc) = e.len8_dlc {
                     suffix = format!("_{dlc:X}");
                 }
-                print_line(&mut out, e.timestamp, &e.record, &suffix, variant)
+                print_line(&mut out, e.timestamp, &e.record, &suffix, decoder)
                     .context("writing to standard output")?;
             }
             Err(e) => {
@@ -120,14 +155,23 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
     }
-    let variant = if args.fd {
-        Variant::Fd
-    } else {
-        Variant::Classic
+    if args.fd && args.drive != Family::Anguilla {
+        anyhow::bail!(
+            "--fd decodes anguilla's CAN FD variant; {} drives speak classic CAN",
+            args.drive
+        );
+    }
+    let decoder = Decoder {
+        family: args.drive,
+        variant: if args.fd {
+            Variant::Fd
+        } else {
+            Variant::Classic
+        },
     };
     let spec = match (&args.bus, &args.file) {
         (_, Some(path)) => {
-            return run_file(path, args.count, variant);
+            return run_file(path, args.count, decoder);
         }
         (Some(spec), None) => spec.clone(),
         (None, None) => anyhow::bail!("give --bus SPEC (live) or --file LOG (offline)"),
@@ -168,7 +212,7 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
             secs: now.as_secs(),
             micros: now.subsec_micros(),
         };
-        if let Err(e) = print_line(&mut out, ts, &Record::Frame(r.frame), "", variant) {
+        if let Err(e) = print_line(&mut out, ts, &Record::Frame(r.frame), "", decoder) {
             write_failed = Some(e);
         }
         if let Some(w) = log.as_mut() {
