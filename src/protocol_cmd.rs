@@ -34,6 +34,10 @@ pub struct BudgetArgs {
     /// Actuated joints (one node of two axes each), 1..=63.
     #[arg(long, default_value_t = 12)]
     joints: u32,
+    /// The drives' family: anguilla (one node per joint), cia402 or odrive
+    /// (one drive per axis; classic CAN only).
+    #[arg(long, default_value = "anguilla", value_parser = parse_family)]
+    drive: anguilla_protocol::Family,
     /// The nodes' ids instead of 1..=joints, e.g. `1,7,13` (on CAN FD sparse
     /// ids take more setpoint-group frames).
     #[arg(
@@ -75,6 +79,11 @@ pub struct DbcArgs {
     /// Write to this file instead of standard output.
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+fn parse_family(s: &str) -> Result<anguilla_protocol::Family, String> {
+    s.parse()
+        .map_err(|e: anguilla_protocol::family::UnknownFamily| e.to_string())
 }
 
 /// Runs a `protocol` subcommand.
@@ -120,8 +129,15 @@ fn run_budget(a: BudgetArgs) -> anyhow::Result<()> {
         }
         set
     };
-    let b = budget::budget(nodes, a.rate, rates).context("invalid budget arguments")?;
-    let max = budget::max_rate(nodes, rates, a.max_load).context("invalid --max-load")?;
+    if a.drive.drive_per_axis() && !a.node_ids.is_empty() {
+        bail!(
+            "--node-ids applies to anguilla nodes; {} drives are counted by --joints",
+            a.drive
+        );
+    }
+    let traffic = budget::Traffic::of_family(a.drive, nodes);
+    let b = budget::budget_of(traffic, a.rate, rates).context("invalid budget arguments")?;
+    let max = budget::max_rate_of(traffic, rates, a.max_load).context("invalid --max-load")?;
     let mut out = std::io::stdout().lock();
     if a.json {
         print_json(&mut out, &b, a.max_load, max).context("writing to standard output")?;
@@ -138,10 +154,15 @@ fn print_table(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> any
     };
     writeln!(
         out,
-        "{} at {} kbit/s{data}: {} joints (nodes), {} Hz, period {:.0} us",
+        "{} at {} kbit/s{data}: {} joints ({}), {} Hz, period {:.0} us",
         b.variant,
         b.rates.nominal / 1000,
-        b.nodes.len(),
+        b.traffic.joints(),
+        match b.traffic {
+            budget::Traffic::Anguilla(_) => "nodes".to_string(),
+            budget::Traffic::Cia402 { axes } => format!("{axes} CiA 402 drives"),
+            budget::Traffic::Odrive { axes } => format!("{axes} ODrive axes"),
+        },
         b.rate,
         1e6 / b.rate
     )?;
@@ -151,7 +172,7 @@ fn print_table(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> any
     )?;
     writeln!(
         out,
-        "{:<14} {:>6} {:>12} {:>22} {:>12}",
+        "{:<21} {:>6} {:>12} {:>22} {:>12}",
         "message", "bytes", "frames/per", "bits/frame (nom+data)", "us/period"
     )?;
     for l in &b.lines {
@@ -167,7 +188,7 @@ fn print_table(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> any
         );
         writeln!(
             out,
-            "{:<14} {:>6} {:>12.2} {:>22} {:>12.1}",
+            "{:<21} {:>6} {:>12.2} {:>22} {:>12.1}",
             l.name,
             l.bytes,
             frames,
@@ -216,7 +237,7 @@ fn print_json(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> anyh
         },
         b.rates.nominal,
         b.rates.data.map_or("null".to_string(), |d| d.to_string()),
-        b.nodes.len(),
+        b.traffic.joints(),
         b.rate,
         lines.join(","),
         b.busy_per_period * 1e6,
@@ -249,6 +270,7 @@ mod tests {
     fn args() -> BudgetArgs {
         BudgetArgs {
             joints: 12,
+            drive: anguilla_protocol::Family::Anguilla,
             node_ids: Vec::new(),
             rate: 100.0,
             bitrate: 1_000_000,
@@ -273,6 +295,28 @@ mod tests {
         })
         .unwrap_err();
         assert!(format!("{e:#}").contains("3 given twice"), "{e:#}");
+    }
+
+    #[test]
+    fn bought_families_are_classic_and_counted_by_joints() {
+        use anguilla_protocol::Family;
+        for drive in [Family::Cia402, Family::Odrive] {
+            let e = run_budget(BudgetArgs {
+                drive,
+                fd: true,
+                ..args()
+            })
+            .unwrap_err();
+            assert!(format!("{e:#}").contains("classic CAN"), "{e:#}");
+            let e = run_budget(BudgetArgs {
+                drive,
+                node_ids: vec![1, 2],
+                ..args()
+            })
+            .unwrap_err();
+            assert!(format!("{e:#}").contains("--joints"), "{e:#}");
+            run_budget(BudgetArgs { drive, ..args() }).unwrap();
+        }
     }
 
     #[test]

@@ -56,23 +56,135 @@ pub enum FaultPolicyConfig {
     Disable,
 }
 
+/// `[robot] drive`: which protocol the joints' drives speak.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DriveConfig {
+    /// anguilla vertebra nodes (one node, two axes, per joint).
+    #[default]
+    Anguilla,
+    /// CANopen CiA 402 drives, one per axis.
+    Cia402,
+    /// ODrive CANSimple axes, one per axis.
+    Odrive,
+}
+
+impl DriveConfig {
+    /// The protocol crate's family.
+    pub fn family(self) -> anguilla_protocol::Family {
+        match self {
+            DriveConfig::Anguilla => anguilla_protocol::Family::Anguilla,
+            DriveConfig::Cia402 => anguilla_protocol::Family::Cia402,
+            DriveConfig::Odrive => anguilla_protocol::Family::Odrive,
+        }
+    }
+}
+
+/// `[robot.axis]`: what every axis of a bought drive family has unless
+/// its entry in `robot.axes` says otherwise.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct AxisDefaults {
+    /// +1, or −1 when the motor turns the other way from the joint.
+    pub direction: i8,
+    /// The joint angle at motor position zero (rad).
+    pub offset: f64,
+    /// Motor turns per joint turn.
+    pub gear: f64,
+    /// CiA 402: position increments per motor turn.
+    pub counts_per_turn: u32,
+    /// CiA 402: the motor's rated torque (N·m), the unit of the torque
+    /// objects; 0 reads it from the drive (0x6076).
+    pub rated_torque: f64,
+}
+
+impl Default for AxisDefaults {
+    fn default() -> Self {
+        Self {
+            direction: 1,
+            offset: 0.0,
+            gear: 1.0,
+            counts_per_turn: 65536,
+            rated_torque: 0.0,
+        }
+    }
+}
+
+/// One entry of `robot.axes`: one drive (bought families). Keys left out
+/// take `[robot.axis]`'s value.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct AxisConfig {
+    /// The drive's node id (CiA 402: 1..=127, ODrive: 0..=63); default
+    /// pitch 2j + 1, yaw 2j + 2 for joint j (0 = head end).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node: Option<u8>,
+    /// +1 or −1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub direction: Option<i8>,
+    /// Joint angle at motor zero (rad).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub offset: Option<f64>,
+    /// Motor turns per joint turn.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gear: Option<f64>,
+    /// CiA 402: increments per motor turn.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub counts_per_turn: Option<u32>,
+    /// CiA 402: rated torque (N·m), 0 = read from the drive.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rated_torque: Option<f64>,
+}
+
 /// `[robot]`: the body's actuators.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RobotConfig {
-    /// Number of actuated joints (each a pitch and a yaw axis, one node each).
+    /// Number of actuated joints (each a pitch and a yaw axis).
     pub joints: usize,
-    /// Node id of each joint from head to tail; empty means 1..=joints.
+    /// The drives' protocol.
+    pub drive: DriveConfig,
+    /// anguilla: node id of each joint from head to tail; empty means
+    /// 1..=joints.
     pub node_ids: Vec<u8>,
+    /// CiA 402: the master's own node id (its heartbeat is 0x700 + id).
+    pub master_node_id: u8,
+    /// Bought families: the axes, pitch then yaw for each joint from head
+    /// to tail (2 × joints entries), or empty for every axis at its
+    /// default id with `[robot.axis]`.
+    pub axes: Vec<AxisConfig>,
+    /// Bought families: every axis's defaults.
+    pub axis: AxisDefaults,
 }
 
 impl Default for RobotConfig {
     fn default() -> Self {
         Self {
             joints: 12,
+            drive: DriveConfig::Anguilla,
             node_ids: Vec::new(),
+            master_node_id: 127,
+            axes: Vec::new(),
+            axis: AxisDefaults::default(),
         }
     }
+}
+
+/// One axis of a bought drive, resolved ([`Config::axes`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisMap {
+    /// Node id.
+    pub node: u8,
+    /// +1.0 or −1.0.
+    pub direction: f64,
+    /// Joint angle at motor zero (rad).
+    pub offset: f64,
+    /// Motor turns per joint turn.
+    pub gear: f64,
+    /// CiA 402 increments per motor turn.
+    pub counts_per_turn: u32,
+    /// CiA 402 rated torque (N·m); 0: read from the drive.
+    pub rated_torque: f64,
 }
 
 /// `[control]`: the loop and the supervisor.
@@ -353,13 +465,16 @@ impl Config {
         let nodes = self.node_set();
         let bus_text = || {
             format!(
-                "{} joints on {} at {} bit/s",
+                "{} joints ({} drives) on {} at {} bit/s",
                 self.robot.joints,
+                self.robot.drive.family(),
                 self.bus.variant(),
                 self.bus.bitrate
             )
         };
-        let max = anguilla_protocol::budget::max_rate(nodes, rates, self.bus.max_load)
+        let traffic =
+            anguilla_protocol::budget::Traffic::of_family(self.robot.drive.family(), nodes);
+        let max = anguilla_protocol::budget::max_rate_of(traffic, rates, self.bus.max_load)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;
         let min = 1.0 / anguilla_model::MAX_DT;
         let rate = if self.control.rate_hz > 0.0 {
@@ -378,7 +493,7 @@ impl Config {
             }
             max
         };
-        let load = anguilla_protocol::budget::budget(nodes, rate, rates)
+        let load = anguilla_protocol::budget::budget_of(traffic, rate, rates)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?
             .load;
         // The automatic rate sits exactly at the limit; allow rounding.
@@ -439,8 +554,35 @@ impl Config {
         Self::from_toml(&text, &path.display().to_string())
     }
 
-    /// The node id of each joint, head to tail.
+    /// Each joint's two axes (bought families), pitch then yaw, with
+    /// `[robot.axis]` filling what `robot.axes` leaves out.
+    pub fn axes(&self) -> Vec<[AxisMap; 2]> {
+        let d = &self.robot.axis;
+        let family = self.robot.drive.family();
+        (0..self.robot.joints)
+            .map(|j| {
+                let ids = family.default_ids(j);
+                [0, 1].map(|a| {
+                    let e = self.robot.axes.get(2 * j + a).cloned().unwrap_or_default();
+                    AxisMap {
+                        node: e.node.unwrap_or(ids[a]),
+                        direction: e.direction.unwrap_or(d.direction) as f64,
+                        offset: e.offset.unwrap_or(d.offset),
+                        gear: e.gear.unwrap_or(d.gear),
+                        counts_per_turn: e.counts_per_turn.unwrap_or(d.counts_per_turn),
+                        rated_torque: e.rated_torque.unwrap_or(d.rated_torque),
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// The node id of each joint, head to tail (anguilla); for the bought
+    /// families, each joint's report id 1..=joints.
     pub fn node_ids(&self) -> Vec<u8> {
+        if self.robot.drive != DriveConfig::Anguilla {
+            return (1..=self.robot.joints as u8).collect();
+        }
         if self.robot.node_ids.is_empty() {
             (1..=self.robot.joints as u8).collect()
         } else {
@@ -472,6 +614,7 @@ impl Config {
                 seen[id as usize] = true;
             }
         }
+        self.validate_axes()?;
         let c = &self.control;
         if c.rate_hz != 0.0 {
             // The model's step is 1 / rate: at most MAX_DT (0.05 s).
@@ -615,6 +758,98 @@ impl Config {
     }
 }
 
+impl Config {
+    fn validate_axes(&self) -> Result<(), ConfigError> {
+        let r = &self.robot;
+        let family = r.drive.family();
+        if !family.drive_per_axis() {
+            if !r.axes.is_empty() {
+                return Err(ConfigError::Range {
+                    key: "robot.axes",
+                    value: format!("{} entries", r.axes.len()),
+                    expected: "none with drive = \"anguilla\" (a node carries both axes; \
+                               use robot.node-ids)",
+                });
+            }
+            return Ok(());
+        }
+        if !r.node_ids.is_empty() {
+            return Err(ConfigError::Range {
+                key: "robot.node-ids",
+                value: format!("{:?}", r.node_ids),
+                expected: "[] with a bought drive family (give the drives' ids in robot.axes)",
+            });
+        }
+        if !r.axes.is_empty() && r.axes.len() != 2 * r.joints {
+            return Err(ConfigError::Range {
+                key: "robot.axes",
+                value: format!("{} entries", r.axes.len()),
+                expected: "2 × robot.joints entries (pitch then yaw of each joint, head \
+                           first), or none for the default ids",
+            });
+        }
+        let (lo, hi) = family.id_range();
+        let mut seen = [false; 256];
+        if family == anguilla_protocol::Family::Cia402 {
+            if !(1..=127).contains(&r.master_node_id) {
+                return Err(ConfigError::Range {
+                    key: "robot.master-node-id",
+                    value: r.master_node_id.to_string(),
+                    expected: "1 ..= 127",
+                });
+            }
+            seen[r.master_node_id as usize] = true;
+        }
+        for (j, axes) in self.axes().iter().enumerate() {
+            for a in axes {
+                if a.node < lo || a.node > hi || seen[a.node as usize] {
+                    return Err(ConfigError::Derived(format!(
+                        "robot.axes: joint {} has drive id {}; {} drives take distinct ids in \
+                         {lo}..={hi}{} (by default pitch 2j+1, yaw 2j+2 for joint j from 0: \
+                         at most {} joints)",
+                        j + 1,
+                        a.node,
+                        family,
+                        if family == anguilla_protocol::Family::Cia402 {
+                            ", other than robot.master-node-id"
+                        } else {
+                            ""
+                        },
+                        (hi as usize) / 2
+                    )));
+                }
+                seen[a.node as usize] = true;
+                if a.direction != 1.0 && a.direction != -1.0 {
+                    return Err(ConfigError::Range {
+                        key: "robot.axis.direction",
+                        value: fmt_number(a.direction),
+                        expected: "1 or -1",
+                    });
+                }
+                range("robot.axis.offset", a.offset, -3.2, 3.2, "-3.2 ..= 3.2 rad")?;
+                range("robot.axis.gear", a.gear, 1e-3, 1e4, "0.001 ..= 10000")?;
+                range(
+                    "robot.axis.counts-per-turn",
+                    a.counts_per_turn as f64,
+                    4.0,
+                    (1u64 << 24) as f64,
+                    "4 ..= 16777216",
+                )?;
+                if a.rated_torque != 0.0 {
+                    range(
+                        "robot.axis.rated-torque",
+                        a.rated_torque,
+                        1e-3,
+                        1e4,
+                        "0 (read from the drive) or 0.001 ..= 10000 N·m",
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 fn fmt_f(v: f64) -> String {
     // TOML floats need a decimal point or exponent.
     let s = format!("{v}");
@@ -638,8 +873,36 @@ pub fn default_toml() -> String {
     w("[robot]".into());
     w("# Actuated joints, head to tail (each: a pitch and a yaw axis on one node). 1..=32".into());
     w(format!("joints = {}", d.robot.joints));
-    w("# Node id of each joint, head to tail; [] means 1..=joints. Distinct, 1..=63".into());
+    w("# The drives' protocol: \"anguilla\" (vertebra nodes, one per joint), \"cia402\"".into());
+    w("# (CANopen CiA 402 drives) or \"odrive\" (ODrive CANSimple), one drive per axis.".into());
+    w("drive = \"anguilla\"".into());
+    w(
+        "# anguilla: node id of each joint, head to tail; [] means 1..=joints. Distinct, 1..=63"
+            .into(),
+    );
     w("node-ids = []".into());
+    w("# cia402: the master's node id (its heartbeat is 0x700 + id). 1..=127".into());
+    w(format!("master-node-id = {}", d.robot.master_node_id));
+    w("# cia402/odrive: the drives, pitch then yaw of each joint from the head, e.g.".into());
+    w("# [{ node = 1, direction = -1, gear = 50.0 }, { node = 2 }, ...] (2 × joints),".into());
+    w("# keys left out from [robot.axis]; [] puts pitch on 2j+1, yaw on 2j+2 (j from 0).".into());
+    w("axes = []".into());
+    w(String::new());
+    w("[robot.axis]".into());
+    w("# Every bought drive's defaults: direction (1 or -1), offset (rad: joint angle at".into());
+    w("# motor zero), gear (motor turns per joint turn); cia402: increments per motor".into());
+    w("# turn and rated torque (N·m; 0 reads 0x6076 from the drive).".into());
+    w(format!("direction = {}", d.robot.axis.direction));
+    w(format!("offset = {}", fmt_f(d.robot.axis.offset)));
+    w(format!("gear = {}", fmt_f(d.robot.axis.gear)));
+    w(format!(
+        "counts-per-turn = {}",
+        d.robot.axis.counts_per_turn
+    ));
+    w(format!(
+        "rated-torque = {}",
+        fmt_f(d.robot.axis.rated_torque)
+    ));
     w(String::new());
     w("[control]".into());
     w("# Control rate (Hz). 0: the highest rate the bus carries within bus.max-load.".into());

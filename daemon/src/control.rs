@@ -3,7 +3,7 @@
 //! [`Controller::run_period`] is everything the loop thread does in a period, in
 //! this order (DESIGN.md's data flow):
 //!
-//! 1. drain the bus into the [`NodeTable`];
+//! 1. drain the bus into the joints' [`Drives`] (the family's master);
 //! 2. the [`Supervisor`] turns observations and timeouts into directives
 //!    (operator commands arrive before, through [`Controller::command`]);
 //! 3. the gait parameters follow the operator's targets along our own
@@ -14,7 +14,8 @@
 //!    and turn rate; a posture offset (also trapezoidal) straightens the
 //!    body from wherever it was when the actuators were enabled;
 //! 5. joint limits clamp (and count) the setpoints;
-//! 6. setpoints are encoded and sent, then SYNC;
+//! 6. the drives turn the supervisor's decision and the setpoints into
+//!    their family's frames (and SYNC where the family has one);
 //! 7. the [`StateSnapshot`] is filled for publication.
 //!
 //! Time is a parameter (`now`, ns): the loop passes its clock, tests pass a
@@ -26,20 +27,17 @@ use anguilla_model::{
     Body, CurvatureSource, GaitParams, HeadState, Integrator, Model, ModelConfig, ModelError,
     ParametricGait, StepReport, Workspace,
 };
-use anguilla_protocol::frame::Frame;
-use anguilla_protocol::message::{
-    self, AxisSetpoint, Command as NodeCommand, Message, NodeId, NodeSet, Target, Variant,
-};
+use anguilla_protocol::message::{self, AxisSetpoint, NodeSet};
 
 use crate::config::{Config, FaultPolicyConfig};
+use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::ipc::{
     CommandReply, CommandRequest, Envelope, GaitSnapshot, LimitsSnapshot, MAX_JOINTS, StateSnapshot,
 };
-use crate::nodes::NodeTable;
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
 use crate::supervisor::{
-    ClientId, Command, Drive, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig,
+    ClientId, Command, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig,
     SwimParams,
 };
 
@@ -70,9 +68,9 @@ pub enum SetupError {
     /// The model refused the discretization or the body.
     #[error("model: {0}")]
     Model(#[from] ModelError),
-    /// A node id is not valid on the wire.
-    #[error("node id {0} is invalid (expected 1..=63)")]
-    NodeId(u8),
+    /// A drive's node id is not valid for its family.
+    #[error(transparent)]
+    Drive(#[from] DriveError),
     /// A gait limit is invalid.
     #[error("gait profile limits: {0}")]
     Profile(#[from] crate::profile::ProfileError),
@@ -95,11 +93,10 @@ pub struct ControlCounters {
 pub struct Controller {
     period_ns: Nanos,
     dt: f64,
-    variant: Variant,
-    ids: Vec<NodeId>,
+    joints: usize,
     cfg: Config,
     sup: Supervisor,
-    table: NodeTable,
+    drives: Box<dyn Drives>,
     amplitude: Follower,
     frequency: Follower,
     turn: Follower,
@@ -113,9 +110,8 @@ pub struct Controller {
     torque_ff: Vec<[f64; 2]>,
     counter: u16,
     mode_before: Mode,
-    /// Nodes that get no setpoint this period (lost, in Fault).
+    /// Joints that get no setpoint this period (lost, in Fault).
     setpoint_skip: NodeSet,
-    last_command_sent: Nanos,
     model_failed: bool,
     last_model_error: Option<ModelError>,
     report: StepReport,
@@ -127,13 +123,6 @@ pub struct Controller {
     tap: Option<crossbeam_channel::Sender<Record>>,
     tap_dropped: u64,
     now: Nanos,
-}
-
-fn node_ids(cfg: &Config) -> Result<Vec<NodeId>, SetupError> {
-    cfg.node_ids()
-        .into_iter()
-        .map(|i| NodeId::new(i).map_err(|_| SetupError::NodeId(i)))
-        .collect()
 }
 
 /// The control period (ns) for `cfg`: 1 / [`Config::control_rate`] (a
@@ -149,13 +138,13 @@ impl Controller {
     pub fn new(cfg: &Config, now: Nanos) -> Result<Self, SetupError> {
         let period_ns = period_ns(cfg);
         let dt = period_ns.as_nanos() as f64 * 1e-9;
-        let ids = node_ids(cfg)?;
-        let variant = cfg.bus.variant();
+        let drives = drive::build(cfg, now, period_ns)?;
+        let joints = cfg.robot.joints;
         let model = Model::new(ModelConfig {
             body: Body::paper(),
             nodes: cfg.model.nodes,
             dt,
-            joints: ids.len(),
+            joints,
             integrator: Integrator::Midpoint,
         })?;
         let ws = Workspace::new(&model);
@@ -187,7 +176,7 @@ impl Controller {
             },
             clear_settle_time: 300 * MS,
         });
-        let n = ids.len();
+        let n = joints;
         let snapshot = StateSnapshot {
             joint_count: n.min(MAX_JOINTS) as u32,
             limits: LimitsSnapshot {
@@ -203,9 +192,8 @@ impl Controller {
         Ok(Self {
             period_ns,
             dt,
-            variant,
-            table: NodeTable::new(variant, &ids, now),
-            ids,
+            joints,
+            drives,
             cfg: cfg.clone(),
             sup,
             amplitude: Follower::new(0.0, amp_l),
@@ -225,7 +213,6 @@ impl Controller {
             counter: 0,
             mode_before: Mode::Idle,
             setpoint_skip: NodeSet::empty(),
-            last_command_sent: Nanos::ZERO,
             model_failed: false,
             last_model_error: None,
             report: StepReport::default(),
@@ -270,9 +257,9 @@ impl Controller {
         &self.sup
     }
 
-    /// The node table.
-    pub fn nodes(&self) -> &NodeTable {
-        &self.table
+    /// The joints' drives.
+    pub fn drives(&self) -> &dyn Drives {
+        self.drives.as_ref()
     }
 
     /// Counters.
@@ -362,23 +349,6 @@ impl Controller {
         }
     }
 
-    fn send(&mut self, bus: &mut dyn Bus, m: Message) {
-        match m.encode(self.variant) {
-            Ok(f) => self.send_frame(bus, &f),
-            Err(_) => self.counters.tx_errors += 1,
-        }
-    }
-
-    fn send_frame(&mut self, bus: &mut dyn Bus, f: &Frame) {
-        let now = self.now;
-        if bus.send(f).is_err() {
-            self.counters.tx_errors += 1;
-            self.record(Record::Refused(now, *f));
-        } else {
-            self.record(Record::Tx(now, *f));
-        }
-    }
-
     fn at_rest(&self) -> bool {
         let p = self.gait.params();
         let small = |x: f64| x.abs() < 1e-3;
@@ -408,12 +378,12 @@ impl Controller {
             now,
             bus: period_state,
         });
-        // 1. Everything the nodes said since the last period.
-        let table = &mut self.table;
+        // 1. Everything the drives said since the last period.
+        let drives = &mut self.drives;
         let (tap, dropped) = (&self.tap, &mut self.tap_dropped);
         // A receive error shows in the bus state the next period reads.
         let _ = bus.drain(&mut |r| {
-            table.ingest(now, &r.frame);
+            drives.ingest(now, &r.frame);
             if let Some(t) = tap
                 && t.try_send(Record::Rx(now, r.frame)).is_err()
             {
@@ -422,15 +392,15 @@ impl Controller {
         });
         // 2. Supervisor.
         let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
-        let report = self.table.observe(now, hb_timeout);
-        let configured = NodeSet::of(self.ids.iter().copied());
+        let report = self.drives.observe(now, hb_timeout);
+        let configured = self.drives.report_ids();
         let obs = Observations {
             all_enabled: report.all_enabled,
             heartbeat_lost: report.lost,
             all_lost: !configured.is_empty() && report.lost.covers(configured),
             node_fault: report.fault,
             estop_nodes: report.estop,
-            bus_estop: self.table.take_bus_estop(),
+            bus_estop: self.drives.take_bus_estop(),
             bus_off: period_state == BusState::BusOff,
             bus_gone: period_state == BusState::Gone,
             model_diverged: self.model_failed,
@@ -444,20 +414,18 @@ impl Controller {
         } else {
             NodeSet::empty()
         };
+        let mut out = Out {
+            bus: &mut *bus,
+            tap: &self.tap,
+            tap_dropped: &mut self.tap_dropped,
+            tx_errors: &mut self.counters.tx_errors,
+            now,
+        };
         if d.send_estop {
-            // Nothing queued before the E-stop may follow it.
-            let _ = bus.flush_tx();
-            self.send(bus, Message::EStop(Target::All));
+            self.drives.estop(&mut out);
         }
         if d.send_clear_faults {
-            self.send(
-                bus,
-                Message::Command {
-                    target: Target::All,
-                    command: NodeCommand::ClearFaults,
-                },
-            );
-            self.table.forget_states();
+            self.drives.clear_faults(&mut out);
             self.model_failed = false;
             self.head = HeadState::launch(0.0);
         }
@@ -519,8 +487,8 @@ impl Controller {
         // the joints are.
         if self.mode_before == Mode::Enabling && mode == Mode::Ready {
             for (j, off) in self.offsets.iter_mut().enumerate() {
-                if let Some(fb) = self.table.entries()[j].feedback {
-                    for (o, axis) in off.iter_mut().zip(fb.axes) {
+                if let Some(fb) = self.drives.joint(j).feedback {
+                    for (o, axis) in off.iter_mut().zip(fb) {
                         o.reset(axis.position as f64);
                         let _ = o.set_target(0.0);
                     }
@@ -567,81 +535,27 @@ impl Controller {
         }
         self.counters.clamped += clamped;
         // 6. Frames: drive commands, setpoints, SYNC.
-        let entering = mode != self.mode_before;
-        let every = now.saturating_sub(self.last_command_sent) >= 100 * MS;
-        match d.drive {
-            Drive::Disabled => {
-                if (entering || every) && mode != Mode::EStop {
-                    self.last_command_sent = now;
-                    self.send(
-                        bus,
-                        Message::Command {
-                            target: Target::All,
-                            command: NodeCommand::Disable,
-                        },
-                    );
-                }
-            }
-            Drive::Enable => {
-                if entering {
-                    self.last_command_sent = now;
-                    // Configuration first (nodes accept it only while
-                    // disabled): the watchdog (`control.node-watchdog`).
-                    let wd = match self.cfg.control.node_watchdog {
-                        // Five periods, but no less than 100 ms: a loop that is
-                        // not real-time (no SCHED_FIFO) can stall for tens of
-                        // milliseconds on a busy machine.
-                        0.0 => (5 * self.period_ns).max(100 * MS),
-                        s => Nanos::from_secs_f64(s),
-                    };
-                    let ms = (wd / MS).clamp(
-                        message::WATCHDOG_RANGE_MS.0 as u64,
-                        message::WATCHDOG_RANGE_MS.1 as u64,
-                    ) as u16;
-                    for i in 0..self.ids.len() {
-                        let node = self.ids[i];
-                        self.send(
-                            bus,
-                            Message::ConfigWrite {
-                                node,
-                                param: message::ConfigParam::WatchdogTimeout { ms },
-                            },
-                        );
-                    }
-                    self.send(
-                        bus,
-                        Message::Command {
-                            target: Target::All,
-                            command: NodeCommand::Enable,
-                        },
-                    );
-                } else if every {
-                    // Nodes that missed it (or were still booting).
-                    self.last_command_sent = now;
-                    for i in 0..self.ids.len() {
-                        let e = self.table.entries()[i];
-                        if e.state == Some(message::NodeState::Disabled) {
-                            self.send(
-                                bus,
-                                Message::Command {
-                                    target: Target::Node(e.id),
-                                    command: NodeCommand::Enable,
-                                },
-                            );
-                        }
-                    }
-                }
-            }
-            Drive::Setpoints => {
-                if !bus_off {
-                    self.send_setpoints(bus);
-                }
-            }
-        }
-        if !bus_off {
-            let counter = self.counter;
-            self.send(bus, Message::Sync { counter });
-        }
+        let mut out = Out {
+            bus: &mut *bus,
+            tap: &self.tap,
+            tap_dropped: &mut self.tap_dropped,
+            tx_errors: &mut self.counters.tx_errors,
+            now,
+        };
+        self.drives.period(
+            &Period {
+                now,
+                drive: d.drive,
+                mode,
+                entering: mode != self.mode_before,
+                bus_off,
+                counter: self.counter,
+                period: self.period_ns,
+                setpoints: &self.setpoints,
+                skip: self.setpoint_skip,
+            },
+            &mut out,
+        );
         self.counter = self.counter.wrapping_add(1);
         self.mode_before = mode;
         // 7. Snapshot.
@@ -653,27 +567,6 @@ impl Controller {
             [a, f, kc3, kc2],
             d.drop_feedforward,
         );
-    }
-
-    fn send_setpoints(&mut self, bus: &mut dyn Bus) {
-        // The ids and setpoints are lent out while the frames go to the bus
-        // (moving a Vec allocates nothing).
-        let ids = std::mem::take(&mut self.ids);
-        let setpoints = std::mem::take(&mut self.setpoints);
-        let skip = self.setpoint_skip;
-        let pairs = ids
-            .iter()
-            .zip(setpoints.iter())
-            .filter(|(id, _)| !skip.contains(id.get()))
-            .map(|(id, axes)| (*id, *axes));
-        let r = message::encode_setpoints(self.variant, self.counter, pairs, |f| {
-            self.send_frame(bus, &f)
-        });
-        if r.is_err() {
-            self.counters.tx_errors += 1;
-        }
-        self.ids = ids;
-        self.setpoints = setpoints;
     }
 
     fn fill_snapshot(
@@ -708,7 +601,7 @@ impl Controller {
         s.bus.tx_frames = c.tx;
         s.bus.rx_frames = c.rx;
         s.bus.tx_dropped = c.tx_dropped;
-        s.bus.malformed = self.table.counters().malformed;
+        s.bus.malformed = self.drives.counters().malformed;
         s.bus.errors = c.errors;
         s.bus.rx_overruns = c.rx_overruns;
         s.bus.bus_off_count = c.bus_off_count as u32;
@@ -718,7 +611,9 @@ impl Controller {
         s.refused_commands = self.counters.refused;
         s.records_lost = self.tap_dropped;
         s.operator_silent_stops = self.sup.operator_silent_count();
-        for (j, e) in self.table.entries().iter().enumerate().take(MAX_JOINTS) {
+        let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
+        for j in 0..self.joints.min(MAX_JOINTS) {
+            let e = self.drives.joint(j);
             let js = &mut s.joints[j];
             let sp = &self.setpoints[j];
             js.commanded_pitch = sp[0].position;
@@ -728,19 +623,18 @@ impl Controller {
             js.predicted_pitch_torque = self.torque_ff[j][0] as f32;
             js.predicted_yaw_torque = self.torque_ff[j][1] as f32;
             if let Some(fb) = e.feedback {
-                js.measured_pitch = fb.axes[0].position;
-                js.measured_yaw = fb.axes[1].position;
-                js.measured_pitch_velocity = fb.axes[0].velocity;
-                js.measured_yaw_velocity = fb.axes[1].velocity;
-                js.measured_pitch_torque = fb.axes[0].torque;
-                js.measured_yaw_torque = fb.axes[1].torque;
+                js.measured_pitch = fb[0].position;
+                js.measured_yaw = fb[1].position;
+                js.measured_pitch_velocity = fb[0].velocity;
+                js.measured_yaw_velocity = fb[1].velocity;
+                js.measured_pitch_torque = fb[0].torque;
+                js.measured_yaw_torque = fb[1].torque;
             }
             js.node_state = e.state.map(|s| s as u8).unwrap_or(0xFF);
-            let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
             js.node_alive =
-                e.last_heartbeat
+                e.last_heard
                     .is_some_and(|t| now.saturating_sub(t) <= hb_timeout) as u8;
-            js.node_errors = e.errors.0 as u32;
+            js.node_errors = e.errors;
         }
     }
 
@@ -753,13 +647,14 @@ impl Controller {
     /// Shutdown, second half: disable every actuator now.
     pub fn disable_all(&mut self, bus: &mut dyn Bus) {
         self.record(Record::End);
-        self.send(
+        let mut out = Out {
             bus,
-            Message::Command {
-                target: Target::All,
-                command: NodeCommand::Disable,
-            },
-        );
+            tap: &self.tap,
+            tap_dropped: &mut self.tap_dropped,
+            tx_errors: &mut self.counters.tx_errors,
+            now: self.now,
+        };
+        self.drives.disable_all(&mut out);
     }
 
     /// Sets the loop statistics shown in the snapshot.

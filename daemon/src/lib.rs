@@ -16,6 +16,7 @@
 
 pub mod config;
 pub mod control;
+pub mod drive;
 pub use anguilla_ipc as ipc;
 pub mod nodes;
 pub mod profile;

@@ -144,7 +144,7 @@ fn malformed_frames_are_counted_never_fatal() {
         );
     }
     r.run_for(0.1);
-    assert_eq!(r.ctl.nodes().counters().malformed, 50);
+    assert_eq!(r.ctl.drives().counters().malformed, 50);
     assert_eq!(r.ctl.snapshot().bus.malformed, 50);
     assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
 }

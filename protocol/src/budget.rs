@@ -138,6 +138,9 @@ pub enum BudgetError {
     /// Joint count outside 1..=63.
     #[error("{0} joints (expected 1..=63, one node per joint)")]
     Joints(u32),
+    /// A bought drive family on CAN FD (their protocols are classic CAN).
+    #[error("CiA 402 and ODrive drives speak classic CAN (expected no data bit rate)")]
+    ClassicOnly,
     /// Load target outside (0, 1].
     #[error("load limit {0} (expected a fraction in (0, 1])")]
     Load(f64),
@@ -274,19 +277,148 @@ pub fn control_traffic(variant: Variant, nodes: NodeSet) -> [BudgetLine; 4] {
     ]
 }
 
+/// Whose cyclic traffic a budget counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Traffic {
+    /// anguilla vertebra nodes with these ids (one per joint).
+    Anguilla(NodeSet),
+    /// CiA 402 drives (one per axis) and their master, classic CAN: per
+    /// period an RPDO1 to each drive, SYNC, a TPDO1 from each; heartbeats
+    /// every 100 ms from every drive and the master.
+    Cia402 {
+        /// Drives (2 per joint).
+        axes: u32,
+    },
+    /// ODrive axes, classic CAN: per period a Set_Input_Pos to each; each
+    /// axis sends Get_Encoder_Estimates every 10 ms and a Heartbeat every
+    /// 100 ms whatever the control rate.
+    Odrive {
+        /// Axes (2 per joint).
+        axes: u32,
+    },
+}
+
+impl Traffic {
+    /// The bought family's traffic of `joints` joints (two drives each).
+    pub fn of_family(family: crate::Family, nodes: NodeSet) -> Traffic {
+        let axes = 2 * nodes.len() as u32;
+        match family {
+            crate::Family::Anguilla => Traffic::Anguilla(nodes),
+            crate::Family::Cia402 => Traffic::Cia402 { axes },
+            crate::Family::Odrive => Traffic::Odrive { axes },
+        }
+    }
+
+    /// Joints the traffic serves.
+    pub fn joints(self) -> u32 {
+        match self {
+            Traffic::Anguilla(n) => n.len() as u32,
+            Traffic::Cia402 { axes } | Traffic::Odrive { axes } => axes / 2,
+        }
+    }
+
+    /// The cyclic traffic, line by line, computed by encoding the frames.
+    pub fn lines(self, variant: Variant) -> Vec<BudgetLine> {
+        let line = |name, f: &Frame, cadence| {
+            let b = worst_case_bits(f);
+            let k = match cadence {
+                Cadence::PerPeriod(c) => c,
+                Cadence::PerSecond(_) => 1,
+            };
+            BudgetLine {
+                name,
+                bytes: f.len() as u8,
+                cadence,
+                bits: FrameBits {
+                    nominal: b.nominal * k,
+                    data: b.data * k,
+                },
+            }
+        };
+        match self {
+            Traffic::Anguilla(nodes) => control_traffic(variant, nodes).to_vec(),
+            Traffic::Cia402 { axes } => {
+                use crate::canopen::{Message as Co, NmtState, NodeId as CoNode, Pdo, PdoData};
+                let node = CoNode::new(1).expect("1 is a node id");
+                let pdo = PdoData::new(&[0; 8]).expect("8 bytes");
+                let rpdo = Co::Rpdo {
+                    node,
+                    pdo: Pdo::One,
+                    data: pdo,
+                }
+                .encode();
+                let tpdo = Co::Tpdo {
+                    node,
+                    pdo: Pdo::One,
+                    data: pdo,
+                }
+                .encode();
+                let sync = Co::Sync { counter: None }.encode();
+                let hb = Co::Heartbeat {
+                    node,
+                    state: NmtState::Operational,
+                }
+                .encode();
+                vec![
+                    line("RPDO1", &rpdo, Cadence::PerPeriod(axes)),
+                    line("SYNC", &sync, Cadence::PerPeriod(1)),
+                    line("TPDO1", &tpdo, Cadence::PerPeriod(axes)),
+                    line(
+                        "Heartbeat",
+                        &hb,
+                        Cadence::PerSecond((axes + 1) as f64 * 10.0),
+                    ),
+                ]
+            }
+            Traffic::Odrive { axes } => {
+                use crate::odrive::{
+                    AxisState, Body, EncoderEstimates, Heartbeat as OdHb, InputPos, Message as Od,
+                    NodeId as OdNode,
+                };
+                let node = OdNode::new(1).expect("1 is a node id");
+                let enc = |body| Od { node, body }.encode().expect("encodes");
+                let pos = enc(Body::SetInputPos(InputPos {
+                    input_pos: 0.0,
+                    vel_ff: 0.0,
+                    torque_ff: 0.0,
+                }));
+                let est = enc(Body::EncoderEstimates(EncoderEstimates {
+                    pos: 0.0,
+                    vel: 0.0,
+                }));
+                let hb = enc(Body::Heartbeat(OdHb {
+                    axis_error: 0,
+                    axis_state: AxisState::ClosedLoopControl,
+                    procedure_result: 0,
+                    trajectory_done: false,
+                }));
+                vec![
+                    line("Set_Input_Pos", &pos, Cadence::PerPeriod(axes)),
+                    line(
+                        "Get_Encoder_Estimates",
+                        &est,
+                        Cadence::PerSecond(axes as f64 * 100.0),
+                    ),
+                    line("Heartbeat", &hb, Cadence::PerSecond(axes as f64 * 10.0)),
+                ]
+            }
+        }
+    }
+}
+
 /// Bus load of the cyclic traffic.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Budget {
     /// Variant the traffic is encoded for.
     pub variant: Variant,
     /// Bit rates.
     pub rates: Bitrates,
-    /// The nodes' ids (one node per joint).
-    pub nodes: NodeSet,
+    /// Whose traffic.
+    pub traffic: Traffic,
     /// Control rate, Hz.
     pub rate: f64,
-    /// The traffic.
-    pub lines: [BudgetLine; 4],
+    /// The traffic, line by line.
+    pub lines: Vec<BudgetLine>,
     /// Worst-case bus time per control period, seconds (heartbeats
     /// amortized).
     pub busy_per_period: f64,
@@ -315,18 +447,40 @@ pub fn first_nodes(joints: u32) -> Result<NodeSet, BudgetError> {
 /// The worst-case bus load of the nodes `nodes` at control rate `rate` Hz.
 /// The variant follows from `rates` (a data rate means CAN FD).
 pub fn budget(nodes: NodeSet, rate: f64, rates: Bitrates) -> Result<Budget, BudgetError> {
-    let nodes = check_nodes(nodes)?;
+    budget_of(Traffic::Anguilla(check_nodes(nodes)?), rate, rates)
+}
+
+fn check_traffic(t: Traffic, rates: Bitrates) -> Result<Bitrates, BudgetError> {
     let rates = rates.validate()?;
+    match t {
+        Traffic::Anguilla(n) => {
+            check_nodes(n)?;
+        }
+        Traffic::Cia402 { axes } | Traffic::Odrive { axes } => {
+            if axes == 0 {
+                return Err(BudgetError::Joints(0));
+            }
+            if rates.data.is_some() {
+                return Err(BudgetError::ClassicOnly);
+            }
+        }
+    }
+    Ok(rates)
+}
+
+/// The worst-case bus load of `traffic` at control rate `rate` Hz.
+pub fn budget_of(traffic: Traffic, rate: f64, rates: Bitrates) -> Result<Budget, BudgetError> {
+    let rates = check_traffic(traffic, rates)?;
     if !(rate.is_finite() && rate > 0.0 && rate <= 20_000.0) {
         return Err(BudgetError::Rate(rate));
     }
     let variant = rates.variant();
-    let lines = control_traffic(variant, nodes);
+    let lines = traffic.lines(variant);
     let busy: f64 = lines.iter().map(|l| l.busy_per_second(rates, rate)).sum();
     Ok(Budget {
         variant,
         rates,
-        nodes,
+        traffic,
         rate,
         lines,
         busy_per_period: busy / rate,
@@ -337,12 +491,17 @@ pub fn budget(nodes: NodeSet, rate: f64, rates: Bitrates) -> Result<Budget, Budg
 /// The highest control rate, Hz, at which the cyclic traffic of the nodes
 /// `nodes` stays within `max_load` (a fraction, e.g. 0.6) of the bus.
 pub fn max_rate(nodes: NodeSet, rates: Bitrates, max_load: f64) -> Result<f64, BudgetError> {
-    let nodes = check_nodes(nodes)?;
-    let rates = rates.validate()?;
+    max_rate_of(Traffic::Anguilla(check_nodes(nodes)?), rates, max_load)
+}
+
+/// The highest control rate, Hz, at which `traffic` stays within
+/// `max_load` of the bus (0 when the per-second traffic alone exceeds it).
+pub fn max_rate_of(traffic: Traffic, rates: Bitrates, max_load: f64) -> Result<f64, BudgetError> {
+    let rates = check_traffic(traffic, rates)?;
     if !(max_load > 0.0 && max_load <= 1.0) {
         return Err(BudgetError::Load(max_load));
     }
-    let lines = control_traffic(rates.variant(), nodes);
+    let lines = traffic.lines(rates.variant());
     // load(rate) = fixed + rate * per_period
     let fixed: f64 = lines
         .iter()
@@ -444,6 +603,38 @@ mod tests {
                 assert!((b.load - 0.6).abs() < 1e-9, "{joints} {r} {}", b.load);
             }
         }
+    }
+
+    /// The figure: 24 CiA 402 axes at 1 Mbit/s classic need 49
+    /// frames a period (24 RPDOs, SYNC, 24 TPDOs).
+    #[test]
+    fn cia402_and_odrive_traffic() {
+        let co = Traffic::Cia402 { axes: 24 };
+        let b = budget_of(co, 100.0, CLASSIC_1M).unwrap();
+        let per_period: f64 = b
+            .lines
+            .iter()
+            .filter(|l| matches!(l.cadence, Cadence::PerPeriod(_)))
+            .map(|l| l.frames_per_period(100.0))
+            .sum();
+        assert_eq!(per_period, 49.0);
+        // 48 eight-byte PDOs (135 bits) and an empty SYNC (55 bits) a
+        // period; 25 heartbeats (1 byte, 65 bits) every 100 ms.
+        let expect = (48.0 * 135.0 + 55.0) * 100.0 + 250.0 * 65.0;
+        assert!((b.load * 1e6 - expect).abs() < 1e-6, "{}", b.load);
+        let r = max_rate_of(co, CLASSIC_1M, 0.6).unwrap();
+        assert!((budget_of(co, r, CLASSIC_1M).unwrap().load - 0.6).abs() < 1e-9);
+        // ODrive: only the setpoints scale with the rate; the encoder
+        // estimates at 100 Hz per axis are paid whatever the rate.
+        let od = Traffic::Odrive { axes: 24 };
+        let b = budget_of(od, 100.0, CLASSIC_1M).unwrap();
+        let expect = 24.0 * 135.0 * 100.0 + 24.0 * 110.0 * 135.0;
+        assert!((b.load * 1e6 - expect).abs() < 1e-6, "{}", b.load);
+        // 40 axes' estimates and heartbeats alone take 59.4 % of 1 Mbit/s.
+        let r = max_rate_of(Traffic::Odrive { axes: 40 }, CLASSIC_1M, 0.6).unwrap();
+        assert!(r < 5.0, "{r}");
+        assert_eq!(budget_of(co, 100.0, FD_1_5M), Err(BudgetError::ClassicOnly));
+        assert!(budget_of(Traffic::Cia402 { axes: 0 }, 100.0, CLASSIC_1M).is_err());
     }
 
     #[test]

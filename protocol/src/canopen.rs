@@ -26,9 +26,11 @@
 //!
 //! Node ids are 1..=127. Only classic 11-bit data frames are decoded: remote
 //! frames (node guarding), the TIME object (0x100) and LSS (0x7E4/0x7E5)
-//! are outside this subset and are decode errors, as are SDO segment and
-//! block transfers (the *initiate* response of a segmented upload is
-//! recognised, [`SdoResponse::UploadSegmented`], so a master can abort it).
+//! are outside this subset and are decode errors, as are SDO block
+//! transfers. SDO transfers are expedited (1..=4 bytes in the initiate
+//! message) or segmented (initiate, then 7-byte segments with an
+//! alternating toggle bit: [`SdoRequest::DownloadSegment`],
+//! [`SdoRequest::UploadSegment`] and their responses).
 //! PDO payloads are kept raw: what they mean depends on the node's mapping.
 //! Encoding cannot fail — every field is range-checked when its value is
 //! built ([`NodeId::new`], [`SdoData::new`], [`PdoData::new`]).
@@ -121,8 +123,7 @@ pub enum DecodeError {
         /// The accepted values, in words.
         expected: &'static str,
     },
-    /// An SDO command byte this codec does not implement (segment or block
-    /// transfers, or a segmented download initiate).
+    /// An SDO command byte this codec does not implement (block transfers).
     #[error("{message} command byte 0x{command:02X} is not implemented (expected {expected})")]
     SdoCommand {
         /// Message name.
@@ -508,6 +509,41 @@ impl PdoData {
     }
 }
 
+/// The 0..=7 bytes of one segment of a segmented SDO transfer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct SegmentData {
+    len: u8,
+    bytes: [u8; 7],
+}
+
+impl SegmentData {
+    /// The most bytes a segment carries.
+    pub const MAX: usize = 7;
+
+    /// 0..=7 bytes.
+    pub fn new(data: &[u8]) -> Result<Self, EncodeError> {
+        if data.len() > Self::MAX {
+            return Err(EncodeError::PayloadLength {
+                message: "SDO segment",
+                len: data.len(),
+                min: 0,
+                max: Self::MAX as u8,
+            });
+        }
+        let mut bytes = [0u8; 7];
+        bytes[..data.len()].copy_from_slice(data);
+        Ok(SegmentData {
+            len: data.len() as u8,
+            bytes,
+        })
+    }
+
+    /// The bytes.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes[..self.len as usize]
+    }
+}
+
 /// An SDO request, client (master) → server (node), on 0x600 + node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SdoRequest {
@@ -519,10 +555,35 @@ pub enum SdoRequest {
         /// Value.
         data: SdoData,
     },
+    /// Initiate segmented download (write of more than 4 bytes): `ccs` 1,
+    /// `e` = 0; command byte 0x21 with the size, 0x20 without.
+    DownloadSegmented {
+        /// Entry written.
+        object: Object,
+        /// Byte count, if indicated (`s` = 1).
+        size: Option<u32>,
+    },
+    /// One download segment: `ccs` 0, toggle bit 4 (0 for the first
+    /// segment, then alternating), `n` = 7 − len in bits 1-3, `c` (last) in
+    /// bit 0; data in bytes 1..=7.
+    DownloadSegment {
+        /// The toggle bit.
+        toggle: bool,
+        /// The segment's bytes.
+        data: SegmentData,
+        /// No more segments follow (`c`).
+        last: bool,
+    },
     /// Initiate upload (read): command byte 0x40.
     Upload {
         /// Entry read.
         object: Object,
+    },
+    /// Request the next upload segment: `ccs` 3, toggle bit 4 (command byte
+    /// 0x60 or 0x70).
+    UploadSegment {
+        /// The toggle bit.
+        toggle: bool,
     },
     /// Abort transfer: command byte 0x80.
     Abort {
@@ -550,13 +611,29 @@ pub enum SdoResponse {
         data: SdoData,
     },
     /// Segmented initiate upload response (`e` = 0): the value is longer
-    /// than 4 bytes; command byte 0x41 with the size, 0x40 without. This
-    /// codec does not carry the segments.
+    /// than 4 bytes; command byte 0x41 with the size, 0x40 without. The
+    /// client then asks for [`SdoRequest::UploadSegment`]s.
     UploadSegmented {
         /// Entry read.
         object: Object,
         /// Byte count, if indicated (`s` = 1).
         size: Option<u32>,
+    },
+    /// Download segment response: `scs` 1, the segment's toggle bit 4
+    /// (command byte 0x20 or 0x30).
+    DownloadSegmentAck {
+        /// The toggle bit of the segment acknowledged.
+        toggle: bool,
+    },
+    /// One upload segment: `scs` 0, toggle bit 4, `n` = 7 − len in bits
+    /// 1-3, `c` (last) in bit 0; data in bytes 1..=7.
+    UploadSegment {
+        /// The toggle bit (that of the request answered).
+        toggle: bool,
+        /// The segment's bytes.
+        data: SegmentData,
+        /// No more segments follow (`c`).
+        last: bool,
     },
     /// Abort transfer: command byte 0x80.
     Abort {
@@ -714,6 +791,19 @@ fn expedited(cs: u8, data: &SdoData, d: &mut [u8; 8]) -> u8 {
     (cs << 5) | ((4 - data.len) << 2) | 0b11
 }
 
+/// A segment's command byte, `cs << 5 | t << 4 | n << 1 | c` with n = 7 −
+/// len; its data goes to bytes 1..=7 (the rest stays zero).
+fn segment(cs: u8, toggle: bool, data: &SegmentData, last: bool, d: &mut [u8; 8]) -> u8 {
+    d[1..1 + data.len as usize].copy_from_slice(data.bytes());
+    (cs << 5) | (toggle as u8) << 4 | (7 - data.len) << 1 | last as u8
+}
+
+/// The data of a segment: `n` (bits 1-3) counts the unused bytes.
+fn segment_data(d: &[u8]) -> SegmentData {
+    let len = 7 - ((d[0] >> 1) & 0b111) as usize;
+    SegmentData::new(&d[1..1 + len]).expect("0..=7 bytes")
+}
+
 impl Message {
     /// The object this message travels on.
     pub const fn function(&self) -> Function {
@@ -759,7 +849,15 @@ impl Message {
                         let c = expedited(1, &data, &mut d);
                         sdo_header(&mut d, c, object);
                     }
+                    SdoRequest::DownloadSegmented { object, size } => {
+                        sdo_header(&mut d, 0x20 | size.is_some() as u8, object);
+                        d[4..8].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+                    }
+                    SdoRequest::DownloadSegment { toggle, data, last } => {
+                        d[0] = segment(0, toggle, &data, last, &mut d);
+                    }
                     SdoRequest::Upload { object } => sdo_header(&mut d, 0x40, object),
+                    SdoRequest::UploadSegment { toggle } => d[0] = 0x60 | (toggle as u8) << 4,
                     SdoRequest::Abort { object, code } => {
                         sdo_header(&mut d, 0x80, object);
                         d[4..8].copy_from_slice(&code.raw().to_le_bytes());
@@ -777,6 +875,10 @@ impl Message {
                     SdoResponse::UploadSegmented { object, size } => {
                         sdo_header(&mut d, 0x40 | size.is_some() as u8, object);
                         d[4..8].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+                    }
+                    SdoResponse::DownloadSegmentAck { toggle } => d[0] = 0x20 | (toggle as u8) << 4,
+                    SdoResponse::UploadSegment { toggle, data, last } => {
+                        d[0] = segment(0, toggle, &data, last, &mut d);
                     }
                     SdoResponse::Abort { object, code } => {
                         sdo_header(&mut d, 0x80, object);
@@ -834,7 +936,19 @@ fn sdo_request(d: &[u8]) -> Result<SdoRequest, DecodeError> {
             object,
             data: expedited_data(d),
         },
+        1 => SdoRequest::DownloadSegmented {
+            object,
+            size: (d[0] & 1 == 1).then(|| u32_at(d, 4)),
+        },
+        0 => SdoRequest::DownloadSegment {
+            toggle: d[0] & 0x10 != 0,
+            data: segment_data(d),
+            last: d[0] & 1 == 1,
+        },
         2 => SdoRequest::Upload { object },
+        3 => SdoRequest::UploadSegment {
+            toggle: d[0] & 0x10 != 0,
+        },
         4 => SdoRequest::Abort {
             object,
             code: AbortCode::from_raw(u32_at(d, 4)),
@@ -843,7 +957,8 @@ fn sdo_request(d: &[u8]) -> Result<SdoRequest, DecodeError> {
             return Err(DecodeError::SdoCommand {
                 message: M,
                 command: d[0],
-                expected: "an expedited download 0x2_ with e = 1, upload 0x40 or abort 0x80",
+                expected: "a download 0x2_, download segment 0x0_/0x1_, upload 0x40, \
+                           upload segment 0x60/0x70 or abort 0x80",
             });
         }
     })
@@ -862,6 +977,14 @@ fn sdo_response(d: &[u8]) -> Result<SdoResponse, DecodeError> {
             object,
             size: (d[0] & 1 == 1).then(|| u32_at(d, 4)),
         },
+        1 => SdoResponse::DownloadSegmentAck {
+            toggle: d[0] & 0x10 != 0,
+        },
+        0 => SdoResponse::UploadSegment {
+            toggle: d[0] & 0x10 != 0,
+            data: segment_data(d),
+            last: d[0] & 1 == 1,
+        },
         4 => SdoResponse::Abort {
             object,
             code: AbortCode::from_raw(u32_at(d, 4)),
@@ -870,7 +993,8 @@ fn sdo_response(d: &[u8]) -> Result<SdoResponse, DecodeError> {
             return Err(DecodeError::SdoCommand {
                 message: M,
                 command: d[0],
-                expected: "a download response 0x60, upload response 0x4_ or abort 0x80",
+                expected: "a download response 0x60, segment response 0x20/0x30, \
+                           upload response 0x4_, upload segment 0x0_/0x1_ or abort 0x80",
             });
         }
     })

@@ -335,6 +335,92 @@ fn sdo_response_vectors() {
     );
 }
 
+fn seg(b: &[u8]) -> SegmentData {
+    SegmentData::new(b).unwrap()
+}
+
+#[test]
+fn segmented_sdo_vectors() {
+    let req = |sdo| Message::SdoRequest { node: node(1), sdo };
+    let resp = |sdo| Message::SdoResponse { node: node(1), sdo };
+    // Initiate segmented download of 0x1008, 12 bytes indicated (0x21).
+    vector(
+        req(SdoRequest::DownloadSegmented {
+            object: Object::new(0x1008, 0),
+            size: Some(12),
+        }),
+        "601#210810000C000000",
+    );
+    vector(
+        req(SdoRequest::DownloadSegmented {
+            object: Object::new(0x1008, 0),
+            size: None,
+        }),
+        "601#2008100000000000",
+    );
+    // First segment: t = 0, 7 bytes (n = 0), more follow (c = 0).
+    vector(
+        req(SdoRequest::DownloadSegment {
+            toggle: false,
+            data: seg(b"anguill"),
+            last: false,
+        }),
+        "601#00616E6775696C6C",
+    );
+    // Second: t = 1, 5 bytes (n = 2), last: 0x10 | 2 << 1 | 1 = 0x15.
+    vector(
+        req(SdoRequest::DownloadSegment {
+            toggle: true,
+            data: seg(b"a sim"),
+            last: true,
+        }),
+        "601#15612073696D0000",
+    );
+    vector(
+        req(SdoRequest::UploadSegment { toggle: false }),
+        "601#6000000000000000",
+    );
+    vector(
+        req(SdoRequest::UploadSegment { toggle: true }),
+        "601#7000000000000000",
+    );
+    vector(
+        resp(SdoResponse::DownloadSegmentAck { toggle: false }),
+        "581#2000000000000000",
+    );
+    vector(
+        resp(SdoResponse::DownloadSegmentAck { toggle: true }),
+        "581#3000000000000000",
+    );
+    vector(
+        resp(SdoResponse::UploadSegment {
+            toggle: false,
+            data: seg(b"anguill"),
+            last: false,
+        }),
+        "581#00616E6775696C6C",
+    );
+    // t = 1, 3 bytes (n = 4), last: 0x10 | 4 << 1 | 1 = 0x19.
+    vector(
+        resp(SdoResponse::UploadSegment {
+            toggle: true,
+            data: seg(b"a s"),
+            last: true,
+        }),
+        "581#1961207300000000",
+    );
+    // An empty last segment (n = 7).
+    vector(
+        resp(SdoResponse::UploadSegment {
+            toggle: false,
+            data: seg(b""),
+            last: true,
+        }),
+        "581#0F00000000000000",
+    );
+    assert!(SegmentData::new(&[0; 8]).is_err());
+}
+
 #[test]
 fn abort_codes_are_the_cia_301_table() {
     assert_eq!(AbortCode::NAMED.len(), 31);
@@ -415,10 +501,9 @@ fn every_decode_error() {
         e.to_string(),
         "heartbeat.state value 0x06 is unknown (expected 0x00, 0x04, 0x05 or 0x7F)"
     );
-    // Segmented download initiate (e = 0), upload segment (ccs 3), block
-    // download (ccs 6) requests; download segment response (scs 1), upload
-    // segment response (scs 0), block upload response (scs 6).
-    for c in [0x21u8, 0x20, 0x60, 0xC0, 0xA0, 0x00] {
+    // Block download (ccs 6) and block upload (ccs 5) requests; block
+    // responses (scs 5, 6, 7); not implemented.
+    for c in [0xC0u8, 0xA0, 0xE0] {
         assert!(
             matches!(
                 decode(&data(0x601, &[c, 0, 0x10, 0, 0, 0, 0, 0])),
@@ -427,7 +512,7 @@ fn every_decode_error() {
             "0x{c:02X}"
         );
     }
-    for c in [0x20u8, 0x00, 0x10, 0xC0, 0xA0, 0xE0] {
+    for c in [0xC0u8, 0xA0, 0xE0] {
         assert!(
             matches!(
                 decode(&data(0x581, &[c, 0, 0x10, 0, 0, 0, 0, 0])),
@@ -437,11 +522,12 @@ fn every_decode_error() {
         );
     }
     assert_eq!(
-        decode(&data(0x581, &[0x20, 0, 0x10, 0, 0, 0, 0, 0]))
+        decode(&data(0x581, &[0xC0, 0, 0x10, 0, 0, 0, 0, 0]))
             .unwrap_err()
             .to_string(),
-        "SDO response command byte 0x20 is not implemented (expected a download response \
-         0x60, upload response 0x4_ or abort 0x80)"
+        "SDO response command byte 0xC0 is not implemented (expected a download response \
+         0x60, segment response 0x20/0x30, upload response 0x4_, upload segment 0x0_/0x1_ or \
+         abort 0x80)"
     );
     assert_eq!(
         DriveState::from_statusword(0x0001),
@@ -592,6 +678,10 @@ fn arb_abort() -> impl Strategy<Value = AbortCode> {
     any::<u32>().prop_map(AbortCode::from_raw)
 }
 
+fn arb_segment() -> impl Strategy<Value = SegmentData> {
+    prop::collection::vec(any::<u8>(), 0..=7).prop_map(|b| SegmentData::new(&b).unwrap())
+}
+
 fn arb_message() -> impl Strategy<Value = Message> {
     prop_oneof![
         (
@@ -618,6 +708,12 @@ fn arb_message() -> impl Strategy<Value = Message> {
                 (arb_object(), arb_sdo_data())
                     .prop_map(|(object, data)| SdoRequest::Download { object, data }),
                 arb_object().prop_map(|object| SdoRequest::Upload { object }),
+                (arb_object(), prop::option::of(any::<u32>()))
+                    .prop_map(|(object, size)| SdoRequest::DownloadSegmented { object, size }),
+                (any::<bool>(), arb_segment(), any::<bool>()).prop_map(|(toggle, data, last)| {
+                    SdoRequest::DownloadSegment { toggle, data, last }
+                }),
+                any::<bool>().prop_map(|toggle| SdoRequest::UploadSegment { toggle }),
                 (arb_object(), arb_abort())
                     .prop_map(|(object, code)| SdoRequest::Abort { object, code }),
             ]
@@ -633,6 +729,10 @@ fn arb_message() -> impl Strategy<Value = Message> {
                     .prop_map(|(object, size)| SdoResponse::UploadSegmented { object, size }),
                 (arb_object(), arb_abort())
                     .prop_map(|(object, code)| SdoResponse::Abort { object, code }),
+                any::<bool>().prop_map(|toggle| SdoResponse::DownloadSegmentAck { toggle }),
+                (any::<bool>(), arb_segment(), any::<bool>()).prop_map(|(toggle, data, last)| {
+                    SdoResponse::UploadSegment { toggle, data, last }
+                }),
             ]
         )
             .prop_map(|(node, sdo)| Message::SdoResponse { node, sdo }),

@@ -1,0 +1,836 @@
+//! CANopen CiA 402 drives: the master (`docs/drives.md`).
+//!
+//! One drive per axis, in cyclic synchronous position mode (8). The master
+//! is written from CiA 301 and CiA 402 over [`anguilla_protocol::canopen`]
+//! (no mature Rust CANopen crate existed to build on):
+//!
+//! - **NMT**: on its first period the master sends Reset communication to
+//!   each configured drive; a drive is configured when its boot-up arrives
+//!   (also after a reboot), then started (operational).
+//! - **SDO client**, one transfer at a time per drive, expedited and
+//!   segmented, with a timeout and retries; an abort fails the
+//!   configuration with its CiA 301 code ([`ConfigFailure`]). The
+//!   configuration ([`Step`]): device type 0x1000 (must be 402), device
+//!   name 0x1008 (segmented), rated torque 0x6076, RPDO1 = controlword
+//!   0x6040 + target position 0x607A + torque offset 0x60B2, TPDO1 =
+//!   statusword 0x6041 + position actual 0x6064 + torque actual 0x6077
+//!   (both synchronous), communication cycle 0x1006 and interpolation
+//!   period 0x60C2 = the control period, mode 0x6060 = 8 checked through
+//!   0x6061, heartbeat producer 0x1017 = 100 ms and consumer 0x1016 = the
+//!   master's heartbeat within `control.heartbeat-timeout`.
+//! - **Each period**: an RPDO1 to every operational drive, then SYNC; the
+//!   master's own heartbeat every 100 ms. The controlword follows the
+//!   statusword the last TPDO1 carried (shutdown → switch on → enable
+//!   operation while enabling; quick stop while E-stopped; a fault reset on
+//!   the operator's clear), with the target at the measured position until
+//!   setpoints flow.
+//! - **Faults**: EMCY is decoded into the joint's error code
+//!   (`code << 16 | error register << 8`); Fault in the statusword, a
+//!   failed configuration or a lost heartbeat fault the joint; an NMT Stop
+//!   from another sender is a bus E-stop.
+//!
+//! Velocity actual is not mapped (a classic PDO holds 8 bytes): the
+//! measured velocity is the difference of successive positions.
+
+use anguilla_protocol::canopen::{
+    self, AbortCode, Emcy, Message, NmtCommand, NmtState, NodeId, Object, Pdo, PdoData, SdoData,
+    SdoRequest, SdoResponse,
+    cia402::{self, Command, DriveState},
+};
+use anguilla_protocol::frame::Frame;
+use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
+
+use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
+use crate::config::{AxisMap, Config};
+use crate::nodes::{NodeReport, RxCounters};
+use crate::supervisor::{Drive, Mode, Nanos};
+
+const MS: Nanos = Nanos::from_millis(1);
+/// How long the master waits for an SDO response.
+pub const SDO_TIMEOUT: Nanos = Nanos::from_millis(100);
+/// Attempts of one SDO transfer before the configuration fails.
+pub const SDO_ATTEMPTS: u8 = 3;
+/// The drives' heartbeat period written to 0x1017, and the master's own.
+pub const HEARTBEAT_MS: u16 = 100;
+/// The longest device name kept (bytes).
+pub const NAME_LEN: usize = 32;
+/// The error code of a joint whose configuration failed at step `s`:
+/// `CONFIG_FAILED | s`.
+pub const CONFIG_FAILED: u32 = 0xFFFF_0000;
+
+/// One step of a drive's configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    /// Read an entry; `check` says what it must be.
+    Read(Object, Check),
+    /// Write an entry (1..=4 bytes, little-endian).
+    Write(Object, SdoData),
+    /// NMT Start remote node: the configuration is done.
+    Start,
+}
+
+/// What a read must return.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check {
+    /// 0x1000's low 16 bits are 402.
+    DeviceProfile402,
+    /// The device name (kept, any length, segmented or not).
+    Name,
+    /// 0x6076 rated torque (kept; mN·m, non-zero).
+    RatedTorque,
+    /// 0x6061 reports cyclic synchronous position.
+    ModeCsp,
+}
+
+/// Why a drive's configuration failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConfigFailure {
+    /// The drive aborted the transfer.
+    Abort {
+        /// The entry.
+        object: Object,
+        /// Its code.
+        code: AbortCode,
+    },
+    /// No answer after [`SDO_ATTEMPTS`] tries of [`SDO_TIMEOUT`].
+    Timeout(Object),
+    /// The value read is not what anguilla needs (e.g. not a CiA 402
+    /// device, mode 8 refused, rated torque 0).
+    Unexpected {
+        /// The entry.
+        object: Object,
+        /// Its value (zero-extended).
+        value: u32,
+    },
+    /// The answer does not belong to the transfer (wrong entry, toggle bit
+    /// or command).
+    Protocol(Object),
+}
+
+impl std::fmt::Display for ConfigFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let o = |o: &Object| format!("0x{:04X}:{:02X}", o.index, o.sub);
+        match self {
+            ConfigFailure::Abort { object, code } => write!(
+                f,
+                "SDO to {} aborted: 0x{:08X} {}",
+                o(object),
+                code.raw(),
+                code.description()
+            ),
+            ConfigFailure::Timeout(obj) => {
+                write!(f, "SDO to {} not answered ({SDO_ATTEMPTS} tries)", o(obj))
+            }
+            ConfigFailure::Unexpected { object, value } => {
+                write!(f, "{} = 0x{value:X} is not what anguilla needs", o(object))
+            }
+            ConfigFailure::Protocol(obj) => {
+                write!(f, "SDO to {}: an answer out of sequence", o(obj))
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Setup {
+    /// Nothing heard since the master started (or reset communication).
+    Waiting,
+    /// Configuring: the step, and the outstanding transfer.
+    Step {
+        step: u8,
+        sent: Option<Nanos>,
+        attempts: u8,
+        /// A segmented upload in progress: the next toggle bit.
+        segment: Option<bool>,
+    },
+    /// Configured and started.
+    Done,
+    /// Failed at a step.
+    Failed(u8, ConfigFailure),
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Axis {
+    map: AxisMap,
+    node: NodeId,
+    nmt: Option<NmtState>,
+    last_heard: Option<Nanos>,
+    setup: Setup,
+    statusword: Option<u16>,
+    position: Option<(i32, Nanos)>,
+    velocity: f64,
+    torque: i16,
+    rated_mnm: u32,
+    emcy: Option<Emcy>,
+    reset_fault: bool,
+    name: [u8; NAME_LEN],
+    name_len: u8,
+}
+
+fn word(v: u32, len: usize) -> SdoData {
+    SdoData::new(&v.to_le_bytes()[..len]).expect("1..=4 bytes")
+}
+
+impl Axis {
+    fn drive_state(&self) -> Option<DriveState> {
+        DriveState::from_statusword(self.statusword?).ok()
+    }
+
+    fn node_state(&self) -> Option<NodeState> {
+        self.last_heard?;
+        Some(match self.setup {
+            Setup::Failed(..) => NodeState::Fault,
+            Setup::Waiting | Setup::Step { .. } => NodeState::Boot,
+            Setup::Done => match (self.nmt, self.drive_state()) {
+                (Some(NmtState::Operational), Some(s)) => match s {
+                    DriveState::OperationEnabled => NodeState::Enabled,
+                    DriveState::Fault | DriveState::FaultReactionActive => NodeState::Fault,
+                    DriveState::QuickStopActive => NodeState::EStop,
+                    DriveState::NotReadyToSwitchOn
+                    | DriveState::SwitchOnDisabled
+                    | DriveState::ReadyToSwitchOn
+                    | DriveState::SwitchedOn => NodeState::Disabled,
+                },
+                _ => NodeState::Boot,
+            },
+        })
+    }
+
+    fn status(&self) -> AxisStatus {
+        AxisStatus {
+            state: self.node_state(),
+            last_heard: self.last_heard,
+        }
+    }
+
+    fn error_code(&self) -> u32 {
+        match (self.setup, self.emcy) {
+            (Setup::Failed(step, _), _) => CONFIG_FAILED | step as u32,
+            (_, Some(e)) => (e.code as u32) << 16 | (e.register as u32) << 8,
+            _ => 0,
+        }
+    }
+
+    fn feedback(&self) -> Option<AxisFeedback> {
+        let (counts, _) = self.position?;
+        let rated = self.rated_nm();
+        Some(AxisFeedback {
+            position: self.map.from_counts(counts) as f32,
+            velocity: self.velocity as f32,
+            torque: self.map.joint_torque(self.torque as f64 * rated / 1000.0) as f32,
+            limited: false,
+        })
+    }
+
+    fn rated_nm(&self) -> f64 {
+        if self.map.rated_torque > 0.0 {
+            self.map.rated_torque
+        } else {
+            self.rated_mnm as f64 / 1000.0
+        }
+    }
+
+    fn torque_permille(&self, tau: f64) -> i16 {
+        let rated = self.rated_nm();
+        if rated <= 0.0 {
+            return 0;
+        }
+        (self.map.motor_torque(tau) / rated * 1000.0)
+            .round()
+            .clamp(i16::MIN as f64, i16::MAX as f64) as i16
+    }
+
+    fn restart_setup(&mut self) {
+        self.setup = Setup::Step {
+            step: 0,
+            sent: None,
+            attempts: 0,
+            segment: None,
+        };
+        self.statusword = None;
+        self.position = None;
+        self.name_len = 0;
+    }
+}
+
+/// The CiA 402 master and its drives, two per joint.
+pub struct Master {
+    joints: Vec<[Axis; 2]>,
+    index: AxisIndex,
+    ids: NodeSet,
+    master: NodeId,
+    period: Nanos,
+    consumer_ms: u16,
+    counters: RxCounters,
+    bus_estop: bool,
+    started: Nanos,
+    reset_sent: bool,
+    last_heartbeat: Option<Nanos>,
+}
+
+impl Master {
+    /// The drives of `cfg` (`robot.axes`), unheard-of at `now`, for the
+    /// control period `period`.
+    pub fn new(cfg: &Config, now: Nanos, period: Nanos) -> Result<Self, DriveError> {
+        let bad = |id| DriveError::NodeId {
+            family: anguilla_protocol::Family::Cia402,
+            id,
+            min: 1,
+            max: canopen::MAX_NODE_ID,
+        };
+        let maps = cfg.axes();
+        let joints = maps
+            .iter()
+            .map(|pair| {
+                let mk = |map: AxisMap| {
+                    Ok(Axis {
+                        map,
+                        node: NodeId::new(map.node).map_err(|_| bad(map.node))?,
+                        nmt: None,
+                        last_heard: None,
+                        setup: Setup::Waiting,
+                        statusword: None,
+                        position: None,
+                        velocity: 0.0,
+                        torque: 0,
+                        rated_mnm: 0,
+                        emcy: None,
+                        reset_fault: false,
+                        name: [0; NAME_LEN],
+                        name_len: 0,
+                    })
+                };
+                Ok([mk(pair[0])?, mk(pair[1])?])
+            })
+            .collect::<Result<Vec<_>, DriveError>>()?;
+        let master = cfg.robot.master_node_id;
+        Ok(Self {
+            index: AxisIndex::new(maps.iter().map(|p| [p[0].node, p[1].node])),
+            ids: super::joint_ids(joints.len()),
+            joints,
+            master: NodeId::new(master).map_err(|_| bad(master))?,
+            period,
+            consumer_ms: (cfg.control.heartbeat_timeout * 1e3)
+                .round()
+                .clamp(1.0, 65535.0) as u16,
+            counters: RxCounters::default(),
+            bus_estop: false,
+            started: now,
+            reset_sent: false,
+            last_heartbeat: None,
+        })
+    }
+
+    /// Why drive `axis` (0 pitch, 1 yaw) of joint `j` failed its
+    /// configuration, if it did.
+    pub fn config_failure(&self, j: usize, axis: usize) -> Option<(Step, ConfigFailure)> {
+        match self.joints.get(j)?.get(axis)?.setup {
+            Setup::Failed(step, why) => Some((self.step(&self.joints[j][axis], step)?, why)),
+            _ => None,
+        }
+    }
+
+    /// The device name drive `axis` of joint `j` reported (0x1008).
+    pub fn device_name(&self, j: usize, axis: usize) -> Option<&str> {
+        let a = self.joints.get(j)?.get(axis)?;
+        std::str::from_utf8(&a.name[..a.name_len as usize]).ok()
+    }
+
+    /// Whether every drive is configured and started.
+    pub fn configured(&self) -> bool {
+        self.joints.iter().flatten().all(|a| a.setup == Setup::Done)
+    }
+
+    /// Step `i` of drive `a`'s configuration (`None` past the last).
+    fn step(&self, a: &Axis, i: u8) -> Option<Step> {
+        let n = a.node.get() as u32;
+        let w = |index, sub, v, len| Step::Write(Object::new(index, sub), word(v, len));
+        let period_us = (self.period.as_nanos() / 1000).max(1);
+        // 0x60C2: value × 10^index s, value a u8.
+        let (ip_value, ip_index) = if period_us.is_multiple_of(1000) && period_us / 1000 <= 255 {
+            ((period_us / 1000) as u32, -3i8)
+        } else {
+            ((period_us / 100).clamp(1, 255) as u32, -4i8)
+        };
+        Some(match i {
+            0 => Step::Read(Object::new(0x1000, 0), Check::DeviceProfile402),
+            1 => Step::Read(Object::new(0x1008, 0), Check::Name),
+            2 => Step::Read(Object::new(cia402::RATED_TORQUE, 0), Check::RatedTorque),
+            // RPDO1: controlword, target position, torque offset.
+            3 => w(0x1400, 1, 0x8000_0200 + n, 4),
+            4 => w(0x1400, 2, 1, 1),
+            5 => w(0x1600, 0, 0, 1),
+            6 => w(0x1600, 1, 0x6040_0010, 4),
+            7 => w(0x1600, 2, 0x607A_0020, 4),
+            8 => w(0x1600, 3, 0x60B2_0010, 4),
+            9 => w(0x1600, 0, 3, 1),
+            10 => w(0x1400, 1, 0x200 + n, 4),
+            // TPDO1: statusword, position actual, torque actual, every SYNC.
+            11 => w(0x1800, 1, 0x8000_0180 + n, 4),
+            12 => w(0x1800, 2, 1, 1),
+            13 => w(0x1A00, 0, 0, 1),
+            14 => w(0x1A00, 1, 0x6041_0010, 4),
+            15 => w(0x1A00, 2, 0x6064_0020, 4),
+            16 => w(0x1A00, 3, 0x6077_0010, 4),
+            17 => w(0x1A00, 0, 3, 1),
+            18 => w(0x1800, 1, 0x180 + n, 4),
+            19 => w(cia402::COMMUNICATION_CYCLE_PERIOD, 0, period_us as u32, 4),
+            20 => w(cia402::INTERPOLATION_TIME_PERIOD, 1, ip_value, 1),
+            21 => w(
+                cia402::INTERPOLATION_TIME_PERIOD,
+                2,
+                ip_index as u8 as u32,
+                1,
+            ),
+            22 => w(
+                cia402::MODES_OF_OPERATION,
+                0,
+                cia402::MODE_CSP as u8 as u32,
+                1,
+            ),
+            23 => Step::Read(
+                Object::new(cia402::MODES_OF_OPERATION_DISPLAY, 0),
+                Check::ModeCsp,
+            ),
+            24 => w(cia402::HEARTBEAT_PRODUCER, 0, HEARTBEAT_MS as u32, 2),
+            25 => w(
+                cia402::HEARTBEAT_CONSUMER,
+                1,
+                (self.master.get() as u32) << 16 | self.consumer_ms as u32,
+                4,
+            ),
+            26 => Step::Start,
+            _ => return None,
+        })
+    }
+
+    fn send(out: &mut Out<'_>, m: Message) {
+        out.send(&m.encode());
+    }
+
+    /// Sends what each configuring drive needs next, and times out
+    /// unanswered transfers.
+    fn configure(&mut self, now: Nanos, out: &mut Out<'_>) {
+        for j in 0..self.joints.len() {
+            for ax in 0..2 {
+                let a = self.joints[j][ax];
+                let Setup::Step {
+                    step,
+                    sent,
+                    attempts,
+                    segment,
+                } = a.setup
+                else {
+                    continue;
+                };
+                let Some(s) = self.step(&a, step) else {
+                    continue;
+                };
+                let object = match s {
+                    Step::Read(o, _) | Step::Write(o, _) => o,
+                    Step::Start => Object::new(0, 0),
+                };
+                if let Some(t) = sent {
+                    if now.saturating_sub(t) < SDO_TIMEOUT {
+                        continue;
+                    }
+                    if attempts >= SDO_ATTEMPTS {
+                        // Tell the drive the transfer is over.
+                        Self::send(
+                            out,
+                            Message::SdoRequest {
+                                node: a.node,
+                                sdo: SdoRequest::Abort {
+                                    object,
+                                    code: AbortCode::Timeout,
+                                },
+                            },
+                        );
+                        self.joints[j][ax].setup =
+                            Setup::Failed(step, ConfigFailure::Timeout(object));
+                        continue;
+                    }
+                }
+                let node = a.node;
+                let m = match (s, segment) {
+                    (Step::Read(..), Some(toggle)) => Message::SdoRequest {
+                        node,
+                        sdo: SdoRequest::UploadSegment { toggle },
+                    },
+                    (Step::Read(o, _), None) => Message::SdoRequest {
+                        node,
+                        sdo: SdoRequest::Upload { object: o },
+                    },
+                    (Step::Write(o, data), _) => Message::SdoRequest {
+                        node,
+                        sdo: SdoRequest::Download { object: o, data },
+                    },
+                    (Step::Start, _) => {
+                        Self::send(
+                            out,
+                            Message::Nmt {
+                                command: NmtCommand::Start,
+                                node: Some(node),
+                            },
+                        );
+                        self.joints[j][ax].setup = Setup::Done;
+                        continue;
+                    }
+                };
+                // A retried segmented upload starts over.
+                let m = match (sent, m) {
+                    (
+                        Some(_),
+                        Message::SdoRequest {
+                            sdo: SdoRequest::UploadSegment { .. },
+                            ..
+                        },
+                    ) => {
+                        self.joints[j][ax].name_len = 0;
+                        Message::SdoRequest {
+                            node,
+                            sdo: SdoRequest::Upload { object },
+                        }
+                    }
+                    (_, m) => m,
+                };
+                let segment = match m {
+                    Message::SdoRequest {
+                        sdo: SdoRequest::Upload { .. },
+                        ..
+                    } => None,
+                    _ => segment,
+                };
+                Self::send(out, m);
+                self.joints[j][ax].setup = Setup::Step {
+                    step,
+                    sent: Some(now),
+                    attempts: if sent.is_some() { attempts + 1 } else { 1 },
+                    segment,
+                };
+            }
+        }
+    }
+
+    /// An SDO response from drive `(j, ax)`.
+    fn sdo_response(&mut self, j: usize, ax: usize, r: SdoResponse) {
+        let a = self.joints[j][ax];
+        let Setup::Step { step, segment, .. } = a.setup else {
+            // Not ours (another client's, or late): ignored.
+            self.counters.foreign_commands += 1;
+            return;
+        };
+        let Some(s) = self.step(&a, step) else {
+            return;
+        };
+        let fail = |why| Setup::Failed(step, why);
+        let next = Setup::Step {
+            step: step + 1,
+            sent: None,
+            attempts: 0,
+            segment: None,
+        };
+        let axis = &mut self.joints[j][ax];
+        axis.setup = match (s, r) {
+            (Step::Read(o, _) | Step::Write(o, _), SdoResponse::Abort { object, code })
+                if object == o =>
+            {
+                fail(ConfigFailure::Abort { object, code })
+            }
+            (Step::Write(o, _), SdoResponse::DownloadAck { object }) if object == o => next,
+            (Step::Read(o, check), SdoResponse::Upload { object, data }) if object == o => {
+                let v = data.as_u32();
+                let ok = match check {
+                    Check::DeviceProfile402 => v & 0xFFFF == 402,
+                    Check::Name => {
+                        let b = data.bytes();
+                        axis.name[..b.len()].copy_from_slice(b);
+                        axis.name_len = b.len() as u8;
+                        true
+                    }
+                    Check::RatedTorque => {
+                        axis.rated_mnm = v;
+                        v > 0 || axis.map.rated_torque > 0.0
+                    }
+                    Check::ModeCsp => v as u8 as i8 == cia402::MODE_CSP,
+                };
+                if ok {
+                    next
+                } else {
+                    fail(ConfigFailure::Unexpected { object, value: v })
+                }
+            }
+            (Step::Read(o, Check::Name), SdoResponse::UploadSegmented { object, .. })
+                if object == o && segment.is_none() =>
+            {
+                axis.name_len = 0;
+                Setup::Step {
+                    step,
+                    sent: None,
+                    attempts: 0,
+                    segment: Some(false),
+                }
+            }
+            (Step::Read(_, Check::Name), SdoResponse::UploadSegment { toggle, data, last })
+                if segment == Some(toggle) =>
+            {
+                let have = axis.name_len as usize;
+                let take = data.bytes().len().min(NAME_LEN - have);
+                axis.name[have..have + take].copy_from_slice(&data.bytes()[..take]);
+                axis.name_len = (have + take) as u8;
+                if last {
+                    next
+                } else {
+                    Setup::Step {
+                        step,
+                        sent: None,
+                        attempts: 0,
+                        segment: Some(!toggle),
+                    }
+                }
+            }
+            (Step::Read(o, _) | Step::Write(o, _), _) => fail(ConfigFailure::Protocol(o)),
+            (Step::Start, _) => a.setup,
+        };
+    }
+
+    fn tpdo(&mut self, now: Nanos, j: usize, ax: usize, data: &PdoData) {
+        let d = data.bytes();
+        if d.len() < 8 {
+            self.counters.malformed += 1;
+            return;
+        }
+        let a = &mut self.joints[j][ax];
+        a.statusword = Some(u16::from_le_bytes([d[0], d[1]]));
+        let counts = i32::from_le_bytes([d[2], d[3], d[4], d[5]]);
+        if let Some((prev, t)) = a.position {
+            let dt = now.saturating_sub(t).as_nanos() as f64 * 1e-9;
+            if dt > 0.0 {
+                a.velocity = (a.map.from_counts(counts) - a.map.from_counts(prev)) / dt;
+            }
+        }
+        a.position = Some((counts, now));
+        a.torque = i16::from_le_bytes([d[6], d[7]]);
+    }
+
+    fn rpdo(out: &mut Out<'_>, a: &Axis, control: u16, target: i32, torque: i16) {
+        let mut d = [0u8; 8];
+        d[0..2].copy_from_slice(&control.to_le_bytes());
+        d[2..6].copy_from_slice(&target.to_le_bytes());
+        d[6..8].copy_from_slice(&torque.to_le_bytes());
+        Self::send(
+            out,
+            Message::Rpdo {
+                node: a.node,
+                pdo: Pdo::One,
+                data: PdoData::new(&d).expect("8 bytes"),
+            },
+        );
+    }
+
+    fn sync(out: &mut Out<'_>) {
+        Self::send(out, Message::Sync { counter: None });
+    }
+}
+
+impl Drives for Master {
+    fn family(&self) -> anguilla_protocol::Family {
+        anguilla_protocol::Family::Cia402
+    }
+
+    fn report_ids(&self) -> NodeSet {
+        self.ids
+    }
+
+    fn ingest(&mut self, now: Nanos, frame: &Frame) {
+        let m = match canopen::decode(frame) {
+            Ok(m) => m,
+            Err(_) => {
+                self.counters.malformed += 1;
+                return;
+            }
+        };
+        let ours = |node: NodeId| self.index.get(node.get());
+        match m {
+            Message::Nmt { command, node } => {
+                let at_us = node.is_none_or(|n| ours(n).is_some());
+                if command == NmtCommand::Stop && at_us {
+                    self.counters.estops_seen += 1;
+                    self.bus_estop = true;
+                } else {
+                    self.counters.foreign_commands += 1;
+                }
+            }
+            Message::Heartbeat { node, state } => {
+                let Some((j, ax)) = ours(node) else { return };
+                let a = &mut self.joints[j][ax];
+                a.last_heard = Some(now);
+                a.nmt = Some(state);
+                // A boot-up (a fresh or rebooted drive), or a drive heard
+                // before it was configured: configure it.
+                if state == NmtState::BootUp || a.setup == Setup::Waiting {
+                    a.restart_setup();
+                    a.nmt = Some(NmtState::PreOperational);
+                }
+            }
+            Message::Tpdo {
+                node,
+                pdo: Pdo::One,
+                data,
+            } => {
+                if let Some((j, ax)) = ours(node) {
+                    self.tpdo(now, j, ax, &data);
+                }
+            }
+            Message::Emcy { node, emcy } => {
+                if let Some((j, ax)) = ours(node) {
+                    self.joints[j][ax].emcy = (emcy.code != 0).then_some(emcy);
+                }
+            }
+            Message::SdoResponse { node, sdo } => {
+                if let Some((j, ax)) = ours(node) {
+                    self.sdo_response(j, ax, sdo);
+                }
+            }
+            Message::Tpdo { .. } => {}
+            Message::Sync { .. } | Message::Rpdo { .. } | Message::SdoRequest { .. } => {
+                self.counters.foreign_commands += 1
+            }
+        }
+    }
+
+    fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
+        super::observe_joints(
+            self.joints.iter().map(|p| [p[0].status(), p[1].status()]),
+            self.started,
+            now,
+            heartbeat_timeout,
+        )
+    }
+
+    fn take_bus_estop(&mut self) -> bool {
+        core::mem::take(&mut self.bus_estop)
+    }
+
+    fn counters(&self) -> RxCounters {
+        self.counters
+    }
+
+    fn joint(&self, j: usize) -> JointReport {
+        let p = &self.joints[j];
+        let st = [p[0].status(), p[1].status()];
+        let e0 = p[0].error_code();
+        JointReport {
+            state: super::joint_state(st),
+            errors: if e0 != 0 { e0 } else { p[1].error_code() },
+            last_heard: super::joint_heard(st),
+            feedback: match (p[0].feedback(), p[1].feedback()) {
+                (Some(a), Some(b)) => Some([a, b]),
+                _ => None,
+            },
+        }
+    }
+
+    fn estop(&mut self, out: &mut Out<'_>) {
+        out.flush();
+        for a in self.joints.iter().flatten() {
+            if a.setup == Setup::Done {
+                let hold = a.position.map_or(0, |p| p.0);
+                Self::rpdo(out, a, Command::QuickStop.word(), hold, 0);
+            }
+        }
+        Self::sync(out);
+    }
+
+    fn clear_faults(&mut self, _out: &mut Out<'_>) {
+        for a in self.joints.iter_mut().flatten() {
+            a.emcy = None;
+            match a.setup {
+                // Configure again from the start.
+                Setup::Failed(..) => a.restart_setup(),
+                _ => a.reset_fault = true,
+            }
+            a.statusword = None;
+        }
+    }
+
+    fn period(&mut self, p: &Period<'_>, out: &mut Out<'_>) {
+        if p.bus_off {
+            return;
+        }
+        if !self.reset_sent {
+            self.reset_sent = true;
+            for a in self.joints.iter().flatten() {
+                Self::send(
+                    out,
+                    Message::Nmt {
+                        command: NmtCommand::ResetCommunication,
+                        node: Some(a.node),
+                    },
+                );
+            }
+        }
+        self.configure(p.now, out);
+        for (j, pair) in self.joints.iter_mut().enumerate() {
+            let skip = p.skip.contains(j as u8 + 1);
+            for (ax, a) in pair.iter_mut().enumerate() {
+                if a.setup != Setup::Done || a.nmt != Some(NmtState::Operational) {
+                    continue;
+                }
+                let hold = a.position.map_or(0, |p| p.0);
+                let state = a.drive_state();
+                let (control, target, torque) = if core::mem::take(&mut a.reset_fault) {
+                    (Command::FaultReset.word(), hold, 0)
+                } else if p.mode == Mode::EStop {
+                    (Command::QuickStop.word(), hold, 0)
+                } else {
+                    match p.drive {
+                        Drive::Disabled => (Command::Shutdown.word(), hold, 0),
+                        Drive::Enable => {
+                            let c = match state.and_then(DriveState::next_toward_enabled) {
+                                // Faults are reset by the operator only.
+                                Some(Command::FaultReset) | None => Command::DisableVoltage,
+                                Some(c) => c,
+                            };
+                            (c.word(), hold, 0)
+                        }
+                        Drive::Setpoints if skip => continue,
+                        Drive::Setpoints => {
+                            let s = p.setpoints[j][ax];
+                            (
+                                Command::EnableOperation.word(),
+                                a.map.counts(s.position as f64),
+                                a.torque_permille(s.torque as f64),
+                            )
+                        }
+                    }
+                };
+                Self::rpdo(out, a, control, target, torque);
+            }
+        }
+        Self::sync(out);
+        if self
+            .last_heartbeat
+            .is_none_or(|t| p.now.saturating_sub(t) >= HEARTBEAT_MS as u64 * MS)
+        {
+            self.last_heartbeat = Some(p.now);
+            Self::send(
+                out,
+                Message::Heartbeat {
+                    node: self.master,
+                    state: NmtState::Operational,
+                },
+            );
+        }
+    }
+
+    fn disable_all(&mut self, out: &mut Out<'_>) {
+        for a in self.joints.iter().flatten() {
+            if a.setup == Setup::Done {
+                let hold = a.position.map_or(0, |p| p.0);
+                Self::rpdo(out, a, Command::DisableVoltage.word(), hold, 0);
+            }
+        }
+        Self::sync(out);
+    }
+}

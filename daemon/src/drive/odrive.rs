@@ -1,0 +1,305 @@
+//! ODrive axes over CANSimple (firmware 0.6; `docs/drives.md`).
+//!
+//! Setpoints are not SYNC-triggered: each period sends `Set_Input_Pos`
+//! (turns, velocity feed-forward turns/s, torque feed-forward N·m at the
+//! motor) to every axis, applied on arrival. The drive's own watchdog
+//! (`axis.config.watchdog_timeout`, set with odrivetool) must be on: it is
+//! what stops an axis whose master died. Enabling sets position control
+//! with passthrough input and requests closed-loop control; disabling
+//! requests idle; the E-stop is CANSimple's `Estop`; a fault reset is
+//! `Clear_Errors`. The axes' cyclic `Heartbeat` (axis error, state) and
+//! `Get_Encoder_Estimates` are what the master knows of them.
+
+use anguilla_protocol::frame::Frame;
+use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
+use anguilla_protocol::odrive::{
+    self, AxisState, Body, ControlMode, InputMode, InputPos, Message, NodeId,
+};
+
+use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
+use crate::config::{AxisMap, Config};
+use crate::nodes::{NodeReport, RxCounters};
+use crate::supervisor::{Drive, Mode, Nanos};
+
+const MS: Nanos = Nanos::from_millis(1);
+
+/// `ESTOP_REQUESTED` in the axis error: the axis was E-stopped.
+pub const ESTOP_REQUESTED: u32 = 0x0200_0000;
+
+#[derive(Debug, Clone, Copy)]
+struct Axis {
+    map: AxisMap,
+    node: NodeId,
+    state: Option<AxisState>,
+    error: u32,
+    last_heartbeat: Option<Nanos>,
+    estimate: Option<(f32, f32)>,
+}
+
+impl Axis {
+    fn status(&self) -> AxisStatus {
+        AxisStatus {
+            state: self.node_state(),
+            last_heard: self.last_heartbeat,
+        }
+    }
+
+    fn node_state(&self) -> Option<NodeState> {
+        let s = self.state?;
+        Some(if self.error == ESTOP_REQUESTED {
+            NodeState::EStop
+        } else if self.error != 0 {
+            NodeState::Fault
+        } else if s == AxisState::ClosedLoopControl {
+            NodeState::Enabled
+        } else if s == AxisState::Idle {
+            NodeState::Disabled
+        } else {
+            // Calibration, start-up: busy, not ours to command yet.
+            NodeState::Boot
+        })
+    }
+
+    fn feedback(&self) -> Option<AxisFeedback> {
+        let (pos, vel) = self.estimate?;
+        Some(AxisFeedback {
+            position: self.map.from_turns(pos as f64) as f32,
+            velocity: self.map.joint_rate(vel as f64 * std::f64::consts::TAU) as f32,
+            torque: 0.0,
+            limited: false,
+        })
+    }
+}
+
+/// The ODrive axes of a robot, two per joint.
+pub struct Axes {
+    joints: Vec<[Axis; 2]>,
+    index: AxisIndex,
+    ids: NodeSet,
+    counters: RxCounters,
+    bus_estop: bool,
+    started: Nanos,
+    last_command_sent: Nanos,
+}
+
+impl Axes {
+    /// The axes of `cfg` (`robot.axes`), unheard-of at `now`.
+    pub fn new(cfg: &Config, now: Nanos) -> Result<Self, DriveError> {
+        let maps = cfg.axes();
+        let joints = maps
+            .iter()
+            .map(|pair| {
+                let mk = |map: AxisMap| {
+                    Ok(Axis {
+                        map,
+                        node: NodeId::new(map.node).map_err(|_| DriveError::NodeId {
+                            family: anguilla_protocol::Family::Odrive,
+                            id: map.node,
+                            min: 0,
+                            max: odrive::MAX_NODE_ID,
+                        })?,
+                        state: None,
+                        error: 0,
+                        last_heartbeat: None,
+                        estimate: None,
+                    })
+                };
+                Ok([mk(pair[0])?, mk(pair[1])?])
+            })
+            .collect::<Result<Vec<_>, DriveError>>()?;
+        Ok(Self {
+            index: AxisIndex::new(maps.iter().map(|p| [p[0].node, p[1].node])),
+            ids: super::joint_ids(joints.len()),
+            joints,
+            counters: RxCounters::default(),
+            bus_estop: false,
+            started: now,
+            last_command_sent: Nanos::ZERO,
+        })
+    }
+
+    fn send(out: &mut Out<'_>, node: NodeId, body: Body) {
+        match (Message { node, body }).encode() {
+            Ok(f) => out.send(&f),
+            Err(_) => out.encode_failed(),
+        }
+    }
+
+    fn all(&self, out: &mut Out<'_>, body: Body) {
+        for a in self.joints.iter().flatten() {
+            Self::send(out, a.node, body);
+        }
+    }
+
+    fn enable(out: &mut Out<'_>, a: &Axis) {
+        Self::send(
+            out,
+            a.node,
+            Body::SetControllerMode {
+                control_mode: ControlMode::PositionControl,
+                input_mode: InputMode::Passthrough,
+            },
+        );
+        Self::send(
+            out,
+            a.node,
+            Body::SetAxisState(AxisState::ClosedLoopControl),
+        );
+    }
+
+    fn input_pos(out: &mut Out<'_>, a: &Axis, position: f64, velocity: f64, torque: f64) {
+        let ff = |v: f64| (v as f32).clamp(odrive::FF_MIN, odrive::FF_MAX);
+        let body = Body::SetInputPos(InputPos {
+            input_pos: a.map.turns(position) as f32,
+            vel_ff: ff(a.map.motor_rate(velocity) / std::f64::consts::TAU),
+            torque_ff: ff(a.map.motor_torque(torque)),
+        });
+        Self::send(out, a.node, body);
+    }
+}
+
+impl Drives for Axes {
+    fn family(&self) -> anguilla_protocol::Family {
+        anguilla_protocol::Family::Odrive
+    }
+
+    fn report_ids(&self) -> NodeSet {
+        self.ids
+    }
+
+    fn ingest(&mut self, now: Nanos, frame: &Frame) {
+        let m = match odrive::decode(frame) {
+            Ok(m) => m,
+            Err(_) => {
+                self.counters.malformed += 1;
+                return;
+            }
+        };
+        let Some((j, ax)) = self.index.get(m.node.get()) else {
+            // Another device on the bus.
+            self.counters.malformed += 1;
+            return;
+        };
+        let a = &mut self.joints[j][ax];
+        match m.body {
+            Body::Heartbeat(hb) => {
+                a.state = Some(hb.axis_state);
+                a.error = hb.axis_error;
+                a.last_heartbeat = Some(now);
+            }
+            Body::EncoderEstimates(e) => a.estimate = Some((e.pos, e.vel)),
+            Body::Estop => {
+                // Someone else E-stopped one of our axes.
+                self.counters.estops_seen += 1;
+                self.bus_estop = true;
+            }
+            Body::SetAxisState(_)
+            | Body::SetControllerMode { .. }
+            | Body::SetInputPos(_)
+            | Body::ClearErrors { .. }
+            | Body::Request(_) => self.counters.foreign_commands += 1,
+        }
+    }
+
+    fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
+        super::observe_joints(
+            self.joints.iter().map(|p| [p[0].status(), p[1].status()]),
+            self.started,
+            now,
+            heartbeat_timeout,
+        )
+    }
+
+    fn take_bus_estop(&mut self) -> bool {
+        core::mem::take(&mut self.bus_estop)
+    }
+
+    fn counters(&self) -> RxCounters {
+        self.counters
+    }
+
+    fn joint(&self, j: usize) -> JointReport {
+        let p = &self.joints[j];
+        let st = [p[0].status(), p[1].status()];
+        JointReport {
+            state: super::joint_state(st),
+            errors: if p[0].error != 0 {
+                p[0].error
+            } else {
+                p[1].error
+            },
+            last_heard: super::joint_heard(st),
+            feedback: match (p[0].feedback(), p[1].feedback()) {
+                (Some(a), Some(b)) => Some([a, b]),
+                _ => None,
+            },
+        }
+    }
+
+    fn estop(&mut self, out: &mut Out<'_>) {
+        out.flush();
+        self.all(out, Body::Estop);
+    }
+
+    fn clear_faults(&mut self, out: &mut Out<'_>) {
+        self.all(out, Body::ClearErrors { identify: false });
+        for a in self.joints.iter_mut().flatten() {
+            a.state = None;
+            a.error = 0;
+        }
+    }
+
+    fn period(&mut self, p: &Period<'_>, out: &mut Out<'_>) {
+        if p.bus_off {
+            return;
+        }
+        let every = p.now.saturating_sub(self.last_command_sent) >= 100 * MS;
+        match p.drive {
+            Drive::Disabled => {
+                if (p.entering || every) && p.mode != Mode::EStop {
+                    self.last_command_sent = p.now;
+                    self.all(out, Body::SetAxisState(AxisState::Idle));
+                }
+            }
+            Drive::Enable => {
+                let resend = p.entering || every;
+                if resend {
+                    self.last_command_sent = p.now;
+                }
+                for a in self.joints.iter().flatten() {
+                    match (a.state, a.error) {
+                        // In closed loop: hold where it is, feeding the
+                        // drive's watchdog.
+                        (Some(AxisState::ClosedLoopControl), _) => {
+                            if let Some(fb) = a.feedback() {
+                                Self::input_pos(out, a, fb.position as f64, 0.0, 0.0);
+                            }
+                        }
+                        (_, 0) if resend => Self::enable(out, a),
+                        _ => {}
+                    }
+                }
+            }
+            Drive::Setpoints => {
+                for (j, (pair, sp)) in self.joints.iter().zip(p.setpoints).enumerate() {
+                    if p.skip.contains(j as u8 + 1) {
+                        continue;
+                    }
+                    for (a, s) in pair.iter().zip(sp) {
+                        Self::input_pos(
+                            out,
+                            a,
+                            s.position as f64,
+                            s.velocity as f64,
+                            s.torque as f64,
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    fn disable_all(&mut self, out: &mut Out<'_>) {
+        self.all(out, Body::SetAxisState(AxisState::Idle));
+    }
+}
