@@ -66,7 +66,7 @@ pub use od::eds;
 use anguilla_protocol::canopen::cia402::{self, Command, DriveState};
 use anguilla_protocol::canopen::{
     self, AbortCode, DecodeError, Emcy, Message, NmtCommand, NmtState, NodeId, Object, PdoData,
-    SdoData, SdoRequest, SdoResponse,
+    SdoData, SdoRequest, SdoResponse, SegmentData,
 };
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{ErrorBits, NodeState};
@@ -204,8 +204,10 @@ enum Nmt {
 #[derive(Debug, Clone, Copy)]
 enum Sdo {
     Idle,
-    /// Segmented upload of `value`, `sent` bytes sent, next toggle.
+    /// Segmented upload of `value` from `object`, `sent` bytes sent, next
+    /// toggle.
     Upload {
+        object: Object,
         value: od::Value,
         sent: usize,
         toggle: bool,
@@ -217,77 +219,6 @@ enum Sdo {
         buf: [u8; STRING_CAPACITY],
         len: usize,
         toggle: bool,
-    },
-}
-
-/// An SDO request, from the codec or (segment transfers the codec does
-/// not carry) from the bytes of CiA 301's SDO protocols.
-#[derive(Debug, Clone, Copy)]
-enum SdoIn {
-    Request(SdoRequest),
-    /// Initiate segmented download (`ccs` 1, `e` 0).
-    DownloadSegmented {
-        object: Object,
-        size: Option<u32>,
-    },
-    /// Download segment (`ccs` 0): 1..=7 bytes, last if `c`.
-    DownloadSegment {
-        toggle: bool,
-        data: [u8; 7],
-        len: usize,
-        last: bool,
-    },
-    /// Upload segment request (`ccs` 3).
-    UploadSegment {
-        toggle: bool,
-    },
-    /// A command specifier this server does not implement (block transfers).
-    Unknown {
-        object: Object,
-    },
-}
-
-/// Decodes the SDO segment protocols (CiA 301) from the 8 bytes of a
-/// request the codec did not decode.
-fn parse_segment(d: &[u8]) -> SdoIn {
-    let object = Object::new(u16::from_le_bytes([d[1], d[2]]), d[3]);
-    let toggle = d[0] & 0x10 != 0;
-    match d[0] >> 5 {
-        0 => {
-            let n = ((d[0] >> 1) & 0b111) as usize;
-            let mut data = [0u8; 7];
-            data.copy_from_slice(&d[1..8]);
-            SdoIn::DownloadSegment {
-                toggle,
-                data,
-                len: 7 - n,
-                last: d[0] & 1 == 1,
-            }
-        }
-        1 if d[0] & 0b10 == 0 => SdoIn::DownloadSegmented {
-            object,
-            size: (d[0] & 1 == 1).then(|| u32::from_le_bytes([d[4], d[5], d[6], d[7]])),
-        },
-        3 => SdoIn::UploadSegment { toggle },
-        _ => SdoIn::Unknown { object },
-    }
-}
-
-/// The frame of an SDO response: by the codec where it has the message,
-/// else from CiA 301's segment protocol bytes.
-#[derive(Debug, Clone, Copy)]
-enum SdoOut {
-    Response(SdoResponse),
-    /// Download segment response (`scs` 1).
-    DownloadSegmentAck {
-        toggle: bool,
-    },
-    /// Upload segment response (`scs` 0).
-    UploadSegment {
-        toggle: bool,
-        data: [u8; 7],
-        len: usize,
-        last: bool,
     },
 }
 
@@ -748,8 +679,12 @@ impl Cia402Axis {
             Err(e) => {
                 if cob == sdo_rx && self.nmt != Nmt::Stopped {
                     match e {
+                        // Block transfers (8 bytes, an unimplemented
+                        // command specifier): refused by abort.
                         DecodeError::SdoCommand { .. } => {
-                            self.on_sdo(parse_segment(frame.data()), now, tx)
+                            let d = frame.data();
+                            let object = Object::new(u16::from_le_bytes([d[1], d[2]]), d[3]);
+                            self.abort(object, AbortCode::InvalidCommandSpecifier, tx)
                         }
                         _ => self.counters.bad_frames += 1,
                     }
@@ -766,7 +701,7 @@ impl Cia402Axis {
             }
             Message::Sync { .. } if self.nmt == Nmt::Operational => self.on_sync(now, tx),
             Message::SdoRequest { node: to, sdo } if to == node && self.nmt != Nmt::Stopped => {
-                self.on_sdo(SdoIn::Request(sdo), now, tx)
+                self.on_sdo(sdo, now, tx)
             }
             Message::Heartbeat { node: from, .. } => {
                 let consumer = self.od.num(S_CONSUMER) as u32;
@@ -972,58 +907,28 @@ impl Cia402Axis {
 
     // ---- SDO server -------------------------------------------------------
 
-    fn respond(&self, tx: &mut dyn FnMut(Frame), out: SdoOut) {
-        let Some(node) = self.node else {
-            return;
-        };
-        match out {
-            SdoOut::Response(sdo) => self.send(tx, Message::SdoResponse { node, sdo }),
-            SdoOut::DownloadSegmentAck { toggle } => {
-                let mut d = [0u8; 8];
-                d[0] = 0x20 | (u8::from(toggle) << 4);
-                self.send_raw_sdo(node, &d, tx);
-            }
-            SdoOut::UploadSegment {
-                toggle,
-                data,
-                len,
-                last,
-            } => {
-                let mut d = [0u8; 8];
-                d[0] = (u8::from(toggle) << 4) | (((7 - len) as u8) << 1) | u8::from(last);
-                d[1..8].copy_from_slice(&data);
-                self.send_raw_sdo(node, &d, tx);
-            }
-        }
-    }
-
-    fn send_raw_sdo(&self, node: NodeId, d: &[u8; 8], tx: &mut dyn FnMut(Frame)) {
-        let id = canopen::Function::SdoTx(node).cob_id().as_raw();
-        if let Ok(f) = Frame::new_standard(id, d)
-            && !self.silent
-        {
-            tx(f);
+    fn respond(&self, tx: &mut dyn FnMut(Frame), sdo: SdoResponse) {
+        if let Some(node) = self.node {
+            self.send(tx, Message::SdoResponse { node, sdo });
         }
     }
 
     fn abort(&mut self, object: Object, code: AbortCode, tx: &mut dyn FnMut(Frame)) {
         self.sdo = Sdo::Idle;
-        self.respond(tx, SdoOut::Response(SdoResponse::Abort { object, code }));
+        self.respond(tx, SdoResponse::Abort { object, code });
     }
 
-    fn on_sdo(&mut self, req: SdoIn, now: Nanos, tx: &mut dyn FnMut(Frame)) {
+    fn on_sdo(&mut self, req: SdoRequest, now: Nanos, tx: &mut dyn FnMut(Frame)) {
         match req {
-            SdoIn::Request(SdoRequest::Abort { .. }) => self.sdo = Sdo::Idle,
-            SdoIn::Request(SdoRequest::Download { object, data }) => {
+            SdoRequest::Abort { .. } => self.sdo = Sdo::Idle,
+            SdoRequest::Download { object, data } => {
                 self.sdo = Sdo::Idle;
                 match self.write(object, data.bytes(), now, tx) {
-                    Ok(()) => {
-                        self.respond(tx, SdoOut::Response(SdoResponse::DownloadAck { object }))
-                    }
+                    Ok(()) => self.respond(tx, SdoResponse::DownloadAck { object }),
                     Err(code) => self.abort(object, code, tx),
                 }
             }
-            SdoIn::Request(SdoRequest::Upload { object }) => {
+            SdoRequest::Upload { object } => {
                 self.sdo = Sdo::Idle;
                 let value = match self.read(object) {
                     Ok(v) => v,
@@ -1033,59 +938,56 @@ impl Cia402Axis {
                 if (1..=4).contains(&bytes.len())
                     && let Ok(data) = SdoData::new(bytes)
                 {
-                    self.respond(tx, SdoOut::Response(SdoResponse::Upload { object, data }));
+                    self.respond(tx, SdoResponse::Upload { object, data });
                 } else {
                     self.respond(
                         tx,
-                        SdoOut::Response(SdoResponse::UploadSegmented {
+                        SdoResponse::UploadSegmented {
                             object,
                             size: Some(bytes.len() as u32),
-                        }),
+                        },
                     );
                     self.sdo = Sdo::Upload {
+                        object,
                         value,
                         sent: 0,
                         toggle: false,
                     };
                 }
             }
-            SdoIn::UploadSegment { toggle } => {
+            SdoRequest::UploadSegment { toggle } => {
                 let Sdo::Upload {
+                    object,
                     value,
                     sent,
                     toggle: expected,
                 } = self.sdo
                 else {
+                    // No upload in progress: nothing to name but 0:0.
                     return self.abort(Object::new(0, 0), AbortCode::InvalidCommandSpecifier, tx);
                 };
                 if toggle != expected {
-                    return self.abort(Object::new(0, 0), AbortCode::ToggleBitNotAlternated, tx);
+                    return self.abort(object, AbortCode::ToggleBitNotAlternated, tx);
                 }
-                let rest = &value.bytes()[sent..];
-                let len = rest.len().min(7);
-                let mut data = [0u8; 7];
-                data[..len].copy_from_slice(&rest[..len]);
+                let rest = value.bytes().get(sent..).unwrap_or(&[]);
+                let len = rest.len().min(SegmentData::MAX);
+                let Ok(data) = SegmentData::new(&rest[..len]) else {
+                    return self.abort(object, AbortCode::GeneralError, tx);
+                };
                 let last = sent + len == value.bytes().len();
-                self.respond(
-                    tx,
-                    SdoOut::UploadSegment {
-                        toggle,
-                        data,
-                        len,
-                        last,
-                    },
-                );
+                self.respond(tx, SdoResponse::UploadSegment { toggle, data, last });
                 self.sdo = if last {
                     Sdo::Idle
                 } else {
                     Sdo::Upload {
+                        object,
                         value,
                         sent: sent + len,
                         toggle: !toggle,
                     }
                 };
             }
-            SdoIn::DownloadSegmented { object, size } => {
+            SdoRequest::DownloadSegmented { object, size } => {
                 self.sdo = Sdo::Idle;
                 if let Err(code) = self.check_download(object, size) {
                     return self.abort(object, code, tx);
@@ -1097,14 +999,11 @@ impl Cia402Axis {
                     len: 0,
                     toggle: false,
                 };
-                self.respond(tx, SdoOut::Response(SdoResponse::DownloadAck { object }));
+                self.respond(tx, SdoResponse::DownloadAck { object });
             }
-            SdoIn::DownloadSegment {
-                toggle,
-                data,
-                len,
-                last,
-            } => {
+            SdoRequest::DownloadSegment { toggle, data, last } => {
+                let data = data.bytes();
+                let len = data.len();
                 let Sdo::Download {
                     object,
                     size,
@@ -1113,6 +1012,7 @@ impl Cia402Axis {
                     toggle: expected,
                 } = self.sdo
                 else {
+                    // No download in progress: nothing to name but 0:0.
                     return self.abort(Object::new(0, 0), AbortCode::InvalidCommandSpecifier, tx);
                 };
                 if toggle != expected {
@@ -1121,7 +1021,7 @@ impl Cia402Axis {
                 if have + len > STRING_CAPACITY || size.is_some_and(|s| (have + len) as u32 > s) {
                     return self.abort(object, AbortCode::LengthTooHigh, tx);
                 }
-                buf[have..have + len].copy_from_slice(&data[..len]);
+                buf[have..have + len].copy_from_slice(data);
                 let total = have + len;
                 if !last {
                     self.sdo = Sdo::Download {
@@ -1131,18 +1031,17 @@ impl Cia402Axis {
                         len: total,
                         toggle: !toggle,
                     };
-                    return self.respond(tx, SdoOut::DownloadSegmentAck { toggle });
+                    return self.respond(tx, SdoResponse::DownloadSegmentAck { toggle });
                 }
                 self.sdo = Sdo::Idle;
                 if size.is_some_and(|s| s as usize != total) {
                     return self.abort(object, AbortCode::LengthTooLow, tx);
                 }
                 match self.write(object, &buf[..total], now, tx) {
-                    Ok(()) => self.respond(tx, SdoOut::DownloadSegmentAck { toggle }),
+                    Ok(()) => self.respond(tx, SdoResponse::DownloadSegmentAck { toggle }),
                     Err(code) => self.abort(object, code, tx),
                 }
             }
-            SdoIn::Unknown { object } => self.abort(object, AbortCode::InvalidCommandSpecifier, tx),
         }
     }
 

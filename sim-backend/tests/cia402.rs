@@ -6,7 +6,7 @@ use anguilla_protocol::Frame;
 use anguilla_protocol::canopen::cia402::{self, Command, DriveState};
 use anguilla_protocol::canopen::{
     AbortCode, Message, NmtCommand, NmtState, NodeId, Object, Pdo, PdoData, SdoData, SdoRequest,
-    SdoResponse, decode,
+    SdoResponse, SegmentData, decode,
 };
 use anguilla_protocol::frame::Id;
 use anguilla_protocol::message::{ErrorBits, NodeState};
@@ -164,22 +164,24 @@ impl Bench {
             other => panic!("expected a segmented upload, got {other:?}"),
         };
         let mut got = Vec::new();
-        let mut toggle = 0u8;
+        let mut toggle = false;
         loop {
-            let d = self.raw_sdo(n, [0x60 | toggle << 4, 0, 0, 0, 0, 0, 0, 0]);
-            if d[0] == 0x80 {
-                return Err(AbortCode::from_raw(u32::from_le_bytes([
-                    d[4], d[5], d[6], d[7],
-                ])));
+            match self.sdo(n, SdoRequest::UploadSegment { toggle }) {
+                SdoResponse::UploadSegment {
+                    toggle: t,
+                    data,
+                    last,
+                } => {
+                    assert_eq!(t, toggle, "the toggle of the request answered");
+                    got.extend_from_slice(data.bytes());
+                    if last {
+                        break;
+                    }
+                }
+                SdoResponse::Abort { code, .. } => return Err(code),
+                other => panic!("expected an upload segment, got {other:?}"),
             }
-            assert_eq!(d[0] >> 5, 0, "upload segment response scs 0: {d:02X?}");
-            assert_eq!(d[0] & 0x10, toggle << 4, "toggle alternates");
-            let len = 7 - ((d[0] >> 1) & 7) as usize;
-            got.extend_from_slice(&d[1..1 + len]);
-            if d[0] & 1 == 1 {
-                break;
-            }
-            toggle ^= 1;
+            toggle = !toggle;
         }
         assert_eq!(got.len(), size as usize, "indicated size");
         Ok(got)
@@ -193,27 +195,32 @@ impl Bench {
         sub: u8,
         data: &[u8],
     ) -> Result<(), AbortCode> {
-        let [lo, hi] = index.to_le_bytes();
-        let [s0, s1, s2, s3] = (data.len() as u32).to_le_bytes();
-        let d = self.raw_sdo(n, [0x21, lo, hi, sub, s0, s1, s2, s3]);
-        let abort = |d: [u8; 8]| AbortCode::from_raw(u32::from_le_bytes([d[4], d[5], d[6], d[7]]));
-        if d[0] == 0x80 {
-            return Err(abort(d));
+        let object = Object::new(index, sub);
+        match self.sdo(
+            n,
+            SdoRequest::DownloadSegmented {
+                object,
+                size: Some(data.len() as u32),
+            },
+        ) {
+            SdoResponse::DownloadAck { object: o } => assert_eq!(o, object),
+            SdoResponse::Abort { code, .. } => return Err(code),
+            other => panic!("expected the initiate download response, got {other:?}"),
         }
-        assert_eq!(d[..4], [0x60, lo, hi, sub], "initiate download response");
-        let mut toggle = 0u8;
-        let chunks: Vec<&[u8]> = data.chunks(7).collect();
+        let mut toggle = false;
+        let chunks: Vec<&[u8]> = data.chunks(SegmentData::MAX).collect();
         for (k, chunk) in chunks.iter().enumerate() {
-            let last = k + 1 == chunks.len();
-            let mut seg = [0u8; 8];
-            seg[0] = toggle << 4 | ((7 - chunk.len()) as u8) << 1 | u8::from(last);
-            seg[1..1 + chunk.len()].copy_from_slice(chunk);
-            let d = self.raw_sdo(n, seg);
-            if d[0] == 0x80 {
-                return Err(abort(d));
+            let segment = SdoRequest::DownloadSegment {
+                toggle,
+                data: SegmentData::new(chunk).unwrap(),
+                last: k + 1 == chunks.len(),
+            };
+            match self.sdo(n, segment) {
+                SdoResponse::DownloadSegmentAck { toggle: t } => assert_eq!(t, toggle),
+                SdoResponse::Abort { code, .. } => return Err(code),
+                other => panic!("expected a segment response, got {other:?}"),
             }
-            assert_eq!(d[0], 0x20 | toggle << 4, "download segment response");
-            toggle ^= 1;
+            toggle = !toggle;
         }
         Ok(())
     }

@@ -70,8 +70,13 @@ fn master_frames(k: u32, statusword: [u16; 2], out: &mut [Frame; 9]) -> usize {
         .encode();
         n += 1;
         for toggle in [0u8, 1, 0, 1, 0] {
-            out[n] =
-                Frame::new_standard(0x602, &[0x60 | toggle << 4, 0, 0, 0, 0, 0, 0, 0]).unwrap();
+            out[n] = Message::SdoRequest {
+                node: node(2),
+                sdo: SdoRequest::UploadSegment {
+                    toggle: toggle == 1,
+                },
+            }
+            .encode();
             n += 1;
         }
     }
