@@ -1279,12 +1279,12 @@ impl Cia402Joint {
         Ok(Self::new(cfg, now))
     }
 
-    /// The drive of axis 0 (pitch) or 1 (yaw).
+    /// The drive of axis 0 (pitch) or 1 (yaw; any index above 1 is yaw).
     pub fn axis(&self, axis: usize) -> &Cia402Axis {
         &self.axes[axis.min(1)]
     }
 
-    /// The drive of an axis, mutable.
+    /// The drive of an axis, mutable (as [`Cia402Joint::axis`]).
     pub fn axis_mut(&mut self, axis: usize) -> &mut Cia402Axis {
         &mut self.axes[axis.min(1)]
     }

@@ -1033,6 +1033,30 @@ fn a_silent_drive_says_nothing_and_hears_nothing() {
 }
 
 #[test]
+fn configurations_are_validated_and_the_joint_is_a_joint_device() {
+    use anguilla_sim::cia402::Cia402ConfigError;
+    let mut cfg = Cia402JointConfig::for_joint(3, 0);
+    assert_eq!(cfg.ids, [7, 8], "docs/drives.md: pitch 2j + 1, yaw 2j + 2");
+    assert!(Cia402Joint::try_new(cfg, Nanos::ZERO).is_ok());
+    cfg.ids = [7, 128];
+    let e = Cia402Joint::try_new(cfg, Nanos::ZERO).unwrap_err();
+    assert_eq!(e, Cia402ConfigError::NodeId { axis: 1, id: 128 });
+    assert_eq!(
+        e.to_string(),
+        "CiA 402 node id 128 of axis 1 is out of range (expected 1..=127)"
+    );
+    cfg.ids = [9, 9];
+    assert_eq!(cfg.validate(), Err(Cia402ConfigError::SameIds(9)));
+    // An invalid id built anyway gives a drive that never talks.
+    cfg.ids = [0, 9];
+    let mut joint: Box<dyn JointDevice> = Box::new(Cia402Joint::new(cfg, Nanos::ZERO));
+    let mut out = Vec::new();
+    joint.advance(Nanos::from_millis(100), &mut |f| out.push(f.id().raw()));
+    assert_eq!(out, vec![0x709]);
+    assert_eq!(joint.state(), NodeState::Boot);
+}
+
+#[test]
 fn the_eds_in_the_repository_is_the_generated_one() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/eds/anguilla-sim-cia402.eds");
     let generated = sim::eds();
