@@ -96,7 +96,7 @@ impl Access {
 
 /// An entry's default (power-on) value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Default {
+pub enum DefaultValue {
     /// A number (of the entry's type).
     Int(i64),
     /// A number plus the node id (COB-IDs, serial number): `$NODEID+base`
@@ -142,7 +142,7 @@ pub struct Entry {
     /// Whether a PDO may map it.
     pub pdo: bool,
     /// Power-on value.
-    pub default: Default,
+    pub default: DefaultValue,
 }
 
 /// One object of the dictionary.
@@ -207,7 +207,7 @@ const fn count(n: i64) -> Entry {
         ty: DataType::Unsigned8,
         access: Access::Const,
         pdo: false,
-        default: Default::Int(n),
+        default: DefaultValue::Int(n),
     }
 }
 
@@ -219,14 +219,21 @@ macro_rules! pdo_comm {
             kind: Kind::Record,
             entries: &[
                 count(2),
-                e!(1, "COB-ID", Unsigned32, Rw, false, Default::NodeId($cob)),
+                e!(
+                    1,
+                    "COB-ID",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::NodeId($cob)
+                ),
                 e!(
                     2,
                     "Transmission type",
                     Unsigned8,
                     Rw,
                     false,
-                    Default::Int(1)
+                    DefaultValue::Int(1)
                 ),
             ],
         }
@@ -246,7 +253,7 @@ macro_rules! pdo_map {
                     Unsigned8,
                     Rw,
                     false,
-                    Default::Int($n)
+                    DefaultValue::Int($n)
                 ),
                 e!(
                     1,
@@ -254,7 +261,7 @@ macro_rules! pdo_map {
                     Unsigned32,
                     Rw,
                     false,
-                    Default::Int($m1)
+                    DefaultValue::Int($m1)
                 ),
                 e!(
                     2,
@@ -262,14 +269,56 @@ macro_rules! pdo_map {
                     Unsigned32,
                     Rw,
                     false,
-                    Default::Int($m2)
+                    DefaultValue::Int($m2)
                 ),
-                e!(3, "Mapping entry 3", Unsigned32, Rw, false, Default::Int(0)),
-                e!(4, "Mapping entry 4", Unsigned32, Rw, false, Default::Int(0)),
-                e!(5, "Mapping entry 5", Unsigned32, Rw, false, Default::Int(0)),
-                e!(6, "Mapping entry 6", Unsigned32, Rw, false, Default::Int(0)),
-                e!(7, "Mapping entry 7", Unsigned32, Rw, false, Default::Int(0)),
-                e!(8, "Mapping entry 8", Unsigned32, Rw, false, Default::Int(0)),
+                e!(
+                    3,
+                    "Mapping entry 3",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::Int(0)
+                ),
+                e!(
+                    4,
+                    "Mapping entry 4",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::Int(0)
+                ),
+                e!(
+                    5,
+                    "Mapping entry 5",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::Int(0)
+                ),
+                e!(
+                    6,
+                    "Mapping entry 6",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::Int(0)
+                ),
+                e!(
+                    7,
+                    "Mapping entry 7",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::Int(0)
+                ),
+                e!(
+                    8,
+                    "Mapping entry 8",
+                    Unsigned32,
+                    Rw,
+                    false,
+                    DefaultValue::Int(0)
+                ),
             ],
         }
     };
@@ -285,7 +334,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned32,
         Ro,
         false,
-        Default::Int(DEVICE_TYPE as i64)
+        DefaultValue::Int(DEVICE_TYPE as i64)
     ),
     var!(
         0x1001,
@@ -293,7 +342,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned8,
         Ro,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x1006,
@@ -301,7 +350,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned32,
         Rw,
         false,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x1008,
@@ -309,7 +358,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         VisibleString,
         Const,
         false,
-        Default::Str(DEVICE_NAME)
+        DefaultValue::Str(DEVICE_NAME)
     ),
     ObjectDef {
         index: 0x1016,
@@ -323,7 +372,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Rw,
                 false,
-                Default::Int(0)
+                DefaultValue::Int(0)
             ),
         ],
     },
@@ -333,7 +382,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned16,
         Rw,
         false,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     ObjectDef {
         index: 0x1018,
@@ -347,7 +396,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Ro,
                 false,
-                Default::Int(VENDOR_ID as i64)
+                DefaultValue::Int(VENDOR_ID as i64)
             ),
             e!(
                 2,
@@ -355,7 +404,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Ro,
                 false,
-                Default::Int(PRODUCT_CODE as i64)
+                DefaultValue::Int(PRODUCT_CODE as i64)
             ),
             e!(
                 3,
@@ -363,7 +412,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Ro,
                 false,
-                Default::Int(REVISION as i64)
+                DefaultValue::Int(REVISION as i64)
             ),
             e!(
                 4,
@@ -371,7 +420,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Ro,
                 false,
-                Default::NodeId(0)
+                DefaultValue::NodeId(0)
             ),
         ],
     },
@@ -399,7 +448,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         VisibleString,
         Rw,
         false,
-        Default::Str("unnamed axis")
+        DefaultValue::Str("unnamed axis")
     ),
     var!(
         0x2001,
@@ -407,17 +456,31 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned16,
         Wo,
         false,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
-    var!(0x6040, "Controlword", Unsigned16, Rw, true, Default::Int(0)),
-    var!(0x6041, "Statusword", Unsigned16, Ro, true, Default::Int(0)),
+    var!(
+        0x6040,
+        "Controlword",
+        Unsigned16,
+        Rw,
+        true,
+        DefaultValue::Int(0)
+    ),
+    var!(
+        0x6041,
+        "Statusword",
+        Unsigned16,
+        Ro,
+        true,
+        DefaultValue::Int(0)
+    ),
     var!(
         0x605A,
         "Quick stop option code",
         Integer16,
         Rw,
         false,
-        Default::Int(2)
+        DefaultValue::Int(2)
     ),
     var!(
         0x6060,
@@ -425,7 +488,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer8,
         Rw,
         false,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x6061,
@@ -433,7 +496,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer8,
         Ro,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x6064,
@@ -441,7 +504,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer32,
         Ro,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x606C,
@@ -449,7 +512,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer32,
         Ro,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x6076,
@@ -457,7 +520,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned32,
         Ro,
         false,
-        Default::Int(RATED_TORQUE_MNM as i64)
+        DefaultValue::Int(RATED_TORQUE_MNM as i64)
     ),
     var!(
         0x6077,
@@ -465,7 +528,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer16,
         Ro,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x607A,
@@ -473,7 +536,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer32,
         Rw,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     ObjectDef {
         index: 0x608F,
@@ -487,7 +550,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Ro,
                 false,
-                Default::Int(INCREMENTS_PER_TURN as i64)
+                DefaultValue::Int(INCREMENTS_PER_TURN as i64)
             ),
             e!(
                 2,
@@ -495,7 +558,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned32,
                 Ro,
                 false,
-                Default::Int(1)
+                DefaultValue::Int(1)
             ),
         ],
     },
@@ -505,7 +568,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer32,
         Rw,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     var!(
         0x60B2,
@@ -513,7 +576,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Integer16,
         Rw,
         true,
-        Default::Int(0)
+        DefaultValue::Int(0)
     ),
     ObjectDef {
         index: 0x60C2,
@@ -527,7 +590,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Unsigned8,
                 Rw,
                 false,
-                Default::Int(1)
+                DefaultValue::Int(1)
             ),
             e!(
                 2,
@@ -535,7 +598,7 @@ pub const OBJECTS: &[ObjectDef] = &[
                 Integer8,
                 Rw,
                 false,
-                Default::Int(-3)
+                DefaultValue::Int(-3)
             ),
         ],
     },
@@ -545,7 +608,7 @@ pub const OBJECTS: &[ObjectDef] = &[
         Unsigned32,
         Ro,
         false,
-        Default::Int(1 << 7)
+        DefaultValue::Int(1 << 7)
     ),
 ];
 
@@ -690,11 +753,11 @@ impl Values {
     pub fn default_of(&self, slot: usize) -> Value {
         let e = FLAT[slot].1;
         match e.default {
-            Default::Int(n) => Value::number(e.ty, n),
-            Default::NodeId(base) => {
+            DefaultValue::Int(n) => Value::number(e.ty, n),
+            DefaultValue::NodeId(base) => {
                 Value::number(e.ty, i64::from(base.wrapping_add(u32::from(self.node))))
             }
-            Default::Str(s) => Value::from_bytes(s.as_bytes()),
+            DefaultValue::Str(s) => Value::from_bytes(s.as_bytes()),
         }
     }
 
@@ -730,13 +793,13 @@ impl Values {
 
 fn eds_default(e: &Entry) -> String {
     match e.default {
-        Default::Int(n) if e.ty.signed() => n.to_string(),
-        Default::Int(n) => {
+        DefaultValue::Int(n) if e.ty.signed() => n.to_string(),
+        DefaultValue::Int(n) => {
             let width = e.ty.size().unwrap_or(4) * 2;
             format!("0x{:0width$X}", (n as u64) & (u64::MAX >> (64 - 4 * width)))
         }
-        Default::NodeId(base) => format!("$NODEID+0x{base:08X}"),
-        Default::Str(s) => s.to_string(),
+        DefaultValue::NodeId(base) => format!("$NODEID+0x{base:08X}"),
+        DefaultValue::Str(s) => s.to_string(),
     }
 }
 
