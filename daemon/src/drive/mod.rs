@@ -284,3 +284,6 @@ impl AxisIndex {
 pub fn joint_ids(joints: usize) -> NodeSet {
     NodeSet::of((1..=joints as u8).filter_map(|i| anguilla_protocol::message::NodeId::new(i).ok()))
 }
+
+#[cfg(test)]
+mod tests;
