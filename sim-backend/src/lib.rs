@@ -5,6 +5,11 @@
 //!
 //! - [`node`]: vertebra actuator nodes implementing the firmware contract of
 //!   `protocol/README.md`, each driving two [`actuator`]s (pitch and yaw);
+//! - [`cia402`]: a joint of two bought CANopen CiA 402 drives (object
+//!   dictionary, NMT, SDO, PDOs, the drive state machine, cyclic
+//!   synchronous position) as `docs/drives.md` specifies, and its EDS;
+//! - [`device`]: the [`device::JointDevice`] trait every joint's drives
+//!   implement;
 //! - [`plant`]: the swimming body (the Boyer et al. model driven by the
 //!   joints' achieved motion), which gives each actuator its load;
 //! - [`robot`]: the whole robot on a bus ([`SimRobot`]): deterministic
@@ -47,6 +52,7 @@
 
 pub mod actuator;
 pub mod builtin;
+pub mod cia402;
 pub mod device;
 pub mod node;
 pub mod plant;
