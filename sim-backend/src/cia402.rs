@@ -32,8 +32,9 @@
 //!   0x6076 = 500 mN·m) become the actuator's servo setpoint; the actual
 //!   values 0x6064, 0x606C, 0x6077 are updated every 250 µs servo step;
 //! - faults with EMCY (code, error register 0x1001): the heartbeat consumer
-//!   0x1016 (EMCY 0x8130), the SYNC watchdog (no SYNC for 3 × 0x1006 in
-//!   Operation enabled: EMCY 0x8700, what stops a robot whose master died),
+//!   0x1016 (EMCY 0x8130), the SYNC watchdog (no SYNC for 3 × 0x1006, at
+//!   least 100 ms, in Operation enabled: EMCY 0x8700, what stops a robot
+//!   whose master died),
 //!   injected faults (0x4210 over-temperature, else 0x1000); Fault reset
 //!   sends EMCY 0x0000.
 //!
@@ -85,6 +86,9 @@ const SERVO_DT_NS: Nanos = Nanos::from_nanos(250_000);
 const STOPPED_SPEED: f64 = 0.05;
 /// A quick stop lasts at most this long before Switch on disabled.
 const QUICK_STOP_MAX: Nanos = Nanos::from_millis(200);
+
+/// The shortest SYNC watchdog (see the module docs).
+pub const SYNC_TIMEOUT_MIN: Nanos = Nanos::from_millis(100);
 
 /// EMCY: generic error (an injected fault other than over-temperature).
 pub const EMCY_GENERIC: u16 = 0x1000;
@@ -597,10 +601,16 @@ impl Cia402Axis {
     }
 
     fn watchdogs(&mut self, t: Nanos, tx: &mut dyn FnMut(Frame)) {
+        /// Three cycles, but no less than 100 ms (the anguilla node's rule:
+        /// a master without SCHED_FIFO stalls for tens of milliseconds on
+        /// a busy machine).
+        fn sync_timeout(cycle_us: u64) -> Nanos {
+            Nanos::from_nanos(3 * cycle_us * 1000).max(SYNC_TIMEOUT_MIN)
+        }
         let cycle_us = self.od.num(S_CYCLE_PERIOD) as u64;
         if self.drive == DriveState::OperationEnabled
             && cycle_us != 0
-            && t.saturating_sub(self.last_sync) > Nanos::from_nanos(3 * cycle_us * 1000)
+            && t.saturating_sub(self.last_sync) > sync_timeout(cycle_us)
         {
             self.counters.watchdog_expiries += 1;
             self.fault(EMCY_SYNC, ERR_COMMUNICATION, tx);

@@ -683,3 +683,130 @@ fn a_joint_is_lost_when_either_drive_falls_silent() {
     );
     assert!(!r.all_enabled);
 }
+
+/// Runs the master `rig` and the simulated joint `joint` together, frame
+/// for frame, for `periods` control periods of 10 ms; `drive`/`mode` as
+/// the supervisor would decide.
+fn co_run<D: Drives + ?Sized>(
+    rig: &mut Rig<D>,
+    joint: &mut dyn anguilla_sim::device::JointDevice,
+    t: &mut Nanos,
+    periods: usize,
+    drive: Drive,
+    mode: Mode,
+) {
+    for i in 0..periods {
+        *t += 10 * MS;
+        let mut back = Vec::new();
+        joint.advance(*t, &mut |f| back.push(f));
+        feed(rig, *t, &back);
+        back.clear();
+        for f in rig.period(*t, drive, mode, i == 0) {
+            joint.receive(*t, &f, &mut |o| back.push(o));
+        }
+        feed(rig, *t, &back);
+    }
+}
+
+#[test]
+fn the_cia402_master_drives_the_simulated_cia402_drive() {
+    use anguilla_sim::cia402::{Cia402Joint, Cia402JointConfig};
+    use anguilla_sim::device::JointDevice;
+    let c = cfg(DriveConfig::Cia402, 1);
+    let mut rig = Rig::master(&c);
+    let mut joint = Cia402Joint::new(Cia402JointConfig::for_joint(0, 1), Nanos::ZERO);
+    let mut t = Nanos::ZERO;
+    // Boot, configuration by SDO, start: both drives configured, the
+    // joint Disabled (switch on disabled → ready to switch on).
+    co_run(
+        &mut rig,
+        &mut joint,
+        &mut t,
+        60,
+        Drive::Disabled,
+        Mode::Idle,
+    );
+    assert!(
+        rig.drives.configured(),
+        "{:?}",
+        rig.drives.config_failure(0, 0)
+    );
+    assert_eq!(
+        rig.drives.device_name(0, 0),
+        Some("anguilla simulated CiA 402 axis")
+    );
+    assert_eq!(rig.drives.joint(0).state, Some(NodeState::Disabled));
+    // Enable: the controlword walk reaches Operation enabled on both.
+    co_run(
+        &mut rig,
+        &mut joint,
+        &mut t,
+        10,
+        Drive::Enable,
+        Mode::Enabling,
+    );
+    assert_eq!(rig.drives.joint(0).state, Some(NodeState::Enabled));
+    // Setpoints: the joint goes where it is sent, and the master sees it.
+    rig.setpoints[0] = [
+        AxisSetpoint {
+            position: -0.2,
+            velocity: 0.0,
+            torque: 0.0,
+        },
+        AxisSetpoint {
+            position: 0.3,
+            velocity: 0.0,
+            torque: 0.05,
+        },
+    ];
+    co_run(
+        &mut rig,
+        &mut joint,
+        &mut t,
+        100,
+        Drive::Setpoints,
+        Mode::Ready,
+    );
+    let (yaw, _, _) = joint.kinematics(1);
+    let (pitch, _, _) = joint.kinematics(0);
+    assert!((yaw - 0.3).abs() < 0.01, "yaw {yaw}");
+    assert!((pitch + 0.2).abs() < 0.01, "pitch {pitch}");
+    let fb = rig.drives.joint(0).feedback.unwrap();
+    assert!((fb[1].position - 0.3).abs() < 0.01, "{fb:?}");
+    // E-stop: quick stop, then the drives end in Switch on disabled.
+    rig.with_out(|d, out| d.estop(out))
+        .iter()
+        .for_each(|f| joint.receive(t, f, &mut |_| {}));
+    co_run(
+        &mut rig,
+        &mut joint,
+        &mut t,
+        30,
+        Drive::Disabled,
+        Mode::EStop,
+    );
+    assert_ne!(rig.drives.joint(0).state, Some(NodeState::Enabled));
+    assert!(
+        joint.motor_torque(1).abs() < 1e-9,
+        "power off after the quick stop"
+    );
+    // An injected fault: EMCY into the report; the operator's clear resets it.
+    let mut emcy = Vec::new();
+    joint.inject_fault(0x0020, t, &mut |f| emcy.push(f));
+    feed(&mut rig, t, &emcy);
+    co_run(
+        &mut rig,
+        &mut joint,
+        &mut t,
+        3,
+        Drive::Disabled,
+        Mode::Fault,
+    );
+    assert_eq!(rig.drives.joint(0).state, Some(NodeState::Fault));
+    assert_ne!(rig.drives.joint(0).errors, 0);
+    joint.clear_injected_fault();
+    rig.with_out(|d, out| d.clear_faults(out));
+    co_run(&mut rig, &mut joint, &mut t, 5, Drive::Disabled, Mode::Idle);
+    assert_eq!(rig.drives.joint(0).state, Some(NodeState::Disabled));
+    assert_eq!(rig.drives.joint(0).errors, 0);
+}
