@@ -1,10 +1,12 @@
-//! The whole simulated robot: vertebra nodes on a bus, the body as their
-//! load, and a fault scenario.
+//! The whole simulated robot: each joint's drives on a bus, the body as
+//! their load, and a fault scenario.
 //!
+//! The robot sees a joint's drives only through [`JointDevice`] (one
+//! vertebra node, or two bought drives of another family).
 //! [`SimRobot::step_until`] is the deterministic core: it takes every frame
-//! received from the bus up to a time, in order, hands it to every node,
-//! runs the nodes and the physics in fixed ticks, gives each actuator the
-//! torque the body demands at its joint, and sends the nodes' frames.
+//! received from the bus up to a time, in order, hands it to every joint's
+//! drives, runs them and the physics in fixed ticks, gives each actuator the
+//! torque the body demands at its joint, and sends the drives' frames.
 //! [`SimRobot::run_realtime`] and [`SimRobot::spawn`] pace it to a clock.
 //!
 //! Joint `j` (1 = nearest the head) is node `node_ids[j - 1]`; axis 0 is
@@ -26,6 +28,7 @@ use anguilla_protocol::frame::MAX_STANDARD_ID;
 use anguilla_protocol::message::{FIRST_UNUSED_ID, NodeId, NodeState, Variant};
 
 use crate::actuator::ActuatorParams;
+use crate::device::JointDevice;
 use crate::node::{Nanos, NodeConfig, VertebraNode};
 use crate::plant::{JointInput, Plant, PlantConfig};
 use crate::rng::Rng;
@@ -218,7 +221,7 @@ struct Flood {
 /// The simulated robot.
 pub struct SimRobot {
     cfg: RobotConfig,
-    nodes: Vec<VertebraNode>,
+    nodes: Vec<Box<dyn JointDevice>>,
     plant: Plant,
     rng: Rng,
     bus: Box<dyn Bus>,
@@ -297,7 +300,7 @@ impl SimRobot {
                     boot_time: Nanos::from(cfg.boot_time),
                     seed: rng.next_u64(),
                 };
-                VertebraNode::new(nc, start)
+                Box::new(VertebraNode::new(nc, start)) as Box<dyn JointDevice>
             })
             .collect();
         let stamps = bus.capabilities().timestamps;
@@ -358,20 +361,21 @@ impl SimRobot {
         Duration::from(self.time)
     }
 
-    /// The nodes, joint 1 first.
-    pub fn nodes(&self) -> &[VertebraNode] {
+    /// The joints' drives, joint 1 first.
+    pub fn nodes(&self) -> &[Box<dyn JointDevice>] {
         &self.nodes
     }
 
-    /// The nodes, for tests that inject faults directly.
-    pub fn nodes_mut(&mut self) -> &mut [VertebraNode] {
+    /// The joints' drives, for tests that inject faults directly.
+    pub fn nodes_mut(&mut self) -> &mut [Box<dyn JointDevice>] {
         &mut self.nodes
     }
 
-    /// The node with bus id `id`.
-    pub fn node(&self, id: u8) -> Option<&VertebraNode> {
+    /// The drives of the joint with id `id` in [`RobotConfig::node_ids`]
+    /// (the vertebra node's bus id; the joint number for bought drives).
+    pub fn node(&self, id: u8) -> Option<&dyn JointDevice> {
         let i = self.cfg.node_ids.iter().position(|&x| x == id)?;
-        self.nodes.get(i)
+        self.nodes.get(i).map(|b| b.as_ref())
     }
 
     /// Counters of the simulation.
