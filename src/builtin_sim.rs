@@ -38,7 +38,11 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         bus_name: bus_name.to_string(),
         bitrate: cfg.bus.bitrate,
         data_bitrate: cfg.bus.fd.then_some(cfg.bus.data_bitrate),
+        // The daemon's configuration has no `[robot] drive` yet: the
+        // built-in robot speaks the anguilla protocol.
+        drive: anguilla_protocol::Family::Anguilla,
         node_ids: cfg.node_ids(),
+        axis_ids: Vec::new(),
         variant: cfg.bus.variant(),
         fifo_priority: (cfg.realtime.fifo_priority > 1).then(|| cfg.realtime.fifo_priority - 1),
     }
