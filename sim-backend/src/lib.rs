@@ -3,8 +3,11 @@
 //! Everything in anguilla is developed and tested against this simulated
 //! robot, which behaves on the bus as the real one will:
 //!
+//! - [`device`]: what a joint's drives are to the robot ([`device::JointDevice`]),
+//!   whatever family they are (docs/drives.md);
 //! - [`node`]: vertebra actuator nodes implementing the firmware contract of
 //!   `protocol/README.md`, each driving two [`actuator`]s (pitch and yaw);
+//! - [`odrive`]: a joint of two ODrive axes speaking CANSimple (firmware 0.6);
 //! - [`plant`]: the swimming body (the Boyer et al. model driven by the
 //!   joints' achieved motion), which gives each actuator its load;
 //! - [`robot`]: the whole robot on a bus ([`SimRobot`]): deterministic
@@ -49,6 +52,7 @@ pub mod actuator;
 pub mod builtin;
 pub mod device;
 pub mod node;
+pub mod odrive;
 pub mod plant;
 pub mod rng;
 pub mod robot;

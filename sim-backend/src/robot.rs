@@ -31,6 +31,7 @@ use anguilla_protocol::message::{FIRST_UNUSED_ID, NodeId, NodeState, Variant};
 use crate::actuator::ActuatorParams;
 use crate::device::JointDevice;
 use crate::node::{Nanos, NodeConfig, VertebraNode};
+use crate::odrive::{OdriveJoint, OdriveJointConfig};
 use crate::plant::{JointInput, Plant, PlantConfig};
 use crate::rng::Rng;
 use crate::scenario::{Action, BusFault, JointFault, NodeFault, Scenario};
@@ -255,7 +256,8 @@ impl RobotConfig {
 
 /// The drives of joint `j` (0 = head end) of a robot of `cfg`, powered on
 /// at `start`, with sensor-noise seed `seed`: a vertebra node for
-/// anguilla, two ODrive axes for odrive. `cfg` must be valid.
+/// anguilla, two ODrive axes for odrive (CiA 402: not yet, an error naming
+/// `drive`). Ids are checked again: a bad one is an error, never a panic.
 pub fn joint_device(
     cfg: &RobotConfig,
     j: usize,
@@ -279,10 +281,16 @@ pub fn joint_device(
             };
             Ok(Box::new(VertebraNode::new(nc, start)))
         }
-        Family::Odrive => Err(SimError::Config {
-            field: "drive",
-            reason: "the ODrive emulation is not wired in yet".into(),
-        }),
+        Family::Odrive => Ok(Box::new(OdriveJoint::new(
+            OdriveJointConfig {
+                ids: cfg.drive_ids(j),
+                axes: [cfg.actuator; 2],
+                boot_time,
+                seed,
+                watchdog: Nanos::from(cfg.odrive_watchdog),
+            },
+            start,
+        )?)),
         Family::Cia402 => Err(SimError::Config {
             field: "drive",
             reason: "the simulated robot has no CiA 402 drives yet (use anguilla or odrive)".into(),
