@@ -390,6 +390,8 @@ pub struct SimRobot {
     next_event: usize,
     undo: Vec<(Nanos, Undo)>,
     flood: Option<Flood>,
+    /// Node ids (0..=127) taken by the robot's drives (bought families).
+    drive_ids_used: [bool; 128],
     stats: SimStats,
 }
 
@@ -442,6 +444,12 @@ impl SimRobot {
             .map(|j| joint_device(&cfg, j, rng.next_u64(), start))
             .collect::<Result<Vec<_>>>()?;
         let stamps = bus.capabilities().timestamps;
+        let mut drive_ids_used = [false; 128];
+        for j in 0..n {
+            for id in cfg.drive_ids(j) {
+                drive_ids_used[usize::from(id & 0x7F)] = true;
+            }
+        }
         Ok(Self {
             tick: Nanos::from(cfg.tick),
             nodes,
@@ -462,6 +470,7 @@ impl SimRobot {
             next_event: 0,
             undo: Vec::new(),
             flood: None,
+            drive_ids_used,
             stats: SimStats::default(),
             cfg,
         })
@@ -703,9 +712,9 @@ impl SimRobot {
             fl.left.div_ceil(fl.ticks_left)
         };
         for _ in 0..n {
-            // Ids FIRST_UNUSED_ID..=0x7FF are not used by the protocol.
-            let unused = u64::from(MAX_STANDARD_ID - FIRST_UNUSED_ID) + 1;
-            let id = FIRST_UNUSED_ID + (self.rng.next_u64() % unused) as u16;
+            let Some(id) = self.flood_id() else {
+                continue;
+            };
             let len = (self.rng.next_u64() % 9) as usize;
             let bytes = self.rng.next_u64().to_le_bytes();
             let Ok(frame) = Frame::new_standard(id, &bytes[..len]) else {
@@ -725,6 +734,29 @@ impl SimRobot {
         fl.left -= n;
         fl.ticks_left = fl.ticks_left.saturating_sub(1);
         self.flood = (fl.left > 0).then_some(fl);
+    }
+
+    /// A random standard id no drive of this robot listens to: for
+    /// anguilla FIRST_UNUSED_ID..=0x7FF (not used by the protocol); for the
+    /// bought families any id whose node id (ODrive: bits 5..=10; CANopen:
+    /// bits 0..=6, node 0 being NMT/SYNC/TIME and 127 the master) is none
+    /// of the robot's drives'. `None` if a few draws find none.
+    fn flood_id(&mut self) -> Option<u16> {
+        match self.cfg.drive {
+            Family::Anguilla => {
+                let unused = u64::from(MAX_STANDARD_ID - FIRST_UNUSED_ID) + 1;
+                Some(FIRST_UNUSED_ID + (self.rng.next_u64() % unused) as u16)
+            }
+            family => (0..16).find_map(|_| {
+                let id = (self.rng.next_u64() % (u64::from(MAX_STANDARD_ID) + 1)) as u16;
+                let node = match family {
+                    Family::Odrive => anguilla_protocol::odrive::split_id(id).0,
+                    _ => (id & 0x7F) as u8,
+                };
+                let reserved = family == Family::Cia402 && (node == 0 || node == 127);
+                (!reserved && !self.drive_ids_used[usize::from(node & 0x7F)]).then_some(id)
+            }),
+        }
     }
 
     fn apply_events(&mut self, t: Nanos) {

@@ -179,3 +179,35 @@ fn scenario_node_faults_name_the_joint_of_a_bought_family() {
     assert!(heard.iter().any(|m| m.node.get() == p), "speaks again");
     assert_eq!(h.state_of(2), NodeState::Disabled);
 }
+
+#[test]
+fn a_flood_avoids_the_drives_ids() {
+    let mut h = Host::new(RobotConfig {
+        drive: Family::Odrive,
+        // Joint 1 on the highest ids: a flood of "unused" anguilla ids
+        // (0x240..=0x7FF, ODrive nodes 18..=63) would hit it.
+        axis_ids: vec![[62, 63], [3, 4], [5, 6], [20, 21]],
+        ..RobotConfig::with_joints(JOINTS)
+    });
+    h.robot.load_scenario("0.1 bus flood 2000 0.2").unwrap();
+    h.run(60 * MS);
+    enable(&mut h);
+    swim(&mut h, Duration::from_millis(400));
+    assert_eq!(h.robot.stats().flood_frames, 2000);
+    assert_eq!(
+        h.robot.state_counts()[2],
+        JOINTS,
+        "no Estop, no junk acted on"
+    );
+    for (j, n) in h.robot.nodes().iter().enumerate() {
+        assert_eq!(n.counters().bad_frames, 0, "joint {}", j + 1);
+    }
+    let ours = ids(&h);
+    let flooded = h
+        .heard
+        .iter()
+        .filter_map(|(_, f)| f.id().as_standard())
+        .filter(|&id| !ours.contains(&odrive::split_id(id).0))
+        .count();
+    assert_eq!(flooded, 2000, "the host heard the whole flood");
+}
