@@ -156,7 +156,9 @@ impl RobotConfig {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    /// Checks every setting (what building a robot checks first); the
+    /// error names the setting and what is accepted.
+    pub fn validate(&self) -> Result<()> {
         if self.node_ids.is_empty() {
             return Err(SimError::Config {
                 field: "node_ids",
