@@ -42,7 +42,14 @@
 //!   ignored; a frame on an own id that does not decode (wrong length,
 //!   unknown value, a command this emulation does not implement, a CAN FD
 //!   frame) is counted in [`NodeCounters::bad_frames`] and otherwise
-//!   ignored.
+//!   ignored. `applied` counts the Set_Input_Pos applied, and
+//!   `watchdog_expiries` each axis's expiry.
+//! - **Fault injection** ([`JointDevice`]): a silent joint neither sends nor
+//!   hears (its servos hold what they were doing, as a silent vertebra
+//!   node's do); a reboot loses the volatile state (mode, errors, closed
+//!   loop) and boots again; an injected anguilla fault becomes an axis
+//!   error on both axes ([`injected_error`]), present again after a reboot
+//!   while its cause is (until [`JointDevice::clear_injected_fault`]).
 //!
 //! In the anguilla vocabulary ([`JointDevice::state`]) an axis is Boot until
 //! booted, EStop with `ESTOP_REQUESTED` alone, Fault with any other error,

@@ -211,3 +211,33 @@ fn a_flood_avoids_the_drives_ids() {
         .count();
     assert_eq!(flooded, 2000, "the host heard the whole flood");
 }
+
+#[test]
+fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
+    use anguilla_sim::builtin::{Builtin, BuiltinConfig};
+    let (mut host, running) = Builtin::start(&BuiltinConfig {
+        bus_name: format!("sim-odrive-builtin-{}", std::process::id()),
+        bitrate: 1_000_000,
+        data_bitrate: None,
+        drive: Family::Odrive,
+        // The daemon's node ids: only their number counts for bought drives.
+        node_ids: vec![7, 9],
+        axis_ids: vec![[10, 11], [20, 21]],
+        variant: anguilla_protocol::message::Variant::Classic,
+        fifo_priority: None,
+    })
+    .unwrap();
+    // Real time: wait (bounded, a watchdog against a hang, not a speed
+    // requirement) for joint 2's yaw heartbeat.
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    let mut seen = false;
+    while !seen && std::time::Instant::now() < deadline {
+        if let Ok(Some(r)) = host.recv(Duration::from_millis(100)) {
+            seen = matches!(odrive::decode(&r.frame),
+                Ok(Message { node, body: Body::Heartbeat(hb) })
+                    if node.get() == 21 && hb.axis_state == AxisState::Idle);
+        }
+    }
+    running.stop();
+    assert!(seen, "no heartbeat from node 21");
+}

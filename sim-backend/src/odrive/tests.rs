@@ -394,6 +394,12 @@ fn an_injected_fault_survives_clear_errors_until_its_cause_is_removed() {
     b.both(Body::ClearErrors { identify: false });
     assert_eq!(b.joint.state(), NodeState::Fault, "the cause persists");
     assert_eq!(b.joint.axis_error(0), axis_error::MOTOR_OVER_TEMP);
+    // A power cycle does not remove the cause either.
+    let now = b.now;
+    b.joint.reboot(now);
+    b.wait(30 * MS);
+    assert_eq!(b.joint.state(), NodeState::Fault, "after the reboot");
+    assert_eq!(b.joint.axis_error(1), axis_error::MOTOR_OVER_TEMP);
     b.joint.clear_injected_fault();
     b.both(Body::ClearErrors { identify: false });
     assert_eq!(b.joint.state(), NodeState::Disabled);
