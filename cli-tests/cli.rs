@@ -375,6 +375,108 @@ fn numbers_a_user_types_are_bounded_and_named() {
 }
 
 #[test]
+fn sim_speaks_the_chosen_drive_family_and_bad_drive_ids_are_named() {
+    for (args, want) in [
+        (
+            &["sim", "--bus", "mem:x", "--drive", "canopen"][..],
+            "unknown drive family \"canopen\" (expected \"anguilla\", \"cia402\" or \"odrive\")",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--drive", "odrive", "--fd"],
+            "--fd: odrive drives speak classic CAN",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--axis-ids", "1:2"],
+            "--axis-ids: only with --drive cia402 or odrive",
+        ),
+        (
+            &[
+                "sim",
+                "--bus",
+                "mem:x",
+                "--drive",
+                "odrive",
+                "--joints",
+                "2",
+                "--axis-ids",
+                "1:2,3",
+            ],
+            "--axis-ids 1:2,3: joint 2 is \"3\", expected PITCH:YAW",
+        ),
+        (
+            &[
+                "sim",
+                "--bus",
+                "mem:x",
+                "--drive",
+                "odrive",
+                "--joints",
+                "2",
+                "--axis-ids",
+                "1:2,3:64",
+            ],
+            "--axis-ids 1:2,3:64: joint 2 yaw id 64 outside odrive's 0..=63",
+        ),
+        (
+            &[
+                "sim",
+                "--bus",
+                "mem:x",
+                "--drive",
+                "odrive",
+                "--joints",
+                "2",
+                "--axis-ids",
+                "1:2,2:3",
+            ],
+            "id 2 appears twice (joint 2 pitch)",
+        ),
+        (
+            &[
+                "sim",
+                "--bus",
+                "mem:x",
+                "--drive",
+                "odrive",
+                "--joints",
+                "3",
+                "--axis-ids",
+                "1:2",
+            ],
+            "1 pairs for 3 joints",
+        ),
+        (
+            &[
+                "sim", "--bus", "mem:x", "--drive", "odrive", "--joints", "32",
+            ],
+            "--joints 32: joint 32 yaw id 64 outside odrive's 0..=63",
+        ),
+    ] {
+        let (ok, _, err) = run(args);
+        assert!(!ok, "{args:?} accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let (ok, out, err) = run(&[
+        "sim",
+        "--bus",
+        "mem:cli-sim-odrive",
+        "--drive",
+        "odrive",
+        "--joints",
+        "2",
+        "--axis-ids",
+        "10:11,20:21",
+        "--duration",
+        "1.2",
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("odrive drives 10:11,20:21"), "{out}");
+    // Booted ODrive axes are idle: the joints are Disabled.
+    assert!(out.contains("[0, 2, 0, 0, 0]"), "{out}");
+}
+
+#[test]
 fn bare_anguilla_is_a_usage_error_with_the_help() {
     let o = anguilla().output().unwrap();
     assert_eq!(o.status.code(), Some(2));

@@ -38,7 +38,9 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         bus_name: bus_name.to_string(),
         bitrate: cfg.bus.bitrate,
         data_bitrate: cfg.bus.fd.then_some(cfg.bus.data_bitrate),
+        drive: cfg.robot.drive.family(),
         node_ids: cfg.node_ids(),
+        axis_ids: cfg.axis_ids(),
         variant: cfg.bus.variant(),
         fifo_priority: (cfg.realtime.fifo_priority > 1).then(|| cfg.realtime.fifo_priority - 1),
     }

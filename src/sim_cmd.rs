@@ -9,9 +9,10 @@ use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
 use anguilla_drivers::{Clock, MonotonicClock};
 use anguilla_model::dynamics::NODES_RANGE;
+use anguilla_protocol::Family;
 use anguilla_protocol::message::Variant;
 use anguilla_sim::actuator::ActuatorParams;
-use anguilla_sim::{RobotConfig, SimRobot, TICK_RANGE};
+use anguilla_sim::{RobotConfig, SimError, SimRobot, TICK_RANGE};
 use anyhow::{Context, bail};
 use clap::Args;
 
@@ -23,6 +24,13 @@ Examples:
                                            # slcan:/dev/pts/5@1000000
   anguilla sim --bus socketcan:vcan0 --scenario faults.txt
   anguilla sim --bus socketcan:can0 --fd --joints 6
+  anguilla sim --bus socketcan:vcan0 --drive odrive --joints 4 --axis-ids 1:2,3:4,5:6,7:8
+
+--drive chooses what the joints' drives speak (docs/drives.md): anguilla
+vertebra nodes (one node per joint, ids 1..=N), or one bought drive per axis
+(odrive: CANSimple axes, ids 0..=63; cia402: CANopen drives, ids 1..=127),
+by default pitch 2j+1 and yaw 2j+2 for joint j = 0 (head end), 1, ...;
+scenario lines 'node N' then name joint N.
 
 The robot runs in real time until Ctrl-C, printing a status line every second.
 Scenario files (sim-backend/README.md) script faults with times, e.g.
@@ -46,9 +54,17 @@ pub struct SimArgs {
     /// Number of joints (nodes 1..=N), 1..=63.
     #[arg(long, default_value_t = 12, value_name = "N")]
     joints: usize,
-    /// CAN FD nodes (setpoint groups) instead of classic CAN.
+    /// CAN FD nodes (setpoint groups) instead of classic CAN (anguilla
+    /// drives only).
     #[arg(long)]
     fd: bool,
+    /// What the joints' drives speak: anguilla, cia402 or odrive.
+    #[arg(long, default_value = "anguilla", value_name = "FAMILY")]
+    drive: Family,
+    /// The drives' node ids of every joint, head end first, as PITCH:YAW
+    /// pairs (e.g. 1:2,3:4); cia402 and odrive only. Default 2j+1:2j+2.
+    #[arg(long, value_name = "P:Y,...")]
+    axis_ids: Option<String>,
     /// Seed of sensor noise and random faults.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -100,8 +116,36 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     {
         bail!("--model-nodes {n}: expected {NODES_RANGE:?} space intervals");
     }
+    if args.fd && args.drive != Family::Anguilla {
+        bail!(
+            "--fd: {} drives speak classic CAN (CAN FD is for anguilla drives)",
+            args.drive
+        );
+    }
+    let axis_ids = match &args.axis_ids {
+        Some(text) => {
+            if args.drive == Family::Anguilla {
+                bail!(
+                    "--axis-ids: only with --drive cia402 or odrive (anguilla nodes are 1..=--joints)"
+                );
+            }
+            let ids = parse_axis_ids(text)?;
+            if ids.len() != args.joints {
+                bail!(
+                    "--axis-ids {text}: {} pairs for {} joints (give one PITCH:YAW pair per joint, or --joints {})",
+                    ids.len(),
+                    args.joints,
+                    ids.len()
+                );
+            }
+            ids
+        }
+        None => Vec::new(),
+    };
     let defaults = RobotConfig::with_joints(args.joints);
     let cfg = RobotConfig {
+        drive: args.drive,
+        axis_ids,
         variant: if args.fd {
             Variant::Fd
         } else {
@@ -116,6 +160,31 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         model_nodes: args.model_nodes.unwrap_or(defaults.model_nodes),
         ..defaults
     };
+    if let Err(e) = cfg.validate() {
+        match (&e, &args.axis_ids) {
+            (
+                SimError::Config {
+                    field: "axis_ids",
+                    reason,
+                },
+                Some(text),
+            ) => {
+                bail!("--axis-ids {text}: {reason}")
+            }
+            (
+                SimError::Config {
+                    field: "axis_ids",
+                    reason,
+                },
+                None,
+            ) => bail!(
+                "--joints {}: {reason} with --drive {}'s default ids (give --axis-ids)",
+                args.joints,
+                args.drive
+            ),
+            _ => return Err(e).context("the simulated robot's settings"),
+        }
+    }
     let scenario = match &args.scenario {
         Some(p) => Some(
             std::fs::read_to_string(p)
@@ -171,11 +240,22 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             .load_scenario(text)
             .with_context(|| format!("in the scenario file {name}"))?;
     }
+    let drives = match args.drive {
+        Family::Anguilla => format!("nodes 1..={}", args.joints),
+        family => {
+            let pairs: Vec<String> = (0..args.joints)
+                .map(|j| {
+                    let [p, y] = robot.config().drive_ids(j);
+                    format!("{p}:{y}")
+                })
+                .collect();
+            format!("{family} drives {}", pairs.join(","))
+        }
+    };
     out.line(format_args!(
-        "simulated robot: {} joints ({} CAN), nodes 1..={}, on {}; Ctrl-C stops",
+        "simulated robot: {} joints ({} CAN), {drives}, on {}; Ctrl-C stops",
         args.joints,
         if args.fd { "FD" } else { "classic" },
-        args.joints,
         robot.bus().spec()
     ));
 
@@ -223,4 +303,40 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.slipped.as_secs_f64()
     ));
     Ok(())
+}
+
+/// `--axis-ids`: comma-separated `PITCH:YAW` pairs of node ids (0..=255
+/// here; the family's range is checked with the rest of the settings).
+fn parse_axis_ids(text: &str) -> anyhow::Result<Vec<[u8; 2]>> {
+    text.split(',')
+        .enumerate()
+        .map(|(j, pair)| {
+            let bad = || {
+                anyhow::anyhow!(
+                    "--axis-ids {text}: joint {} is {pair:?}, expected PITCH:YAW node ids (e.g. 1:2)",
+                    j + 1
+                )
+            };
+            let (p, y) = pair.trim().split_once(':').ok_or_else(bad)?;
+            let id = |s: &str| s.trim().parse::<u8>().map_err(|_| bad());
+            Ok([id(p)?, id(y)?])
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_axis_ids;
+
+    #[test]
+    fn axis_ids_are_pitch_yaw_pairs_and_bad_ones_are_named() {
+        assert_eq!(
+            parse_axis_ids("1:2, 3:4,62:63").unwrap(),
+            vec![[1, 2], [3, 4], [62, 63]]
+        );
+        for (text, joint) in [("1:2,3", 2), ("x:2", 1), ("1:2,3:300", 2), ("", 1)] {
+            let e = parse_axis_ids(text).unwrap_err().to_string();
+            assert!(e.contains(&format!("joint {joint} is")), "{text}: {e}");
+        }
+    }
 }

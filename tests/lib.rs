@@ -106,7 +106,9 @@ fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, Builtin)> {
         bus_name: format!("{}-bus", cfg.ipc.prefix),
         bitrate: cfg.bus.bitrate,
         data_bitrate: cfg.bus.fd.then_some(cfg.bus.data_bitrate),
+        drive: cfg.robot.drive.family(),
         node_ids: cfg.node_ids(),
+        axis_ids: cfg.axis_ids(),
         variant: cfg.bus.variant(),
         fifo_priority: None,
     };

@@ -577,6 +577,15 @@ impl Config {
             .collect()
     }
 
+    /// The bought drives' node ids, `[pitch, yaw]` per joint (empty for
+    /// anguilla, whose node carries both axes).
+    pub fn axis_ids(&self) -> Vec<[u8; 2]> {
+        if !self.robot.drive.family().drive_per_axis() {
+            return Vec::new();
+        }
+        self.axes().iter().map(|p| [p[0].node, p[1].node]).collect()
+    }
+
     /// The node id of each joint, head to tail (anguilla); for the bought
     /// families, each joint's report id 1..=joints.
     pub fn node_ids(&self) -> Vec<u8> {

@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::{Bus, Clock};
+use anguilla_protocol::Family;
 use anguilla_protocol::message::Variant;
 
 use crate::robot::{RobotConfig, RunningSim, SimError, SimRobot};
@@ -21,8 +22,14 @@ pub struct BuiltinConfig {
     pub bitrate: u32,
     /// CAN FD data-phase bit rate, bit/s (FD only).
     pub data_bitrate: Option<u32>,
-    /// The nodes' ids, joint 1 (head end) first.
+    /// Which protocol the joints' drives speak (docs/drives.md).
+    pub drive: Family,
+    /// The nodes' ids, joint 1 (head end) first, for anguilla; for the
+    /// bought families only their number counts (joints `1..=n`).
     pub node_ids: Vec<u8>,
+    /// Bought families: the drives' node ids `[pitch, yaw]` per joint
+    /// (empty: the family's defaults; [`RobotConfig::axis_ids`]).
+    pub axis_ids: Vec<[u8; 2]>,
     /// Classic CAN or CAN FD nodes.
     pub variant: Variant,
     /// The robot thread's SCHED_FIFO priority, if any (keep it below a
@@ -49,11 +56,18 @@ impl Builtin {
         }
         let bus = b.build();
         let host: Box<dyn Bus> = Box::new(bus.participant());
+        let n = cfg.node_ids.len();
         let rc = RobotConfig {
-            node_ids: cfg.node_ids.clone(),
+            drive: cfg.drive,
+            node_ids: if cfg.drive.drive_per_axis() {
+                (1..=n.min(63) as u8).collect()
+            } else {
+                cfg.node_ids.clone()
+            },
+            axis_ids: cfg.axis_ids.clone(),
             variant: cfg.variant,
             boot_time: Duration::from_millis(50),
-            ..RobotConfig::with_joints(cfg.node_ids.len())
+            ..RobotConfig::with_joints(n)
         };
         let clock: Arc<dyn Clock> = bus.clock();
         let robot = SimRobot::on_mem(rc, bus.participant(), clock.now())?;

@@ -3,6 +3,8 @@
 //! Everything in anguilla is developed and tested against this simulated
 //! robot, which behaves on the bus as the real one will:
 //!
+//! - [`device`]: what a joint's drives are to the robot ([`device::JointDevice`]),
+//!   whatever family they are (docs/drives.md);
 //! - [`node`]: vertebra actuator nodes implementing the firmware contract of
 //!   `protocol/README.md`, each driving two [`actuator`]s (pitch and yaw);
 //! - [`cia402`]: a joint of two bought CANopen CiA 402 drives (object
@@ -10,6 +12,7 @@
 //!   synchronous position) as `docs/drives.md` specifies, and its EDS;
 //! - [`device`]: the [`device::JointDevice`] trait every joint's drives
 //!   implement;
+//! - [`odrive`]: a joint of two ODrive axes speaking CANSimple (firmware 0.6);
 //! - [`plant`]: the swimming body (the Boyer et al. model driven by the
 //!   joints' achieved motion), which gives each actuator its load;
 //! - [`robot`]: the whole robot on a bus ([`SimRobot`]): deterministic
@@ -55,6 +58,7 @@ pub mod builtin;
 pub mod cia402;
 pub mod device;
 pub mod node;
+pub mod odrive;
 pub mod plant;
 pub mod rng;
 pub mod robot;

@@ -24,8 +24,8 @@ use crate::rng::Rng;
 pub use anguilla_protocol::time::Nanos;
 
 /// Servo integration step inside the node (s).
-const SERVO_DT: f64 = 2.5e-4;
-const SERVO_DT_NS: Nanos = Nanos::from_nanos(250_000);
+pub(crate) const SERVO_DT: f64 = 2.5e-4;
+pub(crate) const SERVO_DT_NS: Nanos = Nanos::from_nanos(250_000);
 
 /// Configuration of one simulated node.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,10 +1,12 @@
-//! The whole simulated robot: vertebra nodes on a bus, the body as their
-//! load, and a fault scenario.
+//! The whole simulated robot: each joint's drives on a bus, the body as
+//! their load, and a fault scenario.
 //!
+//! The robot sees a joint's drives only through [`JointDevice`] (one
+//! vertebra node, or two bought drives of another family).
 //! [`SimRobot::step_until`] is the deterministic core: it takes every frame
-//! received from the bus up to a time, in order, hands it to every node,
-//! runs the nodes and the physics in fixed ticks, gives each actuator the
-//! torque the body demands at its joint, and sends the nodes' frames.
+//! received from the bus up to a time, in order, hands it to every joint's
+//! drives, runs them and the physics in fixed ticks, gives each actuator the
+//! torque the body demands at its joint, and sends the drives' frames.
 //! [`SimRobot::run_realtime`] and [`SimRobot::spawn`] pace it to a clock.
 //!
 //! Joint `j` (1 = nearest the head) is node `node_ids[j - 1]`; axis 0 is
@@ -22,11 +24,14 @@ use std::time::Duration;
 use anguilla_drivers::mem::{MemBus, MemParticipant, ParticipantId};
 use anguilla_drivers::{Bus, BusState, Clock, Frame, Received, TimestampBase};
 use anguilla_model::{HeadState, ModelError};
+use anguilla_protocol::Family;
 use anguilla_protocol::frame::MAX_STANDARD_ID;
 use anguilla_protocol::message::{FIRST_UNUSED_ID, NodeId, NodeState, Variant};
 
 use crate::actuator::ActuatorParams;
+use crate::device::JointDevice;
 use crate::node::{Nanos, NodeConfig, VertebraNode};
+use crate::odrive::{OdriveJoint, OdriveJointConfig};
 use crate::plant::{JointInput, Plant, PlantConfig};
 use crate::rng::Rng;
 use crate::scenario::{Action, BusFault, JointFault, NodeFault, Scenario};
@@ -73,17 +78,30 @@ pub type Result<T> = std::result::Result<T, SimError>;
 /// Configuration of a simulated robot.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobotConfig {
-    /// Node ids, joint 1 (head end) first.
+    /// Which protocol the joints' drives speak (docs/drives.md).
+    pub drive: Family,
+    /// Joint 1 (head end) first: the vertebra nodes' bus ids (1..=63) for
+    /// [`Family::Anguilla`]; for the bought families, the joint numbers
+    /// `1..=n` a scenario's `node N` names (the drives' ids are
+    /// [`RobotConfig::axis_ids`]).
     pub node_ids: Vec<u8>,
-    /// Classic CAN or CAN FD nodes.
+    /// Bought families only: the drives' node ids `[pitch, yaw]` of each
+    /// joint, joint 1 first, in [`Family::id_range`] and all distinct.
+    /// Empty: the family's defaults ([`Family::default_ids`]). Must be
+    /// empty for [`Family::Anguilla`].
+    pub axis_ids: Vec<[u8; 2]>,
+    /// The watchdog of a simulated ODrive axis (`axis.config.watchdog_timeout`;
+    /// docs/drives.md: 100 ms).
+    pub odrive_watchdog: Duration,
+    /// Classic CAN or CAN FD nodes (anguilla family only).
     pub variant: Variant,
     /// Parameters of every actuator axis.
     pub actuator: ActuatorParams,
-    /// Node boot time (power-on to Disabled).
+    /// Drive boot time (power-on to Disabled).
     pub boot_time: Duration,
     /// Seed of sensor noise and random faults.
     pub seed: u64,
-    /// Physics step; also the period at which nodes are advanced and the
+    /// Physics step; also the period at which drives are advanced and the
     /// loads updated (frames are still handled at their own times).
     pub tick: Duration,
     /// Requested space intervals of the body model.
@@ -98,12 +116,19 @@ impl Default for RobotConfig {
     }
 }
 
+/// The watchdog of a simulated ODrive axis unless configured (docs/drives.md).
+pub const ODRIVE_WATCHDOG: Duration = Duration::from_millis(100);
+
 impl RobotConfig {
-    /// `n` joints on nodes `1..=n`, classic CAN, default servos.
+    /// `n` joints on nodes `1..=n`, anguilla vertebra nodes on classic
+    /// CAN, default servos.
     pub fn with_joints(n: usize) -> Self {
         let p = PlantConfig::default();
         Self {
+            drive: Family::Anguilla,
             node_ids: (1..=n.min(63) as u8).collect(),
+            axis_ids: Vec::new(),
+            odrive_watchdog: ODRIVE_WATCHDOG,
             variant: Variant::Classic,
             actuator: ActuatorParams::default(),
             boot_time: Duration::from_millis(20),
@@ -114,7 +139,26 @@ impl RobotConfig {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    /// The drives' node ids `[pitch, yaw]` of joint `j` (0 = head end):
+    /// `[id, id]` of the vertebra node for anguilla, else
+    /// [`RobotConfig::axis_ids`] or the family's defaults.
+    pub fn drive_ids(&self, j: usize) -> [u8; 2] {
+        match self.drive {
+            Family::Anguilla => {
+                let id = self.node_ids.get(j).copied().unwrap_or(0);
+                [id, id]
+            }
+            f => self
+                .axis_ids
+                .get(j)
+                .copied()
+                .unwrap_or_else(|| f.default_ids(j)),
+        }
+    }
+
+    /// Checks every setting (what building a robot checks first); the
+    /// error names the setting and what is accepted.
+    pub fn validate(&self) -> Result<()> {
         if self.node_ids.is_empty() {
             return Err(SimError::Config {
                 field: "node_ids",
@@ -135,6 +179,7 @@ impl RobotConfig {
                 });
             }
         }
+        self.validate_drive_ids()?;
         let t = self.tick.as_secs_f64();
         if !TICK_RANGE.contains(&t) {
             return Err(SimError::Config {
@@ -142,7 +187,127 @@ impl RobotConfig {
                 reason: format!("{t} s outside 0.1 ms..=20 ms"),
             });
         }
+        if self.drive == Family::Odrive
+            && !(Duration::from_millis(1)..=Duration::from_secs(60)).contains(&self.odrive_watchdog)
+        {
+            return Err(SimError::Config {
+                field: "odrive_watchdog",
+                reason: format!("{:?} outside 1 ms..=60 s", self.odrive_watchdog),
+            });
+        }
         Ok(())
+    }
+
+    fn validate_drive_ids(&self) -> Result<()> {
+        let n = self.node_ids.len();
+        if self.drive == Family::Anguilla {
+            if !self.axis_ids.is_empty() {
+                return Err(SimError::Config {
+                    field: "axis_ids",
+                    reason: "only for drives with one axis per node id (cia402, odrive); \
+                             anguilla nodes are node_ids"
+                        .into(),
+                });
+            }
+            return Ok(());
+        }
+        let family = self.drive;
+        if self.node_ids.iter().copied().ne(1..=n as u8) {
+            return Err(SimError::Config {
+                field: "node_ids",
+                reason: format!(
+                    "{family} joints are numbered 1..={n} in order (the drives' ids are axis_ids), \
+                     not {:?}",
+                    self.node_ids
+                ),
+            });
+        }
+        if !self.axis_ids.is_empty() && self.axis_ids.len() != n {
+            return Err(SimError::Config {
+                field: "axis_ids",
+                reason: format!(
+                    "{} pairs of ids for {n} joints: give one [pitch, yaw] pair per joint",
+                    self.axis_ids.len()
+                ),
+            });
+        }
+        let (lo, hi) = family.id_range();
+        let mut seen = [false; 256];
+        for j in 0..n {
+            for (axis, id) in ["pitch", "yaw"].into_iter().zip(self.drive_ids(j)) {
+                if !(lo..=hi).contains(&id) {
+                    return Err(SimError::Config {
+                        field: "axis_ids",
+                        reason: format!(
+                            "joint {} {axis} id {id} outside {family}'s {lo}..={hi}",
+                            j + 1
+                        ),
+                    });
+                }
+                if std::mem::replace(&mut seen[id as usize], true) {
+                    return Err(SimError::Config {
+                        field: "axis_ids",
+                        reason: format!("id {id} appears twice (joint {} {axis})", j + 1),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The drives of joint `j` (0 = head end) of a robot of `cfg`, powered on
+/// at `start`, with sensor-noise seed `seed`: a vertebra node for
+/// anguilla, two ODrive axes for odrive, two CiA 402 drives for cia402.
+/// Ids are checked again: a bad one is an error, never a panic.
+pub fn joint_device(
+    cfg: &RobotConfig,
+    j: usize,
+    seed: u64,
+    start: Nanos,
+) -> Result<Box<dyn JointDevice>> {
+    let boot_time = Nanos::from(cfg.boot_time);
+    match cfg.drive {
+        Family::Anguilla => {
+            let id = cfg.drive_ids(j)[0];
+            let id = NodeId::new(id).map_err(|_| SimError::Config {
+                field: "node_ids",
+                reason: format!("node id {id} outside 1..=63"),
+            })?;
+            let nc = NodeConfig {
+                id,
+                variant: cfg.variant,
+                axes: [cfg.actuator; 2],
+                boot_time,
+                seed,
+            };
+            Ok(Box::new(VertebraNode::new(nc, start)))
+        }
+        Family::Odrive => Ok(Box::new(OdriveJoint::new(
+            OdriveJointConfig {
+                ids: cfg.drive_ids(j),
+                axes: [cfg.actuator; 2],
+                boot_time,
+                seed,
+                watchdog: Nanos::from(cfg.odrive_watchdog),
+            },
+            start,
+        )?)),
+        Family::Cia402 => Ok(Box::new(
+            crate::cia402::Cia402Joint::try_new(
+                crate::cia402::Cia402JointConfig {
+                    ids: cfg.drive_ids(j),
+                    axes: [cfg.actuator; 2],
+                    boot_time,
+                    seed,
+                },
+                start,
+            )
+            .map_err(|e| SimError::Config {
+                field: "axis_ids",
+                reason: e.to_string(),
+            })?,
+        )),
     }
 }
 
@@ -218,7 +383,7 @@ struct Flood {
 /// The simulated robot.
 pub struct SimRobot {
     cfg: RobotConfig,
-    nodes: Vec<VertebraNode>,
+    nodes: Vec<Box<dyn JointDevice>>,
     plant: Plant,
     rng: Rng,
     bus: Box<dyn Bus>,
@@ -238,6 +403,8 @@ pub struct SimRobot {
     next_event: usize,
     undo: Vec<(Nanos, Undo)>,
     flood: Option<Flood>,
+    /// Node ids (0..=127) taken by the robot's drives (bought families).
+    drive_ids_used: [bool; 128],
     stats: SimStats,
 }
 
@@ -286,21 +453,16 @@ impl SimRobot {
         }
         let start = Nanos::from(start);
         let mut rng = Rng::new(cfg.seed);
-        let nodes = cfg
-            .node_ids
-            .iter()
-            .map(|&id| {
-                let nc = NodeConfig {
-                    id: NodeId::new(id).expect("validated"),
-                    variant: cfg.variant,
-                    axes: [cfg.actuator; 2],
-                    boot_time: Nanos::from(cfg.boot_time),
-                    seed: rng.next_u64(),
-                };
-                VertebraNode::new(nc, start)
-            })
-            .collect();
+        let nodes = (0..n)
+            .map(|j| joint_device(&cfg, j, rng.next_u64(), start))
+            .collect::<Result<Vec<_>>>()?;
         let stamps = bus.capabilities().timestamps;
+        let mut drive_ids_used = [false; 128];
+        for j in 0..n {
+            for id in cfg.drive_ids(j) {
+                drive_ids_used[usize::from(id & 0x7F)] = true;
+            }
+        }
         Ok(Self {
             tick: Nanos::from(cfg.tick),
             nodes,
@@ -321,6 +483,7 @@ impl SimRobot {
             next_event: 0,
             undo: Vec::new(),
             flood: None,
+            drive_ids_used,
             stats: SimStats::default(),
             cfg,
         })
@@ -358,20 +521,21 @@ impl SimRobot {
         Duration::from(self.time)
     }
 
-    /// The nodes, joint 1 first.
-    pub fn nodes(&self) -> &[VertebraNode] {
+    /// The joints' drives, joint 1 first.
+    pub fn nodes(&self) -> &[Box<dyn JointDevice>] {
         &self.nodes
     }
 
-    /// The nodes, for tests that inject faults directly.
-    pub fn nodes_mut(&mut self) -> &mut [VertebraNode] {
+    /// The joints' drives, for tests that inject faults directly.
+    pub fn nodes_mut(&mut self) -> &mut [Box<dyn JointDevice>] {
         &mut self.nodes
     }
 
-    /// The node with bus id `id`.
-    pub fn node(&self, id: u8) -> Option<&VertebraNode> {
+    /// The drives of the joint with id `id` in [`RobotConfig::node_ids`]
+    /// (the vertebra node's bus id; the joint number for bought drives).
+    pub fn node(&self, id: u8) -> Option<&dyn JointDevice> {
         let i = self.cfg.node_ids.iter().position(|&x| x == id)?;
-        self.nodes.get(i)
+        self.nodes.get(i).map(|b| b.as_ref())
     }
 
     /// Counters of the simulation.
@@ -561,9 +725,9 @@ impl SimRobot {
             fl.left.div_ceil(fl.ticks_left)
         };
         for _ in 0..n {
-            // Ids FIRST_UNUSED_ID..=0x7FF are not used by the protocol.
-            let unused = u64::from(MAX_STANDARD_ID - FIRST_UNUSED_ID) + 1;
-            let id = FIRST_UNUSED_ID + (self.rng.next_u64() % unused) as u16;
+            let Some(id) = self.flood_id() else {
+                continue;
+            };
             let len = (self.rng.next_u64() % 9) as usize;
             let bytes = self.rng.next_u64().to_le_bytes();
             let Ok(frame) = Frame::new_standard(id, &bytes[..len]) else {
@@ -583,6 +747,29 @@ impl SimRobot {
         fl.left -= n;
         fl.ticks_left = fl.ticks_left.saturating_sub(1);
         self.flood = (fl.left > 0).then_some(fl);
+    }
+
+    /// A random standard id no drive of this robot listens to: for
+    /// anguilla FIRST_UNUSED_ID..=0x7FF (not used by the protocol); for the
+    /// bought families any id whose node id (ODrive: bits 5..=10; CANopen:
+    /// bits 0..=6, node 0 being NMT/SYNC/TIME and 127 the master) is none
+    /// of the robot's drives'. `None` if a few draws find none.
+    fn flood_id(&mut self) -> Option<u16> {
+        match self.cfg.drive {
+            Family::Anguilla => {
+                let unused = u64::from(MAX_STANDARD_ID - FIRST_UNUSED_ID) + 1;
+                Some(FIRST_UNUSED_ID + (self.rng.next_u64() % unused) as u16)
+            }
+            family => (0..16).find_map(|_| {
+                let id = (self.rng.next_u64() % (u64::from(MAX_STANDARD_ID) + 1)) as u16;
+                let node = match family {
+                    Family::Odrive => anguilla_protocol::odrive::split_id(id).0,
+                    _ => (id & 0x7F) as u8,
+                };
+                let reserved = family == Family::Cia402 && (node == 0 || node == 127);
+                (!reserved && !self.drive_ids_used[usize::from(node & 0x7F)]).then_some(id)
+            }),
+        }
     }
 
     fn apply_events(&mut self, t: Nanos) {
@@ -925,5 +1112,62 @@ mod tests {
         assert!(e.to_string().contains("tick"), "{e}");
         let e = crate::open_robot(RobotConfig::with_joints(3), "nonsense").unwrap_err();
         assert!(e.to_string().contains("bus"), "{e}");
+    }
+
+    #[test]
+    fn bad_drive_ids_name_the_joint_the_axis_and_the_range() {
+        let bus = MemBus::builder("robot-drive-ids-test").build();
+        let build = |cfg: RobotConfig| {
+            SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO)
+                .unwrap_err()
+                .to_string()
+        };
+        let odrive = |n| RobotConfig {
+            drive: Family::Odrive,
+            ..RobotConfig::with_joints(n)
+        };
+        let e = build(RobotConfig {
+            axis_ids: vec![[1, 2]],
+            ..RobotConfig::with_joints(1)
+        });
+        assert!(e.contains("axis_ids") && e.contains("anguilla"), "{e}");
+        let e = build(RobotConfig {
+            axis_ids: vec![[1, 2], [3, 1]],
+            ..odrive(2)
+        });
+        assert!(e.contains("id 1 appears twice (joint 2 yaw)"), "{e}");
+        let e = build(RobotConfig {
+            axis_ids: vec![[1, 64]],
+            ..odrive(1)
+        });
+        assert!(
+            e.contains("joint 1 yaw id 64 outside odrive's 0..=63"),
+            "{e}"
+        );
+        let e = build(RobotConfig {
+            axis_ids: vec![[1, 2]],
+            ..odrive(2)
+        });
+        assert!(e.contains("1 pairs of ids for 2 joints"), "{e}");
+        // 32 joints do not fit the default ids 2j+1, 2j+2 in 0..=63.
+        let e = build(odrive(32));
+        assert!(
+            e.contains("joint 32 pitch id 63") || e.contains("joint 32 yaw id 64"),
+            "{e}"
+        );
+        let e = build(RobotConfig {
+            node_ids: vec![2, 3],
+            ..odrive(2)
+        });
+        assert!(e.contains("numbered 1..=2"), "{e}");
+        let e = build(RobotConfig {
+            drive: Family::Cia402,
+            axis_ids: vec![[1, 2], [0, 3]],
+            ..RobotConfig::with_joints(2)
+        });
+        assert!(e.contains("joint 2 pitch id 0 outside cia402's 1..=127"), "{e}");
+        // The defaults: anguilla [id, id], bought families 2j+1, 2j+2.
+        assert_eq!(RobotConfig::with_joints(3).drive_ids(2), [3, 3]);
+        assert_eq!(odrive(3).drive_ids(2), [5, 6]);
     }
 }

@@ -5,7 +5,8 @@
 //! `1.5s`, `1500ms`) and never go backwards. Durations take the same units.
 //!
 //! ```text
-//! # node faults (by node id on the bus)
+//! # node faults (by node id on the bus; for bought drives, cia402 or
+//! # odrive, by joint number: "node 3" is joint 3's two drives)
 //! 1.0  node 3 silent          # stops sending and hearing (for ever)
 //! 1.0  node 3 silent 0.5      # ... for 0.5 s
 //! 2.0  node 3 speak           # ends a silence
@@ -187,7 +188,9 @@ pub fn parse_duration(word: &str) -> Option<Duration> {
 
 impl Scenario {
     /// Parses `text`. `node_ids` are the robot's node ids, joint `j` being
-    /// `node_ids[j - 1]`: a node or joint that does not exist is an error.
+    /// `node_ids[j - 1]` (for bought drive families they are the joint
+    /// numbers `1..=n`, so `node N` is joint `N`'s drives): a node or joint
+    /// that does not exist is an error.
     pub fn parse(text: &str, node_ids: &[u8]) -> Result<Self, ScenarioError> {
         let mut events = Vec::new();
         let mut last = Duration::ZERO;
