@@ -43,6 +43,7 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         axis_ids: cfg.axis_ids(),
         variant: cfg.bus.variant(),
         fifo_priority: (cfg.realtime.fifo_priority > 1).then(|| cfg.realtime.fifo_priority - 1),
+        scenario: String::new(),
     }
 }
 

@@ -75,7 +75,13 @@ impl Robot {
 
     /// Starts the simulated nodes and the daemon with `cfg`.
     pub fn start_with(cfg: Config) -> anyhow::Result<Self> {
-        let (bus, sim) = start_builtin(&cfg)?;
+        Self::start_with_scenario(cfg, "")
+    }
+
+    /// Starts the simulated robot, playing the fault `scenario` (the text
+    /// of a scenario file), and the daemon with `cfg`.
+    pub fn start_with_scenario(cfg: Config, scenario: &str) -> anyhow::Result<Self> {
+        let (bus, sim) = start_builtin(&cfg, scenario)?;
         let running = run::spawn(cfg.clone(), bus, Arc::new(AtomicBool::new(false)))?;
         Ok(Self {
             prefix: cfg.ipc.prefix.clone(),
@@ -83,6 +89,18 @@ impl Robot {
             running: Some(running),
             sim: Some(sim),
         })
+    }
+}
+
+impl Robot {
+    /// Fault injection: the daemon's end of the bus goes to `state`.
+    pub fn force_daemon_bus(&self, state: anguilla_drivers::BusState) {
+        self.sim.as_ref().expect("running").force_host_state(state);
+    }
+
+    /// The simulated robot's ground truth now.
+    pub fn truth(&self) -> anguilla_sim::Truth {
+        self.sim.as_ref().expect("running").truth()
     }
 }
 
@@ -101,7 +119,7 @@ impl Drop for Robot {
 /// The robot `anguilla run` drives without a bus (`anguilla_sim::builtin`:
 /// nodes, actuators and the swimming body, in real time), on a bus named
 /// after the daemon's prefix; returns the daemon's end.
-fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, Builtin)> {
+fn start_builtin(cfg: &Config, scenario: &str) -> anyhow::Result<(Box<dyn Bus>, Builtin)> {
     let bc = BuiltinConfig {
         bus_name: format!("{}-bus", cfg.ipc.prefix),
         bitrate: cfg.bus.bitrate,
@@ -111,6 +129,7 @@ fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, Builtin)> {
         axis_ids: cfg.axis_ids(),
         variant: cfg.bus.variant(),
         fifo_priority: None,
+        scenario: scenario.to_owned(),
     };
     Ok(Builtin::start(&bc)?)
 }

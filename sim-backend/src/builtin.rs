@@ -36,11 +36,16 @@ pub struct BuiltinConfig {
     /// real-time control loop's, so the loop never waits on the bus lock
     /// held by a preempted robot thread).
     pub fifo_priority: Option<u8>,
+    /// A fault scenario to play from the robot's start (the text of a
+    /// scenario file; empty: none).
+    pub scenario: String,
 }
 
 /// The in-process robot, running.
 pub struct Builtin {
     running: RunningSim,
+    bus: MemBus,
+    host: anguilla_drivers::mem::ParticipantId,
     /// A priority the system refused (the robot runs without it).
     pub priority_refused: Option<std::io::Error>,
 }
@@ -55,7 +60,9 @@ impl Builtin {
             b = b.data_bitrate(d);
         }
         let bus = b.build();
-        let host: Box<dyn Bus> = Box::new(bus.participant());
+        let host_end = bus.participant();
+        let host_id = host_end.id();
+        let host: Box<dyn Bus> = Box::new(host_end);
         let n = cfg.node_ids.len();
         let rc = RobotConfig {
             drive: cfg.drive,
@@ -70,7 +77,10 @@ impl Builtin {
             ..RobotConfig::with_joints(n)
         };
         let clock: Arc<dyn Clock> = bus.clock();
-        let robot = SimRobot::on_mem(rc, bus.participant(), clock.now())?;
+        let mut robot = SimRobot::on_mem(rc, bus.participant(), clock.now())?;
+        if !cfg.scenario.is_empty() {
+            robot.load_scenario(&cfg.scenario)?;
+        }
         let running = robot.spawn(clock).map_err(SimError::Thread)?;
         let priority_refused = cfg
             .fifo_priority
@@ -79,9 +89,17 @@ impl Builtin {
             host,
             Builtin {
                 running,
+                bus,
+                host: host_id,
                 priority_refused,
             },
         ))
+    }
+
+    /// Fault injection on the controller's end of the bus: its CAN
+    /// controller goes to `state` (e.g. bus-off) until set back.
+    pub fn force_host_state(&self, state: anguilla_drivers::BusState) {
+        self.bus.force_state(self.host, state);
     }
 
     /// The simulation's ground truth.

@@ -26,7 +26,7 @@ use anguilla_drivers::{Bus, BusState, Clock, Frame, Received, TimestampBase};
 use anguilla_model::{HeadState, ModelError};
 use anguilla_protocol::Family;
 use anguilla_protocol::frame::MAX_STANDARD_ID;
-use anguilla_protocol::message::{FIRST_UNUSED_ID, NodeId, NodeState, Variant};
+use anguilla_protocol::message::{ErrorBits, FIRST_UNUSED_ID, NodeId, NodeState, Variant};
 
 use crate::actuator::ActuatorParams;
 use crate::device::JointDevice;
@@ -840,6 +840,12 @@ impl SimRobot {
                     }
                     NodeFault::Speak => self.nodes[k].set_silent(false),
                     NodeFault::Reboot => self.nodes[k].reboot(at),
+                    NodeFault::Fault => {
+                        let out = &mut self.out;
+                        self.nodes[k]
+                            .inject_fault(ErrorBits::OVER_TEMPERATURE, at, &mut |f| out.push(f));
+                    }
+                    NodeFault::Clear => self.nodes[k].clear_injected_fault(),
                 }
             }
             Action::Joint { joint, axis, fault } => {
@@ -1165,7 +1171,10 @@ mod tests {
             axis_ids: vec![[1, 2], [0, 3]],
             ..RobotConfig::with_joints(2)
         });
-        assert!(e.contains("joint 2 pitch id 0 outside cia402's 1..=127"), "{e}");
+        assert!(
+            e.contains("joint 2 pitch id 0 outside cia402's 1..=127"),
+            "{e}"
+        );
         // The defaults: anguilla [id, id], bought families 2j+1, 2j+2.
         assert_eq!(RobotConfig::with_joints(3).drive_ids(2), [3, 3]);
         assert_eq!(odrive(3).drive_ids(2), [5, 6]);

@@ -11,6 +11,8 @@
 //! 1.0  node 3 silent 0.5      # ... for 0.5 s
 //! 2.0  node 3 speak           # ends a silence
 //! 2.5  node 3 reboot          # power cycle: boots again, volatile config lost
+//! 3.0  node 3 fault           # a latched drive fault (over-temperature)...
+//! 3.5  node 3 clear           # ... whose cause is gone (a fault reset clears it)
 //! # joint faults (joint 1 is the one nearest the head; pitch or yaw)
 //! 0.5  joint 4 yaw stuck      # jammed: does not move whatever the torque
 //! 0.9  joint 4 yaw free       # unjammed
@@ -72,6 +74,12 @@ pub enum NodeFault {
     Speak,
     /// Power cycle.
     Reboot,
+    /// A latched drive fault (over-temperature: the node's
+    /// `OVER_TEMPERATURE` bit, a CiA 402 drive's EMCY 0x4210, an ODrive's
+    /// `MOTOR_OVER_TEMP`) until `clear`; a fault reset clears it after that.
+    Fault,
+    /// Removes the cause of a `fault`.
+    Clear,
 }
 
 /// A fault of one joint axis.
@@ -162,7 +170,7 @@ pub struct Scenario {
     pub events: Vec<Event>,
 }
 
-const NODE_FAULTS: &str = "silent [DURATION], speak, reboot";
+const NODE_FAULTS: &str = "silent [DURATION], speak, reboot, fault, clear";
 const JOINT_FAULTS: &str = "stuck, free, torque-limit N·m|off, noise RAD, spike RAD";
 const BUS_FAULTS: &str = "drop N, drop-fraction F, delay DURATION, corrupt N, bus-off DURATION, flood N [DURATION], clear";
 
@@ -277,6 +285,8 @@ fn parse_action(words: &[&str], node_ids: &[u8]) -> Result<Action, String> {
                 },
                 Some("speak") => (NodeFault::Speak, 3),
                 Some("reboot") => (NodeFault::Reboot, 3),
+                Some("fault") => (NodeFault::Fault, 3),
+                Some("clear") => (NodeFault::Clear, 3),
                 Some(other) => {
                     return Err(format!(
                         "unknown node fault '{other}': expected one of {NODE_FAULTS}"

@@ -225,6 +225,7 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
         axis_ids: vec![[10, 11], [20, 21]],
         variant: anguilla_protocol::message::Variant::Classic,
         fifo_priority: None,
+        scenario: String::new(),
     })
     .unwrap();
     // Real time: wait (bounded, a watchdog against a hang, not a speed

@@ -1,0 +1,180 @@
+//! Every drive family end to end: the daemon's real-time loop and the
+//! simulated robot whose joints are anguilla vertebra nodes, CiA 402
+//! drives or ODrive axes (`[robot] drive`), on the in-process bus with CAN
+//! wire time. The same operator session and the same faults, whatever the
+//! family: the supervisor, the modes and the watchdogs do not change.
+//!
+//! Over SLCAN ptys (separate processes) the families are run by
+//! `processes_slcan.rs`, on vcan in the VM by `vcan_daemon.rs`.
+
+use std::time::Duration;
+
+use anguilla_daemon::config::{Config, DriveConfig};
+use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
+use anguilla_system_tests::Robot;
+use anguilla_system_tests::Watchdog;
+use anguilla_system_tests::process::{connect, keep_alive_for, ok, wait_for};
+
+const JOINTS: usize = 6;
+
+fn config(drive: DriveConfig, name: &str) -> Config {
+    let mut cfg = Config::default();
+    cfg.robot.joints = JOINTS;
+    cfg.robot.drive = drive;
+    cfg.ipc.prefix = format!("anguilla-families/{name}-{}", std::process::id());
+    cfg.validate().expect("valid configuration");
+    cfg
+}
+
+/// Node state codes of the snapshot (protocol `NodeState`).
+const DISABLED: u8 = 1;
+const ENABLED: u8 = 2;
+
+fn swims_stops_and_estops(drive: DriveConfig, name: &str) {
+    let _wd = Watchdog::new(name, Duration::from_secs(120));
+    let cfg = config(drive, name);
+    let robot = Robot::start_with(cfg.clone()).expect("daemon and robot start");
+    let mut client = connect(&robot.prefix, name);
+    // Every joint's drives booted (CiA 402: configured by SDO) and report
+    // Disabled.
+    wait_for(&mut client, "every joint alive and disabled", 15.0, |s| {
+        s.joints[..JOINTS]
+            .iter()
+            .all(|j| j.node_alive == 1 && j.node_state == DISABLED)
+    });
+    ok(&mut client, Command::TakeControl);
+    ok(&mut client, Command::Enable);
+    wait_for(&mut client, "Ready", 5.0, |s| s.mode == Mode::Ready as u8);
+    let forward = Command::Swim(SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.0,
+        pitch: 0.0,
+    });
+    ok(&mut client, forward);
+    let mut last = None;
+    let end = std::time::Instant::now() + Duration::from_secs(5);
+    while std::time::Instant::now() < end {
+        let _ = client.send(forward);
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
+            last = Some(s);
+        }
+        let _ = client.replies(|_| {});
+    }
+    let s = last.expect("states published");
+    assert_eq!(s.mode, Mode::Swimming as u8, "{drive:?}");
+    let truth = robot.truth();
+    assert!(
+        truth.forward_speed > 0.05,
+        "{drive:?}: simulated speed {} m/s after 5 s of F1",
+        truth.forward_speed
+    );
+    // The joints follow their setpoints, and the measured angles the
+    // family's master reports are the simulated joints' angles.
+    let worst = s.joints[..JOINTS]
+        .iter()
+        .map(|j| (j.measured_yaw - j.commanded_yaw).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 0.15, "{drive:?}: yaw tracking error {worst} rad");
+    assert!(
+        s.joints[..JOINTS]
+            .iter()
+            .all(|j| j.node_state == ENABLED && j.node_alive == 1)
+    );
+    eprintln!(
+        "{drive:?}: after 5 s of F1 the simulated robot swims at {:.3} m/s (predicted {:.3}), \
+         worst yaw tracking {worst:.3} rad",
+        truth.forward_speed, s.predicted_head_speed
+    );
+    // A smooth stop back to Ready.
+    ok(&mut client, Command::Stop);
+    wait_for(&mut client, "Ready after stop", 15.0, |s| {
+        s.mode == Mode::Ready as u8
+    });
+    // E-stop: latched, every drive stops being enabled.
+    ok(&mut client, Command::EStop);
+    let s = wait_for(&mut client, "drives off after the E-stop", 3.0, |s| {
+        s.mode == Mode::EStop as u8 && s.joints[..JOINTS].iter().all(|j| j.node_state != ENABLED)
+    });
+    assert_eq!(s.mode, Mode::EStop as u8);
+    keep_alive_for(&mut client, 0.5, |s| {
+        assert_eq!(s.mode, Mode::EStop as u8, "the E-stop stays latched");
+    });
+}
+
+/// Heartbeat loss and a drive fault from the robot's side, bus-off on the
+/// daemon's: the daemon faults with the right kinds and names the joints.
+fn faults_are_reported(drive: DriveConfig, name: &str) {
+    let _wd = Watchdog::new(name, Duration::from_secs(120));
+    let cfg = config(drive, name);
+    // Joint 2's drives fall silent for 1 s (a CiA 402 drive also misses
+    // the master's heartbeat meanwhile, and faults: EMCY 0x8130); joint 4's
+    // drives fault.
+    let scenario = "2.0 node 2 silent 1.0\n4.0 node 4 fault\n";
+    let robot = Robot::start_with_scenario(cfg, scenario).expect("daemon and robot start");
+    let mut client = connect(&robot.prefix, name);
+    wait_for(&mut client, "every joint alive and disabled", 15.0, |s| {
+        s.joints[..JOINTS]
+            .iter()
+            .all(|j| j.node_alive == 1 && j.node_state == DISABLED)
+    });
+    let lost = wait_for(&mut client, "heartbeat loss of joint 2", 10.0, |s| {
+        s.fault_kinds & FaultKind::HeartbeatLost as u32 != 0
+    });
+    // (In Idle the fault is latched and reported; there is nothing to stop.)
+    assert_eq!(lost.fault_nodes, 1 << 2, "{drive:?}: joint 2 named");
+    assert_eq!(lost.joints[1].node_alive, 0);
+    let fault = wait_for(&mut client, "drive fault of joint 4", 10.0, |s| {
+        s.fault_kinds & FaultKind::NodeFault as u32 != 0 && s.joints[3].node_state == 3
+    });
+    assert_ne!(fault.fault_nodes & 1 << 4, 0, "{drive:?}: joint 4 named");
+    assert_eq!(fault.joints[3].node_state, 3, "{drive:?}: joint 4 in Fault");
+    assert_ne!(
+        fault.joints[3].node_errors, 0,
+        "{drive:?}: the drive's code"
+    );
+    robot.force_daemon_bus(anguilla_drivers::BusState::BusOff);
+    let off = wait_for(&mut client, "bus-off", 10.0, |s| {
+        s.fault_kinds & FaultKind::BusOff as u32 != 0
+    });
+    assert_eq!(
+        off.mode,
+        Mode::Fault as u8,
+        "{drive:?}: bus-off faults even in Idle"
+    );
+    robot.force_daemon_bus(anguilla_drivers::BusState::ErrorActive);
+    eprintln!(
+        "{drive:?}: heartbeat loss, drive fault (code {:#x}) and bus-off reported",
+        fault.joints[3].node_errors
+    );
+}
+
+#[test]
+fn anguilla_nodes_swim_stop_and_estop() {
+    swims_stops_and_estops(DriveConfig::Anguilla, "swim-anguilla");
+}
+
+#[test]
+fn cia402_drives_swim_stop_and_estop() {
+    swims_stops_and_estops(DriveConfig::Cia402, "swim-cia402");
+}
+
+#[test]
+fn odrive_axes_swim_stop_and_estop() {
+    swims_stops_and_estops(DriveConfig::Odrive, "swim-odrive");
+}
+
+#[test]
+fn anguilla_faults_are_reported() {
+    faults_are_reported(DriveConfig::Anguilla, "faults-anguilla");
+}
+
+#[test]
+fn cia402_faults_are_reported() {
+    faults_are_reported(DriveConfig::Cia402, "faults-cia402");
+}
+
+#[test]
+fn odrive_faults_are_reported() {
+    faults_are_reported(DriveConfig::Odrive, "faults-odrive");
+}
