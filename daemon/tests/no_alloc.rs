@@ -7,7 +7,7 @@ mod rig;
 
 use std::cell::Cell;
 
-use anguilla_daemon::config::Config;
+use anguilla_daemon::config::{Config, DriveConfig};
 use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
 use rig::Rig;
 
@@ -26,21 +26,32 @@ fn counted<T>(f: impl FnOnce() -> T) -> T {
     r
 }
 
+/// Every drive family: anguilla on classic CAN and CAN FD, CiA 402 drives
+/// (their configuration by SDO happens in the warm-up) and ODrive axes.
 #[test]
 fn a_control_period_allocates_nothing() {
-    for fd in [false, true] {
+    for (name, drive, fd) in [
+        ("no-alloc", DriveConfig::Anguilla, false),
+        ("no-alloc-fd", DriveConfig::Anguilla, true),
+        ("no-alloc-cia402", DriveConfig::Cia402, false),
+        ("no-alloc-odrive", DriveConfig::Odrive, false),
+    ] {
         let mut cfg = Config::default();
         cfg.bus.fd = fd;
-        let mut r = Rig::new(if fd { "no-alloc-fd" } else { "no-alloc" }, &cfg);
+        cfg.robot.drive = drive;
+        cfg.validate().expect("valid");
+        let mut r = Rig::new(name, &cfg);
         // Recording on: the tap's bounded channel must not allocate either.
         let (tap, records) = crossbeam_channel::bounded(1 << 16);
         r.ctl.set_tap(tap);
-        // Warm-up outside the count: boot, control, enable.
-        r.run_for(0.1);
+        // Warm-up outside the count: boot (and configuration), control,
+        // enable.
+        r.run_for(0.6);
         r.command(1, Command::TakeControl);
         r.command(1, Command::Enable);
         r.run_for(0.3);
-        assert_eq!(r.ctl.supervisor().mode(), Mode::Ready);
+        records.try_iter().for_each(drop);
+        assert_eq!(r.ctl.supervisor().mode(), Mode::Ready, "{name}");
         COUNT.with(|n| n.set(0));
         let phases = [
             (0.0, 0.0, 1.0),  // swim
@@ -73,7 +84,7 @@ fn a_control_period_allocates_nothing() {
         counted(|| r.command(2, Command::Enable));
         assert!(r.ctl.counters().refused >= 1);
         let n = COUNT.with(|n| n.get());
-        assert_eq!(n, 0, "{n} allocations in 800 control periods (fd = {fd})");
+        assert_eq!(n, 0, "{n} allocations in 800 control periods ({name})");
         assert!(r.ctl.snapshot().sequence > 800);
         assert_eq!(r.ctl.tap_dropped(), 0);
     }

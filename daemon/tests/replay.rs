@@ -2,7 +2,7 @@
 
 mod rig;
 
-use anguilla_daemon::config::Config;
+use anguilla_daemon::config::{Config, DriveConfig};
 use anguilla_daemon::record;
 use anguilla_daemon::replay::{self, ReplayError};
 use anguilla_daemon::session::SessionError;
@@ -11,22 +11,22 @@ use anguilla_protocol::frame::Frame;
 use rig::{Hooked, Rig};
 
 fn record_session(name: &str) -> std::path::PathBuf {
-    record_session_with(name, false)
+    record_session_with(name, false, Config::default())
 }
 
 /// Records a session: enable, swim and turn, E-stop. With `refusals`, the
 /// bus refuses part of the sends of three periods of the swim.
-fn record_session_with(name: &str, refusals: bool) -> std::path::PathBuf {
+fn record_session_with(name: &str, refusals: bool, cfg: Config) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("anguilla-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let cfg = Config::default();
     let mut r = Rig::new(name, &cfg);
     let (rec_tx, rec_rx) = crossbeam_channel::bounded(1 << 20);
     let (st_tx, st_rx) = crossbeam_channel::bounded(16);
     r.ctl.set_tap(rec_tx);
     let (d, c) = (dir.clone(), cfg.clone());
     let recorder = std::thread::spawn(move || record::recorder(d, c, rec_rx, st_rx));
-    r.run_for(0.1);
+    // Boot (a CiA 402 drive's configuration by SDO included).
+    r.run_for(0.6);
     r.command(1, Command::TakeControl);
     r.command(1, Command::Enable);
     r.run_for(0.3);
@@ -93,9 +93,29 @@ fn a_recorded_session_replays_bit_for_bit() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The CiA 402 and ODrive masters replay bit for bit too: SDO
+/// configuration, controlwords, setpoints, quick stop.
+#[test]
+fn every_drive_family_replays_bit_for_bit() {
+    for (name, drive) in [
+        ("replay-cia402", DriveConfig::Cia402),
+        ("replay-odrive", DriveConfig::Odrive),
+    ] {
+        let mut cfg = Config::default();
+        cfg.robot.drive = drive;
+        let dir = record_session_with(name, false, cfg);
+        let report = replay::replay(&dir).expect("replays");
+        assert!(report.identical(), "{name}: {:?}", report.mismatch);
+        // 3.1 s at the automatic rate (89.3 Hz CiA 402, 75.2 Hz ODrive).
+        assert!(report.periods > 200, "{name}: {} periods", report.periods);
+        assert!(report.frames > 4000, "{name}: {} frames", report.frames);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
 #[test]
 fn sends_the_bus_refused_are_recorded_and_refused_again_in_the_replay() {
-    let dir = record_session_with("replay-refused", true);
+    let dir = record_session_with("replay-refused", true, Config::default());
     let session = std::fs::read_to_string(dir.join("session.log")).unwrap();
     let refused = session.lines().filter(|l| l.starts_with("X ")).count();
     assert!(refused > 10, "{refused} refused sends recorded");

@@ -1,6 +1,7 @@
-//! A test rig: the controller and twelve simulated vertebra nodes on one
-//! in-process bus, stepped in lockstep on simulated time (no body plant: the
-//! joints see no load). Faster than real time and deterministic.
+//! A test rig: the controller and twelve simulated vertebra nodes (or the
+//! joints of the configured drive family) on one in-process bus, stepped in
+//! lockstep on simulated time (no body plant: the joints see no load).
+//! Faster than real time and deterministic.
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::control::Controller;
@@ -11,7 +12,9 @@ use anguilla_drivers::mem::{MemBus, MemParticipant};
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::NodeId;
 use anguilla_sim::actuator::ActuatorParams;
+use anguilla_sim::device::JointDevice;
 use anguilla_sim::node::{NodeConfig, VertebraNode};
+use anguilla_sim::robot::{RobotConfig, joint_device};
 
 /// A bus (behind a `Box` or a `&mut`) that asks `hook` before every send:
 /// the hook may stall, or refuse the frame with an error (a stalled
@@ -63,7 +66,10 @@ pub struct Rig {
     pub ctl: Controller,
     pub host: MemParticipant,
     pub bus: MemBus,
+    /// anguilla's vertebra nodes (empty for a bought drive family).
     pub nodes: Vec<VertebraNode>,
+    /// A bought family's joints (empty for anguilla).
+    pub joints: Vec<Box<dyn JointDevice>>,
     node_port: MemParticipant,
     pub now: Nanos,
     seqs: [u32; 8],
@@ -78,6 +84,21 @@ impl Rig {
         let node_port = bus.participant();
         let ctl = Controller::new(cfg, Nanos::ZERO).expect("controller");
         let variant = cfg.bus.variant();
+        let family = cfg.robot.drive.family();
+        let joints = if family.drive_per_axis() {
+            let rc = RobotConfig {
+                drive: family,
+                node_ids: cfg.node_ids(),
+                axis_ids: cfg.axis_ids(),
+                boot_time: std::time::Duration::from_millis(20),
+                ..RobotConfig::with_joints(cfg.robot.joints)
+            };
+            (0..cfg.robot.joints)
+                .map(|j| joint_device(&rc, j, j as u64, Nanos::ZERO).expect("joint"))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let nodes = cfg
             .node_ids()
             .into_iter()
@@ -94,12 +115,14 @@ impl Rig {
                     Nanos::ZERO,
                 )
             })
+            .filter(|_| !family.drive_per_axis())
             .collect();
         Self {
             ctl,
             host,
             bus,
             nodes,
+            joints,
             node_port,
             now: Nanos::ZERO,
             seqs: [0; 8],
@@ -111,16 +134,22 @@ impl Rig {
     /// live until the next period.
     pub fn nodes_step(&mut self) {
         let now = self.now;
-        let nodes = &mut self.nodes;
+        let (nodes, joints) = (&mut self.nodes, &mut self.joints);
         let out = &mut self.out;
         let _ = self.node_port.drain(&mut |r| {
             for n in nodes.iter_mut() {
                 n.receive(now, &r.frame, &mut |f| out.push(f));
             }
+            for j in joints.iter_mut() {
+                j.receive(now, &r.frame, &mut |f| out.push(f));
+            }
         });
         self.now += self.ctl.period_ns();
         for n in self.nodes.iter_mut() {
             n.advance(self.now, &mut |f| out.push(f));
+        }
+        for j in self.joints.iter_mut() {
+            j.advance(self.now, &mut |f| out.push(f));
         }
         for f in self.out.drain(..) {
             let _ = self.node_port.send(&f);
