@@ -72,12 +72,107 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     drop(sim);
 }
 
+/// The bought families over a pty: `anguilla sim --drive F --slcan-pty` and
+/// `anguilla run` with `[robot] drive = F`, as two processes. The daemon
+/// configures the CiA 402 drives by SDO through the emulated adapter, the
+/// robot swims, stops, and the E-stop turns every drive off.
+#[test]
+fn cia402_and_odrive_robots_over_an_slcan_pty() {
+    let bin = anguilla_bin();
+    assert!(
+        bin.exists(),
+        "{} not built (cargo build --bin anguilla)",
+        bin.display()
+    );
+    for drive in ["cia402", "odrive"] {
+        let (sim, device) = sim_on_pty_with(&bin, &["--drive", drive, "--joints", "6"]);
+        let prefix = format!("anguilla-test/slcan-{drive}-{}", std::process::id());
+        let config = std::env::temp_dir().join(format!(
+            "anguilla-slcan-{drive}-{}.toml",
+            std::process::id()
+        ));
+        std::fs::write(
+            &config,
+            format!("[robot]\njoints = 6\ndrive = \"{drive}\"\n\n[ipc]\nprefix = \"{prefix}\"\n"),
+        )
+        .unwrap();
+        let daemon = Killed(
+            Proc::new(&bin)
+                .args([
+                    "run",
+                    "--quiet",
+                    "--bus",
+                    &format!("slcan:{device}@1000000"),
+                    "--config",
+                ])
+                .arg(&config)
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("anguilla run starts"),
+        );
+        let mut c = connect(&prefix, "slcan-operator");
+        wait_for(
+            &mut c,
+            &format!("{drive}: every joint disabled"),
+            20.0,
+            |s| {
+                s.joints[..6]
+                    .iter()
+                    .all(|j| j.node_alive == 1 && j.node_state == 1)
+            },
+        );
+        ok(&mut c, Command::TakeControl);
+        ok(&mut c, Command::Enable);
+        wait_for(&mut c, &format!("{drive}: ready"), 10.0, |s| {
+            s.mode == Mode::Ready as u8
+        });
+        ok(
+            &mut c,
+            Command::Swim(SwimParams {
+                amplitude: 1.0,
+                frequency: 1.0,
+                turn: 0.0,
+                pitch: 0.0,
+            }),
+        );
+        let s = wait_for(&mut c, &format!("{drive}: the tail swinging"), 10.0, |s| {
+            s.mode == Mode::Swimming as u8 && s.joints[5].commanded_yaw.abs() > 0.1
+        });
+        let err = (s.joints[5].measured_yaw - s.joints[5].commanded_yaw).abs();
+        assert!(err < 0.15, "{drive}: tail yaw tracking error {err} rad");
+        ok(&mut c, Command::Stop);
+        wait_for(
+            &mut c,
+            &format!("{drive}: ready after the stop"),
+            20.0,
+            |s| s.mode == Mode::Ready as u8,
+        );
+        ok(&mut c, Command::EStop);
+        wait_for(&mut c, &format!("{drive}: every drive off"), 3.0, |s| {
+            s.mode == Mode::EStop as u8 && s.joints[..6].iter().all(|j| j.node_state != 2)
+        });
+        eprintln!(
+            "{drive} over an SLCAN pty: enabled, swam (tail error {err:.3} rad), stopped, E-stopped"
+        );
+        drop(daemon);
+        drop(sim);
+        let _ = std::fs::remove_file(&config);
+    }
+}
+
 /// `anguilla sim --slcan-pty`, its device read from its first lines; the
 /// rest of its output drained.
 fn sim_on_pty(bin: &std::path::Path) -> (Killed, String) {
+    sim_on_pty_with(bin, &[])
+}
+
+/// `anguilla sim --slcan-pty` with more arguments.
+fn sim_on_pty_with(bin: &std::path::Path, args: &[&str]) -> (Killed, String) {
     let mut sim = Killed(
         Proc::new(bin)
             .args(["sim", "--slcan-pty", "--duration", "120"])
+            .args(args)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
