@@ -33,8 +33,8 @@
 //!   values 0x6064, 0x606C, 0x6077 are updated every 250 µs servo step;
 //! - faults with EMCY (code, error register 0x1001): the heartbeat consumer
 //!   0x1016 (EMCY 0x8130), the SYNC watchdog (no SYNC for 3 × 0x1006, at
-//!   least 100 ms, in Operation enabled: EMCY 0x8700, what stops a robot
-//!   whose master died),
+//!   least 100 ms and at least the consumer heartbeat time of 0x1016, in
+//!   Operation enabled: EMCY 0x8700, what stops a robot whose master died),
 //!   injected faults (0x4210 over-temperature, else 0x1000); Fault reset
 //!   sends EMCY 0x0000.
 //!
@@ -601,12 +601,16 @@ impl Cia402Axis {
     }
 
     fn watchdogs(&mut self, t: Nanos, tx: &mut dyn FnMut(Frame)) {
-        /// Three cycles, but no less than 100 ms (the anguilla node's rule:
-        /// a master without SCHED_FIFO stalls for tens of milliseconds on
-        /// a busy machine).
-        fn sync_timeout(cycle_us: u64) -> Nanos {
-            Nanos::from_nanos(3 * cycle_us * 1000).max(SYNC_TIMEOUT_MIN)
-        }
+        // Three cycles, but no less than 100 ms (the anguilla node's rule:
+        // a master without SCHED_FIFO stalls for tens of milliseconds on a
+        // busy machine), nor than the master's heartbeat time the drive
+        // consumes (0x1016: a master on a slow host declares a longer one).
+        let consumer_ms = (self.od.num(S_CONSUMER) as u32 & 0xFFFF) as u64;
+        let sync_timeout = |cycle_us: u64| {
+            Nanos::from_nanos(3 * cycle_us * 1000)
+                .max(SYNC_TIMEOUT_MIN)
+                .max(Nanos::from_millis(consumer_ms))
+        };
         let cycle_us = self.od.num(S_CYCLE_PERIOD) as u64;
         if self.drive == DriveState::OperationEnabled
             && cycle_us != 0
