@@ -262,6 +262,11 @@ impl Controller {
         self.drives.as_ref()
     }
 
+    /// The drives' next notice for the log (configuration done or failed).
+    pub fn take_drive_notice(&mut self) -> Option<crate::drive::Notice> {
+        self.drives.take_notice()
+    }
+
     /// Counters.
     pub fn counters(&self) -> ControlCounters {
         self.counters

@@ -88,6 +88,8 @@ pub enum Event {
         /// The new state's code.
         state: u8,
     },
+    /// A drive's notice (configuration done or failed).
+    Drive(crate::drive::Notice),
     /// The loop overran (periods skipped).
     Overrun {
         /// Periods skipped this time.
@@ -441,6 +443,10 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
             Some(Event::Overrun { skipped }) => {
                 tracing::warn!("control loop overrun: {skipped} period(s) skipped")
             }
+            Some(Event::Drive(n @ crate::drive::Notice::Configured { .. })) => {
+                tracing::info!("{n}")
+            }
+            Some(Event::Drive(n)) => tracing::error!("{n}"),
         }
     }
     refusals.flush(std::time::Instant::now());
@@ -789,6 +795,9 @@ fn control_loop(
         }
         ctl.run_period(now, bus.as_mut());
         periods += 1;
+        while let Some(n) = ctl.take_drive_notice() {
+            emit(Event::Drive(n), &mut dropped);
+        }
         let now_bus = ctl.snapshot().bus.state;
         if now_bus != bus_state {
             emit(Event::Bus { state: now_bus }, &mut dropped);

@@ -46,7 +46,9 @@ use crate::nodes::{NodeReport, RxCounters};
 use crate::supervisor::{Drive, Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
-/// How long the master waits for an SDO response.
+/// The shortest wait for an SDO response; the master waits
+/// `control.heartbeat-timeout` when that is longer (a drive may be silent
+/// that long before it counts as lost; a slow host declares a longer one).
 pub const SDO_TIMEOUT: Nanos = Nanos::from_millis(100);
 /// Attempts of one SDO transfer before the configuration fails.
 pub const SDO_ATTEMPTS: u8 = 3;
@@ -92,7 +94,8 @@ pub enum ConfigFailure {
         /// Its code.
         code: AbortCode,
     },
-    /// No answer after [`SDO_ATTEMPTS`] tries of [`SDO_TIMEOUT`].
+    /// No answer after [`SDO_ATTEMPTS`] tries (each waiting the SDO
+    /// timeout, see [`SDO_TIMEOUT`]).
     Timeout(Object),
     /// The value read is not what anguilla needs (e.g. not a CiA 402
     /// device, mode 8 refused, rated torque 0).
@@ -261,11 +264,14 @@ pub struct Master {
     master: NodeId,
     period: Nanos,
     consumer_ms: u16,
+    sdo_timeout: Nanos,
     counters: RxCounters,
     bus_estop: bool,
     started: Nanos,
     reset_sent: bool,
     last_heartbeat: Option<Nanos>,
+    /// Drives whose setup ended (done or failed) and was not yet told.
+    untold: u128,
 }
 
 impl Master {
@@ -313,11 +319,13 @@ impl Master {
             consumer_ms: (cfg.control.heartbeat_timeout * 1e3)
                 .round()
                 .clamp(1.0, 65535.0) as u16,
+            sdo_timeout: Nanos::from_secs_f64(cfg.control.heartbeat_timeout).max(SDO_TIMEOUT),
             counters: RxCounters::default(),
             bus_estop: false,
             started: now,
             reset_sent: false,
             last_heartbeat: None,
+            untold: 0,
         })
     }
 
@@ -431,7 +439,7 @@ impl Master {
                     Step::Start => Object::new(0, 0),
                 };
                 if let Some(t) = sent {
-                    if now.saturating_sub(t) < SDO_TIMEOUT {
+                    if now.saturating_sub(t) < self.sdo_timeout {
                         continue;
                     }
                     if attempts >= SDO_ATTEMPTS {
@@ -448,6 +456,7 @@ impl Master {
                         );
                         self.joints[j][ax].setup =
                             Setup::Failed(step, ConfigFailure::Timeout(object));
+                        self.untold |= 1 << (2 * j + ax);
                         continue;
                     }
                 }
@@ -474,6 +483,7 @@ impl Master {
                             },
                         );
                         self.joints[j][ax].setup = Setup::Done;
+                        self.untold |= 1 << (2 * j + ax);
                         continue;
                     }
                 };
@@ -592,6 +602,9 @@ impl Master {
             (Step::Read(o, _) | Step::Write(o, _), _) => fail(ConfigFailure::Protocol(o)),
             (Step::Start, _) => a.setup,
         };
+        if matches!(axis.setup, Setup::Failed(..)) {
+            self.untold |= 1 << (2 * j + ax);
+        }
     }
 
     fn tpdo(&mut self, now: Nanos, j: usize, ax: usize, data: &PdoData) {
@@ -822,6 +835,32 @@ impl Drives for Master {
                 },
             );
         }
+    }
+
+    fn take_notice(&mut self) -> Option<super::Notice> {
+        while self.untold != 0 {
+            let i = self.untold.trailing_zeros() as usize;
+            self.untold &= !(1 << i);
+            let (j, ax) = (i / 2, i % 2);
+            let Some(a) = self.joints.get(j).map(|p| p[ax]) else {
+                continue;
+            };
+            let (joint, axis, node) = (j as u8, ax as u8, a.node.get());
+            match a.setup {
+                Setup::Done => return Some(super::Notice::Configured { joint, axis, node }),
+                Setup::Failed(step, why) => {
+                    return Some(super::Notice::ConfigFailed {
+                        joint,
+                        axis,
+                        node,
+                        step,
+                        why,
+                    });
+                }
+                _ => {}
+            }
+        }
+        None
     }
 
     fn disable_all(&mut self, out: &mut Out<'_>) {

@@ -114,6 +114,65 @@ pub struct JointReport {
     pub feedback: Option<[AxisFeedback; 2]>,
 }
 
+/// Something a drive did that the operator's log should say (a `Copy`
+/// value: the loop hands it to the logger thread without allocating).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Notice {
+    /// A drive finished its configuration and started.
+    Configured {
+        /// Joint (0 = head end).
+        joint: u8,
+        /// 0 pitch, 1 yaw.
+        axis: u8,
+        /// Its node id.
+        node: u8,
+    },
+    /// A drive's configuration failed: the joint reports Fault until the
+    /// operator clears faults (which configures it again).
+    ConfigFailed {
+        /// Joint (0 = head end).
+        joint: u8,
+        /// 0 pitch, 1 yaw.
+        axis: u8,
+        /// Its node id.
+        node: u8,
+        /// The step of `docs/drives.md`'s list (from 0).
+        step: u8,
+        /// Why.
+        why: cia402::ConfigFailure,
+    },
+}
+
+impl std::fmt::Display for Notice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let axis = |a: u8| if a == 0 { "pitch" } else { "yaw" };
+        match *self {
+            Notice::Configured {
+                joint,
+                axis: a,
+                node,
+            } => write!(
+                f,
+                "joint {} {} drive (node {node}) configured and started",
+                joint + 1,
+                axis(a)
+            ),
+            Notice::ConfigFailed {
+                joint,
+                axis: a,
+                node,
+                step,
+                why,
+            } => write!(
+                f,
+                "joint {} {} drive (node {node}): configuration step {step} failed: {why}",
+                joint + 1,
+                axis(a)
+            ),
+        }
+    }
+}
+
 /// One drive family's master: the joints' drives as the controller sees
 /// them. Every method runs in the control period and allocates nothing.
 pub trait Drives: Send {
@@ -144,6 +203,10 @@ pub trait Drives: Send {
     fn period(&mut self, p: &Period<'_>, out: &mut Out<'_>);
     /// Disables every drive now (shutdown).
     fn disable_all(&mut self, out: &mut Out<'_>);
+    /// The next notice for the log, if any (taken once).
+    fn take_notice(&mut self) -> Option<Notice> {
+        None
+    }
 }
 
 /// What went wrong building the drives from a configuration.

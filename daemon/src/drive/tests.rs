@@ -497,9 +497,25 @@ fn cia402_reads_the_name_by_segments_and_names_each_failure() {
         rig.period(t, Drive::Disabled, Mode::Idle, true);
         feed(&mut rig, t, &[boot_up(1), boot_up(2)]);
         let mut drives = [Scripted::new(1), script];
-        let sent = run(&mut rig, &mut drives, &mut t, 80);
+        // Three tries of control.heartbeat-timeout (0.35 s) for the silent one.
+        let sent = run(&mut rig, &mut drives, &mut t, 150);
         let (_, why) = rig.drives.config_failure(0, 1).expect("drive 2 failed");
         assert_eq!(why.to_string(), want);
+        // The log is told once: drive 1 started, drive 2 failed.
+        let notices: Vec<String> = std::iter::from_fn(|| rig.drives.take_notice())
+            .map(|n| n.to_string())
+            .collect();
+        assert_eq!(notices.len(), 2, "{notices:?}");
+        assert_eq!(
+            notices[0],
+            "joint 1 pitch drive (node 1) configured and started"
+        );
+        assert!(
+            notices[1].starts_with("joint 1 yaw drive (node 2): configuration step ")
+                && notices[1].ends_with(&format!("failed: {want}")),
+            "{notices:?}"
+        );
+        assert!(rig.drives.take_notice().is_none());
         assert!(rig.drives.config_failure(0, 0).is_none());
         let j = rig.drives.joint(0);
         assert_eq!(j.state, Some(NodeState::Fault), "{want}");
