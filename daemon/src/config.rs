@@ -149,6 +149,10 @@ pub struct RobotConfig {
     pub node_ids: Vec<u8>,
     /// CiA 402: the master's own node id (its heartbeat is 0x700 + id).
     pub master_node_id: u8,
+    /// CiA 402: the drives' EDS file, checked at start-up for every object
+    /// the master uses (mappable where it maps them) and the bus's bit
+    /// rate; empty: CiA 402's standard objects are taken as given.
+    pub eds: String,
     /// Bought families: the axes, pitch then yaw for each joint from head
     /// to tail (2 × joints entries), or empty for every axis at its
     /// default id with `[robot.axis]`.
@@ -164,6 +168,7 @@ impl Default for RobotConfig {
             drive: DriveConfig::Anguilla,
             node_ids: Vec::new(),
             master_node_id: 127,
+            eds: String::new(),
             axes: Vec::new(),
             axis: AxisDefaults::default(),
         }
@@ -797,6 +802,23 @@ impl Config {
                            first), or none for the default ids",
             });
         }
+        if !r.eds.is_empty() {
+            if family != anguilla_protocol::Family::Cia402 {
+                return Err(ConfigError::Range {
+                    key: "robot.eds",
+                    value: format!("{:?}", r.eds),
+                    expected: "\"\" unless drive = \"cia402\" (an EDS describes a CANopen device)",
+                });
+            }
+            use anguilla_protocol::canopen::eds;
+            let text = std::fs::read_to_string(&r.eds).map_err(|source| ConfigError::Read {
+                path: r.eds.clone(),
+                source,
+            })?;
+            eds::Eds::parse(&text)
+                .and_then(|e| eds::check_cia402(&e, self.bus.bitrate))
+                .map_err(|e| ConfigError::Derived(format!("robot.eds = {:?}: {e}", r.eds)))?;
+        }
         let (lo, hi) = family.id_range();
         let mut seen = [false; 256];
         if family == anguilla_protocol::Family::Cia402 {
@@ -892,6 +914,9 @@ pub fn default_toml() -> String {
     w("node-ids = []".into());
     w("# cia402: the master's node id (its heartbeat is 0x700 + id). 1..=127".into());
     w(format!("master-node-id = {}", d.robot.master_node_id));
+    w("# cia402: the drives' EDS file, checked at start-up for every object the master".into());
+    w("# uses and the bit rate; \"\": CiA 402's standard objects are taken as given.".into());
+    w("eds = \"\"".into());
     w("# cia402/odrive: the drives, pitch then yaw of each joint from the head, e.g.".into());
     w("# [{ node = 1, direction = -1, gear = 50.0 }, { node = 2 }, ...] (2 × joints),".into());
     w("# keys left out from [robot.axis]; [] puts pitch on 2j+1, yaw on 2j+2 (j from 0).".into());
@@ -1161,6 +1186,50 @@ mod tests {
         assert_eq!(fmt_number(176.8), "176.8");
         let e = Config::from_toml("[gait]\nwavelength = 1e300\n", "t").unwrap_err();
         assert!(e.to_string().contains("= 1e300 is out of range"), "{e}");
+    }
+
+    #[test]
+    fn a_cia402_eds_is_checked_for_what_the_master_needs() {
+        let sim = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../sim-backend/eds/anguilla-sim-cia402.eds"
+        );
+        let text = |eds: &str, drive: &str| {
+            format!("[robot]\njoints = 2\ndrive = \"{drive}\"\neds = {eds:?}\n")
+        };
+        Config::from_toml(&text(sim, "cia402"), "test").unwrap();
+        // The simulated drive lists 125..=1000 kbit/s, not 100.
+        let e = Config::from_toml(
+            &(text(sim, "cia402")
+                + "[bus]\nbitrate = 100000\nmax-load = 0.95\n[control]\nrate-hz = 20.0\n"),
+            "test",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("bit rate 100 kbit/s"), "{e}");
+        // A drive without a mappable torque offset.
+        let path = std::env::temp_dir().join(format!("anguilla-eds-{}.eds", std::process::id()));
+        let bad = std::fs::read_to_string(sim).unwrap().replace(
+            "[60B2]\nParameterName=Torque offset\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nDefaultValue=0\nPDOMapping=1",
+            "[60B2]\nParameterName=Torque offset\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nDefaultValue=0\nPDOMapping=0",
+        );
+        std::fs::write(&path, bad).unwrap();
+        let e = Config::from_toml(&text(path.to_str().unwrap(), "cia402"), "test")
+            .unwrap_err()
+            .to_string();
+        let _ = std::fs::remove_file(&path);
+        assert!(
+            e.contains("0x60B2:00 torque offset (not PDO-mappable"),
+            "{e}"
+        );
+        let e = Config::from_toml(&text("/nonexistent.eds", "cia402"), "test")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/nonexistent.eds"), "{e}");
+        let e = Config::from_toml(&text(sim, "odrive"), "test")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("robot.eds"), "{e}");
     }
 
     #[test]

@@ -1227,5 +1227,7 @@ pub mod cia402 {
     }
 }
 
+pub mod eds;
+
 #[cfg(test)]
 mod tests;
