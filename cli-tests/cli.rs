@@ -96,6 +96,91 @@ fn sim_behind_a_pty(args: &[&str]) -> (std::process::Child, String) {
     (sim, device)
 }
 
+/// `anguilla sim --slcan-pty ARGS` started, and the device paths of its
+/// `n` adapters, in the order printed.
+fn sim_adapters(args: &[&str], n: usize) -> (std::process::Child, Vec<String>) {
+    let mut sim = anguilla()
+        .args(["sim", "--slcan-pty"])
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("sim starts");
+    let mut lines = BufReader::new(sim.stdout.take().unwrap()).lines();
+    let mut devices = Vec::new();
+    while devices.len() < n {
+        match lines.next() {
+            Some(Ok(l)) if l.starts_with("slcan device: ") => devices.extend(
+                l.split_whitespace()
+                    .find(|w| w.starts_with("/dev/"))
+                    .map(str::to_string),
+            ),
+            Some(Ok(_)) => {}
+            _ => break,
+        }
+    }
+    assert_eq!(devices.len(), n, "the sim prints {n} device paths");
+    (sim, devices)
+}
+
+#[test]
+fn sim_adapters_share_one_bus_and_bad_counts_are_named() {
+    for (args, expect) in [
+        (
+            &["sim", "--slcan-pty", "--adapters", "9"][..],
+            "--adapters 9: expected 1..=8",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--adapters", "2"],
+            "--adapters: only with --slcan-pty",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--joints", "0"],
+            "--joints 0: expected 1..=63",
+        ),
+        (
+            &["sim", "--slcan-pty", "--joints", "0", "--scenario", "x"],
+            "--scenario: needs a robot",
+        ),
+    ] {
+        let (ok, _, err) = run(args);
+        assert!(!ok, "{args:?}");
+        assert!(err.contains(expect), "{args:?}: {err}");
+    }
+
+    // No robot (--joints 0): what one adapter's host sends, the other's
+    // host receives, and nothing else is on the bus.
+    let (mut sim, devices) =
+        sim_adapters(&["--adapters", "2", "--joints", "0", "--duration", "30"], 2);
+    assert_ne!(devices[0], devices[1]);
+    let open = |d: &str| anguilla_drivers::open(&format!("slcan:{d}@1000000")).expect("opens");
+    let (mut a, mut b) = (open(&devices[0]), open(&devices[1]));
+    let id = anguilla_protocol::Id::standard_literal(0x123);
+    for k in 0..3u8 {
+        let sent = anguilla_protocol::Frame::new(id, &[k, 0xA5, 0x5A]).unwrap();
+        a.send(&sent).expect("sends");
+        let got = b
+            .recv(Duration::from_secs(5))
+            .expect("receives")
+            .expect("a frame within 5 s");
+        assert_eq!(got.frame, sent);
+    }
+    assert!(
+        b.recv(Duration::from_millis(200)).unwrap().is_none(),
+        "only what was sent"
+    );
+    // And the other way round.
+    let back = anguilla_protocol::Frame::new(id, &[9]).unwrap();
+    b.send(&back).expect("sends");
+    let got = a
+        .recv(Duration::from_secs(5))
+        .unwrap()
+        .expect("a frame within 5 s");
+    assert_eq!(got.frame, back);
+    let _ = sim.kill();
+    let _ = sim.wait();
+}
+
 #[test]
 fn dump_decodes_the_simulated_robot_behind_an_slcan_pty_and_logs_it() {
     let (mut sim, device) = sim_behind_a_pty(&["--duration", "20"]);

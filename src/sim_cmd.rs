@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_drivers::mem::MemBus;
@@ -22,6 +23,9 @@ use clap::Args;
 Examples:
   anguilla sim --slcan-pty                 # prints the device to open, e.g.
                                            # slcan:/dev/pts/5@1000000
+  anguilla sim --slcan-pty --adapters 2 --joints 0
+                                           # two adapters on one bus, no robot:
+                                           # tools on either end talk to each other
   anguilla sim --bus socketcan:vcan0 --scenario faults.txt
   anguilla sim --bus socketcan:can0 --fd --joints 6
   anguilla sim --bus socketcan:vcan0 --drive odrive --joints 4 --axis-ids 1:2,3:4,5:6,7:8
@@ -45,13 +49,18 @@ pub struct SimArgs {
     /// behind it; prints the device path to open.
     #[arg(long)]
     slcan_pty: bool,
+    /// Number of emulated SLCAN adapters on the same simulated bus, 1..=8
+    /// (with --slcan-pty); each prints its own device path.
+    #[arg(long, value_name = "N")]
+    adapters: Option<usize>,
     /// Bit rate of the simulated wire behind the emulated adapter (bit/s).
     #[arg(long, default_value_t = 1_000_000, value_name = "BPS")]
     bitrate: u32,
     /// Fault scenario file (timed faults, see sim-backend/README.md).
     #[arg(long, value_name = "FILE")]
     scenario: Option<PathBuf>,
-    /// Number of joints (nodes 1..=N), 1..=63.
+    /// Number of joints (nodes 1..=N), 1..=63; 0 with --slcan-pty: no
+    /// robot, the adapters' bus alone.
     #[arg(long, default_value_t = 12, value_name = "N")]
     joints: usize,
     /// CAN FD nodes (setpoint groups) instead of classic CAN (anguilla
@@ -86,9 +95,27 @@ pub struct SimArgs {
 
 /// Runs `anguilla sim`.
 pub fn run(args: &SimArgs) -> anyhow::Result<()> {
-    if !(1..=63).contains(&args.joints) {
-        bail!("--joints {}: expected 1..=63", args.joints);
+    if args.joints == 0 && !args.slcan_pty {
+        bail!(
+            "--joints 0: expected 1..=63 (0, no robot, only with --slcan-pty: the adapters' bus alone)"
+        );
     }
+    if args.joints > 63 {
+        bail!(
+            "--joints {}: expected 1..=63 (or 0 with --slcan-pty)",
+            args.joints
+        );
+    }
+    let adapters = match args.adapters {
+        Some(_) if !args.slcan_pty => {
+            bail!("--adapters: only with --slcan-pty (emulated adapters on one bus)")
+        }
+        Some(n) if !ADAPTERS_RANGE.contains(&n) => {
+            bail!("--adapters {n}: expected {ADAPTERS_RANGE:?} emulated adapters")
+        }
+        Some(n) => n,
+        None => 1,
+    };
     if let Some(d) = args.duration
         && !(d > 0.0 && d <= 1e6)
     {
@@ -121,6 +148,15 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             "--fd: {} drives speak classic CAN (CAN FD is for anguilla drives)",
             args.drive
         );
+    }
+    if args.joints == 0 {
+        if args.scenario.is_some() {
+            bail!("--scenario: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
+        if args.axis_ids.is_some() {
+            bail!("--axis-ids: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
+        return run_bus_alone(args, adapters);
     }
     let axis_ids = match &args.axis_ids {
         Some(text) => {
@@ -197,25 +233,12 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     // Status lines: a failing stdout ends them, never the simulation.
     let mut out = crate::output::Status::default();
 
-    let mut _emulator = None;
+    let mut _emulators = Vec::new();
     let (mut robot, clock): (SimRobot, Arc<dyn Clock>) = if args.slcan_pty {
         let bus = MemBus::builder("anguilla-sim-slcan")
             .bitrate(args.bitrate)
             .build();
-        let emu = SlcanEmulator::on_pty(
-            Box::new(bus.participant()),
-            EmulatorConfig {
-                fd: args.fd,
-                ..EmulatorConfig::default()
-            },
-        )
-        .context("creating the SLCAN pseudo-terminal")?;
-        let path = emu.path().unwrap_or("?").to_owned();
-        out.line(format_args!(
-            "slcan device: {path} (open it with slcan:{path}@{})",
-            args.bitrate
-        ));
-        _emulator = Some(emu);
+        _emulators = start_adapters(&bus, adapters, args, &mut out)?;
         let clock = bus.clock();
         let robot = SimRobot::on_mem(cfg, bus.participant(), clock.now())
             .context("building the simulated robot")?;
@@ -303,6 +326,93 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.slipped.as_secs_f64()
     ));
     Ok(())
+}
+
+/// The most emulated adapters `--adapters` starts on one bus.
+const ADAPTERS_RANGE: std::ops::RangeInclusive<usize> = 1..=8;
+
+/// Starts `n` emulated SLCAN adapters on `bus`, each on its own pty, and
+/// prints each one's device path.
+fn start_adapters(
+    bus: &MemBus,
+    n: usize,
+    args: &SimArgs,
+    out: &mut crate::output::Status,
+) -> anyhow::Result<Vec<SlcanEmulator>> {
+    (0..n)
+        .map(|k| {
+            let emu = SlcanEmulator::on_pty(
+                Box::new(bus.participant()),
+                EmulatorConfig {
+                    fd: args.fd,
+                    ..EmulatorConfig::default()
+                },
+            )
+            .with_context(|| format!("creating the SLCAN pseudo-terminal of adapter {}", k + 1))?;
+            let path = emu.path().unwrap_or("?").to_owned();
+            out.line(format_args!(
+                "slcan device: {path} (open it with slcan:{path}@{})",
+                args.bitrate
+            ));
+            Ok(emu)
+        })
+        .collect()
+}
+
+/// `--slcan-pty --joints 0`: the adapters on one simulated bus and nothing
+/// else, so that tools opened on different adapters talk to each other.
+fn run_bus_alone(args: &SimArgs, adapters: usize) -> anyhow::Result<()> {
+    crate::signals::install();
+    let mut out = crate::output::Status::default();
+    let bus = MemBus::builder("anguilla-sim-slcan")
+        .bitrate(args.bitrate)
+        .build();
+    let emulators = start_adapters(&bus, adapters, args, &mut out)?;
+    out.line(format_args!(
+        "no robot: {adapters} adapter(s) on one simulated {} CAN bus at {} bit/s; Ctrl-C stops",
+        if args.fd { "FD" } else { "classic" },
+        args.bitrate
+    ));
+    let started = Instant::now();
+    let mut next_status = Duration::from_secs(1);
+    while !crate::signals::requested() {
+        let el = started.elapsed();
+        if args.duration.is_some_and(|d| el.as_secs_f64() >= d) {
+            break;
+        }
+        if el >= next_status {
+            next_status += Duration::from_secs(1);
+            let (from, to) = frame_counts(&emulators);
+            out.line(format_args!(
+                "t {:7.1} s  frames from hosts {from:?}  to hosts {to:?}",
+                el.as_secs_f64(),
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (from, to) = frame_counts(&emulators);
+    for e in emulators {
+        e.stop();
+    }
+    out.line(format_args!(
+        "stopped after {:.1} s: frames from hosts {from:?}, to hosts {to:?}",
+        started.elapsed().as_secs_f64()
+    ));
+    Ok(())
+}
+
+/// Frames each adapter took from its host onto the bus, and gave it.
+fn frame_counts(emulators: &[SlcanEmulator]) -> (Vec<u64>, Vec<u64>) {
+    let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
+    emulators
+        .iter()
+        .map(|e| {
+            (
+                get(&e.stats().frames_from_host),
+                get(&e.stats().frames_to_host),
+            )
+        })
+        .unzip()
 }
 
 /// `--axis-ids`: comma-separated `PITCH:YAW` pairs of node ids (0..=255

@@ -13,7 +13,7 @@ applied at SYNC, TPDO sent at SYNC, both decoded from 0x1600/0x1A00 as
 the master wrote them) and the CiA 402 state machine on the controlword,
 with an ideal axis (position actual = target in Operation enabled).
 
-It runs for --seconds on a python-can bus (e.g. `--interface slcan
+It runs for --seconds (or until SIGTERM/SIGINT) on a python-can bus (e.g. `--interface slcan
 --channel /dev/pts/N`) and prints one JSON report: what each drive was
 written, its mapping, its NMT and CiA 402 states, the PDOs and SYNCs
 seen. `scripts/canopen-check` runs it against `anguilla run`.
@@ -21,10 +21,10 @@ seen. `scripts/canopen-check` runs it against `anguilla run`.
 
 import argparse
 import json
+import signal
 import struct
 import sys
 import threading
-import time
 
 import can
 import canopen
@@ -95,15 +95,24 @@ class Drive:
     def get(self, index, sub):
         return self.node.get_data(index, sub, check_readable=False)
 
+    def store(self, index, sub, data):
+        """The drive's own update of an entry (mirrors, applied PDOs,
+        statusword): straight into the LocalNode's data store, so that the
+        write callbacks, and with them the report's `writes`, see only the
+        master's SDO downloads."""
+        self.node._find_object(index, sub)  # raises if the EDS has no such entry
+        self.node.data_store.setdefault(index, {})[sub] = bytes(data)
+
     def set(self, index, sub, value, bits, signed=False):
         fmt = SIZES[bits].lower() if signed else SIZES[bits]
-        self.node.set_data(index, sub, struct.pack("<" + fmt, value), check_writable=False)
+        self.store(index, sub, struct.pack("<" + fmt, value))
 
     def on_write(self, index, subindex, od, data):
+        # Called by LocalNode.set_data, which only the SDO server calls.
         self.writes.append([f"0x{index:04X}:{subindex:02X}", data.hex()])
         if index == 0x6060:
             # Modes of operation display follows the mode.
-            self.node.set_data(0x6061, 0, bytes(data), check_writable=False)
+            self.store(0x6061, 0, data)
 
     def on_nmt(self, can_id, data, timestamp):
         cmd, node = data[0], data[1]
@@ -140,7 +149,7 @@ class Drive:
                 at = 0
                 for index, sub, bits in self.mapping(0x1600):
                     n = bits // 8
-                    self.node.set_data(index, sub, rpdo[at:at + n], check_writable=False)
+                    self.store(index, sub, rpdo[at:at + n])
                     at += n
                 cw = struct.unpack("<H", self.get(0x6040, 0))[0]
                 new = next_state(self.status, cw, self.prev_cw)
@@ -192,8 +201,13 @@ def main():
     network = canopen.Network(bus)
     drives = [Drive(network, int(n), a.eds) for n in a.nodes.split(",")]
     network.notifier = can.Notifier(bus, network.listeners, 0.05)
+    # Runs --seconds, or until SIGTERM or SIGINT (handled here: a shell
+    # starts background jobs with SIGINT ignored), then reports.
+    done = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: done.set())
     print("ready", flush=True)
-    time.sleep(a.seconds)
+    done.wait(a.seconds)
     network.notifier.stop()
     report = [d.report() for d in drives]
     bus.shutdown()
