@@ -105,9 +105,6 @@ pub enum ConfigFailure {
         /// Its value (zero-extended).
         value: u32,
     },
-    /// The answer does not belong to the transfer (wrong entry, toggle bit
-    /// or command).
-    Protocol(Object),
 }
 
 impl std::fmt::Display for ConfigFailure {
@@ -126,9 +123,6 @@ impl std::fmt::Display for ConfigFailure {
             }
             ConfigFailure::Unexpected { object, value } => {
                 write!(f, "{} = 0x{value:X} is not what anguilla needs", o(object))
-            }
-            ConfigFailure::Protocol(obj) => {
-                write!(f, "SDO to {}: an answer out of sequence", o(obj))
             }
         }
     }
@@ -599,7 +593,13 @@ impl Master {
                     }
                 }
             }
-            (Step::Read(o, _) | Step::Write(o, _), _) => fail(ConfigFailure::Protocol(o)),
+            // An answer that is not the one awaited (a late answer to a
+            // request that timed out and was sent again, a stale segment):
+            // ignored; the timeout and its retries decide.
+            (Step::Read(..) | Step::Write(..), _) => {
+                self.counters.foreign_commands += 1;
+                return;
+            }
             (Step::Start, _) => a.setup,
         };
         if matches!(axis.setup, Setup::Failed(..)) {

@@ -457,6 +457,30 @@ fn cia402_reads_the_name_by_segments_and_names_each_failure() {
     rig.period(t, Drive::Disabled, Mode::Idle, true);
     feed(&mut rig, t, &[boot_up(1), boot_up(2)]);
     let mut drives = [Scripted::new(1), Scripted::new(2)];
+    run(&mut rig, &mut drives, &mut t, 3);
+    // Stale answers (a late one to a request already sent again, a segment
+    // out of sequence) are ignored: the configuration goes on.
+    let stale = |sdo| {
+        Co::SdoResponse {
+            node: co_node(2),
+            sdo,
+        }
+        .encode()
+    };
+    feed(
+        &mut rig,
+        t,
+        &[
+            stale(SdoResponse::DownloadAck {
+                object: Object::new(0x1234, 5),
+            }),
+            stale(SdoResponse::UploadSegment {
+                toggle: true,
+                data: SegmentData::new(b"junk").unwrap(),
+                last: true,
+            }),
+        ],
+    );
     run(&mut rig, &mut drives, &mut t, 40);
     assert!(rig.drives.configured());
     assert_eq!(rig.drives.device_name(0, 0), Some("scripted CiA 402 drive"));
