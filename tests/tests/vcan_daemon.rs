@@ -338,3 +338,145 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The bought families on vcan: `anguilla sim --drive F` and `anguilla run`
+/// with `[robot] drive = F` as two processes on SocketCAN. The CiA 402
+/// drives are configured by SDO over the kernel's bus; the robot swims and
+/// stops; an E-stop from can-utils in the family's own protocol (an NMT
+/// Stop to all, an ODrive `Estop` to axis 1) latches the daemon; the
+/// simulator killed is a heartbeat loss naming every joint.
+#[test]
+fn cia402_and_odrive_robots_on_vcan() {
+    if !can_available() {
+        return;
+    }
+    let dev = iface();
+    let bin = anguilla_bin();
+    for (drive, estop) in [("cia402", "000#0200"), ("odrive", "022#")] {
+        let dir =
+            std::env::temp_dir().join(format!("anguilla-vcan-{drive}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let prefix = format!("anguilla-vcan-{drive}-{}", std::process::id());
+        let config = dir.join("anguilla.toml");
+        // Slow emulated CPU: as in the anguilla test above.
+        std::fs::write(
+            &config,
+            format!(
+                "[robot]\njoints = 4\ndrive = \"{drive}\"\n[control]\nrate-hz = 50.0\nheartbeat-timeout = 2.0\nenable-timeout = 10.0\n[ipc]\nprefix = \"{prefix}\"\n"
+            ),
+        )
+        .unwrap();
+        let sim = Killed(
+            Proc::new(&bin)
+                .args([
+                    "sim",
+                    "--bus",
+                    &format!("socketcan:{dev}"),
+                    "--drive",
+                    drive,
+                    "--joints",
+                    "4",
+                    "--dt",
+                    "0.005",
+                    "--model-nodes",
+                    "26",
+                ])
+                .stdout(Stdio::null())
+                .spawn()
+                .expect("anguilla sim starts"),
+        );
+        let _daemon = Killed(
+            Proc::new(&bin)
+                .args([
+                    "run",
+                    "--quiet",
+                    "--bus",
+                    &format!("socketcan:{dev}"),
+                    "--config",
+                ])
+                .arg(&config)
+                .stdout(Stdio::null())
+                .spawn()
+                .expect("anguilla run starts"),
+        );
+        let mut client = connect(&prefix, "vcan-operator");
+        wait_for(
+            &mut client,
+            &format!("{drive}: every joint disabled"),
+            30.0,
+            |s| {
+                s.joints[..4]
+                    .iter()
+                    .all(|j| j.node_alive == 1 && j.node_state == 1)
+            },
+        );
+        ok(&mut client, Command::TakeControl);
+        ok(&mut client, Command::Enable);
+        wait_for(&mut client, &format!("{drive}: ready"), 15.0, |s| {
+            s.mode == Mode::Ready as u8
+        });
+        ok(
+            &mut client,
+            Command::Swim(SwimParams {
+                amplitude: 1.0,
+                frequency: 1.0,
+                turn: 0.0,
+                pitch: 0.0,
+            }),
+        );
+        wait_for(
+            &mut client,
+            &format!("{drive}: the tail swung right"),
+            15.0,
+            |s| s.mode == Mode::Swimming as u8 && s.joints[3].measured_yaw > 0.05,
+        );
+        wait_for(
+            &mut client,
+            &format!("{drive}: the tail swung left"),
+            5.0,
+            |s| s.joints[3].measured_yaw < -0.05,
+        );
+        ok(&mut client, Command::Stop);
+        wait_for(
+            &mut client,
+            &format!("{drive}: ready after the stop"),
+            20.0,
+            |s| s.mode == Mode::Ready as u8,
+        );
+        let st = Proc::new("cansend")
+            .args([&dev, estop])
+            .status()
+            .expect("cansend");
+        assert!(st.success());
+        let s = wait_for(
+            &mut client,
+            &format!("{drive}: e-stop from cansend"),
+            3.0,
+            |s| s.mode == Mode::EStop as u8,
+        );
+        assert_ne!(s.fault_kinds & FaultKind::BusEStop as u32, 0, "{drive}");
+        drop(sim);
+        let s = wait_for(
+            &mut client,
+            &format!("{drive}: heartbeats lost"),
+            8.0,
+            // (The E-stop already named every joint an ODrive reports
+            // E-stopped: wait for the heartbeat fault itself.)
+            |s| {
+                s.fault_kinds & FaultKind::HeartbeatLost as u32 != 0
+                    && s.fault_nodes & 0b1_1110 == 0b1_1110
+                    && s.joints[..4].iter().all(|j| j.node_alive == 0)
+            },
+        );
+        assert_ne!(
+            s.fault_kinds & FaultKind::HeartbeatLost as u32,
+            0,
+            "{drive}"
+        );
+        eprintln!(
+            "{drive} on {dev}: configured, swam, stopped, E-stopped by cansend {estop}, heartbeat loss named"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
