@@ -38,7 +38,7 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         bus_name: bus_name.to_string(),
         bitrate: cfg.bus.bitrate,
         data_bitrate: cfg.bus.fd.then_some(cfg.bus.data_bitrate),
-        drive: cfg.robot.drive.family(),
+        drive: cfg.robot.drive,
         node_ids: cfg.node_ids(),
         axis_ids: cfg.axis_ids(),
         variant: cfg.bus.variant(),

@@ -56,27 +56,18 @@ pub enum FaultPolicyConfig {
     Disable,
 }
 
-/// `[robot] drive`: which protocol the joints' drives speak.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DriveConfig {
-    /// anguilla vertebra nodes (one node, two axes, per joint).
-    #[default]
-    Anguilla,
-    /// CANopen CiA 402 drives, one per axis.
-    Cia402,
-    /// ODrive CANSimple axes, one per axis.
-    Odrive,
-}
+/// `[robot] drive` as text: a [`Family`](anguilla_protocol::Family)'s name.
+mod family_name {
+    use anguilla_protocol::Family;
+    use serde::{Deserialize, Deserializer, Serializer};
 
-impl DriveConfig {
-    /// The protocol crate's family.
-    pub fn family(self) -> anguilla_protocol::Family {
-        match self {
-            DriveConfig::Anguilla => anguilla_protocol::Family::Anguilla,
-            DriveConfig::Cia402 => anguilla_protocol::Family::Cia402,
-            DriveConfig::Odrive => anguilla_protocol::Family::Odrive,
-        }
+    pub fn serialize<S: Serializer>(f: &Family, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(f.name())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Family, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -142,8 +133,9 @@ pub struct AxisConfig {
 pub struct RobotConfig {
     /// Number of actuated joints (each a pitch and a yaw axis).
     pub joints: usize,
-    /// The drives' protocol.
-    pub drive: DriveConfig,
+    /// The drives' protocol: `"anguilla"`, `"cia402"` or `"odrive"`.
+    #[serde(with = "family_name")]
+    pub drive: anguilla_protocol::Family,
     /// anguilla: node id of each joint from head to tail; empty means
     /// 1..=joints.
     pub node_ids: Vec<u8>,
@@ -165,7 +157,7 @@ impl Default for RobotConfig {
     fn default() -> Self {
         Self {
             joints: 12,
-            drive: DriveConfig::Anguilla,
+            drive: anguilla_protocol::Family::Anguilla,
             node_ids: Vec::new(),
             master_node_id: 127,
             eds: String::new(),
@@ -472,13 +464,12 @@ impl Config {
             format!(
                 "{} joints ({} drives) on {} at {} bit/s",
                 self.robot.joints,
-                self.robot.drive.family(),
+                self.robot.drive,
                 self.bus.variant(),
                 self.bus.bitrate
             )
         };
-        let traffic =
-            anguilla_protocol::budget::Traffic::of_family(self.robot.drive.family(), nodes);
+        let traffic = anguilla_protocol::budget::Traffic::of_family(self.robot.drive, nodes);
         let max = anguilla_protocol::budget::max_rate_of(traffic, rates, self.bus.max_load)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;
         let min = 1.0 / anguilla_model::MAX_DT;
@@ -563,7 +554,7 @@ impl Config {
     /// `[robot.axis]` filling what `robot.axes` leaves out.
     pub fn axes(&self) -> Vec<[AxisMap; 2]> {
         let d = &self.robot.axis;
-        let family = self.robot.drive.family();
+        let family = self.robot.drive;
         (0..self.robot.joints)
             .map(|j| {
                 let ids = family.default_ids(j);
@@ -585,7 +576,7 @@ impl Config {
     /// The bought drives' node ids, `[pitch, yaw]` per joint (empty for
     /// anguilla, whose node carries both axes).
     pub fn axis_ids(&self) -> Vec<[u8; 2]> {
-        if !self.robot.drive.family().drive_per_axis() {
+        if !self.robot.drive.drive_per_axis() {
             return Vec::new();
         }
         self.axes().iter().map(|p| [p[0].node, p[1].node]).collect()
@@ -594,7 +585,7 @@ impl Config {
     /// The node id of each joint, head to tail (anguilla); for the bought
     /// families, each joint's report id 1..=joints.
     pub fn node_ids(&self) -> Vec<u8> {
-        if self.robot.drive != DriveConfig::Anguilla {
+        if self.robot.drive.drive_per_axis() {
             return (1..=self.robot.joints as u8).collect();
         }
         if self.robot.node_ids.is_empty() {
@@ -775,7 +766,7 @@ impl Config {
 impl Config {
     fn validate_axes(&self) -> Result<(), ConfigError> {
         let r = &self.robot;
-        let family = r.drive.family();
+        let family = r.drive;
         if !family.drive_per_axis() {
             if !r.axes.is_empty() {
                 return Err(ConfigError::Range {
@@ -1186,6 +1177,22 @@ mod tests {
         assert_eq!(fmt_number(176.8), "176.8");
         let e = Config::from_toml("[gait]\nwavelength = 1e300\n", "t").unwrap_err();
         assert!(e.to_string().contains("= 1e300 is out of range"), "{e}");
+    }
+
+    #[test]
+    fn an_unknown_drive_family_is_named_with_the_accepted_ones() {
+        let e = Config::from_toml("[robot]\ndrive = \"canopen\"\n", "test")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(
+                "unknown drive family \"canopen\" (expected \"anguilla\", \"cia402\" or \"odrive\")"
+            ) && e.contains("drive"),
+            "{e}"
+        );
+        let c = Config::from_toml("[robot]\ndrive = \"odrive\"\njoints = 4\n", "test").unwrap();
+        assert_eq!(c.robot.drive, anguilla_protocol::Family::Odrive);
+        assert!(c.to_toml().contains("drive = \"odrive\""));
     }
 
     #[test]

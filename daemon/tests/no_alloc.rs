@@ -7,8 +7,9 @@ mod rig;
 
 use std::cell::Cell;
 
-use anguilla_daemon::config::{Config, DriveConfig};
+use anguilla_daemon::config::Config;
 use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+use anguilla_protocol::Family;
 use rig::Rig;
 
 #[global_allocator]
@@ -31,10 +32,10 @@ fn counted<T>(f: impl FnOnce() -> T) -> T {
 #[test]
 fn a_control_period_allocates_nothing() {
     for (name, drive, fd) in [
-        ("no-alloc", DriveConfig::Anguilla, false),
-        ("no-alloc-fd", DriveConfig::Anguilla, true),
-        ("no-alloc-cia402", DriveConfig::Cia402, false),
-        ("no-alloc-odrive", DriveConfig::Odrive, false),
+        ("no-alloc", Family::Anguilla, false),
+        ("no-alloc-fd", Family::Anguilla, true),
+        ("no-alloc-cia402", Family::Cia402, false),
+        ("no-alloc-odrive", Family::Odrive, false),
     ] {
         let mut cfg = Config::default();
         cfg.bus.fd = fd;

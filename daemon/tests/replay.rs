@@ -2,11 +2,12 @@
 
 mod rig;
 
-use anguilla_daemon::config::{Config, DriveConfig};
+use anguilla_daemon::config::Config;
 use anguilla_daemon::record;
 use anguilla_daemon::replay::{self, ReplayError};
 use anguilla_daemon::session::SessionError;
 use anguilla_daemon::supervisor::{Command, SwimParams};
+use anguilla_protocol::Family;
 use anguilla_protocol::frame::Frame;
 use rig::{Hooked, Rig};
 
@@ -98,8 +99,8 @@ fn a_recorded_session_replays_bit_for_bit() {
 #[test]
 fn every_drive_family_replays_bit_for_bit() {
     for (name, drive) in [
-        ("replay-cia402", DriveConfig::Cia402),
-        ("replay-odrive", DriveConfig::Odrive),
+        ("replay-cia402", Family::Cia402),
+        ("replay-odrive", Family::Odrive),
     ] {
         let mut cfg = Config::default();
         cfg.robot.drive = drive;

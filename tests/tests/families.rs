@@ -9,15 +9,16 @@
 
 use std::time::Duration;
 
-use anguilla_daemon::config::{Config, DriveConfig};
+use anguilla_daemon::config::Config;
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
+use anguilla_protocol::Family;
 use anguilla_system_tests::Robot;
 use anguilla_system_tests::Watchdog;
 use anguilla_system_tests::process::{connect, keep_alive_for, ok, wait_for};
 
 const JOINTS: usize = 6;
 
-fn config(drive: DriveConfig, name: &str) -> Config {
+fn config(drive: Family, name: &str) -> Config {
     let mut cfg = Config::default();
     cfg.robot.joints = JOINTS;
     cfg.robot.drive = drive;
@@ -30,7 +31,7 @@ fn config(drive: DriveConfig, name: &str) -> Config {
 const DISABLED: u8 = 1;
 const ENABLED: u8 = 2;
 
-fn swims_stops_and_estops(drive: DriveConfig, name: &str) {
+fn swims_stops_and_estops(drive: Family, name: &str) {
     let _wd = Watchdog::new(name, Duration::from_secs(120));
     let cfg = config(drive, name);
     let robot = Robot::start_with(cfg.clone()).expect("daemon and robot start");
@@ -104,7 +105,7 @@ fn swims_stops_and_estops(drive: DriveConfig, name: &str) {
 
 /// Heartbeat loss and a drive fault from the robot's side, bus-off on the
 /// daemon's: the daemon faults with the right kinds and names the joints.
-fn faults_are_reported(drive: DriveConfig, name: &str) {
+fn faults_are_reported(drive: Family, name: &str) {
     let _wd = Watchdog::new(name, Duration::from_secs(120));
     let cfg = config(drive, name);
     // Joint 2's drives fall silent for 1 s (a CiA 402 drive also misses
@@ -151,30 +152,30 @@ fn faults_are_reported(drive: DriveConfig, name: &str) {
 
 #[test]
 fn anguilla_nodes_swim_stop_and_estop() {
-    swims_stops_and_estops(DriveConfig::Anguilla, "swim-anguilla");
+    swims_stops_and_estops(Family::Anguilla, "swim-anguilla");
 }
 
 #[test]
 fn cia402_drives_swim_stop_and_estop() {
-    swims_stops_and_estops(DriveConfig::Cia402, "swim-cia402");
+    swims_stops_and_estops(Family::Cia402, "swim-cia402");
 }
 
 #[test]
 fn odrive_axes_swim_stop_and_estop() {
-    swims_stops_and_estops(DriveConfig::Odrive, "swim-odrive");
+    swims_stops_and_estops(Family::Odrive, "swim-odrive");
 }
 
 #[test]
 fn anguilla_faults_are_reported() {
-    faults_are_reported(DriveConfig::Anguilla, "faults-anguilla");
+    faults_are_reported(Family::Anguilla, "faults-anguilla");
 }
 
 #[test]
 fn cia402_faults_are_reported() {
-    faults_are_reported(DriveConfig::Cia402, "faults-cia402");
+    faults_are_reported(Family::Cia402, "faults-cia402");
 }
 
 #[test]
 fn odrive_faults_are_reported() {
-    faults_are_reported(DriveConfig::Odrive, "faults-odrive");
+    faults_are_reported(Family::Odrive, "faults-odrive");
 }

@@ -229,7 +229,7 @@ pub enum DriveError {
 /// The drives of `cfg`'s family, created at `now`, for the control
 /// period `period`.
 pub fn build(cfg: &Config, now: Nanos, period: Nanos) -> Result<Box<dyn Drives>, DriveError> {
-    Ok(match cfg.robot.drive.family() {
+    Ok(match cfg.robot.drive {
         anguilla_protocol::Family::Anguilla => Box::new(anguilla::Nodes::new(cfg, now)?),
         anguilla_protocol::Family::Cia402 => Box::new(cia402::Master::new(cfg, now, period)?),
         anguilla_protocol::Family::Odrive => Box::new(odrive::Axes::new(cfg, now)?),

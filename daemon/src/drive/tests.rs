@@ -13,8 +13,9 @@ use anguilla_protocol::message::{AxisSetpoint, NodeSet, NodeState};
 use anguilla_protocol::odrive::{self, AxisState, Body, Message as Od, NodeId as OdNode};
 
 use super::{Drives, Out, Period};
-use crate::config::{AxisConfig, Config, DriveConfig};
+use crate::config::{AxisConfig, Config};
 use crate::supervisor::{Drive, Mode, Nanos};
+use anguilla_protocol::Family;
 
 /// A bus that keeps what is sent.
 #[derive(Default)]
@@ -128,7 +129,7 @@ impl<D: Drives + ?Sized> Rig<D> {
     }
 }
 
-fn cfg(drive: DriveConfig, joints: usize) -> Config {
+fn cfg(drive: Family, joints: usize) -> Config {
     let mut c = Config::default();
     c.robot.drive = drive;
     c.robot.joints = joints;
@@ -288,7 +289,7 @@ fn run<D: Drives + ?Sized>(
 
 #[test]
 fn cia402_configuration_follows_the_contract() {
-    let c = cfg(DriveConfig::Cia402, 1);
+    let c = cfg(Family::Cia402, 1);
     let mut rig = Rig::new(&c);
     let mut t = Nanos::ZERO;
     // First period: Reset communication to each drive (1 and 2), SYNC,
@@ -450,7 +451,7 @@ fn cia402_configuration_follows_the_contract() {
 
 #[test]
 fn cia402_reads_the_name_by_segments_and_names_each_failure() {
-    let c = cfg(DriveConfig::Cia402, 1);
+    let c = cfg(Family::Cia402, 1);
     // Happy path: the name arrives in 4 segments.
     let mut rig = Rig::master(&c);
     let mut t = Nanos::ZERO;
@@ -574,7 +575,7 @@ fn cia402_reads_the_name_by_segments_and_names_each_failure() {
 
 #[test]
 fn cia402_takes_an_nmt_stop_from_another_sender_as_an_estop() {
-    let mut rig = Rig::new(&cfg(DriveConfig::Cia402, 2));
+    let mut rig = Rig::new(&cfg(Family::Cia402, 2));
     let nmt = |command, node| Co::Nmt { command, node }.encode();
     rig.drives.ingest(MS, &nmt(NmtCommand::Start, None));
     assert!(!rig.drives.take_bus_estop());
@@ -611,7 +612,7 @@ fn od_hb(node: u8, state: AxisState, error: u32) -> Frame {
 
 #[test]
 fn odrive_enables_follows_setpoints_through_the_gear_and_stops() {
-    let mut c = cfg(DriveConfig::Odrive, 1);
+    let mut c = cfg(Family::Odrive, 1);
     // Yaw geared 10:1, reversed, offset 0.1 rad.
     c.robot.axes = vec![
         AxisConfig::default(),
@@ -706,7 +707,7 @@ fn odrive_enables_follows_setpoints_through_the_gear_and_stops() {
 
 #[test]
 fn a_joint_is_lost_when_either_drive_falls_silent() {
-    let mut rig = Rig::new(&cfg(DriveConfig::Odrive, 2));
+    let mut rig = Rig::new(&cfg(Family::Odrive, 2));
     for n in 1..=4 {
         rig.drives
             .ingest(Nanos::ZERO, &od_hb(n, AxisState::Idle, 0));
@@ -752,7 +753,7 @@ fn co_run<D: Drives + ?Sized>(
 fn the_cia402_master_drives_the_simulated_cia402_drive() {
     use anguilla_sim::cia402::{Cia402Joint, Cia402JointConfig};
     use anguilla_sim::device::JointDevice;
-    let c = cfg(DriveConfig::Cia402, 1);
+    let c = cfg(Family::Cia402, 1);
     let mut rig = Rig::master(&c);
     let mut joint = Cia402Joint::new(Cia402JointConfig::for_joint(0, 1), Nanos::ZERO);
     let mut t = Nanos::ZERO;

@@ -84,7 +84,7 @@ impl Rig {
         let node_port = bus.participant();
         let ctl = Controller::new(cfg, Nanos::ZERO).expect("controller");
         let variant = cfg.bus.variant();
-        let family = cfg.robot.drive.family();
+        let family = cfg.robot.drive;
         let joints = if family.drive_per_axis() {
             let rc = RobotConfig {
                 drive: family,
