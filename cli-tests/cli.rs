@@ -69,6 +69,54 @@ fn bad_arguments_are_errors_that_name_them() {
     assert!(err.contains("--model-nodes 1: expected"), "{err}");
 }
 
+#[test]
+fn protocol_dbc_writes_the_odrive_dbc_for_the_ids_given_and_refuses_cia402() {
+    let (ok, out, err) = run(&["protocol", "dbc", "--drive", "odrive"]);
+    assert!(ok, "{err}");
+    assert_eq!(
+        out,
+        include_str!("../protocol/odrive.dbc"),
+        "the default is the committed DBC (axes 1..=24)"
+    );
+    let (ok, out, err) = run(&["protocol", "dbc", "--drive", "odrive", "--node-ids", "0,9"]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("BU_: Master ODrive_Axis0 ODrive_Axis9\n"),
+        "{out}"
+    );
+    assert!(
+        out.contains("BO_ 300 Axis9_Set_Input_Pos: 8 Master"),
+        "{out}"
+    );
+    assert_eq!(out.matches("\nBO_ ").count(), 14, "7 messages × 2 axes");
+    let (ok, out, err) = run(&["protocol", "dbc", "--drive", "odrive", "--nodes", "2"]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("BU_: Master ODrive_Axis1 ODrive_Axis2\n"),
+        "{out}"
+    );
+    for (args, says) in [
+        (&["--drive", "cia402"][..], "EDS files"),
+        (&["--drive", "odrive", "--fd"][..], "--fd does not apply"),
+        (
+            &["--drive", "odrive", "--node-ids", "64"][..],
+            "expected 0..=63",
+        ),
+        (
+            &["--drive", "odrive", "--node-ids", "3,3"][..],
+            "3 given twice",
+        ),
+        (
+            &["--node-ids", "1,2"][..],
+            "--node-ids applies to --drive odrive",
+        ),
+    ] {
+        let (ok, _, err) = run(&[&["protocol", "dbc"][..], args].concat());
+        assert!(!ok, "{args:?}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}
+
 /// `anguilla sim --slcan-pty ARGS` started, and the device path it prints.
 fn sim_behind_a_pty(args: &[&str]) -> (std::process::Child, String) {
     let mut sim = anguilla()

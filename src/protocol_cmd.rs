@@ -16,7 +16,8 @@ pub enum ProtocolCmd {
     /// Worst-case bus load of the cyclic traffic (setpoints, SYNC, feedback,
     /// heartbeats) for a robot, with bit stuffing.
     Budget(BudgetArgs),
-    /// Print or write the DBC file generated from the message definitions.
+    /// Print or write the DBC file generated from the message definitions
+    /// (anguilla nodes, or ODrive axes with `--drive odrive`).
     Dbc(DbcArgs),
     /// Print the Markdown layout tables of protocol/README.md.
     Layout {
@@ -70,12 +71,26 @@ pub struct BudgetArgs {
 /// Arguments of `anguilla protocol dbc`.
 #[derive(Args, Debug)]
 pub struct DbcArgs {
-    /// The CAN FD variant (default: classic CAN).
+    /// The drives' family: anguilla (the vertebra protocol) or odrive
+    /// (CANSimple axes). CiA 402 drives are described by EDS files, not DBC.
+    #[arg(long, default_value = "anguilla", value_parser = parse_family)]
+    drive: anguilla_protocol::Family,
+    /// The CAN FD variant (default: classic CAN; anguilla only).
     #[arg(long)]
     fd: bool,
-    /// Nodes 1..=N to list (a DBC has no wildcard ids), 1..=63.
-    #[arg(long, default_value_t = dbc::DEFAULT_NODES)]
-    nodes: u8,
+    /// Nodes (anguilla) or axes (odrive) 1..=N to list (a DBC has no
+    /// wildcard ids), 1..=63 [default: 12 anguilla nodes; 24 ODrive axes,
+    /// the default ids of 12 joints].
+    #[arg(long)]
+    nodes: Option<u8>,
+    /// The ODrive axes' node ids instead of 1..=N, e.g. `1,2,5` (0..=63).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "IDS",
+        conflicts_with = "nodes"
+    )]
+    node_ids: Vec<u8>,
     /// Write to this file instead of standard output.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -249,11 +264,51 @@ fn print_json(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> anyh
 }
 
 fn run_dbc(a: DbcArgs) -> anyhow::Result<()> {
-    if !(1..=anguilla_protocol::message::MAX_NODE_ID).contains(&a.nodes) {
-        bail!("--nodes {} is out of range (expected 1..=63)", a.nodes);
+    use anguilla_protocol::{Family, odrive};
+    if let Some(n) = a.nodes
+        && !(1..=anguilla_protocol::message::MAX_NODE_ID).contains(&n)
+    {
+        bail!("--nodes {n} is out of range (expected 1..=63)");
     }
-    let variant = if a.fd { Variant::Fd } else { Variant::Classic };
-    let text = dbc::generate(variant, a.nodes);
+    let text = match a.drive {
+        Family::Anguilla => {
+            if !a.node_ids.is_empty() {
+                bail!(
+                    "--node-ids applies to --drive odrive; the anguilla DBC lists nodes 1..=N (--nodes N)"
+                );
+            }
+            let variant = if a.fd { Variant::Fd } else { Variant::Classic };
+            dbc::generate(variant, a.nodes.unwrap_or(dbc::DEFAULT_NODES))
+        }
+        Family::Odrive => {
+            if a.fd {
+                bail!("--fd does not apply to --drive odrive (CANSimple is classic CAN)");
+            }
+            let ids = match a.nodes {
+                Some(n) => (1..=n)
+                    .map(|i| odrive::NodeId::new(i).expect("checked 1..=63"))
+                    .collect(),
+                None if a.node_ids.is_empty() => odrive::dbc::default_nodes(),
+                None => {
+                    let mut ids = Vec::with_capacity(a.node_ids.len());
+                    for &id in &a.node_ids {
+                        let node = odrive::NodeId::new(id)
+                            .map_err(|e| anyhow::anyhow!("--node-ids: {e}"))?;
+                        if ids.contains(&node) {
+                            bail!("--node-ids: {id} given twice (expected distinct ids)");
+                        }
+                        ids.push(node);
+                    }
+                    ids
+                }
+            };
+            odrive::dbc::dbc(&ids)
+        }
+        Family::Cia402 => bail!(
+            "--drive cia402 has no DBC: CANopen devices are described by EDS files \
+             (e.g. sim-backend/eds/anguilla-sim-cia402.eds); use --drive anguilla or odrive"
+        ),
+    };
     match a.out {
         Some(path) => {
             std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?

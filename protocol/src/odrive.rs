@@ -45,17 +45,21 @@
 
 use crate::frame::{Frame, Id, Kind, StandardId};
 
+pub mod dbc;
+
 /// The largest CANSimple node id on 11-bit identifiers (6 bits).
 pub const MAX_NODE_ID: u8 = 0x3F;
 /// The largest command id (5 bits).
 pub const MAX_CMD_ID: u8 = 0x1F;
+/// Counts of `Set_Input_Pos`'s `vel_ff` and `torque_ff` per turn/s or Nm.
+pub const FF_COUNTS_PER_UNIT: f32 = 1000.0;
 /// The scale of `Set_Input_Pos`'s `vel_ff` and `torque_ff`: one count is
-/// 0.001 turns/s or 0.001 Nm.
-pub const FF_SCALE: f32 = 0.001;
+/// 0.001 turns/s or 0.001 Nm (the DBC's factor).
+pub const FF_SCALE: f32 = 1.0 / FF_COUNTS_PER_UNIT;
 /// Smallest feedforward an i16 at [`FF_SCALE`] carries (−32.768).
-pub const FF_MIN: f32 = i16::MIN as f32 * FF_SCALE;
+pub const FF_MIN: f32 = ff_value(i16::MIN);
 /// Largest feedforward an i16 at [`FF_SCALE`] carries (32.767).
-pub const FF_MAX: f32 = i16::MAX as f32 * FF_SCALE;
+pub const FF_MAX: f32 = ff_value(i16::MAX);
 
 /// What was wrong with a message being encoded (or a node id being built).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -276,6 +280,12 @@ macro_rules! wire_enum {
                 self as u32
             }
 
+            /// The variant's name (`ClosedLoopControl`); ODrive's own
+            /// spelling is its SCREAMING_SNAKE form (`CLOSED_LOOP_CONTROL`).
+            pub const fn name(self) -> &'static str {
+                match self { $($name::$v => stringify!($v),)* }
+            }
+
             fn from_raw(message: &'static str, raw: u32) -> Result<Self, DecodeError> {
                 $name::ALL.iter().copied().find(|v| v.raw() == raw).ok_or(
                     DecodeError::UnknownValue {
@@ -471,7 +481,7 @@ fn finite(message: &'static str, field: &'static str, value: f32) -> Result<f32,
 fn ff_counts(field: &'static str, value: f32) -> Result<i16, EncodeError> {
     const MESSAGE: &str = "Set_Input_Pos";
     let value = finite(MESSAGE, field, value)?;
-    let counts = (value / FF_SCALE).round();
+    let counts = (value * FF_COUNTS_PER_UNIT).round();
     if counts < i16::MIN as f32 || counts > i16::MAX as f32 {
         return Err(EncodeError::FeedforwardOutOfRange {
             message: MESSAGE,
@@ -553,6 +563,13 @@ fn f32_at(
     }
 }
 
+/// A feedforward count's value: the f32 nearest to `counts × 0.001` (one
+/// correctly rounded division, so it is what a DBC reader's `raw × 0.001`
+/// rounds to).
+pub const fn ff_value(counts: i16) -> f32 {
+    counts as f32 / FF_COUNTS_PER_UNIT
+}
+
 fn i16_at(d: &[u8], at: usize) -> i16 {
     i16::from_le_bytes([d[at], d[at + 1]])
 }
@@ -611,8 +628,8 @@ pub fn decode(frame: &Frame) -> Result<Message, DecodeError> {
         },
         Cmd::SetInputPos => Body::SetInputPos(InputPos {
             input_pos: f32_at(name, "input_pos", d, 0)?,
-            vel_ff: i16_at(d, 4) as f32 * FF_SCALE,
-            torque_ff: i16_at(d, 6) as f32 * FF_SCALE,
+            vel_ff: ff_value(i16_at(d, 4)),
+            torque_ff: ff_value(i16_at(d, 6)),
         }),
         Cmd::ClearErrors => Body::ClearErrors {
             identify: match d.first().copied().unwrap_or(0) {

@@ -4,11 +4,14 @@
 //! the committed DBC files and compares every value with
 //! `tests/data/sample*.json`. This test keeps the committed samples equal to
 //! what the codec produces (regenerate with `ANGUILLA_BLESS=1 cargo test`).
+//! `sample_odrive.*` does the same for ODrive CANSimple axes and
+//! `protocol/odrive.dbc`.
 
 use std::fmt::Write as _;
 
 use anguilla_protocol::candump::{Interface, LogEntry, Timestamp, Writer};
 use anguilla_protocol::message::*;
+use anguilla_protocol::odrive;
 use anguilla_protocol::signal::Mux;
 
 const NODES: u8 = 12;
@@ -172,4 +175,146 @@ fn committed_samples_are_current() {
             "{stem}.log/.json are stale: run `ANGUILLA_BLESS=1 cargo test -p anguilla-protocol --test interop`"
         );
     }
+}
+
+/// A bring-up and a few control periods of four ODrive axes (ids 1..=4 of
+/// the committed DBC's 1..=24), every message type, negative feedforwards,
+/// and a heartbeat with a non-zero axis error.
+fn odrive_messages() -> Vec<odrive::Message> {
+    use odrive::{AxisState, Body, ControlMode, Heartbeat, InputMode, Message};
+    let axis = |n: u8| odrive::NodeId::new(n).unwrap();
+    // Feedforwards on the codec's 0.001 grid, so that they decode back equal.
+    let ff = |x: f32| odrive::ff_value((x * odrive::FF_COUNTS_PER_UNIT).round() as i16);
+    let mut out = Vec::new();
+    for n in 1..=4 {
+        out.push(Message {
+            node: axis(n),
+            body: Body::ClearErrors { identify: false },
+        });
+        out.push(Message {
+            node: axis(n),
+            body: Body::SetControllerMode {
+                control_mode: ControlMode::PositionControl,
+                input_mode: InputMode::Passthrough,
+            },
+        });
+        out.push(Message {
+            node: axis(n),
+            body: Body::SetAxisState(AxisState::ClosedLoopControl),
+        });
+    }
+    for cycle in 0..3 {
+        for n in 1..=4u8 {
+            let a = (n as f32 * 0.7 + cycle as f32 * 0.4).sin();
+            out.push(Message {
+                node: axis(n),
+                body: Body::SetInputPos(odrive::InputPos {
+                    input_pos: 2.5 * a,
+                    vel_ff: ff(-3.21 * a),
+                    torque_ff: ff(0.4 * a - 0.1),
+                }),
+            });
+        }
+        for n in 1..=4u8 {
+            let a = (n as f32 * 0.7 + cycle as f32 * 0.4).sin();
+            out.push(Message {
+                node: axis(n),
+                body: Body::EncoderEstimates(odrive::EncoderEstimates {
+                    pos: 2.5 * a * 0.99,
+                    vel: -3.21 * a,
+                }),
+            });
+        }
+        out.push(Message {
+            node: axis(1 + cycle),
+            body: Body::Heartbeat(Heartbeat {
+                axis_error: 0,
+                axis_state: AxisState::ClosedLoopControl,
+                procedure_result: 0,
+                trajectory_done: cycle == 1,
+            }),
+        });
+    }
+    // Axis 3's watchdog expired: WATCHDOG_TIMER_EXPIRED, back to IDLE.
+    out.push(Message {
+        node: axis(3),
+        body: Body::Heartbeat(Heartbeat {
+            axis_error: 0x0100_0000,
+            axis_state: AxisState::Idle,
+            procedure_result: 1,
+            trajectory_done: false,
+        }),
+    });
+    out.push(Message {
+        node: axis(3),
+        body: Body::Estop,
+    });
+    out.push(Message {
+        node: axis(3),
+        body: Body::ClearErrors { identify: true },
+    });
+    out
+}
+
+/// The ODrive candump log and the expected values. Each value is what the
+/// codec decoded, written so that it reads back as the number a DBC reader
+/// computes: a float field as its exact f32 (in f64 digits), a scaled
+/// count as the f32's shortest digits, which are `count × 0.001` (the codec's
+/// feedforward is the f32 nearest that product; `odrive::dbc` tests this
+/// for every count).
+fn odrive_sample() -> (String, String) {
+    use odrive::dbc::{Encoding, Value, fields, values};
+    let mut log = Writer::new(Vec::new());
+    let mut json = String::new();
+    let iface = Interface::new("can0").unwrap();
+    for (i, m) in odrive_messages().iter().enumerate() {
+        let frame = m.encode().unwrap();
+        let entry = LogEntry::new(
+            Timestamp {
+                secs: 1_700_000_000,
+                micros: 1000 * i as u32,
+            },
+            iface,
+            frame,
+        );
+        log.write(&entry).unwrap();
+        let decoded = odrive::decode(&frame).unwrap();
+        assert_eq!(&decoded, m);
+        let vals = values(&decoded.body).unwrap();
+        write!(json, "{{\"id\": {}, \"signals\": {{", frame.id().raw()).unwrap();
+        for (k, (field, (name, v))) in fields(m.body.cmd()).iter().zip(vals).enumerate() {
+            assert_eq!(field.name, name);
+            if k > 0 {
+                json.push_str(", ");
+            }
+            match v {
+                Value::Int(i) => write!(json, "\"{name}\": {i}"),
+                Value::F32(x) if field.encoding == Encoding::Float32 => {
+                    write!(json, "\"{name}\": {}", f64::from(x))
+                }
+                Value::F32(x) => write!(json, "\"{name}\": {x}"),
+            }
+            .unwrap();
+        }
+        json.push_str("}}\n");
+    }
+    (String::from_utf8(log.into_inner().unwrap()).unwrap(), json)
+}
+
+#[test]
+fn committed_odrive_sample_is_current() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
+    let (log, json) = odrive_sample();
+    let log_path = format!("{dir}/sample_odrive.log");
+    let json_path = format!("{dir}/sample_odrive.json");
+    if std::env::var_os("ANGUILLA_BLESS").is_some() {
+        std::fs::write(&log_path, &log).unwrap();
+        std::fs::write(&json_path, &json).unwrap();
+    }
+    let old_log = std::fs::read_to_string(&log_path).unwrap_or_default();
+    let old_json = std::fs::read_to_string(&json_path).unwrap_or_default();
+    assert!(
+        old_log == log && old_json == json,
+        "sample_odrive.log/.json are stale: run `ANGUILLA_BLESS=1 cargo test -p anguilla-protocol --test interop`"
+    );
 }

@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """Check the committed DBC files with Python cantools (third-party reader).
 
-Loads protocol/anguilla.dbc and protocol/anguilla_fd.dbc, then decodes the
-sample candump logs protocol/tests/data/sample{,_fd}.log with cantools'
-own log parser and DBC decoder and compares every signal with the value the
-Rust codec read (sample{,_fd}.json, kept current by tests/interop.rs).
+Loads protocol/anguilla.dbc, protocol/anguilla_fd.dbc and protocol/odrive.dbc
+(ODrive CANSimple axes 1..=24), then decodes the sample candump logs
+protocol/tests/data/sample{,_fd,_odrive}.log with cantools' own log parser
+and DBC decoder and compares every signal with the value the Rust codec read
+(sample{,_fd,_odrive}.json, kept current by tests/interop.rs).
 Exit status 0 when everything agrees.
 """
 import json
@@ -41,3 +42,4 @@ def check(dbc_name, stem, fd):
 
 check("anguilla.dbc", "sample", fd=False)
 check("anguilla_fd.dbc", "sample_fd", fd=True)
+check("odrive.dbc", "sample_odrive", fd=False)

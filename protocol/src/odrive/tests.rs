@@ -414,8 +414,8 @@ fn body() -> impl Strategy<Value = Body> {
         (finite_f32(), any::<i16>(), any::<i16>()).prop_map(|(p, v, t)| {
             Body::SetInputPos(InputPos {
                 input_pos: p,
-                vel_ff: v as f32 * FF_SCALE,
-                torque_ff: t as f32 * FF_SCALE,
+                vel_ff: ff_value(v),
+                torque_ff: ff_value(t),
             })
         }),
         any::<bool>().prop_map(|identify| Body::ClearErrors { identify }),
