@@ -193,32 +193,6 @@ impl Axis {
         })
     }
 
-    fn status(&self) -> AxisStatus {
-        AxisStatus {
-            state: self.node_state(),
-            last_heard: self.last_heard,
-        }
-    }
-
-    fn error_code(&self) -> u32 {
-        match (self.setup, self.emcy) {
-            (Setup::Failed(step, _), _) => CONFIG_FAILED | step as u32,
-            (_, Some(e)) => (e.code as u32) << 16 | (e.register as u32) << 8,
-            _ => 0,
-        }
-    }
-
-    fn feedback(&self) -> Option<AxisFeedback> {
-        let (counts, _) = self.position?;
-        let rated = self.rated_nm();
-        Some(AxisFeedback {
-            position: self.map.from_counts(counts) as f32,
-            velocity: self.velocity as f32,
-            torque: self.map.joint_torque(self.torque as f64 * rated / 1000.0) as f32,
-            limited: false,
-        })
-    }
-
     fn rated_nm(&self) -> f64 {
         if self.map.rated_torque > 0.0 {
             self.map.rated_torque
@@ -247,6 +221,34 @@ impl Axis {
         self.statusword = None;
         self.position = None;
         self.name_len = 0;
+    }
+}
+
+impl super::AxisView for Axis {
+    fn status(&self) -> AxisStatus {
+        AxisStatus {
+            state: self.node_state(),
+            last_heard: self.last_heard,
+        }
+    }
+
+    fn error_code(&self) -> u32 {
+        match (self.setup, self.emcy) {
+            (Setup::Failed(step, _), _) => CONFIG_FAILED | step as u32,
+            (_, Some(e)) => (e.code as u32) << 16 | (e.register as u32) << 8,
+            _ => 0,
+        }
+    }
+
+    fn feedback(&self) -> Option<AxisFeedback> {
+        let (counts, _) = self.position?;
+        let rated = self.rated_nm();
+        Some(AxisFeedback {
+            position: self.map.from_counts(counts) as f32,
+            velocity: self.velocity as f32,
+            torque: self.map.joint_torque(self.torque as f64 * rated / 1000.0) as f32,
+            limited: false,
+        })
     }
 }
 
@@ -713,12 +715,7 @@ impl Drives for Master {
     }
 
     fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
-        super::observe_joints(
-            self.joints.iter().map(|p| [p[0].status(), p[1].status()]),
-            self.started,
-            now,
-            heartbeat_timeout,
-        )
+        super::observe_pairs(&self.joints, self.started, now, heartbeat_timeout)
     }
 
     fn take_bus_estop(&mut self) -> bool {
@@ -730,18 +727,7 @@ impl Drives for Master {
     }
 
     fn joint(&self, j: usize) -> JointReport {
-        let p = &self.joints[j];
-        let st = [p[0].status(), p[1].status()];
-        let e0 = p[0].error_code();
-        JointReport {
-            state: super::joint_state(st),
-            errors: if e0 != 0 { e0 } else { p[1].error_code() },
-            last_heard: super::joint_heard(st),
-            feedback: match (p[0].feedback(), p[1].feedback()) {
-                (Some(a), Some(b)) => Some([a, b]),
-                _ => None,
-            },
-        }
+        super::joint_report(&self.joints[j])
     }
 
     fn estop(&mut self, out: &mut Out<'_>) {

@@ -245,6 +245,48 @@ pub struct AxisStatus {
     pub last_heard: Option<Nanos>,
 }
 
+/// One bought drive as the shared joint reporting sees it.
+pub trait AxisView {
+    /// Liveness and state.
+    fn status(&self) -> AxisStatus;
+    /// The drive's error code (0: none).
+    fn error_code(&self) -> u32;
+    /// Measured position, velocity, torque at the joint, once known.
+    fn feedback(&self) -> Option<AxisFeedback>;
+}
+
+/// The report of a joint of two drives: the worse state, the first
+/// drive's error code (pitch first), both feedbacks once both are known.
+pub fn joint_report(pair: &[impl AxisView; 2]) -> JointReport {
+    let st = [pair[0].status(), pair[1].status()];
+    let e0 = pair[0].error_code();
+    JointReport {
+        state: joint_state(st),
+        errors: if e0 != 0 { e0 } else { pair[1].error_code() },
+        last_heard: joint_heard(st),
+        feedback: match (pair[0].feedback(), pair[1].feedback()) {
+            (Some(a), Some(b)) => Some([a, b]),
+            _ => None,
+        },
+    }
+}
+
+/// The supervisor's report of joints of two drives each (see
+/// [`observe_joints`]).
+pub fn observe_pairs<A: AxisView>(
+    joints: &[[A; 2]],
+    started: Nanos,
+    now: Nanos,
+    timeout: Nanos,
+) -> NodeReport {
+    observe_joints(
+        joints.iter().map(|p| [p[0].status(), p[1].status()]),
+        started,
+        now,
+        timeout,
+    )
+}
+
 /// How bad a state is, to report a joint's two drives as one: EStop, then
 /// Fault, then unheard, then Boot, Disabled, Enabled.
 fn badness(s: Option<anguilla_protocol::message::NodeState>) -> u8 {

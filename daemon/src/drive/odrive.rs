@@ -16,7 +16,7 @@ use anguilla_protocol::odrive::{
     self, AxisState, Body, ControlMode, InputMode, InputPos, Message, NodeId,
 };
 
-use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
+use super::{AxisIndex, AxisStatus, AxisView, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::nodes::{NodeReport, RxCounters};
 use crate::supervisor::{Drive, Mode, Nanos};
@@ -37,13 +37,6 @@ struct Axis {
 }
 
 impl Axis {
-    fn status(&self) -> AxisStatus {
-        AxisStatus {
-            state: self.node_state(),
-            last_heard: self.last_heartbeat,
-        }
-    }
-
     fn node_state(&self) -> Option<NodeState> {
         let s = self.state?;
         Some(if self.error == ESTOP_REQUESTED {
@@ -58,6 +51,19 @@ impl Axis {
             // Calibration, start-up: busy, not ours to command yet.
             NodeState::Boot
         })
+    }
+}
+
+impl super::AxisView for Axis {
+    fn status(&self) -> AxisStatus {
+        AxisStatus {
+            state: self.node_state(),
+            last_heard: self.last_heartbeat,
+        }
+    }
+
+    fn error_code(&self) -> u32 {
+        self.error
     }
 
     fn feedback(&self) -> Option<AxisFeedback> {
@@ -202,12 +208,7 @@ impl Drives for Axes {
     }
 
     fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
-        super::observe_joints(
-            self.joints.iter().map(|p| [p[0].status(), p[1].status()]),
-            self.started,
-            now,
-            heartbeat_timeout,
-        )
+        super::observe_pairs(&self.joints, self.started, now, heartbeat_timeout)
     }
 
     fn take_bus_estop(&mut self) -> bool {
@@ -219,21 +220,7 @@ impl Drives for Axes {
     }
 
     fn joint(&self, j: usize) -> JointReport {
-        let p = &self.joints[j];
-        let st = [p[0].status(), p[1].status()];
-        JointReport {
-            state: super::joint_state(st),
-            errors: if p[0].error != 0 {
-                p[0].error
-            } else {
-                p[1].error
-            },
-            last_heard: super::joint_heard(st),
-            feedback: match (p[0].feedback(), p[1].feedback()) {
-                (Some(a), Some(b)) => Some([a, b]),
-                _ => None,
-            },
-        }
+        super::joint_report(&self.joints[j])
     }
 
     fn estop(&mut self, out: &mut Out<'_>) {
