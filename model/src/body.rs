@@ -260,6 +260,7 @@ impl Body {
             k3: res * self.c3 * 2.0 * b,
             k4: res * self.c1 * PI * d * d,
             buoyancy: (rb - rf) * area,
+            displaced: rf * area,
         }
     }
 
@@ -301,6 +302,9 @@ pub(crate) struct Section {
     pub k4: f64,
     /// (rho_b - rho_f) A (kg/m).
     pub buoyancy: f64,
+    /// Displaced fluid mass rho_f A (kg/m): the Froude–Krylov force of an
+    /// accelerating current is `rho_f A u_dot`.
+    pub displaced: f64,
 }
 
 /// Friction coefficient `c_f` of (41) for the local Reynolds number `re`.

@@ -11,7 +11,8 @@
 //! I/O and a [`step`] allocates nothing: the [`Model`] is immutable and
 //! validated, the [`Workspace`] is preallocated.
 //!
-//! Modules: [`body`] (geometry, inertia, hydrodynamic coefficients), [`gait`]
+//! Modules: [`body`] (geometry, inertia, hydrodynamic coefficients),
+//! [`current`] (a uniform ambient current the body swims in), [`gait`]
 //! (curvature laws and sources), [`dynamics`] (the algorithm, one file per
 //! pass as in Pinocchio: `model` and `workspace` (the model and its
 //! preallocated data), `kinematics` (34)–(36) and the joints, `forward`
@@ -40,6 +41,7 @@
 #![warn(missing_docs)]
 
 pub mod body;
+pub mod current;
 pub mod dynamics;
 pub mod error;
 pub mod gait;
@@ -47,6 +49,7 @@ pub mod paper;
 pub mod run;
 
 pub use body::{Body, Profile};
+pub use current::{Current, MAX_CURRENT};
 pub use dynamics::{
     DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,
     ModelConfig, StepReport, Workspace, evaluate, inverse_with, posture, step,

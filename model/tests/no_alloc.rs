@@ -46,3 +46,38 @@ fn a_control_step_allocates_nothing() {
     let (v, calls) = anguilla_testkit::count(|| std::hint::black_box(vec![1u8; 16]));
     assert!(calls > 0 && v.len() == 16);
 }
+
+#[test]
+fn a_control_step_in_a_current_allocates_nothing() {
+    let model = Model::new(ModelConfig {
+        dt: 0.001,
+        joints: 12,
+        integrator: Integrator::Midpoint,
+        ..ModelConfig::default()
+    })
+    .unwrap();
+    let mut ws = Workspace::new(&model);
+    let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2).unwrap();
+    let mut head = HeadState::launch(0.0);
+    let steady = Current::steady(nalgebra::Vector3::new(0.1, -0.05, 0.0)).unwrap();
+    let swell = Current::oscillating(
+        nalgebra::Vector3::new(0.1, 0.0, 0.0),
+        nalgebra::Vector3::new(0.0, 0.05, 0.01),
+        2.0,
+    )
+    .unwrap();
+    let mut sum = 0.0;
+    let ((), calls) = anguilla_testkit::count(|| {
+        for k in 0..500 {
+            // the loop changes the current as a scenario does
+            ws.set_current(if k < 250 { steady } else { swell });
+            let r = step(&model, &mut ws, &mut gait, &mut head).unwrap();
+            sum += r.forward_speed + ws.joints().iter().map(|j| j.c3).sum::<f64>();
+        }
+    });
+    assert!(sum.is_finite());
+    assert_eq!(
+        calls, 0,
+        "allocator calls during 500 control steps in a current"
+    );
+}

@@ -9,11 +9,14 @@ use nalgebra::Vector3;
 /// Energy and momentum diagnostics of the last evaluated instant.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Diagnostics {
-    /// Kinetic energy of body and added fluid `∫ mu . I mu / 2` (J).
+    /// Kinetic energy of body and added fluid `∫ mu . I mu / 2` (J), in the
+    /// frame moving with the water (`mu` relative to it; the ground frame
+    /// in still water).
     pub energy: f64,
     /// Power delivered by the actuators `-∫ C . dK/dt` (W).
     pub actuator_power: f64,
-    /// Energy flux through the tail plane `(V1 T_f)(1)` (W).
+    /// Energy flux through the tail plane `(V1 T_f)(1)` (W), with `V1`
+    /// relative to the water.
     pub tail_flux: f64,
     /// Linear momentum of the body alone (earth frame).
     pub momentum: Vector3<f64>,

@@ -5,18 +5,56 @@ use super::kinematics::shape;
 use super::model::Model;
 use super::workspace::Workspace;
 use crate::body::friction_coefficient;
+use crate::current::Current;
 use crate::error::{ModelError, Result};
 use crate::gait::CurvatureSource;
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
-/// Forward dynamics `G_ext` (29)–(31) at one instant, head frame. Fills the
-/// workspace fields and returns `(omega_dot_o, v_dot_o)` in the head frame.
+/// The water's current at one instant in the head frame (frozen, inertial):
+/// its velocity `u` and acceleration `u_dot` (see the module docs of
+/// [`dynamics`](super), "Currents").
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Flow {
+    pub(super) u: Vector3<f64>,
+    pub(super) u_dot: Vector3<f64>,
+    /// Whether `u_dot` is non-zero: only then are the fluid-acceleration
+    /// terms computed (so still water is bit-for-bit the model without a
+    /// current).
+    pub(super) accelerating: bool,
+}
+
+impl Flow {
+    /// `current` at time `t`, rotated into the head frame by `rt = R_o^T`.
+    pub(super) fn at(current: &Current, t: f64, rt: &Matrix3<f64>) -> Self {
+        let still = *current == Current::ZERO;
+        let accelerating = !current.is_steady();
+        Flow {
+            u: if still {
+                Vector3::zeros()
+            } else {
+                rt * current.velocity(t)
+            },
+            u_dot: if accelerating {
+                rt * current.acceleration(t)
+            } else {
+                Vector3::zeros()
+            },
+            accelerating,
+        }
+    }
+}
+
+/// Forward dynamics `G_ext` (29)–(31) at one instant, head frame, in the
+/// current `flow`. Fills the workspace fields and returns
+/// `(omega_dot_o, v_dot_o)` in the head frame.
+#[allow(clippy::too_many_arguments)] // internal pass
 pub(super) fn forward_head(
     model: &Model,
     ws: &mut Workspace,
     omega_h: Vector3<f64>,
     vel_h: Vector3<f64>,
     grav_h: Vector3<f64>,
+    flow: &Flow,
     t: f64,
 ) -> Result<(Vector3<f64>, Vector3<f64>)> {
     let rho = model.body.rho_fluid;
@@ -42,7 +80,8 @@ pub(super) fn forward_head(
         ws.w[i] = w_full;
         ws.v[i] = v_full;
         let om = qt * w_full;
-        let vl = qt * v_full;
+        // every hydrodynamic term sees the velocity relative to the water
+        let vl = qt * (v_full - flow.u);
         ws.om_loc[i] = om;
         ws.v_loc[i] = vl;
         let mm = Vector3::from(s.mm);
@@ -69,9 +108,15 @@ pub(super) fn forward_head(
             };
         let cbar_x = -0.5 * rho * s.k4 * om.x * om.x.abs();
         let mfv = mf.component_mul(&vl);
-        let bf = mm.component_mul(&(qt * ac_full)) + om.cross(&mfv)
+        let mut bf = mm.component_mul(&(qt * ac_full)) + om.cross(&mfv)
             - mf.component_mul(&om.cross(&vl))
             - nbar;
+        if flow.accelerating {
+            // added mass on the relative acceleration, and the Froude–Krylov
+            // force of the pressure gradient that accelerates the water
+            let d = s.displaced;
+            bf -= Vector3::new(d, d + mf.y, d + mf.z).component_mul(&(qt * flow.u_dot));
+        }
         let mut bt =
             mi.component_mul(&(qt * al_full)) + om.cross(&mi.component_mul(&om)) + vl.cross(&mfv);
         bt.x -= cbar_x;
@@ -120,10 +165,14 @@ pub(super) fn forward_head(
     ws.tail_c = ct;
     rhs_f += nt;
     rhs_t += ct + ws.p[n].cross(&nt);
-    // nose pressure drag (22) and added mass (23)
-    let v1 = vel_h.x;
+    // nose pressure drag (22) and added mass (23), relative to the water
+    let v1 = vel_h.x - flow.u.x;
     ws.head_v1 = v1;
+    ws.head_u_dot1 = flow.u_dot.x;
     rhs_f.x -= 0.5 * rho * model.k_o * v1 * v1.abs();
+    if flow.accelerating {
+        rhs_f.x += model.m_o * flow.u_dot.x;
+    }
     a_vv[(0, 0)] += model.m_o;
     let mut a = Matrix6::zeros();
     a.fixed_view_mut::<3, 3>(0, 0).copy_from(&a_ww);
@@ -162,6 +211,15 @@ pub(super) fn forward_earth<S: CurvatureSource + ?Sized>(
 ) -> Result<(Vector3<f64>, Vector3<f64>)> {
     shape(model, ws, src, tau);
     let rt = rot.transpose();
-    let (wd, vd) = forward_head(model, ws, rt * omega, rt * vel, rt * model.gravity, t)?;
+    let flow = Flow::at(&ws.current, t, &rt);
+    let (wd, vd) = forward_head(
+        model,
+        ws,
+        rt * omega,
+        rt * vel,
+        rt * model.gravity,
+        &flow,
+        t,
+    )?;
     Ok((rot * wd, rot * vd))
 }

@@ -2,7 +2,7 @@
 //! inverse dynamics at the current instant; [`step`] then integrates the
 //! head state over `dt` with the model's [`Integrator`].
 
-use super::forward::{forward_earth, forward_head};
+use super::forward::{Flow, forward_earth, forward_head};
 use super::inverse::inverse_head;
 use super::kinematics::{joints, shape};
 use super::model::{Integrator, Model};
@@ -24,12 +24,14 @@ pub fn evaluate<S: CurvatureSource + ?Sized>(
     let rt = rot.transpose();
     ws.shape_tau = None;
     shape(model, ws, src, 0.0);
+    let flow = Flow::at(&ws.current, head.t, &rt);
     let (wd, vd) = forward_head(
         model,
         ws,
         rt * head.omega,
         rt * head.velocity,
         rt * model.gravity,
+        &flow,
         head.t,
     )?;
     inverse_head(model, ws, wd, vd);

@@ -26,10 +26,10 @@ pub(super) fn inverse_head(model: &Model, ws: &mut Workspace, wd: Vector3<f64>, 
         // reuse `bt`-sized buffer cstar for tau temporarily
         ws.cstar[i] = ws.q[i] * tl;
     }
-    // n_*(0) = -n_-: nose loads (22), (23)
+    // n_*(0) = -n_-: nose loads (22), (23), relative to the water
     let v1 = ws.head_v1;
     let n0 = Vector3::new(
-        0.5 * rho * model.k_o * v1 * v1.abs() + model.m_o * vd.x,
+        0.5 * rho * model.k_o * v1 * v1.abs() + model.m_o * (vd.x - ws.head_u_dot1),
         0.0,
         0.0,
     );

@@ -25,6 +25,54 @@
 //! | `dynamics/integrate.rs` | [`evaluate`] (one instant: forward, inverse, joints) and [`step`] (then the head integrated over `dt`) |
 //! | `dynamics/diagnostics.rs` | [`Diagnostics`]: energy, power, momentum of the last evaluated instant |
 //!
+//! # Currents
+//!
+//! The water may flow: a uniform current `u(t)` (earth frame, the same at
+//! every point; [`Current`](crate::Current), set with
+//! [`Workspace::set_current`], still water by default). Every hydrodynamic
+//! term sees the section's velocity relative to the water,
+//!
+//! `V_r = R^T (v − u)` (local frame; `v` the section's ground velocity),
+//!
+//! and the angular velocity `Ω` unchanged (a uniform flow does not rotate).
+//! In `forward.rs`, with `m_f = diag(0, m_f2, m_f3)` the added mass, `A` the
+//! section area, `a` the section's ground acceleration:
+//!
+//! * reactive (Lighthill) force and Munk moment, per unit length:
+//!   `f = m_b R^T a + m_f R^T (a − u̇) + Ω × (m_f V_r) − m_f (Ω × V_r)
+//!   − ρ_f A R^T u̇ − n̄(V_r)` and
+//!   `τ = 𝕀 R^T α + Ω × (𝕀 Ω) + V_r × (m_f V_r)`: the added mass acts on the
+//!   relative acceleration `R^T(a − u̇) − Ω × V_r` (the time derivative of
+//!   `V_r`), and `ρ_f A u̇` is the Froude–Krylov force of the pressure
+//!   gradient that accelerates the water;
+//! * resistive (21)–(24): the drag `n̄` and the local Reynolds number of the
+//!   friction law (41) use `V_r`; the nose pressure drag (22) uses `V_r1(0)`
+//!   and the nose added mass (23) `m_o (v̇1 − u̇1)`;
+//! * tail terms (16), (18), (20) and `c = c* − V_r1 I_f Ω` in the inverse
+//!   dynamics: `V_r` (the fluid momentum crosses the section plane at the
+//!   relative speed).
+//!
+//! The body's own inertia (`m_b`, gravity, buoyancy) keeps the ground
+//! velocity, and the head state ([`HeadState`]) is integrated in the earth
+//! frame as before. Equivalently: in the frame that moves with the water,
+//! the equations are those of still water with gravity `g − u̇` (an
+//! accelerating frame); a neutrally buoyant body (`ρ_b = ρ_f`) at rest in
+//! the water is therefore carried along exactly, whatever `u(t)`
+//! (test `an_oscillating_current_carries_a_passive_body_along`). For a
+//! steady current `u̇ = 0` and the model is Galilean invariant: a swimmer in
+//! a current `u` moves as in still water plus `u t`
+//! (`tests/currents.rs`). The fluid-acceleration terms cost one 3-vector
+//! per node and are computed only for an oscillating current; still water
+//! ([`Current::ZERO`](crate::Current::ZERO)) runs the same floating-point
+//! operations as the model without currents (bit-for-bit, tested).
+//!
+//! Limits: the current is uniform (no shear, no vortices, no wake of the
+//! body), and the strip theory's added mass is that of a body in unbounded
+//! potential flow, so a current that varies fast against the swimming
+//! period is outside what the model was checked for. Reported speeds
+//! ([`HeadState::v1`], [`StepReport::forward_speed`]) are ground speeds;
+//! [`Diagnostics`]' energy and tail flux are in the water's frame.
+//!
 //! This file holds what the passes share: the head state, a joint, the step
 //! report.
 

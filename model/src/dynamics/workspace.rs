@@ -3,6 +3,7 @@
 
 use super::JointState;
 use super::model::Model;
+use crate::current::Current;
 use crate::gait::Curvature;
 use nalgebra::{Matrix3, Vector3, Vector6};
 
@@ -32,6 +33,9 @@ pub struct Workspace {
     pub(super) tail_c: Vector3<f64>,
     pub(super) residual: Vector6<f64>,
     pub(super) head_v1: f64,
+    /// `u_dot . t1(0)` at the last forward pass (nose added mass).
+    pub(super) head_u_dot1: f64,
+    pub(super) current: Current,
 }
 
 impl Workspace {
@@ -63,9 +67,21 @@ impl Workspace {
             tail_c: Vector3::zeros(),
             residual: Vector6::zeros(),
             head_v1: 0.0,
+            head_u_dot1: 0.0,
+            current: Current::ZERO,
         }
     }
 
+    /// Sets the water's current for the following [`evaluate`](super::evaluate)
+    /// and [`step`](super::step) calls (still water, [`Current::ZERO`], until
+    /// set). Allocates nothing: the control loop may change it every period.
+    pub fn set_current(&mut self, current: Current) {
+        self.current = current;
+    }
+    /// The water's current the dynamics use.
+    pub fn current(&self) -> Current {
+        self.current
+    }
     /// Joints of the discrete robot at the last evaluated instant.
     pub fn joints(&self) -> &[JointState] {
         &self.joints
