@@ -22,7 +22,7 @@
 //! assert_eq!(river.acceleration(3.0), Vector3::zeros());
 //! let swell = Current::oscillating(Vector3::zeros(), Vector3::new(0.0, 0.05, 0.0), 8.0)?;
 //! assert!((swell.velocity(2.0).y - 0.05).abs() < 1e-12); // a quarter period
-//! assert!(Current::steady(Vector3::new(f64::NAN, 0.0, 0.0)).is_err());
+//! assert!(Current::steady([f64::NAN, 0.0, 0.0]).is_err());
 //! # Ok::<(), anguilla_model::ModelError>(())
 //! ```
 
@@ -59,9 +59,10 @@ impl Current {
         angular_frequency: 0.0,
     };
 
-    /// A steady current of `velocity` (m/s, earth frame); each component
-    /// finite and within `±MAX_CURRENT`.
-    pub fn steady(velocity: Vector3<f64>) -> Result<Self> {
+    /// A steady current of `velocity` (m/s, earth frame; a `Vector3` or
+    /// `[vx, vy, vz]`); each component finite and within `±MAX_CURRENT`.
+    pub fn steady(velocity: impl Into<Vector3<f64>>) -> Result<Self> {
+        let velocity = velocity.into();
         check_speed(velocity.iter().map(|v| v.abs()))?;
         Ok(Self {
             mean: velocity,

@@ -19,8 +19,8 @@
 //! API are reconciled in one place.
 
 use anguilla_model::{
-    HeadState, Integrator, JointCurvature, Model, ModelConfig, ModelError, Workspace, evaluate,
-    step,
+    Current, HeadState, Integrator, JointCurvature, Model, ModelConfig, ModelError, Workspace,
+    evaluate, step,
 };
 
 /// Configuration of the body plant.
@@ -40,6 +40,9 @@ pub struct PlantConfig {
     /// ([`Plant::rate_loads`]), for actuators with dynamics (one more model
     /// evaluation per step).
     pub rate_loads: bool,
+    /// The water's uniform current at the start (earth frame); still water
+    /// by default. [`Plant::set_current`] changes it during a run.
+    pub current: Current,
 }
 
 impl Default for PlantConfig {
@@ -53,6 +56,7 @@ impl Default for PlantConfig {
             nodes: 52,
             v_init: 0.0,
             rate_loads: false,
+            current: Current::ZERO,
         }
     }
 }
@@ -102,7 +106,8 @@ impl Plant {
             integrator: Integrator::Rk4,
             ..ModelConfig::default()
         })?;
-        let ws = Workspace::new(&model);
+        let mut ws = Workspace::new(&model);
+        ws.set_current(cfg.current);
         let length = model.body().length;
         Ok(Self {
             src: JointCurvature::new(cfg.joints, length),
@@ -241,6 +246,18 @@ impl Plant {
     /// initial condition); the joints keep their motion.
     pub fn reset_head(&mut self, head: HeadState) {
         self.head = head;
+    }
+
+    /// Sets the water's current (earth frame) from the next step on: the
+    /// body is carried by it and its hydrodynamic loads change
+    /// (`anguilla_model::dynamics`, "Currents"). Allocates nothing.
+    pub fn set_current(&mut self, current: Current) {
+        self.ws.set_current(current);
+    }
+
+    /// The water's current.
+    pub fn current(&self) -> Current {
+        self.ws.current()
     }
 
     /// The loads `[pitch, yaw]` (N·m) each joint's actuators see: `−C`.

@@ -23,7 +23,7 @@ use std::time::Duration;
 
 use anguilla_drivers::mem::{MemBus, MemParticipant, ParticipantId};
 use anguilla_drivers::{Bus, BusState, Clock, Frame, Received, TimestampBase};
-use anguilla_model::{HeadState, ModelError};
+use anguilla_model::{Current, HeadState, ModelError};
 use anguilla_protocol::Family;
 use anguilla_protocol::frame::MAX_STANDARD_ID;
 use anguilla_protocol::message::{ErrorBits, FIRST_UNUSED_ID, NodeId, NodeState, Variant};
@@ -108,6 +108,9 @@ pub struct RobotConfig {
     pub model_nodes: usize,
     /// Initial head speed along `t1` (m/s).
     pub v_init: f64,
+    /// The water's uniform current at the start (earth frame; still water
+    /// by default). A scenario's `water current` events change it.
+    pub current: Current,
 }
 
 impl Default for RobotConfig {
@@ -136,6 +139,7 @@ impl RobotConfig {
             tick: Duration::from_secs_f64(p.dt),
             model_nodes: p.nodes,
             v_init: 0.0,
+            current: Current::ZERO,
         }
     }
 
@@ -446,6 +450,7 @@ impl SimRobot {
             nodes: cfg.model_nodes,
             v_init: cfg.v_init,
             rate_loads: !cfg.actuator.ideal,
+            current: cfg.current,
         })?;
         let mut plant = plant;
         if !cfg.actuator.ideal {
@@ -609,6 +614,17 @@ impl SimRobot {
         let mut h = HeadState::launch(self.cfg.v_init);
         h.t = t;
         self.plant.reset_head(h);
+    }
+
+    /// Sets the water's current (earth frame) from the next physics step on,
+    /// as a scenario's `water current` event does.
+    pub fn set_current(&mut self, current: Current) {
+        self.plant.set_current(current);
+    }
+
+    /// The water's current now.
+    pub fn current(&self) -> Current {
+        self.plant.current()
     }
 
     /// Hands over a frame received outside [`step_until`](Self::step_until)
@@ -863,6 +879,7 @@ impl SimRobot {
                     JointFault::Spike(s) => f.spike = s,
                 }
             }
+            Action::Water(current) => self.plant.set_current(current),
             Action::Bus(BusFault::Flood { count, over }) => {
                 let ticks = (Nanos::from(over) / self.tick).max(1);
                 self.flood = Some(Flood {

@@ -29,11 +29,16 @@
 //! 5.0  bus flood 1000         # 1000 frames with unused ids over 0.1 s
 //! 5.0  bus flood 1000 1s      # ... spread over 1 s
 //! 6.0  bus clear              # ends drop-fraction, delay and pending drops
+//! # the water (earth frame, m/s; e1 is the robot's initial axis, head at -e1)
+//! 2.0  water current 0.1 0     # a current of 0.1 m/s along e1 (head-on)
+//! 4.0  water current 0 -0.2 0  # VX VY [VZ]: now 0.2 m/s sideways
+//! 6.0  water current 0 0       # still water again
 //! ```
 //!
 //! Parsing never panics; every error names the line and says what was
 //! expected ([`ScenarioError`]).
 
+use anguilla_model::{Current, MAX_CURRENT};
 use std::time::Duration;
 
 /// A scenario line that could not be parsed.
@@ -150,6 +155,9 @@ pub enum Action {
     },
     /// A bus fault.
     Bus(BusFault),
+    /// The water's uniform current (earth frame) from now on: `water current
+    /// VX VY [VZ]` (m/s), steady.
+    Water(Current),
 }
 
 /// One timed event of a scenario.
@@ -391,16 +399,46 @@ fn parse_action(words: &[&str], node_ids: &[u8]) -> Result<Action, String> {
             no_more(words, n)?;
             Ok(Action::Bus(fault))
         }
+        Some("water") => {
+            match words.get(1).copied() {
+                Some("current") => {}
+                Some(other) => {
+                    return Err(format!(
+                        "unknown water setting '{other}': expected current VX VY [VZ]"
+                    ));
+                }
+                None => return Err("missing water setting: expected current VX VY [VZ]".into()),
+            }
+            let mut v = [0.0; 3];
+            for (k, (c, name)) in v.iter_mut().zip(["VX", "VY", "VZ"]).enumerate() {
+                let w = words.get(2 + k);
+                if k == 2 && w.is_none() {
+                    break;
+                }
+                let what = format!("the current's {name} in m/s (earth frame)");
+                let x: f64 = number(w, &what)?;
+                if !(x.is_finite() && x.abs() <= MAX_CURRENT) {
+                    return Err(format!(
+                        "current {name} {x} out of range -{MAX_CURRENT}..={MAX_CURRENT} m/s"
+                    ));
+                }
+                *c = x;
+            }
+            no_more(words, 5)?;
+            let current = Current::steady(v).map_err(|e| e.to_string())?;
+            Ok(Action::Water(current))
+        }
         Some(other) => Err(format!(
-            "unknown target '{other}': expected node, joint or bus"
+            "unknown target '{other}': expected node, joint, bus or water"
         )),
-        None => Err("missing target after the time: expected node, joint or bus".into()),
+        None => Err("missing target after the time: expected node, joint, bus or water".into()),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector3;
     use proptest::prelude::*;
 
     const IDS: [u8; 4] = [1, 2, 3, 4];
@@ -503,6 +541,58 @@ mod tests {
         assert!(e.reason.contains("bad time"), "{e}");
     }
 
+    #[test]
+    fn water_current_events_parse_in_the_earth_frame() {
+        let s = Scenario::parse(
+            "2 water current 0.1 0\n4.0 water current 0 -0.2 0.05 # comment\n6 water current 0 0\n",
+            &IDS,
+        )
+        .unwrap();
+        let v = |e: &Event| match e.action {
+            Action::Water(c) => {
+                assert!(c.is_steady());
+                c.velocity(0.0)
+            }
+            a => panic!("{a:?}"),
+        };
+        assert_eq!(v(&s.events[0]), Vector3::new(0.1, 0.0, 0.0));
+        assert_eq!(v(&s.events[1]), Vector3::new(0.0, -0.2, 0.05));
+        assert_eq!(v(&s.events[2]), Vector3::zeros());
+        assert_eq!(s.events[1].at, Duration::from_secs(4));
+        assert!(s.first_mem_only().is_none(), "a current needs no bus hooks");
+
+        let e = error("0.1 node 1 reboot\n1 water current 0.1");
+        assert_eq!(e.line, 2);
+        assert!(e.reason.contains("missing the current's VY in m/s"), "{e}");
+        let e = error("1 water current x 0");
+        assert!(
+            e.reason
+                .contains("bad number 'x': expected the current's VX"),
+            "{e}"
+        );
+        let e = error("1 water current 0 9");
+        assert!(
+            e.reason.contains("current VY 9 out of range -5..=5 m/s"),
+            "{e}"
+        );
+        let e = error("1 water current 0 0 inf");
+        assert!(e.reason.contains("current VZ inf out of range"), "{e}");
+        let e = error("1 water current 0 0 0 0");
+        assert!(e.reason.contains("unexpected '0' at the end"), "{e}");
+        let e = error("1 water temperature 12");
+        assert!(
+            e.reason.contains("unknown water setting 'temperature'"),
+            "{e}"
+        );
+        let e = error("1 water");
+        assert!(e.reason.contains("expected current VX VY [VZ]"), "{e}");
+        let e = error("1 wind 3");
+        assert!(
+            e.reason.contains("expected node, joint, bus or water"),
+            "{e}"
+        );
+    }
+
     proptest! {
         #[test]
         fn arbitrary_text_never_panics(text in "\\PC*") {
@@ -517,6 +607,7 @@ mod tests {
                     Just("silent"), Just("stuck"), Just("flood"), Just("torque-limit"),
                     Just("spike"), Just("1"), Just("-1"), Just("1e308"), Just("0.5ms"),
                     Just("inf"), Just("\n"), Just("#"), Just("3"), Just("bus-off"),
+                    Just("water"), Just("current"), Just("0.1"), Just("nan"),
                 ],
                 0..12,
             )

@@ -26,6 +26,10 @@ fn step_until_allocates_nothing_in_steady_state() {
         Duration::ZERO,
     )
     .unwrap();
+    // the water changes twice inside the counted periods (0.6-1.6 s)
+    robot
+        .load_scenario("0.7 water current 0.1 0\n1.2 water current 0 -0.1 0.02")
+        .unwrap();
     let enable = Message::Command {
         target: Target::All,
         command: Command::Enable,
@@ -70,4 +74,9 @@ fn step_until_allocates_nothing_in_steady_state() {
         }
     });
     assert_eq!(n, 0, "{n} allocator calls in 500 control periods (1 s)");
+    assert_eq!(
+        robot.current(),
+        anguilla_model::Current::steady([0.0, -0.1, 0.02]).unwrap(),
+        "the scenario's currents were applied"
+    );
 }
