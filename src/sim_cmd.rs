@@ -10,6 +10,7 @@ use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
 use anguilla_drivers::{Clock, MonotonicClock};
 use anguilla_model::dynamics::NODES_RANGE;
+use anguilla_model::{Current, MAX_CURRENT};
 use anguilla_protocol::Family;
 use anguilla_protocol::message::Variant;
 use anguilla_sim::actuator::ActuatorParams;
@@ -40,7 +41,8 @@ The robot runs in real time until Ctrl-C, printing a status line every second.
 Scenario files (sim-backend/README.md) script faults with times, e.g.
   1.5 node 3 silent 0.5
   2.0 joint 4 yaw stuck
-  3.0 bus drop 5          (bus faults: in-process bus only, so with --slcan-pty)")]
+  3.0 bus drop 5          (bus faults: in-process bus only, so with --slcan-pty)
+  4.0 water current 0 0.1 (the water flows sideways at 0.1 m/s; --current sets it at the start)")]
 pub struct SimArgs {
     /// Bus to put the robot on: socketcan:IFACE, slcan:DEVICE@BITRATE or mem:NAME.
     #[arg(long, value_name = "SPEC", conflicts_with = "slcan_pty")]
@@ -88,6 +90,11 @@ pub struct SimArgs {
     /// Space intervals of the body model (2..=100000; default 52).
     #[arg(long, value_name = "N")]
     model_nodes: Option<usize>,
+    /// The water's uniform current at the start, VX,VY[,VZ] in m/s (earth
+    /// frame: e1 is the robot's initial axis, its head towards -e1); each at
+    /// most 5 m/s. A scenario's 'water current' lines change it.
+    #[arg(long, value_name = "VX,VY[,VZ]")]
+    current: Option<String>,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
@@ -143,6 +150,10 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     {
         bail!("--model-nodes {n}: expected {NODES_RANGE:?} space intervals");
     }
+    let current = match &args.current {
+        Some(text) => parse_current(text)?,
+        None => Current::ZERO,
+    };
     if args.fd && args.drive != Family::Anguilla {
         bail!(
             "--fd: {} drives speak classic CAN (CAN FD is for anguilla drives)",
@@ -155,6 +166,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         }
         if args.axis_ids.is_some() {
             bail!("--axis-ids: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
+        if args.current.is_some() {
+            bail!("--current: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
         return run_bus_alone(args, adapters);
     }
@@ -194,6 +208,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         },
         tick: args.dt.map_or(defaults.tick, Duration::from_secs_f64),
         model_nodes: args.model_nodes.unwrap_or(defaults.model_nodes),
+        current,
         ..defaults
     };
     if let Err(e) = cfg.validate() {
@@ -434,9 +449,48 @@ fn parse_axis_ids(text: &str) -> anyhow::Result<Vec<[u8; 2]>> {
         .collect()
 }
 
+/// `--current`: `VX,VY` or `VX,VY,VZ` (m/s, earth frame).
+fn parse_current(text: &str) -> anyhow::Result<Current> {
+    let bad = || {
+        anyhow::anyhow!(
+            "--current {text}: expected VX,VY or VX,VY,VZ in m/s (e.g. 0.1,0), each within ±{MAX_CURRENT}"
+        )
+    };
+    let parts: Vec<&str> = text.split(',').collect();
+    if !(2..=3).contains(&parts.len()) {
+        return Err(bad());
+    }
+    let mut v = [0.0; 3];
+    for (c, p) in v.iter_mut().zip(&parts) {
+        *c = p.trim().parse::<f64>().map_err(|_| bad())?;
+    }
+    Current::steady(v).map_err(|_| bad())
+}
+
 #[cfg(test)]
 mod tests {
-    use super::parse_axis_ids;
+    use super::{parse_axis_ids, parse_current};
+
+    #[test]
+    fn currents_are_two_or_three_components_and_bad_ones_are_named() {
+        let c = parse_current("0.1, -0.05").unwrap();
+        assert_eq!(
+            c,
+            anguilla_model::Current::steady([0.1, -0.05, 0.0]).unwrap()
+        );
+        let c = parse_current("0,0,0.02").unwrap();
+        assert_eq!(
+            c,
+            anguilla_model::Current::steady([0.0, 0.0, 0.02]).unwrap()
+        );
+        for text in ["0.1", "1,2,3,4", "x,0", "0,9", "nan,0", ""] {
+            let e = parse_current(text).unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("--current {text}: expected VX,VY")),
+                "{e}"
+            );
+        }
+    }
 
     #[test]
     fn axis_ids_are_pitch_yaw_pairs_and_bad_ones_are_named() {
