@@ -4,12 +4,15 @@
 //! descriptors the codec uses, so it is the codec's layout by construction.
 //! A DBC has no wildcard ids: it lists every message for nodes `1..=nodes`
 //! (the committed files cover the default robot of 12 vertebrae; generate
-//! another with `anguilla protocol dbc --nodes N`).
+//! another with `anguilla protocol dbc --nodes N`). The head sensor's
+//! messages are listed once, for [`DEFAULT_HEAD_SENSOR_ID`], sent by the
+//! DBC node `HeadSensor`.
 
 use core::fmt::{self, Write};
 
 use crate::message::{
-    Addressing, Direction, GROUP_SLOTS, HEARTBEAT_PERIOD_MS, MessageDef, Variant, definitions,
+    Addressing, DEFAULT_HEAD_SENSOR_ID, Direction, GROUP_SLOTS, HEARTBEAT_PERIOD_MS, MessageDef,
+    Variant, definitions,
 };
 use crate::signal::{Mux, Signal};
 
@@ -86,6 +89,11 @@ fn instances(
             }
             Ok(())
         }
+        Addressing::Sensor => each(Instance {
+            id: def.function.id(DEFAULT_HEAD_SENSOR_ID),
+            suffix: Suffix::Node(DEFAULT_HEAD_SENSOR_ID),
+            receivers: (0, 0),
+        }),
         Addressing::Group => {
             let groups = (nodes as usize).div_ceil(GROUP_SLOTS) as u8;
             for g in 0..groups {
@@ -188,7 +196,7 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
     for n in 1..=nodes {
         write!(out, " Node{n:02}")?;
     }
-    out.write_str("\n\n")?;
+    out.write_str(" HeadSensor\n\n")?;
     let defs = definitions(variant);
     for def in defs {
         instances(def, nodes, |inst| {
@@ -199,6 +207,9 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
             )?;
             match def.direction {
                 Direction::HostToNode => out.write_str("Host\n")?,
+                Direction::NodeToHost if def.addressing == Addressing::Sensor => {
+                    out.write_str("HeadSensor\n")?
+                }
                 Direction::NodeToHost => match inst.suffix {
                     Suffix::Node(n) => writeln!(out, "Node{n:02}")?,
                     _ => out.write_str("Vector__XXX\n")?,
