@@ -67,6 +67,15 @@ fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--model-nodes", "1"]);
     assert!(!ok);
     assert!(err.contains("--model-nodes 1: expected"), "{err}");
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--head-sensor", "3"]);
+    assert!(!ok);
+    assert!(
+        err.contains("--head-sensor 3: 3 is a vertebra's node id"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--head-sensor", "64"]);
+    assert!(!ok);
+    assert!(err.contains("--head-sensor 64: 64 outside 1..=63"), "{err}");
 }
 
 #[test]
