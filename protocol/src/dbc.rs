@@ -5,14 +5,14 @@
 //! A DBC has no wildcard ids: it lists every message for nodes `1..=nodes`
 //! (the committed files cover the default robot of 12 vertebrae; generate
 //! another with `anguilla protocol dbc --nodes N`). The head sensor's
-//! messages are listed once, for [`DEFAULT_HEAD_SENSOR_ID`], sent by the
-//! DBC node `HeadSensor`.
+//! messages, and its Heartbeat, are listed once, for
+//! [`DEFAULT_HEAD_SENSOR_ID`], sent by the DBC node `HeadSensor`.
 
 use core::fmt::{self, Write};
 
 use crate::message::{
-    Addressing, DEFAULT_HEAD_SENSOR_ID, Direction, GROUP_SLOTS, HEARTBEAT_PERIOD_MS, MessageDef,
-    Variant, definitions,
+    Addressing, DEFAULT_HEAD_SENSOR_ID, Direction, Function, GROUP_SLOTS, HEARTBEAT_PERIOD_MS,
+    MessageDef, Variant, definitions,
 };
 use crate::signal::{Mux, Signal};
 
@@ -85,6 +85,14 @@ fn instances(
                     id: def.function.id(n),
                     suffix: Suffix::Node(n),
                     receivers: rx(n, n),
+                })?;
+            }
+            // The head sensor sends the vertebrae's Heartbeat too.
+            if def.function == Function::Heartbeat && DEFAULT_HEAD_SENSOR_ID > nodes {
+                each(Instance {
+                    id: def.function.id(DEFAULT_HEAD_SENSOR_ID),
+                    suffix: Suffix::Node(DEFAULT_HEAD_SENSOR_ID),
+                    receivers: (0, 0),
                 })?;
             }
             Ok(())
@@ -207,7 +215,11 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
             )?;
             match def.direction {
                 Direction::HostToNode => out.write_str("Host\n")?,
-                Direction::NodeToHost if def.addressing == Addressing::Sensor => {
+                Direction::NodeToHost
+                    if def.addressing == Addressing::Sensor
+                        || inst.id == def.function.id(DEFAULT_HEAD_SENSOR_ID)
+                            && nodes < DEFAULT_HEAD_SENSOR_ID =>
+                {
                     out.write_str("HeadSensor\n")?
                 }
                 Direction::NodeToHost => match inst.suffix {
@@ -267,7 +279,7 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
     )?;
     for def in defs {
         instances(def, nodes, |inst| {
-            if def.function == crate::message::Function::Heartbeat {
+            if def.function == Function::Heartbeat {
                 writeln!(
                     out,
                     "BA_ \"GenMsgCycleTime\" BO_ {} {};",

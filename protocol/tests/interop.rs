@@ -120,6 +120,14 @@ fn messages(variant: Variant) -> Vec<Message> {
         status: SensorStatus(SensorStatus::ALL),
         errors: SensorErrors(SensorErrors::OVERRUN),
     };
+    out.push(Message::Heartbeat(Heartbeat {
+        node: node(DEFAULT_HEAD_SENSOR_ID),
+        state: NodeState::Enabled,
+        errors: ErrorBits(0),
+        counter: 9,
+        missed_syncs: 0,
+        temperature: 14,
+    }));
     encode_head_sample(variant, &head, |f| {
         out.push(decode(&f, variant, NodeSet::all()).unwrap());
     })
