@@ -478,9 +478,13 @@ impl SimRobot {
         let nodes = (0..n)
             .map(|j| joint_device(&cfg, j, rng.next_u64(), start))
             .collect::<Result<Vec<_>>>()?;
-        let sensor = cfg
-            .head_sensor
-            .map(|s| HeadSensor::new(s, cfg.variant, rng.next_u64(), start));
+        let sensor = match cfg.head_sensor {
+            Some(s) => Some(
+                HeadSensor::new(s, cfg.variant, rng.next_u64(), start)
+                    .map_err(|(field, reason)| SimError::Config { field, reason })?,
+            ),
+            None => None,
+        };
         let stamps = bus.capabilities().timestamps;
         let mut drive_ids_used = [false; 128];
         for j in 0..n {

@@ -245,9 +245,16 @@ pub fn sensor_attitude(model: [f64; 4]) -> [f64; 4] {
 
 impl HeadSensor {
     /// A sensor speaking `variant`, seeded with `seed`, its first sample at
-    /// `start`. The configuration must be valid ([`SensorConfig::validate`]).
-    pub fn new(cfg: SensorConfig, variant: Variant, seed: u64, start: Nanos) -> Self {
-        let node = NodeId::new(cfg.id).unwrap_or(NodeId::new(1).expect("1 is a node id"));
+    /// `start`; the error of [`SensorConfig::validate`] for a bad
+    /// configuration.
+    pub fn new(
+        cfg: SensorConfig,
+        variant: Variant,
+        seed: u64,
+        start: Nanos,
+    ) -> Result<Self, (&'static str, String)> {
+        cfg.validate()?;
+        let node = NodeId::new(cfg.id).map_err(|e| ("head_sensor.id", e.to_string()))?;
         let blank = HeadSample {
             node,
             sample: 0,
@@ -259,12 +266,12 @@ impl HeadSensor {
             status: SensorStatus(0),
             errors: SensorErrors(0),
         };
-        Self {
+        Ok(Self {
             cfg,
             variant,
             node,
             rng: Rng::new(seed),
-            period: Nanos::from_nanos(1_000_000_000 / u64::from(cfg.rate_hz.max(1))),
+            period: Nanos::from_nanos(1_000_000_000 / u64::from(cfg.rate_hz)),
             next_sample: start,
             next_heartbeat: start,
             sample: 0,
@@ -280,7 +287,7 @@ impl HeadSensor {
             stuck: false,
             last_sent: None,
             sent: 0,
-        }
+        })
     }
 
     /// The configuration.
