@@ -67,6 +67,15 @@ fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--model-nodes", "1"]);
     assert!(!ok);
     assert!(err.contains("--model-nodes 1: expected"), "{err}");
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--head-sensor", "3"]);
+    assert!(!ok);
+    assert!(
+        err.contains("--head-sensor 3: 3 is a vertebra's node id"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--head-sensor", "64"]);
+    assert!(!ok);
+    assert!(err.contains("--head-sensor 64: 64 outside 1..=63"), "{err}");
 }
 
 #[test]
@@ -819,6 +828,51 @@ fn dump_decodes_each_drive_family() {
     assert!(
         !ok && err.contains("expected \"anguilla\", \"cia402\" or \"odrive\""),
         "{err}"
+    );
+    let _ = std::fs::remove_file(&path);
+}
+
+#[test]
+fn dump_decodes_head_sensor_frames() {
+    let path = std::env::temp_dir().join(format!("anguilla-head-{}.log", std::process::id()));
+    // The hand-derived frames of protocol/tests/codec.rs: sensor 63's
+    // rates and depth on classic CAN, a whole sample on CAN FD.
+    std::fs::write(
+        &path,
+        "(1.0) can0 2BF#01F401FFFF5C44\n(1.1) can0 33F#02CD8B010E063F01\n",
+    )
+    .unwrap();
+    let file = path.to_str().unwrap();
+    let (ok, out, err) = run(&["dump", "--file", file]);
+    assert!(ok, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(
+        lines[0].contains(
+            "HeadRates(HeadVector { node: NodeId(63), sample: 1, xyz: [1.0, -0.002, 35.0] })"
+        ),
+        "{out}"
+    );
+    assert!(
+        lines[1].contains(
+            "HeadDepth(HeadDepth { node: NodeId(63), sample: 2, pressure: 101325, temperature: 15.5, status: SensorStatus(63), errors: SensorErrors(1) })"
+        ),
+        "{out}"
+    );
+    std::fs::write(
+        &path,
+        "(1.0) can0 37F##1FDDATA\n".replace(
+            "FDDATA",
+            "070700CD8B019CFFFF7F00000000000000000000000000000000AA0700000000",
+        ),
+    )
+    .unwrap();
+    let (ok, out, err) = run(&["dump", "--fd", "--file", file]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains(
+            "HeadSample(HeadSample { node: NodeId(63), sample: 7, quaternion: [1.0, 0.0, 0.0, 0.0]"
+        ),
+        "{out}"
     );
     let _ = std::fs::remove_file(&path);
 }

@@ -174,7 +174,7 @@ fn print_table(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> any
         b.rates.nominal / 1000,
         b.traffic.joints(),
         match b.traffic {
-            budget::Traffic::Anguilla(_) => "nodes".to_string(),
+            budget::Traffic::Anguilla(..) => "nodes".to_string(),
             budget::Traffic::Cia402 { axes } => format!("{axes} CiA 402 drives"),
             budget::Traffic::Odrive { axes } => format!("{axes} ODrive axes"),
         },

@@ -14,6 +14,7 @@ use anguilla_model::{Current, MAX_CURRENT};
 use anguilla_protocol::Family;
 use anguilla_protocol::message::Variant;
 use anguilla_sim::actuator::ActuatorParams;
+use anguilla_sim::sensor::SensorConfig;
 use anguilla_sim::{RobotConfig, SimError, SimRobot, TICK_RANGE};
 use anyhow::{Context, bail};
 use clap::Args;
@@ -90,11 +91,16 @@ pub struct SimArgs {
     /// Space intervals of the body model (2..=100000; default 52).
     #[arg(long, value_name = "N")]
     model_nodes: Option<usize>,
-    /// The water's uniform current at the start, VX,VY[,VZ] in m/s (earth
+    /// The water's uniform current at the start, `VX,VY[,VZ]` in m/s (earth
     /// frame: e1 is the robot's initial axis, its head towards -e1); each at
     /// most 5 m/s. A scenario's 'water current' lines change it.
     #[arg(long, value_name = "VX,VY[,VZ]")]
     current: Option<String>,
+    /// A head sensor on node ID (1..=63, not a joint's): a simulated
+    /// BNO08x-class IMU and pressure sensor at 100 Hz (anguilla drives
+    /// only; protocol/README.md "The head sensor").
+    #[arg(long, value_name = "ID")]
+    head_sensor: Option<u8>,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
@@ -209,6 +215,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         tick: args.dt.map_or(defaults.tick, Duration::from_secs_f64),
         model_nodes: args.model_nodes.unwrap_or(defaults.model_nodes),
         current,
+        head_sensor: args.head_sensor.map(SensorConfig::typical),
         ..defaults
     };
     if let Err(e) = cfg.validate() {
@@ -233,6 +240,12 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
                 args.joints,
                 args.drive
             ),
+            (SimError::Config { field, reason }, _) if field.starts_with("head_sensor") => {
+                bail!(
+                    "--head-sensor {}: {reason}",
+                    args.head_sensor.unwrap_or_default()
+                )
+            }
             _ => return Err(e).context("the simulated robot's settings"),
         }
     }

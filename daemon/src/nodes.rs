@@ -156,6 +156,17 @@ impl NodeTable {
                 }
             }
             Ok(Message::ConfigAck { .. }) => {}
+            // A head sensor's frames (issue 16): nothing here uses them yet;
+            // the state estimator (issue 16 item 4) will take them. Today no
+            // sensor is configured, so they arrive as unknown-node errors
+            // below and this arm is for a sensor id the set holds.
+            Ok(
+                Message::HeadAttitude(_)
+                | Message::HeadRates(_)
+                | Message::HeadAccel(_)
+                | Message::HeadDepth(_)
+                | Message::HeadSample(_),
+            ) => {}
             Ok(
                 Message::Sync { .. }
                 | Message::Command { .. }

@@ -28,8 +28,9 @@
 
 use crate::frame::{Frame, Kind};
 use crate::message::{
-    AxisFeedback, ErrorBits, Feedback, HEARTBEAT_PERIOD_MS, Heartbeat, Message, NodeId, NodeSet,
-    NodeState, Variant, encode_setpoints,
+    AxisFeedback, DEFAULT_HEAD_SENSOR_ID, ErrorBits, Feedback, HEAD_SENSOR_RATE_HZ,
+    HEARTBEAT_PERIOD_MS, HeadSample, Heartbeat, Message, NodeId, NodeSet, NodeState, SensorErrors,
+    SensorStatus, Variant, encode_head_sample, encode_setpoints,
 };
 
 /// Worst-case length of one frame: bits at the nominal rate and at the data
@@ -144,6 +145,9 @@ pub enum BudgetError {
     /// Load target outside (0, 1].
     #[error("load limit {0} (expected a fraction in (0, 1])")]
     Load(f64),
+    /// Head sensor sample rate outside 100..=200 Hz.
+    #[error("head sensor rate {0} Hz (expected 100..=200)")]
+    HeadSensorRate(u16),
 }
 
 /// How often a budget line's frames are sent.
@@ -277,11 +281,64 @@ pub fn control_traffic(variant: Variant, nodes: NodeSet) -> [BudgetLine; 4] {
     ]
 }
 
+/// The cyclic traffic of a head sensor sampling at `rate_hz` (100..=200):
+/// its sample frames every sample (on classic CAN the four frames of a
+/// fusion IMU, the worst case; one HeadSample on CAN FD) and its heartbeat
+/// every 100 ms. Per-second lines: the sensor runs on its own clock, not
+/// the control period.
+pub fn head_sensor_traffic(variant: Variant, rate_hz: u16) -> Vec<BudgetLine> {
+    let node = NodeId::new(DEFAULT_HEAD_SENSOR_ID).expect("a node id");
+    let sample = HeadSample {
+        node,
+        sample: 0,
+        quaternion: [1.0, 0.0, 0.0, 0.0],
+        rates: [0.0; 3],
+        accel: [0.0; 3],
+        pressure: 101_325,
+        temperature: 15.0,
+        status: SensorStatus(SensorStatus::ALL),
+        errors: SensorErrors(0),
+    };
+    let mut lines = Vec::with_capacity(5);
+    encode_head_sample(variant, &sample, |f| {
+        let name = match crate::message::decode(&f, variant, NodeSet::empty().with(node)) {
+            Ok(m) => crate::message::function_name(m.function()),
+            Err(_) => "HeadSample",
+        };
+        lines.push(BudgetLine {
+            name,
+            bytes: f.len() as u8,
+            cadence: Cadence::PerSecond(rate_hz as f64),
+            bits: worst_case_bits(&f),
+        });
+    })
+    .expect("a zero sample encodes");
+    let heartbeat = Message::Heartbeat(Heartbeat {
+        node,
+        state: NodeState::Enabled,
+        errors: ErrorBits(0),
+        counter: 0,
+        missed_syncs: 0,
+        temperature: 20,
+    })
+    .encode(variant)
+    .expect("heartbeat encodes");
+    lines.push(BudgetLine {
+        name: "Heartbeat (head sensor)",
+        bytes: heartbeat.len() as u8,
+        cadence: Cadence::PerSecond(1000.0 / HEARTBEAT_PERIOD_MS as f64),
+        bits: worst_case_bits(&heartbeat),
+    });
+    lines
+}
+
 /// Whose cyclic traffic a budget counts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Traffic {
-    /// anguilla vertebra nodes with these ids (one per joint).
-    Anguilla(NodeSet),
+    /// anguilla vertebra nodes with these ids (one per joint), and a head
+    /// sensor at this sample rate, Hz, if the robot has one
+    /// ([`head_sensor_traffic`]).
+    Anguilla(NodeSet, Option<u16>),
     /// CiA 402 drives (one per axis) and their master, classic CAN: per
     /// period an RPDO1 to each drive, SYNC, a TPDO1 from each; heartbeats
     /// every 100 ms from every drive and the master.
@@ -303,7 +360,7 @@ impl Traffic {
     pub fn of_family(family: crate::Family, nodes: NodeSet) -> Traffic {
         let axes = 2 * nodes.len() as u32;
         match family {
-            crate::Family::Anguilla => Traffic::Anguilla(nodes),
+            crate::Family::Anguilla => Traffic::Anguilla(nodes, None),
             crate::Family::Cia402 => Traffic::Cia402 { axes },
             crate::Family::Odrive => Traffic::Odrive { axes },
         }
@@ -312,7 +369,7 @@ impl Traffic {
     /// Joints the traffic serves.
     pub fn joints(self) -> u32 {
         match self {
-            Traffic::Anguilla(n) => n.len() as u32,
+            Traffic::Anguilla(n, _) => n.len() as u32,
             Traffic::Cia402 { axes } | Traffic::Odrive { axes } => axes / 2,
         }
     }
@@ -336,7 +393,13 @@ impl Traffic {
             }
         };
         match self {
-            Traffic::Anguilla(nodes) => control_traffic(variant, nodes).to_vec(),
+            Traffic::Anguilla(nodes, sensor) => {
+                let mut lines = control_traffic(variant, nodes).to_vec();
+                if let Some(hz) = sensor {
+                    lines.extend(head_sensor_traffic(variant, hz));
+                }
+                lines
+            }
             Traffic::Cia402 { axes } => {
                 use crate::canopen::{Message as Co, NmtState, NodeId as CoNode, Pdo, PdoData};
                 let node = CoNode::new(1).expect("1 is a node id");
@@ -447,14 +510,19 @@ pub fn first_nodes(joints: u32) -> Result<NodeSet, BudgetError> {
 /// The worst-case bus load of the nodes `nodes` at control rate `rate` Hz.
 /// The variant follows from `rates` (a data rate means CAN FD).
 pub fn budget(nodes: NodeSet, rate: f64, rates: Bitrates) -> Result<Budget, BudgetError> {
-    budget_of(Traffic::Anguilla(check_nodes(nodes)?), rate, rates)
+    budget_of(Traffic::Anguilla(check_nodes(nodes)?, None), rate, rates)
 }
 
 fn check_traffic(t: Traffic, rates: Bitrates) -> Result<Bitrates, BudgetError> {
     let rates = rates.validate()?;
     match t {
-        Traffic::Anguilla(n) => {
+        Traffic::Anguilla(n, sensor) => {
             check_nodes(n)?;
+            if let Some(hz) = sensor
+                && !(HEAD_SENSOR_RATE_HZ.0..=HEAD_SENSOR_RATE_HZ.1).contains(&hz)
+            {
+                return Err(BudgetError::HeadSensorRate(hz));
+            }
         }
         Traffic::Cia402 { axes } | Traffic::Odrive { axes } => {
             if axes == 0 {
@@ -491,7 +559,11 @@ pub fn budget_of(traffic: Traffic, rate: f64, rates: Bitrates) -> Result<Budget,
 /// The highest control rate, Hz, at which the cyclic traffic of the nodes
 /// `nodes` stays within `max_load` (a fraction, e.g. 0.6) of the bus.
 pub fn max_rate(nodes: NodeSet, rates: Bitrates, max_load: f64) -> Result<f64, BudgetError> {
-    max_rate_of(Traffic::Anguilla(check_nodes(nodes)?), rates, max_load)
+    max_rate_of(
+        Traffic::Anguilla(check_nodes(nodes)?, None),
+        rates,
+        max_load,
+    )
 }
 
 /// The highest control rate, Hz, at which `traffic` stays within
@@ -635,6 +707,48 @@ mod tests {
         assert!(r < 5.0, "{r}");
         assert_eq!(budget_of(co, 100.0, FD_1_5M), Err(BudgetError::ClassicOnly));
         assert!(budget_of(Traffic::Cia402 { axes: 0 }, 100.0, CLASSIC_1M).is_err());
+    }
+
+    #[test]
+    fn a_head_sensor_counts_only_when_present() {
+        let nodes = NodeSet::first(12);
+        let without = budget_of(Traffic::Anguilla(nodes, None), 100.0, CLASSIC_1M).unwrap();
+        // Unchanged: README's 34.5 % for 12 joints at 100 Hz.
+        assert_eq!(
+            without.lines,
+            control_traffic(Variant::Classic, nodes).to_vec()
+        );
+        assert_eq!(budget(nodes, 100.0, CLASSIC_1M).unwrap(), without);
+        let with = budget_of(Traffic::Anguilla(nodes, Some(100)), 100.0, CLASSIC_1M).unwrap();
+        let names: Vec<_> = with.lines[4..].iter().map(|l| l.name).collect();
+        assert_eq!(
+            names,
+            [
+                "HeadAttitude",
+                "HeadRates",
+                "HeadAccel",
+                "HeadDepth",
+                "Heartbeat (head sensor)"
+            ]
+        );
+        // Per sample 135 + 125 + 125 + 135 bits (8, 7, 7, 8 bytes), 100
+        // samples/s, plus 10 heartbeats of 115 bits: 53 150 bit/s.
+        let added = with.load - without.load;
+        assert!((added * 1e6 - 53_150.0).abs() < 1e-6, "{added}");
+        // CAN FD: one 32-byte frame per sample; at 200 Hz.
+        let fd = head_sensor_traffic(Variant::Fd, 200);
+        assert_eq!((fd[0].name, fd[0].bytes), ("HeadSample", 32));
+        assert_eq!(fd[0].cadence, Cadence::PerSecond(200.0));
+        // The per-second lines lower the highest control rate.
+        let r0 = max_rate_of(Traffic::Anguilla(nodes, None), CLASSIC_1M, 0.6).unwrap();
+        let r1 = max_rate_of(Traffic::Anguilla(nodes, Some(100)), CLASSIC_1M, 0.6).unwrap();
+        assert!(r1 < r0, "{r1} {r0}");
+        for hz in [99, 201] {
+            assert_eq!(
+                budget_of(Traffic::Anguilla(nodes, Some(hz)), 100.0, CLASSIC_1M),
+                Err(BudgetError::HeadSensorRate(hz))
+            );
+        }
     }
 
     #[test]

@@ -4,12 +4,15 @@
 //! descriptors the codec uses, so it is the codec's layout by construction.
 //! A DBC has no wildcard ids: it lists every message for nodes `1..=nodes`
 //! (the committed files cover the default robot of 12 vertebrae; generate
-//! another with `anguilla protocol dbc --nodes N`).
+//! another with `anguilla protocol dbc --nodes N`). The head sensor's
+//! messages, and its Heartbeat, are listed once, for
+//! [`DEFAULT_HEAD_SENSOR_ID`], sent by the DBC node `HeadSensor`.
 
 use core::fmt::{self, Write};
 
 use crate::message::{
-    Addressing, Direction, GROUP_SLOTS, HEARTBEAT_PERIOD_MS, MessageDef, Variant, definitions,
+    Addressing, DEFAULT_HEAD_SENSOR_ID, Direction, Function, GROUP_SLOTS, HEARTBEAT_PERIOD_MS,
+    MessageDef, Variant, definitions,
 };
 use crate::signal::{Mux, Signal};
 
@@ -84,8 +87,21 @@ fn instances(
                     receivers: rx(n, n),
                 })?;
             }
+            // The head sensor sends the vertebrae's Heartbeat too.
+            if def.function == Function::Heartbeat && DEFAULT_HEAD_SENSOR_ID > nodes {
+                each(Instance {
+                    id: def.function.id(DEFAULT_HEAD_SENSOR_ID),
+                    suffix: Suffix::Node(DEFAULT_HEAD_SENSOR_ID),
+                    receivers: (0, 0),
+                })?;
+            }
             Ok(())
         }
+        Addressing::Sensor => each(Instance {
+            id: def.function.id(DEFAULT_HEAD_SENSOR_ID),
+            suffix: Suffix::Node(DEFAULT_HEAD_SENSOR_ID),
+            receivers: (0, 0),
+        }),
         Addressing::Group => {
             let groups = (nodes as usize).div_ceil(GROUP_SLOTS) as u8;
             for g in 0..groups {
@@ -188,7 +204,7 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
     for n in 1..=nodes {
         write!(out, " Node{n:02}")?;
     }
-    out.write_str("\n\n")?;
+    out.write_str(" HeadSensor\n\n")?;
     let defs = definitions(variant);
     for def in defs {
         instances(def, nodes, |inst| {
@@ -199,6 +215,13 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
             )?;
             match def.direction {
                 Direction::HostToNode => out.write_str("Host\n")?,
+                Direction::NodeToHost
+                    if def.addressing == Addressing::Sensor
+                        || inst.id == def.function.id(DEFAULT_HEAD_SENSOR_ID)
+                            && nodes < DEFAULT_HEAD_SENSOR_ID =>
+                {
+                    out.write_str("HeadSensor\n")?
+                }
                 Direction::NodeToHost => match inst.suffix {
                     Suffix::Node(n) => writeln!(out, "Node{n:02}")?,
                     _ => out.write_str("Vector__XXX\n")?,
@@ -256,7 +279,7 @@ pub fn write_dbc(out: &mut impl Write, variant: Variant, nodes: u8) -> fmt::Resu
     )?;
     for def in defs {
         instances(def, nodes, |inst| {
-            if def.function == crate::message::Function::Heartbeat {
+            if def.function == Function::Heartbeat {
                 writeln!(
                     out,
                     "BA_ \"GenMsgCycleTime\" BO_ {} {};",

@@ -31,6 +31,7 @@ pub fn layout_markdown(variant: Variant) -> String {
             Addressing::AllOrNode => format!("0x{base:03X} (all), 0x{base:03X}+node"),
             Addressing::Node => format!("0x{base:03X}+node"),
             Addressing::Group => format!("0x{base:03X}+group"),
+            Addressing::Sensor => format!("0x{base:03X}+sensor"),
         };
         let dir = match def.direction {
             Direction::HostToNode => "host → node",

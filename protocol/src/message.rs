@@ -1,7 +1,7 @@
 //! The anguilla messages: identifiers, layouts, encode and decode.
 //!
 //! Every identifier is 11 bits: `function << 6 | node`, with the function
-//! code (0..=8) in the high five bits so that arbitration orders the bus by
+//! code (0..=13) in the high five bits so that arbitration orders the bus by
 //! function first (E-stop beats SYNC beats setpoints beats feedback...), and
 //! the node id (1..=63, 0 = broadcast / host) in the low six bits, like
 //! CANopen's function-code bases. See `protocol/README.md` for the contract.

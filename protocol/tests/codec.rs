@@ -8,6 +8,45 @@ use proptest::prelude::*;
 
 const NODES: u8 = 12;
 
+/// The head sensor's id in these tests: the one the DBC files list.
+fn sensor() -> NodeId {
+    NodeId::new(DEFAULT_HEAD_SENSOR_ID).unwrap()
+}
+
+/// The ids the tests decode with: the vertebrae and the head sensor.
+fn accepted() -> NodeSet {
+    NodeSet::first(NODES).with(sensor())
+}
+
+fn head_sample() -> impl Strategy<Value = HeadSample> {
+    let q = -1f32..=1.0;
+    let r = -RATE_LIMIT as f32..=RATE_LIMIT as f32;
+    let a = -ACCEL_LIMIT as f32..=ACCEL_LIMIT as f32;
+    (
+        any::<u8>(),
+        [q.clone(), q.clone(), q.clone(), q],
+        [r.clone(), r.clone(), r],
+        [a.clone(), a.clone(), a],
+        0..=common::PRESSURE_MAX,
+        -40f32..=85.0,
+        0..=SensorStatus::ALL,
+        0..=SensorErrors::ALL,
+    )
+        .prop_map(
+            |(sample, quaternion, rates, accel, pressure, temperature, st, er)| HeadSample {
+                node: sensor(),
+                sample,
+                quaternion,
+                rates,
+                accel,
+                pressure,
+                temperature,
+                status: SensorStatus(st),
+                errors: SensorErrors(er),
+            },
+        )
+}
+
 fn node() -> impl Strategy<Value = NodeId> {
     (1..=NODES).prop_map(|n| NodeId::new(n).unwrap())
 }
@@ -131,6 +170,29 @@ fn common_message() -> impl Strategy<Value = Message> {
 fn classic_message() -> impl Strategy<Value = Message> {
     prop_oneof![
         common_message(),
+        head_sample().prop_map(|h| Message::HeadAttitude(HeadAttitude {
+            node: h.node,
+            sample: h.sample,
+            quaternion: h.quaternion,
+        })),
+        head_sample().prop_map(|h| Message::HeadRates(HeadVector {
+            node: h.node,
+            sample: h.sample,
+            xyz: h.rates,
+        })),
+        head_sample().prop_map(|h| Message::HeadAccel(HeadVector {
+            node: h.node,
+            sample: h.sample,
+            xyz: h.accel,
+        })),
+        head_sample().prop_map(|h| Message::HeadDepth(HeadDepth {
+            node: h.node,
+            sample: h.sample,
+            pressure: h.pressure,
+            temperature: h.temperature,
+            status: h.status,
+            errors: h.errors,
+        })),
         (node(), 0u8..16, axis_sp(), axis_sp()).prop_map(|(node, cycle, a, b)| {
             Message::Setpoint(Setpoint {
                 node,
@@ -148,6 +210,7 @@ fn fd_message() -> impl Strategy<Value = Message> {
     .prop_filter("at least one slot", |s| s.iter().any(Option::is_some));
     prop_oneof![
         common_message(),
+        head_sample().prop_map(Message::HeadSample),
         (0u8..2, any::<u8>(), slots).prop_map(|(group, cycle, slots)| {
             Message::SetpointGroup(SetpointGroup {
                 group,
@@ -175,7 +238,51 @@ fn assert_close(a: &Message, b: &Message, variant: Variant) -> Result<(), TestCa
             && close(x.velocity, y.velocity, vf)
             && close(x.torque, y.torque, tf)
     };
+    // Head sensor: half a count of each field's scale.
+    let (qf, rf, af, tpf) = match variant {
+        Variant::Classic => (
+            classic::HEAD_QUATERNION[0].factor,
+            classic::HEAD_RATES[0].factor,
+            classic::HEAD_ACCEL[0].factor,
+            classic::HEAD_TEMPERATURE.factor,
+        ),
+        Variant::Fd => (
+            fd::HEAD_QUATERNION[0].factor,
+            fd::HEAD_RATES[0].factor,
+            fd::HEAD_ACCEL[0].factor,
+            fd::HEAD_TEMPERATURE.factor,
+        ),
+    };
+    let all = |x: &[f32], y: &[f32], f: f64| x.iter().zip(y).all(|(p, q)| close(*p, *q, f));
     let ok = match (a, b) {
+        (Message::HeadAttitude(x), Message::HeadAttitude(y)) => {
+            x.node == y.node && x.sample == y.sample && all(&x.quaternion, &y.quaternion, qf)
+        }
+        (Message::HeadRates(x), Message::HeadRates(y)) => {
+            x.node == y.node && x.sample == y.sample && all(&x.xyz, &y.xyz, rf)
+        }
+        (Message::HeadAccel(x), Message::HeadAccel(y)) => {
+            x.node == y.node && x.sample == y.sample && all(&x.xyz, &y.xyz, af)
+        }
+        (Message::HeadDepth(x), Message::HeadDepth(y)) => {
+            x.node == y.node
+                && x.sample == y.sample
+                && x.pressure == y.pressure
+                && close(x.temperature, y.temperature, tpf)
+                && x.status == y.status
+                && x.errors == y.errors
+        }
+        (Message::HeadSample(x), Message::HeadSample(y)) => {
+            x.node == y.node
+                && x.sample == y.sample
+                && all(&x.quaternion, &y.quaternion, qf)
+                && all(&x.rates, &y.rates, rf)
+                && all(&x.accel, &y.accel, af)
+                && x.pressure == y.pressure
+                && close(x.temperature, y.temperature, tpf)
+                && x.status == y.status
+                && x.errors == y.errors
+        }
         (Message::Setpoint(x), Message::Setpoint(y)) => {
             x.node == y.node
                 && x.cycle == y.cycle
@@ -251,7 +358,7 @@ fn roundtrip(m: Message, variant: Variant) -> Result<(), TestCaseError> {
     let f = m.encode(variant).unwrap();
     prop_assert!(f.id().raw() <= 0x7FF && !f.id().is_extended());
     prop_assert_eq!(f.is_fd(), variant == Variant::Fd);
-    let back = decode(&f, variant, NodeSet::first(NODES)).unwrap();
+    let back = decode(&f, variant, accepted()).unwrap();
     assert_close(&m, &back, variant)?;
     // Decoding is exact: re-encoding the decoded message gives the same frame.
     prop_assert_eq!(back.encode(variant).unwrap(), f);
@@ -404,8 +511,75 @@ fn expected(m: &Message, name: &str) -> Option<f64> {
             "MissedSyncs" => h.missed_syncs as f64,
             _ => h.temperature as f64,
         }),
+        Message::HeadAttitude(h) => quat_field(&h.quaternion, name).or(Some(h.sample as f64)),
+        Message::HeadRates(h) | Message::HeadAccel(h) => Some(match name {
+            "Sample" => h.sample as f64,
+            n if n.ends_with('X') => h.xyz[0] as f64,
+            n if n.ends_with('Y') => h.xyz[1] as f64,
+            _ => h.xyz[2] as f64,
+        }),
+        Message::HeadDepth(h) => depth_field(
+            h.sample,
+            h.pressure,
+            h.temperature,
+            h.status,
+            h.errors,
+            name,
+        ),
+        Message::HeadSample(h) => {
+            let xyz = |v: &[f32; 3]| match name.chars().last() {
+                Some('X') => Some(v[0] as f64),
+                Some('Y') => Some(v[1] as f64),
+                Some('Z') => Some(v[2] as f64),
+                _ => None,
+            };
+            if name.starts_with("Quat") {
+                quat_field(&h.quaternion, name)
+            } else if name.starts_with("Rate") {
+                xyz(&h.rates)
+            } else if name.starts_with("Accel") {
+                xyz(&h.accel)
+            } else {
+                depth_field(
+                    h.sample,
+                    h.pressure,
+                    h.temperature,
+                    h.status,
+                    h.errors,
+                    name,
+                )
+            }
+        }
         _ => None,
     }
+}
+
+fn quat_field(q: &[f32; 4], name: &str) -> Option<f64> {
+    Some(match name {
+        "QuatW" => q[0],
+        "QuatX" => q[1],
+        "QuatY" => q[2],
+        "QuatZ" => q[3],
+        _ => return None,
+    } as f64)
+}
+
+fn depth_field(
+    sample: u8,
+    pressure: u32,
+    temperature: f32,
+    status: SensorStatus,
+    errors: SensorErrors,
+    name: &str,
+) -> Option<f64> {
+    Some(match name {
+        "Sample" => sample as f64,
+        "Pressure" => pressure as f64,
+        "WaterTemperature" => temperature as f64,
+        "Status" => status.0 as f64,
+        "Errors" => errors.0 as f64,
+        _ => return None,
+    })
 }
 
 fn check_against_dbc(m: Message, variant: Variant, text: &str) -> Result<(), TestCaseError> {
@@ -415,14 +589,16 @@ fn check_against_dbc(m: Message, variant: Variant, text: &str) -> Result<(), Tes
     prop_assert!(f.len() <= len);
     let mut data = [0u8; 64];
     data[..f.len()].copy_from_slice(f.data());
-    let decoded = decode(&f, variant, NodeSet::first(NODES)).unwrap();
+    let decoded = decode(&f, variant, accepted()).unwrap();
     for s in sigs.iter().filter(|s| s.mux.is_none()) {
         let Some(want) = expected(&decoded, &s.name) else {
             continue;
         };
         let got = dbc_value(s, &data);
+        // The codec's values are f32 (relative precision 6e-8): 1e-6 of the
+        // value, at least 1e-6 absolute (head accelerations reach 160).
         prop_assert!(
-            (got - want).abs() < 1e-6,
+            (got - want).abs() < 1e-6 * want.abs().max(1.0),
             "{} {}: dbc {got} codec {want}",
             f,
             s.name
@@ -463,7 +639,7 @@ proptest! {
     /// whatever decodes re-encodes to the same identifier and bytes.
     #[test]
     fn arbitrary_frames_decode_or_error(
-        id in prop_oneof![0u32..0x280, 0u32..0x800, 0u32..0x2000_0000],
+        id in prop_oneof![0u32..0x3C0, 0u32..0x800, 0u32..0x2000_0000],
         extended: bool,
         kind in 0u8..3,
         data in prop::collection::vec(any::<u8>(), 64),
@@ -673,4 +849,174 @@ fn sparse_ids_take_the_group_frames_of_their_ids() {
     encode_setpoints(Variant::Classic, 5, sp, |f| classic.push(f)).unwrap();
     assert_eq!(classic.len(), 3);
     assert_eq!(classic[2].id().raw(), 0x0C0 + 13);
+}
+
+/// Head sensor frames worked out by hand from protocol/README.md's tables.
+#[test]
+fn head_sensor_frames_match_hand_derived_bytes() {
+    let c = Variant::Classic;
+    let s = sensor();
+    let bytes = |m: Message, v| {
+        let f = m.encode(v).unwrap();
+        (f.id().raw(), f.data().to_vec())
+    };
+    // Attitude: w = 1 is 8191 = 0x1FFF in bits 8..=21.
+    let att = |sample, quaternion| {
+        Message::HeadAttitude(HeadAttitude {
+            node: s,
+            sample,
+            quaternion,
+        })
+    };
+    assert_eq!(
+        bytes(att(5, [1.0, 0.0, 0.0, 0.0]), c),
+        (0x27F, vec![0x05, 0xFF, 0x1F, 0, 0, 0, 0, 0])
+    );
+    // z = -1 is -8191 = 0b10_0000_0000_0001 (14 bits) in bits 50..=63.
+    assert_eq!(
+        bytes(att(0, [0.0, 0.0, 0.0, -1.0]), c),
+        (0x27F, vec![0, 0, 0, 0, 0, 0, 0x04, 0x80])
+    );
+    // Rates: 1 rad/s = 500, -2 mrad/s = -1, 35 rad/s = 17500 = 0x445C.
+    let rates = Message::HeadRates(HeadVector {
+        node: s,
+        sample: 1,
+        xyz: [1.0, -0.002, 35.0],
+    });
+    assert_eq!(
+        bytes(rates, c),
+        (0x2BF, vec![0x01, 0xF4, 0x01, 0xFF, 0xFF, 0x5C, 0x44])
+    );
+    // Depth: 101 325 Pa = 0x018BCD, 15.5 °C = 1550 = 0x060E.
+    let depth = Message::HeadDepth(HeadDepth {
+        node: s,
+        sample: 2,
+        pressure: 101_325,
+        temperature: 15.5,
+        status: SensorStatus(SensorStatus::ALL),
+        errors: SensorErrors(SensorErrors::IMU),
+    });
+    assert_eq!(
+        bytes(depth, c),
+        (0x33F, vec![0x02, 0xCD, 0x8B, 0x01, 0x0E, 0x06, 0x3F, 0x01])
+    );
+    // FD: one 32-byte frame; w = 1 is 32767 = 0x7FFF, -1 °C = -100,
+    // 9.81 m/s² on z = 1962 = 0x07AA in bits 208..=223.
+    let fd_sample = HeadSample {
+        node: s,
+        sample: 7,
+        quaternion: [1.0, 0.0, 0.0, 0.0],
+        rates: [0.0; 3],
+        accel: [0.0, 0.0, 9.81],
+        pressure: 101_325,
+        temperature: -1.0,
+        status: SensorStatus(SensorStatus::ATTITUDE | 3),
+        errors: SensorErrors(0),
+    };
+    let mut want = vec![0u8; 32];
+    want[..10].copy_from_slice(&[0x07, 0x07, 0x00, 0xCD, 0x8B, 0x01, 0x9C, 0xFF, 0xFF, 0x7F]);
+    want[26] = 0xAA;
+    want[27] = 0x07;
+    assert_eq!(
+        bytes(Message::HeadSample(fd_sample), Variant::Fd),
+        (0x37F, want)
+    );
+}
+
+#[test]
+fn a_head_sample_takes_four_classic_frames_or_one_fd_frame() {
+    let mut h = HeadSample {
+        node: sensor(),
+        sample: 9,
+        quaternion: [0.5, 0.5, -0.5, 0.5],
+        rates: [0.1, -0.2, 0.3],
+        accel: [0.0, 0.0, 9.81],
+        pressure: 120_000,
+        temperature: 12.0,
+        status: SensorStatus(SensorStatus::ALL),
+        errors: SensorErrors(0),
+    };
+    let ids = |h: &HeadSample, v| {
+        let mut out = Vec::new();
+        encode_head_sample(v, h, |f| {
+            assert!(matches!(
+                decode(&f, v, accepted()),
+                Ok(Message::HeadAttitude(HeadAttitude { sample: 9, .. })
+                    | Message::HeadRates(HeadVector { sample: 9, .. })
+                    | Message::HeadAccel(HeadVector { sample: 9, .. })
+                    | Message::HeadDepth(HeadDepth { sample: 9, .. })
+                    | Message::HeadSample(HeadSample { sample: 9, .. }))
+            ));
+            out.push(f.id().raw());
+        })
+        .unwrap();
+        out
+    };
+    assert_eq!(ids(&h, Variant::Classic), [0x27F, 0x2BF, 0x2FF, 0x33F]);
+    assert_eq!(ids(&h, Variant::Fd), [0x37F]);
+    // A raw 6-axis IMU: no attitude frame.
+    h.status = SensorStatus(SensorStatus::IMU | SensorStatus::PRESSURE);
+    assert_eq!(ids(&h, Variant::Classic), [0x2BF, 0x2FF, 0x33F]);
+    // Out of range: an error naming the field, and nothing sent.
+    h.rates[1] = 40.0;
+    let mut sent = 0;
+    let e = encode_head_sample(Variant::Classic, &h, |_| sent += 1).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            EncodeError::ValueOutOfRange {
+                signal: "RateY",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(sent, 0);
+    h.rates[1] = 0.0;
+    h.pressure = 1 << 24;
+    let e = Message::HeadSample(h).encode(Variant::Fd).unwrap_err();
+    assert!(e.to_string().contains("Pressure"), "{e}");
+}
+
+#[test]
+fn head_sensor_decode_errors_name_the_field() {
+    let c = Variant::Classic;
+    // QuatW raw -8192 (0x2000 in 14 bits) is outside ±8191.
+    let f = Frame::new_standard(0x27F, &[0, 0x00, 0x20, 0, 0, 0, 0, 0]).unwrap();
+    let e = decode(&f, c, accepted()).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DecodeError::ValueOutOfRange {
+                message: "HeadAttitude",
+                signal: "QuatW",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    // Status bit 6 is not defined.
+    let f = Frame::new_standard(0x33F, &[0, 0, 0, 0, 0, 0, 0x40, 0]).unwrap();
+    let e = decode(&f, c, accepted()).unwrap_err();
+    assert!(e.to_string().contains("HeadDepth.Status"), "{e}");
+    // A sensor not in the accepted set, as the daemon sees it today.
+    let f = Frame::new_standard(0x2BF, &[0; 7]).unwrap();
+    assert!(matches!(
+        decode(&f, c, NodeSet::first(NODES)),
+        Err(DecodeError::UnknownNode {
+            message: "HeadRates",
+            node: 63
+        })
+    ));
+    // FD: the reserved tail of a HeadSample must be zero.
+    let mut data = [0u8; 32];
+    data[30] = 1;
+    let f = Frame::new_fd(Id::standard_literal(0x37F), &data, true).unwrap();
+    assert!(matches!(
+        decode(&f, Variant::Fd, accepted()),
+        Err(DecodeError::ReservedBits {
+            message: "HeadSample",
+            byte: 30
+        })
+    ));
 }

@@ -107,6 +107,31 @@ fn messages(variant: Variant) -> Vec<Message> {
         missed_syncs: 3,
         temperature: 41,
     }));
+    // A head sensor (id 63, as in the DBC files) sample: a fusion IMU
+    // pitched nose-down a little, 2 m deep.
+    let head = HeadSample {
+        node: node(DEFAULT_HEAD_SENSOR_ID),
+        sample: 200,
+        quaternion: [0.9962, 0.0, 0.0872, 0.0],
+        rates: [0.05, -0.31, 1.25],
+        accel: [-1.71, 0.02, 9.66],
+        pressure: 120_938,
+        temperature: 14.37,
+        status: SensorStatus(SensorStatus::ALL),
+        errors: SensorErrors(SensorErrors::OVERRUN),
+    };
+    out.push(Message::Heartbeat(Heartbeat {
+        node: node(DEFAULT_HEAD_SENSOR_ID),
+        state: NodeState::Enabled,
+        errors: ErrorBits(0),
+        counter: 9,
+        missed_syncs: 0,
+        temperature: 14,
+    }));
+    encode_head_sample(variant, &head, |f| {
+        out.push(decode(&f, variant, NodeSet::all()).unwrap());
+    })
+    .unwrap();
     out.push(Message::EStop(Target::All));
     out
 }

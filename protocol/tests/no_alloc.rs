@@ -53,6 +53,34 @@ fn a_period_of_encoding_and_decoding_allocates_nothing() {
 }
 
 #[test]
+fn head_sensor_samples_encode_and_decode_without_allocating() {
+    let node = NodeId::new(DEFAULT_HEAD_SENSOR_ID).unwrap();
+    let h = HeadSample {
+        node,
+        sample: 3,
+        quaternion: [1.0, 0.0, 0.0, 0.0],
+        rates: [0.1, 0.2, 0.3],
+        accel: [0.0, 0.0, 9.81],
+        pressure: 110_000,
+        temperature: 10.0,
+        status: SensorStatus(SensorStatus::ALL),
+        errors: SensorErrors(0),
+    };
+    let nodes = NodeSet::empty().with(node);
+    let mut decoded = 0usize;
+    let ((), calls) = anguilla_testkit::count(|| {
+        for variant in [Variant::Classic, Variant::Fd] {
+            encode_head_sample(variant, &h, |f| {
+                decoded += decode(&f, variant, nodes).is_ok() as usize;
+            })
+            .unwrap();
+        }
+    });
+    assert_eq!(decoded, 4 + 1);
+    assert_eq!(calls, 0, "head sample encode/decode called the allocator");
+}
+
+#[test]
 fn odrive_encoding_and_decoding_allocates_nothing() {
     use anguilla_protocol::odrive::{self, Body, Cmd, InputPos};
     let mut decoded = 0usize;

@@ -19,6 +19,8 @@
 //!   stepping on any clock, a real-time runner, and the ground truth;
 //! - [`builtin`]: the robot `anguilla run` drives without a bus (and the
 //!   system tests drive too), on an in-process bus in real time;
+//! - [`sensor`]: the optional head sensor (IMU and pressure) beside the
+//!   joints, sampled from the body's true head state;
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 //!
@@ -63,6 +65,7 @@ pub mod plant;
 pub mod rng;
 pub mod robot;
 pub mod scenario;
+pub mod sensor;
 
 pub use robot::{
     MAX_CATCH_UP, Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status,

@@ -984,6 +984,10 @@ mod tests {
         b.send_frame(&Frame::new_standard(0x041, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(FIRST_UNUSED_ID + ID as u16, &[1]).unwrap());
         b.send_frame(&Frame::new_standard(0x3C0 + ID as u16, &[]).unwrap());
+        // A head sensor's frames (node to host), even on this node's id
+        // and whatever their length.
+        b.send_frame(&Frame::new_standard(Function::HeadRates.id(ID), &[1]).unwrap());
+        b.send_frame(&Frame::new_standard(Function::HeadDepth.id(ID), &[0; 8]).unwrap());
         b.send_frame(&Frame::new(Id::extended(0x1234).unwrap(), &[1]).unwrap());
         b.send_frame(&Frame::new_remote(Function::Setpoint.can_id(ID), 8).unwrap());
         b.send_frame(&Frame::new_standard(Function::Setpoint.id(ID + 1), &[0; 5]).unwrap());

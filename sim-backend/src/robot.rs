@@ -35,6 +35,7 @@ use crate::odrive::{OdriveJoint, OdriveJointConfig};
 use crate::plant::{JointInput, Plant, PlantConfig};
 use crate::rng::Rng;
 use crate::scenario::{Action, BusFault, JointFault, NodeFault, Scenario};
+use crate::sensor::{HeadSensor, HeadTruth, SensorConfig};
 
 /// Errors of building or running a simulated robot.
 #[derive(Debug, thiserror::Error)]
@@ -111,6 +112,8 @@ pub struct RobotConfig {
     /// The water's uniform current at the start (earth frame; still water
     /// by default). A scenario's `water current` events change it.
     pub current: Current,
+    /// A head sensor beside the joints (anguilla family only), or none.
+    pub head_sensor: Option<SensorConfig>,
 }
 
 impl Default for RobotConfig {
@@ -140,6 +143,7 @@ impl RobotConfig {
             model_nodes: p.nodes,
             v_init: 0.0,
             current: Current::ZERO,
+            head_sensor: None,
         }
     }
 
@@ -184,6 +188,22 @@ impl RobotConfig {
             }
         }
         self.validate_drive_ids()?;
+        if let Some(s) = &self.head_sensor {
+            s.validate()
+                .map_err(|(field, reason)| SimError::Config { field, reason })?;
+            if self.drive != Family::Anguilla {
+                return Err(SimError::Config {
+                    field: "head_sensor",
+                    reason: "a head sensor speaks the anguilla protocol (drive = anguilla)".into(),
+                });
+            }
+            if self.node_ids.contains(&s.id) {
+                return Err(SimError::Config {
+                    field: "head_sensor.id",
+                    reason: format!("{} is a vertebra's node id (expected a distinct id)", s.id),
+                });
+            }
+        }
         let t = self.tick.as_secs_f64();
         if !TICK_RANGE.contains(&t) {
             return Err(SimError::Config {
@@ -409,6 +429,8 @@ pub struct SimRobot {
     flood: Option<Flood>,
     /// Node ids (0..=127) taken by the robot's drives (bought families).
     drive_ids_used: [bool; 128],
+    /// The head sensor, if the robot has one.
+    sensor: Option<HeadSensor>,
     stats: SimStats,
 }
 
@@ -461,6 +483,13 @@ impl SimRobot {
         let nodes = (0..n)
             .map(|j| joint_device(&cfg, j, rng.next_u64(), start))
             .collect::<Result<Vec<_>>>()?;
+        let sensor = match cfg.head_sensor {
+            Some(s) => Some(
+                HeadSensor::new(s, cfg.variant, rng.next_u64(), start)
+                    .map_err(|(field, reason)| SimError::Config { field, reason })?,
+            ),
+            None => None,
+        };
         let stamps = bus.capabilities().timestamps;
         let mut drive_ids_used = [false; 128];
         for j in 0..n {
@@ -489,6 +518,7 @@ impl SimRobot {
             undo: Vec::new(),
             flood: None,
             drive_ids_used,
+            sensor,
             stats: SimStats::default(),
             cfg,
         })
@@ -503,6 +533,17 @@ impl SimRobot {
             return Err(SimError::BusFaultNeedsMemBus {
                 line: e.line,
                 bus: self.bus.spec().to_owned(),
+            });
+        }
+        if self.sensor.is_none()
+            && let Some(e) = scenario.first_sensor_fault()
+        {
+            return Err(SimError::Config {
+                field: "scenario",
+                reason: format!(
+                    "line {} scripts a head sensor fault and the robot has no head sensor",
+                    e.line
+                ),
             });
         }
         self.scenario = scenario;
@@ -599,6 +640,11 @@ impl SimRobot {
                 .iter()
                 .map(|n| [n.kinematics(0).0, n.kinematics(1).0]),
         );
+    }
+
+    /// The head sensor, if the robot has one.
+    pub fn head_sensor(&self) -> Option<&HeadSensor> {
+        self.sensor.as_ref()
     }
 
     /// The loads `[pitch, yaw]` (N·m) the body puts on each joint now.
@@ -705,6 +751,18 @@ impl SimRobot {
         match self.plant.step(&self.inputs) {
             Ok(_) => {}
             Err(_) => self.stats.model_errors += 1,
+        }
+        if let Some(sensor) = &mut self.sensor {
+            let h: &HeadState = self.plant.head();
+            let q = h.orientation.quaternion();
+            let truth = HeadTruth {
+                position: [h.position.x, h.position.y, h.position.z],
+                orientation: [q.w, q.i, q.j, q.k],
+                velocity: [h.velocity.x, h.velocity.y, h.velocity.z],
+                angular_velocity: [h.omega.x, h.omega.y, h.omega.z],
+            };
+            let out = &mut self.out;
+            sensor.advance(t, &truth, &mut |f| out.push(f));
         }
         // Ideal servos report the full load; servos with dynamics get the
         // load coupled implicitly to their torques (`Plant::coupled_loads`).
@@ -880,6 +938,11 @@ impl SimRobot {
                 }
             }
             Action::Water(current) => self.plant.set_current(current),
+            Action::Sensor(fault) => {
+                if let Some(s) = &mut self.sensor {
+                    s.apply(fault, at);
+                }
+            }
             Action::Bus(BusFault::Flood { count, over }) => {
                 let ticks = (Nanos::from(over) / self.tick).max(1);
                 self.flood = Some(Flood {

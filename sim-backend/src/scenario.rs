@@ -33,6 +33,12 @@
 //! 2.0  water current 0.1 0     # a current of 0.1 m/s along e1 (head-on)
 //! 4.0  water current 0 -0.2 0  # VX VY [VZ]: now 0.2 m/s sideways
 //! 6.0  water current 0 0       # still water again
+//! # head sensor faults (a robot with a head sensor only)
+//! 1.0  sensor silent          # sends nothing (for ever)
+//! 1.0  sensor silent 0.5      # ... for 0.5 s
+//! 2.0  sensor stuck           # repeats the last sample's values
+//! 2.5  sensor bias-jump 0.05  # a step of 0.05 rad/s in the gyro bias (may be negative)
+//! 3.0  sensor ok              # ends silent and stuck
 //! ```
 //!
 //! Parsing never panics; every error names the line and says what was
@@ -40,6 +46,8 @@
 
 use anguilla_model::{Current, MAX_CURRENT};
 use std::time::Duration;
+
+pub use crate::sensor::SensorFault;
 
 /// A scenario line that could not be parsed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -158,6 +166,8 @@ pub enum Action {
     /// The water's uniform current (earth frame) from now on: `water current
     /// VX VY [VZ]` (m/s), steady.
     Water(Current),
+    /// A head sensor fault.
+    Sensor(SensorFault),
 }
 
 /// One timed event of a scenario.
@@ -180,6 +190,7 @@ pub struct Scenario {
 
 const NODE_FAULTS: &str = "silent [DURATION], speak, reboot, fault, clear";
 const JOINT_FAULTS: &str = "stuck, free, torque-limit N·m|off, noise RAD, spike RAD";
+const SENSOR_FAULTS: &str = "silent [DURATION], stuck, bias-jump RAD/S, ok";
 const BUS_FAULTS: &str = "drop N, drop-fraction F, delay DURATION, corrupt N, bus-off DURATION, flood N [DURATION], clear";
 
 /// Parses a time or duration: seconds, with an optional `s`, `ms` or `us`
@@ -238,6 +249,13 @@ impl Scenario {
         Ok(Self { events })
     }
 
+    /// The first event that scripts a head sensor fault, if any.
+    pub fn first_sensor_fault(&self) -> Option<&Event> {
+        self.events
+            .iter()
+            .find(|e| matches!(e.action, Action::Sensor(_)))
+    }
+
     /// The first event that needs the in-process bus, if any.
     pub fn first_mem_only(&self) -> Option<&Event> {
         self.events
@@ -276,6 +294,38 @@ fn no_more(words: &[&str], n: usize) -> Result<(), String> {
 
 fn parse_action(words: &[&str], node_ids: &[u8]) -> Result<Action, String> {
     match words.first().copied() {
+        Some("sensor") => {
+            let (fault, n) = match words.get(1).copied() {
+                Some("silent") => match words.get(2) {
+                    Some(_) => (
+                        SensorFault::Silent(Some(duration(words.get(2), "a duration")?)),
+                        3,
+                    ),
+                    None => (SensorFault::Silent(None), 2),
+                },
+                Some("stuck") => (SensorFault::Stuck, 2),
+                Some("bias-jump") => {
+                    let r: f64 = number(words.get(2), "a gyro bias step in rad/s")?;
+                    if !(r.is_finite() && r.abs() <= 35.0) {
+                        return Err(format!("gyro bias step {r} rad/s out of range -35..=35"));
+                    }
+                    (SensorFault::BiasJump(r), 3)
+                }
+                Some("ok") => (SensorFault::Ok, 2),
+                Some(other) => {
+                    return Err(format!(
+                        "unknown sensor fault '{other}': expected one of {SENSOR_FAULTS}"
+                    ));
+                }
+                None => {
+                    return Err(format!(
+                        "missing sensor fault: expected one of {SENSOR_FAULTS}"
+                    ));
+                }
+            };
+            no_more(words, n)?;
+            Ok(Action::Sensor(fault))
+        }
         Some("node") => {
             let id: u8 = number(words.get(1), "a node id")?;
             if !node_ids.contains(&id) {
@@ -429,9 +479,11 @@ fn parse_action(words: &[&str], node_ids: &[u8]) -> Result<Action, String> {
             Ok(Action::Water(current))
         }
         Some(other) => Err(format!(
-            "unknown target '{other}': expected node, joint, bus or water"
+            "unknown target '{other}': expected node, joint, bus, water or sensor"
         )),
-        None => Err("missing target after the time: expected node, joint, bus or water".into()),
+        None => {
+            Err("missing target after the time: expected node, joint, bus, water or sensor".into())
+        }
     }
 }
 
@@ -539,6 +591,36 @@ mod tests {
         assert!(e.reason.contains("bad time"), "{e}");
         let e = error("nan node 1 reboot");
         assert!(e.reason.contains("bad time"), "{e}");
+        let e = error("1 sensor explode");
+        assert!(e.reason.contains("unknown sensor fault 'explode'"), "{e}");
+        let e = error("1 sensor bias-jump");
+        assert!(e.reason.contains("missing a gyro bias step"), "{e}");
+        let e = error("1 sensor bias-jump 99");
+        assert!(e.reason.contains("out of range -35..=35"), "{e}");
+        let e = error("1 sensor stuck now");
+        assert!(e.reason.contains("unexpected 'now'"), "{e}");
+    }
+
+    #[test]
+    fn sensor_faults_parse() {
+        let s = Scenario::parse(
+            "1 sensor silent\n1.5 sensor silent 200ms\n2 sensor stuck\n2.5 sensor bias-jump -0.05\n3 sensor ok\n",
+            &IDS,
+        )
+        .unwrap();
+        let actions: Vec<_> = s.events.iter().map(|e| e.action).collect();
+        assert_eq!(
+            actions,
+            [
+                Action::Sensor(SensorFault::Silent(None)),
+                Action::Sensor(SensorFault::Silent(Some(Duration::from_millis(200)))),
+                Action::Sensor(SensorFault::Stuck),
+                Action::Sensor(SensorFault::BiasJump(-0.05)),
+                Action::Sensor(SensorFault::Ok),
+            ]
+        );
+        assert_eq!(s.first_sensor_fault().map(|e| e.line), Some(1));
+        assert!(s.first_mem_only().is_none());
     }
 
     #[test]
@@ -588,7 +670,8 @@ mod tests {
         assert!(e.reason.contains("expected current VX VY [VZ]"), "{e}");
         let e = error("1 wind 3");
         assert!(
-            e.reason.contains("expected node, joint, bus or water"),
+            e.reason
+                .contains("expected node, joint, bus, water or sensor"),
             "{e}"
         );
     }
@@ -603,7 +686,7 @@ mod tests {
         fn arbitrary_words_never_panic(
             words in proptest::collection::vec(
                 prop_oneof![
-                    Just("node"), Just("joint"), Just("bus"), Just("pitch"), Just("yaw"),
+                    Just("node"), Just("joint"), Just("bus"), Just("sensor"), Just("bias-jump"), Just("pitch"), Just("yaw"),
                     Just("silent"), Just("stuck"), Just("flood"), Just("torque-limit"),
                     Just("spike"), Just("1"), Just("-1"), Just("1e308"), Just("0.5ms"),
                     Just("inf"), Just("\n"), Just("#"), Just("3"), Just("bus-off"),

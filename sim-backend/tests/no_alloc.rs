@@ -80,3 +80,49 @@ fn step_until_allocates_nothing_in_steady_state() {
         "the scenario's currents were applied"
     );
 }
+
+#[test]
+fn a_robot_with_a_head_sensor_allocates_nothing_in_steady_state() {
+    let clock = ManualClock::new();
+    let bus = MemBus::builder("sim-no-alloc-sensor")
+        .clock(Arc::new(clock.clone()))
+        .build();
+    let mut host = bus.participant();
+    for (variant, latency) in [(Variant::Classic, 4), (Variant::Fd, 0)] {
+        let mut robot = SimRobot::on_mem(
+            RobotConfig {
+                variant,
+                head_sensor: Some(anguilla_sim::sensor::SensorConfig {
+                    latency_samples: latency,
+                    ..anguilla_sim::sensor::SensorConfig::typical(40)
+                }),
+                ..RobotConfig::with_joints(12)
+            },
+            bus.participant(),
+            clock.now(),
+        )
+        .unwrap();
+        robot
+            .load_scenario("0.3 sensor stuck\n0.35 sensor ok\n0.4 sensor bias-jump 0.1\n")
+            .unwrap();
+        let mut frames = 0usize;
+        let mut step = |robot: &mut SimRobot, frames: &mut usize| {
+            clock.advance(Duration::from_millis(2));
+            robot.step_until(clock.now());
+            host.drain(&mut |_| *frames += 1).unwrap();
+        };
+        // Warm-up: buffers reach their steady size.
+        for _ in 0..100 {
+            step(&mut robot, &mut frames);
+        }
+        // Samples, latency ring, heartbeats and the scripted faults.
+        let ((), calls) = anguilla_testkit::count(|| {
+            for _ in 0..250 {
+                step(&mut robot, &mut frames);
+            }
+        });
+        assert_eq!(calls, 0, "{variant}: the sensor's period allocated");
+        assert!(robot.head_sensor().unwrap().samples_sent() >= 40);
+        assert!(frames > 0);
+    }
+}

@@ -168,3 +168,43 @@ pub const FEEDBACK: [Signal; 10] = [
     FB_TORQUE[0],
     FB_TORQUE[1],
 ];
+
+/// Head sensor sample counter (every head frame's first byte).
+pub const HEAD_SAMPLE: Signal = common::head_sample(0);
+/// Head attitude: quaternion w, x, y, z in 14 bits each, full scale ±1
+/// (1/8191 per count).
+pub const HEAD_QUATERNION: [Signal; 4] = common::head_quaternion(8, 14);
+/// Head body rates.
+pub const HEAD_RATES: [Signal; 3] = common::head_rates(8);
+/// Head accelerations.
+pub const HEAD_ACCEL: [Signal; 3] = common::head_accel(8);
+/// Head absolute pressure.
+pub const HEAD_PRESSURE: Signal = common::head_pressure(8);
+/// Head water temperature.
+pub const HEAD_TEMPERATURE: Signal = common::head_temperature(32);
+/// Head sensor status.
+pub const HEAD_STATUS: Signal = common::head_status(48);
+/// Head sensor errors.
+pub const HEAD_ERRORS: Signal = common::head_errors(56);
+/// HeadAttitude fields.
+pub const HEAD_ATTITUDE_FRAME: [Signal; 5] = [
+    HEAD_SAMPLE,
+    HEAD_QUATERNION[0],
+    HEAD_QUATERNION[1],
+    HEAD_QUATERNION[2],
+    HEAD_QUATERNION[3],
+];
+/// HeadRates fields.
+pub const HEAD_RATES_FRAME: [Signal; 4] =
+    [HEAD_SAMPLE, HEAD_RATES[0], HEAD_RATES[1], HEAD_RATES[2]];
+/// HeadAccel fields.
+pub const HEAD_ACCEL_FRAME: [Signal; 4] =
+    [HEAD_SAMPLE, HEAD_ACCEL[0], HEAD_ACCEL[1], HEAD_ACCEL[2]];
+/// HeadDepth fields.
+pub const HEAD_DEPTH_FRAME: [Signal; 5] = [
+    HEAD_SAMPLE,
+    HEAD_PRESSURE,
+    HEAD_TEMPERATURE,
+    HEAD_STATUS,
+    HEAD_ERRORS,
+];

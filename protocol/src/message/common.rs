@@ -1,7 +1,11 @@
 //! Layouts shared by both variants: SYNC, Command, Heartbeat, ConfigWrite,
-//! ConfigAck and the status bits of Feedback.
+//! ConfigAck, the status bits of Feedback, and the head sensor's fields
+//! (placed per variant by [`super::classic`] and [`super::fd`]).
 
-use super::{ErrorBits, POSITION_LIMIT, TORQUE_LIMIT, VELOCITY_LIMIT, WATCHDOG_RANGE_MS};
+use super::{
+    ACCEL_LIMIT, ErrorBits, POSITION_LIMIT, RATE_LIMIT, SensorErrors, SensorStatus, TORQUE_LIMIT,
+    VELOCITY_LIMIT, WATCHDOG_RANGE_MS,
+};
 use crate::signal::{Mux, Signal};
 
 /// SYNC: the cycle counter.
@@ -179,3 +183,160 @@ pub const FB_LIMITED: [Signal; 2] = [
     Signal::uint("PitchLimited", 2, 1, 1, "pitch at or clamped to a limit"),
     Signal::uint("YawLimited", 3, 1, 1, "yaw at or clamped to a limit"),
 ];
+
+/// Head sensor body-rate scale: 2 mrad/s per count (16 bits, ±35 rad/s).
+pub const RATE_FACTOR: f64 = 0.002;
+/// Head sensor acceleration scale: 5 mm/s² per count (16 bits, ±160 m/s²).
+pub const ACCEL_FACTOR: f64 = 0.005;
+/// Head sensor pressure scale: 1 Pa per count (24 bits unsigned, up to
+/// 16.7 MPa absolute, about 1 700 m of water).
+pub const PRESSURE_FACTOR: f64 = 1.0;
+/// Head sensor water temperature scale: 0.01 °C per count (16 bits).
+pub const WATER_TEMPERATURE_FACTOR: f64 = 0.01;
+/// Largest pressure a head sample carries, Pa.
+pub const PRESSURE_MAX: u32 = (1 << 24) - 1;
+
+/// The head sensor's sample counter at `start`.
+pub const fn head_sample(start: u16) -> Signal {
+    Signal::uint(
+        "Sample",
+        start,
+        8,
+        255,
+        "+1 per sample: pairs frames, shows losses",
+    )
+}
+
+/// The head sensor's status byte at `start`.
+pub const fn head_status(start: u16) -> Signal {
+    Signal::uint(
+        "Status",
+        start,
+        8,
+        SensorStatus::ALL as u32,
+        "bits 0-1 attitude accuracy, 2 attitude, 3 IMU, 4 pressure, 5 temperature valid",
+    )
+}
+
+/// The head sensor's error byte at `start`.
+pub const fn head_errors(start: u16) -> Signal {
+    Signal::uint(
+        "Errors",
+        start,
+        8,
+        SensorErrors::ALL as u32,
+        "0 IMU, 1 pressure sensor, 2 IMU reset, 3 overrun, 4 bus",
+    )
+}
+
+/// The head sensor's absolute pressure (u24) at `start`.
+pub const fn head_pressure(start: u16) -> Signal {
+    Signal::ufixed(
+        "Pressure",
+        start,
+        24,
+        PRESSURE_FACTOR,
+        0.0,
+        PRESSURE_MAX as f64,
+        "Pa",
+        "absolute pressure",
+    )
+}
+
+/// The head sensor's water temperature (i16) at `start`.
+pub const fn head_temperature(start: u16) -> Signal {
+    Signal {
+        min: -40.0,
+        max: 85.0,
+        ..Signal::fixed(
+            "WaterTemperature",
+            start,
+            16,
+            WATER_TEMPERATURE_FACTOR,
+            0.0,
+            "degC",
+            "water temperature",
+        )
+    }
+}
+
+/// The head sensor's body rates (x, y, z; i16 each) from `start`.
+pub const fn head_rates(start: u16) -> [Signal; 3] {
+    const fn s(name: &'static str, start: u16, comment: &'static str) -> Signal {
+        Signal::fixed(name, start, 16, RATE_FACTOR, RATE_LIMIT, "rad/s", comment)
+    }
+    [
+        s(
+            "RateX",
+            start,
+            "body rate about the head's x (forward) axis",
+        ),
+        s(
+            "RateY",
+            start + 16,
+            "body rate about the head's y (left) axis",
+        ),
+        s(
+            "RateZ",
+            start + 32,
+            "body rate about the head's z (up) axis",
+        ),
+    ]
+}
+
+/// The head sensor's accelerations (x, y, z; i16 each) from `start`.
+pub const fn head_accel(start: u16) -> [Signal; 3] {
+    const fn s(name: &'static str, start: u16, comment: &'static str) -> Signal {
+        Signal::fixed(name, start, 16, ACCEL_FACTOR, ACCEL_LIMIT, "m/s^2", comment)
+    }
+    [
+        s("AccelX", start, "specific force along the head's x axis"),
+        s(
+            "AccelY",
+            start + 16,
+            "specific force along the head's y axis",
+        ),
+        s(
+            "AccelZ",
+            start + 32,
+            "specific force along the head's z axis",
+        ),
+    ]
+}
+
+/// The head sensor's attitude quaternion (w, x, y, z; `bits` each, full
+/// scale ±1) from `start`.
+pub const fn head_quaternion(start: u16, bits: u8) -> [Signal; 4] {
+    let factor = 1.0 / ((1u32 << (bits - 1)) - 1) as f64;
+    let b = bits as u16;
+    let q = Signal::fixed(
+        "QuatW",
+        start,
+        bits,
+        factor,
+        1.0,
+        "",
+        "attitude quaternion w (head to world)",
+    );
+    [
+        q,
+        Signal {
+            name: "QuatX",
+            start: start + b,
+            comment: "attitude quaternion x",
+            ..q
+        },
+        Signal {
+            name: "QuatY",
+            start: start + 2 * b,
+            comment: "attitude quaternion y",
+            ..q
+        },
+        Signal {
+            name: "QuatZ",
+            start: start + 3 * b,
+            comment: "attitude quaternion z",
+            ..q
+        },
+    ]
+}

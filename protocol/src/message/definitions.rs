@@ -91,7 +91,10 @@ const CONFIG_ACK_DEF: MessageDef = MessageDef {
     comment: "outcome and value in effect",
 };
 
-const CLASSIC_DEFS: [MessageDef; 8] = [
+/// When a head sensor sends its sample frames.
+const HEAD_PERIOD: &str = "every sample, 100-200 Hz on the sensor's own clock (not SYNC)";
+
+const CLASSIC_DEFS: [MessageDef; 12] = [
     ESTOP_DEF,
     SYNC_DEF,
     COMMAND_DEF,
@@ -118,9 +121,49 @@ const CLASSIC_DEFS: [MessageDef; 8] = [
     HEARTBEAT_DEF,
     CONFIG_WRITE_DEF,
     CONFIG_ACK_DEF,
+    MessageDef {
+        function: Function::HeadAttitude,
+        name: "HeadAttitude",
+        direction: Direction::NodeToHost,
+        addressing: Addressing::Sensor,
+        len: 8,
+        period: HEAD_PERIOD,
+        signals: &classic::HEAD_ATTITUDE_FRAME,
+        comment: "head attitude quaternion (fusion IMUs only)",
+    },
+    MessageDef {
+        function: Function::HeadRates,
+        name: "HeadRates",
+        direction: Direction::NodeToHost,
+        addressing: Addressing::Sensor,
+        len: 7,
+        period: HEAD_PERIOD,
+        signals: &classic::HEAD_RATES_FRAME,
+        comment: "head body rates",
+    },
+    MessageDef {
+        function: Function::HeadAccel,
+        name: "HeadAccel",
+        direction: Direction::NodeToHost,
+        addressing: Addressing::Sensor,
+        len: 7,
+        period: HEAD_PERIOD,
+        signals: &classic::HEAD_ACCEL_FRAME,
+        comment: "head accelerations (specific force)",
+    },
+    MessageDef {
+        function: Function::HeadDepth,
+        name: "HeadDepth",
+        direction: Direction::NodeToHost,
+        addressing: Addressing::Sensor,
+        len: 8,
+        period: HEAD_PERIOD,
+        signals: &classic::HEAD_DEPTH_FRAME,
+        comment: "pressure, water temperature, status and errors; the sample's last frame",
+    },
 ];
 
-const FD_DEFS: [MessageDef; 8] = [
+const FD_DEFS: [MessageDef; 9] = [
     ESTOP_DEF,
     SYNC_DEF,
     COMMAND_DEF,
@@ -147,6 +190,16 @@ const FD_DEFS: [MessageDef; 8] = [
     HEARTBEAT_DEF,
     CONFIG_WRITE_DEF,
     CONFIG_ACK_DEF,
+    MessageDef {
+        function: Function::HeadSample,
+        name: "HeadSample",
+        direction: Direction::NodeToHost,
+        addressing: Addressing::Sensor,
+        len: 32,
+        period: HEAD_PERIOD,
+        signals: &fd::HEAD_SAMPLE_FRAME,
+        comment: "a whole head-sensor sample: attitude, rates, accelerations, pressure, temperature, status",
+    },
 ];
 
 /// Every message definition of a variant, in identifier order.
@@ -212,7 +265,7 @@ mod tests {
     fn addressed_to_follows_the_readme_identifiers() {
         use Variant::{Classic, Fd};
         let std = Id::standard_literal;
-        let cases: [(u16, Variant, u8, bool); 25] = [
+        let cases: [(u16, Variant, u8, bool); 27] = [
             (0x000, Classic, 5, true), // E-stop all
             (0x005, Classic, 5, true), // E-stop node 5
             (0x006, Classic, 5, false),
@@ -236,7 +289,9 @@ mod tests {
             (0x1C0, Classic, 5, false), // ConfigWrite is never broadcast
             (0x1C7, Fd, 7, true),
             (0x205, Classic, 5, false), // ConfigAck: node to host
-            (0x245, Classic, 5, false), // unused
+            (0x245, Classic, 5, false), // HeadAttitude: sensor to host
+            (0x345, Fd, 5, false),      // HeadSample: sensor to host
+            (0x385, Classic, 5, false), // unused
             (0x7FF, Fd, 5, false),
         ];
         for (raw, variant, n, expected) in cases {

@@ -211,3 +211,39 @@ pub const fn group_len(slots: usize) -> usize {
     }
     64
 }
+
+/// Head sensor sample counter.
+pub const HEAD_SAMPLE: Signal = common::head_sample(0);
+/// Head sensor status.
+pub const HEAD_STATUS: Signal = common::head_status(8);
+/// Head sensor errors.
+pub const HEAD_ERRORS: Signal = common::head_errors(16);
+/// Head absolute pressure.
+pub const HEAD_PRESSURE: Signal = common::head_pressure(24);
+/// Head water temperature.
+pub const HEAD_TEMPERATURE: Signal = common::head_temperature(48);
+/// Head attitude: quaternion w, x, y, z in 16 bits each, full scale ±1
+/// (1/32767 per count).
+pub const HEAD_QUATERNION: [Signal; 4] = common::head_quaternion(64, 16);
+/// Head body rates.
+pub const HEAD_RATES: [Signal; 3] = common::head_rates(128);
+/// Head accelerations.
+pub const HEAD_ACCEL: [Signal; 3] = common::head_accel(176);
+/// HeadSample fields (28 bytes used of a 32-byte frame).
+pub const HEAD_SAMPLE_FRAME: [Signal; 15] = [
+    HEAD_SAMPLE,
+    HEAD_STATUS,
+    HEAD_ERRORS,
+    HEAD_PRESSURE,
+    HEAD_TEMPERATURE,
+    HEAD_QUATERNION[0],
+    HEAD_QUATERNION[1],
+    HEAD_QUATERNION[2],
+    HEAD_QUATERNION[3],
+    HEAD_RATES[0],
+    HEAD_RATES[1],
+    HEAD_RATES[2],
+    HEAD_ACCEL[0],
+    HEAD_ACCEL[1],
+    HEAD_ACCEL[2],
+];

@@ -25,6 +25,17 @@ pub const DEFAULT_WATCHDOG_MS: u16 = 50;
 pub const DEFAULT_SAFE_ACTION: SafeAction = SafeAction::Limp;
 /// Watchdog timeout range a node accepts, in milliseconds.
 pub const WATCHDOG_RANGE_MS: (u16, u16) = (2, 1000);
+/// Documented body-rate range of the head sensor: ±35 rad/s (±2000 °/s,
+/// the widest gyro range of common IMUs).
+pub const RATE_LIMIT: f64 = 35.0;
+/// Documented acceleration range of the head sensor: ±160 m/s² (±16 g).
+pub const ACCEL_LIMIT: f64 = 160.0;
+/// Sample rates a head sensor may run at, Hz (inclusive).
+pub const HEAD_SENSOR_RATE_HZ: (u16, u16) = (100, 200);
+/// The head sensor's node id unless configured otherwise: the top of the
+/// id range, away from vertebrae numbered from 1 (the DBC files list the
+/// sensor's messages for this id).
+pub const DEFAULT_HEAD_SENSOR_ID: u8 = MAX_NODE_ID;
 
 /// Which bus the protocol runs on; layouts and frame kinds differ.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -437,6 +448,140 @@ pub enum ConfigResult {
     NotDisabled = 2,
 }
 
+/// The head sensor's status byte: what the sample holds and how good the
+/// attitude is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct SensorStatus(pub u8);
+
+impl SensorStatus {
+    /// Bits 0..=1: attitude accuracy as a BNO08x reports it (0 unreliable,
+    /// 1 low, 2 medium, 3 high); 0 without attitude.
+    pub const ACCURACY_MASK: u8 = 0b11;
+    /// The attitude (quaternion) is valid: a fusion IMU. A raw 6-axis IMU
+    /// leaves this clear and sends no HeadAttitude frame on classic CAN.
+    pub const ATTITUDE: u8 = 1 << 2;
+    /// Body rates and accelerations are valid.
+    pub const IMU: u8 = 1 << 3;
+    /// Pressure is valid.
+    pub const PRESSURE: u8 = 1 << 4;
+    /// Water temperature is valid.
+    pub const TEMPERATURE: u8 = 1 << 5;
+    /// Every defined bit.
+    pub const ALL: u8 = (1 << 6) - 1;
+
+    /// The attitude accuracy, 0..=3.
+    pub const fn accuracy(self) -> u8 {
+        self.0 & Self::ACCURACY_MASK
+    }
+
+    /// Whether every bit of `bits` is set.
+    pub const fn has(self, bits: u8) -> bool {
+        self.0 & bits == bits
+    }
+}
+
+/// The head sensor's error byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct SensorErrors(pub u8);
+
+impl SensorErrors {
+    /// The IMU does not answer or failed its self-test (fault).
+    pub const IMU: u8 = 1 << 0;
+    /// The pressure sensor does not answer (fault).
+    pub const PRESSURE: u8 = 1 << 1;
+    /// The IMU reset since the last sample: attitude is re-converging.
+    pub const IMU_RESET: u8 = 1 << 2;
+    /// Samples were dropped inside the sensor (the sample counter skips).
+    pub const OVERRUN: u8 = 1 << 3;
+    /// CAN error-passive or bus-off seen (warning).
+    pub const BUS: u8 = 1 << 4;
+    /// Every defined bit.
+    pub const ALL: u8 = (1 << 5) - 1;
+
+    /// Whether any of `bits` is set.
+    pub const fn any(self, bits: u8) -> bool {
+        self.0 & bits != 0
+    }
+}
+
+/// One head-sensor sample: everything the sensor measured at one instant.
+/// On CAN FD it travels as one [`Message::HeadSample`] frame; on classic
+/// CAN as [`Message::HeadAttitude`] (fusion IMUs only),
+/// [`Message::HeadRates`], [`Message::HeadAccel`] and
+/// [`Message::HeadDepth`], tied together by `sample`
+/// ([`encode_head_sample`](super::encode_head_sample)).
+///
+/// Frames: the head frame is the body frame of the robot's first link,
+/// x forward, y left, z up; the attitude rotates head-frame vectors into
+/// the world frame (x, y horizontal, z up).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadSample {
+    /// Reporting sensor.
+    pub node: NodeId,
+    /// Sample counter, +1 per sample (wraps): pairs a sample's classic
+    /// frames and shows lost samples.
+    pub sample: u8,
+    /// Attitude quaternion `[w, x, y, z]`, each within ±1 (zeros when the
+    /// status has no [`SensorStatus::ATTITUDE`]).
+    pub quaternion: [f32; 4],
+    /// Body rates about the head's x, y, z axes, rad/s, within
+    /// ±[`RATE_LIMIT`].
+    pub rates: [f32; 3],
+    /// Specific force along the head's x, y, z axes, m/s², within
+    /// ±[`ACCEL_LIMIT`] (what an accelerometer measures: +9.81 on z at rest,
+    /// level).
+    pub accel: [f32; 3],
+    /// Absolute pressure, Pa (0..=16 777 215); the daemon converts it to
+    /// depth with its configured water density and surface pressure.
+    pub pressure: u32,
+    /// Water temperature, °C, -40..=85.
+    pub temperature: f32,
+    /// What is valid, attitude accuracy.
+    pub status: SensorStatus,
+    /// Error bits.
+    pub errors: SensorErrors,
+}
+
+/// Classic CAN: a head sample's attitude.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadAttitude {
+    /// Reporting sensor.
+    pub node: NodeId,
+    /// Sample counter.
+    pub sample: u8,
+    /// `[w, x, y, z]`, each within ±1.
+    pub quaternion: [f32; 4],
+}
+
+/// Classic CAN: a head sample's body rates (rad/s) or accelerations (m/s²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadVector {
+    /// Reporting sensor.
+    pub node: NodeId,
+    /// Sample counter.
+    pub sample: u8,
+    /// Components along the head's x, y, z axes.
+    pub xyz: [f32; 3],
+}
+
+/// Classic CAN: a head sample's pressure, water temperature, status and
+/// errors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadDepth {
+    /// Reporting sensor.
+    pub node: NodeId,
+    /// Sample counter.
+    pub sample: u8,
+    /// Absolute pressure, Pa.
+    pub pressure: u32,
+    /// Water temperature, °C.
+    pub temperature: f32,
+    /// What is valid, attitude accuracy.
+    pub status: SensorStatus,
+    /// Error bits.
+    pub errors: SensorErrors,
+}
+
 /// Every message of the protocol, both directions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Message {
@@ -478,6 +623,17 @@ pub enum Message {
         /// Outcome.
         result: ConfigResult,
     },
+    /// Head sensor → host, classic CAN: attitude (fusion IMUs only).
+    HeadAttitude(HeadAttitude),
+    /// Head sensor → host, classic CAN: body rates, rad/s.
+    HeadRates(HeadVector),
+    /// Head sensor → host, classic CAN: accelerations, m/s².
+    HeadAccel(HeadVector),
+    /// Head sensor → host, classic CAN: pressure, water temperature,
+    /// status and errors (the sample's last frame).
+    HeadDepth(HeadDepth),
+    /// Head sensor → host, CAN FD: a whole sample.
+    HeadSample(HeadSample),
 }
 
 /// Function codes: the high five bits of every identifier.
@@ -501,11 +657,21 @@ pub enum Function {
     ConfigWrite = 7,
     /// 0x200 + node.
     ConfigAck = 8,
+    /// 0x240 + sensor (classic only).
+    HeadAttitude = 9,
+    /// 0x280 + sensor (classic only).
+    HeadRates = 10,
+    /// 0x2C0 + sensor (classic only).
+    HeadAccel = 11,
+    /// 0x300 + sensor (classic only).
+    HeadDepth = 12,
+    /// 0x340 + sensor (CAN FD only).
+    HeadSample = 13,
 }
 
 impl Function {
     /// Every function, in priority order.
-    pub const ALL: [Function; 9] = [
+    pub const ALL: [Function; 14] = [
         Function::EStop,
         Function::Sync,
         Function::Command,
@@ -515,6 +681,11 @@ impl Function {
         Function::Heartbeat,
         Function::ConfigWrite,
         Function::ConfigAck,
+        Function::HeadAttitude,
+        Function::HeadRates,
+        Function::HeadAccel,
+        Function::HeadDepth,
+        Function::HeadSample,
     ];
 
     /// The identifier of this function for node (or group) `low`.
@@ -523,8 +694,8 @@ impl Function {
     }
 
     /// The CAN identifier of this function for node (or group) `low`: a
-    /// standard id, always in range (the highest, ConfigAck for node 63, is
-    /// 0x23F).
+    /// standard id, always in range (the highest, HeadSample for node 63, is
+    /// 0x37F).
     pub const fn can_id(self, low: u8) -> Id {
         Id::standard_literal(self.id(low))
     }
@@ -556,7 +727,7 @@ const LOW_BITS: u16 = 6;
 /// Mask of the low bits of an identifier.
 const LOW_MASK: u16 = (1 << LOW_BITS) - 1;
 
-/// The first identifier above every function's range (0x240): ids from
+/// The first identifier above every function's range (0x380): ids from
 /// here to 0x7FF are not used by the protocol, and nodes ignore them.
 pub const FIRST_UNUSED_ID: u16 = (Function::ALL.len() as u16) << LOW_BITS;
 
@@ -580,6 +751,8 @@ pub enum Addressing {
     Node,
     /// A setpoint group index 0..=10.
     Group,
+    /// The head sensor's node id (1..=63, distinct from the vertebrae's).
+    Sensor,
 }
 
 impl Addressing {
@@ -587,12 +760,13 @@ impl Addressing {
     /// `node` under this addressing: [`Addressing::Broadcast`] only with
     /// 0, [`Addressing::AllOrNode`] with 0 or the node's id,
     /// [`Addressing::Node`] with the node's id, [`Addressing::Group`] with
-    /// the group that carries the node ([`SetpointGroup::locate`]).
+    /// the group that carries the node ([`SetpointGroup::locate`]),
+    /// [`Addressing::Sensor`] with the sensor's id.
     pub const fn reaches(self, low: u8, node: NodeId) -> bool {
         match self {
             Addressing::Broadcast => low == 0,
             Addressing::AllOrNode => low == 0 || low == node.0,
-            Addressing::Node => low == node.0,
+            Addressing::Node | Addressing::Sensor => low == node.0,
             Addressing::Group => low == SetpointGroup::locate(node).0,
         }
     }
@@ -610,6 +784,11 @@ pub const fn function_name(f: Function) -> &'static str {
         Function::Heartbeat => "Heartbeat",
         Function::ConfigWrite => "ConfigWrite",
         Function::ConfigAck => "ConfigAck",
+        Function::HeadAttitude => "HeadAttitude",
+        Function::HeadRates => "HeadRates",
+        Function::HeadAccel => "HeadAccel",
+        Function::HeadDepth => "HeadDepth",
+        Function::HeadSample => "HeadSample",
     }
 }
 
@@ -633,7 +812,12 @@ mod tests {
         assert_eq!(Function::split_id(0x040), Some((Function::Sync, 0)));
         assert_eq!(Function::split_id(0x185), Some((Function::Heartbeat, 5)));
         assert_eq!(Function::split_id(0x23F), Some((Function::ConfigAck, 63)));
-        assert_eq!(FIRST_UNUSED_ID, 0x240);
+        assert_eq!(
+            Function::split_id(0x27F),
+            Some((Function::HeadAttitude, 63))
+        );
+        assert_eq!(Function::split_id(0x341), Some((Function::HeadSample, 1)));
+        assert_eq!(FIRST_UNUSED_ID, 0x380);
         for id in FIRST_UNUSED_ID..=crate::frame::MAX_STANDARD_ID {
             assert_eq!(Function::split_id(id), None, "0x{id:03X}");
             assert_eq!(Function::from_id(id), None, "0x{id:03X}");
