@@ -313,31 +313,21 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let running = robot
         .spawn(clock)
         .context("starting the simulation thread")?;
-    let started = Instant::now();
-    let mut next_status = Duration::from_secs(1);
-    while !crate::signals::requested() {
-        let el = started.elapsed();
-        if args.duration.is_some_and(|d| el.as_secs_f64() >= d) {
-            break;
-        }
-        if el >= next_status {
-            next_status += Duration::from_secs(1);
-            let t = running.truth();
-            let s = running.status();
-            out.line(format_args!(
-                "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
-                t.time.as_secs_f64(),
-                t.forward_speed + 0.0, // no "-0.000" at rest
-                t.yaw.to_degrees() + 0.0,
-                s.states,
-                s.stats.frames_in,
-                s.stats.frames_out,
-                s.stats.send_errors,
-                s.stats.slipped.as_secs_f64(),
-            ));
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    each_second_until_stopped(args.duration, |_| {
+        let t = running.truth();
+        let s = running.status();
+        out.line(format_args!(
+            "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
+            t.time.as_secs_f64(),
+            t.forward_speed + 0.0, // no "-0.000" at rest
+            t.yaw.to_degrees() + 0.0,
+            s.states,
+            s.stats.frames_in,
+            s.stats.frames_out,
+            s.stats.send_errors,
+            s.stats.slipped.as_secs_f64(),
+        ));
+    });
     let robot = running
         .stop()
         .context("the simulation thread stopped unexpectedly")?;
@@ -387,6 +377,24 @@ fn start_adapters(
         .collect()
 }
 
+/// Calls `each_second` with the time since the start once a second, until
+/// `duration` seconds (if any) have passed or a stop signal arrives;
+/// sleeps to absolute deadlines in between and wakes at once on a signal.
+fn each_second_until_stopped(duration: Option<f64>, mut each_second: impl FnMut(Duration)) {
+    const S: u64 = 1_000_000_000;
+    let start = anguilla_daemon::rt::monotonic_ns();
+    let end = duration.map(|d| start.saturating_add((d * 1e9) as u64));
+    let mut next = start + S;
+    loop {
+        let deadline = end.map_or(next, |e| e.min(next));
+        if crate::signals::sleep_until_ns(deadline) || end.is_some_and(|e| deadline >= e) {
+            return;
+        }
+        each_second(Duration::from_nanos(next - start));
+        next += S;
+    }
+}
+
 /// `--slcan-pty --joints 0`: the adapters on one simulated bus and nothing
 /// else, so that tools opened on different adapters talk to each other.
 fn run_bus_alone(args: &SimArgs, adapters: usize) -> anyhow::Result<()> {
@@ -402,22 +410,13 @@ fn run_bus_alone(args: &SimArgs, adapters: usize) -> anyhow::Result<()> {
         args.bitrate
     ));
     let started = Instant::now();
-    let mut next_status = Duration::from_secs(1);
-    while !crate::signals::requested() {
-        let el = started.elapsed();
-        if args.duration.is_some_and(|d| el.as_secs_f64() >= d) {
-            break;
-        }
-        if el >= next_status {
-            next_status += Duration::from_secs(1);
-            let (from, to) = frame_counts(&emulators);
-            out.line(format_args!(
-                "t {:7.1} s  frames from hosts {from:?}  to hosts {to:?}",
-                el.as_secs_f64(),
-            ));
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    each_second_until_stopped(args.duration, |el| {
+        let (from, to) = frame_counts(&emulators);
+        out.line(format_args!(
+            "t {:7.1} s  frames from hosts {from:?}  to hosts {to:?}",
+            el.as_secs_f64(),
+        ));
+    });
     let (from, to) = frame_counts(&emulators);
     for e in emulators {
         e.stop();
