@@ -31,29 +31,7 @@ pub fn requested() -> bool {
 
 /// Sleeps until CLOCK_MONOTONIC reaches `deadline_ns` (absolute, as
 /// `anguilla_daemon::rt::monotonic_ns` counts), or until a stop signal
-/// arrives: the handler interrupts the sleep (`clock_nanosleep` is never
-/// restarted after a signal handler). Returns whether a stop was requested.
-/// A signal landing between the flag check and the sleep is seen at the
-/// deadline.
+/// arrives and interrupts the sleep. Returns whether a stop was requested.
 pub fn sleep_until_ns(deadline_ns: u64) -> bool {
-    let ts = libc::timespec {
-        tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
-        tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
-    };
-    while !requested() {
-        // SAFETY: ts is valid; the remaining-time pointer may be null with
-        // TIMER_ABSTIME.
-        let r = unsafe {
-            libc::clock_nanosleep(
-                libc::CLOCK_MONOTONIC,
-                libc::TIMER_ABSTIME,
-                &ts,
-                core::ptr::null_mut(),
-            )
-        };
-        if r != libc::EINTR {
-            break;
-        }
-    }
-    requested()
+    anguilla_daemon::rt::sleep_until_ns_unless(deadline_ns, requested)
 }

@@ -111,11 +111,19 @@ pub fn monotonic_ns() -> u64 {
 /// `TIMER_ABSTIME`: the sleep does not drift with the work done before it).
 /// Returns at once if the deadline has passed; resumes after signals.
 pub fn sleep_until_ns(deadline_ns: u64) {
+    sleep_until_ns_unless(deadline_ns, || false);
+}
+
+/// [`sleep_until_ns`], but a signal handler that makes `stop` true ends
+/// the sleep (`clock_nanosleep` is never restarted after a handler);
+/// returns `stop()`. A signal landing between the check and the sleep is
+/// seen at the deadline.
+pub fn sleep_until_ns_unless(deadline_ns: u64, stop: impl Fn() -> bool) -> bool {
     let ts = libc::timespec {
         tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
         tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
     };
-    loop {
+    while !stop() {
         // SAFETY: ts is valid; the remaining-time pointer may be null with TIMER_ABSTIME.
         let r = unsafe {
             libc::clock_nanosleep(
@@ -126,9 +134,10 @@ pub fn sleep_until_ns(deadline_ns: u64) {
             )
         };
         if r != libc::EINTR {
-            return;
+            break;
         }
     }
+    stop()
 }
 
 #[cfg(test)]
