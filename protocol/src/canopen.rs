@@ -440,6 +440,26 @@ impl Object {
     }
 }
 
+/// `data` in an array of `N` bytes with its length, if it holds
+/// `min..=N` bytes (else an error naming `message` and the range).
+fn short<const N: usize>(
+    data: &[u8],
+    message: &'static str,
+    min: usize,
+) -> Result<(u8, [u8; N]), EncodeError> {
+    if data.len() < min || data.len() > N {
+        return Err(EncodeError::PayloadLength {
+            message,
+            len: data.len(),
+            min: min as u8,
+            max: N as u8,
+        });
+    }
+    let mut bytes = [0u8; N];
+    bytes[..data.len()].copy_from_slice(data);
+    Ok((data.len() as u8, bytes))
+}
+
 /// The 1..=4 bytes of an expedited SDO transfer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct SdoData {
@@ -450,20 +470,8 @@ pub struct SdoData {
 impl SdoData {
     /// 1..=4 bytes, little-endian as the object's type is.
     pub fn new(data: &[u8]) -> Result<Self, EncodeError> {
-        if data.is_empty() || data.len() > 4 {
-            return Err(EncodeError::PayloadLength {
-                message: "expedited SDO",
-                len: data.len(),
-                min: 1,
-                max: 4,
-            });
-        }
-        let mut bytes = [0u8; 4];
-        bytes[..data.len()].copy_from_slice(data);
-        Ok(SdoData {
-            len: data.len() as u8,
-            bytes,
-        })
+        let (len, bytes) = short::<4>(data, "expedited SDO", 1)?;
+        Ok(SdoData { len, bytes })
     }
 
     /// The bytes.
@@ -487,20 +495,8 @@ pub struct PdoData {
 impl PdoData {
     /// 0..=8 bytes.
     pub fn new(data: &[u8]) -> Result<Self, EncodeError> {
-        if data.len() > 8 {
-            return Err(EncodeError::PayloadLength {
-                message: "PDO",
-                len: data.len(),
-                min: 0,
-                max: 8,
-            });
-        }
-        let mut bytes = [0u8; 8];
-        bytes[..data.len()].copy_from_slice(data);
-        Ok(PdoData {
-            len: data.len() as u8,
-            bytes,
-        })
+        let (len, bytes) = short::<8>(data, "PDO", 0)?;
+        Ok(PdoData { len, bytes })
     }
 
     /// The bytes.
@@ -522,20 +518,8 @@ impl SegmentData {
 
     /// 0..=7 bytes.
     pub fn new(data: &[u8]) -> Result<Self, EncodeError> {
-        if data.len() > Self::MAX {
-            return Err(EncodeError::PayloadLength {
-                message: "SDO segment",
-                len: data.len(),
-                min: 0,
-                max: Self::MAX as u8,
-            });
-        }
-        let mut bytes = [0u8; 7];
-        bytes[..data.len()].copy_from_slice(data);
-        Ok(SegmentData {
-            len: data.len() as u8,
-            bytes,
-        })
+        let (len, bytes) = short::<{ SegmentData::MAX }>(data, "SDO segment", 0)?;
+        Ok(SegmentData { len, bytes })
     }
 
     /// The bytes.
