@@ -1104,6 +1104,100 @@ pub mod cia402 {
     /// 0x6060 value of cyclic synchronous position mode.
     pub const MODE_CSP: i8 = 8;
 
+    /// A PDO mapping entry (CiA 301: index << 16 | sub << 8 | bit length).
+    pub const fn mapping_entry(index: u16, sub: u8, bits: u8) -> u32 {
+        (index as u32) << 16 | (sub as u32) << 8 | bits as u32
+    }
+
+    /// RPDO1 as anguilla's master maps it (`docs/drives.md`): controlword,
+    /// target position, torque offset — 8 bytes, little-endian.
+    pub const CSP_RPDO1: [u32; 3] = [
+        mapping_entry(CONTROLWORD, 0, 16),
+        mapping_entry(TARGET_POSITION, 0, 32),
+        mapping_entry(TORQUE_OFFSET, 0, 16),
+    ];
+
+    /// TPDO1 as anguilla's master maps it: statusword, position actual,
+    /// torque actual — 8 bytes, little-endian.
+    pub const CSP_TPDO1: [u32; 3] = [
+        mapping_entry(STATUSWORD, 0, 16),
+        mapping_entry(POSITION_ACTUAL, 0, 32),
+        mapping_entry(TORQUE_ACTUAL, 0, 16),
+    ];
+
+    /// What RPDO1 ([`CSP_RPDO1`]) carries to a drive each period.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct CspCommand {
+        /// 0x6040.
+        pub controlword: u16,
+        /// 0x607A, increments.
+        pub target: i32,
+        /// 0x60B2, ‰ of the rated torque.
+        pub torque_offset: i16,
+    }
+
+    /// What TPDO1 ([`CSP_TPDO1`]) reports at each SYNC.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct CspStatus {
+        /// 0x6041.
+        pub statusword: u16,
+        /// 0x6064, increments.
+        pub position: i32,
+        /// 0x6077, ‰ of the rated torque.
+        pub torque: i16,
+    }
+
+    fn pack(a: u16, b: i32, c: i16) -> super::PdoData {
+        let mut d = [0u8; 8];
+        d[0..2].copy_from_slice(&a.to_le_bytes());
+        d[2..6].copy_from_slice(&b.to_le_bytes());
+        d[6..8].copy_from_slice(&c.to_le_bytes());
+        super::PdoData::new(&d).expect("8 bytes")
+    }
+
+    fn unpack(data: &super::PdoData) -> Option<(u16, i32, i16)> {
+        let d: &[u8; 8] = data.bytes().try_into().ok()?;
+        Some((
+            u16::from_le_bytes([d[0], d[1]]),
+            i32::from_le_bytes([d[2], d[3], d[4], d[5]]),
+            i16::from_le_bytes([d[6], d[7]]),
+        ))
+    }
+
+    impl CspCommand {
+        /// The RPDO's 8 bytes.
+        pub fn to_pdo(self) -> super::PdoData {
+            pack(self.controlword, self.target, self.torque_offset)
+        }
+
+        /// From an RPDO's bytes; `None` unless exactly 8.
+        pub fn from_pdo(data: &super::PdoData) -> Option<Self> {
+            let (controlword, target, torque_offset) = unpack(data)?;
+            Some(CspCommand {
+                controlword,
+                target,
+                torque_offset,
+            })
+        }
+    }
+
+    impl CspStatus {
+        /// The TPDO's 8 bytes.
+        pub fn to_pdo(self) -> super::PdoData {
+            pack(self.statusword, self.position, self.torque)
+        }
+
+        /// From a TPDO's bytes; `None` unless exactly 8.
+        pub fn from_pdo(data: &super::PdoData) -> Option<Self> {
+            let (statusword, position, torque) = unpack(data)?;
+            Some(CspStatus {
+                statusword,
+                position,
+                torque,
+            })
+        }
+    }
+
     /// The states of the CiA 402 power drive system state machine.
     #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
     pub enum DriveState {

@@ -35,7 +35,7 @@
 use anguilla_protocol::canopen::{
     self, AbortCode, Emcy, Message, NmtCommand, NmtState, NodeId, Object, Pdo, PdoData, SdoData,
     SdoRequest, SdoResponse,
-    cia402::{self, Command, DriveState},
+    cia402::{self, Command, CspCommand, CspStatus, DriveState},
 };
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
@@ -364,18 +364,18 @@ impl Master {
             3 => w(0x1400, 1, 0x8000_0200 + n, 4),
             4 => w(0x1400, 2, 1, 1),
             5 => w(0x1600, 0, 0, 1),
-            6 => w(0x1600, 1, 0x6040_0010, 4),
-            7 => w(0x1600, 2, 0x607A_0020, 4),
-            8 => w(0x1600, 3, 0x60B2_0010, 4),
+            6 => w(0x1600, 1, cia402::CSP_RPDO1[0], 4),
+            7 => w(0x1600, 2, cia402::CSP_RPDO1[1], 4),
+            8 => w(0x1600, 3, cia402::CSP_RPDO1[2], 4),
             9 => w(0x1600, 0, 3, 1),
             10 => w(0x1400, 1, 0x200 + n, 4),
             // TPDO1: statusword, position actual, torque actual, every SYNC.
             11 => w(0x1800, 1, 0x8000_0180 + n, 4),
             12 => w(0x1800, 2, 1, 1),
             13 => w(0x1A00, 0, 0, 1),
-            14 => w(0x1A00, 1, 0x6041_0010, 4),
-            15 => w(0x1A00, 2, 0x6064_0020, 4),
-            16 => w(0x1A00, 3, 0x6077_0010, 4),
+            14 => w(0x1A00, 1, cia402::CSP_TPDO1[0], 4),
+            15 => w(0x1A00, 2, cia402::CSP_TPDO1[1], 4),
+            16 => w(0x1A00, 3, cia402::CSP_TPDO1[2], 4),
             17 => w(0x1A00, 0, 3, 1),
             18 => w(0x1800, 1, 0x180 + n, 4),
             19 => w(cia402::COMMUNICATION_CYCLE_PERIOD, 0, period_us as u32, 4),
@@ -610,35 +610,35 @@ impl Master {
     }
 
     fn tpdo(&mut self, now: Nanos, j: usize, ax: usize, data: &PdoData) {
-        let d = data.bytes();
-        if d.len() < 8 {
+        let Some(st) = CspStatus::from_pdo(data) else {
             self.counters.malformed += 1;
             return;
-        }
+        };
         let a = &mut self.joints[j][ax];
-        a.statusword = Some(u16::from_le_bytes([d[0], d[1]]));
-        let counts = i32::from_le_bytes([d[2], d[3], d[4], d[5]]);
+        a.statusword = Some(st.statusword);
         if let Some((prev, t)) = a.position {
             let dt = now.saturating_sub(t).as_nanos() as f64 * 1e-9;
             if dt > 0.0 {
-                a.velocity = (a.map.from_counts(counts) - a.map.from_counts(prev)) / dt;
+                a.velocity = (a.map.from_counts(st.position) - a.map.from_counts(prev)) / dt;
             }
         }
-        a.position = Some((counts, now));
-        a.torque = i16::from_le_bytes([d[6], d[7]]);
+        a.position = Some((st.position, now));
+        a.torque = st.torque;
     }
 
-    fn rpdo(out: &mut Out<'_>, a: &Axis, control: u16, target: i32, torque: i16) {
-        let mut d = [0u8; 8];
-        d[0..2].copy_from_slice(&control.to_le_bytes());
-        d[2..6].copy_from_slice(&target.to_le_bytes());
-        d[6..8].copy_from_slice(&torque.to_le_bytes());
+    fn rpdo(out: &mut Out<'_>, a: &Axis, controlword: u16, target: i32, torque_offset: i16) {
+        let data = CspCommand {
+            controlword,
+            target,
+            torque_offset,
+        }
+        .to_pdo();
         Self::send(
             out,
             Message::Rpdo {
                 node: a.node,
                 pdo: Pdo::One,
-                data: PdoData::new(&d).expect("8 bytes"),
+                data,
             },
         );
     }

@@ -760,3 +760,37 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_csp_pdos_are_laid_out_as_their_mapping_entries_say() {
+    use super::cia402::{CSP_RPDO1, CSP_TPDO1, CspCommand, CspStatus};
+    // Each entry's bit length, in order, fills the 8 bytes exactly.
+    for mapping in [CSP_RPDO1, CSP_TPDO1] {
+        let bits: Vec<u32> = mapping.iter().map(|e| e & 0xFF).collect();
+        assert_eq!(bits, vec![16, 32, 16]);
+    }
+    assert_eq!(CSP_RPDO1, [0x6040_0010, 0x607A_0020, 0x60B2_0010]);
+    assert_eq!(CSP_TPDO1, [0x6041_0010, 0x6064_0020, 0x6077_0010]);
+    // Controlword 0x000F, target −2, torque offset 400 ‰, little-endian.
+    let c = CspCommand {
+        controlword: 0x000F,
+        target: -2,
+        torque_offset: 400,
+    };
+    assert_eq!(
+        c.to_pdo().bytes(),
+        &[0x0F, 0x00, 0xFE, 0xFF, 0xFF, 0xFF, 0x90, 0x01]
+    );
+    assert_eq!(CspCommand::from_pdo(&c.to_pdo()), Some(c));
+    let s = CspStatus {
+        statusword: 0x0237,
+        position: 65536,
+        torque: -1,
+    };
+    assert_eq!(
+        s.to_pdo().bytes(),
+        &[0x37, 0x02, 0x00, 0x00, 0x01, 0x00, 0xFF, 0xFF]
+    );
+    assert_eq!(CspStatus::from_pdo(&s.to_pdo()), Some(s));
+    assert_eq!(CspStatus::from_pdo(&PdoData::new(&[0; 7]).unwrap()), None);
+}
