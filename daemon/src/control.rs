@@ -555,7 +555,6 @@ impl Controller {
                 entering: mode != self.mode_before,
                 bus_off,
                 counter: self.counter,
-                period: self.period_ns,
                 setpoints: &self.setpoints,
                 skip: self.setpoint_skip,
             },

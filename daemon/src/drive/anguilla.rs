@@ -27,8 +27,9 @@ pub struct Nodes {
 }
 
 impl Nodes {
-    /// The nodes of `cfg` (`robot.node-ids`), unheard-of at `now`.
-    pub fn new(cfg: &Config, now: Nanos) -> Result<Self, DriveError> {
+    /// The nodes of `cfg` (`robot.node-ids`), unheard-of at `now`, for the
+    /// control period `period`.
+    pub fn new(cfg: &Config, now: Nanos, period: Nanos) -> Result<Self, DriveError> {
         let ids = cfg
             .node_ids()
             .into_iter()
@@ -42,7 +43,6 @@ impl Nodes {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let variant = cfg.bus.variant();
-        let period = crate::control::period_ns(cfg);
         let watchdog = match cfg.control.node_watchdog {
             // Five periods, but no less than 100 ms: a loop that is not
             // real-time (no SCHED_FIFO) can stall for tens of milliseconds

@@ -90,8 +90,6 @@ pub struct Period<'a> {
     pub bus_off: bool,
     /// The period's counter (anguilla's SYNC counter and cycle tag).
     pub counter: u16,
-    /// The control period.
-    pub period: Nanos,
     /// Each joint's setpoints, `[pitch, yaw]`, at the joint, limits applied.
     pub setpoints: &'a [[AxisSetpoint; 2]],
     /// Joints that get no setpoint (lost, in Fault).
@@ -230,7 +228,7 @@ pub enum DriveError {
 /// period `period`.
 pub fn build(cfg: &Config, now: Nanos, period: Nanos) -> Result<Box<dyn Drives>, DriveError> {
     Ok(match cfg.robot.drive {
-        anguilla_protocol::Family::Anguilla => Box::new(anguilla::Nodes::new(cfg, now)?),
+        anguilla_protocol::Family::Anguilla => Box::new(anguilla::Nodes::new(cfg, now, period)?),
         anguilla_protocol::Family::Cia402 => Box::new(cia402::Master::new(cfg, now, period)?),
         anguilla_protocol::Family::Odrive => Box::new(odrive::Axes::new(cfg, now)?),
     })

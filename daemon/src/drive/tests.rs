@@ -106,7 +106,6 @@ impl<D: Drives + ?Sized> Rig<D> {
                 entering,
                 bus_off: false,
                 counter: 0,
-                period: 10 * MS,
                 setpoints: &self.setpoints,
                 skip: NodeSet::empty(),
             },
