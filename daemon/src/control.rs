@@ -41,6 +41,21 @@ use crate::supervisor::{
     SwimParams,
 };
 
+/// The drives' way to `bus` for the controller `ctl` this period: every
+/// frame recorded, every refusal counted (split borrows of its fields, so
+/// the drives can be borrowed beside it).
+macro_rules! out {
+    ($ctl:ident, $bus:expr) => {
+        Out {
+            bus: $bus,
+            tap: &$ctl.tap,
+            tap_dropped: &mut $ctl.tap_dropped,
+            tx_errors: &mut $ctl.counters.tx_errors,
+            now: $ctl.now,
+        }
+    };
+}
+
 const MS: Nanos = Nanos::from_millis(1);
 /// Plausibility limits of the model's predictions for a 1 m robot: beyond
 /// them the model is taken as diverged (DESIGN.md: "NaN, non-finite,
@@ -419,13 +434,7 @@ impl Controller {
         } else {
             NodeSet::empty()
         };
-        let mut out = Out {
-            bus: &mut *bus,
-            tap: &self.tap,
-            tap_dropped: &mut self.tap_dropped,
-            tx_errors: &mut self.counters.tx_errors,
-            now,
-        };
+        let mut out = out!(self, &mut *bus);
         if d.send_estop {
             self.drives.estop(&mut out);
         }
@@ -540,13 +549,7 @@ impl Controller {
         }
         self.counters.clamped += clamped;
         // 6. Frames: drive commands, setpoints, SYNC.
-        let mut out = Out {
-            bus: &mut *bus,
-            tap: &self.tap,
-            tap_dropped: &mut self.tap_dropped,
-            tx_errors: &mut self.counters.tx_errors,
-            now,
-        };
+        let mut out = out!(self, &mut *bus);
         self.drives.period(
             &Period {
                 now,
@@ -651,13 +654,7 @@ impl Controller {
     /// Shutdown, second half: disable every actuator now.
     pub fn disable_all(&mut self, bus: &mut dyn Bus) {
         self.record(Record::End);
-        let mut out = Out {
-            bus,
-            tap: &self.tap,
-            tap_dropped: &mut self.tap_dropped,
-            tx_errors: &mut self.counters.tx_errors,
-            now: self.now,
-        };
+        let mut out = out!(self, bus);
         self.drives.disable_all(&mut out);
     }
 

@@ -239,16 +239,7 @@ pub fn control_traffic(variant: Variant, nodes: NodeSet) -> [BudgetLine; 4] {
     })
     .encode(variant)
     .expect("feedback encodes");
-    let heartbeat = Message::Heartbeat(Heartbeat {
-        node,
-        state: NodeState::Enabled,
-        errors: ErrorBits(0),
-        counter: 0,
-        missed_syncs: 0,
-        temperature: 20,
-    })
-    .encode(variant)
-    .expect("heartbeat encodes");
+    let heartbeat = heartbeat_frame(variant, node);
     let fb = worst_case_bits(&feedback);
     [
         BudgetLine {
@@ -313,16 +304,7 @@ pub fn head_sensor_traffic(variant: Variant, rate_hz: u16) -> Vec<BudgetLine> {
         });
     })
     .expect("a zero sample encodes");
-    let heartbeat = Message::Heartbeat(Heartbeat {
-        node,
-        state: NodeState::Enabled,
-        errors: ErrorBits(0),
-        counter: 0,
-        missed_syncs: 0,
-        temperature: 20,
-    })
-    .encode(variant)
-    .expect("heartbeat encodes");
+    let heartbeat = heartbeat_frame(variant, node);
     lines.push(BudgetLine {
         name: "Heartbeat (head sensor)",
         bytes: heartbeat.len() as u8,
@@ -467,6 +449,21 @@ impl Traffic {
             }
         }
     }
+}
+
+/// A node's heartbeat as the budget counts it (its length does not depend
+/// on the values).
+fn heartbeat_frame(variant: Variant, node: NodeId) -> Frame {
+    Message::Heartbeat(Heartbeat {
+        node,
+        state: NodeState::Enabled,
+        errors: ErrorBits(0),
+        counter: 0,
+        missed_syncs: 0,
+        temperature: 20,
+    })
+    .encode(variant)
+    .expect("heartbeat encodes")
 }
 
 /// Bus load of the cyclic traffic.
