@@ -20,21 +20,7 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     let prefix = format!("anguilla-test/slcan-processes-{}", std::process::id());
     let config = std::env::temp_dir().join(format!("anguilla-slcan-{}.toml", std::process::id()));
     std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
-    let _daemon = Killed(
-        Proc::new(&bin)
-            .args([
-                "run",
-                "--quiet",
-                "--bus",
-                &format!("slcan:{device}@1000000"),
-                "--config",
-            ])
-            .arg(&config)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("anguilla run starts"),
-    );
+    let _daemon = run_on_pty(&bin, &device, &config);
     let mut c = connect(&prefix, "slcan-operator");
     wait_for(&mut c, "the daemon's first state", 15.0, |_| true);
     ok(&mut c, Command::TakeControl);
@@ -96,21 +82,7 @@ fn cia402_and_odrive_robots_over_an_slcan_pty() {
             format!("[robot]\njoints = 6\ndrive = \"{drive}\"\n\n[ipc]\nprefix = \"{prefix}\"\n"),
         )
         .unwrap();
-        let daemon = Killed(
-            Proc::new(&bin)
-                .args([
-                    "run",
-                    "--quiet",
-                    "--bus",
-                    &format!("slcan:{device}@1000000"),
-                    "--config",
-                ])
-                .arg(&config)
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("anguilla run starts"),
-        );
+        let daemon = run_on_pty(&bin, &device, &config);
         let mut c = connect(&prefix, "slcan-operator");
         wait_for(
             &mut c,
@@ -161,6 +133,25 @@ fn cia402_and_odrive_robots_over_an_slcan_pty() {
         drop(sim);
         let _ = std::fs::remove_file(&config);
     }
+}
+
+/// `anguilla run --config CONFIG` on the emulated adapter at `device`.
+fn run_on_pty(bin: &std::path::Path, device: &str, config: &std::path::Path) -> Killed {
+    Killed(
+        Proc::new(bin)
+            .args([
+                "run",
+                "--quiet",
+                "--bus",
+                &format!("slcan:{device}@1000000"),
+                "--config",
+            ])
+            .arg(config)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("anguilla run starts"),
+    )
 }
 
 /// `anguilla sim --slcan-pty`, its device read from its first lines; the
