@@ -389,6 +389,79 @@ impl Default for ModelConfig {
     }
 }
 
+/// `[sensor]`: the head sensor (IMU and pressure; protocol/README.md
+/// "The head sensor") and how its samples become an estimate.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct SensorConfig {
+    /// The sensor's node id, 1..=63 and none of the joints'; 0: no sensor.
+    pub node: u8,
+    /// Its sample rate (Hz), for the bus budget: 100..=200.
+    pub rate_hz: u16,
+    /// A sensor silent this long is lost (s).
+    pub timeout: f64,
+    /// Water density (kg/m³): depth = (pressure − surface-pressure) / (ρ g).
+    pub water_density: f64,
+    /// Atmospheric pressure at the surface (Pa).
+    pub surface_pressure: f64,
+    /// |body rate − the model's predicted rate|, low-passed, beyond which
+    /// the estimate is implausible (rad/s).
+    pub max_rate_innovation: f64,
+    /// |roll| beyond which the robot is alarmed as rolled over (deg).
+    pub roll_alarm: f64,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        Self {
+            node: 0,
+            rate_hz: 100,
+            timeout: 0.1,
+            water_density: 1000.0,
+            surface_pressure: 101_325.0,
+            max_rate_innovation: 0.5,
+            roll_alarm: 60.0,
+        }
+    }
+}
+
+/// `[autopilot]`: heading and depth hold (docs/autopilot.md).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct AutopilotConfig {
+    /// Heading error to turn-rate gain (1/s).
+    pub heading_gain: f64,
+    /// Heading integral gain (1/s²).
+    pub heading_integral: f64,
+    /// Largest turn rate the autopilot asks for (deg/s).
+    pub max_turn_rate: f64,
+    /// Depth error to dive-rate gain (1/s).
+    pub depth_gain: f64,
+    /// Depth integral gain (1/s²).
+    pub depth_integral: f64,
+    /// Steepest dive or climb the autopilot asks for (deg of pitch).
+    pub max_dive_angle: f64,
+    /// Pitch error to pitch-rate gain (1/s).
+    pub pitch_gain: f64,
+    /// Deepest depth a hold accepts (m).
+    pub max_depth: f64,
+}
+
+impl Default for AutopilotConfig {
+    fn default() -> Self {
+        Self {
+            heading_gain: 0.8,
+            heading_integral: 0.1,
+            max_turn_rate: 30.0,
+            depth_gain: 0.5,
+            depth_integral: 0.05,
+            max_dive_angle: 30.0,
+            pitch_gain: 1.5,
+            max_depth: 10.0,
+        }
+    }
+}
+
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
@@ -411,6 +484,10 @@ pub struct Config {
     pub recording: RecordingConfig,
     /// `[model]`.
     pub model: ModelConfig,
+    /// `[sensor]`.
+    pub sensor: SensorConfig,
+    /// `[autopilot]`.
+    pub autopilot: AutopilotConfig,
 }
 
 fn range(
@@ -469,7 +546,12 @@ impl Config {
                 self.bus.bitrate
             )
         };
-        let traffic = anguilla_protocol::budget::Traffic::of_family(self.robot.drive, nodes);
+        let mut traffic = anguilla_protocol::budget::Traffic::of_family(self.robot.drive, nodes);
+        if let anguilla_protocol::budget::Traffic::Anguilla(_, sensor) = &mut traffic
+            && self.sensor.node != 0
+        {
+            *sensor = Some(self.sensor.rate_hz);
+        }
         let max = anguilla_protocol::budget::max_rate_of(traffic, rates, self.bus.max_load)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;
         let min = 1.0 / anguilla_model::MAX_DT;
@@ -620,6 +702,7 @@ impl Config {
             }
         }
         self.validate_axes()?;
+        self.validate_nav()?;
         let c = &self.control;
         if c.rate_hz != 0.0 {
             // The model's step is 1 / rate: at most MAX_DT (0.05 s).
@@ -764,6 +847,134 @@ impl Config {
 }
 
 impl Config {
+    fn validate_nav(&self) -> Result<(), ConfigError> {
+        let s = &self.sensor;
+        if s.node != 0 {
+            range(
+                "sensor.node",
+                s.node as f64,
+                1.0,
+                63.0,
+                "0 (none) or 1 ..= 63",
+            )?;
+            if self.robot.drive != anguilla_protocol::Family::Anguilla {
+                return Err(ConfigError::Derived(format!(
+                    "sensor.node = {} needs robot.drive = \"anguilla\": the head sensor's \
+                     frames (0x240 + id ..) share identifiers with {} drives' traffic; \
+                     set sensor.node = 0",
+                    s.node, self.robot.drive
+                )));
+            }
+            if self.node_ids().contains(&s.node) {
+                return Err(ConfigError::Derived(format!(
+                    "sensor.node = {} is also a joint's node id (robot.node-ids {:?}); \
+                     the sensor needs an id of its own",
+                    s.node,
+                    self.node_ids()
+                )));
+            }
+        }
+        let (lo, hi) = anguilla_protocol::message::HEAD_SENSOR_RATE_HZ;
+        range(
+            "sensor.rate-hz",
+            s.rate_hz as f64,
+            lo as f64,
+            hi as f64,
+            "100 ..= 200 Hz",
+        )?;
+        range("sensor.timeout", s.timeout, 0.02, 5.0, "0.02 ..= 5 s")?;
+        range(
+            "sensor.water-density",
+            s.water_density,
+            900.0,
+            1100.0,
+            "900 ..= 1100 kg/m³",
+        )?;
+        range(
+            "sensor.surface-pressure",
+            s.surface_pressure,
+            50_000.0,
+            120_000.0,
+            "50000 ..= 120000 Pa",
+        )?;
+        range(
+            "sensor.max-rate-innovation",
+            s.max_rate_innovation,
+            0.05,
+            10.0,
+            "0.05 ..= 10 rad/s",
+        )?;
+        range(
+            "sensor.roll-alarm",
+            s.roll_alarm,
+            5.0,
+            180.0,
+            "5 ..= 180 deg",
+        )?;
+        let a = &self.autopilot;
+        for (key, v, lo, hi, expected) in [
+            (
+                "autopilot.heading-gain",
+                a.heading_gain,
+                0.01,
+                10.0,
+                "0.01 ..= 10 1/s",
+            ),
+            (
+                "autopilot.heading-integral",
+                a.heading_integral,
+                0.0,
+                10.0,
+                "0 ..= 10 1/s²",
+            ),
+            (
+                "autopilot.max-turn-rate",
+                a.max_turn_rate,
+                1.0,
+                180.0,
+                "1 ..= 180 deg/s",
+            ),
+            (
+                "autopilot.depth-gain",
+                a.depth_gain,
+                0.01,
+                10.0,
+                "0.01 ..= 10 1/s",
+            ),
+            (
+                "autopilot.depth-integral",
+                a.depth_integral,
+                0.0,
+                10.0,
+                "0 ..= 10 1/s²",
+            ),
+            (
+                "autopilot.max-dive-angle",
+                a.max_dive_angle,
+                1.0,
+                80.0,
+                "1 ..= 80 deg",
+            ),
+            (
+                "autopilot.pitch-gain",
+                a.pitch_gain,
+                0.01,
+                20.0,
+                "0.01 ..= 20 1/s",
+            ),
+            (
+                "autopilot.max-depth",
+                a.max_depth,
+                0.1,
+                1000.0,
+                "0.1 ..= 1000 m",
+            ),
+        ] {
+            range(key, v, lo, hi, expected)?;
+        }
+        Ok(())
+    }
+
     fn validate_axes(&self) -> Result<(), ConfigError> {
         let r = &self.robot;
         let family = r.drive;
@@ -1038,6 +1249,58 @@ pub fn default_toml() -> String {
     w("[model]".into());
     w("# Space nodes of the feedforward model along the body. 5..=2000".into());
     w(format!("nodes = {}", d.model.nodes));
+    w(String::new());
+    w("[sensor]".into());
+    w("# The head sensor's node id (IMU + pressure, protocol/README.md): 1..=63, none of".into());
+    w("# the joints'; anguilla drives only. 0: no sensor (heading/depth hold refused).".into());
+    w(format!("node = {}", d.sensor.node));
+    w("# Its sample rate (Hz, 100..=200, for the bus budget); silent this long, it is".into());
+    w("# lost (s).".into());
+    w(format!("rate-hz = {}", d.sensor.rate_hz));
+    w(format!("timeout = {}", fmt_f(d.sensor.timeout)));
+    w("# Depth = (pressure - surface-pressure) / (water-density · 9.81): kg/m³, Pa.".into());
+    w(format!("water-density = {}", fmt_f(d.sensor.water_density)));
+    w(format!(
+        "surface-pressure = {}",
+        fmt_f(d.sensor.surface_pressure)
+    ));
+    w("# The gyro's rates may differ from the model's prediction by this much".into());
+    w("# (rad/s, low-passed) before the estimate is implausible and a hold lets go.".into());
+    w(format!(
+        "max-rate-innovation = {}",
+        fmt_f(d.sensor.max_rate_innovation)
+    ));
+    w("# |roll| beyond which the robot is rolled over: alarmed, and a hold lets go (deg).".into());
+    w(format!("roll-alarm = {}", fmt_f(d.sensor.roll_alarm)));
+    w(String::new());
+    w("[autopilot]".into());
+    w("# Heading hold: turn rate = heading-gain · error (+ integral), at most".into());
+    w("# max-turn-rate; the model turns it into a turn curvature (docs/autopilot.md).".into());
+    w(format!(
+        "heading-gain = {}",
+        fmt_f(d.autopilot.heading_gain)
+    ));
+    w(format!(
+        "heading-integral = {}",
+        fmt_f(d.autopilot.heading_integral)
+    ));
+    w(format!(
+        "max-turn-rate = {}",
+        fmt_f(d.autopilot.max_turn_rate)
+    ));
+    w("# Depth hold: dive rate = depth-gain · error (+ integral), flown at a pitch of at".into());
+    w("# most max-dive-angle (deg), reached at pitch-gain (1/s); holds to max-depth (m).".into());
+    w(format!("depth-gain = {}", fmt_f(d.autopilot.depth_gain)));
+    w(format!(
+        "depth-integral = {}",
+        fmt_f(d.autopilot.depth_integral)
+    ));
+    w(format!(
+        "max-dive-angle = {}",
+        fmt_f(d.autopilot.max_dive_angle)
+    ));
+    w(format!("pitch-gain = {}", fmt_f(d.autopilot.pitch_gain)));
+    w(format!("max-depth = {}", fmt_f(d.autopilot.max_depth)));
     o
 }
 

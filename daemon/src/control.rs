@@ -189,6 +189,7 @@ impl Controller {
                 FaultPolicyConfig::Hold => FaultPolicy::Hold,
                 FaultPolicyConfig::Disable => FaultPolicy::Disable,
             },
+            max_depth: cfg.autopilot.max_depth,
             clear_settle_time: 300 * MS,
         });
         let n = joints;

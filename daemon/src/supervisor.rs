@@ -21,7 +21,7 @@
 use anguilla_protocol::NodeSet;
 
 pub use anguilla_ipc::vocabulary::{
-    Cause, ClientId, Command, FaultKind, FaultSet, Field, Mode, Nanos, Refusal, SwimParams,
+    Cause, ClientId, Command, FaultKind, FaultSet, Field, Hold, Mode, Nanos, Refusal, SwimParams,
 };
 
 /// What the loop observed of the robot during one period.
@@ -78,6 +78,9 @@ pub struct Directives {
     pub drive: Drive,
     /// The gait the generator must head for (REST while not swimming).
     pub gait_target: SwimParams,
+    /// What the autopilot holds (manual while not swimming): its turn and
+    /// pitch replace the gait target's where it holds.
+    pub hold: Hold,
     /// Send an E-stop broadcast this period (once per E-stop event).
     pub send_estop: bool,
     /// Send a clear-faults broadcast this period (once, on reset).
@@ -101,6 +104,8 @@ pub struct SupervisorConfig {
     pub max_turn: f64,
     /// Largest |pitch curvature| accepted (1/m).
     pub max_pitch: f64,
+    /// Deepest depth a hold accepts (m).
+    pub max_depth: f64,
     /// Reaction to an actuator fault or a lost heartbeat.
     pub fault_policy: FaultPolicy,
     /// After a reset, how long node faults and E-stops still reported are
@@ -117,6 +122,7 @@ impl Default for SupervisorConfig {
             max_frequency: 3.0,
             max_turn: 4.0,
             max_pitch: 2.0,
+            max_depth: 10.0,
             fault_policy: FaultPolicy::Hold,
             clear_settle_time: Nanos::from_millis(300),
         }
@@ -142,6 +148,7 @@ pub struct Supervisor {
     seq_count: usize,
     faults: FaultSet,
     swim: SwimParams,
+    hold: Hold,
     entered: Nanos,
     estop_pending: bool,
     clear_pending: bool,
@@ -165,6 +172,7 @@ impl Supervisor {
             seq_count: 0,
             faults: FaultSet::default(),
             swim: SwimParams::REST,
+            hold: Hold::MANUAL,
             entered: Nanos::ZERO,
             estop_pending: false,
             clear_pending: false,
@@ -205,7 +213,29 @@ impl Supervisor {
         self.operator_silent_count
     }
 
+    /// What the autopilot is asked to hold (for this swim, or the next one
+    /// when set while not swimming).
+    pub fn hold(&self) -> Hold {
+        self.hold
+    }
+
+    /// The autopilot lost its sensor: the hold ends and a swim stops
+    /// smoothly, with [`Cause::SensorLost`]. Returns whether a hold was in
+    /// force.
+    pub fn sensor_lost(&mut self, now: Nanos) -> bool {
+        if !self.hold.is_active() {
+            return false;
+        }
+        self.hold = Hold::MANUAL;
+        self.stop_if_swimming(now, Cause::SensorLost);
+        true
+    }
+
     fn enter(&mut self, mode: Mode, now: Nanos, cause: Cause) {
+        // A hold belongs to a swim: it ends with it.
+        if self.mode == Mode::Swimming && mode != Mode::Swimming {
+            self.hold = Hold::MANUAL;
+        }
         self.mode = mode;
         self.entered = now;
         self.cause = cause;
@@ -266,6 +296,31 @@ impl Supervisor {
             }
         }
         Ok(())
+    }
+
+    fn validate_hold(&self, h: &Hold) -> Result<Hold, Refusal> {
+        let heading = match h.heading {
+            Some(v) if !v.is_finite() => return Err(Refusal::NonFinite(Field::Heading)),
+            Some(v) => Some(v.rem_euclid(360.0)),
+            None => None,
+        };
+        if let Some(d) = h.depth {
+            if !d.is_finite() {
+                return Err(Refusal::NonFinite(Field::Depth));
+            }
+            if !(0.0..=self.cfg.max_depth).contains(&d) {
+                return Err(Refusal::OutOfRange {
+                    field: Field::Depth,
+                    value: d,
+                    min: 0.0,
+                    max: self.cfg.max_depth,
+                });
+            }
+        }
+        Ok(Hold {
+            heading,
+            depth: h.depth,
+        })
     }
 
     /// Handles one operator command at time `now` from `client` (the
@@ -346,6 +401,17 @@ impl Supervisor {
                         if mode != Mode::Swimming {
                             self.enter(Mode::Swimming, now, Cause::Command);
                         }
+                        Ok(())
+                    }
+                    Mode::Idle | Mode::Enabling => invalid("enable and wait for ready"),
+                    Mode::Fault | Mode::EStop => invalid("reset first"),
+                }
+            }
+            Command::Hold(h) => {
+                let h = self.validate_hold(&h)?;
+                match mode {
+                    Mode::Ready | Mode::Swimming | Mode::Stopping => {
+                        self.hold = h;
                         Ok(())
                     }
                     Mode::Idle | Mode::Enabling => invalid("enable and wait for ready"),
@@ -522,6 +588,11 @@ impl Supervisor {
                 self.swim
             } else {
                 SwimParams::REST
+            },
+            hold: if self.mode == Mode::Swimming {
+                self.hold
+            } else {
+                Hold::MANUAL
             },
             send_estop: self.estop_pending,
             send_clear_faults: self.clear_pending,

@@ -16,8 +16,10 @@ import time
 
 import iceoryx2 as iox2
 
-LAYOUT_VERSION = 4
-ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE = range(1, 10)
+LAYOUT_VERSION = 5
+ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD = range(
+    1, 11)
+HOLD_HEADING, HOLD_DEPTH = 1, 2
 IDLE, ENABLING, READY, SWIMMING, STOPPING, FAULT, E_STOP = range(7)
 MODES = ["idle", "enabling", "ready", "swimming", "stopping", "fault", "e-stop"]
 MAX_TOOLS, MAX_NODES, MAX_REQUESTS_PER_CLIENT = 32, 36, 4
@@ -65,6 +67,14 @@ class LimitsSnapshot(_Payload):
                 ("command_timeout_ms", u32), ("control_release_ms", u32), ("daemon_pid", u32)]
 
 
+class NavSnapshot(_Payload):
+    _fields_ = [("sensor", u8), ("hold", u8), ("hold_exit", u8), ("roll_alarm", u8)] + [
+        (n, f32) for n in (
+            "heading_deg", "pitch_deg", "roll_deg", "depth_m", "depth_rate", "temperature",
+            "heading_target_deg", "depth_target_m", "rate_innovation", "depth_innovation")] + [
+        ("reserved", u32), ("samples", u64), ("lost_samples", u64)]
+
+
 class StateSnapshot(_Payload):
     _fields_ = [
         ("layout_version", u32), ("joint_count", u32), ("sequence", u64), ("time_ns", u64),
@@ -75,7 +85,7 @@ class StateSnapshot(_Payload):
         ("loop_stats", LoopSnapshot), ("bus", BusSnapshot),
         ("clamped_setpoints", u64), ("refused_commands", u64),
         ("operator_silent_stops", u64), ("socket_estops", u64), ("records_lost", u64),
-        ("limits", LimitsSnapshot), ("joints", JointSnapshot * 32)]
+        ("limits", LimitsSnapshot), ("nav", NavSnapshot), ("joints", JointSnapshot * 32)]
 
     def holder(self):
         """The client port id holding control (u128), 0 if nobody."""
@@ -84,7 +94,8 @@ class StateSnapshot(_Payload):
 
 class CommandRequest(_Payload):
     _fields_ = [("layout_version", u32), ("code", u32), ("sequence", u32), ("amplitude", f32),
-                ("frequency", f32), ("turn", f32), ("pitch", f32), ("reserved", u32)]
+                ("frequency", f32), ("turn", f32), ("pitch", f32), ("hold", u32),
+                ("heading", f32), ("depth", f32)]
 
 
 class CommandReply(_Payload):
@@ -96,7 +107,8 @@ class CommandReply(_Payload):
 
 
 for _t, _size in ((JointSnapshot, 56), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
-                  (LimitsSnapshot, 24), (StateSnapshot, 2056), (CommandRequest, 32),
+                  (LimitsSnapshot, 24), (NavSnapshot, 64), (StateSnapshot, 2120),
+                  (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))
 

@@ -48,7 +48,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
         bus: "BusSnapshot", clamped_setpoints: "uint64_t", refused_commands: "uint64_t",
         operator_silent_stops: "uint64_t", socket_estops: "uint64_t",
         records_lost: "uint64_t",
-        limits: "LimitsSnapshot", joints: "JointSnapshot[32]",
+        limits: "LimitsSnapshot", nav: "NavSnapshot", joints: "JointSnapshot[32]",
     ]));
     v.extend(rows!(JointSnapshot, "JointSnapshot", [
         commanded_pitch: "float", commanded_yaw: "float", measured_pitch: "float",
@@ -76,9 +76,17 @@ pub fn layout_table() -> Vec<LayoutRow> {
         max_frequency: "float", max_turn: "float", max_pitch: "float",
         command_timeout_ms: "uint32_t", control_release_ms: "uint32_t", daemon_pid: "uint32_t",
     ]));
+    v.extend(rows!(NavSnapshot, "NavSnapshot", [
+        sensor: "uint8_t", hold: "uint8_t", hold_exit: "uint8_t", roll_alarm: "uint8_t",
+        heading_deg: "float", pitch_deg: "float", roll_deg: "float", depth_m: "float",
+        depth_rate: "float", temperature: "float", heading_target_deg: "float",
+        depth_target_m: "float", rate_innovation: "float", depth_innovation: "float",
+        reserved: "uint32_t", samples: "uint64_t", lost_samples: "uint64_t",
+    ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
         layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", amplitude: "float",
-        frequency: "float", turn: "float", pitch: "float", reserved: "uint32_t",
+        frequency: "float", turn: "float", pitch: "float", hold: "uint32_t",
+        heading: "float", depth: "float",
     ]));
     v.extend(rows!(CommandReply, "CommandReply", [
         sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
@@ -88,7 +96,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
 }
 
 /// Every payload type documented, with its size in bytes.
-pub fn payload_sizes() -> [(&'static str, usize); 8] {
+pub fn payload_sizes() -> [(&'static str, usize); 9] {
     [
         ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
         ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
@@ -96,6 +104,7 @@ pub fn payload_sizes() -> [(&'static str, usize); 8] {
         ("LoopSnapshot", core::mem::size_of::<LoopSnapshot>()),
         ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
         ("LimitsSnapshot", core::mem::size_of::<LimitsSnapshot>()),
+        ("NavSnapshot", core::mem::size_of::<NavSnapshot>()),
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
         ("CommandReply", core::mem::size_of::<CommandReply>()),
     ]
@@ -127,7 +136,7 @@ pub fn layout_markdown() -> String {
 /// codes section.
 pub fn codes_markdown() -> String {
     use crate::payload::code;
-    use crate::vocabulary::{Cause, FaultKind, Mode};
+    use crate::vocabulary::{Cause, FaultKind, Mode, SensorHealth};
     let mut out = String::new();
     let _ = writeln!(out, "`CommandRequest.code`:\n");
     let _ = writeln!(out, "| code | command | needs control |");
@@ -150,6 +159,7 @@ pub fn codes_markdown() -> String {
         ),
         (code::RELEASE_CONTROL, "release-control", "yes"),
         (code::KEEP_ALIVE, "keep-alive", "yes"),
+        (code::HOLD, "hold (hold bits, heading, depth)", "yes"),
     ] {
         let _ = writeln!(out, "| {c} | {name} | {control} |");
     }
@@ -177,6 +187,15 @@ pub fn codes_markdown() -> String {
     for k in FaultKind::ALL {
         let v = k as u32;
         let _ = writeln!(out, "| {} | {v:#x} | {} |", v.trailing_zeros(), k.name());
+    }
+    let _ = writeln!(
+        out,
+        "\n`NavSnapshot.sensor` and `NavSnapshot.hold_exit` (the head sensor's health):\n"
+    );
+    let _ = writeln!(out, "| code | health |");
+    let _ = writeln!(out, "|---:|---|");
+    for h in SensorHealth::ALL {
+        let _ = writeln!(out, "| {} | {} |", h as u8, h.name());
     }
     out
 }

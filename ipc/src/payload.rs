@@ -5,12 +5,12 @@ use core::fmt::{self, Write as _};
 
 use iceoryx2::prelude::*;
 
-use crate::vocabulary::{Command, SwimParams};
+use crate::vocabulary::{Command, Hold, SwimParams, hold_bits};
 
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 4;
+pub const LAYOUT_VERSION: u32 = 5;
 /// Bytes of reason text in a [`CommandReply`].
 pub const REASON_LEN: usize = 120;
 
@@ -165,6 +165,57 @@ pub fn bus_state_name(code: u8) -> &'static str {
     }
 }
 
+/// The head sensor, the daemon's estimate of the head's attitude and depth,
+/// and the autopilot (issue 16; docs/autopilot.md). The estimate is 0
+/// until the first sample (`samples` = 0), and frozen at its last value
+/// while the sensor is not ok; a target is 0 unless its `hold` bit is set.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::NavSnapshot")]
+pub struct NavSnapshot {
+    /// The sensor's health (`SensorHealth`: 0 no sensor, 1 ok, 2 waiting,
+    /// 3 silent, 4 stuck, 5 sensor error, 6 implausible, 7 rolled over).
+    pub sensor: u8,
+    /// What the autopilot holds now: bit 0 heading, bit 1 depth
+    /// (`hold_bits`); 0 manual.
+    pub hold: u8,
+    /// Why the autopilot last let go of a hold (a `SensorHealth` code); 0
+    /// if it never had to.
+    pub hold_exit: u8,
+    /// 1 while |roll| is beyond `[sensor] roll-alarm`.
+    pub roll_alarm: u8,
+    /// The body's heading (deg, 0 ..< 360, earth frame, counter-clockwise
+    /// seen from above): the head's heading less the gait's swing of the
+    /// head, which the model predicts.
+    pub heading_deg: f32,
+    /// The head's pitch (deg, positive nose up).
+    pub pitch_deg: f32,
+    /// The head's roll (deg, positive right side down).
+    pub roll_deg: f32,
+    /// The head's depth below the surface (m, positive down).
+    pub depth_m: f32,
+    /// The depth's rate of change (m/s, positive descending).
+    pub depth_rate: f32,
+    /// Water temperature (°C).
+    pub temperature: f32,
+    /// The heading held (deg).
+    pub heading_target_deg: f32,
+    /// The depth held (m).
+    pub depth_target_m: f32,
+    /// Model health: the gyro's body rates less the model's predicted head
+    /// rates (rad/s, magnitude, low-passed over about a second).
+    pub rate_innovation: f32,
+    /// Model health: the measured depth less the predicted one (m), at the
+    /// last sample.
+    pub depth_innovation: f32,
+    /// Padding, always 0.
+    pub reserved: u32,
+    /// Head-sensor samples received since start.
+    pub samples: u64,
+    /// Samples the sample counter says were lost since start.
+    pub lost_samples: u64,
+}
+
 /// Everything an operator tool shows, published every control period.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
@@ -224,6 +275,8 @@ pub struct StateSnapshot {
     pub records_lost: u64,
     /// The daemon's limits: what a command may ask for, and its timeouts.
     pub limits: LimitsSnapshot,
+    /// The head sensor, the estimate and the autopilot.
+    pub nav: NavSnapshot,
     /// Per joint, from the head (index 0) to the tail.
     pub joints: [JointSnapshot; MAX_JOINTS],
 }
@@ -270,6 +323,7 @@ impl Default for StateSnapshot {
             socket_estops: 0,
             records_lost: 0,
             limits: LimitsSnapshot::default(),
+            nav: NavSnapshot::default(),
             joints: [JointSnapshot::default(); MAX_JOINTS],
         }
     }
@@ -295,6 +349,9 @@ pub mod code {
     pub const RELEASE_CONTROL: u32 = 8;
     /// Keep control and the swim alive.
     pub const KEEP_ALIVE: u32 = 9;
+    /// Set the autopilot's holds from the request's `hold`, `heading` and
+    /// `depth`.
+    pub const HOLD: u32 = 10;
 }
 
 /// A command from an operator tool. Who sent it is not a field: the
@@ -318,13 +375,23 @@ pub struct CommandRequest {
     pub turn: f32,
     /// Pitch curvature (1/m), for SWIM.
     pub pitch: f32,
-    /// Padding, always 0.
-    pub reserved: u32,
+    /// What to hold, for HOLD: bit 0 heading, bit 1 depth (`hold_bits`);
+    /// 0 manual.
+    pub hold: u32,
+    /// Heading to hold (deg, counter-clockwise seen from above), for HOLD
+    /// with bit 0.
+    pub heading: f32,
+    /// Depth to hold (m below the surface), for HOLD with bit 1.
+    pub depth: f32,
 }
 
 impl CommandRequest {
     /// A request for `cmd` with sequence number `sequence`.
     pub fn new(cmd: Command, sequence: u32) -> Self {
+        let hold = match cmd {
+            Command::Hold(h) => h,
+            _ => Hold::MANUAL,
+        };
         let (code, p) = match cmd {
             Command::Enable => (code::ENABLE, SwimParams::REST),
             Command::Disable => (code::DISABLE, SwimParams::REST),
@@ -335,6 +402,7 @@ impl CommandRequest {
             Command::TakeControl => (code::TAKE_CONTROL, SwimParams::REST),
             Command::ReleaseControl => (code::RELEASE_CONTROL, SwimParams::REST),
             Command::KeepAlive => (code::KEEP_ALIVE, SwimParams::REST),
+            Command::Hold(_) => (code::HOLD, SwimParams::REST),
         };
         Self {
             layout_version: LAYOUT_VERSION,
@@ -344,7 +412,9 @@ impl CommandRequest {
             frequency: p.frequency as f32,
             turn: p.turn as f32,
             pitch: p.pitch as f32,
-            reserved: 0,
+            hold: hold.bits() as u32,
+            heading: hold.heading.unwrap_or(0.0) as f32,
+            depth: hold.depth.unwrap_or(0.0) as f32,
         }
     }
 
@@ -376,6 +446,17 @@ impl CommandRequest {
             code::TAKE_CONTROL => Command::TakeControl,
             code::RELEASE_CONTROL => Command::ReleaseControl,
             code::KEEP_ALIVE => Command::KeepAlive,
+            code::HOLD => {
+                let bits = self.hold;
+                if bits & !u32::from(hold_bits::HEADING | hold_bits::DEPTH) != 0 {
+                    return Err(RequestError::HoldBits(bits));
+                }
+                let on = |b: u8, v: f32| (bits & u32::from(b) != 0).then_some(v as f64);
+                Command::Hold(Hold {
+                    heading: on(hold_bits::HEADING, self.heading),
+                    depth: on(hold_bits::DEPTH, self.depth),
+                })
+            }
             other => return Err(RequestError::UnknownCode(other)),
         })
     }
@@ -388,8 +469,11 @@ pub enum RequestError {
     #[error("layout version {0} is not the daemon's ({LAYOUT_VERSION}); update the tool")]
     Version(u32),
     /// The command code is not one of [`code`].
-    #[error("unknown command code {0} (expected 1..=9)")]
+    #[error("unknown command code {0} (expected 1..=10)")]
     UnknownCode(u32),
+    /// A HOLD request's `hold` has bits beyond heading (1) and depth (2).
+    #[error("hold bits {0:#x} unknown (expected 0..=3: 1 heading, 2 depth)")]
+    HoldBits(u32),
 }
 
 /// The daemon's answer to one [`CommandRequest`].

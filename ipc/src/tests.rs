@@ -18,7 +18,7 @@ fn requests_roundtrip_and_bad_ones_are_named() {
     bad.code = 42;
     assert_eq!(
         bad.command().unwrap_err().to_string(),
-        "unknown command code 42 (expected 1..=9)"
+        "unknown command code 42 (expected 1..=10)"
     );
     bad = r;
     bad.layout_version = 99;

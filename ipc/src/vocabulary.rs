@@ -93,6 +93,118 @@ impl SwimParams {
     };
 }
 
+/// What the autopilot holds while swimming (issue 16). `None` leaves that
+/// axis to the operator's [`SwimParams::turn`] or [`SwimParams::pitch`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Hold {
+    /// Heading to hold, degrees in the earth frame, counter-clockwise seen
+    /// from above (a left turn increases it); any finite value, taken
+    /// modulo 360.
+    pub heading: Option<f64>,
+    /// Depth to hold, metres below the surface (positive down).
+    pub depth: Option<f64>,
+}
+
+impl Hold {
+    /// Nothing held: the operator steers (manual).
+    pub const MANUAL: Hold = Hold {
+        heading: None,
+        depth: None,
+    };
+
+    /// Whether anything is held.
+    pub fn is_active(&self) -> bool {
+        self.heading.is_some() || self.depth.is_some()
+    }
+
+    /// The mode's name: "manual", "heading", "depth" or "heading+depth".
+    pub fn name(&self) -> &'static str {
+        match (self.heading.is_some(), self.depth.is_some()) {
+            (false, false) => "manual",
+            (true, false) => "heading",
+            (false, true) => "depth",
+            (true, true) => "heading+depth",
+        }
+    }
+
+    /// The snapshot's bits ([`hold_bits`]).
+    pub fn bits(&self) -> u8 {
+        let bit = |on: bool, b: u8| if on { b } else { 0 };
+        bit(self.heading.is_some(), hold_bits::HEADING)
+            | bit(self.depth.is_some(), hold_bits::DEPTH)
+    }
+}
+
+/// The bits of `CommandRequest::hold` and `NavSnapshot::hold`.
+pub mod hold_bits {
+    /// A heading is held.
+    pub const HEADING: u8 = 1 << 0;
+    /// A depth is held.
+    pub const DEPTH: u8 = 1 << 1;
+}
+
+/// The head sensor's health as the daemon judges it (`NavSnapshot::sensor`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum SensorHealth {
+    /// No head sensor is configured (`[sensor] node = 0`).
+    None = 0,
+    /// Samples arrive, plausible.
+    Ok = 1,
+    /// Configured, no sample yet (booting).
+    Waiting = 2,
+    /// No sample within the sensor timeout.
+    Silent = 3,
+    /// Samples arrive with their measured values frozen.
+    Stuck = 4,
+    /// The sensor reports an IMU or pressure fault in its error byte.
+    Error = 5,
+    /// The measurements disagree with the model's prediction beyond the
+    /// configured bound (a gyro bias jump, a wrong estimate).
+    Implausible = 6,
+    /// The roll estimate passed the configured alarm angle.
+    Rolled = 7,
+}
+
+impl SensorHealth {
+    /// Every value, in the order of their codes.
+    pub const ALL: [SensorHealth; 8] = [
+        SensorHealth::None,
+        SensorHealth::Ok,
+        SensorHealth::Waiting,
+        SensorHealth::Silent,
+        SensorHealth::Stuck,
+        SensorHealth::Error,
+        SensorHealth::Implausible,
+        SensorHealth::Rolled,
+    ];
+
+    /// The health of a snapshot's code.
+    pub fn from_code(code: u8) -> Option<SensorHealth> {
+        Self::ALL.get(code as usize).copied()
+    }
+
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorHealth::None => "no sensor",
+            SensorHealth::Ok => "ok",
+            SensorHealth::Waiting => "waiting",
+            SensorHealth::Silent => "silent",
+            SensorHealth::Stuck => "stuck",
+            SensorHealth::Error => "sensor error",
+            SensorHealth::Implausible => "implausible",
+            SensorHealth::Rolled => "rolled over",
+        }
+    }
+}
+
+impl fmt::Display for SensorHealth {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// The commands an operator tool can send.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Command {
@@ -114,6 +226,9 @@ pub enum Command {
     ReleaseControl,
     /// Nothing but "I am still here" (keeps control and the swim alive).
     KeepAlive,
+    /// Set what the autopilot holds while swimming: a heading, a depth,
+    /// both, or neither (manual). Needs a healthy head sensor.
+    Hold(Hold),
 }
 
 impl Command {
@@ -129,6 +244,7 @@ impl Command {
             Command::TakeControl => "take-control",
             Command::ReleaseControl => "release-control",
             Command::KeepAlive => "keep-alive",
+            Command::Hold(_) => "hold",
         }
     }
 }
@@ -144,6 +260,10 @@ pub enum Field {
     Turn,
     /// [`SwimParams::pitch`].
     Pitch,
+    /// [`Hold::heading`].
+    Heading,
+    /// [`Hold::depth`].
+    Depth,
 }
 
 impl Field {
@@ -153,6 +273,8 @@ impl Field {
             Field::Frequency => "frequency (Hz)",
             Field::Turn => "turn curvature (1/m)",
             Field::Pitch => "pitch curvature (1/m)",
+            Field::Heading => "heading (deg)",
+            Field::Depth => "depth (m)",
         }
     }
 }
@@ -198,6 +320,8 @@ pub enum Refusal {
     FaultPersists(FaultSet),
     /// More clients than the daemon tracks (their sequence numbers).
     TooManyClients,
+    /// A hold needs a healthy head sensor; this is how it is.
+    Sensor(SensorHealth),
 }
 
 impl fmt::Display for Refusal {
@@ -232,6 +356,14 @@ impl fmt::Display for Refusal {
                 write!(f, "the fault is still present ({set}); fix it, then reset")
             }
             Refusal::TooManyClients => write!(f, "too many clients"),
+            Refusal::Sensor(SensorHealth::None) => write!(
+                f,
+                "no head sensor is configured ([sensor] node); heading and depth hold need one"
+            ),
+            Refusal::Sensor(h) => write!(
+                f,
+                "the head sensor is {h}; heading and depth hold need it healthy"
+            ),
         }
     }
 }
@@ -354,16 +486,21 @@ pub enum Cause {
     Fault,
     /// The nodes reported enabled, or the ramp down finished.
     Progress,
+    /// The autopilot lost its head sensor or its estimate became
+    /// implausible: the swim stopped smoothly (`NavSnapshot::hold_exit`
+    /// says why).
+    SensorLost,
 }
 
 impl Cause {
     /// Every cause, in the order of their codes.
-    pub const ALL: [Cause; 5] = [
+    pub const ALL: [Cause; 6] = [
         Cause::None,
         Cause::Command,
         Cause::OperatorSilent,
         Cause::Fault,
         Cause::Progress,
+        Cause::SensorLost,
     ];
 
     /// Its code in a snapshot (`StateSnapshot::cause`).
@@ -384,6 +521,7 @@ impl Cause {
             Cause::OperatorSilent => "operator silent",
             Cause::Fault => "fault",
             Cause::Progress => "progress",
+            Cause::SensorLost => "head sensor lost",
         }
     }
 }
