@@ -6,6 +6,7 @@
 use anguilla_daemon::config::Config;
 use anguilla_drivers::Bus;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
+use anguilla_sim::sensor::SensorConfig;
 use anyhow::Context;
 
 /// The running built-in robot.
@@ -44,7 +45,17 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         variant: cfg.bus.variant(),
         fifo_priority: (cfg.realtime.fifo_priority > 1).then(|| cfg.realtime.fifo_priority - 1),
         scenario: String::new(),
+        head_sensor: head_sensor(cfg),
+        ballast: cfg.model.ballast,
     }
+}
+
+/// The simulated head sensor of `cfg`'s `[sensor]` (none with node 0): a
+/// typical fusion IMU in the water the daemon assumes.
+fn head_sensor(cfg: &Config) -> Option<SensorConfig> {
+    let s = &cfg.sensor;
+    (s.node != 0)
+        .then(|| SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure))
 }
 
 /// Creates the in-process bus and the robot; returns the daemon's end of

@@ -14,6 +14,7 @@ use anguilla_daemon::config::Config;
 use anguilla_daemon::run::{self, Running};
 use anguilla_drivers::Bus;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
+use anguilla_sim::sensor::SensorConfig;
 
 /// Aborts the test process if it is not dropped within a time limit, so a
 /// hung test fails instead of blocking CI.
@@ -130,6 +131,11 @@ fn start_builtin(cfg: &Config, scenario: &str) -> anyhow::Result<(Box<dyn Bus>, 
         variant: cfg.bus.variant(),
         fifo_priority: None,
         scenario: scenario.to_owned(),
+        head_sensor: (cfg.sensor.node != 0).then(|| {
+            let s = &cfg.sensor;
+            SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure)
+        }),
+        ballast: cfg.model.ballast,
     };
     Ok(Builtin::start(&bc)?)
 }

@@ -381,11 +381,17 @@ pub struct RecordingConfig {
 pub struct ModelConfig {
     /// Space nodes along the body.
     pub nodes: usize,
+    /// How far below each section's axis the body's centre of mass lies
+    /// (m): its ballast, which rights it in roll. 0: the paper's body.
+    pub ballast: f64,
 }
 
 impl Default for ModelConfig {
     fn default() -> Self {
-        Self { nodes: 25 }
+        Self {
+            nodes: 25,
+            ballast: 0.0,
+        }
     }
 }
 
@@ -419,7 +425,7 @@ impl Default for SensorConfig {
             timeout: 0.1,
             water_density: 1000.0,
             surface_pressure: 101_325.0,
-            max_rate_innovation: 0.5,
+            max_rate_innovation: 1.0,
             roll_alarm: 60.0,
         }
     }
@@ -451,7 +457,7 @@ impl Default for AutopilotConfig {
     fn default() -> Self {
         Self {
             heading_gain: 0.8,
-            heading_integral: 0.1,
+            heading_integral: 0.05,
             max_turn_rate: 30.0,
             depth_gain: 0.5,
             depth_integral: 0.05,
@@ -838,6 +844,13 @@ impl Config {
             5.0,
             2000.0,
             "5 ..= 2000",
+        )?;
+        range(
+            "model.ballast",
+            self.model.ballast,
+            0.0,
+            0.05,
+            "0 ..= 0.05 m",
         )?;
         // What the keys ask for together: a rate the bus and the model can
         // run (the same check `anguilla run` depends on).
@@ -1249,6 +1262,10 @@ pub fn default_toml() -> String {
     w("[model]".into());
     w("# Space nodes of the feedforward model along the body. 5..=2000".into());
     w(format!("nodes = {}", d.model.nodes));
+    w("# The body's ballast: its centre of mass this far below each section's axis (m),".into());
+    w("# which rights it in roll (the built-in simulated robot is built the same).".into());
+    w("# 0: the paper's body, which rolls freely under pitch curvature. 0..=0.05".into());
+    w(format!("ballast = {}", fmt_f(d.model.ballast)));
     w(String::new());
     w("[sensor]".into());
     w("# The head sensor's node id (IMU + pressure, protocol/README.md): 1..=63, none of".into());
@@ -1270,7 +1287,7 @@ pub fn default_toml() -> String {
         "max-rate-innovation = {}",
         fmt_f(d.sensor.max_rate_innovation)
     ));
-    w("# |roll| beyond which the robot is rolled over: alarmed, and a hold lets go (deg).".into());
+    w("# |roll| beyond which the operator is alarmed (deg).".into());
     w(format!("roll-alarm = {}", fmt_f(d.sensor.roll_alarm)));
     w(String::new());
     w("[autopilot]".into());

@@ -4,9 +4,13 @@
 //! this order (DESIGN.md's data flow):
 //!
 //! 1. drain the bus into the joints' [`Drives`] (the family's master);
-//! 2. the [`Supervisor`] turns observations and timeouts into directives
-//!    (operator commands arrive before, through [`Controller::command`]);
-//! 3. the gait parameters follow the operator's targets along our own
+//! 2. the head sensor's [`Nav`] estimate moves on with the model's
+//!    prediction and the newest sample; the [`Supervisor`] turns
+//!    observations and timeouts into directives (operator commands arrive
+//!    before, through [`Controller::command`]); a hold whose sensor failed
+//!    ends, and the swim stops smoothly;
+//! 3. the [`Autopilot`] replaces the turn and pitch of what it holds; the
+//!    gait parameters follow the operator's targets along our own
 //!    trapezoidal [`profile`](crate::profile)s (and the model's parametric
 //!    gait smooths them once more, to C² in time);
 //! 4. the model's forward + inverse dynamics step gives every joint an
@@ -29,16 +33,19 @@ use anguilla_model::{
 };
 use anguilla_protocol::message::{self, AxisSetpoint, NodeSet};
 
+use crate::autopilot::{self, Autopilot};
 use crate::config::{Config, FaultPolicyConfig};
 use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::ipc::{
-    CommandReply, CommandRequest, Envelope, GaitSnapshot, LimitsSnapshot, MAX_JOINTS, StateSnapshot,
+    CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, LimitsSnapshot, MAX_JOINTS,
+    SensorHealth, StateSnapshot,
 };
+use crate::nav::{Nav, Prediction};
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
 use crate::supervisor::{
-    ClientId, Command, FaultPolicy, Mode, Nanos, Observations, Supervisor, SupervisorConfig,
-    SwimParams,
+    ClientId, Command, FaultPolicy, Mode, Nanos, Observations, Refusal, Supervisor,
+    SupervisorConfig, SwimParams,
 };
 
 /// The drives' way to `bus` for the controller `ctl` this period: every
@@ -138,6 +145,10 @@ pub struct Controller {
     tap: Option<crossbeam_channel::Sender<Record>>,
     tap_dropped: u64,
     now: Nanos,
+    nav: Option<Nav>,
+    autopilot: Option<Autopilot>,
+    hold: Hold,
+    hold_exit: Option<SensorHealth>,
 }
 
 /// The control period (ns) for `cfg`: 1 / [`Config::control_rate`] (a
@@ -156,13 +167,23 @@ impl Controller {
         let drives = drive::build(cfg, now, period_ns)?;
         let joints = cfg.robot.joints;
         let model = Model::new(ModelConfig {
-            body: Body::paper(),
+            body: Body {
+                ballast: cfg.model.ballast,
+                ..Body::paper()
+            },
             nodes: cfg.model.nodes,
             dt,
             joints,
             integrator: Integrator::Midpoint,
         })?;
         let ws = Workspace::new(&model);
+        // The autopilot's feed-forward: how this body answers its
+        // curvatures, from the model itself (only with a head sensor).
+        let nav = Nav::new(cfg, now);
+        let autopilot = match nav {
+            Some(_) => Some(Autopilot::new(cfg, autopilot::calibrate(cfg, &model)?)),
+            None => None,
+        };
         let g = &cfg.gait;
         let lim = |v, a| Limits::new(v, a);
         let amp_l = lim(g.amplitude_rate, g.amplitude_accel)?;
@@ -240,6 +261,10 @@ impl Controller {
             tap: None,
             tap_dropped: 0,
             now,
+            nav,
+            autopilot,
+            hold: Hold::MANUAL,
+            hold_exit: None,
         })
     }
 
@@ -313,9 +338,21 @@ impl Controller {
     pub fn command(&mut self, now: Nanos, env: &Envelope) -> CommandReply {
         self.record(Record::Command(now, *env));
         let req = &env.request;
+        let hold_before = self.sup.hold();
         let reply = match req.command() {
             Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
             Ok(cmd) => match self.sup.command(now, env.origin, req.sequence, cmd) {
+                // A hold needs a healthy sensor: refused after the
+                // supervisor's checks (authority, range), the hold before
+                // it kept.
+                Ok(())
+                    if matches!(cmd, Command::Hold(h) if h.is_active())
+                        && self.sensor_health() != SensorHealth::Ok =>
+                {
+                    self.sup.restore_hold(hold_before);
+                    let why = Refusal::Sensor(self.sensor_health());
+                    CommandReply::refused(req, self.sup.mode() as u8, &why)
+                }
                 Ok(()) => {
                     if self.sup.holder() == Some(env.origin)
                         && self.holder_node != Some((env.origin, env.node))
@@ -332,6 +369,21 @@ impl Controller {
             self.counters.refused += 1;
         }
         reply
+    }
+
+    /// The head sensor's health ([`SensorHealth::None`] without one).
+    pub fn sensor_health(&self) -> SensorHealth {
+        self.nav.as_ref().map_or(SensorHealth::None, Nav::health)
+    }
+
+    /// The head sensor's estimate, if a sensor is configured.
+    pub fn nav(&self) -> Option<&Nav> {
+        self.nav.as_ref()
+    }
+
+    /// The autopilot, if a sensor is configured.
+    pub fn autopilot(&self) -> Option<&Autopilot> {
+        self.autopilot.as_ref()
     }
 
     /// E-stops that arrived out of band (the reserved E-stop socket, with
@@ -399,19 +451,32 @@ impl Controller {
             now,
             bus: period_state,
         });
-        // 1. Everything the drives said since the last period.
+        // 1. Everything the drives and the head sensor said since the
+        // last period.
         let drives = &mut self.drives;
+        let nav = &mut self.nav;
         let (tap, dropped) = (&self.tap, &mut self.tap_dropped);
         // A receive error shows in the bus state the next period reads.
         let _ = bus.drain(&mut |r| {
-            drives.ingest(now, &r.frame);
+            if !nav.as_mut().is_some_and(|n| n.ingest(now, &r.frame)) {
+                drives.ingest(now, &r.frame);
+            }
             if let Some(t) = tap
                 && t.try_send(Record::Rx(now, r.frame)).is_err()
             {
                 *dropped += 1;
             }
         });
-        // 2. Supervisor.
+        // 2. The estimate, from the model's prediction of now (the last
+        // step's) and the newest sample; a hold ends when its sensor fails.
+        if let Some(nav) = &mut self.nav {
+            nav.step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
+            let health = nav.health();
+            if health != SensorHealth::Ok && self.sup.sensor_lost(now) {
+                self.hold_exit = Some(health);
+            }
+        }
+        // Supervisor.
         let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
         let report = self.drives.observe(now, hb_timeout);
         let configured = self.drives.report_ids();
@@ -444,8 +509,19 @@ impl Controller {
             self.model_failed = false;
             self.head = HeadState::launch(0.0);
         }
-        // 3. Gait parameters along trapezoidal profiles.
-        let target = d.gait_target;
+        // 3. The autopilot's turn and pitch where it holds; gait
+        // parameters along trapezoidal profiles.
+        let mut target = d.gait_target;
+        if let (Some(ap), Some(nav)) = (&mut self.autopilot, &self.nav) {
+            [target.turn, target.pitch] = ap.steer(
+                self.dt,
+                &d.hold,
+                &nav.estimate(),
+                self.report.forward_speed,
+                [target.turn, target.pitch],
+            );
+        }
+        self.hold = d.hold;
         let _ = self.amplitude.set_target(target.amplitude);
         if mode == Mode::Swimming {
             let _ = self.frequency.set_target(target.frequency);
@@ -571,7 +647,7 @@ impl Controller {
             now,
             bus,
             bus_state,
-            &d.gait_target,
+            &target,
             [a, f, kc3, kc2],
             d.drop_feedforward,
         );
@@ -619,6 +695,13 @@ impl Controller {
         s.refused_commands = self.counters.refused;
         s.records_lost = self.tap_dropped;
         s.operator_silent_stops = self.sup.operator_silent_count();
+        if let Some(nav) = &self.nav {
+            nav.fill(&mut s.nav);
+        }
+        s.nav.hold = self.hold.bits();
+        s.nav.heading_target_deg = self.hold.heading.unwrap_or(0.0) as f32;
+        s.nav.depth_target_m = self.hold.depth.unwrap_or(0.0) as f32;
+        s.nav.hold_exit = self.hold_exit.map_or(0, |h| h as u8);
         let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
         for j in 0..self.joints.min(MAX_JOINTS) {
             let e = self.drives.joint(j);

@@ -16,10 +16,12 @@
 //! [`rt`] and [`stats`].
 #![warn(missing_docs)]
 
+pub mod autopilot;
 pub mod config;
 pub mod control;
 pub mod drive;
 pub use anguilla_ipc as ipc;
+pub mod nav;
 pub mod nodes;
 pub mod profile;
 pub mod record;

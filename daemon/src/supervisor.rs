@@ -219,6 +219,12 @@ impl Supervisor {
         self.hold
     }
 
+    /// Puts back the hold `before` a Hold command the controller refused
+    /// after the supervisor accepted it (the sensor is not healthy).
+    pub fn restore_hold(&mut self, before: Hold) {
+        self.hold = before;
+    }
+
     /// The autopilot lost its sensor: the hold ends and a swim stops
     /// smoothly, with [`Cause::SensorLost`]. Returns whether a hold was in
     /// force.

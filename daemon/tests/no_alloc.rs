@@ -1,8 +1,13 @@
 //! A control period allocates nothing: a counting global allocator watches
 //! every `Controller::run_period` call (and the command path) while the rig
-//! swims, turns, dives and stops. The simulated nodes' half of each period
-//! is outside the counted region (it is not daemon code).
+//! swims, turns, dives and stops, and with a head sensor while the
+//! autopilot holds a heading and a depth and the sensor fails. The
+//! simulated robot's half of each period is outside the counted region (it
+//! is not daemon code).
 
+#[path = "support/lockstep.rs"]
+#[allow(dead_code)] // this file uses part of it
+mod lockstep;
 mod rig;
 
 use std::cell::Cell;
@@ -89,4 +94,47 @@ fn a_control_period_allocates_nothing() {
         assert!(r.ctl.snapshot().sequence > 800);
         assert_eq!(r.ctl.tap_dropped(), 0);
     }
+}
+
+/// The head sensor's frames, the estimate and the autopilot: a period
+/// with a heading and a depth held allocates nothing, nor does a sensor
+/// falling silent and ending the hold.
+#[test]
+fn a_period_with_the_autopilot_allocates_nothing() {
+    use anguilla_daemon::ipc::Hold;
+    let mut rig = lockstep::Rig::new(&lockstep::config(), 9, [0.0; 3]);
+    rig.swim(1.0);
+    rig.run(3.0, |_| {});
+    COUNT.with(|n| n.set(0));
+    let hold = Command::Hold(Hold {
+        heading: Some(90.0),
+        depth: Some(1.2),
+    });
+    let r = counted(|| rig.command(hold));
+    assert_eq!(r.accepted, 1, "{}", r.reason());
+    let mut periods = 0;
+    for phase in 0..2 {
+        if phase == 1 {
+            rig.scenario_from_now("0 sensor silent");
+        }
+        for _ in 0..300 {
+            let now = rig.advance();
+            counted(|| rig.control(now));
+            periods += 1;
+        }
+    }
+    let s = rig.state();
+    assert_eq!(s.nav.hold, 0, "the silent sensor ended the hold");
+    assert_eq!(
+        s.cause,
+        anguilla_daemon::supervisor::Cause::SensorLost.code()
+    );
+    // A refused hold (the sensor is silent) formats its reason in place.
+    let r = counted(|| rig.command(hold));
+    assert_eq!(r.accepted, 0);
+    let n = COUNT.with(|n| n.get());
+    assert_eq!(
+        n, 0,
+        "{n} allocations in {periods} periods with the autopilot"
+    );
 }

@@ -174,7 +174,7 @@ pub fn bus_state_name(code: u8) -> &'static str {
 #[type_name("anguilla::NavSnapshot")]
 pub struct NavSnapshot {
     /// The sensor's health (`SensorHealth`: 0 no sensor, 1 ok, 2 waiting,
-    /// 3 silent, 4 stuck, 5 sensor error, 6 implausible, 7 rolled over).
+    /// 3 silent, 4 stuck, 5 sensor error, 6 implausible).
     pub sensor: u8,
     /// What the autopilot holds now: bit 0 heading, bit 1 depth
     /// (`hold_bits`); 0 manual.
@@ -182,7 +182,8 @@ pub struct NavSnapshot {
     /// Why the autopilot last let go of a hold (a `SensorHealth` code); 0
     /// if it never had to.
     pub hold_exit: u8,
-    /// 1 while |roll| is beyond `[sensor] roll-alarm`.
+    /// 1 while |roll| is beyond `[sensor] roll-alarm` (an alarm: the
+    /// autopilot keeps steering, its commands turned by the roll).
     pub roll_alarm: u8,
     /// The body's heading (deg, 0 ..< 360, earth frame, counter-clockwise
     /// seen from above): the head's heading less the gait's swing of the

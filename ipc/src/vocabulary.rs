@@ -162,13 +162,11 @@ pub enum SensorHealth {
     /// The measurements disagree with the model's prediction beyond the
     /// configured bound (a gyro bias jump, a wrong estimate).
     Implausible = 6,
-    /// The roll estimate passed the configured alarm angle.
-    Rolled = 7,
 }
 
 impl SensorHealth {
     /// Every value, in the order of their codes.
-    pub const ALL: [SensorHealth; 8] = [
+    pub const ALL: [SensorHealth; 7] = [
         SensorHealth::None,
         SensorHealth::Ok,
         SensorHealth::Waiting,
@@ -176,7 +174,6 @@ impl SensorHealth {
         SensorHealth::Stuck,
         SensorHealth::Error,
         SensorHealth::Implausible,
-        SensorHealth::Rolled,
     ];
 
     /// The health of a snapshot's code.
@@ -194,7 +191,6 @@ impl SensorHealth {
             SensorHealth::Stuck => "stuck",
             SensorHealth::Error => "sensor error",
             SensorHealth::Implausible => "implausible",
-            SensorHealth::Rolled => "rolled over",
         }
     }
 }

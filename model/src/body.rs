@@ -73,6 +73,11 @@ pub struct Body {
     pub c3: f64,
     /// Gravity acceleration in the earth frame (m/s²).
     pub gravity: [f64; 3],
+    /// How far below each section's axis its centre of mass lies (m): a
+    /// ballasted body, whose weight rights it in roll and pitch. 0 (the
+    /// paper's body): on the axis, no restoring moment; such a body rolls
+    /// freely (docs/autopilot.md).
+    pub ballast: f64,
     /// Include the resistive wrench (24) and the nose terms (22)–(23).
     /// `false` leaves the purely reactive (Lighthill) model.
     pub resistive: bool,
@@ -101,6 +106,7 @@ impl Body {
             c2: 1.98,
             c3: 0.5,
             gravity: [0.0, 0.0, -9.81],
+            ballast: 0.0,
             resistive: true,
         }
     }
@@ -167,6 +173,12 @@ impl Body {
         nonneg("c1", self.c1)?;
         nonneg("c2", self.c2)?;
         nonneg("c3", self.c3)?;
+        if !(0.0..=0.05).contains(&self.ballast) {
+            return Err(ModelError::InvalidBody {
+                field: "ballast",
+                reason: "must be within 0 ..= 0.05 m",
+            });
+        }
         if self.gravity.iter().any(|g| !g.is_finite()) {
             return Err(ModelError::InvalidBody {
                 field: "gravity",
@@ -261,6 +273,7 @@ impl Body {
             k4: res * self.c1 * PI * d * d,
             buoyancy: (rb - rf) * area,
             displaced: rf * area,
+            ballast_moment: rb * area * self.ballast,
         }
     }
 
@@ -305,6 +318,8 @@ pub(crate) struct Section {
     /// Displaced fluid mass rho_f A (kg/m): the Froude–Krylov force of an
     /// accelerating current is `rho_f A u_dot`.
     pub displaced: f64,
+    /// rho_b A h (kg): the section's weight acts `h` below its axis.
+    pub ballast_moment: f64,
 }
 
 /// Friction coefficient `c_f` of (41) for the local Reynolds number `re`.

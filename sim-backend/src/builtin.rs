@@ -39,6 +39,10 @@ pub struct BuiltinConfig {
     /// A fault scenario to play from the robot's start (the text of a
     /// scenario file; empty: none).
     pub scenario: String,
+    /// A head sensor (IMU and pressure) beside the joints, or none.
+    pub head_sensor: Option<crate::sensor::SensorConfig>,
+    /// The body's ballast (m; 0: the paper's body).
+    pub ballast: f64,
 }
 
 /// The in-process robot, running.
@@ -74,6 +78,8 @@ impl Builtin {
             axis_ids: cfg.axis_ids.clone(),
             variant: cfg.variant,
             boot_time: Duration::from_millis(50),
+            head_sensor: cfg.head_sensor,
+            ballast: cfg.ballast,
             ..RobotConfig::with_joints(n)
         };
         let clock: Arc<dyn Clock> = bus.clock();

@@ -43,6 +43,9 @@ pub struct PlantConfig {
     /// The water's uniform current at the start (earth frame); still water
     /// by default. [`Plant::set_current`] changes it during a run.
     pub current: Current,
+    /// The body's ballast (`anguilla_model::Body::ballast`, m); 0: the
+    /// paper's body.
+    pub ballast: f64,
 }
 
 impl Default for PlantConfig {
@@ -57,6 +60,7 @@ impl Default for PlantConfig {
             v_init: 0.0,
             rate_loads: false,
             current: Current::ZERO,
+            ballast: 0.0,
         }
     }
 }
@@ -104,6 +108,10 @@ impl Plant {
             dt: cfg.dt,
             joints: cfg.joints,
             integrator: Integrator::Rk4,
+            body: anguilla_model::Body {
+                ballast: cfg.ballast,
+                ..anguilla_model::Body::paper()
+            },
             ..ModelConfig::default()
         })?;
         let mut ws = Workspace::new(&model);

@@ -112,6 +112,9 @@ pub struct RobotConfig {
     /// The water's uniform current at the start (earth frame; still water
     /// by default). A scenario's `water current` events change it.
     pub current: Current,
+    /// The body's ballast (m below each section's axis; 0: the paper's
+    /// body, which rolls freely).
+    pub ballast: f64,
     /// A head sensor beside the joints (anguilla family only), or none.
     pub head_sensor: Option<SensorConfig>,
 }
@@ -143,6 +146,7 @@ impl RobotConfig {
             model_nodes: p.nodes,
             v_init: 0.0,
             current: Current::ZERO,
+            ballast: 0.0,
             head_sensor: None,
         }
     }
@@ -473,6 +477,7 @@ impl SimRobot {
             v_init: cfg.v_init,
             rate_loads: !cfg.actuator.ideal,
             current: cfg.current,
+            ballast: cfg.ballast,
         })?;
         let mut plant = plant;
         if !cfg.actuator.ideal {

@@ -115,6 +115,17 @@ impl SensorConfig {
         }
     }
 
+    /// [`SensorConfig::typical`] with the sample rate and the water a
+    /// host's configuration assumes (so its depth is the simulated one).
+    pub fn typical_in(id: u8, rate_hz: u16, water_density: f64, surface_pressure: f64) -> Self {
+        Self {
+            rate_hz,
+            water_density,
+            surface_pressure,
+            ..Self::typical(id)
+        }
+    }
+
     /// Checks every setting; the error names it and the accepted range.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         if NodeId::new(self.id).is_err() {

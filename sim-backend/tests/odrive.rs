@@ -226,6 +226,8 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
         variant: anguilla_protocol::message::Variant::Classic,
         fifo_priority: None,
         scenario: String::new(),
+        head_sensor: None,
+        ballast: 0.0,
     })
     .unwrap();
     // Real time: wait (bounded, a watchdog against a hang, not a speed

@@ -120,6 +120,11 @@ pub(super) fn forward_head(
         let mut bt =
             mi.component_mul(&(qt * al_full)) + om.cross(&mi.component_mul(&om)) + vl.cross(&mfv);
         bt.x -= cbar_x;
+        if s.ballast_moment != 0.0 {
+            // The weight acts `h` below the axis (−t3): its moment about the
+            // section's origin, an external torque like the drag's.
+            bt -= s.ballast_moment * (-Vector3::z()).cross(&(qt * grav_h));
+        }
         ws.bf[i] = bf;
         ws.bt[i] = bt;
         let wi = model.w[i];

@@ -1,0 +1,235 @@
+//! Heading and depth hold (issue 16; docs/autopilot.md).
+//!
+//! The autopilot replaces the operator's turn curvature (K_c3) while a
+//! heading is held, and the pitch curvature (K_c2) while a depth is held;
+//! amplitude and frequency stay the operator's. Each period:
+//!
+//! - **heading**: a turn rate `r = Kψ e + Kψi ∫e` from the heading error `e`
+//!   (wrapped to ±180°), at most `max-turn-rate`, integrated only while
+//!   not saturated (anti-windup);
+//! - **depth**: a dive rate `w = Kd e + Kdi ∫e` from the depth error, at most
+//!   `U sin(max-dive-angle)`, flown at the pitch `θ = −asin(w / U)`, reached
+//!   at the pitch rate `q = Kθ (θ − θ̂)`;
+//! - **model-based feed-forward**: the model says how fast the body turns
+//!   and pitches per unit curvature at speed `U` ([`Gains`], measured once at
+//!   start-up by running the model itself on the configured gait), so the
+//!   curvature is the wanted rate divided by `gain · U`, `U` being the
+//!   model's predicted forward speed (low-passed over a second). The
+//!   curvature then goes through the same trapezoidal profile as an
+//!   operator's, within `gait.max-turn` and `gait.max-pitch`.
+
+use anguilla_ipc::Hold;
+use anguilla_model::{GaitParams, HeadState, Model, ModelError, ParametricGait, Workspace, step};
+use nalgebra::Vector3;
+
+use crate::config::Config;
+use crate::nav::{Estimate, Prediction};
+
+/// The speed below which the feed-forward stops growing (m/s): a body
+/// barely swimming cannot turn, and asking for more curvature is useless.
+pub const MIN_SPEED: f64 = 0.05;
+/// The curvature of the calibration runs (1/m).
+pub const CALIBRATION_CURVATURE: f64 = 0.5;
+/// Time constant of the speed's low-pass (s).
+pub const SPEED_TAU: f64 = 1.0;
+
+/// How the body answers its curvatures, per unit curvature and unit speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gains {
+    /// Turn rate (rad/s, left positive) per operator turn curvature (1/m)
+    /// per forward speed (m/s).
+    pub turn: f64,
+    /// Nose-down pitch rate (rad/s) per pitch curvature (1/m) per forward
+    /// speed (m/s).
+    pub pitch: f64,
+    /// The calibration's forward speed (m/s).
+    pub speed: f64,
+}
+
+/// Runs the model on `cfg`'s gait (full amplitude, at 1 Hz or the highest
+/// frequency allowed): four periods straight to reach speed, then a small
+/// turn, or pitch, curvature; one period for it to take hold, and the
+/// body's rates averaged over the next (whole periods, so the undulation
+/// cancels). The rates are taken in the head's own axes: the model rolls
+/// under a pitch curvature (the paper's spiral), and the gain wanted is the
+/// one about the body's axes, whatever its roll.
+pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
+    let f = cfg.gait.max_frequency.min(1.0);
+    let period = 1.0 / f;
+    let k = CALIBRATION_CURVATURE;
+    let run = |kc3: f64, kc2: f64| -> Result<(Vector3<f64>, f64), ModelError> {
+        let mut params = GaitParams {
+            wavelength: cfg.gait.wavelength,
+            period,
+            amplitude: cfg.gait.amplitude_polynomial,
+            phase: 0.0,
+            kc3: 0.0,
+            kc2: 0.0,
+        };
+        let mut gait = ParametricGait::new(params, 0.05)?;
+        let mut ws = Workspace::new(model);
+        let mut head = HeadState::launch(0.0);
+        let per = (period / model.dt()).round() as usize;
+        for _ in 0..4 * per {
+            step(model, &mut ws, &mut gait, &mut head)?;
+        }
+        params.kc3 = kc3;
+        params.kc2 = kc2;
+        gait.set_target(&params)?;
+        for _ in 0..per {
+            step(model, &mut ws, &mut gait, &mut head)?;
+        }
+        let (mut rates, mut speed) = (Vector3::zeros(), 0.0);
+        for _ in 0..per {
+            let r = step(model, &mut ws, &mut gait, &mut head)?;
+            rates += Prediction::of(&head, &[]).rates;
+            speed += r.forward_speed;
+        }
+        Ok((rates / per as f64, speed / per as f64))
+    };
+    // The operator's turn is positive left; the gait's K_c3 is its
+    // opposite (control.rs). Sensor axes: z up (a left turn is +z), y left
+    // (nose down is +y).
+    let (turn, u_turn) = run(-k, 0.0)?;
+    let (pitch, u_pitch) = run(0.0, k)?;
+    let floor = |g: f64| if g.abs() < 1e-3 { 1e-3 } else { g };
+    Ok(Gains {
+        turn: floor(turn.z / (k * u_turn.max(MIN_SPEED))),
+        pitch: floor(pitch.y / (k * u_pitch.max(MIN_SPEED))),
+        speed: u_turn,
+    })
+}
+
+/// An angle wrapped into `(−π, π]`.
+pub fn wrap(a: f64) -> f64 {
+    let w = a.rem_euclid(core::f64::consts::TAU);
+    if w > core::f64::consts::PI {
+        w - core::f64::consts::TAU
+    } else {
+        w
+    }
+}
+
+/// The autopilot's state: its integrators and the speed it believes.
+#[derive(Debug, Clone)]
+pub struct Autopilot {
+    gains: Gains,
+    heading_gain: f64,
+    heading_integral: f64,
+    max_rate: f64,
+    depth_gain: f64,
+    depth_integral: f64,
+    max_dive: f64,
+    pitch_gain: f64,
+    max_turn: f64,
+    max_pitch: f64,
+    speed: f64,
+    heading_sum: f64,
+    depth_sum: f64,
+}
+
+impl Autopilot {
+    /// The autopilot of `cfg` with the model's `gains`.
+    pub fn new(cfg: &Config, gains: Gains) -> Self {
+        let a = &cfg.autopilot;
+        Self {
+            gains,
+            heading_gain: a.heading_gain,
+            heading_integral: a.heading_integral,
+            max_rate: a.max_turn_rate.to_radians(),
+            depth_gain: a.depth_gain,
+            depth_integral: a.depth_integral,
+            max_dive: a.max_dive_angle.to_radians(),
+            pitch_gain: a.pitch_gain,
+            max_turn: cfg.gait.max_turn,
+            max_pitch: cfg.gait.max_pitch,
+            speed: 0.0,
+            heading_sum: 0.0,
+            depth_sum: 0.0,
+        }
+    }
+
+    /// The model's gains.
+    pub fn gains(&self) -> Gains {
+        self.gains
+    }
+
+    /// One period of `dt` s: the turn and pitch curvatures (operator
+    /// units: turn positive left, pitch positive diving) for `hold`, from
+    /// the estimate `est` and the model's predicted forward speed;
+    /// `manual` is the operator's `[turn, pitch]`, kept unchanged while
+    /// nothing is held.
+    ///
+    /// The wanted yaw rate `r` (about the vertical) and nose-down rate `q`
+    /// (about the horizontal) are turned into the body's axes by the roll
+    /// `φ` when both are held: `ω_y = q cos φ + r sin φ`,
+    /// `ω_z = r cos φ − q sin φ`; a free axis keeps the operator's
+    /// curvature.
+    pub fn steer(
+        &mut self,
+        dt: f64,
+        hold: &Hold,
+        est: &Estimate,
+        predicted_speed: f64,
+        manual: [f64; 2],
+    ) -> [f64; 2] {
+        self.speed += (predicted_speed - self.speed) * (1.0 - (-dt / SPEED_TAU).exp());
+        if !hold.is_active() {
+            self.heading_sum = 0.0;
+            self.depth_sum = 0.0;
+            return manual;
+        }
+        let u = self.speed.max(MIN_SPEED);
+        let g = self.gains;
+        let r = match hold.heading {
+            None => {
+                self.heading_sum = 0.0;
+                None
+            }
+            Some(target) => {
+                let e = wrap(target.to_radians() - est.heading);
+                let raw = self.heading_gain * e + self.heading_integral * self.heading_sum;
+                let r = raw.clamp(-self.max_rate, self.max_rate);
+                if raw == r {
+                    self.heading_sum += e * dt;
+                }
+                Some(r)
+            }
+        };
+        let q = match hold.depth {
+            None => {
+                self.depth_sum = 0.0;
+                None
+            }
+            Some(target) => {
+                let e = target - est.depth;
+                let w_max = u * self.max_dive.sin();
+                let raw = self.depth_gain * e + self.depth_integral * self.depth_sum;
+                let w = raw.clamp(-w_max, w_max);
+                if raw == w {
+                    self.depth_sum += e * dt;
+                }
+                // Nose down to descend: the pitch wanted (nose up) is
+                // −asin(w / U), reached at a nose-down rate.
+                let theta = -(w / u).clamp(-1.0, 1.0).asin();
+                Some((self.pitch_gain * (est.pitch - theta)).clamp(-self.max_rate, self.max_rate))
+            }
+        };
+        // Turned by the roll only when both axes are held: with one free,
+        // the roll's noise would leak into the operator's axis.
+        let (wy, wz) = match (q, r) {
+            (Some(q), Some(r)) => {
+                let (sin, cos) = est.roll.sin_cos();
+                (q * cos + r * sin, r * cos - q * sin)
+            }
+            (q, r) => (
+                q.unwrap_or(manual[1] * g.pitch * u),
+                r.unwrap_or(manual[0] * g.turn * u),
+            ),
+        };
+        [
+            (wz / (g.turn * u)).clamp(-self.max_turn, self.max_turn),
+            (wy / (g.pitch * u)).clamp(-self.max_pitch, self.max_pitch),
+        ]
+    }
+}

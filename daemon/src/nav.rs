@@ -1,0 +1,457 @@
+//! The head sensor and the estimate of the head's attitude and depth
+//! (issue 16; docs/autopilot.md).
+//!
+//! [`Nav`] takes the head sensor's frames off the bus (protocol/README.md
+//! "The head sensor": one FD `HeadSample`, or the classic `HeadAttitude`,
+//! `HeadRates`, `HeadAccel` and `HeadDepth` tied by their sample counter),
+//! and once a period runs a complementary filter whose process model is the
+//! feed-forward model's own prediction of the head:
+//!
+//! - **attitude** `q` (sensor frame to world; x forward, y left, z up) is
+//!   propagated with the model's predicted body rates plus `b`, the gyro's
+//!   innovation (gyro − model) low-passed over [`RATE_TAU`] (the same
+//!   innovation low-passed over [`INNOVATION_TAU`] is the model's health
+//!   figure); each sample pulls
+//!   it towards the fusion IMU's quaternion by `1 − e^(−Ts/ATT_TAU)`, or,
+//!   from a raw 6-axis IMU, levels it towards the accelerometer's gravity
+//!   over `TILT_TAU` (then heading is gyro-integrated and drifts);
+//! - **depth** is propagated with the model's predicted velocity turned
+//!   into the world by `q`, plus a learnt rate bias (a current, a model
+//!   error), and corrected by each pressure sample (α-β, critically damped);
+//! - the **heading** and **pitch** the operator and the autopilot see are
+//!   the body's, not the head's: the head swings with every tail beat, and
+//!   the model knows by how much. The body's axis is the direction from the
+//!   centroid of the model's body shape to the nose; its heading is the
+//!   estimated attitude applied to that direction.
+//!
+//! Health ([`SensorHealth`]): silent past `[sensor] timeout`, an error bit,
+//! stuck (the measured values repeat exactly [`STUCK_SAMPLES`] times: no
+//! real sensor's noise does that), implausible (|b| beyond
+//! `[sensor] max-rate-innovation`, or a pressure jump beyond
+//! [`MAX_DEPTH_INNOVATION`]). A roll beyond `roll-alarm` is an alarm in the
+//! snapshot, not a health: the autopilot steers through it.
+//! Nothing here allocates after [`Nav::new`].
+
+use anguilla_ipc::{NavSnapshot, SensorHealth};
+use anguilla_model::HeadState;
+use anguilla_protocol::Frame;
+use anguilla_protocol::message::{
+    self, Function, HeadSample, Message, NodeId, NodeSet, SensorErrors, SensorStatus, Variant,
+};
+use anguilla_protocol::time::Nanos;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+use crate::config::Config;
+
+/// Gravity (m/s²), as the simulated sensor and the model use it.
+pub const GRAVITY: f64 = 9.81;
+/// Time constant of the pull towards a fusion IMU's attitude (s).
+pub const ATT_TAU: f64 = 0.05;
+/// Time constant of the levelling by a raw IMU's accelerometer (s).
+pub const TILT_TAU: f64 = 2.0;
+/// Time constant of the gyro innovation's low-pass added to the model's
+/// rates in the propagation (s).
+pub const RATE_TAU: f64 = 0.2;
+/// Time constant of the innovation's low-pass judged for plausibility (s).
+pub const INNOVATION_TAU: f64 = 1.0;
+/// α of the depth filter (per sample); β follows for critical damping.
+pub const DEPTH_ALPHA: f64 = 0.2;
+/// Identical consecutive samples that make a sensor stuck.
+pub const STUCK_SAMPLES: u32 = 5;
+/// A pressure sample this far (m) from the predicted depth is implausible.
+pub const MAX_DEPTH_INNOVATION: f64 = 1.0;
+
+/// The sensor axes from the model's head axes: `x = −t1`, `y = −t2`,
+/// `z = t3` (sim-backend's `sensor` module).
+fn to_sensor(v: Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(-v.x, -v.y, v.z)
+}
+
+/// What the model predicts of the head this period, in the sensor's axes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// Body rates (rad/s).
+    pub rates: Vector3<f64>,
+    /// The nose's velocity (m/s).
+    pub velocity: Vector3<f64>,
+    /// The body's mean axis, forward (unit).
+    pub forward: Vector3<f64>,
+}
+
+impl Prediction {
+    /// From the model's predicted head state and body shape (node
+    /// positions from the nose, in the model's head frame).
+    pub fn of(head: &HeadState, shape: &[Vector3<f64>]) -> Self {
+        let inv = head.orientation.inverse();
+        let centroid = if shape.is_empty() {
+            Vector3::x()
+        } else {
+            shape.iter().sum::<Vector3<f64>>() / shape.len() as f64
+        };
+        let forward = to_sensor(-centroid)
+            .try_normalize(1e-9)
+            .unwrap_or_else(Vector3::x);
+        Self {
+            rates: to_sensor(inv * head.omega),
+            velocity: to_sensor(inv * head.velocity),
+            forward,
+        }
+    }
+
+    /// A body at rest and straight.
+    pub fn still() -> Self {
+        Self {
+            rates: Vector3::zeros(),
+            velocity: Vector3::zeros(),
+            forward: Vector3::x(),
+        }
+    }
+}
+
+/// The estimate, in SI units and radians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// The head's attitude (sensor frame to world).
+    pub attitude: UnitQuaternion<f64>,
+    /// The body's heading (rad, `(−π, π]`, counter-clockwise from x).
+    pub heading: f64,
+    /// The body's pitch (rad, nose up).
+    pub pitch: f64,
+    /// The head's roll (rad, right side down).
+    pub roll: f64,
+    /// Depth below the surface (m).
+    pub depth: f64,
+    /// Depth rate (m/s, descending).
+    pub depth_rate: f64,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Partial {
+    sample: Option<u8>,
+    quaternion: Option<[f32; 4]>,
+    rates: Option<[f32; 3]>,
+    accel: Option<[f32; 3]>,
+}
+
+/// The head sensor, its health and the estimate.
+#[derive(Debug, Clone)]
+pub struct Nav {
+    id: NodeId,
+    variant: Variant,
+    timeout: Nanos,
+    sample_period: f64,
+    rho_g: f64,
+    surface_pressure: f64,
+    max_innovation: f64,
+    roll_alarm: f64,
+    started: Nanos,
+    partial: Partial,
+    pending: Option<HeadSample>,
+    last: Option<HeadSample>,
+    last_at: Option<Nanos>,
+    same: u32,
+    initialised: bool,
+    attitude: UnitQuaternion<f64>,
+    rate_bias: Vector3<f64>,
+    innovation: Vector3<f64>,
+    depth: f64,
+    depth_bias: f64,
+    depth_rate: f64,
+    depth_innovation: f64,
+    temperature: f64,
+    implausible: bool,
+    forward: Vector3<f64>,
+    errors: SensorErrors,
+    health: SensorHealth,
+    samples: u64,
+    lost: u64,
+    heartbeats: u64,
+}
+
+impl Nav {
+    /// The sensor of `cfg`'s `[sensor]`, or `None` without one (node 0).
+    pub fn new(cfg: &Config, now: Nanos) -> Option<Self> {
+        let s = &cfg.sensor;
+        let id = NodeId::new(s.node).ok()?;
+        Some(Self {
+            id,
+            variant: cfg.bus.variant(),
+            timeout: Nanos::from_secs_f64(s.timeout),
+            sample_period: 1.0 / s.rate_hz as f64,
+            rho_g: s.water_density * GRAVITY,
+            surface_pressure: s.surface_pressure,
+            max_innovation: s.max_rate_innovation,
+            roll_alarm: s.roll_alarm.to_radians(),
+            started: now,
+            partial: Partial::default(),
+            pending: None,
+            last: None,
+            last_at: None,
+            same: 0,
+            initialised: false,
+            attitude: UnitQuaternion::identity(),
+            rate_bias: Vector3::zeros(),
+            innovation: Vector3::zeros(),
+            depth: 0.0,
+            depth_bias: 0.0,
+            depth_rate: 0.0,
+            depth_innovation: 0.0,
+            temperature: 0.0,
+            implausible: false,
+            forward: Vector3::x(),
+            errors: SensorErrors::default(),
+            health: SensorHealth::Waiting,
+            samples: 0,
+            lost: 0,
+            heartbeats: 0,
+        })
+    }
+
+    /// Takes `frame` if it is the sensor's (a sample's frame or its
+    /// heartbeat); `false` leaves it to the drives.
+    pub fn ingest(&mut self, now: Nanos, frame: &Frame) -> bool {
+        let Some(raw) = frame.id().as_standard() else {
+            return false;
+        };
+        let Some((function, low)) = Function::split_id(raw) else {
+            return false;
+        };
+        if low != self.id.get() {
+            return false;
+        }
+        let ours = matches!(
+            function,
+            Function::HeadAttitude
+                | Function::HeadRates
+                | Function::HeadAccel
+                | Function::HeadDepth
+                | Function::HeadSample
+                | Function::Heartbeat
+        );
+        if !ours {
+            return false;
+        }
+        match message::decode(frame, self.variant, NodeSet::empty().with(self.id)) {
+            Ok(Message::HeadSample(s)) => self.complete(now, s),
+            Ok(Message::HeadAttitude(a)) => {
+                self.start(a.sample);
+                self.partial.quaternion = Some(a.quaternion);
+            }
+            Ok(Message::HeadRates(v)) => {
+                self.start(v.sample);
+                self.partial.rates = Some(v.xyz);
+            }
+            Ok(Message::HeadAccel(v)) => {
+                self.start(v.sample);
+                self.partial.accel = Some(v.xyz);
+            }
+            Ok(Message::HeadDepth(d)) => {
+                let p = core::mem::take(&mut self.partial);
+                let attitude_ok = !d.status.has(SensorStatus::ATTITUDE) || p.quaternion.is_some();
+                match (p.sample == Some(d.sample), p.rates, p.accel) {
+                    (true, Some(rates), Some(accel)) if attitude_ok => self.complete(
+                        now,
+                        HeadSample {
+                            node: d.node,
+                            sample: d.sample,
+                            quaternion: p.quaternion.unwrap_or([0.0; 4]),
+                            rates,
+                            accel,
+                            pressure: d.pressure,
+                            temperature: d.temperature,
+                            status: d.status,
+                            errors: d.errors,
+                        },
+                    ),
+                    // A sample whose other frames were lost: counted lost.
+                    _ => self.lost += 1,
+                }
+            }
+            Ok(Message::Heartbeat(_)) => self.heartbeats += 1,
+            // Malformed sensor frames or another message: dropped.
+            _ => {}
+        }
+        true
+    }
+
+    fn start(&mut self, sample: u8) {
+        if self.partial.sample != Some(sample) {
+            self.partial = Partial {
+                sample: Some(sample),
+                ..Partial::default()
+            };
+        }
+    }
+
+    fn complete(&mut self, now: Nanos, s: HeadSample) {
+        if let Some(last) = &self.last {
+            let gap = s.sample.wrapping_sub(last.sample);
+            if gap > 1 {
+                self.lost += u64::from(gap - 1);
+            }
+            let same = last.quaternion == s.quaternion
+                && last.rates == s.rates
+                && last.accel == s.accel
+                && last.pressure == s.pressure;
+            self.same = if same { self.same + 1 } else { 0 };
+        }
+        self.samples += 1;
+        self.last = Some(s);
+        self.last_at = Some(now);
+        self.pending = Some(s);
+    }
+
+    /// One control period of `dt` seconds at `now`: propagates the
+    /// estimate with the model's `pred`, takes the newest sample, and
+    /// judges the sensor's health.
+    pub fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
+        self.forward = pred.forward;
+        if self.initialised {
+            let w = pred.rates + self.rate_bias;
+            self.attitude *= UnitQuaternion::from_scaled_axis(w * dt);
+            let v = self.attitude * pred.velocity;
+            self.depth_rate = -v.z + self.depth_bias;
+            self.depth += self.depth_rate * dt;
+        }
+        if let Some(s) = self.pending.take() {
+            self.correct(&s, pred);
+        }
+        self.health = self.judge(now);
+    }
+
+    fn correct(&mut self, s: &HeadSample, pred: &Prediction) {
+        let ts = self.sample_period;
+        self.errors = s.errors;
+        let q = s.quaternion.map(f64::from);
+        let measured = (s.status.has(SensorStatus::ATTITUDE))
+            .then(|| Quaternion::new(q[0], q[1], q[2], q[3]))
+            .filter(|q| q.norm() > 0.5)
+            .map(UnitQuaternion::from_quaternion);
+        let imu = s.status.has(SensorStatus::IMU);
+        let accel = Vector3::from(s.accel.map(f64::from));
+        let depth = (s.pressure as f64 - self.surface_pressure) / self.rho_g;
+        let pressure = s.status.has(SensorStatus::PRESSURE);
+        if !self.initialised {
+            self.attitude = match measured {
+                Some(q) => q,
+                None if imu => level(accel),
+                None => UnitQuaternion::identity(),
+            };
+            if pressure {
+                self.depth = depth;
+            }
+            self.initialised = true;
+        } else {
+            if let Some(mut m) = measured {
+                // q and −q are one attitude (a sensor sends w ≥ 0): pull
+                // towards the one on this side, not the long way round.
+                if self.attitude.coords.dot(&m.coords) < 0.0 {
+                    m = UnitQuaternion::new_unchecked(-m.into_inner());
+                }
+                let k = 1.0 - (-ts / ATT_TAU).exp();
+                self.attitude = self.attitude.try_slerp(&m, k, 1e-9).unwrap_or(m);
+            } else if imu && accel.norm() > 1.0 {
+                // Gravity's direction in the sensor frame, measured and
+                // predicted: turn the estimate a little towards the measure.
+                let up_pred = self.attitude.inverse() * Vector3::z();
+                let axis = up_pred.cross(&(accel / accel.norm()));
+                let k = 1.0 - (-ts / TILT_TAU).exp();
+                self.attitude *= UnitQuaternion::from_scaled_axis(-axis * k);
+            }
+            if pressure {
+                let e = depth - self.depth;
+                self.depth_innovation = e;
+                let a = DEPTH_ALPHA;
+                let b = a * a / (2.0 - a);
+                self.depth += a * e;
+                self.depth_bias += b * e / ts;
+            }
+        }
+        if imu {
+            let innovation = Vector3::from(s.rates.map(f64::from)) - pred.rates;
+            let k = 1.0 - (-ts / RATE_TAU).exp();
+            self.rate_bias += (innovation - self.rate_bias) * k;
+            let k = 1.0 - (-ts / INNOVATION_TAU).exp();
+            self.innovation += (innovation - self.innovation) * k;
+        }
+        if s.status.has(SensorStatus::TEMPERATURE) {
+            self.temperature = s.temperature as f64;
+        }
+        let innovation = self.innovation.norm();
+        // Hysteresis: implausible beyond the bound, plausible again below
+        // 70 % of it.
+        self.implausible = if self.implausible {
+            innovation > 0.7 * self.max_innovation
+        } else {
+            innovation > self.max_innovation || self.depth_innovation.abs() > MAX_DEPTH_INNOVATION
+        };
+    }
+
+    fn judge(&self, now: Nanos) -> SensorHealth {
+        let Some(at) = self.last_at else {
+            // Booting: silent once the timeout has passed five times over.
+            return if now.saturating_sub(self.started) > self.timeout * 5 {
+                SensorHealth::Silent
+            } else {
+                SensorHealth::Waiting
+            };
+        };
+        if now.saturating_sub(at) > self.timeout {
+            SensorHealth::Silent
+        } else if self.errors.any(SensorErrors::IMU | SensorErrors::PRESSURE) {
+            SensorHealth::Error
+        } else if self.same >= STUCK_SAMPLES {
+            SensorHealth::Stuck
+        } else if self.implausible {
+            SensorHealth::Implausible
+        } else {
+            SensorHealth::Ok
+        }
+    }
+
+    /// The sensor's health after the last [`Nav::step`].
+    pub fn health(&self) -> SensorHealth {
+        self.health
+    }
+
+    /// The estimate after the last [`Nav::step`].
+    pub fn estimate(&self) -> Estimate {
+        let r = self.attitude.to_rotation_matrix();
+        let m = r.matrix();
+        let f = self.attitude * self.forward;
+        Estimate {
+            attitude: self.attitude,
+            heading: f.y.atan2(f.x),
+            pitch: f.z.atan2(f.x.hypot(f.y)),
+            roll: m[(2, 1)].atan2(m[(2, 2)]),
+            depth: self.depth,
+            depth_rate: self.depth_rate,
+        }
+    }
+
+    /// The snapshot's sensor and estimate fields (the autopilot's are the
+    /// controller's).
+    pub fn fill(&self, s: &mut NavSnapshot) {
+        s.sensor = self.health as u8;
+        if self.initialised {
+            let e = self.estimate();
+            s.roll_alarm = (e.roll.abs() > self.roll_alarm) as u8;
+            s.heading_deg = e.heading.to_degrees().rem_euclid(360.0) as f32;
+            s.pitch_deg = e.pitch.to_degrees() as f32;
+            s.roll_deg = e.roll.to_degrees() as f32;
+            s.depth_m = e.depth as f32;
+            s.depth_rate = e.depth_rate as f32;
+            s.temperature = self.temperature as f32;
+            s.rate_innovation = self.innovation.norm() as f32;
+            s.depth_innovation = self.depth_innovation as f32;
+        }
+        s.samples = self.samples;
+        s.lost_samples = self.lost;
+    }
+}
+
+/// A level attitude with heading 0 whose up is the accelerometer's `accel`
+/// (the specific force points up at rest).
+fn level(accel: Vector3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::rotation_between(&accel, &Vector3::z()).unwrap_or_else(UnitQuaternion::identity)
+}

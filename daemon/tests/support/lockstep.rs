@@ -1,0 +1,259 @@
+//! The controller and the simulated robot (twelve vertebra nodes, the
+//! swimming body and a head sensor) in lockstep on a manual clock: the
+//! whole closed loop, deterministic and faster than real time. Shared by
+//! `tests/autopilot.rs` and `benches/autopilot.rs`.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::control::Controller;
+use anguilla_daemon::ipc::{CommandReply, CommandRequest, Envelope, StateSnapshot};
+use anguilla_daemon::supervisor::{Command, Mode, Nanos, SwimParams};
+use anguilla_drivers::mem::{MemBus, MemParticipant};
+use anguilla_drivers::{Clock, ManualClock};
+use anguilla_model::Current;
+use anguilla_sim::robot::{RobotConfig, SimRobot, Truth};
+use anguilla_sim::sensor::SensorConfig;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+/// The head sensor's node id in these rigs.
+pub const SENSOR: u8 = 20;
+/// The simulated sensor's depth at the model's origin (m).
+pub const ORIGIN_DEPTH: f64 = 1.0;
+
+/// A configuration with a head sensor on node [`SENSOR`].
+pub fn config() -> Config {
+    let mut cfg = Config::default();
+    cfg.sensor.node = SENSOR;
+    cfg.validate().expect("valid configuration");
+    cfg
+}
+
+/// The rig.
+pub struct Rig {
+    clock: ManualClock,
+    host: MemParticipant,
+    /// The simulated robot.
+    pub robot: SimRobot,
+    /// The daemon's controller.
+    pub ctl: Controller,
+    period: Duration,
+    seq: u32,
+    last_keep_alive: Duration,
+}
+
+impl Rig {
+    /// `cfg`'s controller and a robot with a typical sensor (noise, bias
+    /// walk) seeded with `seed`, in the uniform `current` (m/s, earth frame).
+    pub fn new(cfg: &Config, seed: u64, current: [f64; 3]) -> Self {
+        let clock = ManualClock::new();
+        let bus = MemBus::builder(&format!("lockstep-{seed}-{}", std::process::id()))
+            .bitrate(cfg.bus.bitrate)
+            .clock(Arc::new(clock.clone()))
+            .capacity(1 << 14)
+            .build();
+        let host = bus.participant();
+        let s = &cfg.sensor;
+        // No sensor on the robot when the daemon has none configured.
+        let sensor = (s.node != 0).then(|| SensorConfig {
+            origin_depth: ORIGIN_DEPTH,
+            ..SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure)
+        });
+        let robot = SimRobot::on_mem(
+            RobotConfig {
+                node_ids: cfg.node_ids(),
+                variant: cfg.bus.variant(),
+                boot_time: Duration::from_millis(10),
+                seed,
+                head_sensor: sensor,
+                ballast: cfg.model.ballast,
+                current: Current::steady(current).expect("a current within limits"),
+                ..RobotConfig::with_joints(cfg.robot.joints)
+            },
+            bus.participant(),
+            Duration::ZERO,
+        )
+        .expect("simulated robot");
+        let ctl = Controller::new(cfg, Nanos::ZERO).expect("controller");
+        let period = Duration::from_nanos(ctl.period_ns().as_nanos());
+        Self {
+            clock,
+            host,
+            robot,
+            ctl,
+            period,
+            seq: 0,
+            last_keep_alive: Duration::ZERO,
+        }
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.clock.now().as_secs_f64()
+    }
+
+    /// The last snapshot.
+    pub fn state(&self) -> &StateSnapshot {
+        self.ctl.snapshot()
+    }
+
+    /// One operator command, answered.
+    pub fn command(&mut self, cmd: Command) -> CommandReply {
+        self.seq += 1;
+        let now = Nanos::from_nanos(self.clock.now().as_nanos() as u64);
+        self.ctl.command(
+            now,
+            &Envelope {
+                origin: 1,
+                node: 1,
+                request: CommandRequest::new(cmd, self.seq),
+            },
+        )
+    }
+
+    /// A command that must be accepted.
+    pub fn ok(&mut self, cmd: Command) {
+        let r = self.command(cmd);
+        assert_eq!(r.accepted, 1, "'{}' refused: {}", cmd.name(), r.reason());
+    }
+
+    /// One control period (the operator keeps control alive every 0.2 s).
+    pub fn period(&mut self) {
+        let now = self.advance();
+        self.control(now);
+    }
+
+    /// The robot's half of a period: the clock moves on one period and the
+    /// robot lives until then; returns the time.
+    pub fn advance(&mut self) -> Nanos {
+        self.clock.advance(self.period);
+        let t = self.clock.now();
+        self.robot.step_until(t);
+        Nanos::from_nanos(t.as_nanos() as u64)
+    }
+
+    /// The daemon's half: a keep-alive every 0.2 s, and the period.
+    pub fn control(&mut self, now: Nanos) {
+        let t = Duration::from_nanos(now.as_nanos());
+        if t.saturating_sub(self.last_keep_alive) >= Duration::from_millis(200) {
+            self.last_keep_alive = t;
+            self.command(Command::KeepAlive);
+        }
+        self.ctl.run_period(now, &mut self.host);
+    }
+
+    /// Plays a scenario `text` whose times count from now (each line's
+    /// first word is added to the current time).
+    pub fn scenario_from_now(&mut self, text: &str) {
+        let now = self.time();
+        let shifted: String = text
+            .lines()
+            .map(|l| match l.split_once(' ') {
+                Some((t, rest)) => format!("{} {rest}\n", now + t.parse::<f64>().expect("time")),
+                None => format!("{l}\n"),
+            })
+            .collect();
+        self.robot.load_scenario(&shifted).expect("scenario");
+    }
+
+    /// Runs `seconds`, calling `each` after every period.
+    pub fn run(&mut self, seconds: f64, mut each: impl FnMut(&Self)) {
+        let end = self.time() + seconds;
+        while self.time() < end {
+            self.period();
+            each(self);
+        }
+    }
+
+    /// Runs until `done` or `seconds`; whether `done` held.
+    pub fn run_until(&mut self, seconds: f64, done: impl Fn(&Self) -> bool) -> bool {
+        let end = self.time() + seconds;
+        while self.time() < end {
+            self.period();
+            if done(self) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Takes control, enables, and swims at full amplitude at `frequency`.
+    pub fn swim(&mut self, frequency: f64) {
+        self.ok(Command::TakeControl);
+        self.ok(Command::Enable);
+        assert!(
+            self.run_until(5.0, |r| r.state().mode == Mode::Ready as u8),
+            "ready"
+        );
+        self.ok(Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency,
+            turn: 0.0,
+            pitch: 0.0,
+        }));
+    }
+
+    /// The simulation's truth.
+    pub fn truth(&self) -> Truth {
+        self.robot.truth()
+    }
+}
+
+/// The head's true attitude in the sensor's axes (x forward, y left, z up).
+pub fn true_attitude(t: &Truth) -> UnitQuaternion<f64> {
+    let [w, x, y, z] = t.orientation;
+    let model = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+    model * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), core::f64::consts::PI)
+}
+
+/// The head's true heading (rad, counter-clockwise from x).
+pub fn true_head_heading(t: &Truth) -> f64 {
+    let f = true_attitude(t) * Vector3::x();
+    f.y.atan2(f.x)
+}
+
+/// The nose's true depth (m).
+pub fn true_depth(t: &Truth) -> f64 {
+    ORIGIN_DEPTH - t.position[2]
+}
+
+/// The body's true heading: the head's, averaged (circularly) over the
+/// last gait period, which removes the tail beat's swing of the head.
+pub struct BodyHeading {
+    ring: Vec<(f64, f64)>,
+    next: usize,
+}
+
+impl BodyHeading {
+    /// Averaging over `samples` periods of the control loop.
+    pub fn new(samples: usize) -> Self {
+        Self {
+            ring: Vec::with_capacity(samples),
+            next: 0,
+        }
+    }
+
+    /// Adds the truth's head heading; returns the average (deg).
+    pub fn push(&mut self, t: &Truth) -> f64 {
+        let h = true_head_heading(t);
+        let v = (h.cos(), h.sin());
+        if self.ring.len() < self.ring.capacity() {
+            self.ring.push(v);
+        } else {
+            self.ring[self.next] = v;
+            self.next = (self.next + 1) % self.ring.len();
+        }
+        let (c, s) = self
+            .ring
+            .iter()
+            .fold((0.0, 0.0), |(c, s), &(x, y)| (c + x, s + y));
+        s.atan2(c).to_degrees().rem_euclid(360.0)
+    }
+}
+
+/// `a − b` wrapped into (−180, 180] degrees.
+pub fn angle_diff_deg(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(360.0);
+    if d > 180.0 { d - 360.0 } else { d }
+}
