@@ -668,13 +668,17 @@ mod tests {
     }
 
     fn nav_state(heading: f32, depth: f32) -> StateSnapshot {
-        let mut s = StateSnapshot::default();
-        s.mode = anguilla_ipc::Mode::Swimming as u8;
-        s.nav.sensor = 1;
-        s.nav.samples = 10;
-        s.nav.heading_deg = heading;
-        s.nav.depth_m = depth;
-        s
+        StateSnapshot {
+            mode: anguilla_ipc::Mode::Swimming as u8,
+            nav: anguilla_ipc::NavSnapshot {
+                sensor: 1,
+                samples: 10,
+                heading_deg: heading,
+                depth_m: depth,
+                ..Default::default()
+            },
+            ..Default::default()
+        }
     }
 
     fn hold_of(c: Option<Command>) -> Hold {
