@@ -369,6 +369,44 @@ fn ctl_without_a_daemon_exits_2_naming_the_prefix_and_bad_arguments_are_named() 
     );
 }
 
+#[test]
+fn ctl_swim_hold_targets_are_checked_before_any_daemon_is_asked() {
+    let prefix = format!("anguilla-cli/nobody-hold-{}", std::process::id());
+    for (flags, want) in [
+        (
+            &["--heading", "NaN"][..],
+            "--heading NaN is invalid (expected degrees, a finite number: 0 ..< 360",
+        ),
+        (&["--heading", "inf"], "--heading inf is invalid"),
+        (
+            &["--heading", "90", "--depth", "-1"],
+            "--depth -1 is invalid (expected metres below the surface, a finite number >= 0",
+        ),
+        (&["--depth", "NaN"], "--depth NaN is invalid"),
+    ] {
+        let o = anguilla()
+            .args(["ctl", "--prefix", &prefix, "swim"])
+            .args(["--amplitude", "0.5", "--frequency", "1"])
+            .args(flags)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{flags:?}: {err}");
+        assert!(err.contains(want), "{flags:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    // Good targets pass the checks and reach for the daemon: none runs.
+    let o = anguilla()
+        .args(["ctl", "--prefix", &prefix, "swim"])
+        .args(["--amplitude", "0.5", "--frequency", "1"])
+        .args(["--heading", "-90", "--depth", "1.5"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(&prefix), "{err}");
+}
+
 /// A pipe whose reading end is already closed: every write gets EPIPE.
 fn closed_pipe() -> Stdio {
     use std::os::fd::{FromRawFd, OwnedFd};

@@ -8,7 +8,8 @@ use std::time::Duration;
 use anguilla_ipc::{FaultSet, StateSnapshot, SwimParams};
 use anguilla_teleop::ctl::{self, Ctl, CtlError};
 use anguilla_teleop::json;
-use anguilla_teleop::view::{cause_name, mode_name};
+use anguilla_teleop::pad::autopilot_text;
+use anguilla_teleop::view::{cause_name, mode_name, sensor_name};
 
 use crate::teleop_cmd::DaemonArgs;
 
@@ -47,7 +48,9 @@ pub enum CtlCmd {
     Stop,
     /// Take control and swim, resending within the command timeout, for
     /// --for seconds (until Ctrl-C without it); then stop, wait for ready and
-    /// release.
+    /// release. With --heading and/or --depth, the autopilot holds them for
+    /// the swim (needs the daemon's head sensor; the swim's --turn or
+    /// --pitch is then ignored).
     Swim {
         /// Amplitude, fraction of the configured maximum (0..=1).
         #[arg(long)]
@@ -64,6 +67,14 @@ pub enum CtlCmd {
         /// Seconds to swim (0 < S <= 86400); without it, until Ctrl-C.
         #[arg(long = "for", value_name = "S")]
         duration: Option<f64>,
+        /// Heading to hold (degrees, counter-clockwise seen from above: a
+        /// left turn increases it; taken modulo 360).
+        #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+        heading: Option<f64>,
+        /// Depth to hold (metres below the surface, >= 0, at most the
+        /// daemon's max-depth).
+        #[arg(long, value_name = "M", allow_negative_numbers = true)]
+        depth: Option<f64>,
     },
 }
 
@@ -111,6 +122,10 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         }
         return out(&format!("e-stop sent {how}{confirmed}\n"));
     }
+    let hold = match &args.cmd {
+        CtlCmd::Swim { heading, depth, .. } => ctl::hold_from_args(*heading, *depth)?,
+        _ => anguilla_ipc::Hold::MANUAL,
+    };
     if let CtlCmd::Swim {
         duration: Some(d), ..
     } = &args.cmd
@@ -148,6 +163,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
             turn,
             pitch,
             duration,
+            ..
         } => {
             let p = SwimParams {
                 amplitude,
@@ -155,7 +171,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
                 turn,
                 pitch,
             };
-            c.swim(p, duration.map(Duration::from_secs_f64), &|| {
+            c.swim_holding(p, hold, duration.map(Duration::from_secs_f64), &|| {
                 crate::signals::requested()
             })?
         }
@@ -177,12 +193,35 @@ fn summary(s: &StateSnapshot) -> String {
     let g = &s.gait_actual;
     let period = s.loop_stats.period_ns.max(1) as f64;
     let bus_state = anguilla_ipc::bus_state_name(s.bus.state);
+    let n = &s.nav;
+    let nav = if n.sensor == 0 {
+        "no head sensor (heading and depth hold unavailable)".to_string()
+    } else if n.samples == 0 {
+        format!("sensor {}, no sample yet", sensor_name(n.sensor))
+    } else {
+        format!(
+            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down); sensor {}",
+            n.heading_deg,
+            n.pitch_deg,
+            n.roll_deg,
+            if n.roll_alarm != 0 {
+                " (ROLL ALARM)"
+            } else {
+                ""
+            },
+            n.depth_m,
+            n.depth_rate,
+            sensor_name(n.sensor)
+        )
+    };
     format!(
         "mode      {} ({})\n\
          faults    {faults}\n\
          control   {holder}\n\
          gait      amplitude {:.2}, frequency {:.2} Hz, turn {:.2} /m, pitch {:.2} /m\n\
          head      {:.3} m/s, {:.3} rad/s (predicted)\n\
+         nav       {nav}\n\
+         autopilot {}\n\
          bus       {bus_state}; tx {}, rx {}, tx dropped {}, malformed {}\n\
          loop      {:.1} Hz; jitter p99 {:.0} us; overruns {}\n\
          refused   {} command(s); {} out-of-band e-stop(s); {} recording record(s) lost\n\
@@ -196,6 +235,7 @@ fn summary(s: &StateSnapshot) -> String {
         g.pitch,
         s.predicted_head_speed,
         s.predicted_turn_rate,
+        autopilot_text(n),
         s.bus.tx_frames,
         s.bus.rx_frames,
         s.bus.tx_dropped,

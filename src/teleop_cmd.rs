@@ -285,8 +285,9 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
     // After iceoryx2 is set up, so these handlers are the ones in place.
     crate::signals::install();
     eprintln!(
-        "anguilla joy: daemon prefix '{prefix}'; hold {:?} to drive, {:?} is E-stop (Ctrl-C quits)",
-        mapping.deadman, mapping.estop
+        "anguilla joy: daemon prefix '{prefix}'; hold {:?} to drive, {:?} is E-stop, \
+         {:?} / {:?} toggle heading / depth hold (Ctrl-C quits)",
+        mapping.deadman, mapping.estop, mapping.heading_hold, mapping.depth_hold
     );
     let pads = EvdevPads::new(args.device.clone(), mapping);
     let mut session = JoySession::new(op, Joy::new(mapping, limits), pads);
@@ -305,6 +306,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
                 }
             ),
             JoyNotice::Mode(m) => eprintln!("anguilla joy: mode {}", view::mode_name(m)),
+            JoyNotice::Autopilot(a) => eprintln!("anguilla joy: autopilot {a}"),
             JoyNotice::Refused(r) => {
                 eprintln!("anguilla joy: '{}' refused: {}", r.command, r.reason)
             }

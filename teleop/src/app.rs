@@ -1,7 +1,10 @@
 //! The operator's intent: the gait the operator wants, stepped by keys and
-//! clamped to the daemon's ranges, and the command it turns into.
+//! clamped to the daemon's ranges, the holds the autopilot should keep, and
+//! the commands they turn into.
 
-use anguilla_ipc::{Cause, Command, LimitsSnapshot, Mode, SwimParams};
+use anguilla_ipc::{Command, Hold, LimitsSnapshot, NavSnapshot, SwimParams};
+
+use crate::hold::{DEPTH_STEP, HEADING_STEP, HoldIntent};
 
 /// The daemon's accepted ranges for swim parameters (`[gait]` in its
 /// configuration, published in its state); commands outside them would be
@@ -50,14 +53,22 @@ pub enum Action {
     FrequencyUp,
     /// Lower undulation frequency.
     FrequencyDown,
-    /// Turn more to the left.
+    /// Turn more to the left; while a heading is held, move the target
+    /// [`HEADING_STEP`] to the left (the heading increases).
     TurnLeft,
-    /// Turn more to the right.
+    /// Turn more to the right; while a heading is held, move the target
+    /// [`HEADING_STEP`] to the right.
     TurnRight,
-    /// Pitch down more (positive pitch curvature).
+    /// Pitch down more (positive pitch curvature); while a depth is held,
+    /// move the target [`DEPTH_STEP`] deeper.
     Dive,
-    /// Pitch up more.
+    /// Pitch up more; while a depth is held, move the target
+    /// [`DEPTH_STEP`] shallower (never above the surface).
     Climb,
+    /// Heading hold on (capturing the estimated heading) or off.
+    HoldHeading,
+    /// Depth hold on (capturing the estimated depth) or off.
+    HoldDepth,
     /// Zero turn and pitch.
     Straighten,
     /// Stop swimming smoothly.
@@ -89,12 +100,14 @@ pub const PITCH_STEP: f64 = 0.25;
 /// Frequency a new session starts with (Hz).
 pub const DEFAULT_FREQUENCY: f64 = 1.0;
 
-/// The operator's intent: target gait and whether the robot should swim.
+/// The operator's intent: target gait, whether the robot should swim, and
+/// what the autopilot should hold.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Intent {
     limits: Limits,
     params: SwimParams,
     swimming: bool,
+    hold: HoldIntent,
 }
 
 /// Rounds to a multiple of a thousandth so repeated steps do not drift
@@ -113,6 +126,7 @@ impl Intent {
                 ..SwimParams::REST
             },
             swimming: false,
+            hold: HoldIntent::default(),
         }
     }
 
@@ -129,6 +143,19 @@ impl Intent {
     /// Whether the operator wants the robot to swim.
     pub fn swimming(&self) -> bool {
         self.swimming
+    }
+
+    /// What the operator wants the autopilot to hold (sent while swimming;
+    /// armed for the next swim at rest).
+    pub fn hold(&self) -> Hold {
+        self.hold.wanted()
+    }
+
+    /// The hold to send now, if any: after a swim started with a hold
+    /// armed (see [`HoldIntent::update`]). [`Intent::apply`] returns the
+    /// holds its actions change.
+    pub fn hold_update(&mut self) -> Option<Command> {
+        self.hold.update(self.swimming)
     }
 
     /// Applies `action`; returns the command to send at once, if any.
@@ -157,6 +184,20 @@ impl Intent {
                 p.frequency = step(p.frequency, -FREQUENCY_STEP, 0.0, l.max_frequency);
                 self.gait_changed()
             }
+            Action::TurnLeft | Action::TurnRight if self.hold.wanted().heading.is_some() => {
+                let sign = if action == Action::TurnLeft {
+                    1.0
+                } else {
+                    -1.0
+                };
+                self.hold.nudge_heading(sign * HEADING_STEP);
+                self.hold_update()
+            }
+            Action::Dive | Action::Climb if self.hold.wanted().depth.is_some() => {
+                let sign = if action == Action::Dive { 1.0 } else { -1.0 };
+                self.hold.nudge_depth(sign * DEPTH_STEP);
+                self.hold_update()
+            }
             Action::TurnLeft => {
                 p.turn = step(p.turn, TURN_STEP, -l.max_turn, l.max_turn);
                 self.gait_changed()
@@ -172,6 +213,18 @@ impl Intent {
             Action::Climb => {
                 p.pitch = step(p.pitch, -PITCH_STEP, -l.max_pitch, l.max_pitch);
                 self.gait_changed()
+            }
+            // Toggling a hold on or off zeroes the curvature it takes over:
+            // a hold let go leaves the robot swimming straight.
+            Action::HoldHeading => {
+                self.hold.toggle_heading();
+                p.turn = 0.0;
+                self.hold_update()
+            }
+            Action::HoldDepth => {
+                self.hold.toggle_depth();
+                p.pitch = 0.0;
+                self.hold_update()
             }
             Action::Straighten => {
                 p.turn = 0.0;
@@ -213,17 +266,20 @@ impl Intent {
         if self.params.amplitude <= 0.0 || self.params.frequency <= 0.0 {
             self.swimming = false;
             self.params.amplitude = 0.0;
+            self.hold.clear();
             return Some(Command::Stop);
         }
         Some(Command::Swim(self.params))
     }
 
-    /// Amplitude zero, straight, not swimming (frequency kept).
+    /// Amplitude zero, straight, not swimming, nothing held (frequency
+    /// kept): the daemon ends a hold with the swim.
     fn rest(&mut self) {
         self.swimming = false;
         self.params.amplitude = 0.0;
         self.params.turn = 0.0;
         self.params.pitch = 0.0;
+        self.hold.clear();
     }
 
     /// What the holder sends at its steady rate: the swim while swimming,
@@ -246,25 +302,31 @@ impl Intent {
     }
 
     /// Follows the daemon: when it left the swim on its own (fault, E-stop
-    /// from any tool, reset, the operator's silence), the intent drops to
-    /// rest, so the steady sender never restarts a swim by itself.
-    /// `mode` and `cause` are the snapshot's codes.
+    /// from any tool, reset, the operator's silence, the head sensor's
+    /// loss), the intent drops to rest, so the steady sender never
+    /// restarts a swim by itself. `mode` and `cause` are the snapshot's
+    /// codes.
     pub fn observe(&mut self, mode: u8, cause: u8) {
-        let stopped_by_daemon = mode == Mode::Idle as u8
-            || mode == Mode::Enabling as u8
-            || mode == Mode::Fault as u8
-            || mode == Mode::EStop as u8
-            || (mode == Mode::Stopping as u8
-                && Cause::from_code(cause) == Some(Cause::OperatorSilent));
-        if self.swimming && stopped_by_daemon {
+        if self.swimming && crate::hold::swim_ended_by_daemon(mode, cause) {
             self.rest();
         }
+    }
+
+    /// Follows the daemon's estimate: a hold toggled on captures it.
+    pub fn observe_nav(&mut self, nav: &NavSnapshot) {
+        self.hold.observe_nav(nav);
+    }
+
+    /// The daemon refused a hold: the intent adopts what it holds.
+    pub fn hold_refused(&mut self) {
+        self.hold.refused();
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use anguilla_ipc::{Cause, Mode};
 
     fn swim_of(c: Option<Command>) -> SwimParams {
         match c {
@@ -396,6 +458,107 @@ mod tests {
         assert_eq!(i.apply(Action::Faster), None);
     }
 
+    fn hold_of(c: Option<Command>) -> Hold {
+        match c {
+            Some(Command::Hold(h)) => h,
+            other => panic!("expected a hold, got {other:?}"),
+        }
+    }
+
+    fn nav(heading: f32, depth: f32) -> NavSnapshot {
+        NavSnapshot {
+            sensor: 1,
+            samples: 500,
+            heading_deg: heading,
+            depth_m: depth,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn hold_keys_capture_the_estimate_and_the_steering_keys_move_the_targets() {
+        let mut i = Intent::new(Limits::default());
+        i.observe_nav(&nav(357.0, 0.25));
+        i.apply(Action::Faster);
+        i.apply(Action::TurnLeft);
+        i.apply(Action::Dive);
+        let h = hold_of(i.apply(Action::HoldHeading));
+        assert_eq!(h.heading, Some(357.0));
+        assert_eq!(h.depth, None);
+        assert_eq!(i.params().turn, 0.0, "the hold takes the turn over");
+        assert_eq!(i.params().pitch, 0.25, "the pitch is still the operator's");
+        // ← moves the held heading 5° to the left (it increases), across 360.
+        let h = hold_of(i.apply(Action::TurnLeft));
+        assert_eq!(h.heading, Some(2.0));
+        assert_eq!(i.params().turn, 0.0, "the curvature is not stepped");
+        let h = hold_of(i.apply(Action::TurnRight));
+        assert_eq!(h.heading, Some(357.0));
+        let h = hold_of(i.apply(Action::HoldDepth));
+        assert_eq!(
+            h,
+            Hold {
+                heading: Some(357.0),
+                depth: Some(0.25)
+            }
+        );
+        assert_eq!(i.params().pitch, 0.0);
+        // s climbs 0.1 m a press, never above the surface.
+        let h = hold_of(i.apply(Action::Climb));
+        assert_eq!(h.depth, Some(0.15));
+        for _ in 0..5 {
+            i.apply(Action::Climb);
+        }
+        assert_eq!(i.hold().depth, Some(0.0));
+        let h = hold_of(i.apply(Action::Dive));
+        assert_eq!(h.depth, Some(0.1));
+        // Off again: manual, and the keys steer the gait again.
+        assert_eq!(hold_of(i.apply(Action::HoldHeading)).heading, None);
+        assert_eq!(hold_of(i.apply(Action::HoldDepth)), Hold::MANUAL);
+        let p = swim_of(i.apply(Action::TurnLeft));
+        assert_eq!(p.turn, 0.25);
+        // The steady command stays the swim: holds go out once.
+        assert!(matches!(i.steady(), Command::Swim(_)));
+    }
+
+    #[test]
+    fn a_hold_toggled_at_rest_is_armed_and_sent_after_the_swim_starts() {
+        let mut i = Intent::new(Limits::default());
+        i.observe_nav(&nav(45.0, 1.5));
+        assert_eq!(i.apply(Action::HoldHeading), None, "armed");
+        assert_eq!(i.apply(Action::TurnLeft), None, "armed target moved");
+        assert_eq!(i.hold_update(), None, "nothing while at rest");
+        assert!(matches!(i.apply(Action::Faster), Some(Command::Swim(_))));
+        let h = hold_of(i.hold_update());
+        assert_eq!(h.heading, Some(50.0));
+        assert_eq!(i.hold_update(), None, "once");
+    }
+
+    #[test]
+    fn holds_end_with_the_swim_and_a_refusal_adopts_the_daemons() {
+        let mut i = Intent::new(Limits::default());
+        i.observe_nav(&nav(10.0, 2.0));
+        i.apply(Action::Faster);
+        i.apply(Action::HoldDepth);
+        assert_eq!(i.apply(Action::Stop), Some(Command::Stop));
+        assert_eq!(i.hold(), Hold::MANUAL);
+        // Lost sensor: the daemon stops the swim, the intent rests.
+        i.apply(Action::Faster);
+        i.apply(Action::HoldHeading);
+        i.observe(Mode::Stopping as u8, Cause::SensorLost.code());
+        assert!(!i.swimming());
+        assert_eq!(i.hold(), Hold::MANUAL);
+        // Refused (no sensor): the daemon holds nothing, nor does the intent.
+        i.observe_nav(&NavSnapshot::default());
+        i.apply(Action::Faster);
+        let h = hold_of(i.apply(Action::HoldHeading));
+        assert_eq!(h.heading, Some(0.0));
+        i.hold_refused();
+        assert_eq!(i.hold(), Hold::MANUAL);
+        assert_eq!(i.hold_update(), None, "not resent");
+        let p = swim_of(i.apply(Action::TurnLeft));
+        assert_eq!(p.turn, 0.25, "the arrows steer again");
+    }
+
     mod props {
         use super::*;
         use proptest::prelude::*;
@@ -412,6 +575,8 @@ mod tests {
                 Dive,
                 Climb,
                 Straighten,
+                HoldHeading,
+                HoldDepth,
                 Stop,
                 EStop,
                 Enable,
@@ -431,6 +596,7 @@ mod tests {
             ) {
                 let l = Limits::default();
                 let mut i = Intent::new(l);
+                i.observe_nav(&nav(358.0, 0.05));
                 for a in actions {
                     let sent = i.apply(a);
                     for c in [sent, Some(i.steady())].into_iter().flatten() {
@@ -442,6 +608,15 @@ mod tests {
                         }
                     }
                     prop_assert_eq!(i.swimming(), matches!(i.steady(), Command::Swim(_)));
+                    // Holds: in range, only while swimming.
+                    for c in [sent, i.hold_update()].into_iter().flatten() {
+                        if let Command::Hold(h) = c {
+                            prop_assert!(i.swimming());
+                            prop_assert!(h.heading.is_none_or(|d| (0.0..360.0).contains(&d)));
+                            prop_assert!(h.depth.is_none_or(|d| d >= 0.0 && d.is_finite()));
+                        }
+                    }
+
                 }
             }
         }

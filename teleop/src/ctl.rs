@@ -20,7 +20,7 @@
 use std::time::{Duration, Instant};
 
 use anguilla_ipc::{
-    Client, Command, CommandReply, FaultSet, IpcError, Mode, StateSnapshot, SwimParams,
+    Cause, Client, Command, CommandReply, FaultSet, Hold, IpcError, Mode, StateSnapshot, SwimParams,
 };
 
 /// How long `ctl` waits for the daemon's first state, and for each reply.
@@ -53,6 +53,42 @@ impl From<IpcError> for CtlError {
     fn from(e: IpcError) -> Self {
         CtlError::NoDaemon(e.to_string())
     }
+}
+
+/// The hold of `ctl swim --heading DEG --depth M`, checked: a heading is
+/// any finite number of degrees (taken modulo 360, counter-clockwise seen
+/// from above), a depth a finite number of metres at or below the surface.
+/// The daemon checks the depth against its `max-depth`.
+pub fn hold_from_args(heading: Option<f64>, depth: Option<f64>) -> Result<Hold, CtlError> {
+    let shown = |v: f64| {
+        if v.abs() >= 1e6 {
+            format!("{v:e}")
+        } else {
+            format!("{v}")
+        }
+    };
+    if let Some(h) = heading
+        && !h.is_finite()
+    {
+        return Err(CtlError::Refused(format!(
+            "--heading {} is invalid (expected degrees, a finite number: 0 ..< 360, \
+             counter-clockwise seen from above; others are taken modulo 360)",
+            shown(h)
+        )));
+    }
+    if let Some(d) = depth
+        && !(d.is_finite() && d >= 0.0)
+    {
+        return Err(CtlError::Refused(format!(
+            "--depth {} is invalid (expected metres below the surface, a finite number >= 0, \
+             at most the daemon's [autopilot] max-depth)",
+            shown(d)
+        )));
+    }
+    Ok(Hold {
+        heading: heading.map(crate::hold::wrap_heading),
+        depth,
+    })
 }
 
 /// What a successful call reports.
@@ -301,9 +337,25 @@ impl Ctl {
         duration: Option<Duration>,
         interrupted: &dyn Fn() -> bool,
     ) -> Result<Outcome, CtlError> {
+        self.swim_holding(p, Hold::MANUAL, duration, interrupted)
+    }
+
+    /// [`Ctl::swim`] with the autopilot holding `hold` (a heading, a
+    /// depth, or both; see [`hold_from_args`]): once the daemon swims, the
+    /// hold is sent, and a refusal (no head sensor, an unhealthy one, a
+    /// depth beyond `max-depth`) stops the swim and is the error. The
+    /// daemon keeps the hold for the swim; if it lets go (the sensor
+    /// lost), it stops the swim, and the error says why.
+    pub fn swim_holding(
+        &mut self,
+        p: SwimParams,
+        hold: Hold,
+        duration: Option<Duration>,
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<Outcome, CtlError> {
         let r = self
             .take_control()
-            .and_then(|()| self.swim_held(p, duration, interrupted));
+            .and_then(|()| self.swim_held(p, hold, duration, interrupted));
         let stopped = if self.holding {
             self.request(Command::Stop)
                 .and_then(|_| self.wait_mode("stop", |m| matches!(m, Mode::Ready | Mode::Idle)))
@@ -318,12 +370,16 @@ impl Ctl {
     fn swim_held(
         &mut self,
         p: SwimParams,
+        hold: Hold,
         duration: Option<Duration>,
         interrupted: &dyn Fn() -> bool,
     ) -> Result<(), CtlError> {
         let start = Instant::now();
         self.request(Command::Swim(p))?;
         self.wait_mode("swim", |m| m == Mode::Swimming)?;
+        if hold.is_active() {
+            self.request(Command::Hold(hold))?;
+        }
         let mut last_send = Instant::now();
         loop {
             if duration.is_some_and(|d| start.elapsed() >= d) || interrupted() {
@@ -336,17 +392,91 @@ impl Ctl {
             self.refresh(Duration::from_millis(20))?;
             let m = self.mode();
             if m != Mode::Swimming {
-                return Err(CtlError::Refused(format!(
-                    "the swim ended: the daemon went to {m} ({})",
-                    self.faults()
-                )));
+                return Err(CtlError::Refused(swim_ended(&self.state)));
             }
         }
+    }
+}
+
+/// Why a swim ended, from the daemon's state: its mode, the cause, and
+/// the faults or the sensor's health that made the autopilot let go.
+pub fn swim_ended(s: &StateSnapshot) -> String {
+    let m = Mode::from_code(s.mode).unwrap_or(Mode::Fault);
+    let faults = FaultSet {
+        kinds: s.fault_kinds,
+        nodes: s.fault_nodes,
+    };
+    match Cause::from_code(s.cause) {
+        Some(Cause::SensorLost) => format!(
+            "the swim ended: the daemon went to {m} (head sensor lost: the autopilot let go, sensor {})",
+            crate::view::sensor_name(s.nav.hold_exit)
+        ),
+        Some(c @ (Cause::OperatorSilent | Cause::Command)) => {
+            format!(
+                "the swim ended: the daemon went to {m} ({}; {faults})",
+                c.name()
+            )
+        }
+        _ => format!("the swim ended: the daemon went to {m} ({faults})"),
     }
 }
 
 impl Drop for Ctl {
     fn drop(&mut self) {
         self.release();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hold_arguments_are_checked_and_named() {
+        assert_eq!(hold_from_args(None, None).unwrap(), Hold::MANUAL);
+        let h = hold_from_args(Some(-90.0), Some(1.5)).unwrap();
+        assert_eq!((h.heading, h.depth), (Some(270.0), Some(1.5)));
+        assert_eq!(
+            hold_from_args(Some(720.0), None).unwrap().heading,
+            Some(0.0)
+        );
+        assert_eq!(hold_from_args(None, Some(0.0)).unwrap().depth, Some(0.0));
+        for (heading, depth, want) in [
+            (
+                Some(f64::NAN),
+                None,
+                "--heading NaN is invalid (expected degrees",
+            ),
+            (Some(f64::INFINITY), None, "--heading inf is invalid"),
+            (
+                None,
+                Some(-1.0),
+                "--depth -1 is invalid (expected metres below the surface",
+            ),
+            (None, Some(f64::NAN), "--depth NaN is invalid"),
+            (Some(10.0), Some(-1e300), "--depth -1e300 is invalid"),
+        ] {
+            let e = hold_from_args(heading, depth).unwrap_err();
+            assert!(e.to_string().contains(want), "{e}");
+            assert_eq!(e.exit_code(), 1);
+        }
+    }
+
+    #[test]
+    fn a_swim_the_daemon_ended_says_why() {
+        let mut s = StateSnapshot {
+            mode: Mode::Stopping as u8,
+            cause: Cause::SensorLost.code(),
+            ..Default::default()
+        };
+        s.nav.hold_exit = anguilla_ipc::SensorHealth::Silent as u8;
+        let m = swim_ended(&s);
+        assert!(m.contains("head sensor lost"), "{m}");
+        assert!(m.contains("sensor silent"), "{m}");
+        s.mode = Mode::EStop as u8;
+        s.cause = Cause::Fault.code();
+        s.fault_kinds = 1 << 5;
+        let m = swim_ended(&s);
+        assert!(m.contains("e-stop (operator e-stop)"), "{m}");
     }
 }

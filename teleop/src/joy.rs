@@ -13,14 +13,21 @@
 //!   to the centre during a swim);
 //! - on its release (or when the pad disappears) **one** stop is sent,
 //!   then nothing: the daemon's command timeout is the backstop;
-//! - the E-stop button works at any time.
+//! - the E-stop button works at any time;
+//! - with the deadman held, the hold buttons toggle heading and depth hold
+//!   (capturing the estimate); while a heading is held the turn stick moves
+//!   the held heading at up to [`HEADING_RATE`], while a depth is held the
+//!   pitch stick moves the held depth at up to [`DEPTH_RATE`]. The rate is
+//!   integrated here and sent as absolute targets ([`Joy::hold_update`]).
 
 use core::str::FromStr;
 
-use anguilla_ipc::{Command, SwimParams};
+use anguilla_ipc::{Command, Hold, StateSnapshot, SwimParams};
 use evdev::{AbsoluteAxisCode, EventSummary, InputEvent, KeyCode};
 
 use crate::app::Limits;
+use crate::hold::{DEPTH_RATE, HEADING_RATE, HoldIntent, swim_ended_by_daemon};
+use crate::operator::STEADY_PERIOD;
 
 /// What is wrong with a gamepad mapping.
 #[derive(Debug, thiserror::Error)]
@@ -84,6 +91,10 @@ pub struct JoyMapping {
     pub disable: KeyCode,
     /// Reset after a fault or E-stop (default `BTN_SELECT`).
     pub reset: KeyCode,
+    /// Heading hold on / off (default west face button, `BTN_WEST`: X / □).
+    pub heading_hold: KeyCode,
+    /// Depth hold on / off (default south face button, `BTN_SOUTH`: A / ✕).
+    pub depth_hold: KeyCode,
     /// Speed: amplitude from the stick pushed forward (default left stick
     /// vertical, `ABS_Y`, inverted).
     pub speed: AxisMap,
@@ -107,6 +118,8 @@ impl Default for JoyMapping {
             enable: KeyCode::BTN_START,
             disable: KeyCode::BTN_NORTH,
             reset: KeyCode::BTN_SELECT,
+            heading_hold: KeyCode::BTN_WEST,
+            depth_hold: KeyCode::BTN_SOUTH,
             speed: AxisMap {
                 code: AbsoluteAxisCode::ABS_Y,
                 invert: true,
@@ -133,6 +146,8 @@ struct MappingFile {
     enable: Option<String>,
     disable: Option<String>,
     reset: Option<String>,
+    heading_hold: Option<String>,
+    depth_hold: Option<String>,
     speed_axis: Option<String>,
     turn_axis: Option<String>,
     pitch_axis: Option<String>,
@@ -174,6 +189,8 @@ impl JoyMapping {
         m.enable = button("enable", &f.enable, m.enable)?;
         m.disable = button("disable", &f.disable, m.disable)?;
         m.reset = button("reset", &f.reset, m.reset)?;
+        m.heading_hold = button("heading-hold", &f.heading_hold, m.heading_hold)?;
+        m.depth_hold = button("depth-hold", &f.depth_hold, m.depth_hold)?;
         m.speed = axis("speed-axis", &f.speed_axis, f.invert_speed, m.speed)?;
         m.turn = axis("turn-axis", &f.turn_axis, f.invert_turn, m.turn)?;
         m.pitch = axis("pitch-axis", &f.pitch_axis, f.invert_pitch, m.pitch)?;
@@ -210,6 +227,11 @@ impl JoyMapping {
              enable = \"{:?}\"\n\
              disable = \"{:?}\"\n\
              reset = \"{:?}\"\n\
+             # Heading / depth hold on or off (the estimate now is the target); while\n\
+             # held, the turn stick moves the heading (30 deg/s at full stick), the\n\
+             # pitch stick the depth (0.2 m/s).\n\
+             heading-hold = \"{:?}\"\n\
+             depth-hold = \"{:?}\"\n\
              # Stick pushed forward: amplitude 0..1.\n\
              speed-axis = \"{:?}\"\n\
              invert-speed = {}\n\
@@ -228,6 +250,8 @@ impl JoyMapping {
             self.enable,
             self.disable,
             self.reset,
+            self.heading_hold,
+            self.depth_hold,
             self.speed.code,
             self.speed.invert,
             self.turn.code,
@@ -325,6 +349,7 @@ pub struct Joy {
     sticks: [f64; 3],
     deadman: bool,
     swimming: bool,
+    hold: HoldIntent,
 }
 
 impl Joy {
@@ -337,7 +362,33 @@ impl Joy {
             sticks: [0.0; 3],
             deadman: false,
             swimming: false,
+            hold: HoldIntent::default(),
         }
+    }
+
+    /// What the operator wants the autopilot to hold.
+    pub fn hold(&self) -> Hold {
+        self.hold.wanted()
+    }
+
+    /// The hold to send now, if any (after a hold button, a swim that
+    /// started with a hold armed, or a tick that moved a held target).
+    pub fn hold_update(&mut self) -> Option<Command> {
+        self.hold.update(self.swimming)
+    }
+
+    /// Follows the daemon: its estimate (a hold captures it), and the end
+    /// of a swim it decided (the hold ends with it).
+    pub fn observe(&mut self, s: &StateSnapshot) {
+        self.hold.observe_nav(&s.nav);
+        if swim_ended_by_daemon(s.mode, s.cause) {
+            self.hold.clear();
+        }
+    }
+
+    /// The daemon refused a hold: adopt what it holds.
+    pub fn hold_refused(&mut self) {
+        self.hold.refused();
     }
 
     /// The mapping in use.
@@ -363,14 +414,24 @@ impl Joy {
         self.deadman
     }
 
-    /// The gait the sticks ask for now.
+    /// The gait the sticks ask for now (no turn while a heading is held,
+    /// no pitch while a depth is held: those sticks move the targets).
     pub fn params(&self) -> SwimParams {
         let [speed, turn, pitch] = self.sticks;
+        let h = self.hold.wanted();
         SwimParams {
             amplitude: speed.max(0.0),
             frequency: self.mapping.frequency.min(self.limits.max_frequency),
-            turn: turn * self.limits.max_turn,
-            pitch: pitch * self.limits.max_pitch,
+            turn: if h.heading.is_some() {
+                0.0
+            } else {
+                turn * self.limits.max_turn
+            },
+            pitch: if h.depth.is_some() {
+                0.0
+            } else {
+                pitch * self.limits.max_pitch
+            },
         }
     }
 
@@ -380,7 +441,7 @@ impl Joy {
         match input {
             JoyInput::Button { code, pressed } => {
                 if code == m.estop && pressed {
-                    self.swimming = false;
+                    self.end_swim();
                     return Some(Command::EStop);
                 }
                 if code == m.deadman {
@@ -399,11 +460,17 @@ impl Joy {
                 if code == m.enable {
                     Some(Command::Enable)
                 } else if code == m.disable {
-                    self.swimming = false;
+                    self.end_swim();
                     Some(Command::Disable)
                 } else if code == m.reset {
-                    self.swimming = false;
+                    self.end_swim();
                     Some(Command::Reset)
+                } else if code == m.heading_hold {
+                    self.hold.toggle_heading();
+                    self.hold_update()
+                } else if code == m.depth_hold {
+                    self.hold.toggle_depth();
+                    self.hold_update()
                 } else {
                     None
                 }
@@ -421,9 +488,15 @@ impl Joy {
         }
     }
 
+    /// Not swimming, nothing held (the daemon ends a hold with the swim).
+    fn end_swim(&mut self) {
+        self.swimming = false;
+        self.hold.clear();
+    }
+
     fn release(&mut self) -> Option<Command> {
         self.deadman = false;
-        self.swimming = false;
+        self.end_swim();
         Some(Command::Stop)
     }
 
@@ -434,9 +507,11 @@ impl Joy {
         if self.deadman { self.release() } else { None }
     }
 
-    /// The command of one steady period (10 Hz): nothing without the
-    /// deadman; the swim while the speed stick is pushed; one stop when it
-    /// came back to the centre during a swim; otherwise a keep-alive.
+    /// The command of one steady period ([`STEADY_PERIOD`]): nothing
+    /// without the deadman; the swim while the speed stick is pushed; one
+    /// stop when it came back to the centre during a swim; otherwise a
+    /// keep-alive. While swimming, a held target moves by its stick's
+    /// rate over one period (a late tick moves it less, never more).
     pub fn tick(&mut self) -> Option<Command> {
         if !self.deadman {
             return None;
@@ -444,9 +519,13 @@ impl Joy {
         let p = self.params();
         if p.amplitude > 0.0 {
             self.swimming = true;
+            let dt = STEADY_PERIOD.as_secs_f64();
+            let [_, turn, pitch] = self.sticks;
+            self.hold.nudge_heading(turn * HEADING_RATE * dt);
+            self.hold.nudge_depth(pitch * DEPTH_RATE * dt);
             Some(Command::Swim(p))
         } else if self.swimming {
-            self.swimming = false;
+            self.end_swim();
             Some(Command::Stop)
         } else {
             Some(Command::KeepAlive)
@@ -588,6 +667,115 @@ mod tests {
         assert_eq!(k.tick(), Some(Command::KeepAlive));
     }
 
+    fn nav_state(heading: f32, depth: f32) -> StateSnapshot {
+        StateSnapshot {
+            mode: anguilla_ipc::Mode::Swimming as u8,
+            nav: anguilla_ipc::NavSnapshot {
+                sensor: 1,
+                samples: 10,
+                heading_deg: heading,
+                depth_m: depth,
+                ..Default::default()
+            },
+            ..Default::default()
+        }
+    }
+
+    fn hold_of(c: Option<Command>) -> Hold {
+        match c {
+            Some(Command::Hold(h)) => h,
+            other => panic!("expected a hold, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn hold_buttons_capture_the_estimate_and_sticks_move_the_targets_at_a_rate() {
+        let mut j = joy();
+        j.observe(&nav_state(359.0, 0.05));
+        // Without the deadman the hold buttons do nothing.
+        assert_eq!(j.handle(button(KeyCode::BTN_WEST, true)), None);
+        assert_eq!(j.hold(), Hold::MANUAL);
+        j.handle(button(KeyCode::BTN_TL, true));
+        // At rest: armed, sent once the swim starts.
+        assert_eq!(j.handle(button(KeyCode::BTN_WEST, true)), None);
+        assert_eq!(j.hold().heading, Some(359.0));
+        j.handle(axis(AbsoluteAxisCode::ABS_Y, -32768));
+        // Full left on the turn stick: the target moves, the swim does not turn.
+        j.handle(axis(AbsoluteAxisCode::ABS_RX, -32768));
+        let Some(Command::Swim(p)) = j.tick() else {
+            panic!("expected a swim")
+        };
+        assert_eq!(p.turn, 0.0, "the autopilot steers");
+        // One tick of 0.1 s at 30 deg/s to the left: 359 + 3 wraps to 2.
+        let h = hold_of(j.hold_update());
+        assert_eq!(h.heading, Some(2.0));
+        assert_eq!(h.depth, None);
+        assert_eq!(j.hold_update(), None, "sent once");
+        // Stick centred: the target stays, nothing more is sent.
+        j.handle(axis(AbsoluteAxisCode::ABS_RX, 0));
+        j.tick();
+        assert_eq!(j.hold_update(), None);
+        // Depth hold while swimming goes out at once; the pitch stick pulled
+        // back climbs at 0.2 m/s, never above the surface.
+        let h = hold_of(j.handle(button(KeyCode::BTN_SOUTH, true)));
+        assert_eq!(
+            h,
+            Hold {
+                heading: Some(2.0),
+                depth: Some(0.05)
+            }
+        );
+        j.handle(axis(AbsoluteAxisCode::ABS_RY, 32767));
+        let Some(Command::Swim(p)) = j.tick() else {
+            panic!("expected a swim")
+        };
+        assert_eq!(p.pitch, 0.0);
+        assert_eq!(hold_of(j.hold_update()).depth, Some(0.03));
+        for _ in 0..5 {
+            j.tick();
+        }
+        assert_eq!(hold_of(j.hold_update()).depth, Some(0.0));
+        // Toggled off: manual, the sticks steer again.
+        assert_eq!(
+            hold_of(j.handle(button(KeyCode::BTN_WEST, true))).heading,
+            None
+        );
+        j.handle(axis(AbsoluteAxisCode::ABS_RX, -32768));
+        let Some(Command::Swim(p)) = j.tick() else {
+            panic!("expected a swim")
+        };
+        assert_eq!(p.turn, 2.0);
+        // The deadman's release ends the swim and the hold with it.
+        assert_eq!(
+            j.handle(button(KeyCode::BTN_TL, false)),
+            Some(Command::Stop)
+        );
+        assert_eq!(j.hold(), Hold::MANUAL);
+        assert_eq!(j.hold_update(), None);
+    }
+
+    #[test]
+    fn the_daemon_ending_the_swim_or_refusing_ends_the_hold() {
+        let mut j = joy();
+        let mut s = nav_state(90.0, 1.0);
+        j.observe(&s);
+        j.handle(button(KeyCode::BTN_TL, true));
+        j.handle(axis(AbsoluteAxisCode::ABS_Y, -32768));
+        j.tick();
+        assert!(j.handle(button(KeyCode::BTN_WEST, true)).is_some());
+        s.mode = anguilla_ipc::Mode::Stopping as u8;
+        s.cause = anguilla_ipc::Cause::SensorLost.code();
+        j.observe(&s);
+        assert_eq!(j.hold(), Hold::MANUAL);
+        // A refused hold adopts the daemon's (here: none).
+        s.mode = anguilla_ipc::Mode::Swimming as u8;
+        j.observe(&s);
+        assert!(j.handle(button(KeyCode::BTN_SOUTH, true)).is_some());
+        j.hold_refused();
+        assert_eq!(j.hold(), Hold::MANUAL);
+        assert_eq!(j.hold_update(), None);
+    }
+
     #[test]
     fn disappearing_pad_is_a_release() {
         let mut j = joy();
@@ -634,6 +822,11 @@ mod tests {
         let e = JoyMapping::from_toml("deadzone = 1.0", l).unwrap_err();
         assert!(e.to_string().contains("deadzone"), "{e}");
         assert!(JoyMapping::from_toml("unknown-key = 1", l).is_err());
+        let m3 = JoyMapping::from_toml("heading-hold = \"BTN_THUMBR\"", l).unwrap();
+        assert_eq!(m3.heading_hold, KeyCode::BTN_THUMBR);
+        assert_eq!(m3.depth_hold, KeyCode::BTN_SOUTH);
+        let e = JoyMapping::from_toml("depth-hold = \"ABS_X\"", l).unwrap_err();
+        assert!(e.to_string().contains("depth-hold"), "{e}");
     }
 
     mod props {
@@ -648,6 +841,7 @@ mod tests {
                 Just(KeyCode::BTN_NORTH),
                 Just(KeyCode::BTN_SELECT),
                 Just(KeyCode::BTN_SOUTH),
+                Just(KeyCode::BTN_WEST),
             ];
             let axes = prop_oneof![
                 Just(AbsoluteAxisCode::ABS_Y),
@@ -672,9 +866,15 @@ mod tests {
             ) {
                 let l = Limits::default();
                 let mut j = joy();
+                j.observe(&nav_state(358.0, 0.1));
                 for (inp, tick) in steps {
                     let held_before = j.deadman();
                     let out = if tick { j.tick() } else { j.handle(inp) };
+                    if let Some(Command::Hold(h)) = j.hold_update() {
+                        prop_assert!(j.deadman(), "a hold without the deadman");
+                        prop_assert!(h.heading.is_none_or(|d| (0.0..360.0).contains(&d)));
+                        prop_assert!(h.depth.is_none_or(|d| d >= 0.0));
+                    }
                     match out {
                         Some(Command::Swim(p)) => {
                             prop_assert!(j.deadman());

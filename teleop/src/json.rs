@@ -4,10 +4,16 @@ use anguilla_ipc::FaultSet;
 use anguilla_ipc::StateSnapshot;
 use serde_json::{Value, json};
 
-use crate::view::{cause_name, mode_name};
+use crate::hold::{has_estimate, held};
+use crate::view::{autopilot_name, cause_name, mode_name, sensor_name};
 
 /// The snapshot's fields as JSON, with the mode, cause and faults also
 /// spelled out (`mode_name`, `cause_name`, `faults`) and only the joints in use.
+///
+/// The head sensor and the autopilot (`nav`) come twice: spelled out at the
+/// top level (`sensor` and `hold_exit` by name, `autopilot` the hold's name;
+/// the estimate `null` without a sensor or before its first sample; a
+/// target `null` unless held) and raw in `nav`.
 pub fn snapshot_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
     let gait = |g: &anguilla_ipc::GaitSnapshot| json!({"amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch});
@@ -17,7 +23,10 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         kinds: s.fault_kinds,
         nodes: s.fault_nodes,
     };
-    json!({
+    let nav = &s.nav;
+    let estimate = |v: f32| has_estimate(nav).then_some(v);
+    let hold = held(nav);
+    let mut v = json!({
         "layout_version": s.layout_version,
         "sequence": s.sequence,
         "time_ns": s.time_ns,
@@ -66,7 +75,35 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
             "node_state": j.node_state, "node_alive": j.node_alive != 0,
             "node_errors": j.node_errors,
         })).collect::<Vec<_>>(),
-    })
+    });
+    let extra = json!({
+        "sensor": sensor_name(nav.sensor),
+        "autopilot": autopilot_name(nav),
+        "hold_exit": (nav.hold_exit != 0).then(|| sensor_name(nav.hold_exit)),
+        "roll_alarm": nav.roll_alarm != 0,
+        "heading_deg": estimate(nav.heading_deg),
+        "pitch_deg": estimate(nav.pitch_deg),
+        "roll_deg": estimate(nav.roll_deg),
+        "depth_m": estimate(nav.depth_m),
+        "depth_rate": estimate(nav.depth_rate),
+        "heading_target_deg": hold.heading.map(|_| nav.heading_target_deg),
+        "depth_target_m": hold.depth.map(|_| nav.depth_target_m),
+        "nav": {
+            "sensor": nav.sensor, "hold": nav.hold, "hold_exit": nav.hold_exit,
+            "roll_alarm": nav.roll_alarm, "heading_deg": nav.heading_deg,
+            "pitch_deg": nav.pitch_deg, "roll_deg": nav.roll_deg, "depth_m": nav.depth_m,
+            "depth_rate": nav.depth_rate, "temperature": nav.temperature,
+            "heading_target_deg": nav.heading_target_deg,
+            "depth_target_m": nav.depth_target_m,
+            "rate_innovation": nav.rate_innovation,
+            "depth_innovation": nav.depth_innovation,
+            "samples": nav.samples, "lost_samples": nav.lost_samples,
+        },
+    });
+    if let (Value::Object(all), Value::Object(more)) = (&mut v, extra) {
+        all.extend(more);
+    }
+    v
 }
 
 #[cfg(test)]
@@ -96,5 +133,67 @@ mod tests {
         assert_eq!(back["joints"].as_array().unwrap().len(), 2);
         assert_eq!(back["joints"][1]["measured_yaw"], 0.5);
         assert_eq!(back["loop_stats"]["overruns"], 0);
+        // No head sensor: names, no numbers.
+        assert_eq!(back["sensor"], "no sensor");
+        assert_eq!(back["autopilot"], "manual");
+        assert_eq!(back["hold_exit"], Value::Null);
+        assert_eq!(back["roll_alarm"], false);
+        for k in [
+            "heading_deg",
+            "pitch_deg",
+            "roll_deg",
+            "depth_m",
+            "depth_rate",
+        ] {
+            assert_eq!(back[k], Value::Null, "{k}");
+        }
+        assert_eq!(back["heading_target_deg"], Value::Null);
+        assert_eq!(back["nav"]["samples"], 0);
+    }
+
+    #[test]
+    fn the_head_sensor_and_the_autopilot_are_spelled_out() {
+        use anguilla_ipc::{NavSnapshot, SensorHealth, hold_bits};
+        // Values exact in f32, so the JSON numbers compare exactly.
+        let mut s = StateSnapshot {
+            nav: NavSnapshot {
+                sensor: SensorHealth::Ok as u8,
+                hold: hold_bits::HEADING,
+                hold_exit: SensorHealth::Stuck as u8,
+                roll_alarm: 1,
+                heading_deg: 87.5,
+                pitch_deg: -2.25,
+                roll_deg: 61.5,
+                depth_m: 1.25,
+                depth_rate: -0.125,
+                heading_target_deg: 90.0,
+                depth_target_m: 3.0,
+                samples: 7,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let v = snapshot_json(&s);
+        assert_eq!(v["sensor"], "ok");
+        assert_eq!(v["autopilot"], "heading");
+        assert_eq!(v["hold_exit"], "stuck");
+        assert_eq!(v["roll_alarm"], true);
+        assert_eq!(v["heading_deg"], 87.5);
+        assert_eq!(v["pitch_deg"], -2.25);
+        assert_eq!(v["roll_deg"], 61.5);
+        assert_eq!(v["depth_m"], 1.25);
+        assert_eq!(v["depth_rate"], -0.125);
+        assert_eq!(v["heading_target_deg"], 90.0);
+        assert_eq!(v["depth_target_m"], Value::Null, "depth not held");
+        assert_eq!(v["nav"]["depth_target_m"], 3.0, "raw");
+        assert_eq!(v["nav"]["hold"], 1);
+        // The existing fields are still there, unchanged.
+        assert_eq!(v["mode_name"], "idle");
+        s.nav.hold = hold_bits::HEADING | hold_bits::DEPTH;
+        s.nav.sensor = SensorHealth::Implausible as u8;
+        let v = snapshot_json(&s);
+        assert_eq!(v["autopilot"], "heading+depth");
+        assert_eq!(v["depth_target_m"], 3.0);
+        assert_eq!(v["sensor"], "implausible");
     }
 }

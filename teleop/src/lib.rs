@@ -9,6 +9,7 @@
 //! - [`app`]: the operator's intent (target gait stepped by keys, clamped to
 //!   the daemon's ranges) and the commands it turns into;
 //! - [`keys`]: key → [`app::Action`];
+//! - [`hold`]: the heading and depth the operator wants held (autopilot);
 //! - [`joy`]: evdev event → command, with the deadman rules;
 //! - [`operator`]: a connection to the daemon and the steady 10 Hz sender;
 //! - [`pad`]: the gamepad session (evdev devices or a scripted pad, hot-plug);
@@ -31,6 +32,7 @@
 pub mod app;
 pub mod ctl;
 pub mod history;
+pub mod hold;
 pub mod joy;
 pub mod json;
 pub mod keys;

@@ -179,12 +179,17 @@ impl Driver {
     }
 
     /// Applies `action` and sends its command at once (not for
-    /// [`Action::Quit`]: see [`Driver::quit`]).
+    /// [`Action::Quit`]: see [`Driver::quit`]), then a hold armed at rest
+    /// when the action started a swim ([`Intent::hold_update`]). Returns
+    /// the action's command.
     pub fn act(&mut self, action: Action) -> Result<Option<Command>, IpcError> {
         let cmd = self.intent.apply(action);
         if let Some(c) = cmd {
             self.op.send(c)?;
             self.next_steady = Instant::now() + STEADY_PERIOD;
+        }
+        if let Some(h) = self.intent.hold_update() {
+            self.op.send(h)?;
         }
         Ok(cmd)
     }
@@ -196,12 +201,15 @@ impl Driver {
         self.op.poll()?;
         if self.op.refusals() != self.refusals_seen {
             self.refusals_seen = self.op.refusals();
-            if self.op.last_refused().is_some_and(|r| r.command == "swim") {
-                self.intent.swim_refused();
+            match self.op.last_refused().map(|r| r.command) {
+                Some("swim") => self.intent.swim_refused(),
+                Some("hold") => self.intent.hold_refused(),
+                _ => {}
             }
         }
         if let Some(s) = self.op.state() {
             self.intent.observe(s.mode, s.cause);
+            self.intent.observe_nav(&s.nav);
         }
         if now >= self.next_steady {
             if self.op.holds_control() {

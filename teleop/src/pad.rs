@@ -218,8 +218,25 @@ pub enum JoyNotice {
     },
     /// The daemon's mode changed (snapshot code).
     Mode(u8),
+    /// What the autopilot holds changed, or it let go: its description
+    /// (e.g. "heading 090.0°", "manual (let go: silent)").
+    Autopilot(String),
     /// A command was refused.
     Refused(Refused),
+}
+
+/// The autopilot as a line for the operator: what it holds and its
+/// targets, or manual and why it last let go.
+pub fn autopilot_text(nav: &anguilla_ipc::NavSnapshot) -> String {
+    let h = crate::hold::held(nav);
+    match crate::view::hold_text(&h) {
+        Some(t) => t,
+        None if nav.hold_exit != 0 => format!(
+            "manual (let go: {})",
+            crate::view::sensor_name(nav.hold_exit)
+        ),
+        None => "manual".to_string(),
+    }
 }
 
 /// A gamepad driving the daemon: hot-plug, the translator, the steady sender.
@@ -237,6 +254,7 @@ pub struct JoySession<P: PadSource> {
     next_look: Instant,
     next_tick: Instant,
     mode: Option<u8>,
+    autopilot: Option<(u8, u8)>,
     refused: Option<Refused>,
     inputs: Vec<JoyInput>,
 }
@@ -264,6 +282,7 @@ impl<P: PadSource> JoySession<P> {
             next_look: now,
             next_tick: now,
             mode: None,
+            autopilot: None,
             refused: None,
             inputs: Vec::new(),
         }
@@ -278,6 +297,14 @@ impl<P: PadSource> JoySession<P> {
         self.op.send(c)?;
         self.next_tick = Instant::now() + STEADY_PERIOD;
         Ok(())
+    }
+
+    /// Sends the hold the translator wants sent, if any.
+    fn send_hold(&mut self) -> Result<(), IpcError> {
+        match self.joy.hold_update() {
+            Some(h) => self.op.send(h),
+            None => Ok(()),
+        }
     }
 
     /// One turn (at most about 20 ms): look for a pad every second while
@@ -316,6 +343,7 @@ impl<P: PadSource> JoySession<P> {
                     }
                     self.send(c)?;
                 }
+                self.send_hold()?;
             }
             self.inputs = inputs;
             if read.is_err() {
@@ -339,18 +367,30 @@ impl<P: PadSource> JoySession<P> {
             if let Some(c) = self.joy.tick() {
                 self.op.send(c)?;
             }
+            self.send_hold()?;
             self.next_tick = Instant::now() + STEADY_PERIOD;
         }
         self.op.poll()?;
-        if let Some(s) = self.op.state()
-            && self.mode != Some(s.mode)
-        {
-            self.mode = Some(s.mode);
-            notice(JoyNotice::Mode(s.mode));
+        if let Some(s) = self.op.state().copied() {
+            self.joy.observe(&s);
+            if self.mode != Some(s.mode) {
+                self.mode = Some(s.mode);
+                notice(JoyNotice::Mode(s.mode));
+            }
+            let ap = (s.nav.hold, s.nav.hold_exit);
+            if self.autopilot.is_some_and(|was| was != ap)
+                || (self.autopilot.is_none() && ap != (0, 0))
+            {
+                notice(JoyNotice::Autopilot(autopilot_text(&s.nav)));
+            }
+            self.autopilot = Some(ap);
         }
         if self.op.last_refused() != self.refused.as_ref() {
             self.refused = self.op.last_refused().cloned();
             if let Some(r) = &self.refused {
+                if r.command == "hold" {
+                    self.joy.hold_refused();
+                }
                 notice(JoyNotice::Refused(r.clone()));
             }
         }

@@ -1,7 +1,7 @@
 //! The state view shared by `anguilla teleop` and `anguilla monitor`,
 //! drawn with ratatui on any backend (a terminal, or `TestBackend` in tests).
 
-use anguilla_ipc::{Cause, FaultSet, Mode};
+use anguilla_ipc::{Cause, FaultSet, Hold, Mode, NavSnapshot, SensorHealth};
 use anguilla_ipc::{GaitSnapshot, StateSnapshot};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -15,6 +15,7 @@ use ratatui::widgets::{
 
 use crate::app::Intent;
 use crate::history::{History, Series};
+use crate::hold::{has_estimate, held, wrap_heading};
 use crate::keys::KEYS;
 use crate::operator::Refused;
 
@@ -23,11 +24,209 @@ pub const MIN_WIDTH: u16 = 80;
 /// Smallest terminal the teleop view fits in (rows).
 pub const MIN_HEIGHT: u16 = 24;
 /// Smallest height of the monitor view (it adds plots).
-pub const MIN_HEIGHT_MONITOR: u16 = 34;
+pub const MIN_HEIGHT_MONITOR: u16 = 36;
 
 /// The name of a snapshot's mode code.
 pub fn mode_name(mode: u8) -> &'static str {
     Mode::from_code(mode).map(Mode::name).unwrap_or("unknown")
+}
+
+/// The name of a snapshot's head-sensor health code.
+pub fn sensor_name(code: u8) -> &'static str {
+    SensorHealth::from_code(code)
+        .map(SensorHealth::name)
+        .unwrap_or("unknown")
+}
+
+/// The autopilot's mode by a snapshot's hold bits: "manual", "heading",
+/// "depth" or "heading+depth".
+pub fn autopilot_name(nav: &NavSnapshot) -> &'static str {
+    held(nav).name()
+}
+
+/// Degrees of heading per column of [`compass_strip`].
+pub const COMPASS_DEG_PER_COLUMN: f64 = 5.0;
+
+/// `a - b` in degrees, wrapped to -180 ..< 180 (positive: `a` is to the
+/// left of `b`, headings increasing counter-clockwise).
+fn heading_diff(a: f64, b: f64) -> f64 {
+    (a - b + 180.0).rem_euclid(360.0) - 180.0
+}
+
+/// A compass strip `width` columns wide centred on `heading` (the centre
+/// column is the nose), [`COMPASS_DEG_PER_COLUMN`] a column. Headings
+/// increase to the **left**, as the robot sees them turning left (they are
+/// counter-clockwise seen from above). The nose is a `│`; labels every
+/// 30° (but where they would cover the nose or the target), a `·` every
+/// 10°; `target`, if any, is a `◆`, or a `◀` / `▶` at the edge on its side
+/// when it is off the strip.
+pub fn compass_strip(heading: f64, target: Option<f64>, width: usize) -> String {
+    let width = width.max(3);
+    let centre = (width / 2) as f64;
+    let mut cols = vec![' '; width];
+    let column = |deg: f64| centre - (heading_diff(deg, heading) / COMPASS_DEG_PER_COLUMN).round();
+    let target_col = target.map(|t| column(t).clamp(0.0, (width - 1) as f64));
+    for k in 0..36 {
+        let c = column(k as f64 * 10.0);
+        if (0.0..width as f64).contains(&c) {
+            cols[c as usize] = '·';
+        }
+    }
+    for k in 0..12 {
+        let label = (k * 30).to_string();
+        let n = label.len() as f64;
+        let first = column(k as f64 * 30.0) - ((n - 1.0) / 2.0).floor();
+        let covers = |c: f64| (first..first + n).contains(&c);
+        if first >= 0.0
+            && first + n <= width as f64
+            && !covers(centre)
+            && !target_col.is_some_and(covers)
+        {
+            for (i, ch) in label.chars().enumerate() {
+                cols[first as usize + i] = ch;
+            }
+        }
+    }
+    cols[centre as usize] = '│';
+    if let Some(t) = target {
+        let c = column(t);
+        if c < 0.0 {
+            cols[0] = '◀';
+        } else if c >= width as f64 {
+            cols[width - 1] = '▶';
+        } else {
+            cols[c as usize] = '◆';
+        }
+    }
+    cols.into_iter().collect()
+}
+
+/// A depth gauge `width` columns wide: `0├`, the scale, `┤` and its full
+/// scale in metres (at least 2 m, and a quarter beyond the deeper of
+/// `depth` and `target`, rounded up to a metre), with the depth as `●`
+/// and the target, if any, as `◆`.
+pub fn depth_gauge(depth: f64, target: Option<f64>, width: usize) -> String {
+    let deepest = depth.max(target.unwrap_or(0.0)).max(0.0);
+    let full = (deepest * 1.25).ceil().max(2.0);
+    let end = format!("┤{full:.0} m");
+    let inner = width.saturating_sub(2 + end.chars().count()).max(3);
+    let mut cols = vec!['─'; inner];
+    let col = |v: f64| ((v.clamp(0.0, full) / full) * (inner - 1) as f64).round() as usize;
+    if let Some(t) = target {
+        cols[col(t)] = '◆';
+    }
+    cols[col(depth)] = '●';
+    format!("0├{}{end}", cols.into_iter().collect::<String>())
+}
+
+/// The header's head-sensor lines for an area `width` columns wide: one
+/// compact line without a sensor or before its first sample; else the
+/// heading (compass strip, target), pitch and roll (roll alarm), then the
+/// depth (gauge, rate, target), the autopilot and the sensor's health.
+pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
+    let bad = Style::default().fg(Color::Red).add_modifier(Modifier::BOLD);
+    let dim = Style::default().fg(Color::DarkGray);
+    let health = sensor_name(nav.sensor);
+    let health_style = if nav.sensor == SensorHealth::Ok as u8 {
+        Style::default().fg(Color::Green)
+    } else {
+        bad
+    };
+    let hold = held(nav);
+    let mut autopilot = vec![
+        Span::raw("  autopilot "),
+        Span::styled(hold.name(), Style::default().add_modifier(Modifier::BOLD)),
+    ];
+    if !hold.is_active() && nav.hold_exit != 0 {
+        autopilot.push(Span::styled(
+            format!(" (let go: {})", sensor_name(nav.hold_exit)),
+            bad,
+        ));
+    }
+    if nav.sensor == 0 {
+        return vec![Line::from(Span::styled(
+            "no head sensor (heading and depth hold unavailable)",
+            dim,
+        ))];
+    }
+    if !has_estimate(nav) {
+        let mut spans = vec![
+            Span::raw("head sensor "),
+            Span::styled(health, health_style),
+            Span::raw(": no sample yet"),
+        ];
+        spans.extend(autopilot);
+        return vec![Line::from(spans)];
+    }
+    let heading = wrap_heading(nav.heading_deg as f64);
+    let mut l1 = format!("hdg {heading:05.1}°");
+    if let Some(t) = hold.heading {
+        l1.push_str(&format!(" → {:05.1}°", wrap_heading(t)));
+    }
+    let attitude = format!("  pitch {:+.1}°  roll {:+.1}°", nav.pitch_deg, nav.roll_deg);
+    let alarm = "  ROLL ALARM";
+    let used = l1.chars().count() + 1 + attitude.chars().count() + alarm.len();
+    let strip_width = (width.saturating_sub(used + 1) | 1).clamp(9, 37);
+    let strip = compass_strip(heading, hold.heading, strip_width);
+    let (before, rest) = strip.split_at(
+        strip
+            .char_indices()
+            .nth(strip_width / 2)
+            .map_or(0, |(i, _)| i),
+    );
+    let mut nose = rest.chars();
+    let nose_char = nose.next().unwrap_or(' ').to_string();
+    let mut line1 = vec![
+        Span::raw(format!("{l1} ")),
+        Span::styled(before.to_string(), Style::default().fg(Color::Cyan)),
+        Span::styled(nose_char, Style::default().add_modifier(Modifier::REVERSED)),
+        Span::styled(nose.collect::<String>(), Style::default().fg(Color::Cyan)),
+        Span::raw(attitude),
+    ];
+    if nav.roll_alarm != 0 {
+        line1.push(Span::styled(alarm, bad));
+    }
+    let depth = nav.depth_m as f64;
+    let mut d = format!("depth {depth:.2} m");
+    if let Some(t) = hold.depth {
+        d.push_str(&format!(" → {t:.2} m"));
+    }
+    let rate = nav.depth_rate as f64;
+    d.push_str(&format!(
+        " {}{:.2} m/s",
+        if rate >= 0.0 { '↓' } else { '↑' },
+        rate.abs()
+    ));
+    let sensor = vec![Span::raw("  sensor "), Span::styled(health, health_style)];
+    let used = d.chars().count()
+        + autopilot
+            .iter()
+            .chain(&sensor)
+            .map(|s| s.content.chars().count())
+            .sum::<usize>();
+    let mut line2 = vec![Span::raw(d)];
+    let room = width.saturating_sub(used + 2);
+    if room >= 14 {
+        line2.push(Span::styled(
+            format!(" {}", depth_gauge(depth, hold.depth, room.min(30))),
+            Style::default().fg(Color::Cyan),
+        ));
+    }
+    line2.extend(autopilot);
+    line2.extend(sensor);
+    vec![Line::from(line1), Line::from(line2)]
+}
+
+/// The operator's holds in words: "heading 090.0°, depth 1.50 m", or
+/// `None` for manual.
+pub fn hold_text(h: &Hold) -> Option<String> {
+    let parts: Vec<String> = h
+        .heading
+        .map(|d| format!("heading {:05.1}°", wrap_heading(d)))
+        .into_iter()
+        .chain(h.depth.map(|m| format!("depth {m:.2} m")))
+        .collect();
+    (!parts.is_empty()).then(|| parts.join(", "))
 }
 
 /// The name of a snapshot's cause code.
@@ -88,13 +287,17 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
         frame.render_widget(Paragraph::new(msg).wrap(Wrap { trim: true }), area);
         return;
     }
+    let nav = v
+        .state
+        .map(|s| nav_lines(&s.nav, area.width.saturating_sub(2) as usize))
+        .unwrap_or_default();
     let [header, body, footer] = Layout::vertical([
-        Constraint::Length(3),
+        Constraint::Length(3 + nav.len() as u16),
         Constraint::Min(10),
         Constraint::Length(1),
     ])
     .areas(area);
-    render_header(frame, header, v);
+    render_header(frame, header, v, nav);
     frame.render_widget(
         Paragraph::new(v.status).style(Style::default().fg(Color::DarkGray)),
         footer,
@@ -117,8 +320,9 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
     render_body(frame, side, v.state, false);
     render_torques(frame, bars, v.state);
     if v.intent.is_some() {
+        let key_rows = KEYS.len().div_ceil(2) as u16 + 2;
         let [status, keys] =
-            Layout::vertical([Constraint::Min(9), Constraint::Length(8)]).areas(right);
+            Layout::vertical([Constraint::Min(8), Constraint::Length(key_rows)]).areas(right);
         render_status(frame, status, v);
         render_keys(frame, keys);
     } else {
@@ -129,7 +333,7 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
     }
 }
 
-fn render_header(frame: &mut Frame, area: Rect, v: &ViewModel) {
+fn render_header(frame: &mut Frame, area: Rect, v: &ViewModel, nav: Vec<Line<'static>>) {
     let mut spans = vec![];
     match v.state {
         None => spans.push(Span::styled(
@@ -172,8 +376,10 @@ fn render_header(frame: &mut Frame, area: Rect, v: &ViewModel) {
             }
         }
     }
+    let mut lines = vec![Line::from(spans)];
+    lines.extend(nav);
     frame.render_widget(
-        Paragraph::new(Line::from(spans))
+        Paragraph::new(lines)
             .block(Block::bordered().title(format!(" {} ", v.title)))
             .wrap(Wrap { trim: true }),
         area,
@@ -306,6 +512,24 @@ fn render_status(frame: &mut Frame, area: Rect, v: &ViewModel) {
                 if i.swimming() { "swim" } else { "rest" }
             )),
         ]));
+        if let Some(h) = hold_text(&i.hold()) {
+            lines.push(Line::from(format!(
+                "you hold {h}{}",
+                if i.swimming() { "" } else { " (armed)" }
+            )));
+        }
+    }
+    // The last refusal before the statistics: it is what the operator must
+    // read when the panel is short.
+    match v.refused {
+        Some(r) => lines.push(Line::from(vec![
+            Span::styled(
+                format!("refused '{}': ", r.command),
+                Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
+            ),
+            Span::raw(r.reason.clone()),
+        ])),
+        None => lines.push(Line::from("no command refused")),
     }
     if let Some(s) = v.state {
         let l = &s.loop_stats;
@@ -350,16 +574,6 @@ fn render_status(frame: &mut Frame, area: Rect, v: &ViewModel) {
             "nodes alive {alive}/{}; clamped {} refused {} silent-stops {}",
             s.joint_count, s.clamped_setpoints, s.refused_commands, s.operator_silent_stops
         )));
-    }
-    match v.refused {
-        Some(r) => lines.push(Line::from(vec![
-            Span::styled(
-                format!("refused '{}': ", r.command),
-                Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
-            ),
-            Span::raw(r.reason.clone()),
-        ])),
-        None => lines.push(Line::from("no command refused")),
     }
     frame.render_widget(
         Paragraph::new(lines)
@@ -520,6 +734,19 @@ pub fn sample_snapshot() -> StateSnapshot {
     s.loop_stats.jitter_max_ns = 160_000;
     s.loop_stats.compute_p99_ns = 85_000;
     s.loop_stats.periods = 41_250;
+    s.nav = NavSnapshot {
+        sensor: SensorHealth::Ok as u8,
+        hold: anguilla_ipc::hold_bits::HEADING,
+        heading_deg: 87.3,
+        pitch_deg: -2.1,
+        roll_deg: 3.4,
+        depth_m: 1.23,
+        depth_rate: 0.04,
+        temperature: 14.5,
+        heading_target_deg: 90.0,
+        samples: 4125,
+        ..Default::default()
+    };
     s.bus.tx_frames = 536_250;
     s.bus.rx_frames = 1_031_240;
     for (i, j) in s.joints[..12].iter_mut().enumerate() {
@@ -599,6 +826,124 @@ mod tests {
         ] {
             assert!(text.contains(want), "missing {want:?} in\n{text}");
         }
+    }
+
+    #[test]
+    fn the_compass_strip_puts_headings_to_the_left_as_they_increase() {
+        // 5° a column, centre column 6 is the nose; "90" would cover it.
+        let s = compass_strip(90.0, None, 13);
+        assert_eq!(&s, "· · · │ · · ·", "{s:?}");
+        // Wider: 120 to the left of 90, 60 to its right, 6 columns away.
+        let s = compass_strip(90.0, None, 25);
+        assert_eq!(s.chars().count(), 25);
+        let col = |label: &str| s[..s.find(label).unwrap()].chars().count();
+        assert_eq!((col("120"), col("│"), col("60")), (5, 12, 18), "{s:?}");
+        let s = compass_strip(75.0, None, 25);
+        assert_eq!(s[..s.find("90").unwrap()].chars().count(), 9, "{s:?}");
+        // A target 10° to the left (a left turn increases the heading).
+        let s: Vec<char> = compass_strip(90.0, Some(100.0), 13).chars().collect();
+        assert_eq!(s[4], '◆', "{s:?}");
+        // Across north: heading 358, target 3 is 5° to the left.
+        let s: Vec<char> = compass_strip(358.0, Some(3.0), 13).chars().collect();
+        assert_eq!(s[5], '◆', "{s:?}");
+        // Off the strip: an arrow at the edge on its side.
+        let s: Vec<char> = compass_strip(0.0, Some(90.0), 13).chars().collect();
+        assert_eq!(s[0], '◀', "{s:?}");
+        let s: Vec<char> = compass_strip(0.0, Some(270.0), 13).chars().collect();
+        assert_eq!(s[12], '▶', "{s:?}");
+    }
+
+    #[test]
+    fn the_depth_gauge_places_depth_and_target() {
+        let g = depth_gauge(1.0, Some(1.5), 20);
+        assert_eq!(g.chars().count(), 20, "{g}");
+        assert!(g.starts_with("0├") && g.ends_with("┤2 m"), "{g}");
+        let d = g.find('●').unwrap();
+        let t = g.find('◆').unwrap();
+        assert!(d < t, "deeper is further right: {g}");
+        // Deeper than the default scale: the scale grows (5 m · 1.25, up).
+        assert!(depth_gauge(5.0, None, 20).ends_with("┤7 m"));
+        // At the surface, and a negative estimate, sit on 0.
+        assert!(depth_gauge(-0.2, None, 20).starts_with("0├●"));
+    }
+
+    #[test]
+    fn the_header_shows_heading_attitude_depth_autopilot_and_sensor() {
+        let mut s = sample_snapshot();
+        s.nav.hold |= anguilla_ipc::hold_bits::DEPTH;
+        s.nav.depth_target_m = 1.5;
+        s.nav.roll_alarm = 1;
+        s.nav.roll_deg = -65.0;
+        let i = Intent::new(Limits::default());
+        let text = draw(100, 30, &teleop_view(Some(&s), &i, None));
+        for want in [
+            "hdg 087.3° → 090.0°",
+            "pitch -2.1°  roll -65.0°  ROLL ALARM",
+            "depth 1.23 m → 1.50 m ↓0.04 m/s",
+            "autopilot heading+depth",
+            "sensor ok",
+            "◆",
+        ] {
+            assert!(text.contains(want), "missing {want:?} in\n{text}");
+        }
+        // At 80 columns everything but the gauge still fits on its line.
+        let text = draw(80, 24, &teleop_view(Some(&s), &i, None));
+        assert!(text.contains("hdg 087.3° → 090.0°"), "{text}");
+        assert!(
+            text.contains("autopilot heading+depth  sensor ok"),
+            "{text}"
+        );
+        // The autopilot let go: manual, and why.
+        s.nav.hold = 0;
+        s.nav.hold_exit = SensorHealth::Silent as u8;
+        s.nav.sensor = SensorHealth::Silent as u8;
+        s.nav.roll_alarm = 0;
+        let text = draw(100, 30, &teleop_view(Some(&s), &i, None));
+        assert!(
+            text.contains("autopilot manual (let go: silent)  sensor silent"),
+            "{text}"
+        );
+        assert!(
+            !text.contains("ROLL ALARM") && !text.contains("→ 090.0°"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn without_a_head_sensor_one_line_says_so_instead_of_zeros() {
+        let mut s = sample_snapshot();
+        s.nav = NavSnapshot::default();
+        let i = Intent::new(Limits::default());
+        let text = draw(100, 30, &teleop_view(Some(&s), &i, None));
+        assert!(text.contains("no head sensor"), "{text}");
+        assert!(
+            !text.contains("hdg 0") && !text.contains("depth 0.00"),
+            "{text}"
+        );
+        assert_eq!(nav_lines(&s.nav, 98).len(), 1);
+        // Configured, no sample yet: its health, no numbers.
+        s.nav.sensor = SensorHealth::Waiting as u8;
+        let text = draw(100, 30, &teleop_view(Some(&s), &i, None));
+        assert!(
+            text.contains("head sensor waiting: no sample yet"),
+            "{text}"
+        );
+        assert!(!text.contains("hdg 0"), "{text}");
+    }
+
+    #[test]
+    fn the_operators_holds_are_shown_armed_or_sent() {
+        let s = sample_snapshot();
+        let mut i = Intent::new(Limits::default());
+        i.observe_nav(&s.nav);
+        i.apply(Action::HoldHeading);
+        i.apply(Action::HoldDepth);
+        let text = draw(100, 30, &teleop_view(Some(&s), &i, None));
+        assert!(
+            text.contains("you hold heading 087.3°, depth 1.23 m (armed)"),
+            "{text}"
+        );
+        assert_eq!(hold_text(&Hold::MANUAL), None);
     }
 
     #[test]
