@@ -112,7 +112,6 @@ impl Plant {
                 ballast: cfg.ballast,
                 ..anguilla_model::Body::paper()
             },
-            ..ModelConfig::default()
         })?;
         let mut ws = Workspace::new(&model);
         ws.set_current(cfg.current);
