@@ -101,6 +101,11 @@ pub struct SimArgs {
     /// only; protocol/README.md "The head sensor").
     #[arg(long, value_name = "ID")]
     head_sensor: Option<u8>,
+    /// The body's ballast: its centre of mass this far below its axis (m,
+    /// 0..=0.05; default 0.02, as the daemon's `[model] ballast`; 0: the
+    /// paper's body, which rolls freely under pitch curvature).
+    #[arg(long, value_name = "M")]
+    ballast: Option<f64>,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
@@ -216,6 +221,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         model_nodes: args.model_nodes.unwrap_or(defaults.model_nodes),
         current,
         head_sensor: args.head_sensor.map(SensorConfig::typical),
+        ballast: args.ballast.unwrap_or(defaults.ballast),
         ..defaults
     };
     if let Err(e) = cfg.validate() {

@@ -19,9 +19,12 @@
 //! 3. `cross_current`: 0.1 m/s across the path, heading held: the mean and
 //!    largest error over the last 6 s of 20 s.
 //! 4. `estimate`: the head's attitude and depth estimate against the truth.
-//! 5. `depth_step`: +0.5 m held with the heading: depth reached, overshoot,
-//!    largest roll; the simulated body rolls under pitch curvature (see
-//!    docs/autopilot.md).
+//! 5. `depth_step`: +0.5 m held with the heading, on the ballasted body
+//!    (`[model] ballast`, default 2 cm) and on the paper's unballasted one,
+//!    which rolls over under pitch curvature (docs/autopilot.md): rise time,
+//!    overshoot, settling to ±5 cm, the worst error and heading error over
+//!    the last 10 s of 30, the largest roll; and on the ballasted body in a
+//!    current of 0.1 m/s across and 0.05 m/s down.
 
 #[path = "../tests/support/lockstep.rs"]
 #[allow(dead_code)]
@@ -181,32 +184,29 @@ fn main() {
         s.nav.samples,
         s.nav.lost_samples
     );
-    // 5. Depth step.
-    let mut rig = Rig::new(&cfg, 2, [0.0; 3]);
-    let h0 = swimming(&mut rig);
-    let d0 = true_depth(&rig.truth());
-    rig.ok(Command::Hold(Hold {
-        heading: Some(h0),
-        depth: Some(d0 + 0.5),
-    }));
-    let (mut roll, mut deepest, mut reached) = (0.0f64, d0, None);
-    let start = rig.time();
-    rig.run(20.0, |r| {
-        let d = true_depth(&r.truth());
-        deepest = deepest.max(d);
-        roll = roll.max((r.state().nav.roll_deg as f64).abs());
-        if reached.is_none() && d >= d0 + 0.45 {
-            reached = Some(r.time() - start);
-        }
-    });
-    let s = rig.state();
-    println!(
-        "{{\"bench\":\"depth_step\",\"step_m\":0.5,\"reached_90pct_s\":{},\"deepest_m\":{:.3},\"overshoot_m\":{:.3},\"final_depth_m\":{:.3},\"max_roll_deg\":{roll:.1},\"still_swimming\":{},\"hold_exit\":{}}}",
-        opt(reached),
-        deepest,
-        deepest - (d0 + 0.5),
-        true_depth(&rig.truth()),
-        s.mode == Mode::Swimming as u8,
-        s.nav.hold_exit
-    );
+    // 5. Depth step, on the ballasted body (the default) and the paper's,
+    // and on the ballasted one in a current (0.1 m/s across, 0.05 down).
+    for (ballast, current) in [
+        (cfg.model.ballast, [0.0; 3]),
+        (0.0, [0.0; 3]),
+        (cfg.model.ballast, [0.0, 0.1, -0.05]),
+    ] {
+        let mut cfg = cfg.clone();
+        cfg.model.ballast = ballast;
+        let mut rig = Rig::new(&cfg, 2, current);
+        swimming(&mut rig);
+        let m = depth_step(&mut rig, 0.5, 30.0, 20.0);
+        let s = rig.state();
+        println!(
+            "{{\"bench\":\"depth_step\",\"ballast_m\":{ballast},\"current_mps\":{current:?},\"step_m\":0.5,\"rise_90pct_s\":{},\"overshoot_m\":{:.3},\"settling_5cm_s\":{},\"worst_error_last_10s_m\":{:.3},\"heading_error_last_10s_deg\":{:.2},\"max_roll_deg\":{:.1},\"still_swimming\":{},\"hold_exit\":{}}}",
+            opt(m.reached),
+            m.overshoot,
+            opt((m.last_outside < 28.0).then_some(m.last_outside)),
+            m.late,
+            m.heading,
+            m.roll,
+            s.mode == Mode::Swimming as u8,
+            s.nav.hold_exit
+        );
+    }
 }

@@ -23,7 +23,7 @@ use anguilla_model::{GaitParams, HeadState, Model, ModelError, ParametricGait, W
 use nalgebra::Vector3;
 
 use crate::config::Config;
-use crate::nav::{Estimate, Prediction};
+use crate::nav::{Estimate, Prediction, to_model};
 
 /// The speed below which the feed-forward stops growing (m/s): a body
 /// barely swimming cannot turn, and asking for more curvature is useless.
@@ -42,9 +42,17 @@ pub struct Gains {
     /// Nose-down pitch rate (rad/s) per pitch curvature (1/m) per forward
     /// speed (m/s).
     pub pitch: f64,
+    /// A ballasted body only: the nose-down pitch (rad) it settles at per
+    /// pitch curvature (1/m) — its weight rights it, so a curvature holds
+    /// an angle instead of turning it on.
+    pub pitch_angle: Option<f64>,
     /// The calibration's forward speed (m/s).
     pub speed: f64,
 }
+
+/// The curvature of the ballasted body's static pitch calibration (1/m):
+/// small, where its answer is still linear.
+pub const PITCH_ANGLE_CURVATURE: f64 = 0.25;
 
 /// Runs the model on `cfg`'s gait (full amplitude, at 1 Hz or the highest
 /// frequency allowed): four periods straight to reach speed, then a small
@@ -57,7 +65,13 @@ pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
     let f = cfg.gait.max_frequency.min(1.0);
     let period = 1.0 / f;
     let k = CALIBRATION_CURVATURE;
-    let run = |kc3: f64, kc2: f64| -> Result<(Vector3<f64>, f64), ModelError> {
+    // Mean body rates, forward speed and body elevation (nose up) over
+    // `measure` periods after `settle` periods of the curvatures.
+    let run = |kc3: f64,
+               kc2: f64,
+               settle: usize,
+               measure: usize|
+     -> Result<(Vector3<f64>, f64, f64), ModelError> {
         let mut params = GaitParams {
             wavelength: cfg.gait.wavelength,
             period,
@@ -76,26 +90,39 @@ pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
         params.kc3 = kc3;
         params.kc2 = kc2;
         gait.set_target(&params)?;
-        for _ in 0..per {
+        for _ in 0..settle * per {
             step(model, &mut ws, &mut gait, &mut head)?;
         }
-        let (mut rates, mut speed) = (Vector3::zeros(), 0.0);
-        for _ in 0..per {
+        let (mut rates, mut speed, mut elevation) = (Vector3::zeros(), 0.0, 0.0);
+        let n = measure * per;
+        for _ in 0..n {
             let r = step(model, &mut ws, &mut gait, &mut head)?;
-            rates += Prediction::of(&head, &[]).rates;
+            let p = Prediction::of(&head, ws.shape());
+            rates += p.rates;
             speed += r.forward_speed;
+            let f = head.orientation * to_model(p.forward);
+            elevation += f.z.atan2(f.x.hypot(f.y));
         }
-        Ok((rates / per as f64, speed / per as f64))
+        let n = n as f64;
+        Ok((rates / n, speed / n, elevation / n))
     };
     // The operator's turn is positive left; the gait's K_c3 is its
     // opposite (control.rs). Sensor axes: z up (a left turn is +z), y left
     // (nose down is +y).
-    let (turn, u_turn) = run(-k, 0.0)?;
-    let (pitch, u_pitch) = run(0.0, k)?;
+    let (turn, u_turn, _) = run(-k, 0.0, 1, 1)?;
+    let (pitch, u_pitch, _) = run(0.0, k, 1, 1)?;
     let floor = |g: f64| if g.abs() < 1e-3 { 1e-3 } else { g };
+    let pitch_angle = if cfg.model.ballast > 0.0 {
+        let k = PITCH_ANGLE_CURVATURE;
+        let (_, _, elevation) = run(0.0, k, 4, 2)?;
+        Some(floor(-elevation / k))
+    } else {
+        None
+    };
     Ok(Gains {
         turn: floor(turn.z / (k * u_turn.max(MIN_SPEED))),
         pitch: floor(pitch.y / (k * u_pitch.max(MIN_SPEED))),
+        pitch_angle,
         speed: u_turn,
     })
 }
@@ -123,6 +150,8 @@ pub struct Autopilot {
     pitch_gain: f64,
     max_turn: f64,
     max_pitch: f64,
+    curvature_rate: f64,
+    curvature_accel: f64,
     speed: f64,
     heading_sum: f64,
     depth_sum: f64,
@@ -143,10 +172,25 @@ impl Autopilot {
             pitch_gain: a.pitch_gain,
             max_turn: cfg.gait.max_turn,
             max_pitch: cfg.gait.max_pitch,
+            curvature_rate: cfg.gait.curvature_rate,
+            curvature_accel: cfg.gait.curvature_accel,
             speed: 0.0,
             heading_sum: 0.0,
             depth_sum: 0.0,
         }
+    }
+
+    /// `∫κ dt` (m⁻¹ s) while the curvature `k` ramps to zero along the
+    /// gait's trapezoid (from rest: an S-curve, or with a cruise at the
+    /// rate limit).
+    fn stopping(&self, k: f64) -> f64 {
+        let (v, a) = (self.curvature_rate, self.curvature_accel);
+        let t = if k.abs() <= v * v / a {
+            2.0 * (k.abs() / a).sqrt()
+        } else {
+            k.abs() / v + v / a
+        };
+        k * t / 2.0
     }
 
     /// The model's gains.
@@ -165,6 +209,12 @@ impl Autopilot {
     /// `φ` when both are held: `ω_y = q cos φ + r sin φ`,
     /// `ω_z = r cos φ − q sin φ`; a free axis keeps the operator's
     /// curvature.
+    ///
+    /// `turning` is the turn curvature the gait executes now: ramping it
+    /// back to zero along its trapezoid still turns the body by
+    /// `gain · U · ∫κ dt`, which the heading law counts as already done
+    /// (the stopping distance), so the body does not overshoot by it.
+    #[allow(clippy::too_many_arguments)] // one call site, the controller's
     pub fn steer(
         &mut self,
         dt: f64,
@@ -172,6 +222,7 @@ impl Autopilot {
         est: &Estimate,
         predicted_speed: f64,
         manual: [f64; 2],
+        turning: f64,
     ) -> [f64; 2] {
         self.speed += (predicted_speed - self.speed) * (1.0 - (-dt / SPEED_TAU).exp());
         if !hold.is_active() {
@@ -187,7 +238,8 @@ impl Autopilot {
                 None
             }
             Some(target) => {
-                let e = wrap(target.to_radians() - est.heading);
+                let e =
+                    wrap(target.to_radians() - est.heading - g.turn * u * self.stopping(turning));
                 let raw = self.heading_gain * e + self.heading_integral * self.heading_sum;
                 let r = raw.clamp(-self.max_rate, self.max_rate);
                 if raw == r {
@@ -210,8 +262,20 @@ impl Autopilot {
                     self.depth_sum += e * dt;
                 }
                 // Nose down to descend: the pitch wanted (nose up) is
-                // −asin(w / U), reached at a nose-down rate.
+                // −asin(w / U).
                 let theta = -(w / u).clamp(-1.0, 1.0).asin();
+                if let Some(angle) = g.pitch_angle {
+                    // A ballasted body settles at an angle per curvature:
+                    // the model's curvature for the angle, plus the error's
+                    // share (pitch-gain, dimensionless here).
+                    let down = -theta + self.pitch_gain * (est.pitch - theta);
+                    let kc2 = (down / angle).clamp(-self.max_pitch, self.max_pitch);
+                    let turn = r.map_or(manual[0], |r| {
+                        (r / (g.turn * u)).clamp(-self.max_turn, self.max_turn)
+                    });
+                    return [turn, kc2];
+                }
+                // Unballasted: reached at a nose-down rate.
                 Some((self.pitch_gain * (est.pitch - theta)).clamp(-self.max_rate, self.max_rate))
             }
         };
@@ -231,5 +295,107 @@ impl Autopilot {
             (wz / (g.turn * u)).clamp(-self.max_turn, self.max_turn),
             (wy / (g.pitch * u)).clamp(-self.max_pitch, self.max_pitch),
         ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    fn estimate(heading_deg: f64, depth: f64) -> Estimate {
+        Estimate {
+            attitude: UnitQuaternion::identity(),
+            heading: heading_deg.to_radians(),
+            pitch: 0.0,
+            roll: 0.0,
+            depth,
+            depth_rate: 0.0,
+        }
+    }
+
+    fn autopilot(pitch_angle: Option<f64>) -> Autopilot {
+        let gains = Gains {
+            turn: 1.0,
+            pitch: 1.0,
+            pitch_angle,
+            speed: 0.5,
+        };
+        let mut a = Autopilot::new(&Config::default(), gains);
+        a.speed = 0.5;
+        a
+    }
+
+    #[test]
+    fn angles_wrap_the_short_way() {
+        assert!((wrap(190f64.to_radians()).to_degrees() + 170.0).abs() < 1e-9);
+        assert!((wrap(-190f64.to_radians()).to_degrees() - 170.0).abs() < 1e-9);
+        assert!((wrap(core::f64::consts::PI) - core::f64::consts::PI).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nothing_held_leaves_the_operator_steering() {
+        let mut a = autopilot(None);
+        let out = a.steer(
+            0.01,
+            &Hold::MANUAL,
+            &estimate(0.0, 1.0),
+            0.5,
+            [0.7, -0.3],
+            0.2,
+        );
+        assert_eq!(out, [0.7, -0.3]);
+    }
+
+    #[test]
+    fn a_heading_to_the_left_turns_left_and_a_saturated_loop_does_not_wind_up() {
+        let mut a = autopilot(None);
+        let hold = Hold {
+            heading: Some(90.0),
+            depth: None,
+        };
+        // 90° to the left: the largest rate, 30°/s, at 0.5 m/s and gain 1.
+        let [turn, pitch] = a.steer(0.01, &hold, &estimate(0.0, 1.0), 0.5, [0.0, 0.4], 0.0);
+        let want = 30f64.to_radians() / 0.5;
+        assert!((turn - want).abs() < 1e-3, "{turn} vs {want}");
+        assert_eq!(pitch, 0.4, "the free axis stays the operator's");
+        for _ in 0..1000 {
+            a.steer(0.01, &hold, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+        }
+        assert_eq!(a.heading_sum, 0.0, "saturated: no integration");
+        // To the right, the other way.
+        let right = Hold {
+            heading: Some(350.0),
+            depth: None,
+        };
+        let [turn, _] = a.steer(0.01, &right, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+        assert!(turn < 0.0);
+        // Already turning left hard: the stopping distance covers a small
+        // remaining error, so the law eases off (turns right) early.
+        let near = Hold {
+            heading: Some(5.0),
+            depth: None,
+        };
+        let [turn, _] = a.steer(0.01, &near, &estimate(0.0, 1.0), 0.5, [0.0; 2], 1.0);
+        assert!(turn < 0.0, "eases off: {turn}");
+    }
+
+    #[test]
+    fn a_depth_below_dives_and_one_above_climbs() {
+        for gains in [Some(0.6), None] {
+            let mut a = autopilot(gains);
+            let down = Hold {
+                heading: None,
+                depth: Some(2.0),
+            };
+            let [_, pitch] = a.steer(0.01, &down, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+            assert!(pitch > 0.0, "{gains:?}: dives, {pitch}");
+            let up = Hold {
+                heading: None,
+                depth: Some(0.2),
+            };
+            let [_, pitch] = a.steer(0.01, &up, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+            assert!(pitch < 0.0, "{gains:?}: climbs, {pitch}");
+        }
     }
 }

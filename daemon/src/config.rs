@@ -382,7 +382,8 @@ pub struct ModelConfig {
     /// Space nodes along the body.
     pub nodes: usize,
     /// How far below each section's axis the body's centre of mass lies
-    /// (m): its ballast, which rights it in roll. 0: the paper's body.
+    /// (m): its ballast, which rights it in roll and pitch. 0: the paper's
+    /// body, which rolls freely under a pitch curvature.
     pub ballast: f64,
 }
 
@@ -390,7 +391,7 @@ impl Default for ModelConfig {
     fn default() -> Self {
         Self {
             nodes: 25,
-            ballast: 0.0,
+            ballast: anguilla_model::TYPICAL_BALLAST,
         }
     }
 }
@@ -447,7 +448,9 @@ pub struct AutopilotConfig {
     pub depth_integral: f64,
     /// Steepest dive or climb the autopilot asks for (deg of pitch).
     pub max_dive_angle: f64,
-    /// Pitch error to pitch-rate gain (1/s).
+    /// The pitch error's weight beside the model's curvature for the
+    /// wanted pitch (a ballasted body, `model.ballast` > 0; dimensionless),
+    /// or its gain to a pitch rate (an unballasted one; 1/s).
     pub pitch_gain: f64,
     /// Deepest depth a hold accepts (m).
     pub max_depth: f64,
@@ -459,10 +462,10 @@ impl Default for AutopilotConfig {
             heading_gain: 0.8,
             heading_integral: 0.05,
             max_turn_rate: 30.0,
-            depth_gain: 0.5,
+            depth_gain: 0.4,
             depth_integral: 0.05,
             max_dive_angle: 30.0,
-            pitch_gain: 1.5,
+            pitch_gain: 0.3,
             max_depth: 10.0,
         }
     }
@@ -1263,8 +1266,8 @@ pub fn default_toml() -> String {
     w("# Space nodes of the feedforward model along the body. 5..=2000".into());
     w(format!("nodes = {}", d.model.nodes));
     w("# The body's ballast: its centre of mass this far below each section's axis (m),".into());
-    w("# which rights it in roll (the built-in simulated robot is built the same).".into());
-    w("# 0: the paper's body, which rolls freely under pitch curvature. 0..=0.05".into());
+    w("# which rights it in roll and pitch (the built-in simulated robot is built the".into());
+    w("# same). 0: the paper's body, which rolls freely under pitch curvature. 0..=0.05".into());
     w(format!("ballast = {}", fmt_f(d.model.ballast)));
     w(String::new());
     w("[sensor]".into());
@@ -1306,7 +1309,9 @@ pub fn default_toml() -> String {
         fmt_f(d.autopilot.max_turn_rate)
     ));
     w("# Depth hold: dive rate = depth-gain · error (+ integral), flown at a pitch of at".into());
-    w("# most max-dive-angle (deg), reached at pitch-gain (1/s); holds to max-depth (m).".into());
+    w("# most max-dive-angle (deg); the model's curvature for that pitch, plus pitch-gain".into());
+    w("# times the pitch error (ballasted body; unballasted: pitch rate per error, 1/s);".into());
+    w("# holds to max-depth (m).".into());
     w(format!("depth-gain = {}", fmt_f(d.autopilot.depth_gain)));
     w(format!(
         "depth-integral = {}",

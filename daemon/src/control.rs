@@ -519,6 +519,7 @@ impl Controller {
                 &nav.estimate(),
                 self.report.forward_speed,
                 [target.turn, target.pitch],
+                self.turn.state().position,
             );
         }
         self.hold = d.hold;

@@ -67,6 +67,11 @@ fn to_sensor(v: Vector3<f64>) -> Vector3<f64> {
     Vector3::new(-v.x, -v.y, v.z)
 }
 
+/// The model's head axes from the sensor's (the same turn by π about z).
+pub fn to_model(v: Vector3<f64>) -> Vector3<f64> {
+    to_sensor(v)
+}
+
 /// What the model predicts of the head this period, in the sensor's axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prediction {
@@ -454,4 +459,117 @@ impl Nav {
 /// (the specific force points up at rest).
 fn level(accel: Vector3<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::rotation_between(&accel, &Vector3::z()).unwrap_or_else(UnitQuaternion::identity)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anguilla_protocol::message::{HeadSample, encode_head_sample};
+
+    const MS: Nanos = Nanos::from_millis(1);
+
+    fn nav(fd: bool) -> Nav {
+        let mut cfg = Config::default();
+        cfg.sensor.node = 20;
+        cfg.bus.fd = fd;
+        Nav::new(&cfg, Nanos::ZERO).expect("a sensor")
+    }
+
+    fn sample(n: u8, yaw_rate: f32) -> HeadSample {
+        HeadSample {
+            node: NodeId::new(20).unwrap(),
+            sample: n,
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+            rates: [0.0, 0.0, yaw_rate],
+            accel: [0.0, 0.0, 9.81],
+            pressure: 101_325 + 9_810,
+            temperature: 15.0,
+            status: SensorStatus(SensorStatus::ALL & !SensorStatus::ACCURACY_MASK | 3),
+            errors: SensorErrors::default(),
+        }
+    }
+
+    fn frames(fd: bool, s: &HeadSample) -> Vec<Frame> {
+        let mut v = Vec::new();
+        let variant = if fd { Variant::Fd } else { Variant::Classic };
+        encode_head_sample(variant, s, |f| v.push(f)).unwrap();
+        v
+    }
+
+    #[test]
+    fn classic_and_fd_samples_are_read_and_gaps_counted() {
+        for fd in [false, true] {
+            let mut n = nav(fd);
+            for (k, i) in [0u8, 1, 2, 5].into_iter().enumerate() {
+                let now = MS * (10 * k as u64);
+                for f in frames(fd, &sample(i, 0.01 * k as f32)) {
+                    assert!(n.ingest(now, &f), "the sensor's frame is taken");
+                }
+                n.step(now, 0.01, &Prediction::still());
+            }
+            let mut s = NavSnapshot::default();
+            n.fill(&mut s);
+            assert_eq!(s.samples, 4, "fd {fd}");
+            assert_eq!(s.lost_samples, 2, "fd {fd}: 3 and 4 missed");
+            assert!(
+                (s.depth_m - 1.0).abs() < 1e-3,
+                "fd {fd}: depth {}",
+                s.depth_m
+            );
+            assert_eq!(n.health(), SensorHealth::Ok);
+        }
+    }
+
+    #[test]
+    fn a_sample_missing_a_frame_is_lost_and_others_frames_are_left() {
+        let mut n = nav(false);
+        let f = frames(false, &sample(7, 0.0));
+        // Its rates frame lost: the HeadDepth completes nothing.
+        for (i, frame) in f.iter().enumerate() {
+            if i != 1 {
+                n.ingest(MS, frame);
+            }
+        }
+        let mut s = NavSnapshot::default();
+        n.fill(&mut s);
+        assert_eq!((s.samples, s.lost_samples), (0, 1));
+        // Another node's frames are not the sensor's.
+        let other = HeadSample {
+            node: NodeId::new(21).unwrap(),
+            ..sample(8, 0.0)
+        };
+        for frame in frames(false, &other) {
+            assert!(!n.ingest(MS, &frame));
+        }
+    }
+
+    #[test]
+    fn health_names_silence_a_frozen_sensor_and_error_bits() {
+        let mut n = nav(true);
+        n.step(MS, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Waiting);
+        n.step(MS * 600, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Silent, "nothing for 5 timeouts");
+        // The same values again and again, the counter running: stuck.
+        for i in 0..=STUCK_SAMPLES as u8 {
+            let now = MS * (1000 + 10 * i as u64);
+            for f in frames(true, &sample(i, 0.0)) {
+                n.ingest(now, &f);
+            }
+            n.step(now, 0.01, &Prediction::still());
+        }
+        assert_eq!(n.health(), SensorHealth::Stuck);
+        let bad = HeadSample {
+            errors: SensorErrors(SensorErrors::PRESSURE),
+            rates: [0.0, 0.0, 0.002],
+            ..sample(9, 0.0)
+        };
+        for f in frames(true, &bad) {
+            n.ingest(MS * 1100, &f);
+        }
+        n.step(MS * 1100, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Error);
+        n.step(MS * 1300, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Silent, "0.1 s timeout");
+    }
 }

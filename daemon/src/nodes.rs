@@ -156,10 +156,10 @@ impl NodeTable {
                 }
             }
             Ok(Message::ConfigAck { .. }) => {}
-            // A head sensor's frames (issue 16): nothing here uses them yet;
-            // the state estimator (issue 16 item 4) will take them. Today no
-            // sensor is configured, so they arrive as unknown-node errors
-            // below and this arm is for a sensor id the set holds.
+            // A head sensor's frames: the configured sensor's never get here
+            // (the controller hands them to `nav::Nav` first); an
+            // unconfigured sensor's arrive as unknown-node errors below,
+            // and this arm is for a sensor sharing a joint's id.
             Ok(
                 Message::HeadAttitude(_)
                 | Message::HeadRates(_)

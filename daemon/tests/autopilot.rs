@@ -60,14 +60,13 @@ fn step_response(rig: &mut Rig, from: f64, step: f64, seconds: f64, keep: f64) -
 fn heading_hold_reaches_and_keeps_its_targets_with_sensor_noise() {
     let mut rig = Rig::new(&config(), 1, [0.0; 3]);
     let h0 = swimming(&mut rig);
-    // +60°, then −120°: each within ±5° for the last 4 s of 12 s. The
-    // overshoot bounds catch a loop gone wrong, not the figure (the bench
-    // prints it: 9.9° and 0° with the defaults).
+    // +60°, then −120°: each within ±5° for the last 4 s of 12 s, with an
+    // overshoot under 10 % of the step (the bench measured 2.9° and 2.8°).
     let (over, late) = step_response(&mut rig, h0, 60.0, 12.0, 4.0);
-    assert!(over < 15.0, "+60° step overshoots by {over:.1}°");
+    assert!(over < 6.0, "+60° step overshoots by {over:.1}°");
     assert!(late < 5.0, "+60° step: {late:.1}° off after 8 s");
     let (over, late) = step_response(&mut rig, h0 + 60.0, -120.0, 12.0, 4.0);
-    assert!(over < 15.0, "−120° step overshoots by {over:.1}°");
+    assert!(over < 12.0, "−120° step overshoots by {over:.1}°");
     assert!(late < 5.0, "−120° step: {late:.1}° off after 8 s");
     let s = rig.state();
     assert_eq!(s.mode, Mode::Swimming as u8);
@@ -114,6 +113,53 @@ fn the_estimate_follows_the_truth() {
     assert!(att < 2.0, "attitude error up to {att:.2}°");
     // Pressure noise 20 Pa is 2 mm of water.
     assert!(depth < 0.02, "depth error up to {depth:.3} m");
+}
+
+/// Depth hold against a current with a vertical part (0.05 m/s down, 0.1
+/// m/s across): the integral and the depth filter's learnt rate bias take
+/// it out.
+#[test]
+fn depth_hold_rejects_a_current_pushing_down() {
+    let mut rig = Rig::new(&config(), 10, [0.0, 0.1, -0.05]);
+    swimming(&mut rig);
+    let m = depth_step(&mut rig, 0.3, 30.0, 20.0);
+    assert!(m.late < 0.1, "{:.3} m off the target after 20 s", m.late);
+    assert!(m.heading < 5.0, "heading {:.1}° off", m.heading);
+    assert_eq!(rig.state().mode, Mode::Swimming as u8);
+}
+
+/// A raw 6-axis IMU (no fusion attitude): the accelerometer levels the
+/// estimate and the gyro (beside the model) turns it, so roll and pitch stay
+/// right; heading has no absolute reference (it starts at 0, the robot's
+/// own start) and drifts only by the gyro's bias walk; the hold still works.
+#[test]
+fn a_raw_imu_levels_by_gravity_and_holds_a_heading() {
+    let mut rig = Rig::with_sensor(&config(), 8, [0.0; 3], |s| s.fusion = false);
+    let h0 = swimming(&mut rig);
+    hold_heading(&mut rig, h0 + 60.0);
+    let (mut tilt, mut heading, mut offset) = (0.0f64, 0.0f64, None);
+    rig.run(10.0, |r| {
+        let t = r.truth();
+        let est = r.ctl.nav().expect("a sensor").estimate();
+        let truth = true_attitude(&t);
+        let up = |q: nalgebra::UnitQuaternion<f64>| q.inverse() * nalgebra::Vector3::z();
+        tilt = tilt.max(up(est.attitude).angle(&up(truth)).to_degrees());
+        let f = |q: nalgebra::UnitQuaternion<f64>| {
+            let v = q * nalgebra::Vector3::x();
+            v.y.atan2(v.x).to_degrees()
+        };
+        let d = angle_diff_deg(f(est.attitude), f(truth));
+        let o = *offset.get_or_insert(d);
+        heading = heading.max(angle_diff_deg(d, o).abs());
+    });
+    // Measured: see the message on failure.
+    assert!(tilt < 5.0, "tilt error up to {tilt:.2}°");
+    assert!(heading < 5.0, "heading error up to {heading:.2}°");
+    assert_eq!(rig.state().nav.hold, 1);
+    assert_eq!(
+        SensorHealth::from_code(rig.state().nav.sensor),
+        Some(SensorHealth::Ok)
+    );
 }
 
 /// Every scripted sensor fault, during a held turn: the hold ends, the
@@ -190,4 +236,28 @@ fn holds_need_a_sensor_and_control() {
         "{}",
         r.reason()
     );
+}
+
+/// Depth hold on the ballasted body (`[model] ballast`, default 2 cm): a
+/// 0.5 m step with the heading held too. The paper's unballasted body rolls
+/// over under a pitch curvature instead (docs/autopilot.md).
+#[test]
+fn depth_hold_reaches_and_keeps_its_target() {
+    let mut rig = Rig::new(&config(), 2, [0.0; 3]);
+    swimming(&mut rig);
+    let m = depth_step(&mut rig, 0.5, 30.0, 20.0);
+    // Measured: 90 % in 2.7 s, 8 cm over, within 3 cm after 20 s, the
+    // heading within 0.3° (the bench prints them).
+    let reached = m.reached.expect("90 % of the step reached");
+    assert!(reached < 8.0, "90 % of the step after {reached:.1} s");
+    assert!(m.overshoot < 0.2, "overshoot {:.3} m", m.overshoot);
+    assert!(m.late < 0.1, "{:.3} m off the target after 20 s", m.late);
+    assert!(
+        m.heading < 3.0,
+        "heading {:.1}° off while diving",
+        m.heading
+    );
+    let s = rig.state();
+    assert_eq!(s.mode, Mode::Swimming as u8);
+    assert_eq!(s.nav.hold, 3, "heading and depth held");
 }

@@ -83,6 +83,10 @@ pub struct Body {
     pub resistive: bool,
 }
 
+/// A typical eel robot's ballast (m): its centre of mass 2 cm below its
+/// axis, the daemon's and the simulated robot's default (docs/autopilot.md).
+pub const TYPICAL_BALLAST: f64 = 0.02;
+
 impl Default for Body {
     fn default() -> Self {
         Self::paper()

@@ -48,7 +48,7 @@ pub mod gait;
 pub mod paper;
 pub mod run;
 
-pub use body::{Body, Profile};
+pub use body::{Body, Profile, TYPICAL_BALLAST};
 pub use current::{Current, MAX_CURRENT};
 pub use dynamics::{
     DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,

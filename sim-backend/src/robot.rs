@@ -113,7 +113,8 @@ pub struct RobotConfig {
     /// by default). A scenario's `water current` events change it.
     pub current: Current,
     /// The body's ballast (m below each section's axis; 0: the paper's
-    /// body, which rolls freely).
+    /// body, which rolls freely). Default: [`anguilla_model::TYPICAL_BALLAST`],
+    /// as the daemon's `[model] ballast`.
     pub ballast: f64,
     /// A head sensor beside the joints (anguilla family only), or none.
     pub head_sensor: Option<SensorConfig>,
@@ -146,7 +147,7 @@ impl RobotConfig {
             model_nodes: p.nodes,
             v_init: 0.0,
             current: Current::ZERO,
-            ballast: 0.0,
+            ballast: anguilla_model::TYPICAL_BALLAST,
             head_sensor: None,
         }
     }
@@ -171,6 +172,12 @@ impl RobotConfig {
     /// Checks every setting (what building a robot checks first); the
     /// error names the setting and what is accepted.
     pub fn validate(&self) -> Result<()> {
+        if !(0.0..=0.05).contains(&self.ballast) {
+            return Err(SimError::Config {
+                field: "ballast",
+                reason: format!("{} m outside 0 ..= 0.05 m", self.ballast),
+            });
+        }
         if self.node_ids.is_empty() {
             return Err(SimError::Config {
                 field: "node_ids",

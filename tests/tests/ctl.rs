@@ -27,8 +27,13 @@ fn text(o: &Output) -> String {
 
 /// `anguilla run` (the built-in robot) serving `prefix`, once it answers.
 fn daemon(prefix: &str, tag: &str) -> Killed {
+    daemon_with(prefix, tag, "")
+}
+
+/// [`daemon`] with more configuration (`extra`, TOML after `[ipc]`).
+fn daemon_with(prefix: &str, tag: &str, extra: &str) -> Killed {
     let config = std::env::temp_dir().join(format!("anguilla-{tag}-{}.toml", std::process::id()));
-    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n{extra}")).unwrap();
     let d = Killed(
         Proc::new(anguilla_bin())
             .args(["run", "--quiet", "--config"])
@@ -161,4 +166,53 @@ fn monitor_json_streams_paced_states() {
     // At 5 lines a second, four lines take at least three gaps of 200 ms
     // (a lower bound: the pace never runs faster, however loaded).
     assert!(took >= Duration::from_millis(600), "{took:?}");
+}
+
+/// The whole chain of issue 16 across processes: `ctl swim --heading
+/// --depth` against `anguilla run` whose built-in robot carries a head
+/// sensor (`[sensor] node`), watched by `ctl status --json` from another
+/// process: the autopilot holds both, and the estimate reaches the held
+/// heading and depth.
+#[test]
+fn ctl_swims_holding_a_heading_and_a_depth() {
+    let _dog = Watchdog::new("ctl-hold", Duration::from_secs(180));
+    let prefix = format!("anguilla-ctl/hold-{}", std::process::id());
+    let _d = daemon_with(&prefix, "hold", "\n[sensor]\nnode = 20\n");
+    let status = |prefix: &str| -> Option<serde_json::Value> {
+        let o = ctl(prefix, &["status", "--json"]);
+        (o.status.code() == Some(0))
+            .then(|| serde_json::from_slice(&o.stdout).ok())
+            .flatten()
+    };
+    // The sensor's samples arrive and it is healthy before anything else.
+    let s = poll_until("the sensor ok", Duration::from_secs(20), || {
+        status(&prefix).filter(|s| s["sensor"] == "ok")
+    });
+    let start = s["heading_deg"].as_f64().expect("a heading");
+    let depth0 = s["depth_m"].as_f64().expect("a depth");
+    let (heading, depth) = ((start + 45.0).rem_euclid(360.0), depth0 + 0.3);
+    assert_eq!(ctl(&prefix, &["enable"]).status.code(), Some(0));
+    let swim = Proc::new(anguilla_bin())
+        .args(["ctl", "--prefix", &prefix, "swim", "--amplitude", "1"])
+        .args(["--frequency", "1", "--heading", &format!("{heading}")])
+        .args(["--depth", &format!("{depth}"), "--for", "25"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let reached = poll_until("heading and depth held", Duration::from_secs(40), || {
+        let s = status(&prefix)?;
+        let h = s["heading_deg"].as_f64()?;
+        let d = s["depth_m"].as_f64()?;
+        let dh = ((h - heading + 540.0).rem_euclid(360.0) - 180.0).abs();
+        (s["autopilot"] == "heading+depth" && dh < 8.0 && (d - depth).abs() < 0.1).then_some(s)
+    });
+    assert_eq!(
+        reached["heading_target_deg"]
+            .as_f64()
+            .map(|t| (t - heading).abs() < 0.01),
+        Some(true)
+    );
+    let out = swim.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
 }

@@ -47,6 +47,16 @@ impl Rig {
     /// `cfg`'s controller and a robot with a typical sensor (noise, bias
     /// walk) seeded with `seed`, in the uniform `current` (m/s, earth frame).
     pub fn new(cfg: &Config, seed: u64, current: [f64; 3]) -> Self {
+        Self::with_sensor(cfg, seed, current, |_| {})
+    }
+
+    /// [`Rig::new`] with the simulated sensor's settings changed by `tune`.
+    pub fn with_sensor(
+        cfg: &Config,
+        seed: u64,
+        current: [f64; 3],
+        tune: impl FnOnce(&mut SensorConfig),
+    ) -> Self {
         let clock = ManualClock::new();
         let bus = MemBus::builder(&format!("lockstep-{seed}-{}", std::process::id()))
             .bitrate(cfg.bus.bitrate)
@@ -56,9 +66,13 @@ impl Rig {
         let host = bus.participant();
         let s = &cfg.sensor;
         // No sensor on the robot when the daemon has none configured.
-        let sensor = (s.node != 0).then(|| SensorConfig {
-            origin_depth: ORIGIN_DEPTH,
-            ..SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure)
+        let sensor = (s.node != 0).then(|| {
+            let mut sensor = SensorConfig {
+                origin_depth: ORIGIN_DEPTH,
+                ..SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure)
+            };
+            tune(&mut sensor);
+            sensor
         });
         let robot = SimRobot::on_mem(
             RobotConfig {
@@ -250,6 +264,62 @@ impl BodyHeading {
             .fold((0.0, 0.0), |(c, s), &(x, y)| (c + x, s + y));
         s.atan2(c).to_degrees().rem_euclid(360.0)
     }
+}
+
+/// A held depth step's figures, from the truth.
+pub struct DepthStep {
+    /// Time to 90 % of the step (s).
+    pub reached: Option<f64>,
+    /// Deepest beyond the target (m).
+    pub overshoot: f64,
+    /// Last time the depth was more than 5 cm off (s).
+    pub last_outside: f64,
+    /// Worst depth error after `late_after` (m).
+    pub late: f64,
+    /// Worst body heading error after `late_after` (deg).
+    pub heading: f64,
+    /// Largest estimated roll (deg).
+    pub roll: f64,
+}
+
+/// Holds the heading estimated now and a depth `step` metres below the
+/// true one, for `seconds`; errors count from `late_after` seconds.
+pub fn depth_step(rig: &mut Rig, step: f64, seconds: f64, late_after: f64) -> DepthStep {
+    let h0 = rig.state().nav.heading_deg as f64;
+    let d0 = true_depth(&rig.truth());
+    let target = d0 + step;
+    rig.ok(Command::Hold(anguilla_daemon::ipc::Hold {
+        heading: Some(h0),
+        depth: Some(target),
+    }));
+    let per_period = (1e9 / rig.ctl.period_ns().as_nanos() as f64).round() as usize;
+    let mut body = BodyHeading::new(per_period);
+    let mut m = DepthStep {
+        reached: None,
+        overshoot: f64::NEG_INFINITY,
+        last_outside: 0.0,
+        late: 0.0,
+        heading: 0.0,
+        roll: 0.0,
+    };
+    let start = rig.time();
+    rig.run(seconds, |r| {
+        let t = r.truth();
+        let (d, h, since) = (true_depth(&t), body.push(&t), r.time() - start);
+        m.overshoot = m.overshoot.max(d - target);
+        m.roll = m.roll.max((r.state().nav.roll_deg as f64).abs());
+        if m.reached.is_none() && d >= d0 + 0.9 * step {
+            m.reached = Some(since);
+        }
+        if (d - target).abs() > 0.05 {
+            m.last_outside = since;
+        }
+        if since > late_after {
+            m.late = m.late.max((d - target).abs());
+            m.heading = m.heading.max(angle_diff_deg(h, h0).abs());
+        }
+    });
+    m
 }
 
 /// `a − b` wrapped into (−180, 180] degrees.
