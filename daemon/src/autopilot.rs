@@ -8,8 +8,9 @@
 //!   (wrapped to ±180°), at most `max-turn-rate`, integrated only while
 //!   not saturated (anti-windup);
 //! - **depth**: a dive rate `w = Kd e + Kdi ∫e` from the depth error, at most
-//!   `U sin(max-dive-angle)`, flown at the pitch `θ = −asin(w / U)`, reached
-//!   at the pitch rate `q = Kθ (θ − θ̂)`;
+//!   `U sin(max-dive-angle)`, flown at the pitch `θ = −asin(w / U)`: a
+//!   ballasted body at the model's curvature for it plus `Kθ` times the
+//!   pitch error, an unballasted one at the nose-down rate `q = Kθ (θ̂ − θ)`;
 //! - **model-based feed-forward**: the model says how fast the body turns
 //!   and pitches per unit curvature at speed `U` ([`Gains`], measured once at
 //!   start-up by running the model itself on the configured gait), so the

@@ -179,11 +179,12 @@ impl Controller {
         let ws = Workspace::new(&model);
         // The autopilot's feed-forward: how this body answers its
         // curvatures, from the model itself (only with a head sensor).
-        let nav = Nav::new(cfg, now);
-        let autopilot = match nav {
-            Some(_) => Some(Autopilot::new(cfg, autopilot::calibrate(cfg, &model)?)),
-            None => None,
+        let autopilot = match cfg.sensor.node {
+            0 => None,
+            _ => Some(Autopilot::new(cfg, autopilot::calibrate(cfg, &model)?)),
         };
+        // After the calibration: the sensor's boot time counts from here.
+        let nav = Nav::new(cfg, now);
         let g = &cfg.gait;
         let lim = |v, a| Limits::new(v, a);
         let amp_l = lim(g.amplitude_rate, g.amplitude_accel)?;

@@ -24,11 +24,13 @@
 //!   centroid of the model's body shape to the nose; its heading is the
 //!   estimated attitude applied to that direction.
 //!
-//! Health ([`SensorHealth`]): silent past `[sensor] timeout`, an error bit,
-//! stuck (the measured values repeat exactly [`STUCK_SAMPLES`] times: no
-//! real sensor's noise does that), implausible (|b| beyond
-//! `[sensor] max-rate-innovation`, or a pressure jump beyond
-//! [`MAX_DEPTH_INNOVATION`]). A roll beyond `roll-alarm` is an alarm in the
+//! Health ([`SensorHealth`]): silent past `[sensor] timeout`; error (an
+//! IMU, pressure or IMU-reset bit, or a sample without pressure, or without
+//! both attitude and rates); stuck (the measured values repeated exactly
+//! [`STUCK_SAMPLES`] times more: no real sensor's noise does that);
+//! implausible (the innovation beyond `[sensor] max-rate-innovation`, or a
+//! pressure jump beyond [`MAX_DEPTH_INNOVATION`], which is left out of the
+//! estimate). A roll beyond `roll-alarm` is an alarm in the
 //! snapshot, not a health: the autopilot steers through it.
 //! Nothing here allocates after [`Nav::new`].
 
@@ -58,8 +60,12 @@ pub const INNOVATION_TAU: f64 = 1.0;
 pub const DEPTH_ALPHA: f64 = 0.2;
 /// Identical consecutive samples that make a sensor stuck.
 pub const STUCK_SAMPLES: u32 = 5;
-/// A pressure sample this far (m) from the predicted depth is implausible.
+/// A pressure sample this far (m) from the predicted depth is implausible,
+/// and left out of the estimate.
 pub const MAX_DEPTH_INNOVATION: f64 = 1.0;
+/// Implausible pressure samples in a row after which the depth is taken
+/// from the sensor again (the estimate, not the sensor, was wrong).
+pub const GATE_SAMPLES: u32 = 50;
 
 /// The sensor axes from the model's head axes: `x = −t1`, `y = −t2`,
 /// `z = t3` (sim-backend's `sensor` module).
@@ -151,8 +157,11 @@ pub struct Nav {
     roll_alarm: f64,
     started: Nanos,
     partial: Partial,
-    pending: Option<HeadSample>,
+    pending: Option<(Nanos, HeadSample)>,
     last: Option<HeadSample>,
+    counter: Option<u8>,
+    corrected_at: Option<Nanos>,
+    gated: u32,
     last_at: Option<Nanos>,
     same: u32,
     initialised: bool,
@@ -167,6 +176,7 @@ pub struct Nav {
     implausible: bool,
     forward: Vector3<f64>,
     errors: SensorErrors,
+    status: SensorStatus,
     health: SensorHealth,
     samples: u64,
     lost: u64,
@@ -191,6 +201,9 @@ impl Nav {
             partial: Partial::default(),
             pending: None,
             last: None,
+            counter: None,
+            corrected_at: None,
+            gated: 0,
             last_at: None,
             same: 0,
             initialised: false,
@@ -205,6 +218,7 @@ impl Nav {
             implausible: false,
             forward: Vector3::x(),
             errors: SensorErrors::default(),
+            status: SensorStatus::default(),
             health: SensorHealth::Waiting,
             samples: 0,
             lost: 0,
@@ -268,8 +282,12 @@ impl Nav {
                             errors: d.errors,
                         },
                     ),
-                    // A sample whose other frames were lost: counted lost.
-                    _ => self.lost += 1,
+                    // A sample whose other frames were lost: counted lost,
+                    // and the counter moves on (its gap is not counted again).
+                    _ => {
+                        self.lost += 1;
+                        self.counter = Some(d.sample);
+                    }
                 }
             }
             Ok(Message::Heartbeat(_)) => self.heartbeats += 1,
@@ -289,11 +307,14 @@ impl Nav {
     }
 
     fn complete(&mut self, now: Nanos, s: HeadSample) {
-        if let Some(last) = &self.last {
-            let gap = s.sample.wrapping_sub(last.sample);
+        if let Some(c) = self.counter {
+            let gap = s.sample.wrapping_sub(c);
             if gap > 1 {
                 self.lost += u64::from(gap - 1);
             }
+        }
+        self.counter = Some(s.sample);
+        if let Some(last) = &self.last {
             let same = last.quaternion == s.quaternion
                 && last.rates == s.rates
                 && last.accel == s.accel
@@ -303,7 +324,7 @@ impl Nav {
         self.samples += 1;
         self.last = Some(s);
         self.last_at = Some(now);
-        self.pending = Some(s);
+        self.pending = Some((now, s));
     }
 
     /// One control period of `dt` seconds at `now`: propagates the
@@ -318,15 +339,21 @@ impl Nav {
             self.depth_rate = -v.z + self.depth_bias;
             self.depth += self.depth_rate * dt;
         }
-        if let Some(s) = self.pending.take() {
-            self.correct(&s, pred);
+        if let Some((at, s)) = self.pending.take() {
+            // The time since the last correction: the loop may take one
+            // sample in two (a slow loop, a fast sensor), or fewer.
+            let ts = self.corrected_at.map_or(self.sample_period, |c| {
+                (at.saturating_sub(c).as_nanos() as f64 * 1e-9).clamp(self.sample_period, 1.0)
+            });
+            self.corrected_at = Some(at);
+            self.correct(&s, pred, ts);
         }
         self.health = self.judge(now);
     }
 
-    fn correct(&mut self, s: &HeadSample, pred: &Prediction) {
-        let ts = self.sample_period;
+    fn correct(&mut self, s: &HeadSample, pred: &Prediction, ts: f64) {
         self.errors = s.errors;
+        self.status = s.status;
         let q = s.quaternion.map(f64::from);
         let measured = (s.status.has(SensorStatus::ATTITUDE))
             .then(|| Quaternion::new(q[0], q[1], q[2], q[3]))
@@ -366,10 +393,21 @@ impl Nav {
             if pressure {
                 let e = depth - self.depth;
                 self.depth_innovation = e;
-                let a = DEPTH_ALPHA;
-                let b = a * a / (2.0 - a);
-                self.depth += a * e;
-                self.depth_bias += b * e / ts;
+                if e.abs() > MAX_DEPTH_INNOVATION && self.gated < GATE_SAMPLES {
+                    // A pressure jump no swimmer makes: left out (and
+                    // implausible, below); one that lasts is believed.
+                    self.gated += 1;
+                } else if e.abs() > MAX_DEPTH_INNOVATION {
+                    self.depth = depth;
+                    self.depth_bias = 0.0;
+                    self.gated = 0;
+                } else {
+                    self.gated = 0;
+                    let a = DEPTH_ALPHA;
+                    let b = a * a / (2.0 - a);
+                    self.depth += a * e;
+                    self.depth_bias += b * e / ts;
+                }
             }
         }
         if imu {
@@ -387,6 +425,7 @@ impl Nav {
         // 70 % of it.
         self.implausible = if self.implausible {
             innovation > 0.7 * self.max_innovation
+                || self.depth_innovation.abs() > 0.7 * MAX_DEPTH_INNOVATION
         } else {
             innovation > self.max_innovation || self.depth_innovation.abs() > MAX_DEPTH_INNOVATION
         };
@@ -403,7 +442,14 @@ impl Nav {
         };
         if now.saturating_sub(at) > self.timeout {
             SensorHealth::Silent
-        } else if self.errors.any(SensorErrors::IMU | SensorErrors::PRESSURE) {
+        } else if self
+            .errors
+            .any(SensorErrors::IMU | SensorErrors::PRESSURE | SensorErrors::IMU_RESET)
+            || !self.status.has(SensorStatus::PRESSURE)
+            || !(self.status.has(SensorStatus::IMU) || self.status.has(SensorStatus::ATTITUDE))
+        {
+            // A fault bit, a re-converging IMU, or a sample without depth,
+            // or without either attitude or rates.
             SensorHealth::Error
         } else if self.same >= STUCK_SAMPLES {
             SensorHealth::Stuck
@@ -533,14 +579,64 @@ mod tests {
         let mut s = NavSnapshot::default();
         n.fill(&mut s);
         assert_eq!((s.samples, s.lost_samples), (0, 1));
+        // The next sample follows it: nothing more is lost.
+        for frame in frames(false, &sample(8, 0.0)) {
+            n.ingest(MS * 2, &frame);
+        }
+        n.fill(&mut s);
+        assert_eq!((s.samples, s.lost_samples), (1, 1), "counted once");
         // Another node's frames are not the sensor's.
         let other = HeadSample {
             node: NodeId::new(21).unwrap(),
-            ..sample(8, 0.0)
+            ..sample(9, 0.0)
         };
         for frame in frames(false, &other) {
             assert!(!n.ingest(MS, &frame));
         }
+    }
+
+    /// Feeds sample `i` with `f` applied, at `10 i` ms, and steps.
+    fn feed(n: &mut Nav, i: u8, f: impl FnOnce(&mut HeadSample)) {
+        let mut s = sample(i, 0.001 * i as f32);
+        f(&mut s);
+        let now = MS * (10 * i as u64);
+        for frame in frames(true, &s) {
+            n.ingest(now, &frame);
+        }
+        n.step(now, 0.01, &Prediction::still());
+    }
+
+    #[test]
+    fn a_pressure_glitch_is_left_out_and_named_implausible() {
+        let mut n = nav(true);
+        for i in 0..10 {
+            feed(&mut n, i, |_| {});
+        }
+        let depth = n.estimate().depth;
+        // 100 m deeper for one sample: left out.
+        feed(&mut n, 10, |s| s.pressure += 981_000);
+        assert!(
+            (n.estimate().depth - depth).abs() < 0.01,
+            "{}",
+            n.estimate().depth
+        );
+        assert_eq!(n.health(), SensorHealth::Implausible);
+        for i in 11..20 {
+            feed(&mut n, i, |_| {});
+        }
+        assert_eq!(n.health(), SensorHealth::Ok, "plausible again");
+        assert!((n.estimate().depth - depth).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_sample_without_pressure_is_an_error() {
+        let mut n = nav(true);
+        feed(&mut n, 0, |_| {});
+        assert_eq!(n.health(), SensorHealth::Ok);
+        feed(&mut n, 1, |s| {
+            s.status = SensorStatus(s.status.0 & !SensorStatus::PRESSURE)
+        });
+        assert_eq!(n.health(), SensorHealth::Error);
     }
 
     #[test]

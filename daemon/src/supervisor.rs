@@ -238,8 +238,11 @@ impl Supervisor {
     }
 
     fn enter(&mut self, mode: Mode, now: Nanos, cause: Cause) {
-        // A hold belongs to a swim: it ends with it.
-        if self.mode == Mode::Swimming && mode != Mode::Swimming {
+        // A hold belongs to a swim (or the next one, set in Ready or
+        // Stopping): it ends with the swim, and with any mode that is not
+        // swimming's neighbour (idle, enabling, fault, e-stop).
+        let leaves_swim = self.mode == Mode::Swimming && mode != Mode::Swimming;
+        if leaves_swim || !matches!(mode, Mode::Ready | Mode::Swimming | Mode::Stopping) {
             self.hold = Hold::MANUAL;
         }
         self.mode = mode;
@@ -375,6 +378,7 @@ impl Supervisor {
             Command::TakeControl | Command::KeepAlive | Command::EStop => Ok(()),
             Command::ReleaseControl => {
                 self.holder = None;
+                self.hold = Hold::MANUAL;
                 self.stop_if_swimming(now, Cause::Command);
                 Ok(())
             }
@@ -475,6 +479,7 @@ impl Supervisor {
             return false;
         }
         self.holder = None;
+        self.hold = Hold::MANUAL;
         if self.mode == Mode::Swimming {
             self.operator_silent_count += 1;
         }
@@ -526,6 +531,7 @@ impl Supervisor {
             let silent = now.saturating_sub(h.last_heard);
             if silent >= self.cfg.control_release_timeout {
                 self.holder = None;
+                self.hold = Hold::MANUAL;
             }
             if silent >= self.cfg.command_timeout && self.mode == Mode::Swimming {
                 self.operator_silent_count += 1;
@@ -652,6 +658,52 @@ mod tests {
         s.command(3 * MS, A, 3, swim()).unwrap();
         assert_eq!(s.mode(), Mode::Swimming);
         s
+    }
+
+    #[test]
+    fn a_hold_set_at_rest_ends_with_an_estop_a_fault_or_a_release() {
+        let hold = Command::Hold(Hold {
+            heading: Some(90.0),
+            depth: None,
+        });
+        // E-stop.
+        let mut s = swimming();
+        s.command(4 * MS, A, 4, Command::Stop).unwrap();
+        s.tick(
+            5 * MS,
+            &Observations {
+                gait_at_rest: true,
+                ..ok_obs()
+            },
+        );
+        assert_eq!(s.mode(), Mode::Ready);
+        s.command(6 * MS, A, 5, hold).unwrap();
+        assert!(s.hold().is_active(), "kept for the next swim");
+        s.command(7 * MS, B, 1, Command::EStop).unwrap();
+        assert!(!s.hold().is_active(), "an e-stop ends it");
+        // Release of control, then another operator's swim.
+        let mut s = swimming();
+        s.command(4 * MS, A, 4, Command::Stop).unwrap();
+        s.tick(
+            5 * MS,
+            &Observations {
+                gait_at_rest: true,
+                ..ok_obs()
+            },
+        );
+        s.command(6 * MS, A, 5, hold).unwrap();
+        s.command(7 * MS, A, 6, Command::ReleaseControl).unwrap();
+        assert!(!s.hold().is_active(), "releasing control ends it");
+        // A fault.
+        let mut s = swimming();
+        s.command(4 * MS, A, 4, hold).unwrap();
+        let obs = Observations {
+            node_fault: nodes(&[3]),
+            ..ok_obs()
+        };
+        s.tick(5 * MS, &obs);
+        assert_eq!(s.mode(), Mode::Fault);
+        assert!(!s.hold().is_active(), "a fault ends it");
     }
 
     #[test]

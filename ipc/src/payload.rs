@@ -190,7 +190,8 @@ pub struct NavSnapshot {
     /// seen from above): the head's heading less the gait's swing of the
     /// head, which the model predicts.
     pub heading_deg: f32,
-    /// The head's pitch (deg, positive nose up).
+    /// The body's pitch (deg, positive nose up): its mean axis's, as the
+    /// heading.
     pub pitch_deg: f32,
     /// The head's roll (deg, positive right side down).
     pub roll_deg: f32,
