@@ -34,6 +34,9 @@ enum Command {
     /// Rerun the control loop on a recorded session (simulated clock) and
     /// check that its output matches the recording bit for bit.
     Replay(run_cmd::ReplayArgs),
+    /// Write a recorded session's MCAP file (Foxglove, Lichtblick,
+    /// PlotJuggler) from its state.bin and config.toml.
+    Export(run_cmd::ExportArgs),
     /// Configuration: print the commented default, check a file.
     Config {
         #[command(subcommand)]
@@ -85,6 +88,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => run_cmd::run(args),
         Command::Config { cmd } => run_cmd::config(cmd),
         Command::Replay(args) => run_cmd::replay(args),
+        Command::Export(args) => run_cmd::export(args),
         Command::Swim(args) => swim::run(&args),
         Command::Protocol { cmd } => protocol_cmd::run(cmd),
         Command::Sim(args) => sim_cmd::run(&args),

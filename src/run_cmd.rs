@@ -219,6 +219,40 @@ pub struct ReplayArgs {
     dir: PathBuf,
 }
 
+/// Arguments of `anguilla export`.
+#[derive(clap::Args, Debug)]
+pub struct ExportArgs {
+    /// A session directory written by `anguilla run` with `recording.dir` set.
+    dir: PathBuf,
+    /// Write the MCAP file here (default: DIR/session.mcap; an existing
+    /// file is replaced).
+    #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
+    mcap: Option<PathBuf>,
+}
+
+pub fn export(args: ExportArgs) -> anyhow::Result<()> {
+    let out = match &args.mcap {
+        Some(p) if !p.as_os_str().is_empty() => p.clone(),
+        _ => args.dir.join("session.mcap"),
+    };
+    let done = anguilla_daemon::mcap_log::export(&args.dir, &out)
+        .with_context(|| format!("exporting {}", args.dir.display()))?;
+    outln!(
+        "{}: {} snapshots{}",
+        out.display(),
+        done.snapshots,
+        if done.partial_bytes > 0 {
+            format!(
+                " ({} bytes at the end of state.bin were not a whole snapshot: the recording was cut short)",
+                done.partial_bytes
+            )
+        } else {
+            String::new()
+        }
+    )?;
+    Ok(())
+}
+
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let report = anguilla_daemon::replay::replay(&args.dir)
         .with_context(|| format!("replaying {}", args.dir.display()))?;

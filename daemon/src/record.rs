@@ -14,7 +14,11 @@
 //!   ([`crate::session`] has the format);
 //! - `config.toml`: the configuration the daemon ran with;
 //! - `state.bin`: every tenth [`StateSnapshot`], as its raw `#[repr(C)]`
-//!   bytes (layout in `docs/ipc.md`).
+//!   bytes (layout in `docs/ipc.md`);
+//! - `session.mcap`: the same snapshots for Foxglove, Lichtblick and
+//!   PlotJuggler ([`crate::mcap_log`] has the channels), finished with its
+//!   summary at the end, and readable up to its last chunk (one a second)
+//!   after a kill.
 //!
 //! [`crate::replay`] replays a recording.
 
@@ -26,6 +30,7 @@ use crossbeam_channel::Receiver;
 
 use crate::config::Config;
 use crate::ipc::StateSnapshot;
+use crate::mcap_log::McapLog;
 use crate::session::{self, Record, snapshot_bytes};
 use crate::supervisor::Nanos;
 
@@ -42,6 +47,7 @@ pub fn recorder(
     let mut session = BufWriter::new(std::fs::File::create(dir.join("session.log"))?);
     let mut bus = candump::Writer::new(BufWriter::new(std::fs::File::create(dir.join("bus.log"))?));
     let mut state = BufWriter::new(std::fs::File::create(dir.join("state.bin"))?);
+    let mut mcap = McapLog::create(&dir.join("session.mcap"), &cfg)?;
     // The format, and which config.toml this session ran with (replay
     // checks it).
     session::write_header(&mut session, &cfg_text)?;
@@ -73,7 +79,10 @@ pub fn recorder(
     };
     loop {
         crossbeam_channel::select! {
-            recv(ticks) -> _ => sync(&mut session, &mut bus, &mut state)?,
+            recv(ticks) -> _ => {
+                mcap.flush()?;
+                sync(&mut session, &mut bus, &mut state)?;
+            }
             recv(records) -> r => {
                 let Ok(r) = r else { break };
                 session::write_line(&mut session, &r)?;
@@ -87,7 +96,10 @@ pub fn recorder(
             }
             recv(states) -> s => {
                 match s {
-                    Ok(s) => state.write_all(snapshot_bytes(&s))?,
+                    Ok(s) => {
+                        state.write_all(snapshot_bytes(&s))?;
+                        mcap.write(&s)?;
+                    }
                     // Closed: wait on the records alone from now on.
                     Err(_) => states = crossbeam_channel::never(),
                 }
@@ -97,7 +109,9 @@ pub fn recorder(
     // Records are closed; take what is left of the states.
     for s in states.try_iter() {
         state.write_all(snapshot_bytes(&s))?;
+        mcap.write(&s)?;
     }
+    mcap.finish()?;
     sync(&mut session, &mut bus, &mut state)
 }
 

@@ -99,6 +99,25 @@ pub(crate) fn snapshot_bytes(s: &crate::ipc::StateSnapshot) -> &[u8] {
     }
 }
 
+/// A snapshot from its raw bytes (`state.bin`), if `bytes` is one whole
+/// snapshot.
+pub(crate) fn snapshot_from(bytes: &[u8]) -> Option<crate::ipc::StateSnapshot> {
+    if bytes.len() != core::mem::size_of::<crate::ipc::StateSnapshot>() {
+        return None;
+    }
+    let mut s = crate::ipc::StateSnapshot::default();
+    // SAFETY: same size, and every bit pattern is a valid StateSnapshot
+    // (integers, floats and arrays of them only).
+    unsafe {
+        core::ptr::copy_nonoverlapping(
+            bytes.as_ptr(),
+            &mut s as *mut crate::ipc::StateSnapshot as *mut u8,
+            bytes.len(),
+        );
+    }
+    Some(s)
+}
+
 fn hex(bytes: &[u8]) -> String {
     let mut s = String::with_capacity(bytes.len() * 2);
     for b in bytes {

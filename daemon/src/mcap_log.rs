@@ -1,0 +1,478 @@
+//! The session's MCAP file (issue 17): what robotics tools open —
+//! Foxglove, Lichtblick, PlotJuggler — beside the bit-exact `bus.log`.
+//!
+//! One message per recorded [`StateSnapshot`] on each channel, stamped with
+//! the daemon's clock (`time_ns`, from the controller's start), JSON
+//! encoded with JSON schemas:
+//!
+//! | topic | schema | what |
+//! |---|---|---|
+//! | `/anguilla/state` | `anguilla.State` | mode, cause, faults, gait target and actual, predictions, bus and loop statistics, the head sensor's estimate and the autopilot |
+//! | `/anguilla/joints` | `anguilla.Joints` | per joint (head first): commanded, measured angle and rate, feed-forward and measured torque, pitch and yaw |
+//! | `/log` | `foxglove.Log` | mode changes, faults, refused commands |
+//! | `/tf` | `foxglove.FrameTransforms` | `world` → `head` (measured with a head sensor, else predicted) and `world` → `head_predicted` (the model's speed and turn rate, integrated) |
+//! | `/body` | `foxglove.SceneUpdate` | the body's links as ellipsoids sized from the body profile, posed from the measured joint angles, in frame `head` |
+//!
+//! The writer finishes a chunk at every [`McapLog::flush`] (the recorder
+//! calls it each second), so a killed daemon leaves a file readable up to
+//! its last chunk; [`McapLog::finish`] writes the summary and index.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{self, BufWriter};
+use std::path::Path;
+
+use anguilla_model::Body;
+use mcap::records::MessageHeader;
+use nalgebra::{UnitQuaternion, Vector3};
+use serde_json::{Value, json};
+
+use crate::config::Config;
+use crate::ipc::{Cause, FaultSet, Mode, SensorHealth, StateSnapshot};
+
+/// The channels, in the order they are created.
+pub const TOPICS: [&str; 5] = [
+    "/anguilla/state",
+    "/anguilla/joints",
+    "/log",
+    "/tf",
+    "/body",
+];
+
+fn err(e: mcap::McapError) -> io::Error {
+    io::Error::other(e.to_string())
+}
+
+/// A JSON schema that names its type (Foxglove knows the `foxglove.*`
+/// ones by name).
+fn schema(title: &str, properties: Value) -> Vec<u8> {
+    json!({ "title": title, "type": "object", "properties": properties })
+        .to_string()
+        .into_bytes()
+}
+
+fn stamp(ns: u64) -> Value {
+    json!({ "sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000 })
+}
+
+fn quat(q: &UnitQuaternion<f64>) -> Value {
+    json!({ "x": q.i, "y": q.j, "z": q.k, "w": q.w })
+}
+
+fn vec3(v: &Vector3<f64>) -> Value {
+    json!({ "x": v.x, "y": v.y, "z": v.z })
+}
+
+/// One link of the body, posed in the head frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Link {
+    /// Its centre (m).
+    pub centre: Vector3<f64>,
+    /// Its axes: x along the link towards the tail.
+    pub orientation: UnitQuaternion<f64>,
+    /// Its length (m).
+    pub length: f64,
+    /// Its semi-axes across: (left, up) (m).
+    pub semi_axes: (f64, f64),
+}
+
+/// The session's MCAP writer.
+pub struct McapLog {
+    w: mcap::Writer<BufWriter<File>>,
+    ids: [u16; 5],
+    seq: u32,
+    last: Option<StateSnapshot>,
+    /// The predicted head's pose in the plane: x, y (m), yaw (rad).
+    dead_reckoning: [f64; 3],
+    /// Each link's length and its semi-axes (m), head first.
+    links: Vec<(f64, f64, f64)>,
+}
+
+impl McapLog {
+    /// Creates `path` for a robot configured by `cfg`.
+    pub fn create(path: &Path, cfg: &Config) -> io::Result<Self> {
+        let file = BufWriter::new(File::create(path)?);
+        let mut w = mcap::WriteOptions::new()
+            .compression(None)
+            .profile("")
+            .create(file)
+            .map_err(err)?;
+        let any = json!({});
+        let specs: [(&str, Vec<u8>); 5] = [
+            ("anguilla.State", schema("anguilla.State", any.clone())),
+            ("anguilla.Joints", schema("anguilla.Joints", any.clone())),
+            (
+                "foxglove.Log",
+                schema(
+                    "foxglove.Log",
+                    json!({ "timestamp": {"type": "object"}, "level": {"type": "integer"},
+                            "message": {"type": "string"}, "name": {"type": "string"},
+                            "file": {"type": "string"}, "line": {"type": "integer"} }),
+                ),
+            ),
+            (
+                "foxglove.FrameTransforms",
+                schema(
+                    "foxglove.FrameTransforms",
+                    json!({ "transforms": {"type": "array"} }),
+                ),
+            ),
+            (
+                "foxglove.SceneUpdate",
+                schema(
+                    "foxglove.SceneUpdate",
+                    json!({ "deletions": {"type": "array"}, "entities": {"type": "array"} }),
+                ),
+            ),
+        ];
+        let mut ids = [0u16; 5];
+        for (i, (name, data)) in specs.iter().enumerate() {
+            let schema_id = w.add_schema(name, "jsonschema", data).map_err(err)?;
+            ids[i] = w
+                .add_channel(schema_id, TOPICS[i], "json", &BTreeMap::new())
+                .map_err(err)?;
+        }
+        // The links: the body cut into joints + 1 equal parts, head first.
+        let body = Body::paper();
+        let n = cfg.robot.joints + 1;
+        let l = body.length / n as f64;
+        let links = (0..n)
+            .map(|k| {
+                let (a, b) = body.semi_axes((k as f64 + 0.5) / n as f64);
+                (l, a, b)
+            })
+            .collect();
+        Ok(Self {
+            w,
+            ids,
+            seq: 0,
+            last: None,
+            dead_reckoning: [0.0; 3],
+            links,
+        })
+    }
+
+    fn put(&mut self, channel: usize, ns: u64, v: &Value) -> io::Result<()> {
+        self.seq = self.seq.wrapping_add(1);
+        let data = v.to_string();
+        self.w
+            .write_to_known_channel(
+                &MessageHeader {
+                    channel_id: self.ids[channel],
+                    sequence: self.seq,
+                    log_time: ns,
+                    publish_time: ns,
+                },
+                data.as_bytes(),
+            )
+            .map_err(err)
+    }
+
+    /// Writes one snapshot to every channel (and `/log` when something
+    /// changed).
+    pub fn write(&mut self, s: &StateSnapshot) -> io::Result<()> {
+        let ns = s.time_ns;
+        let dt = self
+            .last
+            .map_or(0.0, |l| s.time_ns.saturating_sub(l.time_ns) as f64 * 1e-9);
+        self.put(0, ns, &state_json(s))?;
+        self.put(1, ns, &joints_json(s))?;
+        for (level, message) in log_lines(self.last.as_ref(), s) {
+            let v = json!({ "timestamp": stamp(ns), "level": level, "message": message,
+                            "name": "anguilla", "file": "", "line": 0 });
+            self.put(2, ns, &v)?;
+        }
+        // The predicted head, integrated in the plane.
+        let [x, y, yaw] = &mut self.dead_reckoning;
+        *yaw += s.predicted_turn_rate as f64 * dt;
+        *x += s.predicted_head_speed as f64 * yaw.cos() * dt;
+        *y += s.predicted_head_speed as f64 * yaw.sin() * dt;
+        let predicted_q = UnitQuaternion::from_euler_angles(0.0, 0.0, *yaw);
+        let predicted_p = Vector3::new(*x, *y, 0.0);
+        let nav = &s.nav;
+        let (head_p, head_q) = if nav.samples > 0 {
+            let q = UnitQuaternion::from_euler_angles(
+                (nav.roll_deg as f64).to_radians(),
+                -(nav.pitch_deg as f64).to_radians(),
+                (nav.heading_deg as f64).to_radians(),
+            );
+            (Vector3::new(*x, *y, -(nav.depth_m as f64)), q)
+        } else {
+            (predicted_p, predicted_q)
+        };
+        let tf = |child: &str, p: &Vector3<f64>, q: &UnitQuaternion<f64>| {
+            json!({ "timestamp": stamp(ns), "parent_frame_id": "world", "child_frame_id": child,
+                    "translation": vec3(p), "rotation": quat(q) })
+        };
+        let v = json!({ "transforms": [tf("head", &head_p, &head_q),
+                                        tf("head_predicted", &predicted_p, &predicted_q)] });
+        self.put(3, ns, &v)?;
+        let scene = self.scene_json(s, ns);
+        self.put(4, ns, &scene)?;
+        self.last = Some(*s);
+        Ok(())
+    }
+
+    /// The links, head first, in the head frame (x forward, y left, z
+    /// up): centre, orientation, length and semi-axes, chained from the
+    /// nose through the measured joint angles (each joint pitches about y,
+    /// then yaws about the pitched z).
+    pub fn links(&self, s: &StateSnapshot) -> Vec<Link> {
+        // In the model's head frame the body runs along +x (towards the
+        // tail); the head frame is that turned by π about z.
+        let flip = UnitQuaternion::from_euler_angles(0.0, 0.0, core::f64::consts::PI);
+        let mut r = UnitQuaternion::identity();
+        let mut p = Vector3::zeros();
+        let joints = (s.joint_count as usize).min(s.joints.len());
+        let mut out = Vec::with_capacity(self.links.len());
+        for (k, &(l, a, b)) in self.links.iter().enumerate() {
+            if k > 0 && k - 1 < joints {
+                let j = &s.joints[k - 1];
+                r = r
+                    * UnitQuaternion::from_euler_angles(0.0, j.measured_pitch as f64, 0.0)
+                    * UnitQuaternion::from_euler_angles(0.0, 0.0, j.measured_yaw as f64);
+            }
+            let centre = p + r * Vector3::new(l / 2.0, 0.0, 0.0);
+            p += r * Vector3::new(l, 0.0, 0.0);
+            out.push(Link {
+                centre: flip * centre,
+                orientation: flip * r,
+                length: l,
+                semi_axes: (a, b),
+            });
+        }
+        out
+    }
+
+    fn scene_json(&self, s: &StateSnapshot, ns: u64) -> Value {
+        let links = self.links(s);
+        let n = links.len();
+        let spheres: Vec<Value> = links
+            .iter()
+            .enumerate()
+            .map(|(k, l)| {
+                let shade = 0.35 + 0.5 * k as f64 / n as f64;
+                json!({
+                    "pose": { "position": vec3(&l.centre), "orientation": quat(&l.orientation) },
+                    "size": { "x": l.length, "y": 2.0 * l.semi_axes.0, "z": 2.0 * l.semi_axes.1 },
+                    "color": { "r": 0.1, "g": shade, "b": 0.6, "a": 1.0 }
+                })
+            })
+            .collect();
+        json!({ "deletions": [], "entities": [{
+            "timestamp": stamp(ns), "frame_id": "head", "id": "body",
+            "lifetime": { "sec": 0, "nsec": 0 }, "frame_locked": true, "metadata": [],
+            "arrows": [], "cubes": [], "spheres": spheres, "cylinders": [], "lines": [],
+            "triangles": [], "texts": [], "models": []
+        }]})
+    }
+
+    /// The `/body` scene of `s` drawn as an SVG: seen from above and from
+    /// the side, each link an ellipse (its ellipsoid's outline), the head
+    /// on the right. The README's picture comes from here.
+    pub fn body_svg(&self, s: &StateSnapshot) -> String {
+        use core::fmt::Write as _;
+        let links = self.links(s);
+        let (w, h, scale) = (640.0, 300.0, 480.0);
+        let mut o = String::new();
+        let _ = writeln!(
+            o,
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">"
+        );
+        let _ = writeln!(o, "<rect width=\"100%\" height=\"100%\" fill=\"#0b2233\"/>");
+        for (view, y0, label) in [(0, 95.0, "from above"), (1, 235.0, "from the side")] {
+            let _ = writeln!(
+                o,
+                "<text x=\"12\" y=\"{}\" fill=\"#9bc\" font-family=\"sans-serif\" font-size=\"13\">{label}</text>",
+                y0 - 60.0
+            );
+            for (k, l) in links.iter().enumerate() {
+                // Above: x right, y up; side: x right, z up.
+                let axis = l.orientation * Vector3::x();
+                let (cx, cy, ax, ay, minor) = if view == 0 {
+                    (l.centre.x, l.centre.y, axis.x, axis.y, l.semi_axes.0)
+                } else {
+                    (l.centre.x, l.centre.z, axis.x, axis.z, l.semi_axes.1)
+                };
+                let angle = -ay.atan2(ax).to_degrees();
+                let x = w - 40.0 + cx * scale;
+                let y = y0 - cy * scale;
+                let green = 90 + (120 * k / links.len().max(1)) as u32;
+                let _ = writeln!(
+                    o,
+                    "<ellipse cx=\"{x:.1}\" cy=\"{y:.1}\" rx=\"{:.1}\" ry=\"{:.1}\" transform=\"rotate({angle:.1} {x:.1} {y:.1})\" fill=\"rgb(26,{green},153)\" stroke=\"#cde\" stroke-width=\"0.6\"/>",
+                    l.length / 2.0 * scale * (ax.hypot(ay)).max(0.05),
+                    minor * scale,
+                );
+            }
+        }
+        let _ = writeln!(o, "</svg>");
+        o
+    }
+
+    /// Ends the current chunk and flushes it: what is written so far
+    /// survives a kill.
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.w.flush().map_err(err)?;
+        Ok(())
+    }
+
+    /// Writes the summary and the index, and closes the file.
+    pub fn finish(mut self) -> io::Result<()> {
+        self.w.finish().map_err(err)?;
+        Ok(())
+    }
+}
+
+/// What [`export`] did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Exported {
+    /// Snapshots written.
+    pub snapshots: u64,
+    /// Bytes at the end of `state.bin` that were not a whole snapshot (a
+    /// recording cut short), left out.
+    pub partial_bytes: usize,
+}
+
+/// Writes `out` from a recorded session directory `dir` (its
+/// `config.toml` and `state.bin`): the MCAP file of a session recorded
+/// without one, or again.
+pub fn export(dir: &Path, out: &Path) -> io::Result<Exported> {
+    let named = |what: &str, e: io::Error| io::Error::new(e.kind(), format!("{what}: {e}"));
+    let cfg_path = dir.join("config.toml");
+    let cfg = Config::load(&cfg_path)
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
+    let states = dir.join("state.bin");
+    let bytes = std::fs::read(&states).map_err(|e| named(&states.display().to_string(), e))?;
+    let size = core::mem::size_of::<StateSnapshot>();
+    let mut log = McapLog::create(out, &cfg).map_err(|e| named(&out.display().to_string(), e))?;
+    let mut n = 0u64;
+    for (i, chunk) in bytes.chunks_exact(size).enumerate() {
+        let s = crate::session::snapshot_from(chunk)
+            .ok_or_else(|| io::Error::from(io::ErrorKind::InvalidData))?;
+        if s.layout_version != crate::ipc::LAYOUT_VERSION {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "{}: snapshot {i} has layout version {} (this anguilla reads {});                      export it with the anguilla that recorded it",
+                    states.display(),
+                    s.layout_version,
+                    crate::ipc::LAYOUT_VERSION
+                ),
+            ));
+        }
+        log.write(&s)?;
+        n += 1;
+    }
+    log.finish()?;
+    Ok(Exported {
+        snapshots: n,
+        partial_bytes: bytes.len() % size,
+    })
+}
+
+fn faults_text(f: FaultSet) -> String {
+    f.to_string()
+}
+
+/// What changed between two snapshots, as log lines (level, text):
+/// foxglove.Log levels 2 info, 3 warning, 4 error.
+fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String)> {
+    let mut out = Vec::new();
+    let mode = Mode::from_code(s.mode).map_or("unknown", Mode::name);
+    let cause = Cause::from_code(s.cause).map_or("unknown", Cause::name);
+    if last.is_none_or(|l| l.mode != s.mode) {
+        let level = match Mode::from_code(s.mode) {
+            Some(Mode::Fault | Mode::EStop) => 4,
+            _ => 2,
+        };
+        out.push((level, format!("mode {mode} (cause: {cause})")));
+    }
+    let faults = FaultSet {
+        kinds: s.fault_kinds,
+        nodes: s.fault_nodes,
+    };
+    if last.is_some_and(|l| l.fault_kinds != s.fault_kinds || l.fault_nodes != s.fault_nodes)
+        && !faults.is_empty()
+    {
+        out.push((4, format!("faults: {}", faults_text(faults))));
+    }
+    if let Some(l) = last
+        && s.refused_commands > l.refused_commands
+    {
+        out.push((
+            3,
+            format!(
+                "{} command(s) refused ({} since start)",
+                s.refused_commands - l.refused_commands,
+                s.refused_commands
+            ),
+        ));
+    }
+    if let Some(l) = last
+        && s.nav.hold_exit != l.nav.hold_exit
+        && s.nav.hold_exit != 0
+    {
+        let why = SensorHealth::from_code(s.nav.hold_exit).map_or("unknown", SensorHealth::name);
+        out.push((3, format!("the autopilot let go: head sensor {why}")));
+    }
+    out
+}
+
+fn state_json(s: &StateSnapshot) -> Value {
+    let gait = |g: &crate::ipc::GaitSnapshot| json!({ "amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch });
+    let n = &s.nav;
+    json!({
+        "time_ns": s.time_ns,
+        "sequence": s.sequence,
+        "mode": Mode::from_code(s.mode).map_or("unknown", Mode::name),
+        "cause": Cause::from_code(s.cause).map_or("unknown", Cause::name),
+        "fault_kinds": s.fault_kinds,
+        "fault_nodes": s.fault_nodes,
+        "feedforward_dropped": s.feedforward_dropped != 0,
+        "predicted_head_speed": s.predicted_head_speed,
+        "predicted_turn_rate": s.predicted_turn_rate,
+        "gait_target": gait(&s.gait_target),
+        "gait_actual": gait(&s.gait_actual),
+        "bus": { "tx_frames": s.bus.tx_frames, "rx_frames": s.bus.rx_frames,
+                 "tx_dropped": s.bus.tx_dropped, "malformed": s.bus.malformed,
+                 "errors": s.bus.errors, "rx_overruns": s.bus.rx_overruns,
+                 "bus_off_count": s.bus.bus_off_count, "state": s.bus.state },
+        "loop": { "period_ns": s.loop_stats.period_ns, "jitter_p99_ns": s.loop_stats.jitter_p99_ns,
+                  "jitter_max_ns": s.loop_stats.jitter_max_ns,
+                  "compute_p99_ns": s.loop_stats.compute_p99_ns,
+                  "periods": s.loop_stats.periods, "overruns": s.loop_stats.overruns },
+        "clamped_setpoints": s.clamped_setpoints,
+        "refused_commands": s.refused_commands,
+        "records_lost": s.records_lost,
+        "nav": { "sensor": SensorHealth::from_code(n.sensor).map_or("unknown", SensorHealth::name),
+                 "hold": n.hold, "heading_deg": n.heading_deg, "pitch_deg": n.pitch_deg,
+                 "roll_deg": n.roll_deg, "depth_m": n.depth_m, "depth_rate": n.depth_rate,
+                 "heading_target_deg": n.heading_target_deg, "depth_target_m": n.depth_target_m,
+                 "rate_innovation": n.rate_innovation, "depth_innovation": n.depth_innovation,
+                 "samples": n.samples, "lost_samples": n.lost_samples },
+    })
+}
+
+fn joints_json(s: &StateSnapshot) -> Value {
+    let n = (s.joint_count as usize).min(s.joints.len());
+    let js = &s.joints[..n];
+    let col =
+        |f: &dyn Fn(&crate::ipc::JointSnapshot) -> f32| -> Vec<f32> { js.iter().map(f).collect() };
+    json!({
+        "commanded_pitch": col(&|j| j.commanded_pitch),
+        "commanded_yaw": col(&|j| j.commanded_yaw),
+        "measured_pitch": col(&|j| j.measured_pitch),
+        "measured_yaw": col(&|j| j.measured_yaw),
+        "commanded_pitch_velocity": col(&|j| j.commanded_pitch_velocity),
+        "commanded_yaw_velocity": col(&|j| j.commanded_yaw_velocity),
+        "measured_pitch_velocity": col(&|j| j.measured_pitch_velocity),
+        "measured_yaw_velocity": col(&|j| j.measured_yaw_velocity),
+        "feedforward_pitch_torque": col(&|j| j.predicted_pitch_torque),
+        "feedforward_yaw_torque": col(&|j| j.predicted_yaw_torque),
+        "measured_pitch_torque": col(&|j| j.measured_pitch_torque),
+        "measured_yaw_torque": col(&|j| j.measured_yaw_torque),
+        "node_state": js.iter().map(|j| j.node_state).collect::<Vec<_>>(),
+        "node_alive": js.iter().map(|j| j.node_alive).collect::<Vec<_>>(),
+    })
+}

@@ -1,0 +1,266 @@
+//! The session's MCAP file (issue 17): a recorded session's file has the
+//! five channels with their schemas, one message per recorded snapshot on
+//! each data channel, monotonic daemon-clock timestamps and a summary; a
+//! file whose writer died keeps every chunk flushed before; `export`
+//! rebuilds the same channels from `state.bin`. (CI also reads a daemon's
+//! file with the independent Python `mcap` reader: `scripts/check-mcap`.)
+
+#[path = "support/lockstep.rs"]
+#[allow(dead_code)] // this file uses part of it
+mod lockstep;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anguilla_daemon::ipc::Hold;
+use anguilla_daemon::mcap_log::{self, McapLog, TOPICS};
+use anguilla_daemon::record;
+use anguilla_daemon::supervisor::Command;
+use lockstep::{Rig, config};
+
+/// Records a session of the swimming robot with a head sensor: swim, hold
+/// a heading, e-stop. Every tenth snapshot goes to the recorder (as the
+/// daemon's state thread does). Returns the directory and the snapshots
+/// sent.
+fn record(name: &str) -> (PathBuf, usize) {
+    let dir = std::env::temp_dir().join(format!("anguilla-mcap-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let cfg = config();
+    let mut rig = Rig::new(&cfg, 11, [0.0; 3]);
+    let (rec_tx, rec_rx) = crossbeam_channel::bounded(1 << 20);
+    let (st_tx, st_rx) = crossbeam_channel::bounded(1 << 12);
+    rig.ctl.set_tap(rec_tx);
+    let (d, c) = (dir.clone(), cfg.clone());
+    let recorder = std::thread::spawn(move || record::recorder(d, c, rec_rx, st_rx));
+    let mut sent = 0;
+    let mut k = 0u64;
+    let mut tick = |rig: &Rig| {
+        k += 1;
+        if k.is_multiple_of(10) {
+            st_tx.send(*rig.state()).unwrap();
+            sent += 1;
+        }
+    };
+    rig.swim(1.0);
+    rig.run(2.0, &mut tick);
+    let h = rig.state().nav.heading_deg as f64;
+    rig.ok(Command::Hold(Hold {
+        heading: Some(h + 30.0),
+        depth: None,
+    }));
+    rig.run(2.0, &mut tick);
+    rig.ok(Command::EStop);
+    rig.run(0.5, &mut tick);
+    drop(st_tx);
+    drop(rig); // closes the record channel
+    recorder.join().unwrap().expect("the recorder writes");
+    (dir, sent)
+}
+
+/// Messages per topic, and whether each topic's log times never go back.
+fn read(path: &Path) -> (BTreeMap<String, usize>, bool, Option<mcap::Summary>) {
+    let bytes = std::fs::read(path).unwrap();
+    let mut counts = BTreeMap::new();
+    let mut last: BTreeMap<String, u64> = BTreeMap::new();
+    let mut monotonic = true;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let Ok(m) = m else { break };
+        let topic = m.channel.topic.clone();
+        let t = last.entry(topic.clone()).or_insert(0);
+        monotonic &= m.log_time >= *t;
+        *t = m.log_time;
+        *counts.entry(topic).or_insert(0) += 1;
+    }
+    let summary = mcap::Summary::read(&bytes).ok().flatten();
+    (counts, monotonic, summary)
+}
+
+#[test]
+fn a_recorded_session_has_its_channels_one_message_per_snapshot_and_a_summary() {
+    let (dir, sent) = record("session");
+    assert!(sent > 30, "{sent} snapshots");
+    let (counts, monotonic, summary) = read(&dir.join("session.mcap"));
+    for topic in ["/anguilla/state", "/anguilla/joints", "/tf", "/body"] {
+        assert_eq!(counts.get(topic), Some(&sent), "{topic}: {counts:?}");
+    }
+    // Log lines: at least the modes (ready, swimming, e-stop).
+    assert!(counts.get("/log").is_some_and(|&n| n >= 3), "{counts:?}");
+    assert!(monotonic, "log times go back");
+    let summary = summary.expect("a finished file has a summary");
+    let mut schemas: Vec<_> = summary
+        .channels
+        .values()
+        .map(|c| {
+            let s = c.schema.as_ref().expect("a schema");
+            (
+                c.topic.clone(),
+                s.name.clone(),
+                s.encoding.clone(),
+                c.message_encoding.clone(),
+            )
+        })
+        .collect();
+    schemas.sort();
+    let topics: Vec<_> = schemas.iter().map(|s| s.0.as_str()).collect();
+    let mut want = TOPICS.to_vec();
+    want.sort();
+    assert_eq!(topics, want);
+    assert!(
+        schemas.iter().all(|s| s.2 == "jsonschema" && s.3 == "json"),
+        "{schemas:?}"
+    );
+    assert!(
+        schemas
+            .iter()
+            .any(|s| s.0 == "/body" && s.1 == "foxglove.SceneUpdate"),
+        "{schemas:?}"
+    );
+    // export rebuilds the same channels and counts from state.bin.
+    let again = dir.join("again.mcap");
+    let done = mcap_log::export(&dir, &again).expect("export");
+    assert_eq!(done.snapshots, sent as u64);
+    assert_eq!(done.partial_bytes, 0);
+    let (counts2, _, summary2) = read(&again);
+    assert_eq!(counts2, counts);
+    assert!(summary2.is_some());
+    layout_names_only_fields_the_file_has(&dir.join("session.mcap"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// deploy/foxglove-layout.json plots message paths (`/topic.field[i]`):
+/// every one names a topic and a field the recording has.
+fn layout_names_only_fields_the_file_has(path: &Path) {
+    let bytes = std::fs::read(path).unwrap();
+    let mut last: BTreeMap<String, serde_json::Value> = BTreeMap::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        last.insert(
+            m.channel.topic.clone(),
+            serde_json::from_slice(&m.data).unwrap(),
+        );
+    }
+    let layout_path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../deploy/foxglove-layout.json"
+    );
+    let layout: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(layout_path).unwrap()).unwrap();
+    let mut paths = Vec::new();
+    for panel in layout["configById"].as_object().unwrap().values() {
+        for p in panel["paths"].as_array().into_iter().flatten() {
+            paths.push(p["value"].as_str().unwrap().to_owned());
+        }
+    }
+    assert!(paths.len() >= 8, "{paths:?}");
+    for p in &paths {
+        let (topic, fields) = p.split_once('.').expect("topic.field");
+        let mut v = last
+            .get(topic)
+            .unwrap_or_else(|| panic!("{p}: no topic {topic}"));
+        for field in fields.split('.') {
+            let (name, index) = match field.split_once('[') {
+                Some((n, _)) => (n, true),
+                None => (field, false),
+            };
+            v = v
+                .get(name)
+                .unwrap_or_else(|| panic!("{p}: no field {name}"));
+            if index {
+                let a = v
+                    .as_array()
+                    .unwrap_or_else(|| panic!("{p}: {name} is no array"));
+                v = &a[0];
+            }
+        }
+    }
+}
+
+#[test]
+fn a_writer_that_dies_leaves_every_flushed_chunk_readable() {
+    let dir = std::env::temp_dir().join(format!("anguilla-mcap-dies-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("killed.mcap");
+    let cfg = config();
+    let mut log = McapLog::create(&path, &cfg).unwrap();
+    let mut s = anguilla_daemon::ipc::StateSnapshot::default();
+    for i in 0..50u64 {
+        s.time_ns = i * 100_000_000;
+        s.sequence = i;
+        log.write(&s).unwrap();
+        if i == 29 {
+            log.flush().unwrap();
+        }
+    }
+    // Killed: no finish, nothing after the flush reaches the disk.
+    std::mem::forget(log);
+    let (counts, monotonic, summary) = read(&path);
+    assert!(summary.is_none(), "no summary without a finish");
+    assert_eq!(counts.get("/anguilla/state"), Some(&30), "{counts:?}");
+    assert!(monotonic);
+    // A session directory whose state.bin was cut mid-snapshot exports
+    // the whole ones, and says how much it left out.
+    let size = core::mem::size_of::<anguilla_daemon::ipc::StateSnapshot>();
+    let snapshot = anguilla_daemon::ipc::StateSnapshot::default();
+    // SAFETY: a #[repr(C)] snapshot of integers and floats, read as bytes.
+    let bytes = unsafe { core::slice::from_raw_parts(&snapshot as *const _ as *const u8, size) };
+    let mut data = bytes.repeat(3);
+    data.truncate(2 * size + 100);
+    std::fs::write(dir.join("state.bin"), &data).unwrap();
+    std::fs::write(dir.join("config.toml"), cfg.to_toml()).unwrap();
+    let done = mcap_log::export(&dir, &dir.join("cut.mcap")).unwrap();
+    assert_eq!((done.snapshots, done.partial_bytes), (2, 100));
+    // A snapshot of another layout version is named.
+    let mut old = snapshot;
+    old.layout_version = 4;
+    // SAFETY: as above.
+    let old_bytes = unsafe { core::slice::from_raw_parts(&old as *const _ as *const u8, size) };
+    std::fs::write(dir.join("state.bin"), old_bytes).unwrap();
+    let e = mcap_log::export(&dir, &dir.join("old.mcap")).unwrap_err();
+    assert!(e.to_string().contains("layout version 4"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// docs/body.svg, the README's picture of the `/body` scene: the robot of
+/// the lockstep rig after 3 s of a turning swim, drawn from the same links
+/// the MCAP scene carries (rewritten with ANGUILLA_BLESS=1).
+#[test]
+fn the_readme_picture_is_the_scene() {
+    let cfg = config();
+    let mut rig = Rig::new(&cfg, 12, [0.0; 3]);
+    rig.swim(1.0);
+    rig.ok(Command::Swim(anguilla_daemon::supervisor::SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.8,
+        pitch: 0.3,
+    }));
+    rig.run(3.0, |_| {});
+    let dir = std::env::temp_dir().join(format!("anguilla-mcap-svg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = McapLog::create(&dir.join("scene.mcap"), &cfg).unwrap();
+    let s = rig.state();
+    let links = log.links(s);
+    assert_eq!(links.len(), cfg.robot.joints + 1);
+    // Chained: each link starts where the one before ends (0.5 mm).
+    for w in links.windows(2) {
+        let end =
+            w[0].centre + w[0].orientation * nalgebra::Vector3::new(w[0].length / 2.0, 0.0, 0.0);
+        let start =
+            w[1].centre - w[1].orientation * nalgebra::Vector3::new(w[1].length / 2.0, 0.0, 0.0);
+        assert!((end - start).norm() < 5e-4, "{end} vs {start}");
+    }
+    // The head link starts at the nose and runs backwards.
+    assert!(links[0].centre.x < 0.0 && links[0].centre.x > -0.1);
+    let svg = log.body_svg(s);
+    assert_eq!(svg.matches("<ellipse").count(), 2 * links.len());
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/body.svg");
+    if std::env::var_os("ANGUILLA_BLESS").is_some() {
+        std::fs::write(path, &svg).unwrap();
+    }
+    let committed = std::fs::read_to_string(path).unwrap_or_default();
+    assert!(
+        committed == svg,
+        "docs/body.svg is out of date: rerun with ANGUILLA_BLESS=1"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
