@@ -543,6 +543,22 @@ fn numbers_a_user_types_are_bounded_and_named() {
             &["sim", "--bus", "mem:x", "--duration", "1e300"],
             "--duration 1e300: expected seconds, 0 < S <= 1e6",
         ),
+        (
+            &["sim", "--slcan-pty", "--ballast", "0.5"],
+            "ballast: 0.5 m outside 0 ..= 0.05 m",
+        ),
+        (
+            &["foxglove", "--bind", "localhost"],
+            "--bind localhost: expected ADDR:PORT",
+        ),
+        (
+            &["foxglove", "--rate", "0"],
+            "--rate 0 is invalid (expected states per second > 0)",
+        ),
+        (
+            &["export", "/nonexistent-session"],
+            "cannot read configuration file /nonexistent-session/config.toml",
+        ),
     ] {
         let (ok, _, err) = run(args);
         assert!(!ok, "{args:?} accepted");

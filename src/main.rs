@@ -6,6 +6,7 @@ mod builtin_sim;
 mod conform_cmd;
 mod ctl_cmd;
 mod dump_cmd;
+mod foxglove_cmd;
 mod output;
 mod protocol_cmd;
 mod run_cmd;
@@ -64,6 +65,9 @@ enum Command {
     Joy(teleop_cmd::JoyArgs),
     /// Watch the robot (read-only): terminal view with plots, or --json lines.
     Monitor(teleop_cmd::MonitorArgs),
+    /// Serve the robot live to Foxglove and Lichtblick (Foxglove WebSocket
+    /// protocol): the channels of the session's MCAP file, read-only.
+    Foxglove(foxglove_cmd::FoxgloveArgs),
     /// One operator command per call, for scripts: status, estop, enable,
     /// disable, reset, stop, swim (exit 0 done, 1 refused, 2 no daemon).
     Ctl(ctl_cmd::CtlArgs),
@@ -98,5 +102,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Joy(args) => teleop_cmd::joy(args),
         Command::Monitor(args) => teleop_cmd::monitor(args),
         Command::Ctl(args) => ctl_cmd::run(args),
+        Command::Foxglove(args) => foxglove_cmd::run(args),
     }
 }

@@ -22,7 +22,7 @@ pub struct DaemonArgs {
     /// The daemon's configuration file: its `ipc.prefix` is used (the
     /// limits come from the daemon's state).
     #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
+    pub(crate) config: Option<PathBuf>,
     /// The daemon's iceoryx2 service prefix (overrides the configuration's).
     #[arg(long, value_name = "PREFIX")]
     prefix: Option<String>,

@@ -76,11 +76,43 @@ pub struct Link {
     pub semi_axes: (f64, f64),
 }
 
-/// The session's MCAP writer.
-pub struct McapLog {
-    w: mcap::Writer<BufWriter<File>>,
-    ids: [u16; 5],
-    seq: u32,
+/// The schemas of [`TOPICS`], in order: (name, JSON schema).
+pub fn schemas() -> [(&'static str, Vec<u8>); 5] {
+    let any = json!({});
+    [
+        ("anguilla.State", schema("anguilla.State", any.clone())),
+        ("anguilla.Joints", schema("anguilla.Joints", any)),
+        (
+            "foxglove.Log",
+            schema(
+                "foxglove.Log",
+                json!({ "timestamp": {"type": "object"}, "level": {"type": "integer"},
+                        "message": {"type": "string"}, "name": {"type": "string"},
+                        "file": {"type": "string"}, "line": {"type": "integer"} }),
+            ),
+        ),
+        (
+            "foxglove.FrameTransforms",
+            schema(
+                "foxglove.FrameTransforms",
+                json!({ "transforms": {"type": "array"} }),
+            ),
+        ),
+        (
+            "foxglove.SceneUpdate",
+            schema(
+                "foxglove.SceneUpdate",
+                json!({ "deletions": {"type": "array"}, "entities": {"type": "array"} }),
+            ),
+        ),
+    ]
+}
+
+/// Turns snapshots into the channels' messages (the MCAP file's and the
+/// live server's): keeps what needs the snapshot before (the predicted
+/// head's dead reckoning, the changes logged).
+#[derive(Debug, Clone)]
+pub struct Scene {
     last: Option<StateSnapshot>,
     /// The predicted head's pose in the plane: x, y (m), yaw (rad).
     dead_reckoning: [f64; 3],
@@ -88,50 +120,9 @@ pub struct McapLog {
     links: Vec<(f64, f64, f64)>,
 }
 
-impl McapLog {
-    /// Creates `path` for a robot configured by `cfg`.
-    pub fn create(path: &Path, cfg: &Config) -> io::Result<Self> {
-        let file = BufWriter::new(File::create(path)?);
-        let mut w = mcap::WriteOptions::new()
-            .compression(None)
-            .profile("")
-            .create(file)
-            .map_err(err)?;
-        let any = json!({});
-        let specs: [(&str, Vec<u8>); 5] = [
-            ("anguilla.State", schema("anguilla.State", any.clone())),
-            ("anguilla.Joints", schema("anguilla.Joints", any.clone())),
-            (
-                "foxglove.Log",
-                schema(
-                    "foxglove.Log",
-                    json!({ "timestamp": {"type": "object"}, "level": {"type": "integer"},
-                            "message": {"type": "string"}, "name": {"type": "string"},
-                            "file": {"type": "string"}, "line": {"type": "integer"} }),
-                ),
-            ),
-            (
-                "foxglove.FrameTransforms",
-                schema(
-                    "foxglove.FrameTransforms",
-                    json!({ "transforms": {"type": "array"} }),
-                ),
-            ),
-            (
-                "foxglove.SceneUpdate",
-                schema(
-                    "foxglove.SceneUpdate",
-                    json!({ "deletions": {"type": "array"}, "entities": {"type": "array"} }),
-                ),
-            ),
-        ];
-        let mut ids = [0u16; 5];
-        for (i, (name, data)) in specs.iter().enumerate() {
-            let schema_id = w.add_schema(name, "jsonschema", data).map_err(err)?;
-            ids[i] = w
-                .add_channel(schema_id, TOPICS[i], "json", &BTreeMap::new())
-                .map_err(err)?;
-        }
+impl Scene {
+    /// The scene of a robot configured by `cfg`.
+    pub fn new(cfg: &Config) -> Self {
         // The links: the body cut into joints + 1 equal parts, head first.
         let body = Body::paper();
         let n = cfg.robot.joints + 1;
@@ -142,45 +133,25 @@ impl McapLog {
                 (l, a, b)
             })
             .collect();
-        Ok(Self {
-            w,
-            ids,
-            seq: 0,
+        Self {
             last: None,
             dead_reckoning: [0.0; 3],
             links,
-        })
+        }
     }
 
-    fn put(&mut self, channel: usize, ns: u64, v: &Value) -> io::Result<()> {
-        self.seq = self.seq.wrapping_add(1);
-        let data = v.to_string();
-        self.w
-            .write_to_known_channel(
-                &MessageHeader {
-                    channel_id: self.ids[channel],
-                    sequence: self.seq,
-                    log_time: ns,
-                    publish_time: ns,
-                },
-                data.as_bytes(),
-            )
-            .map_err(err)
-    }
-
-    /// Writes one snapshot to every channel (and `/log` when something
-    /// changed).
-    pub fn write(&mut self, s: &StateSnapshot) -> io::Result<()> {
+    /// The messages of one snapshot: (index in [`TOPICS`], JSON), one on
+    /// every channel but `/log`, which gets one per change.
+    pub fn messages(&mut self, s: &StateSnapshot) -> Vec<(usize, Value)> {
         let ns = s.time_ns;
         let dt = self
             .last
             .map_or(0.0, |l| s.time_ns.saturating_sub(l.time_ns) as f64 * 1e-9);
-        self.put(0, ns, &state_json(s))?;
-        self.put(1, ns, &joints_json(s))?;
+        let mut out = vec![(0, state_json(s)), (1, joints_json(s))];
         for (level, message) in log_lines(self.last.as_ref(), s) {
             let v = json!({ "timestamp": stamp(ns), "level": level, "message": message,
                             "name": "anguilla", "file": "", "line": 0 });
-            self.put(2, ns, &v)?;
+            out.push((2, v));
         }
         // The predicted head, integrated in the plane.
         let [x, y, yaw] = &mut self.dead_reckoning;
@@ -204,13 +175,14 @@ impl McapLog {
             json!({ "timestamp": stamp(ns), "parent_frame_id": "world", "child_frame_id": child,
                     "translation": vec3(p), "rotation": quat(q) })
         };
-        let v = json!({ "transforms": [tf("head", &head_p, &head_q),
-                                        tf("head_predicted", &predicted_p, &predicted_q)] });
-        self.put(3, ns, &v)?;
-        let scene = self.scene_json(s, ns);
-        self.put(4, ns, &scene)?;
+        out.push((
+            3,
+            json!({ "transforms": [tf("head", &head_p, &head_q),
+                                   tf("head_predicted", &predicted_p, &predicted_q)] }),
+        ));
+        out.push((4, self.scene_json(s, ns)));
         self.last = Some(*s);
-        Ok(())
+        out
     }
 
     /// The links, head first, in the head frame (x forward, y left, z
@@ -308,6 +280,61 @@ impl McapLog {
         }
         let _ = writeln!(o, "</svg>");
         o
+    }
+}
+
+/// The session's MCAP writer.
+pub struct McapLog {
+    w: mcap::Writer<BufWriter<File>>,
+    ids: [u16; 5],
+    seq: u32,
+    scene: Scene,
+}
+
+impl McapLog {
+    /// Creates `path` for a robot configured by `cfg`.
+    pub fn create(path: &Path, cfg: &Config) -> io::Result<Self> {
+        let file = BufWriter::new(File::create(path)?);
+        let mut w = mcap::WriteOptions::new()
+            .compression(None)
+            .profile("")
+            .create(file)
+            .map_err(err)?;
+        let mut ids = [0u16; 5];
+        for (i, (name, data)) in schemas().iter().enumerate() {
+            let schema_id = w.add_schema(name, "jsonschema", data).map_err(err)?;
+            ids[i] = w
+                .add_channel(schema_id, TOPICS[i], "json", &BTreeMap::new())
+                .map_err(err)?;
+        }
+        Ok(Self {
+            w,
+            ids,
+            seq: 0,
+            scene: Scene::new(cfg),
+        })
+    }
+
+    /// Writes one snapshot to every channel (and `/log` when something
+    /// changed), stamped with the daemon's clock.
+    pub fn write(&mut self, s: &StateSnapshot) -> io::Result<()> {
+        let ns = s.time_ns;
+        for (channel, v) in self.scene.messages(s) {
+            self.seq = self.seq.wrapping_add(1);
+            let data = v.to_string();
+            self.w
+                .write_to_known_channel(
+                    &MessageHeader {
+                        channel_id: self.ids[channel],
+                        sequence: self.seq,
+                        log_time: ns,
+                        publish_time: ns,
+                    },
+                    data.as_bytes(),
+                )
+                .map_err(err)?;
+        }
+        Ok(())
     }
 
     /// Ends the current chunk and flushes it: what is written so far

@@ -237,7 +237,7 @@ fn the_readme_picture_is_the_scene() {
     rig.run(3.0, |_| {});
     let dir = std::env::temp_dir().join(format!("anguilla-mcap-svg-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let log = McapLog::create(&dir.join("scene.mcap"), &cfg).unwrap();
+    let log = mcap_log::Scene::new(&cfg);
     let s = rig.state();
     let links = log.links(s);
     assert_eq!(links.len(), cfg.robot.joints + 1);
