@@ -99,15 +99,20 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
                 .duration
                 .is_none_or(|d| start.elapsed().as_secs_f64() < d)
     };
-    // The viewer may start before the daemon: it serves, and waits.
+    // The viewer may start before the daemon: it serves, and asks again
+    // every half second (absolute deadlines; a stop signal cuts the wait).
+    let mut next = anguilla_daemon::rt::monotonic_ns();
+    let mut said = false;
     let mut op = loop {
         match Operator::connect(&prefix, "anguilla-foxglove") {
             Ok(op) => break op,
             Err(e) if running() => {
-                if start.elapsed() < Duration::from_millis(600) {
+                if !said {
                     eprintln!("anguilla foxglove: waiting for the daemon ({e})");
+                    said = true;
                 }
-                std::thread::sleep(Duration::from_millis(500));
+                next += 500_000_000;
+                crate::signals::sleep_until_ns(next);
             }
             Err(e) => {
                 return Err(e)

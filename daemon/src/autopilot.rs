@@ -24,7 +24,7 @@ use anguilla_model::{GaitParams, HeadState, Model, ModelError, ParametricGait, W
 use nalgebra::Vector3;
 
 use crate::config::Config;
-use crate::nav::{Estimate, Prediction, to_model};
+use crate::nav::{Estimate, Prediction};
 
 /// The speed below which the feed-forward stops growing (m/s): a body
 /// barely swimming cannot turn, and asking for more curvature is useless.
@@ -101,7 +101,7 @@ pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
             let p = Prediction::of(&head, ws.shape());
             rates += p.rates;
             speed += r.forward_speed;
-            let f = head.orientation * to_model(p.forward);
+            let f = head.orientation * anguilla_model::forward_axes(p.forward);
             elevation += f.z.atan2(f.x.hypot(f.y));
         }
         let n = n as f64;

@@ -191,8 +191,8 @@ impl Scene {
     /// then yaws about the pitched z).
     pub fn links(&self, s: &StateSnapshot) -> Vec<Link> {
         // In the model's head frame the body runs along +x (towards the
-        // tail); the head frame is that turned by π about z.
-        let flip = UnitQuaternion::from_euler_angles(0.0, 0.0, core::f64::consts::PI);
+        // tail); the head frame is the forward one.
+        let flip = anguilla_model::forward_turn();
         let mut r = UnitQuaternion::identity();
         let mut p = Vector3::zeros();
         let joints = (s.joint_count as usize).min(s.joints.len());
@@ -398,10 +398,6 @@ pub fn export(dir: &Path, out: &Path) -> io::Result<Exported> {
     })
 }
 
-fn faults_text(f: FaultSet) -> String {
-    f.to_string()
-}
-
 /// What changed between two snapshots, as log lines (level, text):
 /// foxglove.Log levels 2 info, 3 warning, 4 error.
 fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String)> {
@@ -422,7 +418,7 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
     if last.is_some_and(|l| l.fault_kinds != s.fault_kinds || l.fault_nodes != s.fault_nodes)
         && !faults.is_empty()
     {
-        out.push((4, format!("faults: {}", faults_text(faults))));
+        out.push((4, format!("faults: {faults}")));
     }
     if let Some(l) = last
         && s.refused_commands > l.refused_commands

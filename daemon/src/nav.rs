@@ -35,7 +35,7 @@
 //! Nothing here allocates after [`Nav::new`].
 
 use anguilla_ipc::{NavSnapshot, SensorHealth};
-use anguilla_model::HeadState;
+use anguilla_model::{HeadState, depth_at_pressure, forward_axes};
 use anguilla_protocol::Frame;
 use anguilla_protocol::message::{
     self, Function, HeadSample, Message, NodeId, NodeSet, SensorErrors, SensorStatus, Variant,
@@ -45,8 +45,6 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::config::Config;
 
-/// Gravity (m/s²), as the simulated sensor and the model use it.
-pub const GRAVITY: f64 = 9.81;
 /// Time constant of the pull towards a fusion IMU's attitude (s).
 pub const ATT_TAU: f64 = 0.05;
 /// Time constant of the levelling by a raw IMU's accelerometer (s).
@@ -66,17 +64,6 @@ pub const MAX_DEPTH_INNOVATION: f64 = 1.0;
 /// Implausible pressure samples in a row after which the depth is taken
 /// from the sensor again (the estimate, not the sensor, was wrong).
 pub const GATE_SAMPLES: u32 = 50;
-
-/// The sensor axes from the model's head axes: `x = −t1`, `y = −t2`,
-/// `z = t3` (sim-backend's `sensor` module).
-fn to_sensor(v: Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(-v.x, -v.y, v.z)
-}
-
-/// The model's head axes from the sensor's (the same turn by π about z).
-pub fn to_model(v: Vector3<f64>) -> Vector3<f64> {
-    to_sensor(v)
-}
 
 /// What the model predicts of the head this period, in the sensor's axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,12 +86,12 @@ impl Prediction {
         } else {
             shape.iter().sum::<Vector3<f64>>() / shape.len() as f64
         };
-        let forward = to_sensor(-centroid)
+        let forward = forward_axes(-centroid)
             .try_normalize(1e-9)
             .unwrap_or_else(Vector3::x);
         Self {
-            rates: to_sensor(inv * head.omega),
-            velocity: to_sensor(inv * head.velocity),
+            rates: forward_axes(inv * head.omega),
+            velocity: forward_axes(inv * head.velocity),
             forward,
         }
     }
@@ -151,7 +138,7 @@ pub struct Nav {
     variant: Variant,
     timeout: Nanos,
     sample_period: f64,
-    rho_g: f64,
+    water_density: f64,
     surface_pressure: f64,
     max_innovation: f64,
     roll_alarm: f64,
@@ -193,7 +180,7 @@ impl Nav {
             variant: cfg.bus.variant(),
             timeout: Nanos::from_secs_f64(s.timeout),
             sample_period: 1.0 / s.rate_hz as f64,
-            rho_g: s.water_density * GRAVITY,
+            water_density: s.water_density,
             surface_pressure: s.surface_pressure,
             max_innovation: s.max_rate_innovation,
             roll_alarm: s.roll_alarm.to_radians(),
@@ -361,7 +348,7 @@ impl Nav {
             .map(UnitQuaternion::from_quaternion);
         let imu = s.status.has(SensorStatus::IMU);
         let accel = Vector3::from(s.accel.map(f64::from));
-        let depth = (s.pressure as f64 - self.surface_pressure) / self.rho_g;
+        let depth = depth_at_pressure(s.pressure as f64, self.surface_pressure, self.water_density);
         let pressure = s.status.has(SensorStatus::PRESSURE);
         if !self.initialised {
             self.attitude = match measured {

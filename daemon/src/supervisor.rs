@@ -666,32 +666,26 @@ mod tests {
             heading: Some(90.0),
             depth: None,
         });
-        // E-stop.
-        let mut s = swimming();
-        s.command(4 * MS, A, 4, Command::Stop).unwrap();
-        s.tick(
-            5 * MS,
-            &Observations {
+        // Ready again after a swim, a hold set for the next one.
+        let ready_with_a_hold = || {
+            let mut s = swimming();
+            s.command(4 * MS, A, 4, Command::Stop).unwrap();
+            let rest = Observations {
                 gait_at_rest: true,
                 ..ok_obs()
-            },
-        );
-        assert_eq!(s.mode(), Mode::Ready);
-        s.command(6 * MS, A, 5, hold).unwrap();
-        assert!(s.hold().is_active(), "kept for the next swim");
+            };
+            s.tick(5 * MS, &rest);
+            assert_eq!(s.mode(), Mode::Ready);
+            s.command(6 * MS, A, 5, hold).unwrap();
+            assert!(s.hold().is_active(), "kept for the next swim");
+            s
+        };
+        // E-stop.
+        let mut s = ready_with_a_hold();
         s.command(7 * MS, B, 1, Command::EStop).unwrap();
         assert!(!s.hold().is_active(), "an e-stop ends it");
-        // Release of control, then another operator's swim.
-        let mut s = swimming();
-        s.command(4 * MS, A, 4, Command::Stop).unwrap();
-        s.tick(
-            5 * MS,
-            &Observations {
-                gait_at_rest: true,
-                ..ok_obs()
-            },
-        );
-        s.command(6 * MS, A, 5, hold).unwrap();
+        // Release of control (another operator's swim must not inherit it).
+        let mut s = ready_with_a_hold();
         s.command(7 * MS, A, 6, Command::ReleaseControl).unwrap();
         assert!(!s.hold().is_active(), "releasing control ends it");
         // A fault.

@@ -123,6 +123,13 @@ fn depth_hold_rejects_a_current_pushing_down() {
     let mut rig = Rig::new(&config(), 10, [0.0, 0.1, -0.05]);
     swimming(&mut rig);
     let m = depth_step(&mut rig, 0.3, 30.0, 20.0);
+    eprintln!(
+        "depth in a current: {:.3} m, heading {:.2}° after 20 s",
+        m.late, m.heading
+    );
+    // Measured 3.2 cm and 0.55° (as in still water: 3.2 cm, 0.25°); the
+    // bounds are those of the still-water test, the heading's widened for
+    // the cross current.
     assert!(m.late < 0.1, "{:.3} m off the target after 20 s", m.late);
     assert!(m.heading < 5.0, "heading {:.1}° off", m.heading);
     assert_eq!(rig.state().mode, Mode::Swimming as u8);
@@ -152,7 +159,11 @@ fn a_raw_imu_levels_by_gravity_and_holds_a_heading() {
         let o = *offset.get_or_insert(d);
         heading = heading.max(angle_diff_deg(d, o).abs());
     });
-    // Measured: see the message on failure.
+    eprintln!("raw IMU: tilt error up to {tilt:.2}°, heading drift up to {heading:.2}°");
+    // Measured 1.26° of tilt and 4.36° of heading drift over the 10 s of
+    // a held 60° turn (seeded: the same every run, so the heading bound is
+    // close to the figure on purpose: more drift is a regression). A wrong
+    // gravity or rate sign is off by tens of degrees within a second.
     assert!(tilt < 5.0, "tilt error up to {tilt:.2}°");
     assert!(heading < 5.0, "heading error up to {heading:.2}°");
     assert_eq!(rig.state().nav.hold, 1);

@@ -83,6 +83,22 @@ pub struct Body {
     pub resistive: bool,
 }
 
+/// Gravity's magnitude (m/s²): the paper's body falls along `−e3` at it.
+pub const GRAVITY: f64 = 9.81;
+
+/// The depth (m) at which water of `density` (kg/m³) under a surface at
+/// `surface` (Pa) has the absolute pressure `pressure` (Pa): hydrostatics,
+/// `(p − p₀) / (ρ g)`.
+pub fn depth_at_pressure(pressure: f64, surface: f64, density: f64) -> f64 {
+    (pressure - surface) / (density * GRAVITY)
+}
+
+/// The absolute pressure (Pa) at `depth` (m): the inverse of
+/// [`depth_at_pressure`].
+pub fn pressure_at_depth(depth: f64, surface: f64, density: f64) -> f64 {
+    surface + density * GRAVITY * depth
+}
+
 /// A typical eel robot's ballast (m): its centre of mass 2 cm below its
 /// axis, the daemon's and the simulated robot's default (docs/autopilot.md).
 pub const TYPICAL_BALLAST: f64 = 0.02;
@@ -109,7 +125,7 @@ impl Body {
             c1: 0.0,
             c2: 1.98,
             c3: 0.5,
-            gravity: [0.0, 0.0, -9.81],
+            gravity: [0.0, 0.0, -GRAVITY],
             ballast: 0.0,
             resistive: true,
         }

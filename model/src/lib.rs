@@ -48,11 +48,12 @@ pub mod gait;
 pub mod paper;
 pub mod run;
 
-pub use body::{Body, Profile, TYPICAL_BALLAST};
+pub use body::{Body, GRAVITY, Profile, TYPICAL_BALLAST, depth_at_pressure, pressure_at_depth};
 pub use current::{Current, MAX_CURRENT};
 pub use dynamics::{
     DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,
-    ModelConfig, StepReport, Workspace, evaluate, inverse_with, posture, step,
+    ModelConfig, StepReport, Workspace, evaluate, forward_axes, forward_turn, inverse_with,
+    posture, step,
 };
 pub use error::{ModelError, Result};
 pub use gait::{

@@ -45,9 +45,8 @@ use anguilla_protocol::message::{
 use crate::node::Nanos;
 use crate::rng::Rng;
 
-/// Gravity the model uses, m/s² (`model::BodyParams::gravity` is
-/// `−9.81 e3`).
-pub const GRAVITY: f64 = 9.81;
+/// Gravity the model uses, m/s² (the model's one definition).
+pub use anguilla_model::GRAVITY;
 
 /// The longest latency a sensor simulates, in samples.
 pub const MAX_LATENCY_SAMPLES: usize = 16;
@@ -251,7 +250,10 @@ pub fn rotate_inv(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
 /// The sensor frame's attitude (head to world) from the model head
 /// frame's: turned by π about z (`x = −t1`, `y = −t2`, `z = t3`).
 pub fn sensor_attitude(model: [f64; 4]) -> [f64; 4] {
-    q_mul(model, [0.0, 0.0, 0.0, 1.0])
+    let [w, x, y, z] = model;
+    let q = nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(w, x, y, z))
+        * anguilla_model::forward_turn();
+    [q.w, q.i, q.j, q.k]
 }
 
 impl HeadSensor {
@@ -442,8 +444,7 @@ impl HeadSensor {
             [0.0; 4]
         };
         let depth = c.origin_depth - t.position[2];
-        let p = c.surface_pressure
-            + c.water_density * GRAVITY * depth
+        let p = anguilla_model::pressure_at_depth(depth, c.surface_pressure, c.water_density)
             + c.pressure_noise * self.rng.normal();
         let sample = self.sample;
         self.sample = self.sample.wrapping_add(1);

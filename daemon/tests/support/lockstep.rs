@@ -218,7 +218,7 @@ impl Rig {
 pub fn true_attitude(t: &Truth) -> UnitQuaternion<f64> {
     let [w, x, y, z] = t.orientation;
     let model = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
-    model * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), core::f64::consts::PI)
+    model * anguilla_model::forward_turn()
 }
 
 /// The head's true heading (rad, counter-clockwise from x).
@@ -324,6 +324,5 @@ pub fn depth_step(rig: &mut Rig, step: f64, seconds: f64, late_after: f64) -> De
 
 /// `a − b` wrapped into (−180, 180] degrees.
 pub fn angle_diff_deg(a: f64, b: f64) -> f64 {
-    let d = (a - b).rem_euclid(360.0);
-    if d > 180.0 { d - 360.0 } else { d }
+    anguilla_daemon::autopilot::wrap((a - b).to_radians()).to_degrees()
 }

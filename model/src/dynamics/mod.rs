@@ -94,6 +94,21 @@ pub use kinematics::posture;
 pub use model::{DEFAULT_DT, DEFAULT_NODES, Integrator, MAX_DT, Model, ModelConfig, NODES_RANGE};
 pub use workspace::Workspace;
 
+/// The turn by π about `t3` from the model's head frame `(t1, t2, t3)`
+/// (`t1` towards the tail) to the robot's forward frame: x forward, y
+/// left, z up — the head sensor's axes (protocol/README.md) and a
+/// vehicle's usual ones. A forward-frame attitude is `orientation *
+/// forward_turn()`; a model-frame vector `v` is `forward_turn() * v` in it.
+pub fn forward_turn() -> UnitQuaternion<f64> {
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), core::f64::consts::PI)
+}
+
+/// A vector of the model's head frame in the forward frame
+/// ([`forward_turn`]): `(−x, −y, z)`, exactly. The turn is its own inverse.
+pub fn forward_axes(v: Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(-v.x, -v.y, v.z)
+}
+
 /// Head configuration `g_o` and twist `mu_o` (earth frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HeadState {
