@@ -106,11 +106,29 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         .prefix()
         .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?;
     if let CtlCmd::Estop = args.cmd {
-        let r = ctl::estop(&prefix)?;
+        let r = match args
+            .daemon
+            .remote()
+            .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?
+        {
+            None => ctl::estop(&prefix)?,
+            Some((endpoint, tls)) => ctl::estop_by(
+                &args.daemon.describe(&prefix),
+                "the link's e-stop key",
+                || {
+                    anguilla_link::remote_estop(&prefix, &endpoint, tls.as_ref())
+                        .map_err(|e| e.to_string())
+                },
+                || {
+                    anguilla_link::RemoteClient::connect(&prefix, &endpoint, tls.as_ref(), true)
+                        .map(|c| Box::new(c) as Box<dyn anguilla_ipc::Session>)
+                },
+            )?,
+        };
         let how = match (r.socket, r.command) {
-            (true, true) => "on the e-stop socket and as a command",
-            (true, false) => "on the e-stop socket",
-            _ => "as a command",
+            (true, true) => format!("on {} and as a command", r.path),
+            (true, false) => format!("on {}", r.path),
+            _ => "as a command".to_string(),
         };
         let confirmed = match r.confirmed {
             Some(true) => "; the daemon reports e-stop",
@@ -143,7 +161,11 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         }
     }
     crate::signals::install();
-    let mut c = Ctl::connect(&prefix)?;
+    let session = args
+        .daemon
+        .open(&prefix, "anguilla-ctl", true)
+        .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?;
+    let mut c = Ctl::over(session)?;
     if let Some(p) = c.provenance_problem() {
         let _ = writeln!(std::io::stderr(), "warning: {p}");
     }

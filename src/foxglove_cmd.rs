@@ -8,9 +8,7 @@
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::{Scene, TOPICS, schemas};
-use anguilla_teleop::operator::Operator;
 use anyhow::Context as _;
 
 use crate::output::outln;
@@ -64,10 +62,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
              (no authentication, no TLS)"
         );
     }
-    let cfg = match &args.daemon.config {
-        Some(p) => Config::load(p)?,
-        None => Config::default(),
-    };
+    let cfg = args.daemon.at.config()?;
     let prefix = args.daemon.prefix()?;
     let ctx = foxglove::Context::new();
     let server = foxglove::WebSocketServer::new()
@@ -104,7 +99,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     let mut next = anguilla_daemon::rt::monotonic_ns();
     let mut said = false;
     let mut op = loop {
-        match Operator::connect(&prefix, "anguilla-foxglove") {
+        match args.daemon.operator(&prefix, "anguilla-foxglove", false) {
             Ok(op) => break op,
             Err(e) if running() => {
                 if !said {
@@ -115,8 +110,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
                 crate::signals::sleep_until_ns(next);
             }
             Err(e) => {
-                return Err(e)
-                    .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"));
+                return Err(e);
             }
         }
     };

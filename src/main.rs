@@ -7,6 +7,7 @@ mod conform_cmd;
 mod ctl_cmd;
 mod dump_cmd;
 mod foxglove_cmd;
+mod link_cmd;
 mod output;
 mod protocol_cmd;
 mod run_cmd;
@@ -68,6 +69,10 @@ enum Command {
     /// Serve the robot live to Foxglove and Lichtblick (Foxglove WebSocket
     /// protocol): the channels of the session's MCAP file, read-only.
     Foxglove(foxglove_cmd::FoxgloveArgs),
+    /// Operate from other computers: bridge the daemon's state, commands and
+    /// E-stop to Zenoh (`--connect` on the tools); `link certs` makes the
+    /// robot's CA and certificates.
+    Link(link_cmd::LinkArgs),
     /// One operator command per call, for scripts: status, estop, enable,
     /// disable, reset, stop, swim (exit 0 done, 1 refused, 2 no daemon).
     Ctl(ctl_cmd::CtlArgs),
@@ -103,5 +108,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Monitor(args) => teleop_cmd::monitor(args),
         Command::Ctl(args) => ctl_cmd::run(args),
         Command::Foxglove(args) => foxglove_cmd::run(args),
+        Command::Link(args) => link_cmd::run(args),
     }
 }

@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
+use anguilla_ipc::{Client, Session};
+use anguilla_link::{Endpoint, RemoteClient, Tls};
 use anguilla_teleop::app::{Action, Intent, Limits};
 use anguilla_teleop::joy::{Joy, JoyMapping};
 use anguilla_teleop::keys;
@@ -16,9 +18,9 @@ use anguilla_teleop::view;
 use anyhow::Context;
 use crossterm::event::{self, Event};
 
-/// Where to find the daemon (shared by the three tools).
+/// Which daemon on this computer: its configuration or its prefix.
 #[derive(clap::Args, Debug)]
-pub struct DaemonArgs {
+pub struct PrefixArgs {
     /// The daemon's configuration file: its `ipc.prefix` is used (the
     /// limits come from the daemon's state).
     #[arg(long, value_name = "FILE")]
@@ -28,7 +30,15 @@ pub struct DaemonArgs {
     prefix: Option<String>,
 }
 
-impl DaemonArgs {
+impl PrefixArgs {
+    /// The configuration: --config's file, else the default.
+    pub fn config(&self) -> anyhow::Result<Config> {
+        Ok(match &self.config {
+            Some(p) => Config::load(p)?,
+            None => Config::default(),
+        })
+    }
+
     /// The prefix: --prefix, else the configuration's, else the default.
     pub fn prefix(&self) -> anyhow::Result<String> {
         if let Some(p) = &self.prefix {
@@ -38,11 +48,95 @@ impl DaemonArgs {
             );
             return Ok(p.clone());
         }
-        let cfg = match &self.config {
-            Some(p) => Config::load(p)?,
-            None => Config::default(),
+        Ok(self.config()?.ipc.prefix)
+    }
+}
+
+/// Where to find the daemon (shared by the operator tools): on this
+/// computer, or through a link with --connect.
+#[derive(clap::Args, Debug)]
+pub struct DaemonArgs {
+    #[command(flatten)]
+    pub(crate) at: PrefixArgs,
+    /// Reach a daemon on another computer through its `anguilla link`, at
+    /// this Zenoh endpoint: tcp/127.0.0.1:7447 (plain TCP: loopback only)
+    /// or tls/HOST:PORT with --ca, --cert and --key.
+    #[arg(long, value_name = "ENDPOINT")]
+    connect: Option<String>,
+    /// With --connect tls/...: the robot's CA certificate (PEM).
+    #[arg(long, value_name = "FILE", requires = "connect")]
+    ca: Option<PathBuf>,
+    /// With --connect tls/...: this operator's certificate (PEM), from the robot's CA.
+    #[arg(long, value_name = "FILE", requires = "connect")]
+    cert: Option<PathBuf>,
+    /// With --connect tls/...: this operator's private key (PEM).
+    #[arg(long, value_name = "FILE", requires = "connect")]
+    key: Option<PathBuf>,
+}
+
+impl DaemonArgs {
+    /// The prefix (see [`PrefixArgs::prefix`]).
+    pub fn prefix(&self) -> anyhow::Result<String> {
+        self.at.prefix()
+    }
+
+    /// The link to reach, with --connect: its checked endpoint and TLS files.
+    pub fn remote(&self) -> anyhow::Result<Option<(Endpoint, Option<Tls>)>> {
+        let Some(e) = &self.connect else {
+            return Ok(None);
         };
-        Ok(cfg.ipc.prefix)
+        let tls = match (&self.ca, &self.cert, &self.key) {
+            (Some(ca), Some(cert), Some(key)) => Some(Tls {
+                ca: ca.clone(),
+                cert: cert.clone(),
+                key: key.clone(),
+            }),
+            (None, None, None) => None,
+            _ => anyhow::bail!("--ca, --cert and --key go together (TLS): give all three"),
+        };
+        let endpoint =
+            Endpoint::parse(e, tls.as_ref()).map_err(|e| anyhow::anyhow!("--connect {e}"))?;
+        Ok(Some((endpoint, tls)))
+    }
+
+    /// Where the tool reaches the daemon, for messages.
+    pub fn describe(&self, prefix: &str) -> String {
+        match &self.connect {
+            Some(e) => format!("the daemon at prefix '{prefix}' through the link at {e}"),
+            None => format!("the daemon at prefix '{prefix}'"),
+        }
+    }
+
+    /// Opens a session with the daemon at `prefix`: local (iceoryx2,
+    /// naming the node after `tool`), or through the link with --connect.
+    /// `commands`: the tool sends commands (a remote session asks the link
+    /// for its own client); a read-only tool only reads the state.
+    pub fn open(
+        &self,
+        prefix: &str,
+        tool: &str,
+        commands: bool,
+    ) -> anyhow::Result<Box<dyn Session>> {
+        let s: Box<dyn Session> = match self.remote()? {
+            None => Box::new(Client::new(
+                prefix,
+                &format!("{tool}-{}", std::process::id()),
+            )?),
+            Some((endpoint, tls)) => Box::new(RemoteClient::connect(
+                prefix,
+                &endpoint,
+                tls.as_ref(),
+                commands,
+            )?),
+        };
+        Ok(s)
+    }
+
+    /// [`DaemonArgs::open`] as an [`Operator`].
+    pub fn operator(&self, prefix: &str, tool: &str, commands: bool) -> anyhow::Result<Operator> {
+        self.open(prefix, tool, commands)
+            .map(Operator::over)
+            .with_context(|| format!("connecting to {}", self.describe(prefix)))
     }
 }
 
@@ -130,8 +224,7 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
         "run it in a terminal (for scripts, `anguilla monitor --json` streams the state)",
     )?;
     let prefix = args.daemon.prefix()?;
-    let mut op = Operator::connect(&prefix, "anguilla-teleop")
-        .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    let mut op = args.daemon.operator(&prefix, "anguilla-teleop", true)?;
     let limits = daemon_limits(&mut op, &prefix)?;
     let mut session = TeleopSession::new(Driver::new(op, Intent::new(limits)), &prefix);
     // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
@@ -191,8 +284,7 @@ pub fn monitor(args: MonitorArgs) -> anyhow::Result<()> {
         )?;
     }
     // Read-only: this connection never sends a command.
-    let mut op = Operator::connect(&prefix, "anguilla-monitor")
-        .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?;
+    let mut op = args.daemon.operator(&prefix, "anguilla-monitor", false)?;
     if let Some(p) = op.provenance_problem() {
         eprintln!("warning: {p}");
     }
@@ -261,10 +353,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
     let mut op = if args.print_mapping {
         None
     } else {
-        Some(
-            Operator::connect(&prefix, "anguilla-joy")
-                .with_context(|| format!("connecting to the daemon at prefix '{prefix}'"))?,
-        )
+        Some(args.daemon.operator(&prefix, "anguilla-joy", true)?)
     };
     let limits = match op.as_mut() {
         Some(op) => daemon_limits(op, &prefix)?,

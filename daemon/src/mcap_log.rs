@@ -28,7 +28,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use serde_json::{Value, json};
 
 use crate::config::Config;
-use crate::ipc::{Cause, FaultSet, Mode, SensorHealth, StateSnapshot};
+use crate::ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot};
 
 /// The channels, in the order they are created.
 pub const TOPICS: [&str; 5] = [
@@ -375,7 +375,7 @@ pub fn export(dir: &Path, out: &Path) -> io::Result<Exported> {
     let mut log = McapLog::create(out, &cfg).map_err(|e| named(&out.display().to_string(), e))?;
     let mut n = 0u64;
     for (i, chunk) in bytes.chunks_exact(size).enumerate() {
-        let s = crate::session::snapshot_from(chunk)
+        let s = StateSnapshot::from_bytes(chunk)
             .ok_or_else(|| io::Error::from(io::ErrorKind::InvalidData))?;
         if s.layout_version != crate::ipc::LAYOUT_VERSION {
             return Err(io::Error::new(

@@ -29,9 +29,9 @@ use anguilla_protocol::candump::{self, Interface, LogEntry, Timestamp};
 use crossbeam_channel::Receiver;
 
 use crate::config::Config;
-use crate::ipc::StateSnapshot;
+use crate::ipc::{Raw as _, StateSnapshot};
 use crate::mcap_log::McapLog;
-use crate::session::{self, Record, snapshot_bytes};
+use crate::session::{self, Record};
 use crate::supervisor::Nanos;
 
 /// Writes a recording; runs on its own thread until both channels close.
@@ -97,7 +97,7 @@ pub fn recorder(
             recv(states) -> s => {
                 match s {
                     Ok(s) => {
-                        state.write_all(snapshot_bytes(&s))?;
+                        state.write_all(s.as_bytes())?;
                         mcap.write(&s)?;
                     }
                     // Closed: wait on the records alone from now on.
@@ -108,7 +108,7 @@ pub fn recorder(
     }
     // Records are closed; take what is left of the states.
     for s in states.try_iter() {
-        state.write_all(snapshot_bytes(&s))?;
+        state.write_all(s.as_bytes())?;
         mcap.write(&s)?;
     }
     mcap.finish()?;

@@ -34,7 +34,7 @@ use anguilla_drivers::BusState;
 use anguilla_protocol::candump;
 use anguilla_protocol::frame::Frame;
 
-use crate::ipc::{CommandRequest, Envelope};
+use crate::ipc::{CommandRequest, Envelope, Raw as _};
 use crate::supervisor::Nanos;
 
 /// One recorded event. `Copy`: sending it allocates nothing.
@@ -64,58 +64,6 @@ pub enum Record {
     Tx(Nanos, Frame),
     /// A frame the bus refused to send.
     Refused(Nanos, Frame),
-}
-
-fn request_bytes(r: &CommandRequest) -> [u8; core::mem::size_of::<CommandRequest>()] {
-    // SAFETY: CommandRequest is #[repr(C)], Copy, and has no padding (the
-    // layout test in ipc.rs checks that its fields tile it exactly).
-    unsafe { core::mem::transmute_copy(r) }
-}
-
-fn request_from(bytes: &[u8]) -> Option<CommandRequest> {
-    if bytes.len() != core::mem::size_of::<CommandRequest>() {
-        return None;
-    }
-    let mut r = CommandRequest::default();
-    // SAFETY: same size, and every bit pattern is a valid CommandRequest
-    // (integers and floats only).
-    unsafe {
-        core::ptr::copy_nonoverlapping(
-            bytes.as_ptr(),
-            &mut r as *mut CommandRequest as *mut u8,
-            bytes.len(),
-        );
-    }
-    Some(r)
-}
-
-pub(crate) fn snapshot_bytes(s: &crate::ipc::StateSnapshot) -> &[u8] {
-    // SAFETY: StateSnapshot is #[repr(C)] with no padding (tested in ipc.rs).
-    unsafe {
-        core::slice::from_raw_parts(
-            s as *const crate::ipc::StateSnapshot as *const u8,
-            core::mem::size_of::<crate::ipc::StateSnapshot>(),
-        )
-    }
-}
-
-/// A snapshot from its raw bytes (`state.bin`), if `bytes` is one whole
-/// snapshot.
-pub(crate) fn snapshot_from(bytes: &[u8]) -> Option<crate::ipc::StateSnapshot> {
-    if bytes.len() != core::mem::size_of::<crate::ipc::StateSnapshot>() {
-        return None;
-    }
-    let mut s = crate::ipc::StateSnapshot::default();
-    // SAFETY: same size, and every bit pattern is a valid StateSnapshot
-    // (integers, floats and arrays of them only).
-    unsafe {
-        core::ptr::copy_nonoverlapping(
-            bytes.as_ptr(),
-            &mut s as *mut crate::ipc::StateSnapshot as *mut u8,
-            bytes.len(),
-        );
-    }
-    Some(s)
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -156,7 +104,7 @@ pub fn write_line(w: &mut impl Write, r: &Record) -> std::io::Result<()> {
             "C {t} {:032x} {:032x} {}",
             c.origin,
             c.node,
-            hex(&request_bytes(&c.request))
+            hex(c.request.as_bytes())
         ),
         Record::Dead(t, id) => writeln!(w, "D {t} {id:032x}"),
         Record::Shutdown(t) => writeln!(w, "S {t}"),
@@ -327,7 +275,7 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
                 let (origin, node) = (id(origin, "origin")?, id(node, "node id")?);
                 let bytes =
                     unhex(rest).ok_or_else(|| err(n, "command: expected hex bytes".into()))?;
-                let req = request_from(&bytes).ok_or_else(|| {
+                let req = CommandRequest::from_bytes(&bytes).ok_or_else(|| {
                     err(
                         n,
                         format!(

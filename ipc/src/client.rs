@@ -1,4 +1,6 @@
-//! A tool's side of the operator interface.
+//! A tool's side of the operator interface: the [`Session`] every tool
+//! talks through, and its local implementation, [`Client`] (iceoryx2).
+//! The remote one, over Zenoh, is `anguilla_link::RemoteClient`.
 
 use core::time::Duration;
 
@@ -38,6 +40,7 @@ pub struct Client {
     state_service: StateService,
     command_service: CommandService,
     sequence: u32,
+    prefix: String,
 }
 
 impl Client {
@@ -75,6 +78,7 @@ impl Client {
             state_service,
             command_service,
             sequence: 0,
+            prefix: prefix.to_string(),
         })
     }
 
@@ -131,8 +135,7 @@ impl Client {
     pub fn send(&mut self, cmd: Command) -> Result<u32, IpcError> {
         // A slow daemon must not exhaust the service's active requests:
         // beyond MAX_PENDING the oldest unanswered request is given up.
-        self.sequence = self.sequence.wrapping_add(1);
-        self.send_request(CommandRequest::new(cmd, self.sequence))
+        Session::send(self, cmd)
     }
 
     /// Collects the replies that have arrived.
@@ -160,8 +163,7 @@ impl Client {
 
     /// Sends `cmd` and waits up to `timeout` for its reply.
     pub fn request(&mut self, cmd: Command, timeout: Duration) -> Result<CommandReply, IpcError> {
-        self.sequence = self.sequence.wrapping_add(1);
-        self.request_raw(CommandRequest::new(cmd, self.sequence), timeout)
+        Session::request(self, cmd, timeout)
     }
 
     /// Sends `req` exactly as given (see [`Client::send_request`]) and
@@ -171,28 +173,7 @@ impl Client {
         req: CommandRequest,
         timeout: Duration,
     ) -> Result<CommandReply, IpcError> {
-        let seq = self.send_request(req)?;
-        let deadline = std::time::Instant::now() + timeout;
-        loop {
-            let mut found = None;
-            self.replies(|r| {
-                if r.sequence == seq {
-                    found = Some(*r);
-                }
-            })?;
-            if let Some(r) = found {
-                return Ok(r);
-            }
-            if std::time::Instant::now() >= deadline {
-                return Err(IpcError::Iceoryx(format!(
-                    "no reply to request {seq} (code {}) within {timeout:?}: is the daemon running?",
-                    req.code
-                )));
-            }
-            let _ = self
-                .listener
-                .timed_wait(|_| {}, Duration::from_millis(2).min(timeout));
-        }
+        Session::request_raw(self, req, timeout)
     }
 
     /// The newest state, if any was published since the last call (or the
@@ -222,5 +203,124 @@ impl Client {
             Err(e) => return Err(ice("wait for state")(e)),
         }
         self.latest()
+    }
+}
+
+/// An operator tool's session with the daemon, local ([`Client`], iceoryx2)
+/// or remote (`anguilla_link::RemoteClient`, through `anguilla link`): the
+/// tools are written against this, so a remote tool behaves as a local one.
+///
+/// A session is one identity for the daemon ([`Session::id`]): the client
+/// port its commands arrive on, never a field of a request.
+pub trait Session {
+    /// This session's identity as the daemon knows it (what
+    /// [`StateSnapshot::holder`] names); 0 until a remote link has said.
+    fn id(&self) -> u128;
+    /// Where the session reaches the daemon, for messages ("prefix
+    /// 'anguilla'", "prefix 'anguilla' through tcp/127.0.0.1:7447").
+    fn describe(&self) -> String;
+    /// When the state read may not be the robot's, says why.
+    fn provenance_problem(&self) -> Option<String>;
+    /// Sends `req` exactly as given; its reply arrives through
+    /// [`Session::replies`]. Returns its sequence number.
+    fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError>;
+    /// Collects the replies that have arrived.
+    fn replies(&mut self, f: &mut dyn FnMut(&CommandReply)) -> Result<(), IpcError>;
+    /// Replies still awaited.
+    fn awaiting(&self) -> usize;
+    /// Waits up to `timeout` for a reply or a state to arrive (returns
+    /// early on either; a zero timeout does not wait).
+    fn wait_any(&mut self, timeout: Duration) -> Result<(), IpcError>;
+    /// The newest state, if any arrived since the last call.
+    fn latest(&mut self) -> Result<Option<StateSnapshot>, IpcError>;
+    /// Waits up to `timeout` for new state; the newest one, `None` on timeout.
+    fn wait_state(&mut self, timeout: Duration) -> Result<Option<StateSnapshot>, IpcError>;
+    /// The E-stop path that no capacity limit blocks (the local E-stop
+    /// socket, or the link's E-stop key). Not a command: nothing to reply.
+    fn estop_out_of_band(&mut self) -> Result<(), IpcError>;
+    /// The next sequence number for a request.
+    fn next_sequence(&mut self) -> u32;
+
+    /// Sends `cmd`; its reply arrives through [`Session::replies`].
+    fn send(&mut self, cmd: Command) -> Result<u32, IpcError> {
+        let seq = self.next_sequence();
+        self.send_request(CommandRequest::new(cmd, seq))
+    }
+
+    /// Sends `req` exactly as given and waits up to `timeout` for its reply.
+    fn request_raw(
+        &mut self,
+        req: CommandRequest,
+        timeout: Duration,
+    ) -> Result<CommandReply, IpcError> {
+        let seq = self.send_request(req)?;
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            let mut found = None;
+            self.replies(&mut |r| {
+                if r.sequence == seq {
+                    found = Some(*r);
+                }
+            })?;
+            if let Some(r) = found {
+                return Ok(r);
+            }
+            let now = std::time::Instant::now();
+            if now >= deadline {
+                return Err(IpcError::Iceoryx(format!(
+                    "no reply to request {seq} (code {}) within {timeout:?} from {}: \
+                     is the daemon running?",
+                    req.code,
+                    self.describe()
+                )));
+            }
+            self.wait_any((deadline - now).min(Duration::from_millis(2)))?;
+        }
+    }
+
+    /// Sends `cmd` and waits up to `timeout` for its reply.
+    fn request(&mut self, cmd: Command, timeout: Duration) -> Result<CommandReply, IpcError> {
+        let seq = self.next_sequence();
+        self.request_raw(CommandRequest::new(cmd, seq), timeout)
+    }
+}
+
+impl Session for Client {
+    fn id(&self) -> u128 {
+        Client::id(self)
+    }
+    fn describe(&self) -> String {
+        format!("prefix '{}'", self.prefix)
+    }
+    fn provenance_problem(&self) -> Option<String> {
+        Client::provenance_problem(self)
+    }
+    fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError> {
+        Client::send_request(self, req)
+    }
+    fn replies(&mut self, f: &mut dyn FnMut(&CommandReply)) -> Result<(), IpcError> {
+        Client::replies(self, f)
+    }
+    fn awaiting(&self) -> usize {
+        Client::awaiting(self)
+    }
+    fn wait_any(&mut self, timeout: Duration) -> Result<(), IpcError> {
+        if !timeout.is_zero() {
+            let _ = self.listener.timed_wait(|_| {}, timeout);
+        }
+        Ok(())
+    }
+    fn latest(&mut self) -> Result<Option<StateSnapshot>, IpcError> {
+        Client::latest(self)
+    }
+    fn wait_state(&mut self, timeout: Duration) -> Result<Option<StateSnapshot>, IpcError> {
+        Client::wait_state(self, timeout)
+    }
+    fn estop_out_of_band(&mut self) -> Result<(), IpcError> {
+        crate::estop::send(&self.prefix).map_err(|e| IpcError::EStopSocket(e.to_string()))
+    }
+    fn next_sequence(&mut self) -> u32 {
+        self.sequence = self.sequence.wrapping_add(1);
+        self.sequence
     }
 }

@@ -54,7 +54,7 @@ pub mod payload;
 pub mod service;
 pub mod vocabulary;
 
-pub use client::Client;
+pub use client::{Client, Session};
 pub use layout::{LayoutRow, layout_markdown, layout_table};
 pub use payload::*;
 pub use service::{

@@ -568,3 +568,47 @@ impl fmt::Write for FixedText {
         Ok(())
     }
 }
+
+/// A payload as its raw bytes and back: the `#[repr(C)]` layout of
+/// `docs/ipc.md` (native byte order: little-endian on every target the
+/// daemon runs on). The recorder's `state.bin`, the session log's
+/// commands and the remote link's messages use it.
+///
+/// Only for the payloads here, which are made of integers, floats and
+/// arrays of them with no padding (the layout test checks that their
+/// fields tile them), so every byte string of the right length is a value.
+pub trait Raw: Copy + sealed::Sealed {
+    /// The value's bytes.
+    fn as_bytes(&self) -> &[u8] {
+        // SAFETY: Self is #[repr(C)], Copy and has no padding (sealed to
+        // the payloads the layout test covers).
+        unsafe { core::slice::from_raw_parts(self as *const Self as *const u8, size_of::<Self>()) }
+    }
+
+    /// The value whose bytes are `bytes`; `None` unless `bytes` is exactly
+    /// one value long.
+    fn from_bytes(bytes: &[u8]) -> Option<Self> {
+        if bytes.len() != size_of::<Self>() {
+            return None;
+        }
+        let mut v = core::mem::MaybeUninit::<Self>::uninit();
+        // SAFETY: same size, and every bit pattern is a valid value
+        // (integers, floats and arrays of them only), so the copy
+        // initializes it.
+        unsafe {
+            core::ptr::copy_nonoverlapping(bytes.as_ptr(), v.as_mut_ptr() as *mut u8, bytes.len());
+            Some(v.assume_init())
+        }
+    }
+}
+
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for super::StateSnapshot {}
+    impl Sealed for super::CommandRequest {}
+    impl Sealed for super::CommandReply {}
+}
+
+impl Raw for StateSnapshot {}
+impl Raw for CommandRequest {}
+impl Raw for CommandReply {}

@@ -69,6 +69,10 @@ pub enum IpcError {
     /// iceoryx2 refused an operation; the text names it.
     #[error("iceoryx2: {0}")]
     Iceoryx(String),
+    /// A remote session (`anguilla link` over Zenoh) failed; the text names
+    /// the endpoint and the step.
+    #[error("{0}")]
+    Remote(String),
 }
 
 pub(crate) fn ice<E: fmt::Debug>(what: &'static str) -> impl Fn(E) -> IpcError {

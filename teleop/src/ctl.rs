@@ -20,7 +20,8 @@
 use std::time::{Duration, Instant};
 
 use anguilla_ipc::{
-    Cause, Client, Command, CommandReply, FaultSet, Hold, IpcError, Mode, StateSnapshot, SwimParams,
+    Cause, Client, Command, CommandReply, FaultSet, Hold, IpcError, Mode, Session, StateSnapshot,
+    SwimParams,
 };
 
 /// How long `ctl` waits for the daemon's first state, and for each reply.
@@ -101,9 +102,11 @@ pub struct Outcome {
 /// How an E-stop went out.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EStopReport {
-    /// Sent on the reserved E-stop socket.
+    /// Sent on the out-of-band path ([`EStopReport::path`]).
     pub socket: bool,
-    /// Accepted as an iceoryx2 command too.
+    /// The out-of-band path's name: the E-stop socket, or the link's key.
+    pub path: String,
+    /// Accepted as a command too.
     pub command: bool,
     /// The daemon's state showed E-stop afterwards (`None`: state not readable).
     pub confirmed: Option<bool>,
@@ -116,17 +119,39 @@ pub struct EStopReport {
 /// and confirms it in the state when the state can be read. Fails only when
 /// no path reached the daemon.
 pub fn estop(prefix: &str) -> Result<EStopReport, CtlError> {
+    estop_by(
+        &format!("prefix '{prefix}'"),
+        "the e-stop socket",
+        || anguilla_ipc::estop::send(prefix).map_err(|e| e.to_string()),
+        || {
+            Client::new(prefix, &format!("anguilla-ctl-{}", std::process::id()))
+                .map(|c| Box::new(c) as Box<dyn Session>)
+        },
+    )
+}
+
+/// [`estop`] by any pair of paths: `out_of_band` (named `path`), which no
+/// capacity limit blocks, first; then a session opened with `open`, whose
+/// E-stop command is accepted from any client and whose state confirms it.
+/// `target` names the daemon in messages.
+pub fn estop_by(
+    target: &str,
+    path: &str,
+    out_of_band: impl FnOnce() -> Result<(), String>,
+    open: impl FnOnce() -> Result<Box<dyn Session>, IpcError>,
+) -> Result<EStopReport, CtlError> {
     let mut report = EStopReport {
         socket: false,
+        path: path.to_string(),
         command: false,
         confirmed: None,
         notes: Vec::new(),
     };
-    match anguilla_ipc::estop::send(prefix) {
+    match out_of_band() {
         Ok(()) => report.socket = true,
-        Err(e) => report.notes.push(format!("e-stop socket: {e}")),
+        Err(e) => report.notes.push(format!("{path}: {e}")),
     }
-    match Client::new(prefix, &format!("anguilla-ctl-{}", std::process::id())) {
+    match open() {
         Ok(mut c) => {
             match c.request(Command::EStop, REPLY_TIMEOUT) {
                 Ok(r) if r.accepted == 1 => report.command = true,
@@ -151,7 +176,7 @@ pub fn estop(prefix: &str) -> Result<EStopReport, CtlError> {
     if report.confirmed == Some(false) {
         // It went out, yet the daemon whose state is read does not show it.
         Err(CtlError::Refused(format!(
-            "the e-stop was sent ({}) but the daemon at prefix '{prefix}' does not report \
+            "the e-stop was sent ({}) but the daemon at {target} does not report \
              e-stop after {REPLY_TIMEOUT:?}",
             report.notes.join("; ")
         )))
@@ -159,7 +184,7 @@ pub fn estop(prefix: &str) -> Result<EStopReport, CtlError> {
         Ok(report)
     } else {
         Err(CtlError::NoDaemon(format!(
-            "the e-stop reached no daemon at prefix '{prefix}': {}",
+            "the e-stop reached no daemon at {target}: {}",
             report.notes.join("; ")
         )))
     }
@@ -167,7 +192,7 @@ pub fn estop(prefix: &str) -> Result<EStopReport, CtlError> {
 
 /// One `ctl` session with the daemon.
 pub struct Ctl {
-    client: Client,
+    client: Box<dyn Session>,
     state: StateSnapshot,
     holding: bool,
 }
@@ -176,9 +201,15 @@ impl Ctl {
     /// Connects to the daemon at `prefix` and reads its state.
     pub fn connect(prefix: &str) -> Result<Self, CtlError> {
         let client = Client::new(prefix, &format!("anguilla-ctl-{}", std::process::id()))?;
+        Self::over(Box::new(client))
+    }
+
+    /// A `ctl` session over an open session, local or remote; reads the state.
+    pub fn over(mut client: Box<dyn Session>) -> Result<Self, CtlError> {
         let state = client.wait_state(REPLY_TIMEOUT)?.ok_or_else(|| {
             CtlError::NoDaemon(format!(
-                "no state from the daemon at prefix '{prefix}' within {REPLY_TIMEOUT:?}"
+                "no state from the daemon at {} within {REPLY_TIMEOUT:?}",
+                client.describe()
             ))
         })?;
         Ok(Self {

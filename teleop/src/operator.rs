@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 use anguilla_ipc::Command;
-use anguilla_ipc::{Client, CommandReply, IpcError, StateSnapshot};
+use anguilla_ipc::{Client, CommandReply, IpcError, Session, StateSnapshot};
 
 use crate::app::{Action, Intent};
 
@@ -26,7 +26,7 @@ pub struct Refused {
 
 /// One operator tool's connection to the daemon.
 pub struct Operator {
-    client: Client,
+    client: Box<dyn Session>,
     sent: Vec<(u32, &'static str)>,
     state: Option<StateSnapshot>,
     last_refused: Option<Refused>,
@@ -47,13 +47,23 @@ impl Operator {
     /// iceoryx2 client port, so a new identity); `tool` names the node.
     pub fn connect(prefix: &str, tool: &str) -> Result<Self, IpcError> {
         let name = format!("{tool}-{}", std::process::id());
-        Ok(Self {
-            client: Client::new(prefix, &name)?,
+        Ok(Self::over(Box::new(Client::new(prefix, &name)?)))
+    }
+
+    /// An operator over an open session, local or remote.
+    pub fn over(client: Box<dyn Session>) -> Self {
+        Self {
+            client,
             sent: Vec::new(),
             state: None,
             last_refused: None,
             refusals: 0,
-        })
+        }
+    }
+
+    /// Where the session reaches the daemon (for messages).
+    pub fn describe(&self) -> String {
+        self.client.describe()
     }
 
     /// This client's id (compare with [`StateSnapshot::holder`]).
@@ -96,7 +106,7 @@ impl Operator {
         let mut refused = None;
         let mut count = 0;
         let sent = &mut self.sent;
-        self.client.replies(|r| {
+        self.client.replies(&mut |r| {
             let name = sent
                 .iter()
                 .position(|(s, _)| *s == r.sequence)

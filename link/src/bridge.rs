@@ -1,0 +1,562 @@
+//! The link process's bridge: the daemon's state out to Zenoh, remote
+//! commands and E-stops in.
+//!
+//! - **State**: read over iceoryx2 like any tool, put on `P/state` at most
+//!   [`LinkSettings::state_rate`] times a second, and at once when the
+//!   mode, the cause or the holder changes (an E-stop shows without wait).
+//! - **Commands**: a query on `P/command/<token>`. Each token gets its own
+//!   iceoryx2 client (its own node and client port), created at its first
+//!   query, up to [`LinkSettings::max_clients`]; the daemon sees one client
+//!   per remote tool. A session silent for [`LinkSettings::idle_timeout`]
+//!   is closed (its node leaves, and the daemon releases its control).
+//!   Nothing is kept alive on a remote tool's behalf: a link that stalls or
+//!   dies is a silent operator, and the daemon's deadman stops the swim.
+//! - **Stale commands**: a tool stamps each query with its own clock (an
+//!   8-byte attachment, ms); the link learns each session's clock offset
+//!   (the smallest difference seen) and drops a command older than the
+//!   daemon's command timeout, so a link or network that stalled does not
+//!   deliver old commands when it resumes.
+//! - **E-stop**: a query on `P/estop` is relayed to the daemon's E-stop
+//!   socket from Zenoh's own thread at once, whatever the command queue
+//!   holds and however many sessions exist.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+use std::time::{Duration, Instant};
+
+use anguilla_ipc::{Client, CommandReply, CommandRequest, Raw as _, StateSnapshot};
+use zenoh::Wait as _;
+use zenoh::qos::{CongestionControl, Priority};
+use zenoh::query::Query;
+
+use crate::{Endpoint, ID_LEN, LinkError, Tls, zenoh_err};
+
+/// Queries waiting for the bridge's loop; beyond, a query is answered
+/// "busy" at once.
+const QUERY_QUEUE: usize = 256;
+/// Replies one session may await; beyond, the oldest is answered "dropped".
+const SESSION_PENDING: usize = 8;
+/// A forwarded command whose reply has not come within this is answered
+/// with an error.
+const REPLY_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// How the link runs (from `[link]` and the command line).
+#[derive(Debug, Clone)]
+pub struct LinkSettings {
+    /// The daemon's iceoryx2 prefix, also the Zenoh key prefix.
+    pub prefix: String,
+    /// Endpoints to listen on (checked).
+    pub listen: Vec<Endpoint>,
+    /// TLS files, for `tls/` endpoints.
+    pub tls: Option<Tls>,
+    /// Most states a second.
+    pub state_rate: f64,
+    /// Most remote sessions at once.
+    pub max_clients: usize,
+    /// A silent session is closed after this.
+    pub idle_timeout: Duration,
+    /// Remote clients may send commands.
+    pub allow_command: bool,
+    /// Remote clients may send E-stops.
+    pub allow_estop: bool,
+    /// The state is published.
+    pub publish_state: bool,
+}
+
+/// The bridge's counters (shared with the E-stop callback).
+#[derive(Debug, Default)]
+pub struct BridgeStats {
+    /// States put on the link.
+    pub states: AtomicU64,
+    /// Their payload bytes.
+    pub state_bytes: AtomicU64,
+    /// Commands forwarded to the daemon.
+    pub commands: AtomicU64,
+    /// Commands answered with an error by the link (malformed, stale, busy, full).
+    pub rejected: AtomicU64,
+    /// E-stops relayed.
+    pub estops: AtomicU64,
+}
+
+struct Pending {
+    sequence: u32,
+    query: Query,
+    since: Instant,
+}
+
+struct RemoteSession {
+    client: Client,
+    last_seen: Instant,
+    /// Smallest (link clock − tool clock) seen, ms.
+    offset_ms: Option<i64>,
+    pending: Vec<Pending>,
+}
+
+/// The running bridge.
+pub struct Bridge {
+    settings: LinkSettings,
+    session: zenoh::Session,
+    publisher: Option<zenoh::pubsub::Publisher<'static>>,
+    reader: Client,
+    queries: Receiver<Query>,
+    _command_queryable: Option<zenoh::query::Queryable<()>>,
+    _estop_queryable: Option<zenoh::query::Queryable<()>>,
+    sessions: HashMap<String, RemoteSession>,
+    stats: Arc<BridgeStats>,
+    started: Instant,
+    last_state: Option<StateSnapshot>,
+    last_put: Option<Instant>,
+    command_timeout: Duration,
+    next_node: u64,
+}
+
+/// The access-control list of the link's router: remote clients may do
+/// exactly what the allowlist says, and nothing else (no queryable, no
+/// publication, no subscription elsewhere).
+fn access_control(s: &LinkSettings) -> String {
+    let p = &s.prefix;
+    let mut rules = Vec::new();
+    let mut rule = |id: &str, msg: &str, flow: &str, key: String| {
+        rules.push(serde_json::json!({
+            "id": id, "messages": [msg], "flows": [flow], "permission": "allow", "key_exprs": [key],
+        }));
+    };
+    if s.allow_command {
+        rule(
+            "command-query",
+            "query",
+            "ingress",
+            format!("{p}/command/*"),
+        );
+        rule("command-reply", "reply", "egress", format!("{p}/command/*"));
+    }
+    if s.allow_estop {
+        rule("estop-query", "query", "ingress", format!("{p}/estop"));
+        rule("estop-reply", "reply", "egress", format!("{p}/estop"));
+    }
+    if s.publish_state {
+        rule(
+            "state-subscribe",
+            "declare_subscriber",
+            "ingress",
+            format!("{p}/state"),
+        );
+        rule("state-put", "put", "egress", format!("{p}/state"));
+    }
+    let ids: Vec<_> = rules.iter().map(|r| r["id"].clone()).collect();
+    let policies = if ids.is_empty() {
+        serde_json::json!([])
+    } else {
+        serde_json::json!([{ "id": "remote", "rules": ids, "subjects": ["everyone"] }])
+    };
+    serde_json::json!({
+        "enabled": true,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": [{ "id": "everyone" }],
+        "policies": policies,
+    })
+    .to_string()
+}
+
+fn token_of(prefix: &str, key: &str) -> Option<String> {
+    let t = key.strip_prefix(prefix)?.strip_prefix("/command/")?;
+    (t.len() == 32
+        && t.bytes()
+            .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)))
+    .then(|| t.to_string())
+}
+
+fn monotonic_ms(started: Instant) -> i64 {
+    started.elapsed().as_millis() as i64
+}
+
+fn reply_err(q: &Query, text: &str) {
+    if let Err(e) = q.reply_err(text.to_string()).wait() {
+        tracing::debug!("reply to {}: {e}", q.key_expr());
+    }
+}
+
+impl Bridge {
+    /// Opens the daemon's interface (waits for nothing: fails with
+    /// [`anguilla_ipc::IpcError::NoDaemon`] when no daemon serves the prefix)
+    /// and the Zenoh router on the endpoints.
+    pub fn open(settings: LinkSettings) -> Result<Self, LinkError> {
+        let reader = Client::new(
+            &settings.prefix,
+            &format!("anguilla-link-{}", std::process::id()),
+        )?;
+        let mut config =
+            crate::zenoh_config("router", &settings.listen, true, settings.tls.as_ref())?;
+        let acl = access_control(&settings);
+        config
+            .insert_json5("access_control", &acl)
+            .map_err(|e| LinkError::Zenoh(format!("access control {acl}: {e}")))?;
+        let session = zenoh::open(config).wait().map_err(|e| {
+            LinkError::Zenoh(format!(
+                "listening on {}: {e}",
+                settings
+                    .listen
+                    .iter()
+                    .map(|e| e.text.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })?;
+        let p = settings.prefix.clone();
+        let publisher = if settings.publish_state {
+            Some(
+                session
+                    .declare_publisher(crate::state_key(&p))
+                    .congestion_control(CongestionControl::Drop)
+                    .priority(Priority::DataHigh)
+                    .wait()
+                    .map_err(zenoh_err("state publisher"))?,
+            )
+        } else {
+            None
+        };
+        let stats = Arc::new(BridgeStats::default());
+        let (tx, queries): (SyncSender<Query>, _) = std::sync::mpsc::sync_channel(QUERY_QUEUE);
+        let command_queryable = if settings.allow_command {
+            let st = stats.clone();
+            Some(
+                session
+                    .declare_queryable(format!("{p}/command/*"))
+                    .callback(move |q| match tx.try_send(q) {
+                        Ok(()) => {}
+                        Err(TrySendError::Full(q) | TrySendError::Disconnected(q)) => {
+                            st.rejected.fetch_add(1, Ordering::Relaxed);
+                            reply_err(&q, "the link is busy: command dropped");
+                        }
+                    })
+                    .wait()
+                    .map_err(zenoh_err("command queryable"))?,
+            )
+        } else {
+            None
+        };
+        let estop_queryable = if settings.allow_estop {
+            let st = stats.clone();
+            let prefix = p.clone();
+            Some(
+                session
+                    .declare_queryable(crate::estop_key(&p))
+                    .callback(move |q| {
+                        let text = match anguilla_ipc::estop::send(&prefix) {
+                            Ok(()) => {
+                                st.estops.fetch_add(1, Ordering::Relaxed);
+                                "e-stop relayed to the daemon's e-stop socket".to_string()
+                            }
+                            Err(e) => format!("e-stop NOT relayed: {e}"),
+                        };
+                        tracing::warn!("remote e-stop: {text}");
+                        let r = if text.starts_with("e-stop relayed") {
+                            q.reply(q.key_expr().clone(), text).wait()
+                        } else {
+                            q.reply_err(text).wait()
+                        };
+                        if let Err(e) = r {
+                            tracing::debug!("e-stop reply: {e}");
+                        }
+                    })
+                    .wait()
+                    .map_err(zenoh_err("e-stop queryable"))?,
+            )
+        } else {
+            None
+        };
+        Ok(Self {
+            settings,
+            session,
+            publisher,
+            reader,
+            queries,
+            _command_queryable: command_queryable,
+            _estop_queryable: estop_queryable,
+            sessions: HashMap::new(),
+            stats,
+            started: Instant::now(),
+            last_state: None,
+            last_put: None,
+            command_timeout: Duration::from_millis(500),
+            next_node: 0,
+        })
+    }
+
+    /// The counters.
+    pub fn stats(&self) -> &BridgeStats {
+        &self.stats
+    }
+
+    /// Remote sessions open.
+    pub fn sessions(&self) -> usize {
+        self.sessions.len()
+    }
+
+    /// The Zenoh session (its id, for messages).
+    pub fn zenoh(&self) -> &zenoh::Session {
+        &self.session
+    }
+
+    /// One turn: waits up to `wait` for a query, then forwards queries,
+    /// collects the daemon's replies, publishes the state when due and
+    /// closes idle sessions.
+    pub fn step(&mut self, wait: Duration) -> Result<(), LinkError> {
+        if let Ok(q) = self.queries.recv_timeout(wait) {
+            self.handle(q);
+            while let Ok(q) = self.queries.try_recv() {
+                self.handle(q);
+            }
+        }
+        self.collect()?;
+        self.publish_state()?;
+        self.expire();
+        Ok(())
+    }
+
+    fn publish_state(&mut self) -> Result<(), LinkError> {
+        let Some(s) = self.reader.latest()? else {
+            return Ok(());
+        };
+        self.command_timeout = Duration::from_millis(u64::from(s.limits.command_timeout_ms.max(1)));
+        let changed = self
+            .last_state
+            .is_none_or(|l| l.mode != s.mode || l.cause != s.cause || l.holder() != s.holder());
+        self.last_state = Some(s);
+        let due = self
+            .last_put
+            .is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / self.settings.state_rate);
+        if let Some(p) = &self.publisher
+            && (changed || due)
+        {
+            p.put(s.as_bytes().to_vec())
+                .wait()
+                .map_err(zenoh_err("put state"))?;
+            self.last_put = Some(Instant::now());
+            self.stats.states.fetch_add(1, Ordering::Relaxed);
+            self.stats
+                .state_bytes
+                .fetch_add(s.as_bytes().len() as u64, Ordering::Relaxed);
+        }
+        Ok(())
+    }
+
+    fn reject(&self, q: &Query, why: &str) {
+        self.stats.rejected.fetch_add(1, Ordering::Relaxed);
+        reply_err(q, why);
+    }
+
+    fn handle(&mut self, q: Query) {
+        let key = q.key_expr().as_str().to_string();
+        let Some(token) = token_of(&self.settings.prefix, &key) else {
+            self.reject(
+                &q,
+                &format!(
+                    "key '{key}' is not a command key (expected {}/command/ and 32 lowercase \
+                     hex digits)",
+                    self.settings.prefix
+                ),
+            );
+            return;
+        };
+        let now = Instant::now();
+        if !self.sessions.contains_key(&token) {
+            if self.sessions.len() >= self.settings.max_clients {
+                self.reject(
+                    &q,
+                    &format!(
+                        "the link serves {} remote clients already ([link] max-clients); \
+                         an idle one is closed after {:?}",
+                        self.settings.max_clients, self.settings.idle_timeout
+                    ),
+                );
+                return;
+            }
+            self.next_node += 1;
+            let name = format!("anguilla-link-{}-{}", std::process::id(), self.next_node);
+            match Client::new(&self.settings.prefix, &name) {
+                Ok(client) => {
+                    tracing::info!("remote session {} opened", &token[..8]);
+                    self.sessions.insert(
+                        token.clone(),
+                        RemoteSession {
+                            client,
+                            last_seen: now,
+                            offset_ms: None,
+                            pending: Vec::new(),
+                        },
+                    );
+                }
+                Err(e) => {
+                    self.reject(&q, &format!("the daemon's interface: {e}"));
+                    return;
+                }
+            }
+        }
+        let link_ms = monotonic_ms(self.started);
+        let max_age = self.command_timeout.as_millis() as i64;
+        let Some(sess) = self.sessions.get_mut(&token) else {
+            return;
+        };
+        sess.last_seen = now;
+        // The tool's clock stamp: learn the offset, judge the age.
+        let stamp = q.attachment().and_then(|a| {
+            let b = a.to_bytes();
+            <[u8; 8]>::try_from(&b[..]).ok().map(i64::from_le_bytes)
+        });
+        let mut age_ms = 0;
+        if let Some(tool_ms) = stamp {
+            let d = link_ms - tool_ms;
+            let off = sess.offset_ms.map_or(d, |o| o.min(d));
+            sess.offset_ms = Some(off);
+            age_ms = d - off;
+        }
+        let id = sess.client.id().to_le_bytes();
+        let payload = q
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default();
+        if payload.is_empty() {
+            // A hello: the session's identity.
+            if let Err(e) = q.reply(q.key_expr().clone(), id.to_vec()).wait() {
+                tracing::debug!("hello reply: {e}");
+            }
+            return;
+        }
+        let Some(req) = CommandRequest::from_bytes(&payload) else {
+            let n = payload.len();
+            self.reject(
+                &q,
+                &format!(
+                    "a command is one CommandRequest of {} bytes (docs/ipc.md), not {n} bytes",
+                    size_of::<CommandRequest>()
+                ),
+            );
+            return;
+        };
+        if age_ms > max_age {
+            let why = format!(
+                "command {} is {age_ms} ms old, beyond the daemon's command timeout ({max_age} \
+                 ms): the link or the network stalled; dropped",
+                req.sequence
+            );
+            tracing::warn!("remote session {}: {why}", &token[..8]);
+            self.reject(&q, &why);
+            return;
+        }
+        let Some(sess) = self.sessions.get_mut(&token) else {
+            return;
+        };
+        match sess.client.send_request(req) {
+            Ok(_) => {
+                self.stats.commands.fetch_add(1, Ordering::Relaxed);
+                if sess.pending.len() >= SESSION_PENDING {
+                    let old = sess.pending.remove(0);
+                    reply_err(&old.query, "too many commands in flight: dropped");
+                }
+                sess.pending.push(Pending {
+                    sequence: req.sequence,
+                    query: q,
+                    since: now,
+                });
+            }
+            Err(e) => {
+                self.reject(&q, &format!("forwarding to the daemon: {e}"));
+            }
+        }
+    }
+
+    fn collect(&mut self) -> Result<(), LinkError> {
+        for sess in self.sessions.values_mut() {
+            if sess.pending.is_empty() {
+                continue;
+            }
+            let id = sess.client.id().to_le_bytes();
+            let mut got: Vec<CommandReply> = Vec::new();
+            sess.client.replies(|r| got.push(*r))?;
+            for r in got {
+                if let Some(i) = sess.pending.iter().position(|p| p.sequence == r.sequence) {
+                    let p = sess.pending.remove(i);
+                    let mut bytes = Vec::with_capacity(ID_LEN + size_of::<CommandReply>());
+                    bytes.extend_from_slice(&id);
+                    bytes.extend_from_slice(r.as_bytes());
+                    if let Err(e) = p.query.reply(p.query.key_expr().clone(), bytes).wait() {
+                        tracing::debug!("command reply: {e}");
+                    }
+                }
+            }
+            let now = Instant::now();
+            sess.pending.retain(|p| {
+                let keep = now.duration_since(p.since) < REPLY_TIMEOUT;
+                if !keep {
+                    reply_err(&p.query, "the daemon did not reply in time");
+                }
+                keep
+            });
+        }
+        Ok(())
+    }
+
+    fn expire(&mut self) {
+        let idle = self.settings.idle_timeout;
+        self.sessions.retain(|token, s| {
+            let keep = s.last_seen.elapsed() < idle || !s.pending.is_empty();
+            if !keep {
+                tracing::info!("remote session {} closed: silent for {idle:?}", &token[..8]);
+            }
+            keep
+        });
+    }
+
+    /// Runs until `stop` says so.
+    pub fn run(&mut self, stop: &dyn Fn() -> bool) -> Result<(), LinkError> {
+        while !stop() {
+            self.step(Duration::from_millis(1))?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_are_32_lowercase_hex_digits_under_the_prefix() {
+        let t = "0123456789abcdef0123456789abcdef";
+        assert_eq!(token_of("a/b", &format!("a/b/command/{t}")), Some(t.into()));
+        for bad in [
+            format!("a/command/{t}"),
+            format!("a/b/command/{}", t.to_uppercase()),
+            "a/b/command/0123".to_string(),
+            format!("a/b/command/{t}/x"),
+            "a/b/command/**".to_string(),
+        ] {
+            assert_eq!(token_of("a/b", &bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_access_list_follows_the_allowlist() {
+        let mut s = LinkSettings {
+            prefix: "p".into(),
+            listen: Vec::new(),
+            tls: None,
+            state_rate: 50.0,
+            max_clients: 8,
+            idle_timeout: Duration::from_secs(10),
+            allow_command: false,
+            allow_estop: true,
+            publish_state: true,
+        };
+        let acl = access_control(&s);
+        assert!(acl.contains("\"default_permission\":\"deny\""));
+        assert!(acl.contains("p/estop") && acl.contains("p/state"));
+        assert!(!acl.contains("p/command"), "{acl}");
+        s.allow_command = true;
+        assert!(access_control(&s).contains("p/command/*"));
+    }
+}

@@ -1,0 +1,328 @@
+//! Remote operation of an anguilla daemon over [Zenoh](https://zenoh.io):
+//! the bridge `anguilla link` runs on the tether computer ([`bridge`]), and
+//! the session the operator tools open with `--connect` ([`remote`]). The
+//! real-time daemon never links Zenoh: the link is its own process, an
+//! operator tool of the daemon like any other (iceoryx2, `docs/ipc.md`).
+//!
+//! **Why Zenoh itself.** iceoryx2 0.10's Zenoh tunnel is a prototype that
+//! carries publish-subscribe and events but not request-response, and the
+//! daemon's authority rests on request-response (each client port is one
+//! identity). The `zenoh` crate gives queries with replies, TLS with mutual
+//! authentication and an access-control list in the router, which is what a
+//! remote control needs.
+//!
+//! **The wire** (documented for other Zenoh implementations in
+//! `docs/remote.md`), under the daemon's prefix `P`:
+//!
+//! | key | what | payload |
+//! |---|---|---|
+//! | `P/state` | the link publishes | one `StateSnapshot` (docs/ipc.md layout) |
+//! | `P/command/<token>` | a tool's query, the link's reply | `CommandRequest` → client id (16 bytes, LE) + `CommandReply`; an empty query → the client id |
+//! | `P/estop` | a tool's query, the link's reply | anything → UTF-8 text (relayed to the E-stop socket) |
+//!
+//! A remote tool's identity is its **token**: 128 random bits it draws at
+//! start and keeps secret (TLS on the wire, and the link's access-control
+//! list lets no remote client declare a queryable, so no query reaches
+//! anyone but the link). The link gives each token its own iceoryx2 client
+//! port, so the daemon sees each remote tool as one client, with the same
+//! authority, deadman and E-stop rules as a local one.
+//!
+//! **Security.** Plain `tcp/` only on loopback; any other address needs
+//! `tls/` with the robot's CA ([`certs`]), mutual authentication on. The
+//! router's access-control list allows remote clients exactly the
+//! allowlist's keys (`[link] inbound`, `outbound`), and multicast and
+//! gossip scouting stay off.
+
+#![warn(missing_docs)]
+
+pub mod bridge;
+pub mod certs;
+pub mod remote;
+
+use std::net::IpAddr;
+use std::path::{Path, PathBuf};
+
+pub use bridge::{Bridge, BridgeStats, LinkSettings};
+pub use remote::{RemoteClient, remote_estop};
+
+/// The state's key under `prefix`.
+pub fn state_key(prefix: &str) -> String {
+    format!("{prefix}/state")
+}
+
+/// A remote session's command key under `prefix`.
+pub fn command_key(prefix: &str, token: &str) -> String {
+    format!("{prefix}/command/{token}")
+}
+
+/// The E-stop key under `prefix`.
+pub fn estop_key(prefix: &str) -> String {
+    format!("{prefix}/estop")
+}
+
+/// Bytes of a client id at the head of a command reply.
+pub const ID_LEN: usize = 16;
+
+/// What went wrong setting up or using the link; the text names the
+/// endpoint or the key and what was expected.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// An endpoint is not one the link accepts.
+    #[error("endpoint '{endpoint}': {why}")]
+    Endpoint {
+        /// The endpoint given.
+        endpoint: String,
+        /// What is wrong and what was expected.
+        why: String,
+    },
+    /// A TLS file is missing or unreadable.
+    #[error("TLS {what} '{path}': {why}")]
+    Tls {
+        /// Which file (CA, certificate, key).
+        what: &'static str,
+        /// Its path.
+        path: String,
+        /// The error.
+        why: String,
+    },
+    /// Zenoh refused; the text names the step.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    /// The daemon's interface failed.
+    #[error(transparent)]
+    Ipc(#[from] anguilla_ipc::IpcError),
+    /// Making certificates failed.
+    #[error("certificates: {0}")]
+    Certs(String),
+}
+
+pub(crate) fn zenoh_err<E: std::fmt::Display>(what: &'static str) -> impl Fn(E) -> LinkError {
+    move |e| LinkError::Zenoh(format!("{what}: {e}"))
+}
+
+/// TLS files: the CA that signs both ends, and this end's certificate and key.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Tls {
+    /// The robot's CA certificate (PEM).
+    pub ca: PathBuf,
+    /// This end's certificate (PEM), signed by the CA.
+    pub cert: PathBuf,
+    /// This end's private key (PEM).
+    pub key: PathBuf,
+}
+
+impl Tls {
+    fn check(&self) -> Result<(), LinkError> {
+        for (what, p) in [
+            ("CA certificate", &self.ca),
+            ("certificate", &self.cert),
+            ("key", &self.key),
+        ] {
+            std::fs::metadata(p).map_err(|e| LinkError::Tls {
+                what,
+                path: p.display().to_string(),
+                why: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+}
+
+/// A checked endpoint: its protocol, and whether its address is loopback.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Endpoint {
+    /// As given (`tcp/127.0.0.1:7447`).
+    pub text: String,
+    /// TLS (`tls/`) rather than plain TCP.
+    pub tls: bool,
+}
+
+impl Endpoint {
+    /// Checks `text`: `tcp/HOST:PORT` with a loopback host (`127.0.0.0/8`,
+    /// `::1`, `localhost`), or `tls/HOST:PORT` with any host when `tls` is
+    /// given. Every other form is refused, naming what is expected.
+    pub fn parse(text: &str, tls: Option<&Tls>) -> Result<Self, LinkError> {
+        let bad = |why: String| LinkError::Endpoint {
+            endpoint: text.to_string(),
+            why,
+        };
+        let (proto, addr) = text.split_once('/').ok_or_else(|| {
+            bad(
+                "expected tcp/HOST:PORT (loopback) or tls/HOST:PORT, e.g. tcp/127.0.0.1:7447"
+                    .into(),
+            )
+        })?;
+        if addr.contains('#') || addr.contains('?') {
+            return Err(bad(
+                "endpoint options (#, ?) are not accepted: TLS is set with --ca/--cert/--key or [link]"
+                    .into(),
+            ));
+        }
+        let (host, port) = addr
+            .rsplit_once(':')
+            .ok_or_else(|| bad("expected HOST:PORT after the protocol".into()))?;
+        port.parse::<u16>()
+            .map_err(|_| bad(format!("port '{port}' is not a number 0..=65535")))?;
+        let host = host.trim_start_matches('[').trim_end_matches(']');
+        if host.is_empty() {
+            return Err(bad("the host is empty".into()));
+        }
+        let loopback = host == "localhost" || host.parse::<IpAddr>().is_ok_and(|a| a.is_loopback());
+        match proto {
+            "tcp" if loopback => Ok(Self {
+                text: text.to_string(),
+                tls: false,
+            }),
+            "tcp" => Err(bad(format!(
+                "plain TCP is allowed on loopback only (127.0.0.1, ::1, localhost), and '{host}' \
+                 is not loopback: use tls/{host}:{port} with the robot's CA, certificate and key \
+                 (anguilla link certs makes them)"
+            ))),
+            "tls" => match tls {
+                Some(t) => {
+                    t.check()?;
+                    Ok(Self {
+                        text: text.to_string(),
+                        tls: true,
+                    })
+                }
+                None => Err(bad(
+                    "tls/ needs the robot's CA and this end's certificate and key \
+                     (--ca, --cert, --key; [link] ca, cert, key for the link)"
+                        .into(),
+                )),
+            },
+            other => Err(bad(format!(
+                "protocol '{other}' is not supported (expected tcp on loopback, or tls)"
+            ))),
+        }
+    }
+}
+
+/// A JSON string literal (JSON5 values for Zenoh's configuration).
+fn json(s: &str) -> String {
+    serde_json::Value::String(s.to_string()).to_string()
+}
+
+fn path_json(p: &Path) -> String {
+    json(&p.display().to_string())
+}
+
+/// The Zenoh configuration both ends share: the mode, explicit endpoints
+/// only (no multicast scouting, no gossip), and TLS with mutual
+/// authentication when `tls` is given. `listen` says which side.
+pub(crate) fn zenoh_config(
+    mode: &str,
+    endpoints: &[Endpoint],
+    listen: bool,
+    tls: Option<&Tls>,
+) -> Result<zenoh::Config, LinkError> {
+    let mut c = zenoh::Config::default();
+    let list = serde_json::Value::Array(
+        endpoints
+            .iter()
+            .map(|e| serde_json::Value::String(e.text.clone()))
+            .collect(),
+    )
+    .to_string();
+    let mut set = |k: &str, v: String| {
+        c.insert_json5(k, &v)
+            .map_err(|e| LinkError::Zenoh(format!("configuration {k} = {v}: {e}")))
+    };
+    set("mode", json(mode))?;
+    set("scouting/multicast/enabled", "false".into())?;
+    set("scouting/gossip/enabled", "false".into())?;
+    if listen {
+        set("listen/endpoints", list)?;
+        set("connect/endpoints", "[]".into())?;
+    } else {
+        set("listen/endpoints", "[]".into())?;
+        set("connect/endpoints", list)?;
+        // Wait for the link up to 2 s at open, then fail with a message.
+        set("connect/timeout_ms", "2000".into())?;
+        set("connect/exit_on_failure", "true".into())?;
+    }
+    if let Some(t) = tls {
+        set("transport/link/tls/root_ca_certificate", path_json(&t.ca))?;
+        set("transport/link/tls/enable_mtls", "true".into())?;
+        let (cert, key) = if listen {
+            ("listen_certificate", "listen_private_key")
+        } else {
+            ("connect_certificate", "connect_private_key")
+        };
+        set(&format!("transport/link/tls/{cert}"), path_json(&t.cert))?;
+        set(&format!("transport/link/tls/{key}"), path_json(&t.key))?;
+    }
+    Ok(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plain_tcp_is_loopback_only() {
+        for ok in [
+            "tcp/127.0.0.1:7447",
+            "tcp/127.3.2.1:1",
+            "tcp/[::1]:7447",
+            "tcp/localhost:7447",
+        ] {
+            assert!(Endpoint::parse(ok, None).is_ok(), "{ok}");
+        }
+        for (bad, says) in [
+            ("tcp/0.0.0.0:7447", "loopback only"),
+            ("tcp/192.168.1.5:7447", "loopback only"),
+            ("tcp/[::]:7447", "loopback only"),
+            ("tcp/robot.local:7447", "loopback only"),
+            ("tls/0.0.0.0:7447", "needs the robot's CA"),
+            ("udp/127.0.0.1:7447", "not supported"),
+            ("127.0.0.1:7447", "expected tcp/HOST:PORT"),
+            ("tcp/127.0.0.1", "HOST:PORT"),
+            ("tcp/127.0.0.1:70000", "not a number"),
+            ("tcp/127.0.0.1:7447#iface=lo", "options"),
+        ] {
+            let e = Endpoint::parse(bad, None).unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains(bad), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn tls_needs_its_files() {
+        let t = Tls {
+            ca: "/nonexistent/ca.pem".into(),
+            cert: "/nonexistent/robot.pem".into(),
+            key: "/nonexistent/robot.key".into(),
+        };
+        let e = Endpoint::parse("tls/0.0.0.0:7447", Some(&t))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/nonexistent/ca.pem"), "{e}");
+    }
+
+    #[test]
+    fn the_configuration_has_no_scouting_and_mutual_tls() {
+        let dir = std::env::temp_dir().join(format!("anguilla-link-cfg-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let t = Tls {
+            ca: dir.join("ca.pem"),
+            cert: dir.join("r.pem"),
+            key: dir.join("r.key"),
+        };
+        let e = Endpoint {
+            text: "tls/0.0.0.0:7447".into(),
+            tls: true,
+        };
+        let c = zenoh_config("router", &[e], true, Some(&t)).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&c.to_string()).unwrap();
+        assert_eq!(v["scouting"]["multicast"]["enabled"], false);
+        assert_eq!(v["scouting"]["gossip"]["enabled"], false);
+        assert_eq!(v["transport"]["link"]["tls"]["enable_mtls"], true);
+        assert_eq!(v["listen"]["endpoints"][0], "tls/0.0.0.0:7447");
+        assert_eq!(
+            v["transport"]["link"]["tls"]["root_ca_certificate"],
+            t.ca.display().to_string()
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,379 @@
+//! A tool's session with a remote daemon, through `anguilla link`: the
+//! [`Session`] of `--connect ENDPOINT`.
+//!
+//! The session draws a secret 128-bit token and sends its commands as
+//! queries on `P/command/<token>`; the link forwards them on the token's
+//! own iceoryx2 client, so this tool is one client for the daemon, with its
+//! own authority. A hello (an empty query) every 2 s keeps the link's
+//! session open and learns the client id the daemon knows it by (after a
+//! link restart, a new one). Each query carries the tool's clock in ms (an
+//! 8-byte attachment) so the link can drop a command that a stall made
+//! stale. The state arrives on `P/state`.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
+
+use anguilla_ipc::{CommandReply, CommandRequest, IpcError, Raw as _, Session, StateSnapshot};
+use zenoh::Wait as _;
+use zenoh::qos::{CongestionControl, Priority};
+
+use crate::{Endpoint, ID_LEN, Tls};
+
+/// How long a command query waits for the link's reply.
+const QUERY_TIMEOUT: Duration = Duration::from_secs(2);
+/// How long opening a session waits for the link's first answer.
+const HELLO_TIMEOUT: Duration = Duration::from_secs(3);
+/// How often the session says hello (well within the link's idle timeout).
+const HELLO_PERIOD: Duration = Duration::from_secs(2);
+
+#[derive(Default)]
+struct Inner {
+    state: Option<StateSnapshot>,
+    fresh: bool,
+    state_at: Option<Instant>,
+    replies: VecDeque<CommandReply>,
+    id: u128,
+}
+
+#[derive(Default)]
+struct Shared {
+    inner: Mutex<Inner>,
+    cv: Condvar,
+}
+
+impl Shared {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Inner> {
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+fn random_token() -> Result<String, IpcError> {
+    use std::io::Read as _;
+    let mut b = [0u8; 16];
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut b))
+        .map_err(|e| IpcError::Remote(format!("drawing a session token from /dev/urandom: {e}")))?;
+    Ok(b.iter().map(|x| format!("{x:02x}")).collect())
+}
+
+fn open_session(endpoint: &Endpoint, tls: Option<&Tls>) -> Result<zenoh::Session, IpcError> {
+    let config = crate::zenoh_config("client", std::slice::from_ref(endpoint), false, tls)
+        .map_err(|e| IpcError::Remote(e.to_string()))?;
+    zenoh::open(config).wait().map_err(|e| {
+        IpcError::Remote(format!(
+            "cannot reach a link at {}: {e} (is `anguilla link --listen {}` running there{}?)",
+            endpoint.text,
+            endpoint.text,
+            if endpoint.tls {
+                ", and are this tool's certificate and the link's from the same CA"
+            } else {
+                ""
+            }
+        ))
+    })
+}
+
+fn stamp(started: Instant) -> Vec<u8> {
+    (started.elapsed().as_millis() as i64)
+        .to_le_bytes()
+        .to_vec()
+}
+
+/// Says hello on `key` and waits for the client id.
+fn hello(session: &zenoh::Session, key: &str, started: Instant) -> Result<u128, String> {
+    let replies = session
+        .get(key)
+        .attachment(stamp(started))
+        .timeout(HELLO_TIMEOUT)
+        .wait()
+        .map_err(|e| e.to_string())?;
+    match replies.recv() {
+        Ok(r) => match r.result() {
+            Ok(sample) => {
+                let b = sample.payload().to_bytes();
+                <[u8; ID_LEN]>::try_from(&b[..])
+                    .map(u128::from_le_bytes)
+                    .map_err(|_| format!("the link's hello reply has {} bytes, not 16", b.len()))
+            }
+            Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
+        },
+        Err(_) => Err(format!("no link answered within {HELLO_TIMEOUT:?}")),
+    }
+}
+
+/// A tool's session with a daemon through `anguilla link`.
+pub struct RemoteClient {
+    session: zenoh::Session,
+    prefix: String,
+    endpoint: String,
+    key: String,
+    shared: Arc<Shared>,
+    _state: Option<zenoh::pubsub::Subscriber<()>>,
+    started: Instant,
+    sequence: u32,
+    pending: Vec<(u32, Instant)>,
+    stop: Arc<AtomicBool>,
+    keepalive: Option<std::thread::JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for RemoteClient {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RemoteClient")
+            .field("endpoint", &self.endpoint)
+            .field("prefix", &self.prefix)
+            .finish()
+    }
+}
+
+impl RemoteClient {
+    /// Connects through the link at `endpoint` to the daemon at `prefix`.
+    /// With `commands`, opens a command session with the link (and fails
+    /// when no link answers); without, only reads the state (a monitor).
+    pub fn connect(
+        prefix: &str,
+        endpoint: &Endpoint,
+        tls: Option<&Tls>,
+        commands: bool,
+    ) -> Result<Self, IpcError> {
+        if !anguilla_ipc::valid_prefix(prefix) {
+            return Err(IpcError::BadPrefix(prefix.to_string()));
+        }
+        let session = open_session(endpoint, tls)?;
+        let shared = Arc::new(Shared::default());
+        let sh = shared.clone();
+        let state = session
+            .declare_subscriber(crate::state_key(prefix))
+            .callback(move |sample| {
+                let b = sample.payload().to_bytes();
+                // A payload of another size (another layout) is not a state.
+                if let Some(s) = StateSnapshot::from_bytes(&b) {
+                    let mut i = sh.lock();
+                    i.state = Some(s);
+                    i.fresh = true;
+                    i.state_at = Some(Instant::now());
+                    drop(i);
+                    sh.cv.notify_all();
+                }
+            })
+            .wait()
+            .map_err(|e| IpcError::Remote(format!("subscribing to the state: {e}")))?;
+        let token = random_token()?;
+        let key = crate::command_key(prefix, &token);
+        let started = Instant::now();
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut keepalive = None;
+        if commands {
+            let id = hello(&session, &key, started).map_err(|e| {
+                IpcError::Remote(format!(
+                    "the link at {} (prefix '{prefix}'): {e}",
+                    endpoint.text
+                ))
+            })?;
+            shared.lock().id = id;
+            let (s, k, sh, st) = (session.clone(), key.clone(), shared.clone(), stop.clone());
+            keepalive = Some(std::thread::spawn(move || {
+                let mut next = Instant::now() + HELLO_PERIOD;
+                while !st.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(50));
+                    if Instant::now() < next {
+                        continue;
+                    }
+                    next = Instant::now() + HELLO_PERIOD;
+                    if let Ok(id) = hello(&s, &k, started) {
+                        sh.lock().id = id;
+                    }
+                }
+            }));
+        }
+        Ok(Self {
+            session,
+            prefix: prefix.to_string(),
+            endpoint: endpoint.text.clone(),
+            key,
+            shared,
+            _state: Some(state),
+            started,
+            sequence: 0,
+            pending: Vec::new(),
+            stop,
+            keepalive,
+        })
+    }
+}
+
+impl Drop for RemoteClient {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(k) = self.keepalive.take() {
+            let _ = k.join();
+        }
+    }
+}
+
+/// Sends an E-stop through the link's E-stop key and waits for the link to
+/// say it relayed it to the daemon's E-stop socket.
+pub fn estop_through(session: &zenoh::Session, prefix: &str) -> Result<(), IpcError> {
+    let replies = session
+        .get(crate::estop_key(prefix))
+        .payload(b"estop".to_vec())
+        .congestion_control(CongestionControl::Block)
+        .priority(Priority::RealTime)
+        .timeout(Duration::from_secs(1))
+        .wait()
+        .map_err(|e| IpcError::Remote(format!("e-stop query: {e}")))?;
+    match replies.recv() {
+        Ok(r) => match r.result() {
+            Ok(_) => Ok(()),
+            Err(e) => Err(IpcError::Remote(
+                String::from_utf8_lossy(&e.payload().to_bytes()).into_owned(),
+            )),
+        },
+        Err(_) => Err(IpcError::Remote(
+            "no link relayed the e-stop within 1 s".into(),
+        )),
+    }
+}
+
+/// An E-stop through the link at `endpoint` on its own Zenoh session: the
+/// path no session limit blocks (`ctl estop --connect`).
+pub fn remote_estop(prefix: &str, endpoint: &Endpoint, tls: Option<&Tls>) -> Result<(), IpcError> {
+    let session = open_session(endpoint, tls)?;
+    estop_through(&session, prefix)
+}
+
+impl Session for RemoteClient {
+    fn id(&self) -> u128 {
+        self.shared.lock().id
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "prefix '{}' through the link at {}",
+            self.prefix, self.endpoint
+        )
+    }
+
+    fn provenance_problem(&self) -> Option<String> {
+        let at = self.shared.lock().state_at;
+        match at {
+            Some(t) if t.elapsed() > Duration::from_secs(2) => Some(format!(
+                "no state through the link at {} for {:.1} s",
+                self.endpoint,
+                t.elapsed().as_secs_f64()
+            )),
+            _ => None,
+        }
+    }
+
+    fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError> {
+        let sh = self.shared.clone();
+        self.session
+            .get(&self.key)
+            .payload(req.as_bytes().to_vec())
+            .attachment(stamp(self.started))
+            .congestion_control(CongestionControl::Block)
+            .priority(Priority::InteractiveHigh)
+            .timeout(QUERY_TIMEOUT)
+            .callback(move |reply| {
+                let mut i = sh.lock();
+                let mode = i.state.map_or(0, |s| s.mode);
+                let r = match reply.result() {
+                    Ok(sample) => {
+                        let b = sample.payload().to_bytes();
+                        if b.len() > ID_LEN
+                            && let Some(r) = CommandReply::from_bytes(&b[ID_LEN..])
+                        {
+                            let mut id = [0u8; ID_LEN];
+                            id.copy_from_slice(&b[..ID_LEN]);
+                            i.id = u128::from_le_bytes(id);
+                            r
+                        } else {
+                            CommandReply::refused(
+                                &req,
+                                mode,
+                                &format!(
+                                    "the link's reply has {} bytes (another version?)",
+                                    b.len()
+                                ),
+                            )
+                        }
+                    }
+                    Err(e) => CommandReply::refused(
+                        &req,
+                        mode,
+                        &format!("link: {}", String::from_utf8_lossy(&e.payload().to_bytes())),
+                    ),
+                };
+                i.replies.push_back(r);
+                drop(i);
+                sh.cv.notify_all();
+            })
+            .wait()
+            .map_err(|e| IpcError::Remote(format!("sending through {}: {e}", self.endpoint)))?;
+        self.pending.push((req.sequence, Instant::now()));
+        Ok(req.sequence)
+    }
+
+    fn replies(&mut self, f: &mut dyn FnMut(&CommandReply)) -> Result<(), IpcError> {
+        let got: Vec<CommandReply> = self.shared.lock().replies.drain(..).collect();
+        for r in &got {
+            if let Some(i) = self.pending.iter().position(|(s, _)| *s == r.sequence) {
+                self.pending.swap_remove(i);
+            }
+            f(r);
+        }
+        Ok(())
+    }
+
+    fn awaiting(&self) -> usize {
+        self.pending
+            .iter()
+            .filter(|(_, t)| t.elapsed() < QUERY_TIMEOUT)
+            .count()
+    }
+
+    fn wait_any(&mut self, timeout: Duration) -> Result<(), IpcError> {
+        self.pending.retain(|(_, t)| t.elapsed() < QUERY_TIMEOUT);
+        let i = self.shared.lock();
+        if timeout.is_zero() || i.fresh || !i.replies.is_empty() {
+            return Ok(());
+        }
+        let _ = self.shared.cv.wait_timeout(i, timeout);
+        Ok(())
+    }
+
+    fn latest(&mut self) -> Result<Option<StateSnapshot>, IpcError> {
+        let mut i = self.shared.lock();
+        Ok(std::mem::take(&mut i.fresh).then_some(i.state).flatten())
+    }
+
+    fn wait_state(&mut self, timeout: Duration) -> Result<Option<StateSnapshot>, IpcError> {
+        let deadline = Instant::now() + timeout;
+        let mut i = self.shared.lock();
+        while !i.fresh {
+            let now = Instant::now();
+            if now >= deadline {
+                return Ok(None);
+            }
+            i = self
+                .shared
+                .cv
+                .wait_timeout(i, deadline - now)
+                .map(|(g, _)| g)
+                .unwrap_or_else(|p| p.into_inner().0);
+        }
+        i.fresh = false;
+        Ok(i.state)
+    }
+
+    fn estop_out_of_band(&mut self) -> Result<(), IpcError> {
+        estop_through(&self.session, &self.prefix)
+    }
+
+    fn next_sequence(&mut self) -> u32 {
+        self.sequence = self.sequence.wrapping_add(1);
+        self.sequence
+    }
+}

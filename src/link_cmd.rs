@@ -1,0 +1,186 @@
+//! `anguilla link`: remote operation over Zenoh (issue 18). Its own
+//! process on the tether computer, an operator tool of the daemon like any
+//! other (iceoryx2), bridging the daemon's state, commands and E-stop to
+//! Zenoh (`anguilla_link::bridge`), so the real-time daemon never runs a
+//! network stack. `anguilla link certs` makes the robot's small CA.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anguilla_link::{Bridge, Endpoint, LinkSettings, Tls};
+use anyhow::Context as _;
+
+use crate::teleop_cmd::PrefixArgs;
+
+/// Arguments of `anguilla link`.
+#[derive(clap::Args, Debug)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    after_help = "Operators reach the daemon with `anguilla teleop|joy|monitor|ctl --connect \
+    ENDPOINT` (and --ca/--cert/--key for tls/). Plain tcp/ is accepted on loopback only; every \
+    other address needs tls/ with mutual authentication. docs/remote.md has the setup for a robot \
+    and two laptops."
+)]
+pub struct LinkArgs {
+    #[command(subcommand)]
+    cmd: Option<LinkCmd>,
+    #[command(flatten)]
+    at: PrefixArgs,
+    /// Listen on this Zenoh endpoint (repeatable; overrides [link] listen):
+    /// tcp/127.0.0.1:7447 (loopback), tls/0.0.0.0:7447.
+    #[arg(long, value_name = "ENDPOINT")]
+    listen: Vec<String>,
+    /// The robot's CA certificate (PEM; overrides [link] ca).
+    #[arg(long, value_name = "FILE")]
+    ca: Option<PathBuf>,
+    /// The robot's certificate (PEM; overrides [link] cert).
+    #[arg(long, value_name = "FILE")]
+    cert: Option<PathBuf>,
+    /// The robot's private key (PEM; overrides [link] key).
+    #[arg(long, value_name = "FILE")]
+    key: Option<PathBuf>,
+    /// Most states a second on the link (overrides [link] state-rate).
+    #[arg(long, value_name = "HZ")]
+    state_rate: Option<f64>,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+}
+
+/// `anguilla link` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum LinkCmd {
+    /// Make the robot's CA, the robot's certificate and one certificate per
+    /// operator in DIR (never overwriting a file).
+    Certs {
+        /// Where to write them.
+        dir: PathBuf,
+        /// A name or address operators use to reach the robot (repeatable):
+        /// robot.local, 192.168.1.10.
+        #[arg(long = "robot-name", value_name = "NAME", required = true)]
+        robot_names: Vec<String>,
+        /// An operator to make a certificate for (repeatable).
+        #[arg(long = "operator", value_name = "NAME")]
+        operators: Vec<String>,
+    },
+}
+
+/// Runs `anguilla link`.
+pub fn run(args: LinkArgs) -> anyhow::Result<()> {
+    if let Some(LinkCmd::Certs {
+        dir,
+        robot_names,
+        operators,
+    }) = &args.cmd
+    {
+        let made = anguilla_link::certs::make(dir, robot_names, operators)?;
+        for f in &made.files {
+            crate::output::write_fmt(format_args!("{}\n", f.display()))?;
+        }
+        return Ok(());
+    }
+    let cfg = args.at.config()?;
+    let prefix = args.at.prefix()?;
+    let l = &cfg.link;
+    let pick = |flag: &Option<PathBuf>, key: &str| {
+        flag.clone()
+            .or_else(|| (!key.is_empty()).then(|| PathBuf::from(key)))
+    };
+    let tls = match (
+        pick(&args.ca, &l.ca),
+        pick(&args.cert, &l.cert),
+        pick(&args.key, &l.key),
+    ) {
+        (Some(ca), Some(cert), Some(key)) => Some(Tls { ca, cert, key }),
+        (None, None, None) => None,
+        _ => anyhow::bail!(
+            "the CA, the certificate and the key go together (--ca, --cert, --key or [link] ca, \
+             cert, key): give all three for TLS"
+        ),
+    };
+    let texts = if args.listen.is_empty() {
+        l.listen.clone()
+    } else {
+        args.listen.clone()
+    };
+    let listen = texts
+        .iter()
+        .map(|t| Endpoint::parse(t, tls.as_ref()))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| anyhow::anyhow!("--listen {e}"))?;
+    let state_rate = args.state_rate.unwrap_or(l.state_rate);
+    anyhow::ensure!(
+        state_rate.is_finite() && (0.1..=1000.0).contains(&state_rate),
+        "--state-rate {state_rate} is invalid (expected 0.1 ..= 1000 states a second)"
+    );
+    if let Some(d) = args.duration {
+        anyhow::ensure!(
+            d.is_finite() && d > 0.0,
+            "--duration {d} is invalid (expected seconds > 0)"
+        );
+    }
+    let settings = LinkSettings {
+        prefix: prefix.clone(),
+        listen,
+        tls,
+        state_rate,
+        max_clients: l.max_clients as usize,
+        idle_timeout: Duration::from_secs_f64(l.idle_timeout),
+        allow_command: l.inbound.iter().any(|n| n == "command"),
+        allow_estop: l.inbound.iter().any(|n| n == "estop"),
+        publish_state: l.outbound.iter().any(|n| n == "state"),
+    };
+    crate::signals::install();
+    let start = Instant::now();
+    let running = || {
+        !crate::signals::requested()
+            && args
+                .duration
+                .is_none_or(|d| start.elapsed().as_secs_f64() < d)
+    };
+    // The link may start before the daemon: ask again every half second.
+    let mut next = anguilla_daemon::rt::monotonic_ns();
+    let mut said = false;
+    let mut bridge = loop {
+        match Bridge::open(settings.clone()) {
+            Ok(b) => break b,
+            Err(anguilla_link::LinkError::Ipc(e)) if running() => {
+                if !said {
+                    eprintln!("anguilla link: waiting for the daemon ({e})");
+                    said = true;
+                }
+                next += 500_000_000;
+                crate::signals::sleep_until_ns(next);
+            }
+            Err(e) => {
+                return Err(e).with_context(|| format!("starting the link for prefix '{prefix}'"));
+            }
+        }
+    };
+    eprintln!(
+        "anguilla link: prefix '{prefix}' on {} ({}; state at most {state_rate} Hz; \
+         inbound {:?}, outbound {:?})",
+        texts.join(", "),
+        if settings.tls.is_some() {
+            "TLS, mutual authentication"
+        } else {
+            "plain TCP, loopback"
+        },
+        l.inbound,
+        l.outbound,
+    );
+    bridge.run(&|| !running())?;
+    let st = bridge.stats();
+    use std::sync::atomic::Ordering::Relaxed;
+    let secs = start.elapsed().as_secs_f64().max(1e-9);
+    eprintln!(
+        "anguilla link: stopped after {secs:.1} s: {} states ({:.0} payload bytes/s), {} commands \
+         forwarded, {} rejected, {} e-stops relayed",
+        st.states.load(Relaxed),
+        st.state_bytes.load(Relaxed) as f64 / secs,
+        st.commands.load(Relaxed),
+        st.rejected.load(Relaxed),
+        st.estops.load(Relaxed),
+    );
+    Ok(())
+}
