@@ -222,6 +222,33 @@ pub mod process {
         )
     }
 
+    /// `anguilla run` (the built-in robot) serving `prefix`, with more
+    /// configuration (`extra`, TOML after `[ipc]`), once `ctl status`
+    /// answers; `tag` names its temporary configuration file.
+    pub fn daemon_with(prefix: &str, tag: &str, extra: &str) -> Killed {
+        let config =
+            std::env::temp_dir().join(format!("anguilla-{tag}-{}.toml", std::process::id()));
+        std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n{extra}")).unwrap();
+        let d = Killed(
+            std::process::Command::new(anguilla_bin())
+                .args(["run", "--quiet", "--config"])
+                .arg(&config)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .unwrap(),
+        );
+        poll_until("the daemon up", Duration::from_secs(20), || {
+            let o = std::process::Command::new(anguilla_bin())
+                .args(["ctl", "--prefix", prefix, "status"])
+                .output()
+                .ok()?;
+            (o.status.code() == Some(0)).then_some(())
+        });
+        let _ = std::fs::remove_file(&config);
+        d
+    }
+
     /// A child process killed (and reaped) when dropped.
     #[derive(Debug)]
     pub struct Killed(pub Child);

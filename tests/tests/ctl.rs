@@ -6,7 +6,7 @@ use std::process::{Command as Proc, Output, Stdio};
 use std::time::Duration;
 
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{Killed, anguilla_bin, poll_until};
+use anguilla_system_tests::process::{Killed, anguilla_bin, daemon_with, poll_until};
 
 fn ctl(prefix: &str, args: &[&str]) -> Output {
     Proc::new(anguilla_bin())
@@ -25,29 +25,8 @@ fn text(o: &Output) -> String {
     )
 }
 
-/// `anguilla run` (the built-in robot) serving `prefix`, once it answers.
 fn daemon(prefix: &str, tag: &str) -> Killed {
     daemon_with(prefix, tag, "")
-}
-
-/// [`daemon`] with more configuration (`extra`, TOML after `[ipc]`).
-fn daemon_with(prefix: &str, tag: &str, extra: &str) -> Killed {
-    let config = std::env::temp_dir().join(format!("anguilla-{tag}-{}.toml", std::process::id()));
-    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n{extra}")).unwrap();
-    let d = Killed(
-        Proc::new(anguilla_bin())
-            .args(["run", "--quiet", "--config"])
-            .arg(&config)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    poll_until("the daemon up", Duration::from_secs(20), || {
-        (ctl(prefix, &["status"]).status.code() == Some(0)).then_some(())
-    });
-    let _ = std::fs::remove_file(&config);
-    d
 }
 
 #[test]

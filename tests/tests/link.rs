@@ -1,0 +1,482 @@
+//! Remote operation through `anguilla link` on loopback: the daemon (the
+//! built-in robot), the link, and remote tools, each its own process or
+//! Zenoh session, every one bounded in time. What a remote tool must get is
+//! what a local one gets: its own authority, the deadman, the E-stop; and
+//! what a stranger or a stall must not get.
+
+use std::net::TcpListener;
+use std::process::{Command as Proc, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use anguilla_ipc::{Cause, Client, Command, Mode, Session, StateSnapshot, SwimParams};
+use anguilla_link::{Endpoint, RemoteClient, Tls};
+use anguilla_system_tests::Watchdog;
+use anguilla_system_tests::process::{Killed, anguilla_bin, daemon_with, poll_until};
+
+/// A free loopback port (bound, then let go).
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn tcp(port: u16) -> Endpoint {
+    Endpoint::parse(&format!("tcp/127.0.0.1:{port}"), None).unwrap()
+}
+
+/// `anguilla link` for `prefix` with `args`, once a remote session answers
+/// through it.
+fn link(prefix: &str, args: &[&str], endpoint: &Endpoint, tls: Option<&Tls>) -> Killed {
+    let l = Killed(
+        Proc::new(anguilla_bin())
+            .args(["link", "--prefix", prefix])
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    poll_until("the link answering", Duration::from_secs(20), || {
+        RemoteClient::connect(prefix, endpoint, tls, true).ok()
+    });
+    l
+}
+
+fn remote(prefix: &str, endpoint: &Endpoint) -> RemoteClient {
+    RemoteClient::connect(prefix, endpoint, None, true).expect("a remote session")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "status {:?}; stdout {}; stderr {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn ok(s: &mut dyn Session, cmd: Command) {
+    let r = s.request(cmd, Duration::from_secs(3)).expect("a reply");
+    assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
+}
+
+/// The next state satisfying `f` within `timeout`, read by `s` (keeping
+/// nothing alive).
+fn until(
+    s: &mut dyn Session,
+    what: &str,
+    timeout: Duration,
+    f: impl Fn(&StateSnapshot) -> bool,
+) -> StateSnapshot {
+    let end = Instant::now() + timeout;
+    let mut last = None;
+    while Instant::now() < end {
+        if let Ok(Some(st)) = s.wait_state(Duration::from_millis(50)) {
+            if f(&st) {
+                return st;
+            }
+            last = Some(st.mode);
+        }
+    }
+    panic!("{what}: not within {timeout:?} (last mode {last:?})");
+}
+
+const SWIM: SwimParams = SwimParams {
+    amplitude: 0.5,
+    frequency: 1.0,
+    turn: 0.0,
+    pitch: 0.0,
+};
+
+/// Swims `s` (holding control) for `secs`, resending the swim every 100 ms.
+fn swim_for(s: &mut dyn Session, secs: f64) {
+    let end = Instant::now() + Duration::from_secs_f64(secs);
+    while Instant::now() < end {
+        let _ = s.send(Command::Swim(SWIM));
+        let _ = s.replies(&mut |_| {});
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn remote_tools_monitor_enable_swim_and_estop_through_the_link() {
+    let _dog = Watchdog::new("link-tools", Duration::from_secs(180));
+    let prefix = format!("anguilla-link/tools-{}", std::process::id());
+    let port = free_port();
+    let ep = tcp(port);
+    let _d = daemon_with(&prefix, "link-tools", "");
+    let listen = ep.text.clone();
+    let _l = link(&prefix, &["--listen", &listen], &ep, None);
+    let tool = |args: &[&str]| {
+        Proc::new(anguilla_bin())
+            .arg(args[0])
+            .args(["--prefix", &prefix, "--connect", &listen])
+            .args(&args[1..])
+            .output()
+            .unwrap()
+    };
+    let o = tool(&["monitor", "--json", "--count", "3"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 3, "{}", text(&o));
+    assert!(lines[2]["sequence"].as_u64() > lines[0]["sequence"].as_u64());
+    let o = tool(&["ctl", "enable"]);
+    assert!(text(&o).contains("done: ready"), "{}", text(&o));
+    let o = tool(&[
+        "ctl",
+        "swim",
+        "--amplitude",
+        "0.5",
+        "--frequency",
+        "1",
+        "--for",
+        "1.5",
+    ]);
+    assert!(text(&o).contains("done: ready"), "{}", text(&o));
+    let mut local = Client::new(&prefix, "link-tools-observer").unwrap();
+    let o = tool(&["ctl", "estop"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("on the link's e-stop key and as a command"),
+        "{}",
+        text(&o)
+    );
+    let s = until(&mut local, "e-stop latched", Duration::from_secs(2), |s| {
+        s.mode == Mode::EStop as u8
+    });
+    assert!(s.socket_estops >= 1, "the link relayed it to the socket");
+    // Latched: it stays until a reset.
+    std::thread::sleep(Duration::from_millis(300));
+    let s = local.wait_state(Duration::from_secs(1)).unwrap().unwrap();
+    assert_eq!(s.mode, Mode::EStop as u8);
+    let o = tool(&["ctl", "reset"]);
+    assert!(text(&o).contains("done: idle"), "{}", text(&o));
+}
+
+#[test]
+fn two_remote_clients_are_two_clients_for_the_daemon() {
+    let _dog = Watchdog::new("link-two", Duration::from_secs(120));
+    let prefix = format!("anguilla-link/two-{}", std::process::id());
+    let ep = tcp(free_port());
+    let _d = daemon_with(&prefix, "link-two", "");
+    let _l = link(&prefix, &["--listen", &ep.text], &ep, None);
+    let mut a = remote(&prefix, &ep);
+    let mut b = remote(&prefix, &ep);
+    assert!(a.id() != 0 && b.id() != 0 && a.id() != b.id());
+    ok(&mut a, Command::TakeControl);
+    let r = b
+        .request(Command::TakeControl, Duration::from_secs(3))
+        .unwrap();
+    assert_eq!(r.accepted, 0);
+    assert!(
+        r.reason().contains(&format!("{:032x}", a.id())),
+        "{}",
+        r.reason()
+    );
+    let r = b.request(Command::Enable, Duration::from_secs(3)).unwrap();
+    assert_eq!(r.accepted, 0);
+    assert!(
+        r.reason().contains(&format!("{:032x}", a.id())),
+        "{}",
+        r.reason()
+    );
+    let a_id = a.id();
+    until(&mut b, "a holds control", Duration::from_secs(2), |s| {
+        s.holder() == Some(a_id)
+    });
+    ok(&mut a, Command::Enable);
+    until(&mut a, "ready", Duration::from_secs(10), |s| {
+        s.mode == Mode::Ready as u8
+    });
+    // Any remote client's E-stop goes through, holder or not.
+    ok(&mut b, Command::EStop);
+    until(&mut a, "e-stop", Duration::from_secs(2), |s| {
+        s.mode == Mode::EStop as u8
+    });
+    let r = b.request(Command::Reset, Duration::from_secs(3)).unwrap();
+    assert_eq!(r.accepted, 0, "only the holder resets");
+    ok(&mut a, Command::Reset);
+    ok(&mut a, Command::ReleaseControl);
+    ok(&mut b, Command::TakeControl);
+    let b_id = b.id();
+    until(&mut a, "b holds control", Duration::from_secs(2), |s| {
+        s.holder() == Some(b_id)
+    });
+}
+
+fn signal(child: &Killed, sig: libc::c_int) {
+    // SAFETY: kill(2) on our own child's pid.
+    assert_eq!(unsafe { libc::kill(child.0.id() as libc::pid_t, sig) }, 0);
+}
+
+/// The remote `a` swims; returns once the daemon reports it swimming.
+fn start_swim(a: &mut RemoteClient, observer: &mut Client) {
+    ok(a, Command::TakeControl);
+    ok(a, Command::Enable);
+    until(observer, "ready", Duration::from_secs(10), |s| {
+        s.mode == Mode::Ready as u8
+    });
+    ok(a, Command::Swim(SWIM));
+    swim_for(a, 1.0);
+    until(observer, "swimming", Duration::from_secs(2), |s| {
+        s.mode == Mode::Swimming as u8
+    });
+}
+
+/// While `a` sends its swim for `sending` (it does not know the link is
+/// gone), the observer sees the swim end for a silent operator within the
+/// command timeout (plus the margin of a state period and the loop's wake),
+/// then the smooth stop reach ready. Returns how long the swim lasted.
+fn stops_smoothly(
+    a: &mut RemoteClient,
+    observer: &mut Client,
+    timeout: Duration,
+    sending: Duration,
+) -> Duration {
+    let t0 = Instant::now();
+    let mut saw_stopping = false;
+    let mut left_swimming = None;
+    while t0.elapsed() < Duration::from_secs(6) {
+        if t0.elapsed() < sending {
+            let _ = a.send(Command::Swim(SWIM));
+        }
+        let _ = a.replies(&mut |_| {});
+        if let Ok(Some(s)) = observer.wait_state(Duration::from_millis(50)) {
+            if s.mode != Mode::Swimming as u8 && left_swimming.is_none() {
+                left_swimming = Some(t0.elapsed());
+                assert_eq!(s.cause, Cause::OperatorSilent as u8, "mode {}", s.mode);
+            }
+            saw_stopping |= s.mode == Mode::Stopping as u8;
+            if s.mode == Mode::Ready as u8 {
+                break;
+            }
+        }
+    }
+    let left = left_swimming.expect("the swim ended");
+    assert!(saw_stopping, "a smooth stop, through stopping");
+    assert!(
+        left <= timeout + Duration::from_millis(300),
+        "swim ended {left:?} after the link went silent (timeout {timeout:?})"
+    );
+    left
+}
+
+#[test]
+fn a_stalled_or_killed_link_is_a_silent_operator_and_recovers() {
+    let _dog = Watchdog::new("link-stall", Duration::from_secs(180));
+    let prefix = format!("anguilla-link/stall-{}", std::process::id());
+    let ep = tcp(free_port());
+    let _d = daemon_with(&prefix, "link-stall", "");
+    let mut observer = Client::new(&prefix, "link-stall-observer").unwrap();
+    let timeout = Duration::from_millis(u64::from(
+        observer
+            .wait_state(Duration::from_secs(2))
+            .unwrap()
+            .unwrap()
+            .limits
+            .command_timeout_ms,
+    ));
+    let l = link(&prefix, &["--listen", &ep.text], &ep, None);
+    let mut a = remote(&prefix, &ep);
+    start_swim(&mut a, &mut observer);
+
+    // SIGSTOP: the link is alive but silent. The operator's tool sends its
+    // swim for 0.3 s more, then gives up.
+    signal(&l, libc::SIGSTOP);
+    let took = stops_smoothly(&mut a, &mut observer, timeout, Duration::from_millis(300));
+    eprintln!("link stopped: swim ended {took:?} later (command timeout {timeout:?})");
+    // The commands queued during the stall are seconds old when the link
+    // resumes: dropped, not replayed. The robot stays at rest until the
+    // operator swims anew.
+    signal(&l, libc::SIGCONT);
+    std::thread::sleep(Duration::from_millis(700));
+    let s = observer
+        .wait_state(Duration::from_secs(1))
+        .unwrap()
+        .unwrap();
+    assert_eq!(s.mode, Mode::Ready as u8, "no stale swim replayed");
+    // A silent holder's control lapsed with the swim: take it again.
+    ok(&mut a, Command::TakeControl);
+    ok(&mut a, Command::Swim(SWIM));
+    swim_for(&mut a, 0.5);
+    until(
+        &mut observer,
+        "swimming again",
+        Duration::from_secs(2),
+        |s| s.mode == Mode::Swimming as u8,
+    );
+
+    // SIGKILL: the link's nodes die with it; the holder is released.
+    let a_id = a.id();
+    drop(l);
+    let took = stops_smoothly(&mut a, &mut observer, timeout, Duration::from_secs(6));
+    eprintln!("link killed: swim ended {took:?} later");
+    until(
+        &mut observer,
+        "control released",
+        Duration::from_secs(5),
+        |s| s.holder().is_none(),
+    );
+    // A new link on the same endpoint: the remote session reconnects by
+    // itself, is a new client, and can take control again.
+    let _l2 = link(&prefix, &["--listen", &ep.text], &ep, None);
+    poll_until("the remote session back", Duration::from_secs(20), || {
+        let r = a
+            .request(Command::TakeControl, Duration::from_secs(1))
+            .ok()?;
+        (r.accepted == 1).then_some(())
+    });
+    assert_ne!(a.id(), a_id, "a new client port after the link restarted");
+}
+
+#[test]
+fn tls_admits_the_robots_operators_only() {
+    let _dog = Watchdog::new("link-tls", Duration::from_secs(120));
+    let prefix = format!("anguilla-link/tls-{}", std::process::id());
+    let base = std::env::temp_dir().join(format!("anguilla-link-tls-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let (ours, theirs) = (base.join("robot"), base.join("foreign"));
+    for (dir, op) in [(&ours, "alice"), (&theirs, "mallory")] {
+        let o = Proc::new(anguilla_bin())
+            .args(["link", "certs"])
+            .arg(dir)
+            .args(["--robot-name", "localhost", "--robot-name", "127.0.0.1"])
+            .args(["--operator", op])
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    let port = free_port();
+    // Plain TCP beyond loopback is refused at start-up, naming why.
+    let o = Proc::new(anguilla_bin())
+        .args(["link", "--prefix", &prefix, "--listen"])
+        .arg(format!("tcp/0.0.0.0:{port}"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("loopback only"), "{}", text(&o));
+
+    let _d = daemon_with(&prefix, "link-tls", "");
+    let files = |dir: &std::path::Path, who: &str| Tls {
+        ca: dir.join("ca.pem"),
+        cert: dir.join(format!("{who}.pem")),
+        key: dir.join(format!("{who}.key")),
+    };
+    let alice = files(&ours, "alice");
+    let robot = files(&ours, "robot");
+    let ep = Endpoint::parse(&format!("tls/127.0.0.1:{port}"), Some(&alice)).unwrap();
+    let args: Vec<String> = vec![
+        "--listen".into(),
+        ep.text.clone(),
+        "--ca".into(),
+        robot.ca.display().to_string(),
+        "--cert".into(),
+        robot.cert.display().to_string(),
+        "--key".into(),
+        robot.key.display().to_string(),
+    ];
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let _l = link(&prefix, &args, &ep, Some(&alice));
+    let mut a = RemoteClient::connect(&prefix, &ep, Some(&alice), true).unwrap();
+    ok(&mut a, Command::TakeControl);
+    assert!(a.wait_state(Duration::from_secs(2)).unwrap().is_some());
+    // Mallory trusts the robot's CA, but her certificate is another CA's.
+    let mallory = Tls {
+        ca: ours.join("ca.pem"),
+        ..files(&theirs, "mallory")
+    };
+    let e = RemoteClient::connect(&prefix, &ep, Some(&mallory), true).unwrap_err();
+    assert!(e.to_string().contains("cannot reach a link"), "{e}");
+    // No certificate at all: plain TCP to the TLS port.
+    let plain = tcp(port);
+    assert!(RemoteClient::connect(&prefix, &plain, None, true).is_err());
+    let _ = std::fs::remove_dir_all(&base);
+}
+
+#[test]
+fn a_hostile_remote_cannot_intercept_commands_or_forge_state() {
+    use zenoh::Wait as _;
+    let _dog = Watchdog::new("link-hostile", Duration::from_secs(120));
+    let prefix = format!("anguilla-link/hostile-{}", std::process::id());
+    let ep = tcp(free_port());
+    let _d = daemon_with(&prefix, "link-hostile", "");
+    let _l = link(&prefix, &["--listen", &ep.text], &ep, None);
+    // The attacker: a plain Zenoh client on the same link.
+    let mut c = zenoh::Config::default();
+    c.insert_json5("mode", "\"client\"").unwrap();
+    c.insert_json5("connect/endpoints", &format!("[\"{}\"]", ep.text))
+        .unwrap();
+    c.insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    let z = zenoh::open(c).wait().unwrap();
+    let stolen = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let st = stolen.clone();
+    let _q = z
+        .declare_queryable(format!("{prefix}/command/**"))
+        .callback(move |q| {
+            st.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let _ = q.reply(q.key_expr().clone(), vec![0u8; 16]).wait();
+        })
+        .wait()
+        .unwrap();
+    let sn = stolen.clone();
+    let _s = z
+        .declare_subscriber(format!("{prefix}/command/**"))
+        .callback(move |_| {
+            sn.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        })
+        .wait()
+        .unwrap();
+    let mut forged = StateSnapshot {
+        mode: Mode::Swimming as u8,
+        ..Default::default()
+    };
+    forged.limits.daemon_pid = 424_242;
+    // The victim: a remote operator.
+    let mut v = remote(&prefix, &ep);
+    let end = Instant::now() + Duration::from_secs(2);
+    let mut genuine = 0;
+    while Instant::now() < end {
+        use anguilla_ipc::Raw as _;
+        z.put(format!("{prefix}/state"), forged.as_bytes().to_vec())
+            .wait()
+            .unwrap();
+        ok(&mut v, Command::TakeControl);
+        if let Ok(Some(s)) = v.wait_state(Duration::from_millis(20)) {
+            assert_ne!(
+                s.limits.daemon_pid, 424_242,
+                "a forged state reached an operator"
+            );
+            genuine += 1;
+        }
+    }
+    assert!(genuine > 10, "{genuine} genuine states");
+    assert_eq!(
+        stolen.load(std::sync::atomic::Ordering::Relaxed),
+        0,
+        "a command reached the attacker"
+    );
+    // Queries on the command keys from another of its sessions (its own
+    // queryable would answer its own session: Zenoh checks no access
+    // within one) reach only the link, which answers with an error.
+    let mut c = zenoh::Config::default();
+    c.insert_json5("mode", "\"client\"").unwrap();
+    c.insert_json5("connect/endpoints", &format!("[\"{}\"]", ep.text))
+        .unwrap();
+    c.insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    let z2 = zenoh::open(c).wait().unwrap();
+    let replies = z2
+        .get(format!("{prefix}/command/**"))
+        .timeout(Duration::from_secs(1))
+        .wait()
+        .unwrap();
+    while let Ok(r) = replies.recv() {
+        assert!(r.result().is_err(), "a wildcard query answered with data");
+    }
+}
