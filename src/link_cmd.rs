@@ -26,20 +26,20 @@ pub struct LinkArgs {
     cmd: Option<LinkCmd>,
     #[command(flatten)]
     at: PrefixArgs,
-    /// Listen on this Zenoh endpoint (repeatable; overrides [link] listen):
+    /// Listen on this Zenoh endpoint (repeatable; overrides `[link] listen`):
     /// tcp/127.0.0.1:7447 (loopback), tls/0.0.0.0:7447.
     #[arg(long, value_name = "ENDPOINT")]
     listen: Vec<String>,
-    /// The robot's CA certificate (PEM; overrides [link] ca).
+    /// The robot's CA certificate (PEM; overrides `[link] ca`).
     #[arg(long, value_name = "FILE")]
     ca: Option<PathBuf>,
-    /// The robot's certificate (PEM; overrides [link] cert).
+    /// The robot's certificate (PEM; overrides `[link] cert`).
     #[arg(long, value_name = "FILE")]
     cert: Option<PathBuf>,
-    /// The robot's private key (PEM; overrides [link] key).
+    /// The robot's private key (PEM; overrides `[link] key`).
     #[arg(long, value_name = "FILE")]
     key: Option<PathBuf>,
-    /// Most states a second on the link (overrides [link] state-rate).
+    /// Most states a second on the link (overrides `[link] state-rate`).
     #[arg(long, value_name = "HZ")]
     state_rate: Option<f64>,
     /// Stop after this many seconds (default: until Ctrl-C).

@@ -480,3 +480,95 @@ fn a_hostile_remote_cannot_intercept_commands_or_forge_state() {
         assert!(r.result().is_err(), "a wildcard query answered with data");
     }
 }
+
+/// Median and 99th percentile of `v` (ms).
+fn quantiles(v: &mut [f64]) -> (f64, f64) {
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    (at(0.5), at(0.99))
+}
+
+/// The latency figures of docs/remote.md, local and through the link in
+/// one run (loopback, the test profile's debug build): state receipt (the
+/// same snapshot's arrival at a local and at a remote reader in this
+/// process), a command's round trip (request to reply), and a command to
+/// its effect in the state (take control to the holder named). CI prints
+/// them (`cargo test -p anguilla-system-tests --test link latency -- --nocapture`).
+#[test]
+fn latency_local_and_through_the_link() {
+    let _dog = Watchdog::new("link-latency", Duration::from_secs(120));
+    let prefix = format!("anguilla-link/latency-{}", std::process::id());
+    let ep = tcp(free_port());
+    let _d = daemon_with(&prefix, "link-latency", "");
+    // The link at the daemon's full rate, so every state goes out.
+    let _l = link(
+        &prefix,
+        &["--listen", &ep.text, "--state-rate", "1000"],
+        &ep,
+        None,
+    );
+    let mut local = Client::new(&prefix, "link-latency-local").unwrap();
+    let mut remote_c = remote(&prefix, &ep);
+    // State receipt: both readers in one thread, polled every 0.2 ms.
+    let mut seen: std::collections::HashMap<u64, (Option<Instant>, Option<Instant>)> =
+        std::collections::HashMap::new();
+    let end = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < end {
+        if let Ok(Some(s)) = Session::latest(&mut local) {
+            seen.entry(s.sequence)
+                .or_default()
+                .0
+                .get_or_insert(Instant::now());
+        }
+        if let Ok(Some(s)) = remote_c.latest() {
+            seen.entry(s.sequence)
+                .or_default()
+                .1
+                .get_or_insert(Instant::now());
+        }
+        std::thread::sleep(Duration::from_micros(200));
+    }
+    let mut extra: Vec<f64> = seen
+        .values()
+        .filter_map(|(l, r)| Some(r.as_ref()?.duration_since(*l.as_ref()?).as_secs_f64() * 1e3))
+        .collect();
+    assert!(extra.len() > 100, "{} states seen by both", extra.len());
+    let (state_p50, state_p99) = quantiles(&mut extra);
+    // Round trips and effects, alternating local and remote.
+    let (mut rt_l, mut rt_r, mut eff_l, mut eff_r) = (vec![], vec![], vec![], vec![]);
+    for _ in 0..30 {
+        for (s, rt, eff) in [
+            (&mut local as &mut dyn Session, &mut rt_l, &mut eff_l),
+            (&mut remote_c as &mut dyn Session, &mut rt_r, &mut eff_r),
+        ] {
+            let t = Instant::now();
+            ok(s, Command::TakeControl);
+            rt.push(t.elapsed().as_secs_f64() * 1e3);
+            let me = s.id();
+            until(s, "holder named", Duration::from_secs(2), |st| {
+                st.holder() == Some(me)
+            });
+            eff.push(t.elapsed().as_secs_f64() * 1e3);
+            ok(s, Command::ReleaseControl);
+        }
+    }
+    let f = |v: &mut Vec<f64>| {
+        let (a, b) = quantiles(v);
+        format!("median {a:.2} ms, p99 {b:.2} ms")
+    };
+    eprintln!(
+        "latency (loopback, debug build, {} states): state receipt through the link after the \
+         local reader: median {state_p50:.2} ms, p99 {state_p99:.2} ms",
+        extra.len()
+    );
+    eprintln!(
+        "command round trip: local {}; through the link {}",
+        f(&mut rt_l),
+        f(&mut rt_r)
+    );
+    eprintln!(
+        "command to its effect in the state: local {}; through the link {}",
+        f(&mut eff_l),
+        f(&mut eff_r)
+    );
+}
