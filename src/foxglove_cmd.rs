@@ -1,12 +1,21 @@
 //! `anguilla foxglove`: the live view for Foxglove and Lichtblick (issue
 //! 17). Its own process, reading the daemon's state over iceoryx2 like any
-//! operator tool (read-only: it never sends a command), so the real-time
-//! daemon never links a WebSocket stack. It serves the channels of the
-//! session's MCAP file (`anguilla_daemon::mcap_log`) over the Foxglove
-//! WebSocket protocol.
+//! operator tool (or through `anguilla link` with `--connect`), so the
+//! real-time daemon never links a WebSocket stack. It serves the channels
+//! of the session's MCAP file (`anguilla_daemon::mcap_log`) over the
+//! Foxglove WebSocket protocol. Read-only unless `[foxglove] commands =
+//! true`: then each Foxglove client that publishes on [`COMMAND_TOPIC`] is
+//! its own operator session, under the daemon's authority and deadman
+//! rules ([`Operators`]).
 
+use std::collections::HashMap;
 use std::net::SocketAddr;
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::time::{Duration, Instant};
+
+use anguilla_ipc::{Command, Session};
+use foxglove::websocket::{Capability, Client, ClientChannel, ClientId, ServerListener};
+use serde_json::json;
 
 use anguilla_daemon::mcap_log::{Scene, TOPICS, schemas};
 use anyhow::Context as _;
@@ -20,7 +29,8 @@ use crate::teleop_cmd::DaemonArgs;
     after_help = "Open Foxglove or Lichtblick, 'Open connection', Foxglove WebSocket, \
     ws://127.0.0.1:8765; deploy/foxglove-layout.json is a dashboard for it. \
     The server has no authentication and no TLS: anyone who reaches the port sees the robot \
-    (read-only). Bind beyond loopback only on a network you trust, or tunnel it (ssh -L)."
+    (and, with [foxglove] commands = true, may publish operator commands on /anguilla/command). \
+    Bind beyond loopback only on a network you trust, or tunnel it (ssh -L)."
 )]
 pub struct FoxgloveArgs {
     #[command(flatten)]
@@ -65,10 +75,27 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     let cfg = args.daemon.at.config()?;
     let prefix = args.daemon.prefix()?;
     let ctx = foxglove::Context::new();
-    let server = foxglove::WebSocketServer::new()
+    let mut builder = foxglove::WebSocketServer::new()
         .name("anguilla")
         .bind(addr.ip().to_string(), addr.port())
-        .context(&ctx)
+        .context(&ctx);
+    let (tx, from_clients) = std::sync::mpsc::sync_channel(COMMAND_QUEUE);
+    if cfg.foxglove.commands {
+        builder = builder
+            .capabilities([Capability::ClientPublish])
+            .supported_encodings(["json"])
+            .listener(std::sync::Arc::new(Commands {
+                tx,
+                estop_prefix: args.daemon.remote()?.is_none().then(|| prefix.clone()),
+            }));
+        if !addr.ip().is_loopback() {
+            eprintln!(
+                "warning: [foxglove] commands = true on {addr}: anyone who reaches this port \
+                 may take control of the robot"
+            );
+        }
+    }
+    let server = builder
         .start_blocking()
         .with_context(|| format!("serving on {addr}"))?;
     let mut channels = Vec::new();
@@ -87,38 +114,46 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
         server.port()
     )?;
     crate::signals::install();
-    let start = Instant::now();
-    let running = || {
-        !crate::signals::requested()
-            && args
-                .duration
-                .is_none_or(|d| start.elapsed().as_secs_f64() < d)
+    let running = crate::signals::running_for(args.duration);
+    // The viewer may start before the daemon: it serves, and asks again.
+    let mut op = crate::signals::open_when_up(
+        "anguilla foxglove",
+        &running,
+        || args.daemon.operator(&prefix, "anguilla-foxglove", false),
+        |_| true,
+    )?;
+    let replies = if cfg.foxglove.commands {
+        Some(
+            ctx.channel_builder(REPLY_TOPIC)
+                .message_encoding("json")
+                .schema(foxglove::Schema::new(
+                    "anguilla.CommandReply",
+                    "jsonschema",
+                    serde_json::to_vec(
+                        &json!({"type": "object", "title": "anguilla.CommandReply"}),
+                    )?,
+                ))
+                .build_raw()
+                .with_context(|| format!("channel {REPLY_TOPIC}"))?,
+        )
+    } else {
+        None
     };
-    // The viewer may start before the daemon: it serves, and asks again
-    // every half second (absolute deadlines; a stop signal cuts the wait).
-    let mut next = anguilla_daemon::rt::monotonic_ns();
-    let mut said = false;
-    let mut op = loop {
-        match args.daemon.operator(&prefix, "anguilla-foxglove", false) {
-            Ok(op) => break op,
-            Err(e) if running() => {
-                if !said {
-                    eprintln!("anguilla foxglove: waiting for the daemon ({e})");
-                    said = true;
-                }
-                next += 500_000_000;
-                crate::signals::sleep_until_ns(next);
-            }
-            Err(e) => {
-                return Err(e);
-            }
-        }
+    let mut operators = Operators {
+        sessions: HashMap::new(),
+        from_clients,
+        open: &|| args.daemon.open(&prefix, "anguilla-foxglove-client", true),
     };
     let mut scene = Scene::new(&cfg);
     let every = Duration::from_secs_f64(1.0 / args.rate);
     let mut last = None::<Instant>;
+    // With commands, a short wait: a command waits at most this long.
+    let wait = Duration::from_millis(if replies.is_some() { 5 } else { 100 });
     while running() {
-        let Some(s) = op.wait_state(Duration::from_millis(100))?.copied() else {
+        if let Some(r) = &replies {
+            operators.pump(&mut |v| r.log(v.to_string().as_bytes()));
+        }
+        let Some(s) = op.wait_state(wait)?.copied() else {
             continue;
         };
         if last.is_some_and(|t| t.elapsed() < every) {
@@ -131,4 +166,124 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     }
     server.stop().wait_blocking();
     Ok(())
+}
+
+/// The channel Foxglove clients publish operator commands on (JSON, see
+/// `anguilla_teleop::json::command_from_json`), with `[foxglove] commands`.
+pub const COMMAND_TOPIC: &str = "/anguilla/command";
+/// Where each command's outcome is published: `{client, command,
+/// accepted, reason}`.
+pub const REPLY_TOPIC: &str = "/anguilla/command_reply";
+/// Commands waiting for the main loop; beyond, a command is dropped (the
+/// E-stop socket is written at once regardless).
+const COMMAND_QUEUE: usize = 256;
+/// Most Foxglove clients with an operator session at once.
+const MAX_OPERATORS: usize = 8;
+
+enum FromClient {
+    Command(ClientId, Result<Command, String>),
+    Gone(ClientId),
+}
+
+/// The server's callbacks (on its own thread; they must not block): parse,
+/// hand over, and write an E-stop to the daemon's socket at once.
+struct Commands {
+    tx: SyncSender<FromClient>,
+    /// The local daemon's prefix, for its E-stop socket (none through a link).
+    estop_prefix: Option<String>,
+}
+
+impl ServerListener for Commands {
+    fn on_message_data(&self, client: Client, channel: &ClientChannel, payload: &[u8]) {
+        let parsed = if channel.topic == COMMAND_TOPIC {
+            anguilla_teleop::json::command_from_json(payload)
+        } else {
+            Err(format!(
+                "topic {} carries no commands (publish them on {COMMAND_TOPIC})",
+                channel.topic
+            ))
+        };
+        if let (Ok(Command::EStop), Some(p)) = (&parsed, &self.estop_prefix)
+            && let Err(e) = anguilla_ipc::estop::send(p)
+        {
+            eprintln!("anguilla foxglove: e-stop socket: {e}");
+        }
+        let _ = self.tx.try_send(FromClient::Command(client.id(), parsed));
+    }
+
+    fn on_client_unadvertise(&self, client: Client, channel: &ClientChannel) {
+        if channel.topic == COMMAND_TOPIC {
+            let _ = self.tx.try_send(FromClient::Gone(client.id()));
+        }
+    }
+}
+
+/// The commands a session sent and awaits replies to: (sequence, name).
+type Sent = Vec<(u32, &'static str)>;
+
+/// One operator session per Foxglove client that publishes commands: each
+/// is its own client for the daemon (its own authority; the deadman holds:
+/// nothing is resent on its behalf), closed when it unadvertises or leaves.
+struct Operators<'a> {
+    sessions: HashMap<ClientId, (Box<dyn Session>, Sent)>,
+    from_clients: Receiver<FromClient>,
+    open: &'a dyn Fn() -> anyhow::Result<Box<dyn Session>>,
+}
+
+impl Operators<'_> {
+    /// Forwards what arrived and publishes the outcomes with `publish`.
+    fn pump(&mut self, publish: &mut dyn FnMut(serde_json::Value)) {
+        let reply = |client: ClientId, command: &str, accepted: bool, reason: &str| json!({"client": u32::from(client), "command": command, "accepted": accepted, "reason": reason});
+        while let Ok(m) = self.from_clients.try_recv() {
+            match m {
+                FromClient::Gone(id) => {
+                    self.sessions.remove(&id);
+                }
+                FromClient::Command(id, Err(why)) => publish(reply(id, "", false, &why)),
+                FromClient::Command(id, Ok(cmd)) => {
+                    if !self.sessions.contains_key(&id) {
+                        if self.sessions.len() >= MAX_OPERATORS {
+                            publish(reply(
+                                id,
+                                cmd.name(),
+                                false,
+                                &format!("{MAX_OPERATORS} Foxglove clients operate already"),
+                            ));
+                            continue;
+                        }
+                        match (self.open)() {
+                            Ok(s) => {
+                                self.sessions.insert(id, (s, Vec::new()));
+                            }
+                            Err(e) => {
+                                publish(reply(id, cmd.name(), false, &format!("{e:#}")));
+                                continue;
+                            }
+                        }
+                    }
+                    let Some((s, sent)) = self.sessions.get_mut(&id) else {
+                        continue;
+                    };
+                    match s.send(cmd) {
+                        Ok(seq) => {
+                            if sent.len() >= 64 {
+                                sent.remove(0);
+                            }
+                            sent.push((seq, cmd.name()));
+                        }
+                        Err(e) => publish(reply(id, cmd.name(), false, &e.to_string())),
+                    }
+                }
+            }
+        }
+        for (id, (s, sent)) in &mut self.sessions {
+            let _ = s.replies(&mut |r| {
+                let name = sent
+                    .iter()
+                    .position(|(q, _)| *q == r.sequence)
+                    .map_or("command", |i| sent.remove(i).1);
+                publish(reply(*id, name, r.accepted == 1, r.reason()));
+            });
+        }
+    }
 }

@@ -132,31 +132,15 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     };
     crate::signals::install();
     let start = Instant::now();
-    let running = || {
-        !crate::signals::requested()
-            && args
-                .duration
-                .is_none_or(|d| start.elapsed().as_secs_f64() < d)
-    };
-    // The link may start before the daemon: ask again every half second.
-    let mut next = anguilla_daemon::rt::monotonic_ns();
-    let mut said = false;
-    let mut bridge = loop {
-        match Bridge::open(settings.clone()) {
-            Ok(b) => break b,
-            Err(anguilla_link::LinkError::Ipc(e)) if running() => {
-                if !said {
-                    eprintln!("anguilla link: waiting for the daemon ({e})");
-                    said = true;
-                }
-                next += 500_000_000;
-                crate::signals::sleep_until_ns(next);
-            }
-            Err(e) => {
-                return Err(e).with_context(|| format!("starting the link for prefix '{prefix}'"));
-            }
-        }
-    };
+    let running = crate::signals::running_for(args.duration);
+    // The link may start before the daemon.
+    let mut bridge = crate::signals::open_when_up(
+        "anguilla link",
+        &running,
+        || Bridge::open(settings.clone()),
+        |e| matches!(e, anguilla_link::LinkError::Ipc(_)),
+    )
+    .with_context(|| format!("starting the link for prefix '{prefix}'"))?;
     eprintln!(
         "anguilla link: prefix '{prefix}' on {} ({}; state at most {state_rate} Hz; \
          inbound {:?}, outbound {:?})",

@@ -188,6 +188,11 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
         }
         ConfigCmd::Check { file } => {
             let cfg = Config::load(&file)?;
+            let tls = !cfg.link.ca.is_empty();
+            for e in &cfg.link.listen {
+                anguilla_link::Endpoint::parse_form(e, tls)
+                    .map_err(|e| anyhow::anyhow!("{}: link.listen: {e}", file.display()))?;
+            }
             let period = anguilla_daemon::control::period_ns(&cfg);
             outln!(
                 "{}: valid; {} joints, control rate {:.1} Hz, bus {}",

@@ -35,3 +35,38 @@ pub fn requested() -> bool {
 pub fn sleep_until_ns(deadline_ns: u64) -> bool {
     anguilla_daemon::rt::sleep_until_ns_unless(deadline_ns, requested)
 }
+
+/// A `running` test for a long-running command: no stop signal yet, and
+/// less than `duration` seconds (if any) since this call.
+pub fn running_for(duration: Option<f64>) -> impl Fn() -> bool {
+    let start = std::time::Instant::now();
+    move || !requested() && duration.is_none_or(|d| start.elapsed().as_secs_f64() < d)
+}
+
+/// Calls `open` until it succeeds: again every half second (absolute
+/// deadlines; a stop signal cuts the wait) while its error is one `waiting`
+/// accepts (no daemon yet) and `running` holds, saying once on stderr that
+/// `tool` waits. Any other error, or a stop, returns the error.
+pub fn open_when_up<T, E: std::fmt::Display>(
+    tool: &str,
+    running: &dyn Fn() -> bool,
+    mut open: impl FnMut() -> Result<T, E>,
+    waiting: impl Fn(&E) -> bool,
+) -> Result<T, E> {
+    let mut next = anguilla_daemon::rt::monotonic_ns();
+    let mut said = false;
+    loop {
+        match open() {
+            Ok(v) => return Ok(v),
+            Err(e) if running() && waiting(&e) => {
+                if !said {
+                    eprintln!("{tool}: waiting for the daemon ({e})");
+                    said = true;
+                }
+                next += 500_000_000;
+                sleep_until_ns(next);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}

@@ -249,6 +249,16 @@ pub mod process {
         d
     }
 
+    /// A finished process's status, stdout and stderr, for assertion messages.
+    pub fn output_text(o: &std::process::Output) -> String {
+        format!(
+            "status {:?}; stdout {}; stderr {}",
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )
+    }
+
     /// A child process killed (and reaped) when dropped.
     #[derive(Debug)]
     pub struct Killed(pub Child);

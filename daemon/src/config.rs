@@ -471,6 +471,16 @@ impl Default for AutopilotConfig {
     }
 }
 
+/// `[foxglove]`: the live view (`anguilla foxglove`, its own process; the
+/// daemon ignores this section).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct FoxgloveConfig {
+    /// Accept operator commands that Foxglove clients publish on
+    /// `/anguilla/command`; off: the view is read-only.
+    pub commands: bool,
+}
+
 /// `[link]`: remote operation over Zenoh (`anguilla link`, docs/remote.md).
 /// The daemon ignores it: the link is its own process.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -546,6 +556,8 @@ pub struct Config {
     pub sensor: SensorConfig,
     /// `[autopilot]`.
     pub autopilot: AutopilotConfig,
+    /// `[foxglove]`.
+    pub foxglove: FoxgloveConfig,
     /// `[link]`.
     pub link: LinkConfig,
 }
@@ -1435,6 +1447,13 @@ pub fn default_toml() -> String {
     ));
     w(format!("pitch-gain = {}", fmt_f(d.autopilot.pitch_gain)));
     w(format!("max-depth = {}", fmt_f(d.autopilot.max_depth)));
+    w(String::new());
+    w("[foxglove]".into());
+    w("# `anguilla foxglove` (its own process; the daemon ignores this section): accept".into());
+    w("# operator commands Foxglove clients publish on /anguilla/command, each client".into());
+    w("# its own operator under the daemon's authority and deadman rules. The".into());
+    w("# WebSocket has no authentication: whoever reaches the port may then drive.".into());
+    w(format!("commands = {}", d.foxglove.commands));
     w(String::new());
     w("[link]".into());
     w("# Remote operation over Zenoh: `anguilla link` (its own process; the daemon".into());

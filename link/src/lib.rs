@@ -142,6 +142,17 @@ impl Endpoint {
     /// `::1`, `localhost`), or `tls/HOST:PORT` with any host when `tls` is
     /// given. Every other form is refused, naming what is expected.
     pub fn parse(text: &str, tls: Option<&Tls>) -> Result<Self, LinkError> {
+        let e = Self::parse_form(text, tls.is_some())?;
+        if let Some(t) = tls.filter(|_| e.tls) {
+            t.check()?;
+        }
+        Ok(e)
+    }
+
+    /// [`Endpoint::parse`] without reading the TLS files: `tls` says
+    /// whether they are configured (`anguilla config check` on another
+    /// computer than the robot).
+    pub fn parse_form(text: &str, tls: bool) -> Result<Self, LinkError> {
         let bad = |why: String| LinkError::Endpoint {
             endpoint: text.to_string(),
             why,
@@ -179,14 +190,11 @@ impl Endpoint {
                  (anguilla link certs makes them)"
             ))),
             "tls" => match tls {
-                Some(t) => {
-                    t.check()?;
-                    Ok(Self {
-                        text: text.to_string(),
-                        tls: true,
-                    })
-                }
-                None => Err(bad(
+                true => Ok(Self {
+                    text: text.to_string(),
+                    tls: true,
+                }),
+                false => Err(bad(
                     "tls/ needs the robot's CA and this end's certificate and key \
                      (--ca, --cert, --key; [link] ca, cert, key for the link)"
                         .into(),

@@ -197,3 +197,98 @@ mod tests {
         assert_eq!(v["sensor"], "implausible");
     }
 }
+
+/// An operator command from one JSON object (the Foxglove command channel,
+/// `/anguilla/command`): `{"command": NAME, ...}` with NAME one of
+/// [`anguilla_ipc::Command::name`]'s (`take-control`, `enable`, `swim`,
+/// `stop`, `e-stop`, ...). `swim` takes `amplitude` and `frequency` (and
+/// optionally `turn`, `pitch`); `hold` takes `heading` (degrees) and/or
+/// `depth` (m). The daemon checks the ranges; this checks the shape, and
+/// each error names the field and what was expected.
+pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> {
+    use anguilla_ipc::{Command, Hold, SwimParams};
+    let v: Value = serde_json::from_slice(bytes)
+        .map_err(|e| format!("not JSON ({e}); expected {{\"command\": NAME, ...}}"))?;
+    let name = v
+        .get("command")
+        .and_then(Value::as_str)
+        .ok_or("expected a string field \"command\" (take-control, enable, swim, stop, ...)")?;
+    let num = |k: &str, required: bool| -> Result<Option<f64>, String> {
+        match v.get(k) {
+            None | Some(Value::Null) if !required => Ok(None),
+            Some(x) => x
+                .as_f64()
+                .map(Some)
+                .ok_or_else(|| format!("\"{k}\" of {name} must be a number, not {x}")),
+            None => Err(format!("{name} needs a number \"{k}\"")),
+        }
+    };
+    let simple = [
+        Command::Enable,
+        Command::Disable,
+        Command::Stop,
+        Command::EStop,
+        Command::Reset,
+        Command::TakeControl,
+        Command::ReleaseControl,
+        Command::KeepAlive,
+    ];
+    if let Some(c) = simple.iter().find(|c| c.name() == name) {
+        return Ok(*c);
+    }
+    match name {
+        "swim" => Ok(Command::Swim(SwimParams {
+            amplitude: num("amplitude", true)?.unwrap_or_default(),
+            frequency: num("frequency", true)?.unwrap_or_default(),
+            turn: num("turn", false)?.unwrap_or(0.0),
+            pitch: num("pitch", false)?.unwrap_or(0.0),
+        })),
+        "hold" => Ok(Command::Hold(Hold {
+            heading: num("heading", false)?.map(crate::hold::wrap_heading),
+            depth: num("depth", false)?,
+        })),
+        other => Err(format!(
+            "unknown command \"{other}\" (expected one of take-control, release-control, enable, \
+             disable, reset, stop, e-stop, keep-alive, swim, hold)"
+        )),
+    }
+}
+
+#[cfg(test)]
+mod command_tests {
+    use super::command_from_json;
+    use anguilla_ipc::{Command, SwimParams};
+
+    #[test]
+    fn commands_parse_and_bad_ones_say_what_was_expected() {
+        assert_eq!(
+            command_from_json(br#"{"command":"take-control"}"#),
+            Ok(Command::TakeControl)
+        );
+        assert_eq!(
+            command_from_json(br#"{"command":"swim","amplitude":0.5,"frequency":1}"#),
+            Ok(Command::Swim(SwimParams {
+                amplitude: 0.5,
+                frequency: 1.0,
+                turn: 0.0,
+                pitch: 0.0
+            }))
+        );
+        for (bad, says) in [
+            (&b"{"[..], "not JSON"),
+            (br#"{"cmd":"stop"}"#, "\"command\""),
+            (br#"{"command":"fly"}"#, "unknown command \"fly\""),
+            (
+                br#"{"command":"swim","amplitude":0.5}"#,
+                "needs a number \"frequency\"",
+            ),
+            (
+                br#"{"command":"swim","amplitude":"big","frequency":1}"#,
+                "\"amplitude\" of swim must be a number",
+            ),
+        ] {
+            let e = command_from_json(bad).unwrap_err();
+            assert!(e.contains(says), "{e}");
+        }
+    }
+}

@@ -6,7 +6,9 @@ use std::process::{Command as Proc, Output, Stdio};
 use std::time::Duration;
 
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{Killed, anguilla_bin, daemon_with, poll_until};
+use anguilla_system_tests::process::{
+    Killed, anguilla_bin, daemon_with, output_text as text, poll_until,
+};
 
 fn ctl(prefix: &str, args: &[&str]) -> Output {
     Proc::new(anguilla_bin())
@@ -14,15 +16,6 @@ fn ctl(prefix: &str, args: &[&str]) -> Output {
         .args(args)
         .output()
         .unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "status {:?}; stdout {}; stderr {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn daemon(prefix: &str, tag: &str) -> Killed {
