@@ -80,12 +80,17 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
         .bind(addr.ip().to_string(), addr.port())
         .context(&ctx);
     let (tx, from_clients) = std::sync::mpsc::sync_channel(COMMAND_QUEUE);
+    // Departures and E-stops never wait in the bounded queue.
+    let (gone_tx, gone) = std::sync::mpsc::channel();
+    let estop_wanted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     if cfg.foxglove.commands {
         builder = builder
             .capabilities([Capability::ClientPublish])
             .supported_encodings(["json"])
             .listener(std::sync::Arc::new(Commands {
                 tx,
+                gone: std::sync::Mutex::new(gone_tx),
+                estop_wanted: estop_wanted.clone(),
                 estop_prefix: args.daemon.remote()?.is_none().then(|| prefix.clone()),
             }));
         if !addr.ip().is_loopback() {
@@ -142,6 +147,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     let mut operators = Operators {
         sessions: HashMap::new(),
         from_clients,
+        gone,
         open: &|| args.daemon.open(&prefix, "anguilla-foxglove-client", true),
     };
     let mut scene = Scene::new(&cfg);
@@ -150,6 +156,12 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     // With commands, a short wait: a command waits at most this long.
     let wait = Duration::from_millis(if replies.is_some() { 5 } else { 100 });
     while running() {
+        if estop_wanted.swap(false, std::sync::atomic::Ordering::SeqCst) {
+            // Through a link: its e-stop key, ahead of any queue.
+            if let Err(e) = op.estop_out_of_band() {
+                eprintln!("anguilla foxglove: e-stop: {e}");
+            }
+        }
         if let Some(r) = &replies {
             operators.pump(&mut |v| r.log(v.to_string().as_bytes()));
         }
@@ -182,13 +194,17 @@ const MAX_OPERATORS: usize = 8;
 
 enum FromClient {
     Command(ClientId, Result<Command, String>),
-    Gone(ClientId),
 }
 
 /// The server's callbacks (on its own thread; they must not block): parse,
 /// hand over, and write an E-stop to the daemon's socket at once.
 struct Commands {
     tx: SyncSender<FromClient>,
+    /// Clients that left (unbounded: one message per departure).
+    gone: std::sync::Mutex<std::sync::mpsc::Sender<ClientId>>,
+    /// An E-stop arrived and the daemon is reached through a link: the
+    /// main loop sends it out of band at once.
+    estop_wanted: std::sync::Arc<std::sync::atomic::AtomicBool>,
     /// The local daemon's prefix, for its E-stop socket (none through a link).
     estop_prefix: Option<String>,
 }
@@ -203,17 +219,26 @@ impl ServerListener for Commands {
                 channel.topic
             ))
         };
-        if let (Ok(Command::EStop), Some(p)) = (&parsed, &self.estop_prefix)
-            && let Err(e) = anguilla_ipc::estop::send(p)
-        {
-            eprintln!("anguilla foxglove: e-stop socket: {e}");
+        if let Ok(Command::EStop) = &parsed {
+            match &self.estop_prefix {
+                Some(p) => {
+                    if let Err(e) = anguilla_ipc::estop::send(p) {
+                        eprintln!("anguilla foxglove: e-stop socket: {e}");
+                    }
+                }
+                None => self
+                    .estop_wanted
+                    .store(true, std::sync::atomic::Ordering::SeqCst),
+            }
         }
         let _ = self.tx.try_send(FromClient::Command(client.id(), parsed));
     }
 
     fn on_client_unadvertise(&self, client: Client, channel: &ClientChannel) {
-        if channel.topic == COMMAND_TOPIC {
-            let _ = self.tx.try_send(FromClient::Gone(client.id()));
+        if channel.topic == COMMAND_TOPIC
+            && let Ok(g) = self.gone.lock()
+        {
+            let _ = g.send(client.id());
         }
     }
 }
@@ -227,6 +252,7 @@ type Sent = Vec<(u32, &'static str)>;
 struct Operators<'a> {
     sessions: HashMap<ClientId, (Box<dyn Session>, Sent)>,
     from_clients: Receiver<FromClient>,
+    gone: Receiver<ClientId>,
     open: &'a dyn Fn() -> anyhow::Result<Box<dyn Session>>,
 }
 
@@ -234,11 +260,11 @@ impl Operators<'_> {
     /// Forwards what arrived and publishes the outcomes with `publish`.
     fn pump(&mut self, publish: &mut dyn FnMut(serde_json::Value)) {
         let reply = |client: ClientId, command: &str, accepted: bool, reason: &str| json!({"client": u32::from(client), "command": command, "accepted": accepted, "reason": reason});
+        while let Ok(id) = self.gone.try_recv() {
+            self.sessions.remove(&id);
+        }
         while let Ok(m) = self.from_clients.try_recv() {
             match m {
-                FromClient::Gone(id) => {
-                    self.sessions.remove(&id);
-                }
                 FromClient::Command(id, Err(why)) => publish(reply(id, "", false, &why)),
                 FromClient::Command(id, Ok(cmd)) => {
                     if !self.sessions.contains_key(&id) {

@@ -1073,9 +1073,9 @@ impl Config {
         range(
             "link.idle-timeout",
             l.idle_timeout,
-            1.0,
+            6.0,
             3600.0,
-            "1 ..= 3600 s",
+            "6 ..= 3600 s (three of the tools' 2 s hellos)",
         )?;
         if l.listen.is_empty() {
             return Err(ConfigError::Range {

@@ -48,10 +48,30 @@ def states(z, prefix, count, timeout):
     return got
 
 
-def query(z, key, payload=None):
+SYNC = {}  # the last hello's answer: epoch, the link's clock (ms), when it came
+
+
+def stamp():
+    """A command's stamp: the link's epoch and its clock now, estimated
+    from the last hello (docs/remote.md); None before the first hello."""
+    if not SYNC:
+        return None
+    now = SYNC["link_ms"] + int((time.monotonic() - SYNC["at"]) * 1000)
+    return struct.pack("<Qq", SYNC["epoch"], now)
+
+
+def hello(z, key):
+    """Opens (or keeps) the session: the client id; records the clock."""
+    ok, data = query(z, key)
+    assert ok and len(data) == 32, f"hello: {data!r}"
+    epoch, link_ms = struct.unpack_from("<Qq", data, 16)
+    SYNC.update(epoch=epoch, link_ms=link_ms, at=time.monotonic())
+    return int.from_bytes(data[:16], "little")
+
+
+def query(z, key, payload=None, attachment=None):
     """The one reply to a query: (ok, bytes)."""
-    stamp = struct.pack("<q", int(time.monotonic() * 1000))
-    for r in z.get(key, payload=payload, attachment=stamp, timeout=2.0):
+    for r in z.get(key, payload=payload, attachment=attachment, timeout=2.0):
         if r.ok is not None:
             return True, r.ok.payload.to_bytes()
         return False, r.err.payload.to_bytes()
@@ -60,7 +80,7 @@ def query(z, key, payload=None):
 
 def command(z, key, code, seq):
     req = CommandRequest(layout_version=LAYOUT_VERSION, code=code, sequence=seq)
-    ok, data = query(z, key, bytes(req))
+    ok, data = query(z, key, bytes(req), stamp())
     if not ok:
         raise SystemExit(f"command {code}: the link said {data.decode(errors='replace')}")
     client_id = int.from_bytes(data[:16], "little")
@@ -85,9 +105,7 @@ def main(argv=None):
     print(f"{len(got)} states, sequence {seqs[0]}..{seqs[-1]}, {len(got) / max(span, 1e-9):.0f} "
           f"states/s of daemon time, mode {MODES[got[-1].mode]}, {got[-1].joint_count} joints")
     key = f"{a.prefix}/command/{os.urandom(16).hex()}"
-    ok, hello = query(z, key)
-    assert ok and len(hello) == 16, f"hello: {hello!r}"
-    me = int.from_bytes(hello, "little")
+    me = hello(z, key)
     client_id, r = command(z, key, TAKE_CONTROL, 1)
     assert client_id == me, "the same client for the same token"
     assert r.accepted == 1, f"take control refused: {r.reason_text()}"

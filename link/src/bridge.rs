@@ -11,11 +11,16 @@
 //!   is closed (its node leaves, and the daemon releases its control).
 //!   Nothing is kept alive on a remote tool's behalf: a link that stalls or
 //!   dies is a silent operator, and the daemon's deadman stops the swim.
-//! - **Stale commands**: a tool stamps each query with its own clock (an
-//!   8-byte attachment, ms); the link learns each session's clock offset
-//!   (the smallest difference seen) and drops a command older than the
-//!   daemon's command timeout, so a link or network that stalled does not
-//!   deliver old commands when it resumes.
+//! - **Stale commands**: a session is opened only by a hello, whose reply
+//!   carries the link's epoch (random per link process) and clock. A tool
+//!   stamps each command with that epoch and its estimate of the link's
+//!   clock (the clock in the last hello reply plus the time since, on the
+//!   tool's own clock; 16-byte attachment), so the link judges a command's
+//!   age on its own clock and drops one older than the daemon's command
+//!   timeout: a link or network that stalled delivers no old command when
+//!   it resumes, and the tools re-sync every hello (no drift, no suspend).
+//!   A command for an unknown token, or stamped with another link's epoch,
+//!   is refused: the tool says hello again.
 //! - **E-stop**: a query on `P/estop` is relayed to the daemon's E-stop
 //!   socket from Zenoh's own thread at once, whatever the command queue
 //!   holds and however many sessions exist.
@@ -36,8 +41,9 @@ use crate::{Endpoint, ID_LEN, LinkError, Tls, zenoh_err};
 /// Queries waiting for the bridge's loop; beyond, a query is answered
 /// "busy" at once.
 const QUERY_QUEUE: usize = 256;
-/// Replies one session may await; beyond, the oldest is answered "dropped".
-const SESSION_PENDING: usize = 8;
+/// Replies one session may await: as many as its iceoryx2 client keeps
+/// (beyond, the oldest is answered "outcome unknown").
+const SESSION_PENDING: usize = anguilla_ipc::MAX_REQUESTS_PER_CLIENT - 1;
 /// A forwarded command whose reply has not come within this is answered
 /// with an error.
 const REPLY_TIMEOUT: Duration = Duration::from_secs(2);
@@ -89,8 +95,6 @@ struct Pending {
 struct RemoteSession {
     client: Client,
     last_seen: Instant,
-    /// Smallest (link clock − tool clock) seen, ms.
-    offset_ms: Option<i64>,
     pending: Vec<Pending>,
 }
 
@@ -110,6 +114,7 @@ pub struct Bridge {
     last_put: Option<Instant>,
     command_timeout: Duration,
     next_node: u64,
+    epoch: u64,
 }
 
 /// The access-control list of the link's router: remote clients may do
@@ -170,7 +175,32 @@ fn token_of(prefix: &str, key: &str) -> Option<String> {
 }
 
 fn monotonic_ms(started: Instant) -> i64 {
-    started.elapsed().as_millis() as i64
+    i64::try_from(started.elapsed().as_millis()).unwrap_or(i64::MAX)
+}
+
+/// This link process's epoch: random, so a tool can tell a restarted link.
+fn random_epoch() -> u64 {
+    use std::io::Read as _;
+    let mut b = [0u8; 8];
+    match std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut b)) {
+        Ok(()) => u64::from_le_bytes(b),
+        // Not secret: only distinct; the time and pid do.
+        Err(_) => {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos() as u64)
+                ^ u64::from(std::process::id())
+        }
+    }
+}
+
+/// A hello reply: the client id, the link's epoch and its clock (ms).
+pub(crate) fn hello_reply(id: u128, epoch: u64, link_ms: i64) -> Vec<u8> {
+    let mut b = Vec::with_capacity(crate::HELLO_LEN);
+    b.extend_from_slice(&id.to_le_bytes());
+    b.extend_from_slice(&epoch.to_le_bytes());
+    b.extend_from_slice(&link_ms.to_le_bytes());
+    b
 }
 
 fn reply_err(q: &Query, text: &str) {
@@ -283,6 +313,7 @@ impl Bridge {
             last_put: None,
             command_timeout: Duration::from_millis(500),
             next_node: 0,
+            epoch: random_epoch(),
         })
     }
 
@@ -363,69 +394,35 @@ impl Bridge {
             return;
         };
         let now = Instant::now();
-        if !self.sessions.contains_key(&token) {
-            if self.sessions.len() >= self.settings.max_clients {
-                self.reject(
-                    &q,
-                    &format!(
-                        "the link serves {} remote clients already ([link] max-clients); \
-                         an idle one is closed after {:?}",
-                        self.settings.max_clients, self.settings.idle_timeout
-                    ),
-                );
-                return;
-            }
-            self.next_node += 1;
-            let name = format!("anguilla-link-{}-{}", std::process::id(), self.next_node);
-            match Client::new(&self.settings.prefix, &name) {
-                Ok(client) => {
-                    tracing::info!("remote session {} opened", &token[..8]);
-                    self.sessions.insert(
-                        token.clone(),
-                        RemoteSession {
-                            client,
-                            last_seen: now,
-                            offset_ms: None,
-                            pending: Vec::new(),
-                        },
-                    );
-                }
-                Err(e) => {
-                    self.reject(&q, &format!("the daemon's interface: {e}"));
-                    return;
-                }
-            }
-        }
-        let link_ms = monotonic_ms(self.started);
-        let max_age = self.command_timeout.as_millis() as i64;
-        let Some(sess) = self.sessions.get_mut(&token) else {
-            return;
-        };
-        sess.last_seen = now;
-        // The tool's clock stamp: learn the offset, judge the age.
-        let stamp = q.attachment().and_then(|a| {
-            let b = a.to_bytes();
-            <[u8; 8]>::try_from(&b[..]).ok().map(i64::from_le_bytes)
-        });
-        let mut age_ms = 0;
-        if let Some(tool_ms) = stamp {
-            let d = link_ms - tool_ms;
-            let off = sess.offset_ms.map_or(d, |o| o.min(d));
-            sess.offset_ms = Some(off);
-            age_ms = d - off;
-        }
-        let id = sess.client.id().to_le_bytes();
         let payload = q
             .payload()
             .map(|p| p.to_bytes().into_owned())
             .unwrap_or_default();
+        let link_ms = monotonic_ms(self.started);
         if payload.is_empty() {
-            // A hello: the session's identity.
-            if let Err(e) = q.reply(q.key_expr().clone(), id.to_vec()).wait() {
+            // A hello: opens the session if new; the identity and the clock.
+            if !self.sessions.contains_key(&token) && !self.open_session(&q, &token, now) {
+                return;
+            }
+            let Some(sess) = self.sessions.get_mut(&token) else {
+                return;
+            };
+            sess.last_seen = now;
+            let r = hello_reply(sess.client.id(), self.epoch, link_ms);
+            if let Err(e) = q.reply(q.key_expr().clone(), r).wait() {
                 tracing::debug!("hello reply: {e}");
             }
             return;
         }
+        let Some(sess) = self.sessions.get_mut(&token) else {
+            self.reject(
+                &q,
+                "no session for this token (the link restarted, or closed it when silent): \
+                 say hello first",
+            );
+            return;
+        };
+        sess.last_seen = now;
         let Some(req) = CommandRequest::from_bytes(&payload) else {
             let n = payload.len();
             self.reject(
@@ -437,15 +434,42 @@ impl Bridge {
             );
             return;
         };
-        if age_ms > max_age {
-            let why = format!(
-                "command {} is {age_ms} ms old, beyond the daemon's command timeout ({max_age} \
-                 ms): the link or the network stalled; dropped",
-                req.sequence
-            );
-            tracing::warn!("remote session {}: {why}", &token[..8]);
-            self.reject(&q, &why);
-            return;
+        // The tool's stamp: this link's epoch and its estimate of this
+        // link's clock when it sent the command.
+        let stamp = q.attachment().map(|a| a.to_bytes().into_owned());
+        if let Some(b) = stamp {
+            let (Ok(epoch), Ok(sent)) = (
+                <[u8; 8]>::try_from(b.get(..8).unwrap_or_default()),
+                <[u8; 8]>::try_from(b.get(8..16).unwrap_or_default()),
+            ) else {
+                self.reject(
+                    &q,
+                    &format!(
+                        "the stamp (attachment) is {} bytes, not 16 (epoch, link clock)",
+                        b.len()
+                    ),
+                );
+                return;
+            };
+            if u64::from_le_bytes(epoch) != self.epoch {
+                self.reject(
+                    &q,
+                    "stamped for another link (it restarted): say hello again",
+                );
+                return;
+            }
+            let age_ms = link_ms.saturating_sub(i64::from_le_bytes(sent));
+            let max_age = i64::try_from(self.command_timeout.as_millis()).unwrap_or(i64::MAX);
+            if age_ms > max_age {
+                let why = format!(
+                    "command {} is {age_ms} ms old, beyond the daemon's command timeout \
+                     ({max_age} ms): the link or the network stalled; dropped",
+                    req.sequence
+                );
+                tracing::warn!("remote session {}: {why}", &token[..8]);
+                self.reject(&q, &why);
+                return;
+            }
         }
         let Some(sess) = self.sessions.get_mut(&token) else {
             return;
@@ -455,7 +479,11 @@ impl Bridge {
                 self.stats.commands.fetch_add(1, Ordering::Relaxed);
                 if sess.pending.len() >= SESSION_PENDING {
                     let old = sess.pending.remove(0);
-                    reply_err(&old.query, "too many commands in flight: dropped");
+                    reply_err(
+                        &old.query,
+                        "too many commands in flight: the daemon's reply to this one is given \
+                         up (outcome unknown)",
+                    );
                 }
                 sess.pending.push(Pending {
                     sequence: req.sequence,
@@ -470,13 +498,19 @@ impl Bridge {
     }
 
     fn collect(&mut self) -> Result<(), LinkError> {
-        for sess in self.sessions.values_mut() {
+        let mut broken = Vec::new();
+        for (token, sess) in &mut self.sessions {
             if sess.pending.is_empty() {
                 continue;
             }
             let id = sess.client.id().to_le_bytes();
             let mut got: Vec<CommandReply> = Vec::new();
-            sess.client.replies(|r| got.push(*r))?;
+            if let Err(e) = sess.client.replies(|r| got.push(*r)) {
+                // This session's client only: close it, serve the others.
+                tracing::error!("remote session {}: {e}; closed", &token[..8]);
+                broken.push(token.clone());
+                continue;
+            }
             for r in got {
                 if let Some(i) = sess.pending.iter().position(|p| p.sequence == r.sequence) {
                     let p = sess.pending.remove(i);
@@ -497,7 +531,52 @@ impl Bridge {
                 keep
             });
         }
+        for t in broken {
+            if let Some(s) = self.sessions.remove(&t) {
+                for p in s.pending {
+                    reply_err(
+                        &p.query,
+                        "the link lost this session's client (outcome unknown)",
+                    );
+                }
+            }
+        }
         Ok(())
+    }
+
+    /// Opens a session for `token` (answering `q` with why not); whether it did.
+    fn open_session(&mut self, q: &Query, token: &str, now: Instant) -> bool {
+        if self.sessions.len() >= self.settings.max_clients {
+            self.reject(
+                q,
+                &format!(
+                    "the link serves {} remote clients already ([link] max-clients); an idle \
+                     one is closed after {:?}",
+                    self.settings.max_clients, self.settings.idle_timeout
+                ),
+            );
+            return false;
+        }
+        self.next_node += 1;
+        let name = format!("anguilla-link-{}-{}", std::process::id(), self.next_node);
+        match Client::new(&self.settings.prefix, &name) {
+            Ok(client) => {
+                tracing::info!("remote session {} opened", &token[..8]);
+                self.sessions.insert(
+                    token.to_string(),
+                    RemoteSession {
+                        client,
+                        last_seen: now,
+                        pending: Vec::new(),
+                    },
+                );
+                true
+            }
+            Err(e) => {
+                self.reject(q, &format!("the daemon's interface: {e}"));
+                false
+            }
+        }
     }
 
     fn expire(&mut self) {

@@ -4,8 +4,10 @@
 //! rcgen (ECDSA P-256, ring). The link trusts only this CA for clients
 //! (mutual TLS), so an operator needs a certificate from it.
 //!
-//! The CA's key signs new operators: keep it off the robot and the
-//! laptops once the certificates are made.
+//! Keep the CA's key off the robot and the laptops once the certificates
+//! are made. The certificates are valid [`LEAF_YEARS`] (the CA
+//! [`CA_YEARS`]); there is no revocation: to shut out a lost key sooner,
+//! make a new CA and hand out new certificates.
 
 use std::path::{Path, PathBuf};
 
@@ -15,6 +17,13 @@ use rcgen::{
 };
 
 use crate::LinkError;
+
+/// Years the CA is valid.
+pub const CA_YEARS: i32 = 10;
+/// Years the robot's and the operators' certificates are valid: a lost
+/// key stops working then (there is no revocation list; before, make a new
+/// CA and hand out new certificates).
+pub const LEAF_YEARS: i32 = 2;
 
 /// What [`make`] wrote.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -42,6 +51,31 @@ fn check_name(kind: &str, name: &str) -> Result<(), LinkError> {
         )));
     }
     Ok(())
+}
+
+/// Today's date (UTC) as (year, month, day), from the system clock.
+fn today() -> (i32, u8, u8) {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    // Days since 1970-01-01 to a civil date (H. Hinnant's algorithm).
+    let z = (secs / 86_400) as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = (doy - (153 * mp + 2) / 5 + 1) as u8;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 } as u8;
+    let year = (yoe + era * 400 + i64::from(month <= 2)) as i32;
+    (year, month, day.min(28))
+}
+
+/// Valid from yesterday (clocks differ) for `years` years.
+fn validity(p: &mut CertificateParams, years: i32) {
+    let (y, m, d) = today();
+    p.not_before = rcgen::date_time_ymd(y, m, d) - std::time::Duration::from_secs(86_400);
+    p.not_after = rcgen::date_time_ymd(y + years, m, d);
 }
 
 fn dn(cn: &str) -> DistinguishedName {
@@ -105,6 +139,7 @@ pub fn make(dir: &Path, robot_names: &[String], operators: &[String]) -> Result<
     let mut ca = CertificateParams::new(Vec::<String>::new()).map_err(certs_err("CA"))?;
     ca.distinguished_name = dn("anguilla robot CA");
     ca.is_ca = IsCa::Ca(BasicConstraints::Constrained(0));
+    validity(&mut ca, CA_YEARS);
     ca.key_usages = vec![
         KeyUsagePurpose::KeyCertSign,
         KeyUsagePurpose::CrlSign,
@@ -122,6 +157,7 @@ pub fn make(dir: &Path, robot_names: &[String], operators: &[String]) -> Result<
         p.extended_key_usages = vec![usage];
         p.key_usages = vec![KeyUsagePurpose::DigitalSignature];
         p.use_authority_key_identifier_extension = true;
+        validity(&mut p, LEAF_YEARS);
         let key = KeyPair::generate().map_err(certs_err("key"))?;
         let cert = p.signed_by(&key, &issuer).map_err(certs_err("signing"))?;
         Ok::<_, LinkError>((cert.pem(), key.serialize_pem()))

@@ -17,7 +17,7 @@
 //! | key | what | payload |
 //! |---|---|---|
 //! | `P/state` | the link publishes | one `StateSnapshot` (docs/ipc.md layout) |
-//! | `P/command/<token>` | a tool's query, the link's reply | `CommandRequest` → client id (16 bytes, LE) + `CommandReply`; an empty query → the client id |
+//! | `P/command/<token>` | a tool's query, the link's reply | `CommandRequest` → client id (16 bytes, LE) + `CommandReply`; an empty query (a hello, which opens the session) → client id, the link's epoch and clock |
 //! | `P/estop` | a tool's query, the link's reply | anything → UTF-8 text (relayed to the E-stop socket) |
 //!
 //! A remote tool's identity is its **token**: 128 random bits it draws at
@@ -62,6 +62,9 @@ pub fn estop_key(prefix: &str) -> String {
 
 /// Bytes of a client id at the head of a command reply.
 pub const ID_LEN: usize = 16;
+/// Bytes of a hello reply: the client id, the link's epoch (u64 LE) and
+/// its clock (ms, i64 LE).
+pub const HELLO_LEN: usize = ID_LEN + 16;
 
 /// What went wrong setting up or using the link; the text names the
 /// endpoint or the key and what was expected.
@@ -178,7 +181,19 @@ impl Endpoint {
         if host.is_empty() {
             return Err(bad("the host is empty".into()));
         }
-        let loopback = host == "localhost" || host.parse::<IpAddr>().is_ok_and(|a| a.is_loopback());
+        // A name counts as loopback only if every address it resolves to is
+        // (a hosts file could point `localhost` elsewhere).
+        let loopback = match host.parse::<IpAddr>() {
+            Ok(a) => a.is_loopback(),
+            Err(_) => {
+                use std::net::ToSocketAddrs as _;
+                let addrs: Vec<_> = (host, 0u16)
+                    .to_socket_addrs()
+                    .map(|a| a.collect())
+                    .unwrap_or_default();
+                !addrs.is_empty() && addrs.iter().all(|a| a.ip().is_loopback())
+            }
+        };
         match proto {
             "tcp" if loopback => Ok(Self {
                 text: text.to_string(),

@@ -4,11 +4,12 @@
 //! The session draws a secret 128-bit token and sends its commands as
 //! queries on `P/command/<token>`; the link forwards them on the token's
 //! own iceoryx2 client, so this tool is one client for the daemon, with its
-//! own authority. A hello (an empty query) every 2 s keeps the link's
-//! session open and learns the client id the daemon knows it by (after a
-//! link restart, a new one). Each query carries the tool's clock in ms (an
-//! 8-byte attachment) so the link can drop a command that a stall made
-//! stale. The state arrives on `P/state`.
+//! own authority. A hello (an empty query) opens the link's session, and
+//! one every 2 s keeps it open and learns the client id the daemon knows
+//! it by (after a link restart, a new one) and the link's epoch and clock.
+//! Each command carries that epoch and the tool's estimate of the link's
+//! clock (a 16-byte attachment), so the link drops a command that a stall
+//! made stale. The state arrives on `P/state`.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -32,10 +33,20 @@ const HELLO_PERIOD: Duration = Duration::from_secs(2);
 struct Inner {
     state: Option<StateSnapshot>,
     fresh: bool,
+    /// States received so far (wait_any waits for a new one).
+    states: u64,
     state_at: Option<Instant>,
     replies: VecDeque<CommandReply>,
     id: u128,
+    /// The last hello's answer: the link's epoch, its clock (ms), and when
+    /// the answer came (this tool's clock).
+    sync: Option<(u64, i64, Instant)>,
+    /// The link asked for a hello (it restarted, or closed the session).
+    need_hello: bool,
 }
+
+/// Most commands awaiting a reply that a session tracks.
+const MAX_PENDING: usize = 64;
 
 #[derive(Default)]
 struct Shared {
@@ -75,17 +86,21 @@ fn open_session(endpoint: &Endpoint, tls: Option<&Tls>) -> Result<zenoh::Session
     })
 }
 
-fn stamp(started: Instant) -> Vec<u8> {
-    (started.elapsed().as_millis() as i64)
-        .to_le_bytes()
-        .to_vec()
+/// A command's stamp: the link's epoch and its clock now, as estimated
+/// from the last hello (none before the first).
+fn stamp(sync: Option<(u64, i64, Instant)>) -> Option<Vec<u8>> {
+    let (epoch, link_ms, at) = sync?;
+    let since = i64::try_from(at.elapsed().as_millis()).unwrap_or(i64::MAX);
+    let mut b = epoch.to_le_bytes().to_vec();
+    b.extend_from_slice(&link_ms.saturating_add(since).to_le_bytes());
+    Some(b)
 }
 
-/// Says hello on `key` and waits for the client id.
-fn hello(session: &zenoh::Session, key: &str, started: Instant) -> Result<u128, String> {
+/// Says hello on `key`, waits for the answer, and records the client id
+/// and the link's epoch and clock in `shared`.
+fn hello(session: &zenoh::Session, key: &str, shared: &Shared) -> Result<(), String> {
     let replies = session
         .get(key)
-        .attachment(stamp(started))
         .timeout(HELLO_TIMEOUT)
         .wait()
         .map_err(|e| e.to_string())?;
@@ -93,9 +108,29 @@ fn hello(session: &zenoh::Session, key: &str, started: Instant) -> Result<u128, 
         Ok(r) => match r.result() {
             Ok(sample) => {
                 let b = sample.payload().to_bytes();
-                <[u8; ID_LEN]>::try_from(&b[..])
-                    .map(u128::from_le_bytes)
-                    .map_err(|_| format!("the link's hello reply has {} bytes, not 16", b.len()))
+                if b.len() != crate::HELLO_LEN {
+                    return Err(format!(
+                        "the link's hello reply has {} bytes, not {} (another version?)",
+                        b.len(),
+                        crate::HELLO_LEN
+                    ));
+                }
+                let word = |at: usize| {
+                    let mut w = [0u8; 8];
+                    w.copy_from_slice(&b[at..at + 8]);
+                    w
+                };
+                let mut id = [0u8; ID_LEN];
+                id.copy_from_slice(&b[..ID_LEN]);
+                let mut i = shared.lock();
+                i.id = u128::from_le_bytes(id);
+                i.sync = Some((
+                    u64::from_le_bytes(word(16)),
+                    i64::from_le_bytes(word(24)),
+                    Instant::now(),
+                ));
+                i.need_hello = false;
+                Ok(())
             }
             Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
         },
@@ -111,9 +146,9 @@ pub struct RemoteClient {
     key: String,
     shared: Arc<Shared>,
     _state: Option<zenoh::pubsub::Subscriber<()>>,
-    started: Instant,
     sequence: u32,
     pending: Vec<(u32, Instant)>,
+    seen_states: u64,
     stop: Arc<AtomicBool>,
     keepalive: Option<std::thread::JoinHandle<()>>,
 }
@@ -152,6 +187,7 @@ impl RemoteClient {
                     let mut i = sh.lock();
                     i.state = Some(s);
                     i.fresh = true;
+                    i.states += 1;
                     i.state_at = Some(Instant::now());
                     drop(i);
                     sh.cv.notify_all();
@@ -161,29 +197,25 @@ impl RemoteClient {
             .map_err(|e| IpcError::Remote(format!("subscribing to the state: {e}")))?;
         let token = random_token()?;
         let key = crate::command_key(prefix, &token);
-        let started = Instant::now();
         let stop = Arc::new(AtomicBool::new(false));
         let mut keepalive = None;
         if commands {
-            let id = hello(&session, &key, started).map_err(|e| {
+            hello(&session, &key, &shared).map_err(|e| {
                 IpcError::Remote(format!(
                     "the link at {} (prefix '{prefix}'): {e}",
                     endpoint.text
                 ))
             })?;
-            shared.lock().id = id;
             let (s, k, sh, st) = (session.clone(), key.clone(), shared.clone(), stop.clone());
             keepalive = Some(std::thread::spawn(move || {
                 let mut next = Instant::now() + HELLO_PERIOD;
                 while !st.load(Ordering::Relaxed) {
                     std::thread::sleep(Duration::from_millis(50));
-                    if Instant::now() < next {
+                    if Instant::now() < next && !sh.lock().need_hello {
                         continue;
                     }
                     next = Instant::now() + HELLO_PERIOD;
-                    if let Ok(id) = hello(&s, &k, started) {
-                        sh.lock().id = id;
-                    }
+                    let _ = hello(&s, &k, &sh);
                 }
             }));
         }
@@ -194,9 +226,9 @@ impl RemoteClient {
             key,
             shared,
             _state: Some(state),
-            started,
             sequence: 0,
             pending: Vec::new(),
+            seen_states: 0,
             stop,
             keepalive,
         })
@@ -215,11 +247,7 @@ impl Drop for RemoteClient {
 /// Sends an E-stop through the link's E-stop key and waits for the link to
 /// say it relayed it to the daemon's E-stop socket.
 pub fn estop_through(session: &zenoh::Session, prefix: &str) -> Result<(), IpcError> {
-    let replies = session
-        .get(crate::estop_key(prefix))
-        .payload(b"estop".to_vec())
-        .congestion_control(CongestionControl::Block)
-        .priority(Priority::RealTime)
+    let replies = estop_query(session, prefix)
         .timeout(Duration::from_secs(1))
         .wait()
         .map_err(|e| IpcError::Remote(format!("e-stop query: {e}")))?;
@@ -234,6 +262,16 @@ pub fn estop_through(session: &zenoh::Session, prefix: &str) -> Result<(), IpcEr
             "no link relayed the e-stop within 1 s".into(),
         )),
     }
+}
+
+fn estop_query<'a>(
+    session: &'a zenoh::Session,
+    prefix: &str,
+) -> zenoh::session::SessionGetBuilder<'a, 'static, zenoh::handlers::DefaultHandler> {
+    session
+        .get(crate::estop_key(prefix))
+        .payload(b"estop".to_vec())
+        .priority(Priority::RealTime)
 }
 
 /// An E-stop through the link at `endpoint` on its own Zenoh session: the
@@ -269,49 +307,58 @@ impl Session for RemoteClient {
 
     fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError> {
         let sh = self.shared.clone();
-        self.session
+        let stamp = stamp(self.shared.lock().sync);
+        let mut get = self
+            .session
             .get(&self.key)
             .payload(req.as_bytes().to_vec())
-            .attachment(stamp(self.started))
-            .congestion_control(CongestionControl::Block)
+            // A late command is useless, and the link's reply must never
+            // wait on this tool's connection: drop, never block.
+            .congestion_control(CongestionControl::Drop)
             .priority(Priority::InteractiveHigh)
-            .timeout(QUERY_TIMEOUT)
-            .callback(move |reply| {
-                let mut i = sh.lock();
-                let mode = i.state.map_or(0, |s| s.mode);
-                let r = match reply.result() {
-                    Ok(sample) => {
-                        let b = sample.payload().to_bytes();
-                        if b.len() > ID_LEN
-                            && let Some(r) = CommandReply::from_bytes(&b[ID_LEN..])
-                        {
-                            let mut id = [0u8; ID_LEN];
-                            id.copy_from_slice(&b[..ID_LEN]);
-                            i.id = u128::from_le_bytes(id);
-                            r
-                        } else {
-                            CommandReply::refused(
-                                &req,
-                                mode,
-                                &format!(
-                                    "the link's reply has {} bytes (another version?)",
-                                    b.len()
-                                ),
-                            )
-                        }
+            .timeout(QUERY_TIMEOUT);
+        if let Some(b) = stamp {
+            get = get.attachment(b);
+        }
+        get.callback(move |reply| {
+            let mut i = sh.lock();
+            let mode = i.state.map_or(0, |s| s.mode);
+            let r = match reply.result() {
+                Ok(sample) => {
+                    let b = sample.payload().to_bytes();
+                    if b.len() > ID_LEN
+                        && let Some(r) = CommandReply::from_bytes(&b[ID_LEN..])
+                    {
+                        let mut id = [0u8; ID_LEN];
+                        id.copy_from_slice(&b[..ID_LEN]);
+                        i.id = u128::from_le_bytes(id);
+                        r
+                    } else {
+                        CommandReply::refused(
+                            &req,
+                            mode,
+                            &format!("the link's reply has {} bytes (another version?)", b.len()),
+                        )
                     }
-                    Err(e) => CommandReply::refused(
-                        &req,
-                        mode,
-                        &format!("link: {}", String::from_utf8_lossy(&e.payload().to_bytes())),
-                    ),
-                };
-                i.replies.push_back(r);
-                drop(i);
-                sh.cv.notify_all();
-            })
-            .wait()
-            .map_err(|e| IpcError::Remote(format!("sending through {}: {e}", self.endpoint)))?;
+                }
+                Err(e) => {
+                    let text = String::from_utf8_lossy(&e.payload().to_bytes()).into_owned();
+                    if text.contains("hello") {
+                        i.need_hello = true;
+                    }
+                    CommandReply::refused(&req, mode, &format!("link: {text}"))
+                }
+            };
+            i.replies.push_back(r);
+            drop(i);
+            sh.cv.notify_all();
+        })
+        .wait()
+        .map_err(|e| IpcError::Remote(format!("sending through {}: {e}", self.endpoint)))?;
+        self.pending.retain(|(_, t)| t.elapsed() < QUERY_TIMEOUT);
+        if self.pending.len() >= MAX_PENDING {
+            self.pending.remove(0);
+        }
         self.pending.push((req.sequence, Instant::now()));
         Ok(req.sequence)
     }
@@ -336,11 +383,22 @@ impl Session for RemoteClient {
 
     fn wait_any(&mut self, timeout: Duration) -> Result<(), IpcError> {
         self.pending.retain(|(_, t)| t.elapsed() < QUERY_TIMEOUT);
-        let i = self.shared.lock();
-        if timeout.is_zero() || i.fresh || !i.replies.is_empty() {
-            return Ok(());
+        let deadline = Instant::now() + timeout;
+        let mut i = self.shared.lock();
+        // Returns on a reply, or a state newer than the last wait saw.
+        while i.replies.is_empty() && i.states == self.seen_states {
+            let now = Instant::now();
+            if now >= deadline {
+                break;
+            }
+            i = self
+                .shared
+                .cv
+                .wait_timeout(i, deadline - now)
+                .map(|(g, _)| g)
+                .unwrap_or_else(|p| p.into_inner().0);
         }
-        let _ = self.shared.cv.wait_timeout(i, timeout);
+        self.seen_states = i.states;
         Ok(())
     }
 
@@ -369,7 +427,13 @@ impl Session for RemoteClient {
     }
 
     fn estop_out_of_band(&mut self) -> Result<(), IpcError> {
-        estop_through(&self.session, &self.prefix)
+        // Sent, not awaited: a tool's loop must not stall on it (the
+        // command and the state confirm it).
+        estop_query(&self.session, &self.prefix)
+            .timeout(Duration::from_secs(1))
+            .callback(|_| {})
+            .wait()
+            .map_err(|e| IpcError::Remote(format!("e-stop query: {e}")))
     }
 
     fn next_sequence(&mut self) -> u32 {

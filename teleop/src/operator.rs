@@ -61,6 +61,20 @@ impl Operator {
         }
     }
 
+    /// An E-stop goes out on the path no queue or session limit blocks
+    /// (the E-stop socket, or the link's E-stop key) before the command.
+    fn estop_first(&mut self, cmd: Command) {
+        if cmd == Command::EStop {
+            let _ = self.client.estop_out_of_band();
+        }
+    }
+
+    /// Sends an E-stop on the out-of-band path only (see
+    /// [`anguilla_ipc::Session::estop_out_of_band`]).
+    pub fn estop_out_of_band(&mut self) -> Result<(), IpcError> {
+        self.client.estop_out_of_band()
+    }
+
     /// Where the session reaches the daemon (for messages).
     pub fn describe(&self) -> String {
         self.client.describe()
@@ -79,6 +93,7 @@ impl Operator {
 
     /// Sends `cmd` without waiting; its reply is collected by [`Operator::poll`].
     pub fn send(&mut self, cmd: Command) -> Result<(), IpcError> {
+        self.estop_first(cmd);
         let seq = self.client.send(cmd)?;
         if self.sent.len() >= 256 {
             self.sent.drain(..128);
@@ -90,6 +105,7 @@ impl Operator {
     /// Sends `cmd` and waits up to `timeout` for its reply (a refusal is
     /// also remembered as the last refused command).
     pub fn request(&mut self, cmd: Command, timeout: Duration) -> Result<CommandReply, IpcError> {
+        self.estop_first(cmd);
         let r = self.client.request(cmd, timeout)?;
         if r.accepted == 0 {
             self.refusals += 1;

@@ -484,6 +484,42 @@ fn a_hostile_remote_cannot_intercept_commands_or_forge_state() {
     while let Ok(r) = replies.recv() {
         assert!(r.result().is_err(), "a wildcard query answered with data");
     }
+    // Forged stamps on its own session neither crash the link nor pass an
+    // ancient command; a command without a hello opens no session.
+    let one = |key: String, payload: Vec<u8>, stamp: Option<Vec<u8>>| {
+        let mut g = z2.get(key).payload(payload).timeout(Duration::from_secs(2));
+        if let Some(b) = stamp {
+            g = g.attachment(b);
+        }
+        let r = g.wait().unwrap().recv().unwrap();
+        match r.result() {
+            Ok(s) => Ok(s.payload().to_bytes().into_owned()),
+            Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
+        }
+    };
+    let key = format!("{prefix}/command/{}", "c".repeat(32));
+    let hello = one(key.clone(), Vec::new(), None).unwrap();
+    assert_eq!(hello.len(), 32);
+    let epoch = &hello[16..24];
+    use anguilla_ipc::Raw as _;
+    let keep = anguilla_ipc::CommandRequest::new(Command::KeepAlive, 1);
+    for t in [i64::MIN, i64::MAX, -1] {
+        let stamp = [epoch, &t.to_le_bytes()].concat();
+        let r = one(key.clone(), keep.as_bytes().to_vec(), Some(stamp));
+        if t == i64::MIN {
+            assert!(r.clone().unwrap_err().contains("ms old"), "{r:?}");
+        }
+    }
+    let r = one(key.clone(), keep.as_bytes().to_vec(), Some(vec![1, 2, 3]));
+    assert!(r.unwrap_err().contains("not 16"));
+    let r = one(
+        format!("{prefix}/command/{}", "d".repeat(32)),
+        keep.as_bytes().to_vec(),
+        None,
+    );
+    assert!(r.unwrap_err().contains("say hello first"));
+    // The link still serves the operator.
+    ok(&mut v, Command::TakeControl);
 }
 
 /// Median and 99th percentile of `v` (ms).
@@ -641,7 +677,7 @@ fn a_flooded_or_full_link_still_relays_a_remote_estop() {
 #[test]
 fn a_killed_remote_tool_stops_the_swim_and_loses_control() {
     let _dog = Watchdog::new("link-killed-tool", Duration::from_secs(120));
-    let (prefix, ep, _d, _l) = rig("killed-tool", "[link]\nidle-timeout = 1\n");
+    let (prefix, ep, _d, _l) = rig("killed-tool", "[link]\nidle-timeout = 6\n");
     let mut observer = Client::new(&prefix, "link-killed-tool-observer").unwrap();
     let o = Proc::new(anguilla_bin())
         .args(["ctl", "--prefix", &prefix, "--connect", &ep.text, "enable"])
