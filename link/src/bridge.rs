@@ -36,7 +36,8 @@ use zenoh::Wait as _;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Query;
 
-use crate::{Endpoint, ID_LEN, LinkError, Tls, zenoh_err};
+use crate::wire::{Hello, Stamp};
+use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
 /// Queries waiting for the bridge's loop; beyond, a query is answered
 /// "busy" at once.
@@ -180,10 +181,8 @@ fn monotonic_ms(started: Instant) -> i64 {
 
 /// This link process's epoch: random, so a tool can tell a restarted link.
 fn random_epoch() -> u64 {
-    use std::io::Read as _;
-    let mut b = [0u8; 8];
-    match std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut b)) {
-        Ok(()) => u64::from_le_bytes(b),
+    match crate::urandom() {
+        Ok(b) => u64::from_le_bytes(b),
         // Not secret: only distinct; the time and pid do.
         Err(_) => {
             std::time::SystemTime::now()
@@ -192,15 +191,6 @@ fn random_epoch() -> u64 {
                 ^ u64::from(std::process::id())
         }
     }
-}
-
-/// A hello reply: the client id, the link's epoch and its clock (ms).
-pub(crate) fn hello_reply(id: u128, epoch: u64, link_ms: i64) -> Vec<u8> {
-    let mut b = Vec::with_capacity(crate::HELLO_LEN);
-    b.extend_from_slice(&id.to_le_bytes());
-    b.extend_from_slice(&epoch.to_le_bytes());
-    b.extend_from_slice(&link_ms.to_le_bytes());
-    b
 }
 
 fn reply_err(q: &Query, text: &str) {
@@ -408,7 +398,14 @@ impl Bridge {
                 return;
             };
             sess.last_seen = now;
-            let r = hello_reply(sess.client.id(), self.epoch, link_ms);
+            let r = Hello {
+                id: sess.client.id(),
+                clock: Stamp {
+                    epoch: self.epoch,
+                    link_ms,
+                },
+            }
+            .encode();
             if let Err(e) = q.reply(q.key_expr().clone(), r).wait() {
                 tracing::debug!("hello reply: {e}");
             }
@@ -438,27 +435,25 @@ impl Bridge {
         // link's clock when it sent the command.
         let stamp = q.attachment().map(|a| a.to_bytes().into_owned());
         if let Some(b) = stamp {
-            let (Ok(epoch), Ok(sent)) = (
-                <[u8; 8]>::try_from(b.get(..8).unwrap_or_default()),
-                <[u8; 8]>::try_from(b.get(8..16).unwrap_or_default()),
-            ) else {
+            let Some(sent) = Stamp::decode(&b) else {
                 self.reject(
                     &q,
                     &format!(
-                        "the stamp (attachment) is {} bytes, not 16 (epoch, link clock)",
-                        b.len()
+                        "the stamp (attachment) is {} bytes, not {} (epoch, link clock)",
+                        b.len(),
+                        Stamp::LEN
                     ),
                 );
                 return;
             };
-            if u64::from_le_bytes(epoch) != self.epoch {
+            if sent.epoch != self.epoch {
                 self.reject(
                     &q,
                     "stamped for another link (it restarted): say hello again",
                 );
                 return;
             }
-            let age_ms = link_ms.saturating_sub(i64::from_le_bytes(sent));
+            let age_ms = link_ms.saturating_sub(sent.link_ms);
             let max_age = i64::try_from(self.command_timeout.as_millis()).unwrap_or(i64::MAX);
             if age_ms > max_age {
                 let why = format!(
@@ -503,7 +498,7 @@ impl Bridge {
             if sess.pending.is_empty() {
                 continue;
             }
-            let id = sess.client.id().to_le_bytes();
+            let id = sess.client.id();
             let mut got: Vec<CommandReply> = Vec::new();
             if let Err(e) = sess.client.replies(|r| got.push(*r)) {
                 // This session's client only: close it, serve the others.
@@ -514,9 +509,7 @@ impl Bridge {
             for r in got {
                 if let Some(i) = sess.pending.iter().position(|p| p.sequence == r.sequence) {
                     let p = sess.pending.remove(i);
-                    let mut bytes = Vec::with_capacity(ID_LEN + size_of::<CommandReply>());
-                    bytes.extend_from_slice(&id);
-                    bytes.extend_from_slice(r.as_bytes());
+                    let bytes = crate::wire::encode_reply(id, &r);
                     if let Err(e) = p.query.reply(p.query.key_expr().clone(), bytes).wait() {
                         tracing::debug!("command reply: {e}");
                     }

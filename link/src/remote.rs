@@ -12,7 +12,6 @@
 //! made stale. The state arrives on `P/state`.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
@@ -20,7 +19,8 @@ use anguilla_ipc::{CommandReply, CommandRequest, IpcError, Raw as _, Session, St
 use zenoh::Wait as _;
 use zenoh::qos::{CongestionControl, Priority};
 
-use crate::{Endpoint, ID_LEN, Tls};
+use crate::wire::{Hello, Stamp};
+use crate::{Endpoint, Tls};
 
 /// How long a command query waits for the link's reply.
 const QUERY_TIMEOUT: Duration = Duration::from_secs(2);
@@ -28,21 +28,25 @@ const QUERY_TIMEOUT: Duration = Duration::from_secs(2);
 const HELLO_TIMEOUT: Duration = Duration::from_secs(3);
 /// How often the session says hello (well within the link's idle timeout).
 const HELLO_PERIOD: Duration = Duration::from_secs(2);
+/// How long the session waits before another hello when one failed.
+const RETRY_PAUSE: Duration = Duration::from_millis(200);
 
 #[derive(Default)]
 struct Inner {
     state: Option<StateSnapshot>,
-    fresh: bool,
-    /// States received so far (wait_any waits for a new one).
+    /// States received so far: a reader knows a state is new by the count
+    /// it last took.
     states: u64,
     state_at: Option<Instant>,
     replies: VecDeque<CommandReply>,
     id: u128,
-    /// The last hello's answer: the link's epoch, its clock (ms), and when
-    /// the answer came (this tool's clock).
-    sync: Option<(u64, i64, Instant)>,
+    /// The last hello's answer: the link's clock, and when the answer came
+    /// (this tool's clock).
+    sync: Option<(Stamp, Instant)>,
     /// The link asked for a hello (it restarted, or closed the session).
     need_hello: bool,
+    /// The session is dropped: the hello thread ends.
+    stop: bool,
 }
 
 /// Most commands awaiting a reply that a session tracks.
@@ -58,13 +62,23 @@ impl Shared {
     fn lock(&self) -> std::sync::MutexGuard<'_, Inner> {
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
     }
+
+    /// Waits up to `timeout` while `waiting` holds (woken by each state,
+    /// reply, or change); returns the lock either way.
+    fn wait_while(
+        &self,
+        timeout: Duration,
+        mut waiting: impl FnMut(&mut Inner) -> bool,
+    ) -> std::sync::MutexGuard<'_, Inner> {
+        self.cv
+            .wait_timeout_while(self.lock(), timeout, |i| waiting(i))
+            .map(|(g, _)| g)
+            .unwrap_or_else(|p| p.into_inner().0)
+    }
 }
 
 fn random_token() -> Result<String, IpcError> {
-    use std::io::Read as _;
-    let mut b = [0u8; 16];
-    std::fs::File::open("/dev/urandom")
-        .and_then(|mut f| f.read_exact(&mut b))
+    let b: [u8; 16] = crate::urandom()
         .map_err(|e| IpcError::Remote(format!("drawing a session token from /dev/urandom: {e}")))?;
     Ok(b.iter().map(|x| format!("{x:02x}")).collect())
 }
@@ -88,12 +102,16 @@ fn open_session(endpoint: &Endpoint, tls: Option<&Tls>) -> Result<zenoh::Session
 
 /// A command's stamp: the link's epoch and its clock now, as estimated
 /// from the last hello (none before the first).
-fn stamp(sync: Option<(u64, i64, Instant)>) -> Option<Vec<u8>> {
-    let (epoch, link_ms, at) = sync?;
+fn stamp(sync: Option<(Stamp, Instant)>) -> Option<Vec<u8>> {
+    let (clock, at) = sync?;
     let since = i64::try_from(at.elapsed().as_millis()).unwrap_or(i64::MAX);
-    let mut b = epoch.to_le_bytes().to_vec();
-    b.extend_from_slice(&link_ms.saturating_add(since).to_le_bytes());
-    Some(b)
+    Some(
+        Stamp {
+            link_ms: clock.link_ms.saturating_add(since),
+            ..clock
+        }
+        .encode(),
+    )
 }
 
 /// Says hello on `key`, waits for the answer, and records the client id
@@ -104,38 +122,25 @@ fn hello(session: &zenoh::Session, key: &str, shared: &Shared) -> Result<(), Str
         .timeout(HELLO_TIMEOUT)
         .wait()
         .map_err(|e| e.to_string())?;
-    match replies.recv() {
-        Ok(r) => match r.result() {
-            Ok(sample) => {
-                let b = sample.payload().to_bytes();
-                if b.len() != crate::HELLO_LEN {
-                    return Err(format!(
-                        "the link's hello reply has {} bytes, not {} (another version?)",
-                        b.len(),
-                        crate::HELLO_LEN
-                    ));
-                }
-                let word = |at: usize| {
-                    let mut w = [0u8; 8];
-                    w.copy_from_slice(&b[at..at + 8]);
-                    w
-                };
-                let mut id = [0u8; ID_LEN];
-                id.copy_from_slice(&b[..ID_LEN]);
-                let mut i = shared.lock();
-                i.id = u128::from_le_bytes(id);
-                i.sync = Some((
-                    u64::from_le_bytes(word(16)),
-                    i64::from_le_bytes(word(24)),
-                    Instant::now(),
-                ));
-                i.need_hello = false;
-                Ok(())
-            }
-            Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
-        },
-        Err(_) => Err(format!("no link answered within {HELLO_TIMEOUT:?}")),
-    }
+    let reply = replies
+        .recv()
+        .map_err(|_| format!("no link answered within {HELLO_TIMEOUT:?}"))?;
+    let b = match reply.result() {
+        Ok(sample) => sample.payload().to_bytes().into_owned(),
+        Err(e) => return Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
+    };
+    let h = Hello::decode(&b).ok_or_else(|| {
+        format!(
+            "the link's hello reply has {} bytes, not {} (another version?)",
+            b.len(),
+            Hello::LEN
+        )
+    })?;
+    let mut i = shared.lock();
+    i.id = h.id;
+    i.sync = Some((h.clock, Instant::now()));
+    i.need_hello = false;
+    Ok(())
 }
 
 /// A tool's session with a daemon through `anguilla link`.
@@ -148,8 +153,9 @@ pub struct RemoteClient {
     _state: Option<zenoh::pubsub::Subscriber<()>>,
     sequence: u32,
     pending: Vec<(u32, Instant)>,
+    /// The state count at the last wait_any, and at the last state taken.
     seen_states: u64,
-    stop: Arc<AtomicBool>,
+    taken_states: u64,
     keepalive: Option<std::thread::JoinHandle<()>>,
 }
 
@@ -186,7 +192,6 @@ impl RemoteClient {
                 if let Some(s) = StateSnapshot::from_bytes(&b) {
                     let mut i = sh.lock();
                     i.state = Some(s);
-                    i.fresh = true;
                     i.states += 1;
                     i.state_at = Some(Instant::now());
                     drop(i);
@@ -197,7 +202,6 @@ impl RemoteClient {
             .map_err(|e| IpcError::Remote(format!("subscribing to the state: {e}")))?;
         let token = random_token()?;
         let key = crate::command_key(prefix, &token);
-        let stop = Arc::new(AtomicBool::new(false));
         let mut keepalive = None;
         if commands {
             hello(&session, &key, &shared).map_err(|e| {
@@ -206,16 +210,25 @@ impl RemoteClient {
                     endpoint.text
                 ))
             })?;
-            let (s, k, sh, st) = (session.clone(), key.clone(), shared.clone(), stop.clone());
+            let (s, k, sh) = (session.clone(), key.clone(), shared.clone());
             keepalive = Some(std::thread::spawn(move || {
-                let mut next = Instant::now() + HELLO_PERIOD;
-                while !st.load(Ordering::Relaxed) {
-                    std::thread::sleep(Duration::from_millis(50));
-                    if Instant::now() < next && !sh.lock().need_hello {
-                        continue;
+                loop {
+                    // Until the period ends, the link asks, or the session ends.
+                    let due = Instant::now() + HELLO_PERIOD;
+                    let stop = sh
+                        .wait_while(HELLO_PERIOD, |i| {
+                            !i.stop && !i.need_hello && Instant::now() < due
+                        })
+                        .stop;
+                    if stop {
+                        return;
                     }
-                    next = Instant::now() + HELLO_PERIOD;
-                    let _ = hello(&s, &k, &sh);
+                    if hello(&s, &k, &sh).is_err() {
+                        // No link: ask again after a pause a stop cuts short.
+                        if sh.wait_while(RETRY_PAUSE, |i| !i.stop).stop {
+                            return;
+                        }
+                    }
                 }
             }));
         }
@@ -229,7 +242,7 @@ impl RemoteClient {
             sequence: 0,
             pending: Vec::new(),
             seen_states: 0,
-            stop,
+            taken_states: 0,
             keepalive,
         })
     }
@@ -237,7 +250,8 @@ impl RemoteClient {
 
 impl Drop for RemoteClient {
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
+        self.shared.lock().stop = true;
+        self.shared.cv.notify_all();
         if let Some(k) = self.keepalive.take() {
             let _ = k.join();
         }
@@ -326,19 +340,16 @@ impl Session for RemoteClient {
             let r = match reply.result() {
                 Ok(sample) => {
                     let b = sample.payload().to_bytes();
-                    if b.len() > ID_LEN
-                        && let Some(r) = CommandReply::from_bytes(&b[ID_LEN..])
-                    {
-                        let mut id = [0u8; ID_LEN];
-                        id.copy_from_slice(&b[..ID_LEN]);
-                        i.id = u128::from_le_bytes(id);
-                        r
-                    } else {
-                        CommandReply::refused(
+                    match crate::wire::decode_reply(&b) {
+                        Some((id, r)) => {
+                            i.id = id;
+                            r
+                        }
+                        None => CommandReply::refused(
                             &req,
                             mode,
                             &format!("the link's reply has {} bytes (another version?)", b.len()),
-                        )
+                        ),
                     }
                 }
                 Err(e) => {
@@ -383,46 +394,26 @@ impl Session for RemoteClient {
 
     fn wait_any(&mut self, timeout: Duration) -> Result<(), IpcError> {
         self.pending.retain(|(_, t)| t.elapsed() < QUERY_TIMEOUT);
-        let deadline = Instant::now() + timeout;
-        let mut i = self.shared.lock();
         // Returns on a reply, or a state newer than the last wait saw.
-        while i.replies.is_empty() && i.states == self.seen_states {
-            let now = Instant::now();
-            if now >= deadline {
-                break;
-            }
-            i = self
-                .shared
-                .cv
-                .wait_timeout(i, deadline - now)
-                .map(|(g, _)| g)
-                .unwrap_or_else(|p| p.into_inner().0);
-        }
+        let seen = self.seen_states;
+        let i = self
+            .shared
+            .wait_while(timeout, |i| i.replies.is_empty() && i.states == seen);
         self.seen_states = i.states;
         Ok(())
     }
 
     fn latest(&mut self) -> Result<Option<StateSnapshot>, IpcError> {
-        let mut i = self.shared.lock();
-        Ok(std::mem::take(&mut i.fresh).then_some(i.state).flatten())
+        self.wait_state(Duration::ZERO)
     }
 
     fn wait_state(&mut self, timeout: Duration) -> Result<Option<StateSnapshot>, IpcError> {
-        let deadline = Instant::now() + timeout;
-        let mut i = self.shared.lock();
-        while !i.fresh {
-            let now = Instant::now();
-            if now >= deadline {
-                return Ok(None);
-            }
-            i = self
-                .shared
-                .cv
-                .wait_timeout(i, deadline - now)
-                .map(|(g, _)| g)
-                .unwrap_or_else(|p| p.into_inner().0);
+        let taken = self.taken_states;
+        let i = self.shared.wait_while(timeout, |i| i.states == taken);
+        if i.states == taken {
+            return Ok(None);
         }
-        i.fresh = false;
+        self.taken_states = i.states;
         Ok(i.state)
     }
 
