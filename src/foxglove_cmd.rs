@@ -84,6 +84,22 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     let (gone_tx, gone) = std::sync::mpsc::channel();
     let estop_wanted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     if cfg.foxglove.commands {
+        anyhow::ensure!(
+            cfg.foxglove.insecure_commands,
+            "[foxglove] commands = true: the Foxglove WebSocket protocol has no authentication, so \
+             whoever reaches {addr} (on loopback: every local user) could drive the robot. Drive \
+             with the operators' tools (teleop, joy, ctl; --connect local or tls/ through \
+             `anguilla link`), or accept the risk with [foxglove] insecure-commands = true"
+        );
+        eprintln!(
+            "anguilla foxglove: WARNING: commands accepted on {addr} without authentication \
+             (insecure-commands): {}",
+            if addr.ip().is_loopback() {
+                "every local user may take control of the robot"
+            } else {
+                "anyone who reaches this port may take control of the robot"
+            }
+        );
         builder = builder
             .capabilities([Capability::ClientPublish])
             .supported_encodings(["json"])
@@ -93,12 +109,6 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
                 estop_wanted: estop_wanted.clone(),
                 estop_prefix: args.daemon.remote()?.is_none().then(|| prefix.clone()),
             }));
-        if !addr.ip().is_loopback() {
-            eprintln!(
-                "warning: [foxglove] commands = true on {addr}: anyone who reaches this port \
-                 may take control of the robot"
-            );
-        }
     }
     let server = builder
         .start_blocking()

@@ -17,9 +17,11 @@ use crate::teleop_cmd::PrefixArgs;
 #[command(
     args_conflicts_with_subcommands = true,
     after_help = "Operators reach the daemon with `anguilla teleop|joy|monitor|ctl --connect \
-    ENDPOINT` (and --ca/--cert/--key for tls/). Plain tcp/ is accepted on loopback only; every \
-    other address needs tls/ with mutual authentication. docs/remote.md has the setup for a robot \
-    and two laptops."
+    ENDPOINT` (and --ca/--cert/--key for tls/). By default the link listens on 'local', a Unix \
+    socket in /tmp/anguilla/PREFIX/link/ that only the link's user and the members of its group \
+    reach (tools: --connect local). Any other address needs tls/ with mutual authentication; \
+    plain tcp/ is accepted on loopback only, with --insecure-loopback. docs/remote.md has the \
+    setup for a robot and two laptops."
 )]
 pub struct LinkArgs {
     #[command(subcommand)]
@@ -27,9 +29,14 @@ pub struct LinkArgs {
     #[command(flatten)]
     at: PrefixArgs,
     /// Listen on this Zenoh endpoint (repeatable; overrides `[link] listen`):
-    /// tcp/127.0.0.1:7447 (loopback), tls/0.0.0.0:7447.
+    /// local (the default: the prefix's Unix socket, operators only),
+    /// tls/0.0.0.0:7447, tcp/127.0.0.1:7447 (with --insecure-loopback).
     #[arg(long, value_name = "ENDPOINT")]
     listen: Vec<String>,
+    /// Accept plain tcp/ on loopback, which every local user can reach
+    /// (overrides `[link] insecure-loopback`).
+    #[arg(long)]
+    insecure_loopback: bool,
     /// The robot's CA certificate (PEM; overrides `[link] ca`).
     #[arg(long, value_name = "FILE")]
     ca: Option<PathBuf>,
@@ -105,9 +112,44 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     };
     let listen = texts
         .iter()
-        .map(|t| Endpoint::parse(t, tls.as_ref()))
+        .map(|t| Endpoint::parse_at(t, &prefix, tls.as_ref()))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| anyhow::anyhow!("--listen {e}"))?;
+    let insecure_loopback = args.insecure_loopback || l.insecure_loopback;
+    for e in listen.iter().filter(|e| e.insecure()) {
+        anyhow::ensure!(
+            insecure_loopback,
+            "--listen {}: plain TCP has no authentication, and every local user can connect to a \
+             loopback port and drive the robot. Listen on 'local' (the default: a Unix socket \
+             only the link's user and group reach; tools use --connect local) or tls/, or accept \
+             the risk with --insecure-loopback ([link] insecure-loopback = true)",
+            e.text
+        );
+        eprintln!(
+            "anguilla link: WARNING: listening on {} without authentication \
+             (insecure-loopback): every local user can drive the robot",
+            e.text
+        );
+    }
+    if listen.iter().any(|e| e.unix) {
+        // The socket Zenoh makes must be the group's (the directory, 0770,
+        // keeps everyone else out).
+        // SAFETY: umask has no preconditions.
+        unsafe { libc::umask(0o007) };
+    }
+    for e in listen.iter().filter(|e| e.unix) {
+        if e.text == Endpoint::local(&prefix)?.text {
+            anguilla_link::prepare_local(&prefix).map_err(|e| anyhow::anyhow!("--listen {e}"))?;
+        }
+    }
+    let kinds: Vec<&str> = listen
+        .iter()
+        .map(|e| match (e.tls, e.unix) {
+            (true, _) => "TLS, mutual authentication",
+            (false, true) => "Unix socket, the link's user and group only",
+            (false, false) => "plain TCP on loopback, INSECURE",
+        })
+        .collect();
     let state_rate = args.state_rate.unwrap_or(l.state_rate);
     anyhow::ensure!(
         state_rate.is_finite() && (0.1..=1000.0).contains(&state_rate),
@@ -144,12 +186,13 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     eprintln!(
         "anguilla link: prefix '{prefix}' on {} ({}; state at most {state_rate} Hz; \
          inbound {:?}, outbound {:?})",
-        texts.join(", "),
-        if settings.tls.is_some() {
-            "TLS, mutual authentication"
-        } else {
-            "plain TCP, loopback"
-        },
+        settings
+            .listen
+            .iter()
+            .map(|e| e.text.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        kinds.join("; "),
         l.inbound,
         l.outbound,
     );

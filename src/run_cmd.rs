@@ -189,9 +189,20 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
         ConfigCmd::Check { file } => {
             let cfg = Config::load(&file)?;
             let tls = !cfg.link.ca.is_empty();
-            for e in &cfg.link.listen {
-                anguilla_link::Endpoint::parse_form(e, tls)
+            for e in cfg
+                .link
+                .listen
+                .iter()
+                .filter(|e| *e != anguilla_link::LOCAL)
+            {
+                let ep = anguilla_link::Endpoint::parse_form(e, tls)
                     .map_err(|e| anyhow::anyhow!("{}: link.listen: {e}", file.display()))?;
+                anyhow::ensure!(
+                    !ep.insecure() || cfg.link.insecure_loopback,
+                    "{}: link.listen: '{e}' is plain TCP, which every local user can reach: use \
+                     \"local\" or tls/, or set link.insecure-loopback = true to accept that",
+                    file.display()
+                );
             }
             let period = anguilla_daemon::control::period_ns(&cfg);
             outln!(

@@ -58,9 +58,10 @@ impl PrefixArgs {
 pub struct DaemonArgs {
     #[command(flatten)]
     pub(crate) at: PrefixArgs,
-    /// Reach a daemon on another computer through its `anguilla link`, at
-    /// this Zenoh endpoint: tcp/127.0.0.1:7447 (plain TCP: loopback only)
-    /// or tls/HOST:PORT with --ca, --cert and --key.
+    /// Reach the daemon through its `anguilla link`, at this Zenoh
+    /// endpoint: local (the link's Unix socket on this computer, for the
+    /// link's user and group), tls/HOST:PORT with --ca, --cert and --key
+    /// (another computer), or tcp/127.0.0.1:7447 (an insecure-loopback link).
     #[arg(long, value_name = "ENDPOINT")]
     connect: Option<String>,
     /// With --connect tls/...: the robot's CA certificate (PEM).
@@ -94,8 +95,13 @@ impl DaemonArgs {
             (None, None, None) => None,
             _ => anyhow::bail!("--ca, --cert and --key go together (TLS): give all three"),
         };
-        let endpoint =
-            Endpoint::parse(e, tls.as_ref()).map_err(|e| anyhow::anyhow!("--connect {e}"))?;
+        let endpoint = Endpoint::parse_at(e, &self.prefix()?, tls.as_ref())
+            .map_err(|e| anyhow::anyhow!("--connect {e}"))?;
+        if endpoint.unix
+            && let Some(why) = anguilla_link::local_access(&endpoint)
+        {
+            anyhow::bail!("--connect {}: {why}", endpoint.text);
+        }
         Ok(Some((endpoint, tls)))
     }
 

@@ -99,6 +99,11 @@ impl Robot {
         self.sim.as_ref().expect("running").force_host_state(state);
     }
 
+    /// Fault injection on the robot's side, now: a scenario action.
+    pub fn inject(&self, action: anguilla_sim::scenario::Action) {
+        self.sim.as_ref().expect("running").inject(action);
+    }
+
     /// The simulated robot's ground truth now.
     pub fn truth(&self) -> anguilla_sim::Truth {
         self.sim.as_ref().expect("running").truth()

@@ -198,6 +198,9 @@ pub struct ControlConfig {
     pub enable_timeout: f64,
     /// A node's heartbeat older than this is lost (s).
     pub heartbeat_timeout: f64,
+    /// A node that answers none of this many SYNCs (control periods) is
+    /// faulted, whatever its heartbeats say ("no feedback").
+    pub feedback_timeout: u32,
     /// The nodes' watchdog, written to them before every enable (s); 0 means
     /// five control periods, at least 100 ms.
     pub node_watchdog: f64,
@@ -213,6 +216,7 @@ impl Default for ControlConfig {
             control_release_timeout: 3.0,
             enable_timeout: 1.0,
             heartbeat_timeout: 0.35,
+            feedback_timeout: 50,
             node_watchdog: 0.0,
             fault_policy: FaultPolicyConfig::Hold,
         }
@@ -479,6 +483,11 @@ pub struct FoxgloveConfig {
     /// Accept operator commands that Foxglove clients publish on
     /// `/anguilla/command`; off: the view is read-only.
     pub commands: bool,
+    /// Required with `commands`: the Foxglove WebSocket protocol has no
+    /// authentication, so whoever reaches the port (any local user, on
+    /// loopback) may drive; this says the owner accepts that. Warned at
+    /// every start.
+    pub insecure_commands: bool,
 }
 
 /// `[link]`: remote operation over Zenoh (`anguilla link`, docs/remote.md).
@@ -486,9 +495,13 @@ pub struct FoxgloveConfig {
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct LinkConfig {
-    /// Zenoh endpoints the link listens on (`tcp/127.0.0.1:7447`,
-    /// `tls/0.0.0.0:7447`); plain TCP only on loopback.
+    /// Zenoh endpoints the link listens on: `local` (the prefix's Unix
+    /// socket, for the link's user and group only), `tls/0.0.0.0:7447`;
+    /// plain `tcp/` only on loopback and with `insecure-loopback`.
     pub listen: Vec<String>,
+    /// Accept plain `tcp/` on loopback, which every local user can reach
+    /// (no authentication). Warned at every start.
+    pub insecure_loopback: bool,
     /// Most states a second sent on the link (Hz); a change of mode,
     /// cause or holder is sent at once.
     pub state_rate: f64,
@@ -517,7 +530,8 @@ pub const LINK_OUTBOUND: [&str; 1] = ["state"];
 impl Default for LinkConfig {
     fn default() -> Self {
         Self {
-            listen: vec!["tcp/127.0.0.1:7447".into()],
+            listen: vec!["local".into()],
+            insecure_loopback: false,
             state_rate: 50.0,
             max_clients: 8,
             idle_timeout: 10.0,
@@ -814,6 +828,13 @@ impl Config {
             10.0,
             "0.01 ..= 10 s",
         )?;
+        if !(2..=10_000).contains(&c.feedback_timeout) {
+            return Err(ConfigError::Range {
+                key: "control.feedback-timeout",
+                value: c.feedback_timeout.to_string(),
+                expected: "2 ..= 10000 control periods",
+            });
+        }
         if c.node_watchdog != 0.0 {
             range(
                 "control.node-watchdog",
@@ -1081,7 +1102,7 @@ impl Config {
             return Err(ConfigError::Range {
                 key: "link.listen",
                 value: "[]".into(),
-                expected: "at least one endpoint, e.g. \"tcp/127.0.0.1:7447\"",
+                expected: "at least one endpoint, e.g. \"local\"",
             });
         }
         for (key, list, allowed, expected) in [
@@ -1305,6 +1326,10 @@ pub fn default_toml() -> String {
         "heartbeat-timeout = {}",
         fmt_f(d.control.heartbeat_timeout)
     ));
+    w("# A node that answers none of this many SYNCs (control periods) is faulted,".into());
+    w("# \"no feedback\", whatever its heartbeats say. ODrive axes answer every".into());
+    w("# encoder_msg_rate_ms (10 ms by default): keep this above that in periods.".into());
+    w(format!("feedback-timeout = {}", d.control.feedback_timeout));
     w("# The nodes' watchdog, written to them before every enable (s): a node that".into());
     w("# applies no setpoint for this long takes its safe action. 0: five periods,".into());
     w("# at least 100 ms.".into());
@@ -1452,15 +1477,23 @@ pub fn default_toml() -> String {
     w("# `anguilla foxglove` (its own process; the daemon ignores this section): accept".into());
     w("# operator commands Foxglove clients publish on /anguilla/command, each client".into());
     w("# its own operator under the daemon's authority and deadman rules. The".into());
-    w("# WebSocket has no authentication: whoever reaches the port may then drive.".into());
+    w("# WebSocket has no authentication: whoever reaches the port may then drive (any".into());
+    w("# local user, on loopback), so commands also need insecure-commands = true.".into());
     w(format!("commands = {}", d.foxglove.commands));
+    w(format!(
+        "insecure-commands = {}",
+        d.foxglove.insecure_commands
+    ));
     w(String::new());
     w("[link]".into());
     w("# Remote operation over Zenoh: `anguilla link` (its own process; the daemon".into());
-    w("# ignores this section; docs/remote.md). Endpoints it listens on: plain".into());
-    w("# \"tcp/...\" only on loopback, any other address needs \"tls/...\" with the".into());
-    w("# robot's CA, certificate and key (`anguilla link certs` makes them).".into());
+    w("# ignores this section; docs/remote.md). Endpoints it listens on: \"local\",".into());
+    w("# a Unix socket in /tmp/anguilla/<prefix>/link/ (mode 0770: the link's user and".into());
+    w("# group, the operators, only); \"tls/HOST:PORT\" with the robot's CA, certificate".into());
+    w("# and key (`anguilla link certs` makes them); plain \"tcp/...\" on loopback only,".into());
+    w("# and only with insecure-loopback = true (every local user can reach it).".into());
     w(format!("listen = {:?}", d.link.listen));
+    w(format!("insecure-loopback = {}", d.link.insecure_loopback));
     w("# Most states a second on the link (Hz); mode, cause or holder changes go at once.".into());
     w(format!("state-rate = {}", fmt_f(d.link.state_rate)));
     w("# Most remote clients with a session at once; a silent one is closed after".into());

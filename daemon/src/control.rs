@@ -41,6 +41,7 @@ use crate::ipc::{
     SensorHealth, StateSnapshot,
 };
 use crate::nav::{Nav, Prediction};
+use crate::nodes::Liveness;
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
 use crate::supervisor::{
@@ -132,8 +133,10 @@ pub struct Controller {
     torque_ff: Vec<[f64; 2]>,
     counter: u16,
     mode_before: Mode,
-    /// Joints that get no setpoint this period (lost, in Fault).
+    /// Joints that get no setpoint this period (lost or silent, in Fault).
     setpoint_skip: NodeSet,
+    /// When a joint counts as lost or silent.
+    liveness: Liveness,
     model_failed: bool,
     last_model_error: Option<ModelError>,
     report: StepReport,
@@ -251,6 +254,10 @@ impl Controller {
             counter: 0,
             mode_before: Mode::Idle,
             setpoint_skip: NodeSet::empty(),
+            liveness: Liveness {
+                heartbeat_timeout: Nanos::from_secs_f64(cfg.control.heartbeat_timeout),
+                feedback_periods: cfg.control.feedback_timeout,
+            },
             model_failed: false,
             last_model_error: None,
             report: StepReport::default(),
@@ -478,12 +485,13 @@ impl Controller {
             }
         }
         // Supervisor.
-        let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
-        let report = self.drives.observe(now, hb_timeout);
+        let report = self.drives.observe(now, &self.liveness);
         let configured = self.drives.report_ids();
         let obs = Observations {
             all_enabled: report.all_enabled,
             heartbeat_lost: report.lost,
+            feedback_lost: report.silent,
+            duplicate_id: report.duplicate,
             all_lost: !configured.is_empty() && report.lost.covers(configured),
             node_fault: report.fault,
             estop_nodes: report.estop,
@@ -497,7 +505,7 @@ impl Controller {
         let mode = self.sup.mode();
         // In Fault, setpoints go to the nodes still answering only.
         self.setpoint_skip = if mode == Mode::Fault {
-            report.lost
+            report.lost.union(report.silent)
         } else {
             NodeSet::empty()
         };

@@ -6,6 +6,20 @@
 //! another sender is noted, and anything that does not decode is counted
 //! (never a panic). [`NodeTable::observe`] turns the table into the
 //! supervisor's [`Observations`](crate::supervisor::Observations).
+//!
+//! A node is judged alive by what it does, not only by what it says:
+//!
+//! - **Feedback.** Every node that has booted answers each SYNC with a
+//!   Feedback frame (`protocol/README.md`). [`NodeTable::sync_sent`] counts
+//!   the SYNCs since each node's last feedback; a node that answered none
+//!   of the last [`Liveness::feedback_periods`] is *silent*, whatever its
+//!   heartbeats say. Counting SYNCs, not time, keeps a stalled loop (a busy
+//!   machine) from faulting nodes that had no SYNC to answer.
+//! - **Heartbeat counters.** A node's heartbeat counter advances by one per
+//!   heartbeat. A counter that repeats or jumps is an anomaly; a reboot
+//!   gives one. [`DUPLICATE_ANOMALIES`] anomalies within
+//!   [`DUPLICATE_WINDOW`] mean two senders with one id: a second node
+//!   configured to it, or a forger; the node is *duplicate*.
 
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
@@ -29,6 +43,32 @@ pub struct NodeEntry {
     pub feedback: Option<Feedback>,
     /// Heartbeats received.
     pub heartbeats: u64,
+    /// The counter of its last heartbeat.
+    pub last_counter: Option<u8>,
+    /// When its last [`DUPLICATE_ANOMALIES`] counter anomalies were seen
+    /// (a ring, oldest overwritten).
+    anomalies: [Option<Nanos>; DUPLICATE_ANOMALIES],
+    /// SYNCs sent since its last feedback.
+    pub syncs_since_feedback: u32,
+}
+
+/// Counter anomalies that mean two senders share a node id, when they
+/// fall within [`DUPLICATE_WINDOW`]. Three: a reboot gives one, a lost
+/// heartbeat frame one more; two senders give one per heartbeat (ten a
+/// second), so the fault comes within about 0.3 s.
+pub const DUPLICATE_ANOMALIES: usize = 3;
+
+/// The window for [`DUPLICATE_ANOMALIES`].
+pub const DUPLICATE_WINDOW: Nanos = Nanos::from_millis(1_000);
+
+/// When a node counts as lost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Liveness {
+    /// A heartbeat older than this is lost.
+    pub heartbeat_timeout: Nanos,
+    /// A node that answered none of this many SYNCs is silent
+    /// (`control.feedback-timeout`).
+    pub feedback_periods: u32,
 }
 
 /// Why frames were not used; counted, never fatal.
@@ -51,6 +91,10 @@ pub struct NodeReport {
     pub all_enabled: bool,
     /// Nodes whose heartbeat is overdue.
     pub lost: NodeSet,
+    /// Nodes that stopped answering SYNC with feedback.
+    pub silent: NodeSet,
+    /// Nodes whose id two senders use.
+    pub duplicate: NodeSet,
     /// Nodes in Fault.
     pub fault: NodeSet,
     /// Nodes in EStop.
@@ -62,6 +106,8 @@ impl Default for NodeReport {
         NodeReport {
             all_enabled: false,
             lost: NodeSet::empty(),
+            silent: NodeSet::empty(),
+            duplicate: NodeSet::empty(),
             fault: NodeSet::empty(),
             estop: NodeSet::empty(),
         }
@@ -103,6 +149,9 @@ impl NodeTable {
                     last_heartbeat: None,
                     feedback: None,
                     heartbeats: 0,
+                    last_counter: None,
+                    anomalies: [None; DUPLICATE_ANOMALIES],
+                    syncs_since_feedback: 0,
                 })
                 .collect(),
             index,
@@ -148,11 +197,19 @@ impl NodeTable {
                     e.errors = hb.errors;
                     e.last_heartbeat = Some(now);
                     e.heartbeats += 1;
+                    if e.last_counter
+                        .is_some_and(|c| hb.counter != c.wrapping_add(1))
+                    {
+                        e.anomalies.rotate_left(1);
+                        e.anomalies[DUPLICATE_ANOMALIES - 1] = Some(now);
+                    }
+                    e.last_counter = Some(hb.counter);
                 }
             }
             Ok(Message::Feedback(fb)) => {
                 if let Some(e) = self.entry(fb.node) {
                     e.feedback = Some(fb);
+                    e.syncs_since_feedback = 0;
                 }
             }
             Ok(Message::ConfigAck { .. }) => {}
@@ -187,17 +244,35 @@ impl NodeTable {
         core::mem::take(&mut self.bus_estop)
     }
 
+    /// A SYNC went out: every node that has booted owes an answer. A
+    /// node never heard, or booting, owes none (its heartbeats, or their
+    /// absence, say enough).
+    pub fn sync_sent(&mut self) {
+        for e in &mut self.entries {
+            match e.state {
+                None | Some(NodeState::Boot) => e.syncs_since_feedback = 0,
+                Some(_) => e.syncs_since_feedback = e.syncs_since_feedback.saturating_add(1),
+            }
+        }
+    }
+
     /// What the nodes report, for the supervisor. A node never heard of is
-    /// lost once `heartbeat_timeout` has passed since the table was made.
-    pub fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
+    /// lost once the heartbeat timeout has passed since the table was made.
+    pub fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
         let mut r = NodeReport {
             all_enabled: true,
             ..NodeReport::default()
         };
         for e in &self.entries {
             let since = now.saturating_sub(e.last_heartbeat.unwrap_or(self.started));
-            if since > heartbeat_timeout {
+            if since > limits.heartbeat_timeout {
                 r.lost = r.lost.with(e.id);
+            }
+            if e.syncs_since_feedback > limits.feedback_periods {
+                r.silent = r.silent.with(e.id);
+            }
+            if e.anomalies[0].is_some_and(|t| now.saturating_sub(t) <= DUPLICATE_WINDOW) {
+                r.duplicate = r.duplicate.with(e.id);
             }
             match e.state {
                 Some(NodeState::Enabled) => {}
@@ -216,10 +291,12 @@ impl NodeTable {
     }
 
     /// Forgets every node's state (after a clear-faults, the old reports
-    /// are stale) but keeps heartbeat times.
+    /// are stale) but keeps heartbeat times and counter anomalies (a reset
+    /// does not make two senders one).
     pub fn forget_states(&mut self) {
         for e in &mut self.entries {
             e.state = None;
+            e.syncs_since_feedback = 0;
         }
     }
 }
@@ -231,17 +308,25 @@ mod tests {
     use anguilla_protocol::message::{AxisFeedback, Heartbeat};
 
     const MS: Nanos = Nanos::from_millis(1);
+    const LIMITS: Liveness = Liveness {
+        heartbeat_timeout: Nanos::from_millis(350),
+        feedback_periods: 10,
+    };
 
     fn ids(n: u8) -> Vec<NodeId> {
         (1..=n).map(|i| NodeId::new(i).unwrap()).collect()
     }
 
     fn hb(node: u8, state: NodeState) -> Frame {
+        hb_n(node, state, 0)
+    }
+
+    fn hb_n(node: u8, state: NodeState, counter: u8) -> Frame {
         Message::Heartbeat(Heartbeat {
             node: NodeId::new(node).unwrap(),
             state,
             errors: ErrorBits(0),
-            counter: 0,
+            counter,
             missed_syncs: 0,
             temperature: 30,
         })
@@ -267,7 +352,7 @@ mod tests {
         .encode(Variant::Classic)
         .unwrap();
         t.ingest(MS, &fb);
-        let r = t.observe(2 * MS, 350 * MS);
+        let r = t.observe(2 * MS, &LIMITS);
         assert!(r.all_enabled);
         let none = NodeSet::empty();
         assert_eq!((r.lost, r.fault, r.estop), (none, none, none));
@@ -282,7 +367,7 @@ mod tests {
         t.ingest(Nanos::ZERO, &hb(2, NodeState::Fault));
         t.ingest(400 * MS, &hb(1, NodeState::Enabled));
         t.ingest(400 * MS, &hb(3, NodeState::EStop));
-        let r = t.observe(400 * MS, 350 * MS);
+        let r = t.observe(400 * MS, &LIMITS);
         let only = |n| NodeSet::empty().with(NodeId::new(n).unwrap());
         assert!(!r.all_enabled);
         assert_eq!(r.lost, only(2), "node 2 silent for 400 ms");
@@ -305,5 +390,116 @@ mod tests {
         t.ingest(Nanos::ZERO, &Frame::new_standard(0x000, &[]).unwrap());
         assert!(t.take_bus_estop());
         assert!(!t.take_bus_estop(), "taken once");
+    }
+
+    fn fb(node: u8) -> Frame {
+        Message::Feedback(Feedback {
+            node: NodeId::new(node).unwrap(),
+            enabled: true,
+            fault: false,
+            axes: [AxisFeedback::default(); 2],
+        })
+        .encode(Variant::Classic)
+        .unwrap()
+    }
+
+    fn only(n: u8) -> NodeSet {
+        NodeSet::empty().with(NodeId::new(n).unwrap())
+    }
+
+    /// The attack of issue 26: node 2 is dead, and someone sends perfect
+    /// heartbeats for it (state Enabled, counter +1 each). Its silence on
+    /// SYNC gives it away after `feedback_periods` SYNCs, not before.
+    #[test]
+    fn a_node_that_answers_no_sync_is_silent_whatever_its_heartbeats_say() {
+        let mut t = NodeTable::new(Variant::Classic, &ids(2), Nanos::ZERO);
+        let mut now = Nanos::ZERO;
+        for sync in 0..=LIMITS.feedback_periods + 1 {
+            // Forged or not, both heartbeats are flawless.
+            if sync % 5 == 0 {
+                let c = (sync / 5) as u8;
+                t.ingest(now, &hb_n(1, NodeState::Enabled, c));
+                t.ingest(now, &hb_n(2, NodeState::Enabled, c));
+            }
+            t.ingest(now, &fb(1));
+            let r = t.observe(now, &LIMITS);
+            assert!(r.lost.is_empty() && r.duplicate.is_empty());
+            let expect = if sync > LIMITS.feedback_periods {
+                only(2)
+            } else {
+                NodeSet::empty()
+            };
+            assert_eq!(r.silent, expect, "after {sync} SYNCs");
+            t.sync_sent();
+            now += MS;
+        }
+        // Feedback again: alive again.
+        t.ingest(now, &fb(2));
+        assert!(t.observe(now, &LIMITS).silent.is_empty());
+    }
+
+    #[test]
+    fn booting_or_unheard_nodes_owe_no_feedback_and_a_stalled_loop_faults_nothing() {
+        let mut t = NodeTable::new(Variant::Classic, &ids(2), Nanos::ZERO);
+        t.ingest(Nanos::ZERO, &hb(1, NodeState::Boot));
+        for _ in 0..100 {
+            t.sync_sent();
+        }
+        assert!(t.observe(Nanos::ZERO, &LIMITS).silent.is_empty());
+        // A node that answered the last SYNC stays alive through a loop
+        // stall of any length: no SYNC went out, none was owed.
+        t.ingest(Nanos::ZERO, &hb(1, NodeState::Enabled));
+        t.ingest(Nanos::ZERO, &fb(1));
+        t.sync_sent();
+        t.ingest(300 * MS, &fb(1));
+        assert!(t.observe(300 * MS, &LIMITS).silent.is_empty());
+    }
+
+    #[test]
+    fn interleaved_heartbeat_counters_mean_two_senders_but_a_reboot_does_not() {
+        let mut t = NodeTable::new(Variant::Classic, &ids(2), Nanos::ZERO);
+        // Node 1 reboots once (counter back to 0) and loses one frame.
+        let mut now = Nanos::ZERO;
+        for c in [10u8, 11, 12, 0, 1, 3, 4, 5] {
+            t.ingest(now, &hb_n(1, NodeState::Enabled, c));
+            now += 100 * MS;
+        }
+        assert!(
+            t.observe(now, &LIMITS).duplicate.is_empty(),
+            "two anomalies"
+        );
+        // Node 2 has a twin: two counters interleave.
+        let mut first = None;
+        for k in 0..10u8 {
+            t.ingest(now, &hb_n(2, NodeState::Enabled, k));
+            t.ingest(now + 50 * MS, &hb_n(2, NodeState::Enabled, 128 + k));
+            now += 100 * MS;
+            if first.is_none() && t.observe(now, &LIMITS).duplicate == only(2) {
+                first = Some(k);
+            }
+        }
+        assert_eq!(
+            first,
+            Some(1),
+            "the third anomaly comes with the second pair"
+        );
+        // It stays reported while the anomalies go on, and clears a window
+        // after they stop (the latched fault is the supervisor's).
+        assert_eq!(t.observe(now, &LIMITS).duplicate, only(2));
+        assert!(
+            t.observe(now + 2 * DUPLICATE_WINDOW, &LIMITS)
+                .duplicate
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn a_wrapping_counter_is_no_anomaly() {
+        let mut t = NodeTable::new(Variant::Classic, &ids(1), Nanos::ZERO);
+        for k in 0..600u32 {
+            t.ingest(k as u64 * 100 * MS, &hb_n(1, NodeState::Enabled, k as u8));
+        }
+        let now = Nanos::from_millis(60_000);
+        assert!(t.observe(now, &LIMITS).duplicate.is_empty());
     }
 }

@@ -14,7 +14,8 @@
 //!    │                                              ▼               │
 //!    │ reset                                     Swimming ─stop──► Stopping
 //!    │                                          (operator silent ──►)
-//!  Fault ◄── heartbeat lost, node fault, bus-off, model diverged (any active mode)
+//!  Fault ◄── heartbeat lost, no feedback, duplicate node id, node fault,
+//!            bus-off, model diverged (any active mode)
 //!  EStop ◄── E-stop from any client or from the bus (any mode); latched until reset
 //! ```
 
@@ -31,6 +32,11 @@ pub struct Observations {
     pub all_enabled: bool,
     /// Nodes whose heartbeat is overdue.
     pub heartbeat_lost: NodeSet,
+    /// Nodes that answered no SYNC for the feedback timeout, whatever
+    /// their heartbeats say.
+    pub feedback_lost: NodeSet,
+    /// Nodes whose id two senders use (heartbeat counters interleave).
+    pub duplicate_id: NodeSet,
     /// Every configured node's heartbeat is overdue: no actuator is left to
     /// hold, and setpoints would only load a bus that may be the cause.
     pub all_lost: bool,
@@ -446,6 +452,12 @@ impl Supervisor {
                     if !o.heartbeat_lost.is_empty() {
                         persists.insert(FaultKind::HeartbeatLost, o.heartbeat_lost.bits());
                     }
+                    if !o.feedback_lost.is_empty() {
+                        persists.insert(FaultKind::FeedbackLost, o.feedback_lost.bits());
+                    }
+                    if !o.duplicate_id.is_empty() {
+                        persists.insert(FaultKind::DuplicateNode, o.duplicate_id.bits());
+                    }
                     if o.bus_off {
                         persists.insert(FaultKind::BusOff, 0);
                     }
@@ -564,6 +576,12 @@ impl Supervisor {
         }
         if !obs.heartbeat_lost.is_empty() {
             self.fault(now, FaultKind::HeartbeatLost, obs.heartbeat_lost.bits());
+        }
+        if !obs.feedback_lost.is_empty() {
+            self.fault(now, FaultKind::FeedbackLost, obs.feedback_lost.bits());
+        }
+        if !obs.duplicate_id.is_empty() {
+            self.fault(now, FaultKind::DuplicateNode, obs.duplicate_id.bits());
         }
         if !settling && !obs.node_fault.is_empty() {
             self.fault(now, FaultKind::NodeFault, obs.node_fault.bits());

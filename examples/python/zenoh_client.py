@@ -89,7 +89,8 @@ def command(z, key, code, seq):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("endpoint", help="the link's endpoint, e.g. tcp/127.0.0.1:7447")
+    ap.add_argument("endpoint", help="the link's endpoint, e.g. unixsock-stream//tmp/anguilla/PREFIX/link/sock "
+                    "(the local link) or tls/robot.local:7447")
     ap.add_argument("--prefix", default="anguilla")
     ap.add_argument("--count", type=int, default=20)
     a = ap.parse_args(argv)

@@ -144,6 +144,40 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
     None
 }
 
+/// The prefix's runtime directory, `/tmp/anguilla/<prefix>`, made if
+/// missing and checked: the root is shared by the daemons of every user,
+/// like /tmp (sticky, world-writable); a prefix's directories belong to its
+/// daemon's user, searchable by all (each socket's mode, or a directory of
+/// its own, decides who uses it). A directory another user made, one
+/// others may write, or a symlink is refused, naming it.
+pub fn runtime_dir(prefix: &str) -> Result<PathBuf, IpcError> {
+    let path = socket_path(prefix)?;
+    let dir = path.parent().unwrap_or(Path::new(ROOT)).to_path_buf();
+    let io_err = |what: &str, d: &Path, e: io::Error| {
+        IpcError::EStopSocket(format!("{what} {}: {e}", d.display()))
+    };
+    // SAFETY: geteuid has no preconditions.
+    let uid = unsafe { libc::geteuid() };
+    let mut dirs: Vec<&Path> = dir
+        .ancestors()
+        .take_while(|d| d.starts_with(ROOT))
+        .collect();
+    dirs.reverse();
+    for d in dirs {
+        let mode = if d == Path::new(ROOT) { 0o1777 } else { 0o755 };
+        match std::fs::create_dir(d) {
+            Ok(()) => std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode))
+                .map_err(|e| io_err("setting the mode of", d, e))?,
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(io_err("creating", d, e)),
+        }
+        if let Some(why) = untrusted(d, uid) {
+            return Err(IpcError::EStopSocket(why));
+        }
+    }
+    Ok(dir)
+}
+
 impl EStopListener {
     /// Binds the E-stop socket of `prefix`. A socket file left by a dead
     /// daemon (nobody receives on it) is replaced; one a live process
@@ -156,29 +190,7 @@ impl EStopListener {
         let shown = path.display().to_string();
         let io_err =
             |what: &str, e: io::Error| IpcError::EStopSocket(format!("{what} {shown}: {e}"));
-        // SAFETY: geteuid has no preconditions.
-        let uid = unsafe { libc::geteuid() };
-        let dir = path.parent().unwrap_or(Path::new(ROOT));
-        // The root is shared by the daemons of every user, like /tmp (sticky,
-        // world-writable); a prefix's directories are its daemon's,
-        // searchable by all (the socket's mode decides who sends).
-        let mut dirs: Vec<&Path> = dir
-            .ancestors()
-            .take_while(|d| d.starts_with(ROOT))
-            .collect();
-        dirs.reverse();
-        for d in dirs {
-            let mode = if d == Path::new(ROOT) { 0o1777 } else { 0o755 };
-            match std::fs::create_dir(d) {
-                Ok(()) => std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode))
-                    .map_err(|e| io_err("setting the mode of a directory of", e))?,
-                Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {}
-                Err(e) => return Err(io_err("creating the directory of", e)),
-            }
-            if let Some(why) = untrusted(d, uid) {
-                return Err(IpcError::EStopSocket(why));
-            }
-        }
+        runtime_dir(prefix)?;
         let sock = match UnixDatagram::bind(&path) {
             Ok(s) => s,
             Err(e) if e.kind() == io::ErrorKind::AddrInUse => {

@@ -384,11 +384,17 @@ pub enum FaultKind {
     EnableTimeout = 1 << 6,
     /// The bus adapter is gone (unplugged, its device closed).
     AdapterGone = 1 << 7,
+    /// A node answered no SYNC for `control.feedback-timeout` periods,
+    /// whatever its heartbeats say (a dead joint, or its heartbeats forged).
+    FeedbackLost = 1 << 8,
+    /// A node's heartbeat counter did not advance by one, again and again:
+    /// two senders use its id (a second node, or a forger on the bus).
+    DuplicateNode = 1 << 9,
 }
 
 impl FaultKind {
     /// Every kind, in bit order.
-    pub const ALL: [FaultKind; 8] = [
+    pub const ALL: [FaultKind; 10] = [
         FaultKind::HeartbeatLost,
         FaultKind::NodeFault,
         FaultKind::BusOff,
@@ -397,6 +403,8 @@ impl FaultKind {
         FaultKind::OperatorEStop,
         FaultKind::EnableTimeout,
         FaultKind::AdapterGone,
+        FaultKind::FeedbackLost,
+        FaultKind::DuplicateNode,
     ];
 
     /// Short name, as shown to operators.
@@ -410,6 +418,8 @@ impl FaultKind {
             FaultKind::OperatorEStop => "operator e-stop",
             FaultKind::EnableTimeout => "enable timed out",
             FaultKind::AdapterGone => "adapter gone",
+            FaultKind::FeedbackLost => "no feedback",
+            FaultKind::DuplicateNode => "duplicate node id",
         }
     }
 }

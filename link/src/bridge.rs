@@ -41,6 +41,11 @@ use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
 /// Queries waiting for the bridge's loop; beyond, a query is answered
 /// "busy" at once.
+/// How far ahead of the link's clock a command's stamp may be (ms): a
+/// tool's estimate lags the clock, so this only absorbs the two clocks'
+/// rates over a hello's 2 s.
+pub const MAX_STAMP_AHEAD_MS: i64 = 250;
+
 const QUERY_QUEUE: usize = 256;
 /// Replies one session may await: as many as its iceoryx2 client keeps
 /// (beyond, the oldest is answered "outcome unknown").
@@ -451,6 +456,20 @@ impl Bridge {
                     &q,
                     "stamped for another link (it restarted): say hello again",
                 );
+                return;
+            }
+            // A tool's estimate of this clock lags it (the hello's reply
+            // took time to arrive): a stamp ahead by more than a small
+            // skew is forged, and would pass the age check for as long.
+            if sent.link_ms > link_ms.saturating_add(MAX_STAMP_AHEAD_MS) {
+                let why = format!(
+                    "command {} is stamped {} ms ahead of the link's clock (at most \
+                     {MAX_STAMP_AHEAD_MS} ms accepted): forged or corrupt; dropped",
+                    req.sequence,
+                    sent.link_ms.saturating_sub(link_ms)
+                );
+                tracing::warn!("remote session {}: {why}", &token[..8]);
+                self.reject(&q, &why);
                 return;
             }
             let age_ms = link_ms.saturating_sub(sent.link_ms);

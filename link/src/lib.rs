@@ -27,9 +27,17 @@
 //! port, so the daemon sees each remote tool as one client, with the same
 //! authority, deadman and E-stop rules as a local one.
 //!
-//! **Security.** Plain `tcp/` only on loopback; any other address needs
-//! `tls/` with the robot's CA ([`certs`]), mutual authentication on. The
-//! router's access-control list allows remote clients exactly the
+//! **Security.** Only operators reach the link:
+//! - **local** (the default): a Unix socket, `/tmp/anguilla/<prefix>/link/sock`,
+//!   in a directory of mode 0770 that belongs to the link's user and group
+//!   ([`prepare_local`]): the kernel lets only that user and the members of
+//!   its group (the operators) connect;
+//! - `tls/` anywhere, with the robot's CA ([`certs`]), mutual
+//!   authentication on;
+//! - plain `tcp/` on loopback only, and only with `insecure-loopback`
+//!   ([`Endpoint::insecure`]): every local user can connect there.
+//!
+//! The router's access-control list allows remote clients exactly the
 //! allowlist's keys (`[link] inbound`, `outbound`), and multicast and
 //! gossip scouting stay off.
 
@@ -222,19 +230,60 @@ impl Tls {
     }
 }
 
+/// The word for the prefix's local link socket in `--listen`, `--connect`
+/// and `[link] listen`.
+pub const LOCAL: &str = "local";
+
+/// The prefix's local link socket: `/tmp/anguilla/<prefix>/link/sock`.
+pub fn local_socket(prefix: &str) -> Result<PathBuf, LinkError> {
+    let estop = anguilla_ipc::estop::socket_path(prefix)?;
+    Ok(estop.with_file_name("link").join("sock"))
+}
+
 /// A checked endpoint: its protocol, and whether its address is loopback.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Endpoint {
-    /// As given (`tcp/127.0.0.1:7447`).
+    /// As given (`tcp/127.0.0.1:7447`), or the local socket's
+    /// (`unixsock-stream//tmp/anguilla/<prefix>/link/sock`).
     pub text: String,
     /// TLS (`tls/`) rather than plain TCP.
     pub tls: bool,
+    /// A Unix socket (`unixsock-stream/PATH`): its directory's mode decides
+    /// who connects.
+    pub unix: bool,
 }
 
 impl Endpoint {
+    /// The local link of `prefix` ([`local_socket`]).
+    pub fn local(prefix: &str) -> Result<Self, LinkError> {
+        let p = local_socket(prefix)?;
+        Ok(Self {
+            text: format!("unixsock-stream/{}", p.display()),
+            tls: false,
+            unix: true,
+        })
+    }
+
+    /// `text`, or the local link of `prefix` for [`LOCAL`].
+    pub fn parse_at(text: &str, prefix: &str, tls: Option<&Tls>) -> Result<Self, LinkError> {
+        if text == LOCAL {
+            Self::local(prefix)
+        } else {
+            Self::parse(text, tls)
+        }
+    }
+
+    /// Plain TCP: on loopback, but open to every local user (no
+    /// authentication). The link listens there only with
+    /// `insecure-loopback`.
+    pub fn insecure(&self) -> bool {
+        !self.tls && !self.unix
+    }
+
     /// Checks `text`: `tcp/HOST:PORT` with a loopback host (`127.0.0.0/8`,
-    /// `::1`, `localhost`), or `tls/HOST:PORT` with any host when `tls` is
-    /// given. Every other form is refused, naming what is expected.
+    /// `::1`, `localhost`), `tls/HOST:PORT` with any host when `tls` is
+    /// given, or `unixsock-stream/PATH` with an absolute path. Every other
+    /// form is refused, naming what is expected.
     pub fn parse(text: &str, tls: Option<&Tls>) -> Result<Self, LinkError> {
         let e = Self::parse_form(text, tls.is_some())?;
         if let Some(t) = tls.filter(|_| e.tls) {
@@ -257,6 +306,20 @@ impl Endpoint {
                     .into(),
             )
         })?;
+        if proto == "unixsock-stream" {
+            // sun_path: 108 bytes with the NUL.
+            if !addr.starts_with('/') || addr.len() > 107 || addr.contains(['#', '?']) {
+                return Err(bad(format!(
+                    "expected unixsock-stream/ and an absolute path of at most 107 bytes \
+                     (unixsock-stream//tmp/anguilla/PREFIX/link/sock), or '{LOCAL}'"
+                )));
+            }
+            return Ok(Self {
+                text: text.to_string(),
+                tls: false,
+                unix: true,
+            });
+        }
         if addr.contains('#') || addr.contains('?') {
             return Err(bad(
                 "endpoint options (#, ?) are not accepted: TLS is set with --ca/--cert/--key or [link]"
@@ -289,6 +352,7 @@ impl Endpoint {
             "tcp" if loopback => Ok(Self {
                 text: text.to_string(),
                 tls: false,
+                unix: false,
             }),
             "tcp" => Err(bad(format!(
                 "plain TCP is allowed on loopback only (127.0.0.1, ::1, localhost), and '{host}' \
@@ -299,6 +363,7 @@ impl Endpoint {
                 true => Ok(Self {
                     text: text.to_string(),
                     tls: true,
+                    unix: false,
                 }),
                 false => Err(bad(
                     "tls/ needs the robot's CA and this end's certificate and key \
@@ -307,9 +372,77 @@ impl Endpoint {
                 )),
             },
             other => Err(bad(format!(
-                "protocol '{other}' is not supported (expected tcp on loopback, or tls)"
+                "protocol '{other}' is not supported (expected '{LOCAL}', unixsock-stream, tcp on \
+                 loopback, or tls)"
             ))),
         }
+    }
+}
+
+/// Makes the local link's directory, `/tmp/anguilla/<prefix>/link`, mode
+/// 0770: this process's user and group (the operators) may enter it,
+/// nobody else; returns the socket's path. The prefix's directories are
+/// checked as the daemon's E-stop socket's are; a `link` directory that
+/// another user made, a symlink, or one open to others is refused, naming
+/// its owner and mode. Call it before opening the link, with the umask at
+/// 007 so that the socket Zenoh makes is the group's too.
+pub fn prepare_local(prefix: &str) -> Result<PathBuf, LinkError> {
+    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
+    let sock = local_socket(prefix)?;
+    let dir = anguilla_ipc::estop::runtime_dir(prefix)?.join("link");
+    let fail = |why: String| LinkError::Endpoint {
+        endpoint: format!("unixsock-stream/{}", sock.display()),
+        why,
+    };
+    match std::fs::create_dir(&dir) {
+        Ok(()) => std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o770))
+            .map_err(|e| fail(format!("setting the mode of {}: {e}", dir.display())))?,
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+        Err(e) => return Err(fail(format!("creating {}: {e}", dir.display()))),
+    }
+    let m = std::fs::symlink_metadata(&dir)
+        .map_err(|e| fail(format!("reading {}: {e}", dir.display())))?;
+    // SAFETY: geteuid has no preconditions.
+    let uid = unsafe { libc::geteuid() };
+    if !m.file_type().is_dir() || m.uid() != uid || m.mode() & 0o007 != 0 {
+        return Err(fail(format!(
+            "{} belongs to uid {} with mode {:o}{} (expected a directory of this user, uid \
+             {uid}, closed to others, mode 0770): another user may have made it; remove it",
+            dir.display(),
+            m.uid(),
+            m.mode() & 0o7777,
+            if m.file_type().is_dir() {
+                ""
+            } else {
+                ", not a directory"
+            },
+        )));
+    }
+    Ok(sock)
+}
+
+/// Why a tool cannot use the local link at `endpoint`, if the kernel says
+/// so before Zenoh tries: the directory is not this user's to enter.
+pub fn local_access(endpoint: &Endpoint) -> Option<String> {
+    use std::os::unix::fs::MetadataExt as _;
+    let path = Path::new(endpoint.text.strip_prefix("unixsock-stream/")?);
+    let dir = path.parent()?;
+    match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+            let group = std::fs::metadata(dir).map(|m| m.gid()).ok();
+            Some(format!(
+                "permission denied on {}: the local link admits its user and the members of its \
+                 group only{}; ask to be added to that group (usermod -aG GROUP USER, then log in \
+                 again)",
+                dir.display(),
+                group.map_or(String::new(), |g| format!(" (gid {g})")),
+            ))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Some(format!(
+            "no link listens on {} (is `anguilla link` running for this prefix?)",
+            path.display()
+        )),
+        _ => None,
     }
 }
 
@@ -451,6 +584,7 @@ mod tests {
         let e = Endpoint {
             text: "tls/0.0.0.0:7447".into(),
             tls: true,
+            unix: false,
         };
         let c = zenoh_config("router", &[e], true, Some(&t)).unwrap();
         let v: serde_json::Value = serde_json::from_str(&c.to_string()).unwrap();

@@ -108,6 +108,11 @@ impl Builtin {
         self.bus.force_state(self.host, state);
     }
 
+    /// Applies a scenario action at the robot's next tick.
+    pub fn inject(&self, action: crate::scenario::Action) {
+        self.running.inject(action);
+    }
+
     /// The simulation's ground truth.
     pub fn truth(&self) -> crate::robot::Truth {
         self.running.truth()

@@ -409,6 +409,19 @@ enum Undo {
     BusOn,
 }
 
+/// A sender of heartbeats for a node's id that is not the node
+/// (`node N spoof`, `node N twin`).
+#[derive(Debug, Clone, Copy)]
+struct Impostor {
+    /// The node's index in the robot.
+    k: usize,
+    /// The node whose state it reports.
+    mirror: usize,
+    next: Nanos,
+    every: Nanos,
+    counter: u8,
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Flood {
     left: u64,
@@ -438,6 +451,9 @@ pub struct SimRobot {
     next_event: usize,
     undo: Vec<(Nanos, Undo)>,
     flood: Option<Flood>,
+    impostors: Vec<Impostor>,
+    /// Actions a test or tool asked for now ([`RunningSim::inject`]).
+    live: Arc<Mutex<Vec<Action>>>,
     /// Node ids (0..=127) taken by the robot's drives (bought families).
     drive_ids_used: [bool; 128],
     /// The head sensor, if the robot has one.
@@ -529,6 +545,8 @@ impl SimRobot {
             next_event: 0,
             undo: Vec::new(),
             flood: None,
+            impostors: Vec::new(),
+            live: Arc::new(Mutex::new(Vec::new())),
             drive_ids_used,
             sensor,
             stats: SimStats::default(),
@@ -545,6 +563,26 @@ impl SimRobot {
             return Err(SimError::BusFaultNeedsMemBus {
                 line: e.line,
                 bus: self.bus.spec().to_owned(),
+            });
+        }
+        if self.cfg.drive != Family::Anguilla
+            && let Some(e) = scenario.events.iter().find(|e| {
+                matches!(
+                    e.action,
+                    Action::Node {
+                        fault: NodeFault::Twin,
+                        ..
+                    }
+                )
+            })
+        {
+            return Err(SimError::Config {
+                field: "scenario",
+                reason: format!(
+                    "line {} scripts a twin node: anguilla nodes only (their heartbeats carry \
+                     the counter that tells two senders apart), and this robot's drives are {}",
+                    e.line, self.cfg.drive
+                ),
             });
         }
         if self.sensor.is_none()
@@ -789,6 +827,7 @@ impl SimRobot {
             node.set_load(*load);
         }
         self.flood_tick();
+        self.impostors_tick(t);
         self.time = t;
         self.stats.ticks += 1;
         self.flush();
@@ -800,6 +839,77 @@ impl SimRobot {
             if self.bus.send(&f).is_err() {
                 self.stats.send_errors += 1;
             }
+        }
+    }
+
+    /// Heartbeats that the impostors owe at `t`: the family's heartbeat
+    /// for the node's id(s), in the state of the node they mirror.
+    fn impostors_tick(&mut self, t: Nanos) {
+        for i in 0..self.impostors.len() {
+            let imp = self.impostors[i];
+            if t < imp.next {
+                continue;
+            }
+            let state = self.nodes[imp.mirror].state();
+            let ids = self.cfg.drive_ids(imp.k);
+            match self.cfg.drive {
+                Family::Anguilla => {
+                    let hb = anguilla_protocol::message::Message::Heartbeat(
+                        anguilla_protocol::message::Heartbeat {
+                            node: match NodeId::new(ids[0]) {
+                                Ok(n) => n,
+                                Err(_) => continue,
+                            },
+                            state,
+                            errors: ErrorBits(0),
+                            counter: imp.counter,
+                            missed_syncs: 0,
+                            temperature: 30,
+                        },
+                    );
+                    if let Ok(f) = hb.encode(self.cfg.variant) {
+                        self.out.push(f);
+                    }
+                }
+                Family::Cia402 => {
+                    use anguilla_protocol::canopen::{Message, NmtState, NodeId as CoNode};
+                    for id in ids {
+                        if let Ok(node) = CoNode::new(id) {
+                            let hb = Message::Heartbeat {
+                                node,
+                                state: NmtState::Operational,
+                            };
+                            self.out.push(hb.encode());
+                        }
+                    }
+                }
+                Family::Odrive => {
+                    use anguilla_protocol::odrive::{AxisState, Body, Heartbeat, Message, NodeId};
+                    let axis_state = if state == NodeState::Enabled {
+                        AxisState::ClosedLoopControl
+                    } else {
+                        AxisState::Idle
+                    };
+                    for id in ids {
+                        let Ok(node) = NodeId::new(id) else { continue };
+                        let m = Message {
+                            node,
+                            body: Body::Heartbeat(Heartbeat {
+                                axis_error: 0,
+                                axis_state,
+                                procedure_result: 0,
+                                trajectory_done: true,
+                            }),
+                        };
+                        if let Ok(f) = m.encode() {
+                            self.out.push(f);
+                        }
+                    }
+                }
+            }
+            let imp = &mut self.impostors[i];
+            imp.counter = imp.counter.wrapping_add(1);
+            imp.next = (imp.next + imp.every).max(t);
         }
     }
 
@@ -876,6 +986,15 @@ impl SimRobot {
                 i += 1;
             }
         }
+        // Actions injected now (never blocks the tick: taken next time if
+        // the injector holds the lock).
+        let live = self.live.clone();
+        if let Ok(mut g) = live.try_lock() {
+            for a in g.drain(..) {
+                self.stats.events += 1;
+                self.apply(a, t);
+            }
+        }
         while let Some(e) = self.scenario.events.get(self.next_event).copied() {
             let at = self.start + Nanos::from(e.at);
             if at > t {
@@ -932,6 +1051,26 @@ impl SimRobot {
                             .inject_fault(ErrorBits::OVER_TEMPERATURE, at, &mut |f| out.push(f));
                     }
                     NodeFault::Clear => self.nodes[k].clear_injected_fault(),
+                    NodeFault::Spoof => {
+                        self.nodes[k].set_silent(true);
+                        let mirror = usize::from(k == 0).min(self.nodes.len() - 1);
+                        self.impostors.push(Impostor {
+                            k,
+                            mirror,
+                            next: at,
+                            every: Nanos::from_millis(50),
+                            counter: 0,
+                        });
+                    }
+                    NodeFault::Twin => self.impostors.push(Impostor {
+                        k,
+                        mirror: k,
+                        next: at,
+                        every: Nanos::from_millis(
+                            anguilla_protocol::message::HEARTBEAT_PERIOD_MS.into(),
+                        ),
+                        counter: 128,
+                    }),
                 }
             }
             Action::Joint { joint, axis, fault } => {
@@ -1027,6 +1166,7 @@ impl SimRobot {
         let truth = Arc::new(Mutex::new(self.truth()));
         let status = Arc::new(Mutex::new(Status::default()));
         let (s, t, st) = (stop.clone(), truth.clone(), status.clone());
+        let live = self.live.clone();
         let thread = std::thread::Builder::new()
             .name("anguilla-sim".into())
             .spawn(move || {
@@ -1051,6 +1191,7 @@ impl SimRobot {
             stop,
             truth,
             status,
+            live,
             thread: Some(thread),
         })
     }
@@ -1071,6 +1212,7 @@ pub struct RunningSim {
     stop: Arc<AtomicBool>,
     truth: Arc<Mutex<Truth>>,
     status: Arc<Mutex<Status>>,
+    live: Arc<Mutex<Vec<Action>>>,
     thread: Option<JoinHandle<SimRobot>>,
 }
 
@@ -1099,6 +1241,14 @@ impl RunningSim {
             Ok(())
         } else {
             Err(std::io::Error::from_raw_os_error(r))
+        }
+    }
+
+    /// Applies a scenario action at the robot's next tick (as a scenario
+    /// line timed "now" would).
+    pub fn inject(&self, action: Action) {
+        if let Ok(mut g) = self.live.lock() {
+            g.push(action);
         }
     }
 

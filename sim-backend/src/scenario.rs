@@ -13,6 +13,11 @@
 //! 2.5  node 3 reboot          # power cycle: boots again, volatile config lost
 //! 3.0  node 3 fault           # a latched drive fault (over-temperature)...
 //! 3.5  node 3 clear           # ... whose cause is gone (a fault reset clears it)
+//! 1.0  node 5 spoof           # dies, and another sender forges its heartbeats
+//!                             # (every 50 ms, the state the other nodes report,
+//!                             # a counter +1 each): a dead joint masked
+//! 1.0  node 5 twin            # a second node configured to id 5 (anguilla
+//!                             # nodes): its own heartbeats, counter of its own
 //! # joint faults (joint 1 is the one nearest the head; pitch or yaw)
 //! 0.5  joint 4 yaw stuck      # jammed: does not move whatever the torque
 //! 0.9  joint 4 yaw free       # unjammed
@@ -93,6 +98,15 @@ pub enum NodeFault {
     Fault,
     /// Removes the cause of a `fault`.
     Clear,
+    /// The node dies (silent for ever) and another sender on the bus forges
+    /// its heartbeats: every 50 ms, with the state the robot's first other
+    /// node reports (Enabled while the robot is enabled) and a counter
+    /// that advances by one, as a careful forger would.
+    Spoof,
+    /// A second node is configured to this id (anguilla nodes only, whose
+    /// heartbeats carry a counter): it sends its own heartbeats, with the
+    /// node's state and a counter of its own, beside the node's.
+    Twin,
 }
 
 /// A fault of one joint axis.
@@ -188,7 +202,7 @@ pub struct Scenario {
     pub events: Vec<Event>,
 }
 
-const NODE_FAULTS: &str = "silent [DURATION], speak, reboot, fault, clear";
+const NODE_FAULTS: &str = "silent [DURATION], speak, reboot, fault, clear, spoof, twin";
 const JOINT_FAULTS: &str = "stuck, free, torque-limit N·m|off, noise RAD, spike RAD";
 const SENSOR_FAULTS: &str = "silent [DURATION], stuck, bias-jump RAD/S, ok";
 const BUS_FAULTS: &str = "drop N, drop-fraction F, delay DURATION, corrupt N, bus-off DURATION, flood N [DURATION], clear";
@@ -345,6 +359,8 @@ fn parse_action(words: &[&str], node_ids: &[u8]) -> Result<Action, String> {
                 Some("reboot") => (NodeFault::Reboot, 3),
                 Some("fault") => (NodeFault::Fault, 3),
                 Some("clear") => (NodeFault::Clear, 3),
+                Some("spoof") => (NodeFault::Spoof, 3),
+                Some("twin") => (NodeFault::Twin, 3),
                 Some(other) => {
                     return Err(format!(
                         "unknown node fault '{other}': expected one of {NODE_FAULTS}"

@@ -30,10 +30,17 @@ fn tcp(port: u16) -> Endpoint {
 
 /// `anguilla link` for `prefix` with `args`, once it serves the state.
 fn link(prefix: &str, args: &[&str], endpoint: &Endpoint, tls: Option<&Tls>) -> Killed {
+    // Plain TCP is accepted only when asked for (every local user reaches it).
+    let insecure: &[&str] = if endpoint.insecure() {
+        &["--insecure-loopback"]
+    } else {
+        &[]
+    };
     let l = Killed(
         Proc::new(anguilla_bin())
             .args(["link", "--prefix", prefix])
             .args(args)
+            .args(insecure)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -48,22 +55,18 @@ fn link(prefix: &str, args: &[&str], endpoint: &Endpoint, tls: Option<&Tls>) -> 
     l
 }
 
-/// A daemon (the built-in robot) and a plain-TCP link on loopback, for the
-/// test `tag`: the prefix, the link's endpoint, and both processes.
-/// `link` is the link's configuration (TOML: a `[link]` section, or empty).
+/// A daemon (the built-in robot) and a link on its default endpoint (the
+/// local Unix socket, operators only), for the test `tag`: the prefix, the
+/// link's endpoint, and both processes. `link` is the link's configuration
+/// (TOML: a `[link]` section, or empty).
 fn rig(tag: &str, link_cfg: &str) -> (String, Endpoint, Killed, Killed) {
     let prefix = format!("anguilla-link/{tag}-{}", std::process::id());
-    let ep = tcp(free_port());
+    let ep = Endpoint::local(&prefix).unwrap();
     let d = daemon_with(&prefix, &format!("link-{tag}"), "");
     let cfg = std::env::temp_dir().join(format!("anguilla-link-{tag}-{}.toml", std::process::id()));
     std::fs::write(&cfg, link_cfg).unwrap();
     let cfg_arg = cfg.display().to_string();
-    let l = link(
-        &prefix,
-        &["--config", &cfg_arg, "--listen", &ep.text],
-        &ep,
-        None,
-    );
+    let l = link(&prefix, &["--config", &cfg_arg], &ep, None);
     let _ = std::fs::remove_file(&cfg);
     (prefix, ep, d, l)
 }
@@ -150,8 +153,9 @@ fn swim_for(s: &mut dyn Session, secs: f64) {
 #[test]
 fn remote_tools_monitor_enable_swim_and_estop_through_the_link() {
     let _dog = Watchdog::new("link-tools", Duration::from_secs(180));
-    let (prefix, ep, _d, _l) = rig("tools", "");
-    let listen = ep.text.clone();
+    let (prefix, _ep, _d, _l) = rig("tools", "");
+    // The local link by its name (the tools resolve it from the prefix).
+    let listen = anguilla_link::LOCAL.to_string();
     let tool = |args: &[&str]| {
         Proc::new(anguilla_bin())
             .arg(args[0])
@@ -426,6 +430,19 @@ fn tls_admits_the_robots_operators_only() {
         .unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("loopback only"), "{}", text(&o));
+    // Plain TCP on loopback too, unless asked for: every local user could
+    // connect to it and drive (issue 26, door 1).
+    let o = Proc::new(anguilla_bin())
+        .args(["link", "--prefix", &prefix, "--listen"])
+        .arg(format!("tcp/127.0.0.1:{port}"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("every local user") && text(&o).contains("--insecure-loopback"),
+        "{}",
+        text(&o)
+    );
 
     let _d = daemon_with(&prefix, "link-tls", "");
     let files = |dir: &std::path::Path, who: &str| Tls {
@@ -554,6 +571,14 @@ fn a_hostile_remote_cannot_intercept_commands_or_forge_state() {
         let r = one(key.clone(), keep.as_bytes().to_vec(), Some(stamp));
         if t == i64::MIN {
             assert!(r.clone().unwrap_err().contains("ms old"), "{r:?}");
+        }
+        // Stamped in the future, it would pass the age check for as long
+        // as it is ahead (issue 26, door 7): refused.
+        if t == i64::MAX {
+            assert!(
+                r.clone().unwrap_err().contains("ahead of the link's clock"),
+                "{r:?}"
+            );
         }
     }
     let r = one(key.clone(), keep.as_bytes().to_vec(), Some(vec![1, 2, 3]));

@@ -250,3 +250,43 @@ fn an_unplugged_adapter_is_a_named_fault_until_it_is_back() {
     let _ = std::fs::remove_file(&link);
     let _ = std::fs::remove_file(&config);
 }
+
+/// Issue 26, door 5, over a real serial driver: node 3 dies at once and a
+/// forger sends its heartbeats (state and counter as a healthy node's);
+/// node 5 gets a twin on its id. The daemon names both while idle, and an
+/// enable ends in Fault, never in Ready: no swim with a dead joint.
+#[test]
+fn a_forged_heartbeat_and_a_twin_node_do_not_mask_a_dead_joint_over_slcan() {
+    let bin = anguilla_bin();
+    assert!(bin.exists(), "{} not built", bin.display());
+    let tag = std::process::id();
+    let scenario = std::env::temp_dir().join(format!("anguilla-slcan-spoof-{tag}.txt"));
+    std::fs::write(&scenario, "0.0 node 3 spoof\n1.0 node 5 twin\n").unwrap();
+    let (sim, device) = sim_on_pty_with(&bin, &["--scenario", scenario.to_str().unwrap()]);
+    let prefix = format!("anguilla-test/slcan-spoof-{tag}");
+    let config = std::env::temp_dir().join(format!("anguilla-slcan-spoof-{tag}.toml"));
+    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    let _daemon = run_on_pty(&bin, &device, &config);
+    let mut c = connect(&prefix, "slcan-operator");
+    let no_feedback = anguilla_ipc::FaultKind::FeedbackLost as u32;
+    let duplicate = anguilla_ipc::FaultKind::DuplicateNode as u32;
+    let s = wait_for(&mut c, "no feedback (3) and duplicate (5)", 20.0, |s| {
+        s.fault_kinds & no_feedback != 0 && s.fault_kinds & duplicate != 0
+    });
+    assert_eq!(s.fault_nodes, 1 << 3 | 1 << 5, "{s:?}");
+    assert_eq!(
+        s.fault_kinds & anguilla_ipc::FaultKind::HeartbeatLost as u32,
+        0,
+        "node 3's forged heartbeats keep it 'alive'"
+    );
+    assert_eq!(s.joints[2].node_alive, 1, "forged heartbeats");
+    ok(&mut c, Command::TakeControl);
+    ok(&mut c, Command::Enable);
+    let s = wait_for(&mut c, "Fault (or Ready, wrongly)", 10.0, |s| {
+        s.mode == Mode::Fault as u8 || s.mode == Mode::Ready as u8
+    });
+    assert_eq!(s.mode, Mode::Fault as u8, "enabled with a dead joint");
+    let _ = std::fs::remove_file(&config);
+    let _ = std::fs::remove_file(&scenario);
+    drop(sim);
+}

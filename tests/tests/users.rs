@@ -5,8 +5,10 @@
 //!
 //! iceoryx2 0.10 makes its files owner-only (0600/0400, whatever the
 //! umask; see docs/ipc.md "Users and permissions"), so the tools that read
-//! state and command run as the daemon's user (`sudo -u anguilla ...`);
-//! group members reach the daemon through the E-stop socket (0660).
+//! state and command over iceoryx2 run as the daemon's user; group members
+//! reach the daemon through the E-stop socket (0660) and, for everything,
+//! through `anguilla link`'s local socket (`--connect local`, a 0770
+//! directory of the daemon's user and group), without sudo.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command as Proc, Output, Stdio};
@@ -195,6 +197,122 @@ fn only_the_daemons_user_and_group_reach_it() {
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
+    drop(_daemon);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 26, doors 1 and 4: the link's default endpoint, run as the
+/// daemon's user, admits the group's members (every tool, no sudo) and
+/// nobody else; before, it listened on plain loopback TCP, where any local
+/// user enabled the robot and made it swim.
+#[test]
+fn only_the_group_reaches_the_local_link() {
+    let _dog = Watchdog::new("users-link", Duration::from_secs(180));
+    if unsafe { libc::geteuid() } != 0 {
+        println!("users-link: skipped: creating Unix users needs root (CI runs as root)");
+        return;
+    }
+    if Proc::new("setpriv").arg("--version").output().is_err() {
+        println!("users-link: skipped: setpriv (util-linux) is not installed");
+        return;
+    }
+    let tag = (std::process::id() + 1) % 100_000;
+    let Some(users) = Users::create(tag) else {
+        println!("users-link: skipped: useradd/groupadd failed (not permitted here)");
+        return;
+    };
+    let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
+    let dir = PathBuf::from(format!("/tmp/anguilla-users-link-{tag}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("config")).unwrap();
+    use std::os::unix::fs::PermissionsExt as _;
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    std::fs::write(
+        dir.join("config/iceoryx2.toml"),
+        format!(
+            "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"il{tag}_\"\n",
+            dir.display()
+        ),
+    )
+    .unwrap();
+    let prefix = format!("anguilla-users-link-{tag}");
+    std::fs::write(
+        dir.join("anguilla.toml"),
+        format!("[ipc]\nprefix = \"{prefix}\"\n"),
+    )
+    .unwrap();
+    let bin = dir.join("anguilla");
+    std::fs::copy(anguilla_bin(), &bin).unwrap();
+    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let _daemon = Killed(
+        as_user(daemon_user, &bin, &dir)
+            .args(["run", "--quiet", "--config", "anguilla.toml"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    poll_until("the daemon up", Duration::from_secs(30), || {
+        let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
+        o.status.success().then_some(())
+    });
+    // The link with its defaults: the local socket only.
+    let _link = Killed(
+        as_user(daemon_user, &bin, &dir)
+            .args(["link", "--config", "anguilla.toml"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let remote = |user: &str, args: &[&str]| {
+        as_user(user, &bin, &dir)
+            .args(["ctl", "--prefix", &prefix, "--connect", "local"])
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let status = poll_until(
+        "the operator reading through the link",
+        Duration::from_secs(30),
+        || {
+            let o = remote(operator, &["status", "--json"]);
+            o.status.success().then_some(o)
+        },
+    );
+    assert_eq!(mode_of(&status), Some(0), "idle");
+    // The outsider cannot even reach the socket: no state, no command.
+    for args in [
+        &["status"][..],
+        &["enable"],
+        &["swim", "--amplitude", "0.5", "--frequency", "1"],
+    ] {
+        let o = remote(outsider, args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_ne!(
+            o.status.code(),
+            Some(0),
+            "outsider {args:?} through the link: {err}"
+        );
+        assert!(
+            err.contains("permission denied") && err.contains("group"),
+            "{err}"
+        );
+    }
+    let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
+    assert_eq!(mode_of(&o), Some(0), "still idle after the outsider");
+    // The operator drives without sudo.
+    let o = remote(operator, &["enable"]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "operator enable: {} {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
+    assert_eq!(mode_of(&o), Some(2), "ready after the operator's enable");
+    drop(_link);
     drop(_daemon);
     let _ = std::fs::remove_dir_all(&dir);
 }

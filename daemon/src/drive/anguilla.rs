@@ -11,7 +11,7 @@ use anguilla_protocol::message::{
 
 use super::{DriveError, Drives, JointReport, Out, Period};
 use crate::config::Config;
-use crate::nodes::{NodeReport, NodeTable, RxCounters};
+use crate::nodes::{Liveness, NodeReport, NodeTable, RxCounters};
 use crate::supervisor::{Drive, Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
@@ -96,8 +96,8 @@ impl Drives for Nodes {
         self.table.ingest(now, frame);
     }
 
-    fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
-        self.table.observe(now, heartbeat_timeout)
+    fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
+        self.table.observe(now, limits)
     }
 
     fn take_bus_estop(&mut self) -> bool {
@@ -190,6 +190,7 @@ impl Drives for Nodes {
             }
         }
         if !p.bus_off {
+            self.table.sync_sent();
             self.send(out, Message::Sync { counter: p.counter });
         }
     }

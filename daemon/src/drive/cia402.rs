@@ -42,7 +42,7 @@ use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
 
 use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
-use crate::nodes::{NodeReport, RxCounters};
+use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::supervisor::{Drive, Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
@@ -152,6 +152,8 @@ struct Axis {
     node: NodeId,
     nmt: Option<NmtState>,
     last_heard: Option<Nanos>,
+    /// SYNCs since its last TPDO1 while operational (it owes one per SYNC).
+    syncs_since_tpdo: u32,
     setup: Setup,
     statusword: Option<u16>,
     position: Option<(i32, Nanos)>,
@@ -229,6 +231,7 @@ impl super::AxisView for Axis {
         AxisStatus {
             state: self.node_state(),
             last_heard: self.last_heard,
+            periods_without_feedback: self.syncs_since_tpdo,
         }
     }
 
@@ -290,6 +293,7 @@ impl Master {
                         node: NodeId::new(map.node).map_err(|_| bad(map.node))?,
                         nmt: None,
                         last_heard: None,
+                        syncs_since_tpdo: 0,
                         setup: Setup::Waiting,
                         statusword: None,
                         position: None,
@@ -615,6 +619,7 @@ impl Master {
             return;
         };
         let a = &mut self.joints[j][ax];
+        a.syncs_since_tpdo = 0;
         a.statusword = Some(st.statusword);
         if let Some((prev, t)) = a.position {
             let dt = now.saturating_sub(t).as_nanos() as f64 * 1e-9;
@@ -714,8 +719,8 @@ impl Drives for Master {
         }
     }
 
-    fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
-        super::observe_pairs(&self.joints, self.started, now, heartbeat_timeout)
+    fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
+        super::observe_pairs(&self.joints, self.started, now, limits)
     }
 
     fn take_bus_estop(&mut self) -> bool {
@@ -808,6 +813,14 @@ impl Drives for Master {
             }
         }
         Self::sync(out);
+        // Each drive that is started owes a TPDO1 for this SYNC.
+        for a in self.joints.iter_mut().flatten() {
+            a.syncs_since_tpdo = if a.setup == Setup::Done && a.nmt == Some(NmtState::Operational) {
+                a.syncs_since_tpdo.saturating_add(1)
+            } else {
+                0
+            };
+        }
         if self
             .last_heartbeat
             .is_none_or(|t| p.now.saturating_sub(t) >= HEARTBEAT_MS as u64 * MS)

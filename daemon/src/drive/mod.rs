@@ -34,7 +34,7 @@ use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, AxisSetpoint, NodeSet};
 
 use crate::config::Config;
-use crate::nodes::{NodeReport, RxCounters};
+use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::session::Record;
 use crate::supervisor::{Drive, Mode, Nanos};
 
@@ -182,8 +182,10 @@ pub trait Drives: Send {
     /// Takes one received frame into account.
     fn ingest(&mut self, now: Nanos, frame: &Frame);
     /// What the joints report at `now`: a joint is lost once any of its
-    /// drives has not been heard for `heartbeat_timeout`.
-    fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport;
+    /// drives has not been heard for the heartbeat timeout, and silent once
+    /// any of them owes feedback for more than the feedback periods
+    /// (whatever its heartbeats say: [`crate::nodes`]).
+    fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport;
     /// Whether an E-stop from another sender was seen since the last call
     /// (then cleared).
     fn take_bus_estop(&mut self) -> bool;
@@ -241,6 +243,9 @@ pub struct AxisStatus {
     pub state: Option<anguilla_protocol::message::NodeState>,
     /// When it was last heard (heartbeat).
     pub last_heard: Option<Nanos>,
+    /// Periods since its last feedback while it owed some (0 while it owes
+    /// none: not enabled, not operational).
+    pub periods_without_feedback: u32,
 }
 
 /// One bought drive as the shared joint reporting sees it.
@@ -275,13 +280,13 @@ pub fn observe_pairs<A: AxisView>(
     joints: &[[A; 2]],
     started: Nanos,
     now: Nanos,
-    timeout: Nanos,
+    limits: &Liveness,
 ) -> NodeReport {
     observe_joints(
         joints.iter().map(|p| [p[0].status(), p[1].status()]),
         started,
         now,
-        timeout,
+        limits,
     )
 }
 
@@ -315,12 +320,13 @@ pub fn joint_heard(axes: [AxisStatus; 2]) -> Option<Nanos> {
 
 /// The supervisor's report of joints with two drives each: joint `j` is
 /// report id `j + 1`; it is lost when either drive has not been heard for
-/// `timeout` (counted from `started` for a drive never heard).
+/// the heartbeat timeout (counted from `started` for a drive never heard),
+/// silent when either owed feedback for more than the feedback periods.
 pub fn observe_joints(
     joints: impl Iterator<Item = [AxisStatus; 2]>,
     started: Nanos,
     now: Nanos,
-    timeout: Nanos,
+    limits: &Liveness,
 ) -> NodeReport {
     use anguilla_protocol::message::{NodeId, NodeState};
     let mut r = NodeReport {
@@ -332,8 +338,11 @@ pub fn observe_joints(
             continue;
         };
         for a in axes {
-            if now.saturating_sub(a.last_heard.unwrap_or(started)) > timeout {
+            if now.saturating_sub(a.last_heard.unwrap_or(started)) > limits.heartbeat_timeout {
                 r.lost = r.lost.with(id);
+            }
+            if a.periods_without_feedback > limits.feedback_periods {
+                r.silent = r.silent.with(id);
             }
         }
         match joint_state(axes) {

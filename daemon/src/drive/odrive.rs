@@ -18,7 +18,7 @@ use anguilla_protocol::odrive::{
 
 use super::{AxisIndex, AxisStatus, AxisView, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
-use crate::nodes::{NodeReport, RxCounters};
+use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::supervisor::{Drive, Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
@@ -34,6 +34,9 @@ struct Axis {
     error: u32,
     last_heartbeat: Option<Nanos>,
     estimate: Option<(f32, f32)>,
+    /// Periods since its last encoder estimates while in closed loop (an
+    /// axis sends them every `encoder_msg_rate_ms`, 10 ms by default).
+    periods_without_estimates: u32,
 }
 
 impl Axis {
@@ -59,6 +62,7 @@ impl super::AxisView for Axis {
         AxisStatus {
             state: self.node_state(),
             last_heard: self.last_heartbeat,
+            periods_without_feedback: self.periods_without_estimates,
         }
     }
 
@@ -108,6 +112,7 @@ impl Axes {
                         error: 0,
                         last_heartbeat: None,
                         estimate: None,
+                        periods_without_estimates: 0,
                     })
                 };
                 Ok([mk(pair[0])?, mk(pair[1])?])
@@ -193,7 +198,10 @@ impl Drives for Axes {
                 a.error = hb.axis_error;
                 a.last_heartbeat = Some(now);
             }
-            Body::EncoderEstimates(e) => a.estimate = Some((e.pos, e.vel)),
+            Body::EncoderEstimates(e) => {
+                a.estimate = Some((e.pos, e.vel));
+                a.periods_without_estimates = 0;
+            }
             Body::Estop => {
                 // Someone else E-stopped one of our axes.
                 self.counters.estops_seen += 1;
@@ -207,8 +215,8 @@ impl Drives for Axes {
         }
     }
 
-    fn observe(&self, now: Nanos, heartbeat_timeout: Nanos) -> NodeReport {
-        super::observe_pairs(&self.joints, self.started, now, heartbeat_timeout)
+    fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
+        super::observe_pairs(&self.joints, self.started, now, limits)
     }
 
     fn take_bus_estop(&mut self) -> bool {
@@ -239,6 +247,14 @@ impl Drives for Axes {
     fn period(&mut self, p: &Period<'_>, out: &mut Out<'_>) {
         if p.bus_off {
             return;
+        }
+        // An axis in closed loop owes its cyclic encoder estimates.
+        for a in self.joints.iter_mut().flatten() {
+            a.periods_without_estimates = if a.state == Some(AxisState::ClosedLoopControl) {
+                a.periods_without_estimates.saturating_add(1)
+            } else {
+                0
+            };
         }
         let every = p.now.saturating_sub(self.last_command_sent) >= 100 * MS;
         match p.drive {

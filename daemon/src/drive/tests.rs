@@ -56,6 +56,11 @@ impl Bus for Capture {
 
 const MS: Nanos = Nanos::from_millis(1);
 
+const LIMITS: crate::nodes::Liveness = crate::nodes::Liveness {
+    heartbeat_timeout: Nanos::from_millis(350),
+    feedback_periods: 20,
+};
+
 struct Rig<D: Drives + ?Sized = dyn Drives> {
     drives: Box<D>,
     bus: Capture,
@@ -714,7 +719,7 @@ fn a_joint_is_lost_when_either_drive_falls_silent() {
     for n in [1, 2, 3] {
         rig.drives.ingest(300 * MS, &od_hb(n, AxisState::Idle, 0));
     }
-    let r = rig.drives.observe(400 * MS, 350 * MS);
+    let r = rig.drives.observe(400 * MS, &LIMITS);
     let two = anguilla_protocol::message::NodeId::new(2).unwrap();
     assert_eq!(
         r.lost,
@@ -735,16 +740,130 @@ fn co_run<D: Drives + ?Sized>(
     drive: Drive,
     mode: Mode,
 ) {
+    co_run_keeping(rig, joint, t, periods, drive, mode, &|_| true);
+}
+
+/// [`co_run`], with only the joint's frames that `keep` keeps reaching
+/// the master.
+fn co_run_keeping<D: Drives + ?Sized>(
+    rig: &mut Rig<D>,
+    joint: &mut dyn anguilla_sim::device::JointDevice,
+    t: &mut Nanos,
+    periods: usize,
+    drive: Drive,
+    mode: Mode,
+    keep: &dyn Fn(&Frame) -> bool,
+) {
     for i in 0..periods {
         *t += 10 * MS;
         let mut back = Vec::new();
         joint.advance(*t, &mut |f| back.push(f));
+        back.retain(|f| keep(f));
         feed(rig, *t, &back);
         back.clear();
         for f in rig.period(*t, drive, mode, i == 0) {
             joint.receive(*t, &f, &mut |o| back.push(o));
         }
+        back.retain(|f| keep(f));
         feed(rig, *t, &back);
+    }
+}
+
+/// Issue 26's dead joint: a joint whose drives stop sending feedback
+/// (anguilla Feedback, CiA 402 TPDO1, ODrive encoder estimates) while
+/// their heartbeats go on is silent after the configured number of
+/// periods, in every family; never before, and never while it answers.
+#[test]
+fn a_joint_without_feedback_is_silent_whatever_its_heartbeats_say_in_every_family() {
+    use anguilla_protocol::message::NodeId;
+    for family in [Family::Anguilla, Family::Cia402, Family::Odrive] {
+        let c = cfg(family, 1);
+        let mut rig = Rig::new(&c);
+        let mut rc = anguilla_sim::robot::RobotConfig::with_joints(1);
+        rc.drive = family;
+        let mut joint = anguilla_sim::robot::joint_device(&rc, 0, 1, Nanos::ZERO).unwrap();
+        let mut t = Nanos::ZERO;
+        co_run(
+            &mut rig,
+            &mut *joint,
+            &mut t,
+            60,
+            Drive::Disabled,
+            Mode::Idle,
+        );
+        // Enable until the joint reports it (an anguilla node's watchdog
+        // faults it if no setpoint follows for 100 ms).
+        for _ in 0..30 {
+            if rig.drives.joint(0).state == Some(NodeState::Enabled) {
+                break;
+            }
+            co_run(
+                &mut rig,
+                &mut *joint,
+                &mut t,
+                1,
+                Drive::Enable,
+                Mode::Enabling,
+            );
+        }
+        assert_eq!(
+            rig.drives.joint(0).state,
+            Some(NodeState::Enabled),
+            "{family}"
+        );
+        co_run(
+            &mut rig,
+            &mut *joint,
+            &mut t,
+            50,
+            Drive::Setpoints,
+            Mode::Ready,
+        );
+        let r = rig.drives.observe(t, &LIMITS);
+        assert!(r.silent.is_empty() && r.lost.is_empty(), "{family}: {r:?}");
+        let is_feedback = |f: &Frame| {
+            let id = f.id().raw();
+            match family {
+                Family::Anguilla => (0x141..=0x17F).contains(&id),
+                Family::Cia402 => (0x181..=0x1FF).contains(&id),
+                _ => id & 0x1F == 0x09,
+            }
+        };
+        let mut silent_after = None;
+        for k in 1..=LIMITS.feedback_periods + 5 {
+            co_run_keeping(
+                &mut rig,
+                &mut *joint,
+                &mut t,
+                1,
+                Drive::Setpoints,
+                Mode::Swimming,
+                &|f| !is_feedback(f),
+            );
+            let r = rig.drives.observe(t, &LIMITS);
+            assert!(r.lost.is_empty(), "{family}: the heartbeats go on");
+            if silent_after.is_none() && !r.silent.is_empty() {
+                assert_eq!(r.silent, NodeSet::empty().with(NodeId::new(1).unwrap()));
+                silent_after = Some(k);
+            }
+        }
+        // Anguilla and CiA 402 answer the SYNC of the same period; an ODrive
+        // axis sends its estimates on its own 10 ms clock, one period
+        // earlier here: so 20 or 21 periods without feedback, not fewer.
+        let k = silent_after.unwrap_or_else(|| panic!("{family}: never silent"));
+        assert!(
+            (LIMITS.feedback_periods..=LIMITS.feedback_periods + 1).contains(&k),
+            "{family}: silent after {k} periods"
+        );
+        co_run(
+            &mut rig,
+            &mut *joint,
+            &mut t,
+            2,
+            Drive::Setpoints,
+            Mode::Swimming,
+        );
+        assert!(rig.drives.observe(t, &LIMITS).silent.is_empty(), "{family}");
     }
 }
 

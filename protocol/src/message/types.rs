@@ -123,6 +123,11 @@ impl NodeSet {
         self.0
     }
 
+    /// The nodes in `self` or in `other`.
+    pub const fn union(self, other: NodeSet) -> Self {
+        NodeSet(self.0 | other.0)
+    }
+
     /// The nodes in `self` and not in `other`.
     pub const fn without(self, other: NodeSet) -> Self {
         NodeSet(self.0 & !other.0)

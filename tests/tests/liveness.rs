@@ -1,0 +1,143 @@
+//! A dead joint is never masked (issue 26, door 5): a joint's drives are
+//! judged alive by the feedback they send each period, not only by their
+//! heartbeats, and two senders on one id are told apart by the heartbeat
+//! counter.
+//!
+//! Each attack runs on the built-in robot (the daemon's real loop, the
+//! in-process bus with CAN wire time) while the robot swims:
+//! - `spoof`: joint 3's drives die and another sender forges their
+//!   heartbeats, in the state the other joints report, counters advancing
+//!   by one (before this issue the robot swam on with a dead joint);
+//! - `twin`: a second node configured to id 3 (anguilla nodes: the only
+//!   family whose heartbeats carry a counter).
+//!
+//! Over SLCAN (separate processes) the same scenarios run in
+//! `processes_slcan.rs`.
+
+use std::time::Duration;
+
+use anguilla_daemon::config::Config;
+use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
+use anguilla_protocol::Family;
+use anguilla_sim::scenario::{Action, NodeFault};
+use anguilla_system_tests::process::{connect, ok, wait_for};
+use anguilla_system_tests::{Robot, Watchdog};
+
+const JOINTS: usize = 6;
+const DISABLED: u8 = 1;
+
+fn config(drive: Family, name: &str) -> Config {
+    let mut cfg = Config::default();
+    cfg.robot.joints = JOINTS;
+    cfg.robot.drive = drive;
+    cfg.ipc.prefix = format!("anguilla-liveness/{name}-{}", std::process::id());
+    cfg.validate().expect("valid configuration");
+    cfg
+}
+
+/// Starts the robot, swims, applies `fault` to joint 3 and waits for the
+/// daemon's fault; returns the faulted state. Panics if the robot is seen
+/// swimming on after the fault should have been found.
+fn swim_then(drive: Family, name: &str, fault: NodeFault, kind: FaultKind) {
+    let _wd = Watchdog::new(name, Duration::from_secs(120));
+    let cfg = config(drive, name);
+    let robot = Robot::start_with(cfg).expect("daemon and robot start");
+    let mut client = connect(&robot.prefix, name);
+    wait_for(&mut client, "every joint alive and disabled", 15.0, |s| {
+        s.joints[..JOINTS]
+            .iter()
+            .all(|j| j.node_alive == 1 && j.node_state == DISABLED)
+    });
+    ok(&mut client, Command::TakeControl);
+    ok(&mut client, Command::Enable);
+    wait_for(&mut client, "Ready", 5.0, |s| s.mode == Mode::Ready as u8);
+    ok(
+        &mut client,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        }),
+    );
+    wait_for(&mut client, "Swimming", 5.0, |s| {
+        s.mode == Mode::Swimming as u8
+    });
+    robot.inject(Action::Node { id: 3, fault });
+    let s = wait_for(&mut client, kind.name(), 5.0, |s| {
+        s.fault_kinds & kind as u32 != 0
+    });
+    assert_eq!(s.fault_nodes, 1 << 3, "{drive}: joint 3 named: {s:?}");
+    assert_eq!(
+        s.fault_kinds & FaultKind::HeartbeatLost as u32,
+        0,
+        "{drive}: the heartbeats go on; only what the joint does gives it away"
+    );
+    let s = wait_for(&mut client, "Fault", 2.0, |s| s.mode == Mode::Fault as u8);
+    // The reset is refused while the cause lasts, naming it.
+    let r = client
+        .request(Command::Reset, Duration::from_secs(5))
+        .expect("reply");
+    assert_eq!(
+        r.accepted,
+        0,
+        "{drive}: reset accepted with {}",
+        kind.name()
+    );
+    assert!(
+        r.reason().contains(kind.name()) && r.reason().contains("node 3"),
+        "{drive}: {}",
+        r.reason()
+    );
+    eprintln!(
+        "{drive}: {} of joint 3 found while swimming; mode {}, reset refused: {}",
+        kind.name(),
+        s.mode,
+        r.reason()
+    );
+    // And enabling again cannot get past it.
+    let r = client
+        .request(Command::Enable, Duration::from_secs(5))
+        .expect("reply");
+    assert_eq!(r.accepted, 0, "{drive}: enable in Fault");
+}
+
+#[test]
+fn anguilla_a_dead_node_with_forged_heartbeats_faults() {
+    swim_then(
+        Family::Anguilla,
+        "spoof-anguilla",
+        NodeFault::Spoof,
+        FaultKind::FeedbackLost,
+    );
+}
+
+#[test]
+fn cia402_a_dead_drive_with_forged_heartbeats_faults() {
+    swim_then(
+        Family::Cia402,
+        "spoof-cia402",
+        NodeFault::Spoof,
+        FaultKind::FeedbackLost,
+    );
+}
+
+#[test]
+fn odrive_a_dead_axis_with_forged_heartbeats_faults() {
+    swim_then(
+        Family::Odrive,
+        "spoof-odrive",
+        NodeFault::Spoof,
+        FaultKind::FeedbackLost,
+    );
+}
+
+#[test]
+fn anguilla_two_nodes_on_one_id_fault() {
+    swim_then(
+        Family::Anguilla,
+        "twin-anguilla",
+        NodeFault::Twin,
+        FaultKind::DuplicateNode,
+    );
+}
