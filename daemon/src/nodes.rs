@@ -296,6 +296,7 @@ impl NodeTable {
     pub fn forget_states(&mut self) {
         for e in &mut self.entries {
             e.state = None;
+            e.errors = ErrorBits(0);
             e.syncs_since_feedback = 0;
         }
     }

@@ -55,7 +55,7 @@ use crate::control::{Controller, SetupError};
 use crate::ipc::{self, CommandReply, Envelope, LoopSnapshot, StateSnapshot};
 use crate::rt::{self, RtRequest};
 use crate::stats::Window;
-use crate::supervisor::{FaultSet, Mode, Nanos};
+use crate::supervisor::{Cause, FaultSet, Mode, Nanos};
 
 /// What the loop tells the logger. `Copy`, so sending it never allocates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,7 +66,10 @@ pub enum Event {
         from: Mode,
         /// New mode.
         to: Mode,
-        /// The latched faults at that moment.
+        /// Why it changed.
+        cause: Cause,
+        /// The faults that put it in Fault or EStop (none otherwise: faults
+        /// latched while limp do not explain a later change).
         faults: FaultSet,
     },
     /// A command was refused; the reply carries the reason.
@@ -208,6 +211,9 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     // The E-stop socket first: a live daemon on the same prefix is found
     // here, before any iceoryx2 service is touched.
     let estop_listener = ipc::estop::EStopListener::bind(&cfg.ipc.prefix)?;
+    // iceoryx2's directory and node-id segment: another user's are refused
+    // before any node is made (ipc::guard).
+    ipc::guard::check()?;
     // The iceoryx2 helpers first: their setup errors (a bad prefix, a
     // second daemon on the same services) are reported by `spawn`.
     let (ipc_ready_tx, ipc_ready_rx) = std::sync::mpsc::channel::<Result<(), ipc::IpcError>>();
@@ -261,6 +267,16 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             }
             return Err(e.into());
         }
+    }
+    // The node-id segment the daemon's nodes made or opened: its user's
+    // only from now on (iceoryx2 makes it 0666).
+    match ipc::guard::restrict() {
+        Ok(changed) => {
+            for s in changed {
+                tracing::info!("{} restricted to this user (mode 0600)", s.display());
+            }
+        }
+        Err(e) => tracing::warn!("{e}"),
     }
     let helpers_stop = Arc::new(AtomicBool::new(false));
     let (sock_estops, estop_stop) = (estops.clone(), helpers_stop.clone());
@@ -356,6 +372,52 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
 /// Refused commands are logged as one summary line per interval at most.
 pub const REFUSAL_LOG_INTERVAL: Duration = Duration::from_secs(1);
 
+/// A helper thread's repeated failure (publishing the state, taking
+/// commands): every failure counted, logged at most once per
+/// [`REFUSAL_LOG_INTERVAL`] for as long as it lasts, with the count since
+/// the last line, and its end logged once.
+#[derive(Debug, Default)]
+pub struct ErrorLog {
+    last_line: Option<std::time::Instant>,
+    since_line: u64,
+    total: u64,
+}
+
+impl ErrorLog {
+    /// A failure at `now`: returns the line to log, if one is due.
+    pub fn failed(
+        &mut self,
+        now: std::time::Instant,
+        what: &str,
+        e: &dyn std::fmt::Display,
+    ) -> Option<String> {
+        self.total += 1;
+        self.since_line += 1;
+        match self.last_line {
+            Some(t) if now.duration_since(t) < REFUSAL_LOG_INTERVAL => None,
+            _ => {
+                let n = core::mem::take(&mut self.since_line);
+                self.last_line = Some(now);
+                Some(if n > 1 {
+                    format!("{what} failed {n} times since the last report: {e}")
+                } else {
+                    format!("{what} failed: {e}")
+                })
+            }
+        }
+    }
+
+    /// A success: returns the line that says the failures ended, if any.
+    pub fn succeeded(&mut self, what: &str) -> Option<String> {
+        if self.total == 0 {
+            return None;
+        }
+        let line = format!("{what} works again after {} failure(s)", self.total);
+        *self = Self::default();
+        Some(line)
+    }
+}
+
 /// Sums up refusals: the first of an interval is logged whole, the rest
 /// are counted and reported in one line when the interval ends.
 #[derive(Debug, Default)]
@@ -421,12 +483,20 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
         }
         match ev {
             None => {}
-            Some(Event::Mode { from, to, faults }) if faults.is_empty() => {
-                tracing::info!("mode {from} -> {to}")
+            Some(Event::Mode {
+                from,
+                to,
+                cause,
+                faults,
+            }) if faults.is_empty() => {
+                tracing::info!("mode {from} -> {to}: {}", cause.name())
             }
-            Some(Event::Mode { from, to, faults }) => {
-                tracing::warn!("mode {from} -> {to} ({faults})")
-            }
+            Some(Event::Mode {
+                from,
+                to,
+                cause,
+                faults,
+            }) => tracing::warn!("mode {from} -> {to}: {} ({faults})", cause.name()),
             Some(Event::Refused { origin, reply }) => refusals.refused(now, origin, reply),
             Some(Event::HolderGone { crashed: true }) => {
                 tracing::warn!("the client holding control died; control released")
@@ -545,19 +615,24 @@ pub fn state_thread(
         }
     };
     drop(ready);
-    let mut failing = false;
+    let mut failing = ErrorLog::default();
     // Ends when the loop drops its sender.
     while let Ok(mut snap) = rx.recv() {
         for newer in rx.try_iter() {
             snap = newer;
         }
         match publisher.publish(&snap) {
-            Ok(()) => failing = false,
-            Err(e) if !failing => {
-                tracing::warn!("state publication failed: {e}");
-                failing = true;
+            Ok(()) => {
+                if let Some(l) = failing.succeeded("state publication") {
+                    tracing::info!("{l}");
+                }
             }
-            Err(_) => {}
+            Err(e) => {
+                if let Some(l) = failing.failed(std::time::Instant::now(), "state publication", &e)
+                {
+                    tracing::warn!("{l}");
+                }
+            }
         }
     }
 }
@@ -599,7 +674,7 @@ fn command_thread(
     };
     drop(ready);
     let mut waiting: Vec<(Envelope, ipc::ActiveRequest)> = Vec::with_capacity(COMMAND_BATCH);
-    let mut failing = false;
+    let mut failing = ErrorLog::default();
     let mut last_round = std::time::Instant::now();
     let mut last_round_empty = false;
     loop {
@@ -639,12 +714,17 @@ fn command_thread(
                     waiting.push((env, request));
                     last_round_empty = false;
                 }
-                Ok(None) => break,
-                Err(e) => {
-                    if !failing {
-                        tracing::warn!("taking operator commands failed: {e}");
+                Ok(None) => {
+                    if let Some(l) = failing.succeeded("taking operator commands") {
+                        tracing::info!("{l}");
                     }
-                    failing = true;
+                    break;
+                }
+                Err(e) => {
+                    let what = "taking operator commands";
+                    if let Some(l) = failing.failed(std::time::Instant::now(), what, &e) {
+                        tracing::warn!("{l}");
+                    }
                     break;
                 }
             }
@@ -809,7 +889,12 @@ fn control_loop(
                 Event::Mode {
                     from: mode,
                     to: new_mode,
-                    faults: ctl.supervisor().faults(),
+                    cause: ctl.supervisor().cause(),
+                    faults: if matches!(new_mode, Mode::Fault | Mode::EStop) {
+                        ctl.supervisor().faults()
+                    } else {
+                        FaultSet::default()
+                    },
                 },
                 &mut dropped,
             );
@@ -860,4 +945,39 @@ fn control_loop(
         events_dropped: dropped,
         final_mode,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 26, door 7: before, the command thread logged its first error
+    /// and then nothing for ever. Now a failure that lasts is reported once
+    /// a second with its count, and its end once.
+    #[test]
+    fn a_lasting_failure_is_reported_once_a_second_with_its_count() {
+        let t0 = std::time::Instant::now();
+        let mut log = ErrorLog::default();
+        let mut lines = Vec::new();
+        // A failure every 100 ms for 2.5 s.
+        for i in 0..25u64 {
+            let now = t0 + Duration::from_millis(100 * i);
+            lines.extend(log.failed(now, "taking operator commands", &"closed"));
+        }
+        assert_eq!(
+            lines,
+            [
+                "taking operator commands failed: closed",
+                "taking operator commands failed 10 times since the last report: closed",
+                "taking operator commands failed 10 times since the last report: closed",
+            ]
+        );
+        assert_eq!(
+            log.succeeded("taking operator commands").as_deref(),
+            Some("taking operator commands works again after 25 failure(s)")
+        );
+        assert_eq!(log.succeeded("taking operator commands"), None);
+        // A new failure after the recovery is logged at once.
+        assert!(log.failed(t0, "x", &"again").is_some());
+    }
 }

@@ -26,8 +26,28 @@ use std::time::Duration;
 
 use crate::service::{IpcError, valid_prefix};
 
-/// Where the E-stop sockets live.
+/// Where the E-stop sockets live unless [`SYSTEM_ROOT`] exists.
 pub const ROOT: &str = "/tmp/anguilla";
+
+/// The runtime root an installation makes at boot (deploy/anguilla.tmpfiles:
+/// owned by the daemon's user and group, in `/run`, where no other user can
+/// make anything first). Used when it exists, by the daemon and the tools
+/// alike.
+pub const SYSTEM_ROOT: &str = "/run/anguilla";
+
+/// The runtime root: [`SYSTEM_ROOT`] if it is a directory, else [`ROOT`]
+/// (shared like /tmp, where another user could take a prefix's directory
+/// first: the daemon then refuses to start, naming it).
+pub fn root() -> &'static Path {
+    static R: std::sync::OnceLock<&'static Path> = std::sync::OnceLock::new();
+    R.get_or_init(|| {
+        if std::fs::symlink_metadata(SYSTEM_ROOT).is_ok_and(|m| m.is_dir()) {
+            Path::new(SYSTEM_ROOT)
+        } else {
+            Path::new(ROOT)
+        }
+    })
+}
 
 /// The E-stop socket of the daemon serving `prefix`.
 pub fn socket_path(prefix: &str) -> Result<PathBuf, IpcError> {
@@ -39,7 +59,7 @@ pub fn socket_path(prefix: &str) -> Result<PathBuf, IpcError> {
     if prefix.len() > 80 {
         return Err(IpcError::BadPrefix(prefix.to_string()));
     }
-    let p = Path::new(ROOT).join(prefix).join("estop");
+    let p = root().join(prefix).join("estop");
     Ok(p)
 }
 
@@ -120,16 +140,18 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
     if !m.file_type().is_dir() {
         return Some(format!("{} is not a directory (a symlink?)", dir.display()));
     }
-    if dir == Path::new(ROOT) {
+    if dir == root() {
         if m.uid() != 0 && m.uid() != uid {
             return Some(format!(
-                "{ROOT} belongs to uid {} (expected root or this daemon's uid {uid}): remove it",
+                "{} belongs to uid {} (expected root or this daemon's uid {uid}): remove it",
+                dir.display(),
                 m.uid()
             ));
         }
         if mode & 0o022 != 0 && mode & 0o1000 == 0 {
             return Some(format!(
-                "{ROOT} is writable by others without the sticky bit"
+                "{} is writable by others without the sticky bit",
+                dir.display()
             ));
         }
     } else if m.uid() != uid || mode & 0o022 != 0 {
@@ -152,7 +174,7 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
 /// others may write, or a symlink is refused, naming it.
 pub fn runtime_dir(prefix: &str) -> Result<PathBuf, IpcError> {
     let path = socket_path(prefix)?;
-    let dir = path.parent().unwrap_or(Path::new(ROOT)).to_path_buf();
+    let dir = path.parent().unwrap_or(root()).to_path_buf();
     let io_err = |what: &str, d: &Path, e: io::Error| {
         IpcError::EStopSocket(format!("{what} {}: {e}", d.display()))
     };
@@ -160,11 +182,13 @@ pub fn runtime_dir(prefix: &str) -> Result<PathBuf, IpcError> {
     let uid = unsafe { libc::geteuid() };
     let mut dirs: Vec<&Path> = dir
         .ancestors()
-        .take_while(|d| d.starts_with(ROOT))
+        .take_while(|d| d.starts_with(root()))
         .collect();
     dirs.reverse();
     for d in dirs {
-        let mode = if d == Path::new(ROOT) { 0o1777 } else { 0o755 };
+        // The shared /tmp root is sticky and open like /tmp; an installed
+        // one exists already (deploy/anguilla.tmpfiles).
+        let mode = if d == root() { 0o1777 } else { 0o755 };
         match std::fs::create_dir(d) {
             Ok(()) => std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode))
                 .map_err(|e| io_err("setting the mode of", d, e))?,

@@ -49,6 +49,7 @@
 
 pub mod client;
 pub mod estop;
+pub mod guard;
 pub mod layout;
 pub mod payload;
 pub mod service;

@@ -66,6 +66,11 @@ pub enum IpcError {
         /// iceoryx2's words.
         detail: String,
     },
+    /// A file or directory iceoryx2 shares is another user's (or cannot be
+    /// restricted); the text names it, its owner and mode, and the fix
+    /// ([`crate::guard`]).
+    #[error("{0}")]
+    Foreign(String),
     /// iceoryx2 refused an operation; the text names it.
     #[error("iceoryx2: {0}")]
     Iceoryx(String),

@@ -346,7 +346,8 @@ impl fmt::Display for Refusal {
             ),
             Refusal::StaleSequence { got, last } => write!(
                 f,
-                "sequence number {got} is not after the last one accepted ({last})"
+                "sequence number {got} is not after this client's last one ({last}): every \
+                 request uses up its number, accepted or refused"
             ),
             Refusal::FaultPersists(set) => {
                 write!(f, "the fault is still present ({set}); fix it, then reset")

@@ -36,7 +36,7 @@ use zenoh::Wait as _;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Query;
 
-use crate::wire::{Hello, Stamp};
+use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
 /// Queries waiting for the bridge's loop; beyond, a query is answered
@@ -170,14 +170,6 @@ fn access_control(s: &LinkSettings) -> String {
         "policies": policies,
     })
     .to_string()
-}
-
-fn token_of(prefix: &str, key: &str) -> Option<String> {
-    let t = key.strip_prefix(prefix)?.strip_prefix("/command/")?;
-    (t.len() == 32
-        && t.bytes()
-            .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)))
-    .then(|| t.to_string())
 }
 
 fn monotonic_ms(started: Instant) -> i64 {
@@ -614,21 +606,6 @@ impl Bridge {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn tokens_are_32_lowercase_hex_digits_under_the_prefix() {
-        let t = "0123456789abcdef0123456789abcdef";
-        assert_eq!(token_of("a/b", &format!("a/b/command/{t}")), Some(t.into()));
-        for bad in [
-            format!("a/command/{t}"),
-            format!("a/b/command/{}", t.to_uppercase()),
-            "a/b/command/0123".to_string(),
-            format!("a/b/command/{t}/x"),
-            "a/b/command/**".to_string(),
-        ] {
-            assert_eq!(token_of("a/b", &bad), None, "{bad}");
-        }
-    }
 
     #[test]
     fn the_access_list_follows_the_allowlist() {

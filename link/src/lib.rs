@@ -40,17 +40,28 @@
 //! The router's access-control list allows remote clients exactly the
 //! allowlist's keys (`[link] inbound`, `outbound`), and multicast and
 //! gossip scouting stay off.
+//!
+//! **Features.** `zenoh` (default) is everything but [`wire`] (the link's
+//! message layouts and the command key's token, which read bytes from
+//! other hosts) and the endpoint checks; without it this crate builds no
+//! Zenoh, which is how the fuzz targets (`fuzz/`) decode the link's messages.
 
 #![warn(missing_docs)]
 
+#[cfg(feature = "zenoh")]
 pub mod bridge;
+#[cfg(feature = "zenoh")]
 pub mod certs;
+#[cfg(feature = "zenoh")]
 pub mod remote;
+pub mod wire;
 
 use std::net::IpAddr;
 use std::path::{Path, PathBuf};
 
+#[cfg(feature = "zenoh")]
 pub use bridge::{Bridge, BridgeStats, LinkSettings};
+#[cfg(feature = "zenoh")]
 pub use remote::{RemoteClient, remote_estop};
 
 /// The state's key under `prefix`.
@@ -68,96 +79,8 @@ pub fn estop_key(prefix: &str) -> String {
     format!("{prefix}/estop")
 }
 
-/// The link's own message layouts (docs/remote.md), beside the
-/// daemon's payloads (`anguilla_ipc::Raw`): one encoder and one decoder
-/// each, used by both ends.
-pub mod wire {
-    use anguilla_ipc::{CommandReply, Raw as _};
-
-    /// Bytes of a client id (u128 LE) at the head of a command reply.
-    pub const ID_LEN: usize = 16;
-
-    fn word(b: &[u8], at: usize) -> [u8; 8] {
-        let mut w = [0u8; 8];
-        w.copy_from_slice(&b[at..at + 8]);
-        w
-    }
-
-    /// The link's clock as a tool knows it: the link process's epoch
-    /// (random per process) and its clock in ms.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub struct Stamp {
-        /// The link process's epoch.
-        pub epoch: u64,
-        /// The link's clock (ms).
-        pub link_ms: i64,
-    }
-
-    impl Stamp {
-        /// Its bytes: 16, epoch (u64 LE) then clock (i64 LE).
-        pub const LEN: usize = 16;
-
-        /// The bytes of a command's attachment.
-        pub fn encode(&self) -> Vec<u8> {
-            [self.epoch.to_le_bytes(), self.link_ms.to_le_bytes()].concat()
-        }
-
-        /// `None` unless `b` is exactly [`Stamp::LEN`] bytes.
-        pub fn decode(b: &[u8]) -> Option<Self> {
-            (b.len() == Self::LEN).then(|| Self {
-                epoch: u64::from_le_bytes(word(b, 0)),
-                link_ms: i64::from_le_bytes(word(b, 8)),
-            })
-        }
-    }
-
-    /// A hello's reply: the session's client id and the link's clock.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub struct Hello {
-        /// The client id the daemon knows the session by.
-        pub id: u128,
-        /// The link's epoch and clock when it replied.
-        pub clock: Stamp,
-    }
-
-    impl Hello {
-        /// Its bytes: the id then the [`Stamp`].
-        pub const LEN: usize = ID_LEN + Stamp::LEN;
-
-        /// Its bytes.
-        pub fn encode(&self) -> Vec<u8> {
-            [&self.id.to_le_bytes()[..], &self.clock.encode()].concat()
-        }
-
-        /// `None` unless `b` is exactly [`Hello::LEN`] bytes.
-        pub fn decode(b: &[u8]) -> Option<Self> {
-            if b.len() != Self::LEN {
-                return None;
-            }
-            let mut id = [0u8; ID_LEN];
-            id.copy_from_slice(&b[..ID_LEN]);
-            Some(Self {
-                id: u128::from_le_bytes(id),
-                clock: Stamp::decode(&b[ID_LEN..])?,
-            })
-        }
-    }
-
-    /// A command's reply: the client id then the daemon's `CommandReply`.
-    pub fn encode_reply(id: u128, r: &CommandReply) -> Vec<u8> {
-        [&id.to_le_bytes()[..], r.as_bytes()].concat()
-    }
-
-    /// See [`encode_reply`]; `None` unless `b` is exactly one.
-    pub fn decode_reply(b: &[u8]) -> Option<(u128, CommandReply)> {
-        let r = CommandReply::from_bytes(b.get(ID_LEN..)?)?;
-        let mut id = [0u8; ID_LEN];
-        id.copy_from_slice(&b[..ID_LEN]);
-        Some((u128::from_le_bytes(id), r))
-    }
-}
-
 /// `N` bytes from the kernel's random source (tokens, epochs).
+#[cfg(feature = "zenoh")]
 pub(crate) fn urandom<const N: usize>() -> std::io::Result<[u8; N]> {
     use std::io::Read as _;
     let mut b = [0u8; N];
@@ -198,6 +121,7 @@ pub enum LinkError {
     Certs(String),
 }
 
+#[cfg(feature = "zenoh")]
 pub(crate) fn zenoh_err<E: std::fmt::Display>(what: &'static str) -> impl Fn(E) -> LinkError {
     move |e| LinkError::Zenoh(format!("{what}: {e}"))
 }
@@ -447,10 +371,12 @@ pub fn local_access(endpoint: &Endpoint) -> Option<String> {
 }
 
 /// A JSON string literal (JSON5 values for Zenoh's configuration).
+#[cfg(feature = "zenoh")]
 fn json(s: &str) -> String {
     serde_json::Value::String(s.to_string()).to_string()
 }
 
+#[cfg(feature = "zenoh")]
 fn path_json(p: &Path) -> String {
     json(&p.display().to_string())
 }
@@ -458,6 +384,7 @@ fn path_json(p: &Path) -> String {
 /// The Zenoh configuration both ends share: the mode, explicit endpoints
 /// only (no multicast scouting, no gossip), and TLS with mutual
 /// authentication when `tls` is given. `listen` says which side.
+#[cfg(feature = "zenoh")]
 pub(crate) fn zenoh_config(
     mode: &str,
     endpoints: &[Endpoint],
@@ -508,31 +435,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_link_messages_decode_what_they_encode_and_nothing_else() {
-        use anguilla_ipc::{Command, CommandReply, CommandRequest};
-        use wire::{Hello, Stamp};
-        let h = Hello {
-            id: u128::MAX - 7,
-            clock: Stamp {
-                epoch: 0xfeed,
-                link_ms: -3,
-            },
-        };
-        assert_eq!(Hello::decode(&h.encode()), Some(h));
-        assert_eq!(Hello::decode(&h.encode()[1..]), None);
-        assert_eq!(Stamp::decode(&[0; 15]), None);
-        let r = CommandReply::refused(
-            &CommandRequest::new(Command::Stop, 9),
-            2,
-            &"take control first",
-        );
-        let b = wire::encode_reply(42, &r);
-        assert_eq!(wire::decode_reply(&b), Some((42, r)));
-        assert_eq!(wire::decode_reply(&b[..b.len() - 1]), None);
-        assert_eq!(wire::decode_reply(&[0; 3]), None);
-    }
-
-    #[test]
     fn plain_tcp_is_loopback_only() {
         for ok in [
             "tcp/127.0.0.1:7447",
@@ -572,6 +474,7 @@ mod tests {
         assert!(e.contains("/nonexistent/ca.pem"), "{e}");
     }
 
+    #[cfg(feature = "zenoh")]
     #[test]
     fn the_configuration_has_no_scouting_and_mutual_tls() {
         let dir = std::env::temp_dir().join(format!("anguilla-link-cfg-{}", std::process::id()));

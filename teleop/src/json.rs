@@ -291,4 +291,23 @@ mod command_tests {
             assert!(e.contains(says), "{e}");
         }
     }
+    #[test]
+    fn numbers_are_read_as_the_nearest_double() {
+        // Found by the fuzz target foxglove_command: serde_json's default
+        // parser read 5.55555555e+36 one unit in the last place low (the
+        // power of ten is inexact), so a command written back as JSON
+        // read as another command. std's parse is correctly rounded.
+        for number in [
+            "5.55555555e+36",
+            "5555555550000000000000055555555555511",
+            "0.1",
+            "1e-7",
+        ] {
+            let text = format!(r#"{{"command":"swim","amplitude":0.5,"frequency":{number}}}"#);
+            let Ok(Command::Swim(p)) = command_from_json(text.as_bytes()) else {
+                panic!("{text} is a swim command");
+            };
+            assert_eq!(p.frequency, number.parse::<f64>().unwrap(), "{text}");
+        }
+    }
 }

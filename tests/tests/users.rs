@@ -172,6 +172,47 @@ fn only_the_daemons_user_and_group_reach_it() {
     let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
     assert_eq!(mode_of(&o), Some(0), "still idle after the outsider");
 
+    // iceoryx2's node-id segment, which iceoryx2 makes 0666: the daemon
+    // closed it to other users, so the outsider can neither write nor
+    // truncate it (either blocked every new tool; issue 26, door 2).
+    let seg = std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .find(|p| {
+            let n = p.file_name().unwrap().to_string_lossy().into_owned();
+            n.starts_with(&format!("iu{tag}_")) && n.ends_with(".global_mgmt")
+        })
+        .expect("the daemon's node-id segment in /dev/shm");
+    use std::os::unix::fs::MetadataExt as _;
+    assert_eq!(std::fs::metadata(&seg).unwrap().mode() & 0o777, 0o600);
+    for script in ["printf 0123456789abcdef > \"$0\"", ": > \"$0\""] {
+        let o = Proc::new("setpriv")
+            .args([
+                "--reuid",
+                outsider,
+                "--regid",
+                outsider,
+                "--clear-groups",
+                "--",
+            ])
+            .args(["sh", "-c", script])
+            .arg(&seg)
+            .output()
+            .unwrap();
+        assert!(
+            !o.status.success(),
+            "the outsider wrote {}: {script}",
+            seg.display()
+        );
+    }
+    let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
+    assert_eq!(
+        mode_of(&o),
+        Some(0),
+        "tools still start after the outsider's tries"
+    );
+
     // The operator (group member): the E-stop goes through.
     let o = ctl(operator, &bin, &dir, &prefix, &["estop"]);
     assert_eq!(
@@ -314,5 +355,89 @@ fn only_the_group_reaches_the_local_link() {
     assert_eq!(mode_of(&o), Some(2), "ready after the operator's enable");
     drop(_link);
     drop(_daemon);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 26, door 3: a user who makes iceoryx2's directory first no longer
+/// leaves the daemon failing in iceoryx2's words (or hanging): it refuses at
+/// once, naming the directory, its owner and mode, and the fix.
+#[test]
+fn a_foreign_iceoryx2_directory_is_refused_by_name() {
+    let _dog = Watchdog::new("users-squat", Duration::from_secs(120));
+    if unsafe { libc::geteuid() } != 0 {
+        println!("users-squat: skipped: creating Unix users needs root (CI runs as root)");
+        return;
+    }
+    if Proc::new("setpriv").arg("--version").output().is_err() {
+        println!("users-squat: skipped: setpriv (util-linux) is not installed");
+        return;
+    }
+    let tag = (std::process::id() + 2) % 100_000;
+    let Some(users) = Users::create(tag) else {
+        println!("users-squat: skipped: useradd/groupadd failed (not permitted here)");
+        return;
+    };
+    let (daemon_user, outsider) = (&users.users[0], &users.users[2]);
+    let dir = PathBuf::from(format!("/tmp/anguilla-users-squat-{tag}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("config")).unwrap();
+    use std::os::unix::fs::PermissionsExt as _;
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    let iox = dir.join("iox2");
+    std::fs::write(
+        dir.join("config/iceoryx2.toml"),
+        format!(
+            "[global]\nroot-path = \"{}/\"\nprefix = \"is{tag}_\"\n",
+            iox.display()
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("anguilla.toml"),
+        format!("[ipc]\nprefix = \"anguilla-users-squat-{tag}\"\n"),
+    )
+    .unwrap();
+    let bin = dir.join("anguilla");
+    std::fs::copy(anguilla_bin(), &bin).unwrap();
+    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    // The outsider makes the directory first, open to all.
+    let o = Proc::new("setpriv")
+        .args([
+            "--reuid",
+            outsider,
+            "--regid",
+            outsider,
+            "--clear-groups",
+            "--",
+        ])
+        .args(["sh", "-c", "mkdir -m 0777 \"$0\""])
+        .arg(&iox)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = as_user(daemon_user, &bin, &dir)
+        .args([
+            "run",
+            "--quiet",
+            "--config",
+            "anguilla.toml",
+            "--duration",
+            "5",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(
+        o.status.code(),
+        Some(0),
+        "the daemon ran on a foreign directory: {err}"
+    );
+    assert!(
+        err.contains(&iox.display().to_string())
+            && err.contains("belongs to uid")
+            && err.contains("root-path"),
+        "{err}"
+    );
+    drop(users);
     let _ = std::fs::remove_dir_all(&dir);
 }

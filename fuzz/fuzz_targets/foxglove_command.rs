@@ -1,0 +1,60 @@
+//! Arbitrary bytes as a message a Foxglove client publishes on
+//! `/anguilla/command` (`anguilla foxglove` with `[foxglove] commands`):
+//! parsing must not panic; a command comes only from a JSON object whose
+//! "command" is its name, its numbers are finite and a held heading is in
+//! 0 ..< 360; written back as JSON it parses to itself.
+#![no_main]
+
+use anguilla_ipc::Command;
+use anguilla_teleop::json::command_from_json;
+use libfuzzer_sys::fuzz_target;
+use serde_json::{Value, json};
+
+/// The command as a client would write it (scripts/foxglove_commands.py).
+fn to_json(cmd: Command) -> Value {
+    let mut v = json!({ "command": cmd.name() });
+    match cmd {
+        Command::Swim(p) => {
+            v["amplitude"] = json!(p.amplitude);
+            v["frequency"] = json!(p.frequency);
+            v["turn"] = json!(p.turn);
+            v["pitch"] = json!(p.pitch);
+        }
+        Command::Hold(h) => {
+            v["heading"] = json!(h.heading);
+            v["depth"] = json!(h.depth);
+        }
+        _ => {}
+    }
+    v
+}
+
+fuzz_target!(|input: &[u8]| {
+    let cmd = match command_from_json(input) {
+        Ok(cmd) => cmd,
+        Err(why) => {
+            assert!(!why.is_empty());
+            return;
+        }
+    };
+    let v: Value = serde_json::from_slice(input).expect("a command is JSON");
+    assert_eq!(v["command"].as_str(), Some(cmd.name()));
+    match cmd {
+        Command::Swim(p) => {
+            for x in [p.amplitude, p.frequency, p.turn, p.pitch] {
+                assert!(x.is_finite(), "{x}");
+            }
+        }
+        Command::Hold(h) => {
+            if let Some(d) = h.heading {
+                assert!((0.0..360.0).contains(&d), "heading {d}");
+            }
+            if let Some(d) = h.depth {
+                assert!(d.is_finite(), "depth {d}");
+            }
+        }
+        _ => {}
+    }
+    let text = to_json(cmd).to_string();
+    assert_eq!(command_from_json(text.as_bytes()), Ok(cmd), "{text}");
+});

@@ -1,0 +1,144 @@
+//! The daemon's guard over the files iceoryx2 shares with other users.
+//!
+//! iceoryx2 0.10 makes its services' files for their creator only, but two
+//! things are open to every local user:
+//!
+//! - its directory (`[global] root-path`, `/tmp/iceoryx2/` by default),
+//!   which it reuses whoever made it: another user who makes it first
+//!   keeps the daemon from creating its services;
+//! - its node-id segment, `/dev/shm/<iceoryx2 prefix>…global_mgmt`, which
+//!   it makes mode 0666 whatever the configuration: a user who writes 16
+//!   bytes into it makes every new iceoryx2 node fail, and one who
+//!   truncates it makes new nodes hang.
+//!
+//! [`check`] runs before the daemon's first node: a directory or segment
+//! that another user owns is refused, naming its path, owner and mode, and
+//! the fix. [`restrict`] runs after it: the daemon's own segment becomes
+//! 0600 (its user's processes only: the daemon, the link, the tools run as
+//! its user), so nobody else can write or truncate it.
+
+use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
+use std::path::{Path, PathBuf};
+
+use iceoryx2::prelude::*;
+
+use crate::service::IpcError;
+
+/// Where POSIX shared memory lives on Linux.
+pub const SHM_DIR: &str = "/dev/shm";
+
+/// The end of the node-id segment's name (iceoryx2 0.10).
+const GLOBAL_MGMT: &str = ".global_mgmt";
+
+fn prefix() -> String {
+    Config::global_config().global.prefix.to_string()
+}
+
+fn root_path() -> PathBuf {
+    PathBuf::from(Config::global_config().global.root_path().to_string())
+}
+
+/// The node-id segments of the configured iceoryx2 prefix.
+fn segments() -> Vec<PathBuf> {
+    let prefix = prefix();
+    let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
+        return Vec::new();
+    };
+    dir.filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&prefix) && n.ends_with(GLOBAL_MGMT))
+        .map(|n| Path::new(SHM_DIR).join(n))
+        .collect()
+}
+
+/// Why `path` (if it exists) cannot be trusted by a daemon of user `uid`:
+/// another user owns it.
+fn foreign(path: &Path, uid: u32, what: &str, fix: &str) -> Result<(), IpcError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.uid() != uid && m.uid() != 0 => Err(IpcError::Foreign(format!(
+            "{what} {} belongs to uid {} with mode {:o}, not to this daemon's user (uid {uid}): \
+             another user made it first. {fix}",
+            path.display(),
+            m.uid(),
+            m.mode() & 0o7777
+        ))),
+        Ok(m) if m.file_type().is_symlink() => Err(IpcError::Foreign(format!(
+            "{what} {} is a symlink. {fix}",
+            path.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Before the daemon's first iceoryx2 node: refuses iceoryx2's directory
+/// and node-id segment when another user owns them (root's are trusted).
+pub fn check() -> Result<(), IpcError> {
+    // SAFETY: geteuid has no preconditions.
+    let uid = unsafe { libc::geteuid() };
+    let root = root_path();
+    foreign(
+        root.as_path(),
+        uid,
+        "iceoryx2's directory",
+        "Remove it (as root), or give the daemon a directory of its own: [global] root-path \
+         in /etc/iceoryx2/iceoryx2.toml (deploy/iceoryx2.toml: /run/anguilla/iceoryx2/, made at \
+         boot by deploy/anguilla.tmpfiles)",
+    )?;
+    for s in segments() {
+        foreign(
+            &s,
+            uid,
+            "iceoryx2's node-id segment",
+            "Remove it (as root), or give the daemon an iceoryx2 prefix of its own: [global] \
+             prefix in /etc/iceoryx2/iceoryx2.toml (deploy/iceoryx2.toml)",
+        )?;
+    }
+    Ok(())
+}
+
+/// After the daemon's first iceoryx2 node: its node-id segments (the
+/// configured prefix's, owned by this user) become mode 0600. Returns the
+/// segments changed.
+pub fn restrict() -> Result<Vec<PathBuf>, IpcError> {
+    // SAFETY: geteuid has no preconditions.
+    let uid = unsafe { libc::geteuid() };
+    let mut changed = Vec::new();
+    for s in segments() {
+        let Ok(m) = std::fs::symlink_metadata(&s) else {
+            continue;
+        };
+        if m.uid() == uid && m.file_type().is_file() && m.mode() & 0o077 != 0 {
+            std::fs::set_permissions(&s, std::fs::Permissions::from_mode(0o600)).map_err(|e| {
+                IpcError::Foreign(format!("restricting {} to its owner: {e}", s.display()))
+            })?;
+            changed.push(s);
+        }
+    }
+    Ok(changed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A node of ours leaves a node-id segment of this user's that others
+    /// may write (iceoryx2's 0666); `restrict` closes it, and a node still
+    /// opens afterwards.
+    #[test]
+    fn the_node_id_segment_is_closed_to_other_users() {
+        check().unwrap();
+        let _node = crate::service::new_node("guard-test").unwrap();
+        let segs = segments();
+        assert!(!segs.is_empty(), "no {GLOBAL_MGMT} under {SHM_DIR}");
+        restrict().unwrap();
+        // SAFETY: geteuid has no preconditions.
+        let uid = unsafe { libc::geteuid() };
+        for s in segments() {
+            let m = std::fs::metadata(&s).unwrap();
+            if m.uid() == uid {
+                assert_eq!(m.mode() & 0o777, 0o600, "{}", s.display());
+            }
+        }
+        let _again = crate::service::new_node("guard-test-2").unwrap();
+    }
+}
