@@ -216,7 +216,7 @@ impl Default for ControlConfig {
             control_release_timeout: 3.0,
             enable_timeout: 1.0,
             heartbeat_timeout: 0.35,
-            feedback_timeout: 50,
+            feedback_timeout: 100,
             node_watchdog: 0.0,
             fault_policy: FaultPolicyConfig::Hold,
         }
