@@ -9,14 +9,22 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
 
-extern "C" fn on_signal(_: libc::c_int) {
+extern "C" fn on_signal(sig: libc::c_int) {
+    // Inside a call into iceoryx2 that may block (making a node, opening
+    // the services), nothing polls the flag: end now, as the default
+    // action would (anguilla_ipc::guard::bounded).
+    if anguilla_ipc::guard::opening() {
+        // SAFETY: _exit is async-signal-safe.
+        unsafe { libc::_exit(128 + sig) };
+    }
     REQUESTED.store(true, Ordering::SeqCst);
 }
 
 /// Installs the handler for SIGINT, SIGTERM and SIGHUP.
 pub fn install() {
     let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-    // SAFETY: the handler only stores to an atomic (async-signal-safe).
+    // SAFETY: the handler only loads and stores atomics and may call
+    // _exit (async-signal-safe).
     unsafe {
         libc::signal(libc::SIGINT, handler);
         libc::signal(libc::SIGTERM, handler);

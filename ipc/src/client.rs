@@ -47,6 +47,10 @@ impl Client {
     /// Connects to the daemon's services under `prefix` (they must exist:
     /// a tool never creates them), naming the iceoryx2 node `name`.
     pub fn new(prefix: &str, name: &str) -> Result<Self, IpcError> {
+        crate::guard::bounded("opening the daemon's services", || Self::open(prefix, name))
+    }
+
+    fn open(prefix: &str, name: &str) -> Result<Self, IpcError> {
         let node = new_node(name)?;
         let state_service = state_service(&node, prefix, Role::Tool)?;
         let ready = event_service(&node, prefix, "state-ready", Role::Tool)?;

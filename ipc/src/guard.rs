@@ -117,6 +117,80 @@ pub fn restrict() -> Result<Vec<PathBuf>, IpcError> {
     Ok(changed)
 }
 
+/// How long one call into iceoryx2 that makes a node or opens the
+/// daemon's services may take before the process gives up
+/// ([`bounded`]). iceoryx2 retries a segment it cannot read (another
+/// user's, truncated, half made) until its own timeouts, and waits for ever
+/// on some; a tool must not.
+pub const OPEN_LIMIT: std::time::Duration = std::time::Duration::from_secs(10);
+
+static OPENING: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
+/// Whether a call under [`bounded`] is running: a stop signal's handler
+/// that sees it ends the process at once (`libc::_exit`; the call cannot
+/// be interrupted). Async-signal-safe (one atomic load).
+pub fn opening() -> bool {
+    OPENING.load(std::sync::atomic::Ordering::SeqCst) > 0
+}
+
+/// What to check when iceoryx2 does not answer: its directory and
+/// node-id segments, as this process's configuration names them.
+pub fn files_to_check() -> String {
+    format!(
+        "iceoryx2's directory {} and its node-id segment {SHM_DIR}/{}…{GLOBAL_MGMT} (owner, \
+         mode, 16 bytes): another user's or a damaged one blocks every new iceoryx2 node; \
+         remove them as root while no anguilla program runs",
+        root_path().display(),
+        prefix()
+    )
+}
+
+/// Runs `f`, a call into iceoryx2 that may block (making a node, opening
+/// the daemon's services), and ends the process if it has not returned
+/// within [`OPEN_LIMIT`]: the message names `what` and
+/// [`files_to_check`], the exit code is 2 (the tools' "no daemon"). While
+/// it runs, [`opening`] is true, so a stop signal ends the process too.
+pub fn bounded<T>(what: &str, f: impl FnOnce() -> T) -> T {
+    use std::sync::atomic::Ordering::SeqCst;
+    let done = std::sync::Arc::new((std::sync::Mutex::new(false), std::sync::Condvar::new()));
+    let (d, msg) = (
+        done.clone(),
+        format!(
+            "{what}: iceoryx2 did not answer within {} s: {}",
+            OPEN_LIMIT.as_secs(),
+            files_to_check()
+        ),
+    );
+    let dog = std::thread::Builder::new()
+        .name("anguilla-open-limit".into())
+        .spawn(move || {
+            let (m, cv) = &*d;
+            let Ok(g) = m.lock() else { return };
+            let Ok((g, _)) = cv.wait_timeout_while(g, OPEN_LIMIT, |finished| !*finished) else {
+                return;
+            };
+            if !*g {
+                eprintln!("{msg}");
+                // SAFETY: _exit ends the process without running anything
+                // of this process's; nothing is left to clean up that a
+                // hung iceoryx2 call would let us clean.
+                unsafe { libc::_exit(2) };
+            }
+        });
+    OPENING.fetch_add(1, SeqCst);
+    let r = f();
+    OPENING.fetch_sub(1, SeqCst);
+    let (m, cv) = &*done;
+    if let Ok(mut g) = m.lock() {
+        *g = true;
+        cv.notify_all();
+    }
+    if let Ok(h) = dog {
+        let _ = h.join();
+    }
+    r
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

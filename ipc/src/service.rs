@@ -406,11 +406,13 @@ pub(crate) fn new_node(name: &str) -> Result<Node<ipc::Service>, IpcError> {
     // loaded") out of tools whose stdout is data, unless asked for.
     set_log_level_from_env_or(LogLevel::Error);
     let name = NodeName::new(name).map_err(ice("node name"))?;
-    let node = NodeBuilder::new()
-        .name(&name)
-        .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<ipc::Service>()
-        .map_err(ice("node"))?;
+    let node = crate::guard::bounded("making an iceoryx2 node", || {
+        NodeBuilder::new()
+            .name(&name)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+    })
+    .map_err(ice("node"))?;
     Ok(node)
 }
 

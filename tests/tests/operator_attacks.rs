@@ -574,3 +574,88 @@ fn a_holder_that_leaves_without_releasing_is_not_called_dead() {
     assert!(text.contains("left without releasing it"), "{text}");
     assert!(!text.contains("died"), "{text}");
 }
+
+/// Issue 26, door 3: iceoryx2's node-id segment truncated (by a program
+/// of the daemon's own user: others can no longer write it) made every new
+/// tool hang for ever, deaf to SIGTERM. Now a tool ends within 2 s of
+/// SIGTERM while it waits, and gives up by itself after the open limit,
+/// naming the files to check.
+#[test]
+fn a_damaged_node_id_segment_hangs_no_tool() {
+    let _dog = Watchdog::new("damaged-segment", Duration::from_secs(120));
+    let tag = std::process::id();
+    // A directory with an iceoryx2 configuration of its own (iceoryx2 reads
+    // ./config/iceoryx2.toml first): the damage stays in this test.
+    let dir = std::env::temp_dir().join(format!("anguilla-attack-segment-{tag}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("config")).unwrap();
+    let iox_prefix = format!("ih{tag}_");
+    std::fs::write(
+        dir.join("config/iceoryx2.toml"),
+        format!(
+            "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"{iox_prefix}\"\n",
+            dir.display()
+        ),
+    )
+    .unwrap();
+    let ctl = || {
+        let mut p = Proc::new(anguilla_bin());
+        p.args(["ctl", "--prefix", &format!("anguilla-attack-seg-{tag}"), "status"])
+            .current_dir(&dir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        p
+    };
+    // A first tool makes the segment (and finds no daemon).
+    let o = ctl().output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    let seg = std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .find(|p| {
+            let n = p.file_name().unwrap().to_string_lossy().into_owned();
+            n.starts_with(&iox_prefix) && n.ends_with(".global_mgmt")
+        })
+        .expect("the node-id segment");
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&seg)
+        .unwrap()
+        .set_len(0)
+        .unwrap();
+    // SIGTERM while it waits: gone within 2 s.
+    let mut t = Killed(ctl().spawn().unwrap());
+    std::thread::sleep(Duration::from_millis(500));
+    let sent = Instant::now();
+    unsafe { libc::kill(t.0.id() as i32, libc::SIGTERM) };
+    let ended = loop {
+        if let Some(st) = t.0.try_wait().unwrap() {
+            break Some((st, sent.elapsed()));
+        }
+        if sent.elapsed() > Duration::from_secs(5) {
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let (_, took) = ended.expect("the tool still runs 5 s after SIGTERM");
+    assert!(took < Duration::from_secs(2), "ended {took:?} after SIGTERM");
+    // Left alone, it gives up by itself, naming what to check.
+    let start = Instant::now();
+    let o = ctl().output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        start.elapsed() < anguilla_ipc::guard::OPEN_LIMIT + Duration::from_secs(10),
+        "{:?}",
+        start.elapsed()
+    );
+    assert!(err.contains("global_mgmt") || err.contains("iceoryx2"), "{err}");
+    eprintln!(
+        "damaged segment: SIGTERM ended the tool in {took:?}; alone it gave up in {:?}: {}",
+        start.elapsed(),
+        err.lines().last().unwrap_or("")
+    );
+    let _ = std::fs::remove_file(&seg);
+    let _ = std::fs::remove_dir_all(&dir);
+}
