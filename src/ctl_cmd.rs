@@ -115,14 +115,8 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
             Some((endpoint, tls)) => ctl::estop_by(
                 &args.daemon.describe(&prefix),
                 "the link's e-stop key",
-                || {
-                    anguilla_link::remote_estop(&prefix, &endpoint, tls.as_ref())
-                        .map_err(|e| e.to_string())
-                },
-                || {
-                    anguilla_link::RemoteClient::connect(&prefix, &endpoint, tls.as_ref(), true)
-                        .map(|c| Box::new(c) as Box<dyn anguilla_ipc::Session>)
-                },
+                || crate::teleop_cmd::remote_estop(&prefix, &endpoint, tls.as_ref()),
+                || crate::teleop_cmd::remote_session(&prefix, &endpoint, tls.as_ref(), true),
             )?,
         };
         let how = match (r.socket, r.command) {

@@ -6,7 +6,9 @@ mod builtin_sim;
 mod conform_cmd;
 mod ctl_cmd;
 mod dump_cmd;
+#[cfg(feature = "foxglove")]
 mod foxglove_cmd;
+#[cfg(feature = "remote")]
 mod link_cmd;
 mod output;
 mod protocol_cmd;
@@ -68,11 +70,21 @@ enum Command {
     Monitor(teleop_cmd::MonitorArgs),
     /// Serve the robot live to Foxglove and Lichtblick (Foxglove WebSocket
     /// protocol): the channels of the session's MCAP file, read-only.
+    #[cfg(feature = "foxglove")]
     Foxglove(foxglove_cmd::FoxgloveArgs),
+    /// Not in this build (the `foxglove` feature).
+    #[cfg(not(feature = "foxglove"))]
+    #[command(hide = true)]
+    Foxglove(NotBuilt),
     /// Operate from other computers: bridge the daemon's state, commands and
     /// E-stop to Zenoh (`--connect` on the tools); `link certs` makes the
     /// robot's CA and certificates.
+    #[cfg(feature = "remote")]
     Link(link_cmd::LinkArgs),
+    /// Not in this build (the `remote` feature).
+    #[cfg(not(feature = "remote"))]
+    #[command(hide = true)]
+    Link(NotBuilt),
     /// One operator command per call, for scripts: status, estop, enable,
     /// disable, reset, stop, swim (exit 0 done, 1 refused, 2 no daemon).
     Ctl(ctl_cmd::CtlArgs),
@@ -92,6 +104,13 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// The arguments of a command this build leaves out (it says so).
+#[derive(clap::Args, Debug)]
+struct NotBuilt {
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
+    _args: Vec<String>,
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run(args) => run_cmd::run(args),
@@ -107,7 +126,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Joy(args) => teleop_cmd::joy(args),
         Command::Monitor(args) => teleop_cmd::monitor(args),
         Command::Ctl(args) => ctl_cmd::run(args),
+        #[cfg(feature = "foxglove")]
         Command::Foxglove(args) => foxglove_cmd::run(args),
+        #[cfg(not(feature = "foxglove"))]
+        Command::Foxglove(_) => anyhow::bail!(
+            "anguilla foxglove: this anguilla was built without the live view: build it with \
+             `--features foxglove` (or `--all-features`, everything)"
+        ),
+        #[cfg(feature = "remote")]
         Command::Link(args) => link_cmd::run(args),
+        #[cfg(not(feature = "remote"))]
+        Command::Link(_) => anyhow::bail!("anguilla link: {}", teleop_cmd::NOT_REMOTE),
     }
 }

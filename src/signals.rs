@@ -46,6 +46,7 @@ pub fn sleep_until_ns(deadline_ns: u64) -> bool {
 
 /// A `running` test for a long-running command: no stop signal yet, and
 /// less than `duration` seconds (if any) since this call.
+#[cfg(any(feature = "remote", feature = "foxglove"))]
 pub fn running_for(duration: Option<f64>) -> impl Fn() -> bool {
     let start = std::time::Instant::now();
     move || !requested() && duration.is_none_or(|d| start.elapsed().as_secs_f64() < d)
@@ -55,6 +56,7 @@ pub fn running_for(duration: Option<f64>) -> impl Fn() -> bool {
 /// deadlines; a stop signal cuts the wait) while its error is one `waiting`
 /// accepts (no daemon yet) and `running` holds, saying once on stderr that
 /// `tool` waits. Any other error, or a stop, returns the error.
+#[cfg(any(feature = "remote", feature = "foxglove"))]
 pub fn open_when_up<T, E: std::fmt::Display>(
     tool: &str,
     running: &dyn Fn() -> bool,

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
 use anguilla_ipc::{Client, Session};
-use anguilla_link::{Endpoint, RemoteClient, Tls};
+use anguilla_link::{Endpoint, Tls};
 use anguilla_teleop::app::{Action, Intent, Limits};
 use anguilla_teleop::joy::{Joy, JoyMapping};
 use anguilla_teleop::keys;
@@ -86,6 +86,9 @@ impl DaemonArgs {
         let Some(e) = &self.connect else {
             return Ok(None);
         };
+        if !cfg!(feature = "remote") {
+            anyhow::bail!("--connect {e}: {NOT_REMOTE}");
+        }
         let tls = match (&self.ca, &self.cert, &self.key) {
             (Some(ca), Some(cert), Some(key)) => Some(Tls {
                 ca: ca.clone(),
@@ -128,12 +131,7 @@ impl DaemonArgs {
                 prefix,
                 &format!("{tool}-{}", std::process::id()),
             )?),
-            Some((endpoint, tls)) => Box::new(RemoteClient::connect(
-                prefix,
-                &endpoint,
-                tls.as_ref(),
-                commands,
-            )?),
+            Some((endpoint, tls)) => remote_session(prefix, &endpoint, tls.as_ref(), commands)?,
         };
         Ok(s)
     }
@@ -144,6 +142,50 @@ impl DaemonArgs {
             .map(Operator::over)
             .with_context(|| format!("connecting to {}", self.describe(prefix)))
     }
+}
+
+/// Why `--connect` and `anguilla link` fail in a build without them.
+pub const NOT_REMOTE: &str = "this anguilla was built without remote operation (Zenoh): build \
+     it with `--features remote` (or `--all-features`, everything: cargo install --locked --path \
+     . --all-features)";
+
+/// A session through the link at `endpoint` (the `remote` feature).
+#[cfg(feature = "remote")]
+pub fn remote_session(
+    prefix: &str,
+    endpoint: &Endpoint,
+    tls: Option<&Tls>,
+    commands: bool,
+) -> Result<Box<dyn Session>, anguilla_ipc::IpcError> {
+    Ok(Box::new(anguilla_link::RemoteClient::connect(
+        prefix, endpoint, tls, commands,
+    )?))
+}
+
+/// Without the `remote` feature: [`NOT_REMOTE`].
+#[cfg(not(feature = "remote"))]
+pub fn remote_session(
+    _prefix: &str,
+    endpoint: &Endpoint,
+    _tls: Option<&Tls>,
+    _commands: bool,
+) -> Result<Box<dyn Session>, anguilla_ipc::IpcError> {
+    Err(anguilla_ipc::IpcError::Remote(format!(
+        "--connect {}: {NOT_REMOTE}",
+        endpoint.text
+    )))
+}
+
+/// An E-stop on the link's E-stop key at `endpoint` (the `remote` feature).
+#[cfg(feature = "remote")]
+pub fn remote_estop(prefix: &str, endpoint: &Endpoint, tls: Option<&Tls>) -> Result<(), String> {
+    anguilla_link::remote_estop(prefix, endpoint, tls).map_err(|e| e.to_string())
+}
+
+/// Without the `remote` feature: [`NOT_REMOTE`].
+#[cfg(not(feature = "remote"))]
+pub fn remote_estop(_prefix: &str, endpoint: &Endpoint, _tls: Option<&Tls>) -> Result<(), String> {
+    Err(format!("--connect {}: {NOT_REMOTE}", endpoint.text))
 }
 
 /// How long a tool waits for the daemon's first state.

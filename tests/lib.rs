@@ -156,7 +156,8 @@ pub mod process {
     use anguilla_ipc::{Client, StateSnapshot};
 
     /// The `anguilla` binary: `$ANGUILLA_BIN` (set in the vcan VM), else the
-    /// workspace's debug build (which `cargo test --workspace` builds).
+    /// workspace's debug build (which `cargo test --workspace --all-features` builds, `link` and
+    /// `foxglove` included).
     pub fn anguilla_bin() -> PathBuf {
         std::env::var_os("ANGUILLA_BIN")
             .map(PathBuf::from)

@@ -600,15 +600,25 @@ fn a_damaged_node_id_segment_hangs_no_tool() {
     .unwrap();
     let ctl = || {
         let mut p = Proc::new(anguilla_bin());
-        p.args(["ctl", "--prefix", &format!("anguilla-attack-seg-{tag}"), "status"])
-            .current_dir(&dir)
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped());
+        p.args([
+            "ctl",
+            "--prefix",
+            &format!("anguilla-attack-seg-{tag}"),
+            "status",
+        ])
+        .current_dir(&dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
         p
     };
     // A first tool makes the segment (and finds no daemon).
     let o = ctl().output().unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let seg = std::fs::read_dir("/dev/shm")
         .unwrap()
         .filter_map(|e| e.ok())
@@ -639,7 +649,10 @@ fn a_damaged_node_id_segment_hangs_no_tool() {
         std::thread::sleep(Duration::from_millis(10));
     };
     let (_, took) = ended.expect("the tool still runs 5 s after SIGTERM");
-    assert!(took < Duration::from_secs(2), "ended {took:?} after SIGTERM");
+    assert!(
+        took < Duration::from_secs(2),
+        "ended {took:?} after SIGTERM"
+    );
     // Left alone, it gives up by itself, naming what to check.
     let start = Instant::now();
     let o = ctl().output().unwrap();
@@ -650,7 +663,10 @@ fn a_damaged_node_id_segment_hangs_no_tool() {
         "{:?}",
         start.elapsed()
     );
-    assert!(err.contains("global_mgmt") || err.contains("iceoryx2"), "{err}");
+    assert!(
+        err.contains("global_mgmt") || err.contains("iceoryx2"),
+        "{err}"
+    );
     eprintln!(
         "damaged segment: SIGTERM ended the tool in {took:?}; alone it gave up in {:?}: {}",
         start.elapsed(),
