@@ -56,7 +56,17 @@ fn robot_behind_an_slcan_pty_answers_a_host() {
         listen(&mut host, &mut states);
         states.iter().all(|s| *s == Some(NodeState::Enabled))
     });
-    assert_eq!(running.status().states[2], 3);
+    // The heartbeats leave as the nodes change state; the status is taken
+    // at the end of the robot's tick, a moment later: wait for it (a busy
+    // machine can put the host's read in between).
+    wait_for(
+        "the status showing 3 nodes enabled",
+        Duration::from_secs(20),
+        || {
+            std::thread::sleep(Duration::from_millis(1));
+            running.status().states[2] == 3
+        },
+    );
     let robot = running.stop().expect("the simulation thread returns");
     assert!(robot.stats().frames_in >= 1);
     assert_eq!(robot.stats().model_errors, 0);
