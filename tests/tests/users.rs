@@ -67,6 +67,58 @@ impl Drop for Users {
     }
 }
 
+/// The start every test here shares: root, setpriv and the test's Unix
+/// users (`None`, having said why, where they cannot be made).
+fn users_for(test: &str, tag: u32) -> Option<Users> {
+    if unsafe { libc::geteuid() } != 0 {
+        println!(
+            "{test}: skipped: creating Unix users needs root (run the tests as root, as CI does)"
+        );
+        return None;
+    }
+    if Proc::new("setpriv").arg("--version").output().is_err() {
+        println!("{test}: skipped: setpriv (util-linux) is not installed");
+        return None;
+    }
+    let users = Users::create(tag);
+    if users.is_none() {
+        println!("{test}: skipped: useradd/groupadd failed (not permitted in this environment)");
+    }
+    users
+}
+
+/// A directory of the test's own, `/tmp/anguilla-<name>-<tag>` (mode 1777),
+/// with an iceoryx2 configuration that keeps its files apart from the other
+/// tests' (iceoryx2 reads ./config/iceoryx2.toml first: root-path
+/// `<dir>/iox2/`, prefix `iox_prefix`), `anguilla.toml` naming the daemon's
+/// prefix, and the binary where every user can run it. Returns the
+/// directory, the binary and the daemon's prefix.
+fn sandbox(name: &str, tag: u32, iox_prefix: &str) -> (PathBuf, PathBuf, String) {
+    use std::os::unix::fs::PermissionsExt as _;
+    let dir = PathBuf::from(format!("/tmp/anguilla-{name}-{tag}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("config")).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    std::fs::write(
+        dir.join("config/iceoryx2.toml"),
+        format!(
+            "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"{iox_prefix}\"\n",
+            dir.display()
+        ),
+    )
+    .unwrap();
+    let prefix = format!("anguilla-{name}-{tag}");
+    std::fs::write(
+        dir.join("anguilla.toml"),
+        format!("[ipc]\nprefix = \"{prefix}\"\n"),
+    )
+    .unwrap();
+    let bin = dir.join("anguilla");
+    std::fs::copy(anguilla_bin(), &bin).unwrap();
+    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    (dir, bin, prefix)
+}
+
 /// `anguilla` run as `user` (its groups included) in `dir`.
 fn as_user(user: &str, bin: &Path, dir: &Path) -> Proc {
     let gid = Proc::new("id").args(["-g", user]).output().unwrap();
@@ -99,48 +151,12 @@ fn mode_of(out: &Output) -> Option<u64> {
 #[test]
 fn only_the_daemons_user_and_group_reach_it() {
     let _dog = Watchdog::new("users", Duration::from_secs(180));
-    if unsafe { libc::geteuid() } != 0 {
-        println!(
-            "users: skipped: creating Unix users needs root (run the tests as root, as CI does)"
-        );
-        return;
-    }
-    if Proc::new("setpriv").arg("--version").output().is_err() {
-        println!("users: skipped: setpriv (util-linux) is not installed");
-        return;
-    }
     let tag = std::process::id() % 100_000;
-    let Some(users) = Users::create(tag) else {
-        println!("users: skipped: useradd/groupadd failed (not permitted in this environment)");
+    let Some(users) = users_for("users", tag) else {
         return;
     };
     let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
-    // A directory of its own, with an iceoryx2 config that keeps this
-    // test's files apart from the other tests' (run as root, they own
-    // /tmp/iceoryx2): iceoryx2 reads ./config/iceoryx2.toml first.
-    let dir = PathBuf::from(format!("/tmp/anguilla-users-{tag}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("config")).unwrap();
-    use std::os::unix::fs::PermissionsExt as _;
-    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
-    std::fs::write(
-        dir.join("config/iceoryx2.toml"),
-        format!(
-            "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"iu{tag}_\"\n",
-            dir.display()
-        ),
-    )
-    .unwrap();
-    let prefix = format!("anguilla-users-{tag}");
-    std::fs::write(
-        dir.join("anguilla.toml"),
-        format!("[ipc]\nprefix = \"{prefix}\"\n"),
-    )
-    .unwrap();
-    // The binary where every user can run it.
-    let bin = dir.join("anguilla");
-    std::fs::copy(anguilla_bin(), &bin).unwrap();
-    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let (dir, bin, prefix) = sandbox("users", tag, &format!("iu{tag}_"));
 
     let _daemon = Killed(
         as_user(daemon_user, &bin, &dir)
@@ -249,42 +265,12 @@ fn only_the_daemons_user_and_group_reach_it() {
 #[test]
 fn only_the_group_reaches_the_local_link() {
     let _dog = Watchdog::new("users-link", Duration::from_secs(180));
-    if unsafe { libc::geteuid() } != 0 {
-        println!("users-link: skipped: creating Unix users needs root (CI runs as root)");
-        return;
-    }
-    if Proc::new("setpriv").arg("--version").output().is_err() {
-        println!("users-link: skipped: setpriv (util-linux) is not installed");
-        return;
-    }
     let tag = (std::process::id() + 1) % 100_000;
-    let Some(users) = Users::create(tag) else {
-        println!("users-link: skipped: useradd/groupadd failed (not permitted here)");
+    let Some(users) = users_for("users-link", tag) else {
         return;
     };
     let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
-    let dir = PathBuf::from(format!("/tmp/anguilla-users-link-{tag}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("config")).unwrap();
-    use std::os::unix::fs::PermissionsExt as _;
-    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
-    std::fs::write(
-        dir.join("config/iceoryx2.toml"),
-        format!(
-            "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"il{tag}_\"\n",
-            dir.display()
-        ),
-    )
-    .unwrap();
-    let prefix = format!("anguilla-users-link-{tag}");
-    std::fs::write(
-        dir.join("anguilla.toml"),
-        format!("[ipc]\nprefix = \"{prefix}\"\n"),
-    )
-    .unwrap();
-    let bin = dir.join("anguilla");
-    std::fs::copy(anguilla_bin(), &bin).unwrap();
-    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let (dir, bin, prefix) = sandbox("users-link", tag, &format!("il{tag}_"));
     let _daemon = Killed(
         as_user(daemon_user, &bin, &dir)
             .args(["run", "--quiet", "--config", "anguilla.toml"])
@@ -364,42 +350,13 @@ fn only_the_group_reaches_the_local_link() {
 #[test]
 fn a_foreign_iceoryx2_directory_is_refused_by_name() {
     let _dog = Watchdog::new("users-squat", Duration::from_secs(120));
-    if unsafe { libc::geteuid() } != 0 {
-        println!("users-squat: skipped: creating Unix users needs root (CI runs as root)");
-        return;
-    }
-    if Proc::new("setpriv").arg("--version").output().is_err() {
-        println!("users-squat: skipped: setpriv (util-linux) is not installed");
-        return;
-    }
     let tag = (std::process::id() + 2) % 100_000;
-    let Some(users) = Users::create(tag) else {
-        println!("users-squat: skipped: useradd/groupadd failed (not permitted here)");
+    let Some(users) = users_for("users-squat", tag) else {
         return;
     };
     let (daemon_user, outsider) = (&users.users[0], &users.users[2]);
-    let dir = PathBuf::from(format!("/tmp/anguilla-users-squat-{tag}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("config")).unwrap();
-    use std::os::unix::fs::PermissionsExt as _;
-    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    let (dir, bin, _) = sandbox("users-squat", tag, &format!("is{tag}_"));
     let iox = dir.join("iox2");
-    std::fs::write(
-        dir.join("config/iceoryx2.toml"),
-        format!(
-            "[global]\nroot-path = \"{}/\"\nprefix = \"is{tag}_\"\n",
-            iox.display()
-        ),
-    )
-    .unwrap();
-    std::fs::write(
-        dir.join("anguilla.toml"),
-        format!("[ipc]\nprefix = \"anguilla-users-squat-{tag}\"\n"),
-    )
-    .unwrap();
-    let bin = dir.join("anguilla");
-    std::fs::copy(anguilla_bin(), &bin).unwrap();
-    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
     // The outsider makes the directory first, open to all.
     let o = Proc::new("setpriv")
         .args([
