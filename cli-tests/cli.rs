@@ -1026,3 +1026,36 @@ Begin Triggerblock Tue Nov 14 12:00:00.000 am 2023
    0.007000 CANFD   1 Tx  1abcdef0x                                   0 1 8  8 01 02 03 04 05 06 07 08        0    0      1000        0        0        0        0        0
 End TriggerBlock
 ";
+
+/// Issue 26, door 1: the Foxglove WebSocket protocol has no
+/// authentication, so commands through it need the owner's explicit
+/// `insecure-commands`; without it `anguilla foxglove` refuses to start and
+/// says why (before, anyone who reached the port could drive).
+#[test]
+fn foxglove_commands_need_insecure_commands() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-fox-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("a.toml");
+    std::fs::write(
+        &cfg,
+        "[ipc]\nprefix = \"anguilla-cli-fox\"\n[foxglove]\ncommands = true\n",
+    )
+    .unwrap();
+    let cfg = cfg.to_str().unwrap();
+    let args = [
+        "foxglove",
+        "--config",
+        cfg,
+        "--bind",
+        "127.0.0.1:0",
+        "--duration",
+        "3",
+    ];
+    let (ok, _, err) = run(&args);
+    assert!(!ok, "served commands without insecure-commands: {err}");
+    assert!(
+        err.contains("no authentication") && err.contains("insecure-commands = true"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
