@@ -137,10 +137,8 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         // SAFETY: umask has no preconditions.
         unsafe { libc::umask(0o007) };
     }
-    for e in listen.iter().filter(|e| e.unix) {
-        if e.text == Endpoint::local(&prefix)?.text {
-            anguilla_link::prepare_local(&prefix).map_err(|e| anyhow::anyhow!("--listen {e}"))?;
-        }
+    if listen.contains(&Endpoint::local(&prefix)?) {
+        anguilla_link::prepare_local(&prefix).map_err(|e| anyhow::anyhow!("--listen {e}"))?;
     }
     let kinds: Vec<&str> = listen
         .iter()

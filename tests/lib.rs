@@ -145,6 +145,22 @@ fn start_builtin(cfg: &Config, scenario: &str) -> anyhow::Result<(Box<dyn Bus>, 
     Ok(Builtin::start(&bc)?)
 }
 
+/// The configuration of a system test's daemon: `joints` joints of drive
+/// family `drive`, on its own prefix `anguilla-<group>/<name>-<pid>`.
+pub fn family_config(
+    drive: anguilla_protocol::Family,
+    joints: usize,
+    group: &str,
+    name: &str,
+) -> Config {
+    let mut cfg = Config::default();
+    cfg.robot.joints = joints;
+    cfg.robot.drive = drive;
+    cfg.ipc.prefix = format!("anguilla-{group}/{name}-{}", std::process::id());
+    cfg.validate().expect("valid configuration");
+    cfg
+}
+
 /// Fixtures for tests that run `anguilla` as separate processes and talk to
 /// the daemon as an operator.
 pub mod process {
@@ -217,6 +233,46 @@ pub mod process {
             },
         );
         child
+    }
+
+    /// Makes `dir` with an iceoryx2 configuration of its own in
+    /// `dir/config/iceoryx2.toml` (iceoryx2 reads ./config/iceoryx2.toml
+    /// first, so a process started in `dir` uses it): root-path
+    /// `dir/iox2/`, prefix `iox_prefix`. Keeps a test's iceoryx2 files
+    /// (and the damage it does to them) apart from the other tests'.
+    pub fn iceoryx2_sandbox(dir: &std::path::Path, iox_prefix: &str) {
+        let _ = std::fs::remove_dir_all(dir);
+        std::fs::create_dir_all(dir.join("config")).unwrap();
+        std::fs::write(
+            dir.join("config/iceoryx2.toml"),
+            format!(
+                "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"{iox_prefix}\"\n",
+                dir.display()
+            ),
+        )
+        .unwrap();
+    }
+
+    /// iceoryx2's node-id segment in /dev/shm for the iceoryx2 prefix
+    /// `iox_prefix`, once a node made it.
+    pub fn node_id_segment(iox_prefix: &str) -> Option<PathBuf> {
+        std::fs::read_dir(anguilla_ipc::guard::SHM_DIR)
+            .ok()?
+            .filter_map(|e| e.ok())
+            .map(|e| e.path())
+            .find(|p| {
+                let n = p.file_name().unwrap_or_default().to_string_lossy();
+                n.starts_with(iox_prefix) && n.ends_with(".global_mgmt")
+            })
+    }
+
+    /// Takes control and enables, and waits for Ready.
+    pub fn take_control_and_enable(client: &mut Client, timeout: f64) {
+        ok(client, Command::TakeControl);
+        ok(client, Command::Enable);
+        wait_for(client, "Ready", timeout, |s| {
+            s.mode == anguilla_ipc::Mode::Ready as u8
+        });
     }
 
     /// A client of the daemon at `prefix`, once its services are up.

@@ -828,13 +828,13 @@ impl Config {
             10.0,
             "0.01 ..= 10 s",
         )?;
-        if !(2..=10_000).contains(&c.feedback_timeout) {
-            return Err(ConfigError::Range {
-                key: "control.feedback-timeout",
-                value: c.feedback_timeout.to_string(),
-                expected: "2 ..= 10000 control periods",
-            });
-        }
+        range(
+            "control.feedback-timeout",
+            f64::from(c.feedback_timeout),
+            2.0,
+            10_000.0,
+            "2 ..= 10000 control periods",
+        )?;
         if c.node_watchdog != 0.0 {
             range(
                 "control.node-watchdog",

@@ -58,12 +58,13 @@ fn robot_behind_an_slcan_pty_answers_a_host() {
     });
     // The heartbeats leave as the nodes change state; the status is taken
     // at the end of the robot's tick, a moment later: wait for it (a busy
-    // machine can put the host's read in between).
+    // machine can put the host's read in between), listening to the bus
+    // meanwhile (each try waits for its next frame, at most 20 ms).
     wait_for(
         "the status showing 3 nodes enabled",
         Duration::from_secs(20),
         || {
-            std::thread::sleep(Duration::from_millis(1));
+            listen(&mut host, &mut states);
             running.status().states[2] == 3
         },
     );

@@ -19,12 +19,7 @@ use anguilla_system_tests::process::{connect, keep_alive_for, ok, wait_for};
 const JOINTS: usize = 6;
 
 fn config(drive: Family, name: &str) -> Config {
-    let mut cfg = Config::default();
-    cfg.robot.joints = JOINTS;
-    cfg.robot.drive = drive;
-    cfg.ipc.prefix = format!("anguilla-families/{name}-{}", std::process::id());
-    cfg.validate().expect("valid configuration");
-    cfg
+    anguilla_system_tests::family_config(drive, JOINTS, "families", name)
 }
 
 /// Node state codes of the snapshot (protocol `NodeState`).
@@ -43,9 +38,7 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
             .iter()
             .all(|j| j.node_alive == 1 && j.node_state == DISABLED)
     });
-    ok(&mut client, Command::TakeControl);
-    ok(&mut client, Command::Enable);
-    wait_for(&mut client, "Ready", 5.0, |s| s.mode == Mode::Ready as u8);
+    anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
     let forward = Command::Swim(SwimParams {
         amplitude: 1.0,
         frequency: 1.0,

@@ -16,31 +16,21 @@
 
 use std::time::Duration;
 
-use anguilla_daemon::config::Config;
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
 use anguilla_protocol::Family;
 use anguilla_sim::scenario::{Action, NodeFault};
-use anguilla_system_tests::process::{connect, ok, wait_for};
-use anguilla_system_tests::{Robot, Watchdog};
+use anguilla_system_tests::process::{connect, ok, take_control_and_enable, wait_for};
+use anguilla_system_tests::{Robot, Watchdog, family_config};
 
 const JOINTS: usize = 6;
 const DISABLED: u8 = 1;
 
-fn config(drive: Family, name: &str) -> Config {
-    let mut cfg = Config::default();
-    cfg.robot.joints = JOINTS;
-    cfg.robot.drive = drive;
-    cfg.ipc.prefix = format!("anguilla-liveness/{name}-{}", std::process::id());
-    cfg.validate().expect("valid configuration");
-    cfg
-}
-
 /// Starts the robot, swims, applies `fault` to joint 3 and waits for the
-/// daemon's fault; returns the faulted state. Panics if the robot is seen
-/// swimming on after the fault should have been found.
+/// daemon's fault of `kind`, naming joint 3 and not its heartbeats; then
+/// checks that reset and enable are refused while the cause lasts.
 fn swim_then(drive: Family, name: &str, fault: NodeFault, kind: FaultKind) {
     let _wd = Watchdog::new(name, Duration::from_secs(120));
-    let cfg = config(drive, name);
+    let cfg = family_config(drive, JOINTS, "liveness", name);
     let robot = Robot::start_with(cfg).expect("daemon and robot start");
     let mut client = connect(&robot.prefix, name);
     wait_for(&mut client, "every joint alive and disabled", 15.0, |s| {
@@ -48,9 +38,7 @@ fn swim_then(drive: Family, name: &str, fault: NodeFault, kind: FaultKind) {
             .iter()
             .all(|j| j.node_alive == 1 && j.node_state == DISABLED)
     });
-    ok(&mut client, Command::TakeControl);
-    ok(&mut client, Command::Enable);
-    wait_for(&mut client, "Ready", 5.0, |s| s.mode == Mode::Ready as u8);
+    take_control_and_enable(&mut client, 5.0);
     ok(
         &mut client,
         Command::Swim(SwimParams {

@@ -15,7 +15,9 @@ use std::process::{Command as Proc, Output, Stdio};
 use std::time::Duration;
 
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{Killed, anguilla_bin, poll_until};
+use anguilla_system_tests::process::{
+    Killed, anguilla_bin, iceoryx2_sandbox, node_id_segment, poll_until,
+};
 
 /// Users and a group made for the test, removed when dropped.
 struct Users {
@@ -96,17 +98,8 @@ fn users_for(test: &str, tag: u32) -> Option<Users> {
 fn sandbox(name: &str, tag: u32, iox_prefix: &str) -> (PathBuf, PathBuf, String) {
     use std::os::unix::fs::PermissionsExt as _;
     let dir = PathBuf::from(format!("/tmp/anguilla-{name}-{tag}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("config")).unwrap();
+    iceoryx2_sandbox(&dir, iox_prefix);
     std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
-    std::fs::write(
-        dir.join("config/iceoryx2.toml"),
-        format!(
-            "[global]\nroot-path = \"{}/iox2/\"\nprefix = \"{iox_prefix}\"\n",
-            dir.display()
-        ),
-    )
-    .unwrap();
     let prefix = format!("anguilla-{name}-{tag}");
     std::fs::write(
         dir.join("anguilla.toml"),
@@ -117,6 +110,28 @@ fn sandbox(name: &str, tag: u32, iox_prefix: &str) -> (PathBuf, PathBuf, String)
     std::fs::copy(anguilla_bin(), &bin).unwrap();
     std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
     (dir, bin, prefix)
+}
+
+/// `anguilla run` as `user` in the sandbox `dir`, once `ctl status --json`
+/// answers that user; the daemon and that first status.
+fn daemon_as(user: &str, bin: &Path, dir: &Path, prefix: &str) -> (Killed, Output) {
+    let daemon = Killed(
+        as_user(user, bin, dir)
+            .args(["run", "--quiet", "--config", "anguilla.toml"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let status = poll_until(
+        "the daemon answering its own user",
+        Duration::from_secs(30),
+        || {
+            let o = ctl(user, bin, dir, prefix, &["status", "--json"]);
+            o.status.success().then_some(o)
+        },
+    );
+    (daemon, status)
 }
 
 /// `anguilla` run as `user` (its groups included) in `dir`.
@@ -157,23 +172,7 @@ fn only_the_daemons_user_and_group_reach_it() {
     };
     let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
     let (dir, bin, prefix) = sandbox("users", tag, &format!("iu{tag}_"));
-
-    let _daemon = Killed(
-        as_user(daemon_user, &bin, &dir)
-            .args(["run", "--quiet", "--config", "anguilla.toml"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    let status = poll_until(
-        "the daemon answering its own user",
-        Duration::from_secs(30),
-        || {
-            let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
-            o.status.success().then_some(o)
-        },
-    );
+    let (_daemon, status) = daemon_as(daemon_user, &bin, &dir, &prefix);
     assert_eq!(mode_of(&status), Some(0), "idle");
 
     // The outsider: no state, no command, no E-stop.
@@ -191,15 +190,7 @@ fn only_the_daemons_user_and_group_reach_it() {
     // iceoryx2's node-id segment, which iceoryx2 makes 0666: the daemon
     // closed it to other users, so the outsider can neither write nor
     // truncate it (either blocked every new tool; issue 26, door 2).
-    let seg = std::fs::read_dir("/dev/shm")
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .find(|p| {
-            let n = p.file_name().unwrap().to_string_lossy().into_owned();
-            n.starts_with(&format!("iu{tag}_")) && n.ends_with(".global_mgmt")
-        })
-        .expect("the daemon's node-id segment in /dev/shm");
+    let seg = node_id_segment(&format!("iu{tag}_")).expect("the daemon's node-id segment");
     use std::os::unix::fs::MetadataExt as _;
     assert_eq!(std::fs::metadata(&seg).unwrap().mode() & 0o777, 0o600);
     for script in ["printf 0123456789abcdef > \"$0\"", ": > \"$0\""] {
@@ -271,18 +262,7 @@ fn only_the_group_reaches_the_local_link() {
     };
     let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
     let (dir, bin, prefix) = sandbox("users-link", tag, &format!("il{tag}_"));
-    let _daemon = Killed(
-        as_user(daemon_user, &bin, &dir)
-            .args(["run", "--quiet", "--config", "anguilla.toml"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    poll_until("the daemon up", Duration::from_secs(30), || {
-        let o = ctl(daemon_user, &bin, &dir, &prefix, &["status", "--json"]);
-        o.status.success().then_some(())
-    });
+    let (_daemon, _) = daemon_as(daemon_user, &bin, &dir, &prefix);
     // The link with its defaults: the local socket only.
     let _link = Killed(
         as_user(daemon_user, &bin, &dir)

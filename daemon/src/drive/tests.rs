@@ -821,13 +821,24 @@ fn a_joint_without_feedback_is_silent_whatever_its_heartbeats_say_in_every_famil
         );
         let r = rig.drives.observe(t, &LIMITS);
         assert!(r.silent.is_empty() && r.lost.is_empty(), "{family}: {r:?}");
-        let is_feedback = |f: &Frame| {
-            let id = f.id().raw();
-            match family {
-                Family::Anguilla => (0x141..=0x17F).contains(&id),
-                Family::Cia402 => (0x181..=0x1FF).contains(&id),
-                _ => id & 0x1F == 0x09,
-            }
+        // Each family's feedback, as its protocol decodes it.
+        let is_feedback = |f: &Frame| match family {
+            Family::Anguilla => matches!(
+                anguilla_protocol::message::decode(
+                    f,
+                    anguilla_protocol::message::Variant::Classic,
+                    NodeSet::all()
+                ),
+                Ok(anguilla_protocol::message::Message::Feedback(_))
+            ),
+            Family::Cia402 => matches!(canopen::decode(f), Ok(Co::Tpdo { pdo: Pdo::One, .. })),
+            _ => matches!(
+                odrive::decode(f),
+                Ok(Od {
+                    body: Body::EncoderEstimates(_),
+                    ..
+                })
+            ),
         };
         let mut silent_after = None;
         for k in 1..=LIMITS.feedback_periods + 5 {
