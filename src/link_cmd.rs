@@ -117,14 +117,8 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("--listen {e}"))?;
     let insecure_loopback = args.insecure_loopback || l.insecure_loopback;
     for e in listen.iter().filter(|e| e.insecure()) {
-        anyhow::ensure!(
-            insecure_loopback,
-            "--listen {}: plain TCP has no authentication, and every local user can connect to a \
-             loopback port and drive the robot. Listen on 'local' (the default: a Unix socket \
-             only the link's user and group reach; tools use --connect local) or tls/, or accept \
-             the risk with --insecure-loopback ([link] insecure-loopback = true)",
-            e.text
-        );
+        e.listenable(insecure_loopback)
+            .map_err(|e| anyhow::anyhow!("--listen {e}"))?;
         eprintln!(
             "anguilla link: WARNING: listening on {} without authentication \
              (insecure-loopback): every local user can drive the robot",

@@ -195,14 +195,9 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
                 .iter()
                 .filter(|e| *e != anguilla_link::LOCAL)
             {
-                let ep = anguilla_link::Endpoint::parse_form(e, tls)
+                anguilla_link::Endpoint::parse_form(e, tls)
+                    .and_then(|ep| ep.listenable(cfg.link.insecure_loopback))
                     .map_err(|e| anyhow::anyhow!("{}: link.listen: {e}", file.display()))?;
-                anyhow::ensure!(
-                    !ep.insecure() || cfg.link.insecure_loopback,
-                    "{}: link.listen: '{e}' is plain TCP, which every local user can reach: use \
-                     \"local\" or tls/, or set link.insecure-loopback = true to accept that",
-                    file.display()
-                );
             }
             let period = anguilla_daemon::control::period_ns(&cfg);
             outln!(

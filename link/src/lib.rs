@@ -204,6 +204,23 @@ impl Endpoint {
         !self.tls && !self.unix
     }
 
+    /// Whether the link may listen here: anywhere but plain TCP, and there
+    /// only with `insecure_loopback`; the refusal says why and what to do.
+    pub fn listenable(&self, insecure_loopback: bool) -> Result<(), LinkError> {
+        if self.insecure() && !insecure_loopback {
+            return Err(LinkError::Endpoint {
+                endpoint: self.text.clone(),
+                why: "plain TCP has no authentication, and every local user can connect to a \
+                      loopback port and drive the robot. Listen on 'local' (the default: a Unix \
+                      socket only the link's user and group reach; tools use --connect local) \
+                      or tls/, or accept the risk with --insecure-loopback ([link] \
+                      insecure-loopback = true)"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+
     /// Checks `text`: `tcp/HOST:PORT` with a loopback host (`127.0.0.0/8`,
     /// `::1`, `localhost`), `tls/HOST:PORT` with any host when `tls` is
     /// given, or `unixsock-stream/PATH` with an absolute path. Every other
@@ -442,8 +459,17 @@ mod tests {
             "tcp/[::1]:7447",
             "tcp/localhost:7447",
         ] {
-            assert!(Endpoint::parse(ok, None).is_ok(), "{ok}");
+            let e = Endpoint::parse(ok, None).unwrap();
+            // Listened on only when the owner accepts every local user.
+            let why = e.listenable(false).unwrap_err().to_string();
+            assert!(
+                why.contains("--insecure-loopback") && why.contains(ok),
+                "{why}"
+            );
+            assert!(e.listenable(true).is_ok(), "{ok}");
         }
+        let local = Endpoint::local("anguilla").unwrap();
+        assert!(local.unix && local.listenable(false).is_ok());
         for (bad, says) in [
             ("tcp/0.0.0.0:7447", "loopback only"),
             ("tcp/192.168.1.5:7447", "loopback only"),
