@@ -98,6 +98,7 @@ fn control_period_allocates_nothing() {
 /// vcan interface (`ANGUILLA_VCAN`, default vcan0) and root to set it down
 /// and up: `scripts/vcan-vm` runs it in its VM.
 #[test]
+#[ignore = "needs a vcan interface (SocketCAN): scripts/vcan-vm runs it"]
 fn socketcan_bus_off_and_recovery_allocate_nothing() {
     use anguilla_drivers::BusState;
     use anguilla_drivers::socketcan::{SocketCanBus, SocketCanConfig};

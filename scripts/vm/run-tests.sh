@@ -1,6 +1,9 @@
 #!/bin/sh
 # Runs the vcan test binaries listed in LIST and prints one result line per
-# binary plus a final summary line `vcan-vm: N passed, M failed`.
+# binary plus a final summary line `vcan-vm: N passed, M failed`. The
+# tests that need vcan or uinput are `#[ignore]`d under plain `cargo test`
+# (counted there as ignored, with the reason): every binary here runs with
+# --include-ignored.
 #
 # Used as-is by the VM's /init (busybox sh) and by `scripts/vcan-vm --native`
 # (the host's sh), so keep it POSIX.
@@ -70,11 +73,11 @@ run_binary() { # NAME PATH DIR [ARGS...]
     dir=$3
     shift 3
     log=$work/$name.log
-    echo "vcan-vm: RUN $name ($bin --test-threads=1 --nocapture $*)"
+    echo "vcan-vm: RUN $name ($bin --include-ignored --test-threads=1 --nocapture $*)"
     # Stream the output and keep a copy to read the counts from; the exit
     # status goes through a file because a pipeline reports tee's.
     {
-        (cd "$dir" && exec timeout -s KILL "$binary_timeout" "$bin" --test-threads=1 --nocapture "$@") 2>&1
+        (cd "$dir" && exec timeout -s KILL "$binary_timeout" "$bin" --include-ignored --test-threads=1 --nocapture "$@") 2>&1
         echo $? >"$work/$name.rc"
     } | tee "$log"
     rc=$(cat "$work/$name.rc" 2>/dev/null || echo 255)

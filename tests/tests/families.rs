@@ -47,10 +47,21 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
     });
     ok(&mut client, forward);
     let mut last = None;
-    let end = std::time::Instant::now() + Duration::from_secs(5);
+    // The worst joint's yaw tracking error of each state in the last 2 s.
+    let mut errors = Vec::new();
+    let start = std::time::Instant::now();
+    let end = start + Duration::from_secs(5);
     while std::time::Instant::now() < end {
         let _ = client.send(forward);
         if let Ok(Some(s)) = client.wait_state(Duration::from_millis(100)) {
+            if start.elapsed() > Duration::from_secs(3) {
+                errors.push(
+                    s.joints[..JOINTS]
+                        .iter()
+                        .map(|j| (j.measured_yaw - j.commanded_yaw).abs())
+                        .fold(0.0f32, f32::max),
+                );
+            }
             last = Some(s);
         }
         let _ = client.replies(|_| {});
@@ -72,12 +83,21 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
     // by ~0.25 rad): it catches a joint that does not follow or a wrong
     // conversion (a sign, a gear), not the lag — a CiA 402 position comes
     // from the TPDO sampled at the previous SYNC, one period behind
-    // (measured worst 0.014 / 0.069 / 0.027 rad).
-    let worst = s.joints[..JOINTS]
-        .iter()
-        .map(|j| (j.measured_yaw - j.commanded_yaw).abs())
-        .fold(0.0f32, f32::max);
-    assert!(worst < 0.15, "{drive:?}: yaw tracking error {worst} rad");
+    // (measured worst 0.014 / 0.069 / 0.027 rad). It is the median over
+    // the last 2 s of the worst joint's error: a state taken while a
+    // starved machine stalled the loop lags more (0.20 rad seen under
+    // stress-ng), but a sign or a joint that does not follow is wrong in
+    // every state (the joints' phases differ, so one is always far from
+    // zero).
+    errors.sort_by(f32::total_cmp);
+    assert!(!errors.is_empty(), "{drive:?}: no state in the last 2 s");
+    let worst = errors[errors.len() / 2];
+    assert!(
+        worst < 0.15,
+        "{drive:?}: median yaw tracking error {worst} rad (of {} states, up to {} rad)",
+        errors.len(),
+        errors[errors.len() - 1]
+    );
     assert!(
         s.joints[..JOINTS]
             .iter()
@@ -108,11 +128,14 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
 /// daemon's: the daemon faults with the right kinds and names the joints.
 fn faults_are_reported(drive: Family, name: &str) {
     let _wd = Watchdog::new(name, Duration::from_secs(120));
-    let cfg = config(drive, name);
-    // Joint 2's drives fall silent for 1 s (a CiA 402 drive also misses
+    let mut cfg = config(drive, name);
+    // Joint 2's drives fall silent for 4 s (a CiA 402 drive also misses
     // the master's heartbeat meanwhile, and faults: EMCY 0x8130); joint 4's
-    // drives fault.
-    let scenario = "2.0 node 2 silent 1.0\n4.0 node 4 fault\n";
+    // drives fault. A heartbeat timeout of 1.5 s (not 0.35): on a starved
+    // machine the simulated robot's thread can stall long enough for every
+    // joint to look lost, and the test is about naming joint 2 alone.
+    cfg.control.heartbeat_timeout = 1.5;
+    let scenario = "2.0 node 2 silent 4.0\n6.5 node 4 fault\n";
     let robot = Robot::start_with_scenario(cfg, scenario).expect("daemon and robot start");
     let mut client = connect(&robot.prefix, name);
     wait_for(&mut client, "every joint alive and disabled", 15.0, |s| {

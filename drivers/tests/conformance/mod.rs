@@ -68,24 +68,28 @@ pub fn watchdog<F: FnOnce() + Send + 'static>(name: &str, f: F) {
 
 /// Instantiates every conformance test for a factory expression.
 #[macro_export]
+/// Attributes after the factory (`conformance_tests!(F, #[ignore = "why"])`)
+/// go on every test.
 macro_rules! conformance_tests {
-    ($factory:expr) => {
-        $crate::conformance_tests!(@each $factory;
+    ($factory:expr $(, #[$attr:meta])* $(,)?) => {
+        $crate::conformance_tests!(@each [$(#[$attr])*] $factory;
             roundtrip_classic, roundtrip_fd, ordering_preserved, recv_timeout_returns_none,
             drain_on_empty_bus_returns_at_once, counters_increase, reopen_discards_old_frames,
             bus_off_reported_and_recovered, error_passive_reported, no_loopback_to_sender);
     };
-    (@each $factory:expr; $($name:ident),*) => {
-        $(
-            #[test]
-            fn $name() {
-                conformance::watchdog(stringify!($name), || {
-                    if let Some(pair) = conformance::BusFactory::pair(&$factory) {
-                        conformance::$name(pair);
-                    }
-                });
-            }
-        )*
+    (@each $attrs:tt $factory:expr; $($name:ident),*) => {
+        $( $crate::conformance_tests!(@one $attrs $factory; $name); )*
+    };
+    (@one [$(#[$attr:meta])*] $factory:expr; $name:ident) => {
+        #[test]
+        $(#[$attr])*
+        fn $name() {
+            conformance::watchdog(stringify!($name), || {
+                if let Some(pair) = conformance::BusFactory::pair(&$factory) {
+                    conformance::$name(pair);
+                }
+            });
+        }
     };
 }
 
