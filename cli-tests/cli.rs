@@ -1059,3 +1059,65 @@ fn foxglove_commands_need_insecure_commands() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The built-in robot out of the box: its head sensor on the first free
+/// node id, its timeouts relaxed for a shared CPU (each named), and a
+/// status line in the operator's convention (heading from the body's
+/// centroid to the nose: 180° at the start, the robot lying along +x).
+#[test]
+fn the_builtin_robot_has_a_head_sensor_and_relaxed_timeouts() {
+    let cfg =
+        std::env::temp_dir().join(format!("anguilla-cli-builtin-{}.toml", std::process::id()));
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/builtin-{}\"\n",
+            std::process::id()
+        ),
+    )
+    .unwrap();
+    let (ok, out, err) = run(&["run", "--duration", "2", "--config", cfg.to_str().unwrap()]);
+    let _ = std::fs::remove_file(&cfg);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("the simulated robot's head sensor is node 13"),
+        "{err}"
+    );
+    for key in [
+        "control.command-timeout = 2",
+        "control.heartbeat-timeout = 2",
+        "control.node-watchdog = 1",
+        "control.feedback-timeout = ",
+        "a real bus keeps the strict defaults",
+    ] {
+        assert!(err.contains(key), "{key}: {err}");
+    }
+    assert!(
+        out.contains("simulated robot: speed +0.000 m/s, heading 180.0°, depth 1.00 m"),
+        "{out}"
+    );
+    assert!(!out.contains("yaw"), "{out}");
+}
+
+/// Keys set in the file are the user's: the built-in robot keeps them.
+#[test]
+fn the_builtin_robot_keeps_timeouts_that_were_set() {
+    let cfg = std::env::temp_dir().join(format!(
+        "anguilla-cli-builtin-set-{}.toml",
+        std::process::id()
+    ));
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/builtin-set-{}\"\n[control]\ncommand-timeout = 0.4\n[sensor]\nnode = 30\n",
+            std::process::id()
+        ),
+    )
+    .unwrap();
+    let (ok, _, err) = run(&["run", "--duration", "1", "--config", cfg.to_str().unwrap()]);
+    let _ = std::fs::remove_file(&cfg);
+    assert!(ok, "{err}");
+    assert!(!err.contains("command-timeout"), "{err}");
+    assert!(err.contains("control.heartbeat-timeout = 2"), "{err}");
+    assert!(!err.contains("head sensor is node"), "{err}");
+}

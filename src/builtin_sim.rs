@@ -19,11 +19,25 @@ impl BuiltinSim {
     pub fn truth_line(&self) -> String {
         let t = self.running.truth();
         format!(
-            " | simulated robot: speed {:+.3} m/s, yaw {:+.1}°, depth {:+.3} m",
-            t.forward_speed,
-            t.yaw.to_degrees(),
-            t.position[2]
+            " | simulated robot: speed {:+.3} m/s, heading {:5.1}°, depth {:.2} m",
+            t.forward_speed + 0.0, // no "-0.000" at rest
+            t.heading.to_degrees().rem_euclid(360.0),
+            t.depth + 0.0
         )
+    }
+
+    /// The simulation's ground truth, for the recording.
+    pub fn ground_truth(&self) -> anguilla_daemon::truth::GroundTruth {
+        let t = self.running.truth();
+        anguilla_daemon::truth::GroundTruth {
+            sim_time: t.time.as_secs_f64(),
+            position: t.position,
+            orientation: t.orientation,
+            velocity: t.velocity,
+            speed: t.forward_speed,
+            heading: t.heading,
+            depth: t.depth,
+        }
     }
 
     /// Stops the robot's thread.

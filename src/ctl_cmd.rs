@@ -52,11 +52,12 @@ pub enum CtlCmd {
     /// the swim (needs the daemon's head sensor; the swim's --turn or
     /// --pitch is then ignored).
     Swim {
-        /// Amplitude, fraction of the configured maximum (0..=1).
-        #[arg(long)]
+        /// Amplitude, fraction of the configured maximum (0..=1); default
+        /// 1 (with 1 Hz: the paper's gait F1).
+        #[arg(long, default_value_t = 1.0)]
         amplitude: f64,
         /// Undulation frequency (Hz).
-        #[arg(long)]
+        #[arg(long, default_value_t = 1.0)]
         frequency: f64,
         /// Yaw turn curvature (1/m), positive left.
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]

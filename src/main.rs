@@ -96,6 +96,12 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         // `anguilla ... | head`: the reader has what it wanted.
         Err(e) if output::closed_pipe(&e) => std::process::ExitCode::SUCCESS,
+        // Stopped by Ctrl-C (or SIGTERM, SIGHUP) before it could finish,
+        // e.g. while waiting for the daemon: the user's own stop, not an
+        // error; the shell's code for it (128 + the signal: 130 for SIGINT).
+        Err(_) if signals::received().is_some() => {
+            std::process::ExitCode::from(128 + signals::received().unwrap_or(2) as u8)
+        }
         Err(e) => {
             use std::io::Write as _;
             let _ = writeln!(std::io::stderr(), "Error: {e:#}");

@@ -68,6 +68,9 @@ pub fn init_logging() {
     }
 }
 
+/// How often the simulated robot's ground truth is recorded (ns).
+const TRUTH_PERIOD_NS: u64 = 50_000_000;
+
 fn mode_name(m: u8) -> &'static str {
     Mode::from_code(m).map(Mode::name).unwrap_or("?")
 }
@@ -89,8 +92,28 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     crate::signals::install();
     let stop = Arc::new(AtomicBool::new(false));
     let (bus, sim) = if cfg.bus.spec.is_empty() {
+        let sensor = cfg.fit_builtin_sensor();
+        let relaxed = cfg.relax_for_builtin();
+        if !relaxed.is_empty() {
+            tracing::info!(
+                "simulated robot: it shares this machine's CPU with the daemon, so the \
+                 timeouts left at their defaults are relaxed: {} (a real bus keeps the strict defaults)",
+                relaxed.join(", ")
+            );
+        }
         let (bus, sim) = crate::builtin_sim::start_builtin(&cfg)?;
         tracing::info!("no bus named: running against the built-in simulated robot");
+        match (sensor, cfg.sensor.node) {
+            (Some(id), _) => tracing::info!(
+                "the simulated robot's head sensor is node {id} (heading and depth hold; \
+                 [sensor] node chooses another id)"
+            ),
+            (None, 0) => tracing::info!(
+                "the simulated robot has no head sensor ({} drives: heading and depth hold unavailable)",
+                cfg.robot.drive
+            ),
+            (None, _) => {}
+        }
         (bus, Some(sim))
     } else {
         let bus = anguilla_drivers::open(&cfg.bus.spec)
@@ -103,6 +126,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         Client::new(&prefix, "anguilla-run-status").context("reading the daemon's state")?;
     let start = Instant::now();
     let mut last_print = Instant::now();
+    let mut next_truth_ns = 0;
     // Status lines never touch the loop: a failing stdout only ends them.
     let mut out = crate::output::Status::default();
     while !running.is_finished() {
@@ -114,6 +138,14 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             running.request_stop();
         }
         let state = status.wait_state(Duration::from_millis(100)).ok().flatten();
+        // The simulated robot's truth beside the estimate, 20 times a
+        // second, stamped with the state just published.
+        if let (Some(s), Some(sim), Some(tx)) = (&state, &sim, running.ground_truth())
+            && s.time_ns >= next_truth_ns
+        {
+            next_truth_ns = s.time_ns + TRUTH_PERIOD_NS;
+            let _ = tx.try_send((s.time_ns, sim.ground_truth()));
+        }
         if let Some(s) = state
             && !args.quiet
             && last_print.elapsed() >= Duration::from_secs(1)
@@ -124,8 +156,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}{}{}",
                 s.time_ns as f64 * 1e-9,
                 mode_name(s.mode),
-                s.predicted_head_speed,
-                s.predicted_turn_rate,
+                s.predicted_head_speed + 0.0, // no "-0.000" at rest
+                s.predicted_turn_rate + 0.0,
                 1e9 / s.loop_stats.period_ns.max(1) as f64,
                 s.loop_stats.jitter_p99_ns as f64 / 1e3,
                 s.loop_stats.compute_p99_ns as f64 / 1e3,

@@ -5,9 +5,11 @@
 //! ended). SIGHUP is not a reload: there is no configuration reload; restart
 //! to apply one.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
+/// The last stop signal's number (0: none).
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
 
 extern "C" fn on_signal(sig: libc::c_int) {
     // Inside a call into iceoryx2 that may block (making a node, opening
@@ -17,7 +19,13 @@ extern "C" fn on_signal(sig: libc::c_int) {
         // SAFETY: _exit is async-signal-safe.
         unsafe { libc::_exit(128 + sig) };
     }
+    SIGNAL.store(sig, Ordering::SeqCst);
     REQUESTED.store(true, Ordering::SeqCst);
+}
+
+/// The stop signal received, if any (its number).
+pub fn received() -> Option<i32> {
+    Some(SIGNAL.load(Ordering::SeqCst)).filter(|&s| s != 0)
 }
 
 /// Installs the handler for SIGINT, SIGTERM and SIGHUP.

@@ -323,10 +323,11 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         let t = running.truth();
         let s = running.status();
         out.line(format_args!(
-            "t {:7.1} s  speed {:+.3} m/s  yaw {:+6.1} deg  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
+            "t {:7.1} s  speed {:+.3} m/s  heading {:5.1} deg  depth {:.2} m  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
             t.time.as_secs_f64(),
             t.forward_speed + 0.0, // no "-0.000" at rest
-            t.yaw.to_degrees() + 0.0,
+            t.heading.to_degrees().rem_euclid(360.0),
+            t.depth + 0.0,
             s.states,
             s.stats.frames_in,
             s.stats.frames_out,

@@ -223,6 +223,10 @@ impl Default for ControlConfig {
     }
 }
 
+/// The liveness and operator timeouts of the built-in simulated robot
+/// (s; [`Config::relax_for_builtin`]).
+pub const BUILTIN_TIMEOUT: f64 = 2.0;
+
 /// `[gait]`: the parametric gait and how fast its parameters may change.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
@@ -761,6 +765,62 @@ impl Config {
         } else {
             self.robot.node_ids.clone()
         }
+    }
+
+    /// The head sensor of the built-in simulated robot: with `[sensor]
+    /// node = 0` (the default) and anguilla drives, the sensor goes on the
+    /// first id no joint uses (13 with the default 12 joints), so heading
+    /// and depth hold work out of the box. A real bus keeps "no sensor"
+    /// unless the key is set. Returns the id chosen, or `None` (a sensor
+    /// already configured, a bought family, no free id, or a configuration
+    /// that the sensor's traffic would not fit: then it is left as it was).
+    pub fn fit_builtin_sensor(&mut self) -> Option<u8> {
+        if self.sensor.node != 0 || self.robot.drive != anguilla_protocol::Family::Anguilla {
+            return None;
+        }
+        let joints = self.node_ids();
+        let id = (1..=63u8).find(|id| !joints.contains(id))?;
+        self.sensor.node = id;
+        if self.validate().is_err() {
+            self.sensor.node = 0;
+            return None;
+        }
+        Some(id)
+    }
+
+    /// The timeouts of the built-in simulated robot. It shares the CPU
+    /// with the daemon and the operator's tools: on a busy machine all of
+    /// them stall together, and a 0.35 s heartbeat or 0.5 s command
+    /// timeout then faults or stops a robot that did nothing wrong. Keys
+    /// still at their defaults become [`BUILTIN_TIMEOUT`] (the node
+    /// watchdog: 1 s, its maximum); keys set in the file are kept. A real
+    /// bus keeps the strict defaults. Returns the keys changed, as
+    /// `key = value` (for the log).
+    pub fn relax_for_builtin(&mut self) -> Vec<String> {
+        let d = ControlConfig::default();
+        let c = &mut self.control;
+        let mut changed = Vec::new();
+        let secs = BUILTIN_TIMEOUT;
+        if c.command_timeout == d.command_timeout {
+            c.command_timeout = secs;
+            changed.push(format!("control.command-timeout = {secs}"));
+        }
+        if c.heartbeat_timeout == d.heartbeat_timeout {
+            c.heartbeat_timeout = secs;
+            changed.push(format!("control.heartbeat-timeout = {secs}"));
+        }
+        if c.node_watchdog == d.node_watchdog {
+            c.node_watchdog = 1.0;
+            changed.push("control.node-watchdog = 1".to_string());
+        }
+        if c.feedback_timeout == d.feedback_timeout
+            && let Ok(rate) = self.control_rate()
+        {
+            let periods = (secs * rate).ceil().min(10_000.0) as u32;
+            self.control.feedback_timeout = periods;
+            changed.push(format!("control.feedback-timeout = {periods}"));
+        }
+        changed
     }
 
     /// Checks every range; the error names the first key out of range.
@@ -1515,6 +1575,42 @@ pub fn default_toml() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_builtin_robot_gets_a_sensor_on_the_first_free_id() {
+        let mut c = Config::default();
+        assert_eq!(c.fit_builtin_sensor(), Some(13));
+        assert_eq!(c.sensor.node, 13);
+        c.validate().unwrap();
+        // Set: kept. Joints on 1..=12 but not 3: the sensor takes 3.
+        assert_eq!(c.fit_builtin_sensor(), None);
+        let mut c = Config::default();
+        c.robot.node_ids = vec![1, 2, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13];
+        assert_eq!(c.fit_builtin_sensor(), Some(3));
+        // A bought family: no anguilla head sensor.
+        let mut c = Config::default();
+        c.robot.drive = anguilla_protocol::Family::Cia402;
+        assert_eq!(c.fit_builtin_sensor(), None);
+        assert_eq!(c.sensor.node, 0);
+    }
+
+    #[test]
+    fn the_builtin_robot_relaxes_only_default_timeouts() {
+        let mut c = Config::default();
+        c.control.command_timeout = 0.4;
+        let changed = c.relax_for_builtin();
+        assert_eq!(c.control.command_timeout, 0.4, "set in the file: kept");
+        assert_eq!(c.control.heartbeat_timeout, BUILTIN_TIMEOUT);
+        assert_eq!(c.control.node_watchdog, 1.0);
+        let rate = c.control_rate().unwrap();
+        assert_eq!(
+            c.control.feedback_timeout,
+            (BUILTIN_TIMEOUT * rate).ceil() as u32
+        );
+        assert_eq!(changed.len(), 3, "{changed:?}");
+        assert!(!changed.iter().any(|k| k.contains("command-timeout")));
+        c.validate().unwrap();
+    }
 
     #[test]
     fn the_printed_default_parses_back_to_the_default() {

@@ -32,3 +32,4 @@ pub mod run;
 pub mod session;
 pub mod stats;
 pub mod supervisor;
+pub mod truth;

@@ -289,6 +289,8 @@ pub struct McapLog {
     ids: [u16; 5],
     seq: u32,
     scene: Scene,
+    /// The ground truth's channel, added with its first message.
+    truth: Option<u16>,
 }
 
 impl McapLog {
@@ -312,6 +314,7 @@ impl McapLog {
             ids,
             seq: 0,
             scene: Scene::new(cfg),
+            truth: None,
         })
     }
 
@@ -335,6 +338,39 @@ impl McapLog {
                 .map_err(err)?;
         }
         Ok(())
+    }
+
+    /// Writes the simulated robot's ground truth at daemon time `ns` to
+    /// its own channel ([`crate::truth::TOPIC`]), created with the first.
+    pub fn write_truth(&mut self, ns: u64, t: &crate::truth::GroundTruth) -> io::Result<()> {
+        let channel_id = match self.truth {
+            Some(id) => id,
+            None => {
+                let schema = crate::truth::schema().to_string();
+                let schema_id = self
+                    .w
+                    .add_schema(crate::truth::SCHEMA_NAME, "jsonschema", schema.as_bytes())
+                    .map_err(err)?;
+                let id = self
+                    .w
+                    .add_channel(schema_id, crate::truth::TOPIC, "json", &BTreeMap::new())
+                    .map_err(err)?;
+                *self.truth.insert(id)
+            }
+        };
+        self.seq = self.seq.wrapping_add(1);
+        let data = t.message().to_string();
+        self.w
+            .write_to_known_channel(
+                &MessageHeader {
+                    channel_id,
+                    sequence: self.seq,
+                    log_time: ns,
+                    publish_time: ns,
+                },
+                data.as_bytes(),
+            )
+            .map_err(err)
     }
 
     /// Ends the current chunk and flushes it: what is written so far

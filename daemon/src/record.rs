@@ -18,7 +18,8 @@
 //! - `session.mcap`: the same snapshots for Foxglove, Lichtblick and
 //!   PlotJuggler ([`crate::mcap_log`] has the channels), finished with its
 //!   summary at the end, and readable up to its last chunk (one a second)
-//!   after a kill.
+//!   after a kill; with the built-in simulated robot, its ground truth
+//!   too ([`crate::truth`]).
 //!
 //! [`crate::replay`] replays a recording.
 
@@ -33,13 +34,17 @@ use crate::ipc::{Raw as _, StateSnapshot};
 use crate::mcap_log::McapLog;
 use crate::session::{self, Record};
 use crate::supervisor::Nanos;
+use crate::truth::GroundTruth;
 
-/// Writes a recording; runs on its own thread until both channels close.
+/// Writes a recording; runs on its own thread until the records and the
+/// states close (the ground truth, `(daemon time ns, truth)` from a
+/// simulated robot, goes to the MCAP file only, and may close any time).
 pub fn recorder(
     dir: PathBuf,
     cfg: Config,
     records: Receiver<Record>,
     mut states: Receiver<StateSnapshot>,
+    mut truth: Receiver<(u64, GroundTruth)>,
 ) -> std::io::Result<()> {
     std::fs::create_dir_all(&dir)?;
     let cfg_text = cfg.to_toml();
@@ -104,7 +109,16 @@ pub fn recorder(
                     Err(_) => states = crossbeam_channel::never(),
                 }
             }
+            recv(truth) -> t => {
+                match t {
+                    Ok((ns, t)) => mcap.write_truth(ns, &t)?,
+                    Err(_) => truth = crossbeam_channel::never(),
+                }
+            }
         }
+    }
+    for (ns, t) in truth.try_iter() {
+        mcap.write_truth(ns, &t)?;
     }
     // Records are closed; take what is left of the states.
     for s in states.try_iter() {

@@ -48,6 +48,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use anguilla_drivers::Bus;
+use anguilla_protocol::message::ErrorBits;
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::config::Config;
@@ -97,6 +98,16 @@ pub enum Event {
     Overrun {
         /// Periods skipped this time.
         skipped: u64,
+    },
+    /// A joint's drive reports errors it did not report before.
+    NodeErrors {
+        /// Joint (0 = head end).
+        joint: u8,
+        /// Its family's code (`JointSnapshot::node_errors`): anguilla error
+        /// bits, a CiA 402 EMCY code or an ODrive axis error.
+        code: u32,
+        /// Whether `code` holds anguilla error bits.
+        anguilla: bool,
     },
 }
 
@@ -161,9 +172,20 @@ pub struct Running {
     helpers_stop: Arc<AtomicBool>,
     loop_thread: JoinHandle<Result<RunReport, RunError>>,
     helpers: Vec<JoinHandle<()>>,
+    ground_truth: Option<crossbeam_channel::Sender<(u64, crate::truth::GroundTruth)>>,
 }
 
 impl Running {
+    /// Where a simulated robot's ground truth goes, `(daemon time ns,
+    /// truth)`, while recording (`None` otherwise): the recorder writes it
+    /// to the session's MCAP file. Use `try_send`: a full channel drops the
+    /// sample, nothing waits.
+    pub fn ground_truth(
+        &self,
+    ) -> Option<&crossbeam_channel::Sender<(u64, crate::truth::GroundTruth)>> {
+        self.ground_truth.as_ref()
+    }
+
     /// Asks the loop to stop (smoothly) without waiting.
     pub fn request_stop(&self) {
         self.stop.store(true, Ordering::SeqCst);
@@ -305,6 +327,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             .spawn(move || reaper(watch_rx, dead_tx, reaper_stop))
             .map_err(|e| RunError::Thread("reaper", e))?,
     );
+    let mut ground_truth = None;
     let recording = if cfg.recording.dir.is_empty() {
         None
     } else {
@@ -315,13 +338,15 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
         let dir = std::path::Path::new(&cfg.recording.dir).join(format!("session-{secs}"));
         let (rec_tx, rec_rx) = crossbeam_channel::bounded(1 << 16);
         let (st_tx, st_rx) = crossbeam_channel::bounded(256);
+        let (truth_tx, truth_rx) = crossbeam_channel::bounded(64);
+        ground_truth = Some(truth_tx);
         let rcfg = cfg.clone();
         let shown = dir.display().to_string();
         helpers.push(
             std::thread::Builder::new()
                 .name("anguilla-rec".into())
                 .spawn(move || {
-                    if let Err(e) = crate::record::recorder(dir, rcfg, rec_rx, st_rx) {
+                    if let Err(e) = crate::record::recorder(dir, rcfg, rec_rx, st_rx, truth_rx) {
                         tracing::error!("recording to {shown} failed: {e}");
                     }
                 })
@@ -354,6 +379,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             helpers_stop,
             loop_thread,
             helpers,
+            ground_truth,
         }),
         Err(_) => {
             stop.store(true, Ordering::SeqCst);
@@ -469,8 +495,64 @@ impl RefusalLog {
     }
 }
 
+/// Overruns, told to the operator as an overloaded machine: the first at
+/// once, with what to do; then a count every [`OVERLOAD_LOG_INTERVAL`]
+/// while they last.
+#[derive(Debug, Default)]
+struct OverloadLog {
+    /// When the last line was logged.
+    last_line: Option<std::time::Instant>,
+    /// Periods missed since then.
+    missed: u64,
+    /// Overruns since then.
+    overruns: u64,
+}
+
+impl OverloadLog {
+    fn overran(&mut self, now: std::time::Instant, skipped: u64) {
+        self.missed += skipped;
+        self.overruns += 1;
+        if self.last_line.is_none() {
+            tracing::warn!(
+                "machine overloaded: the control loop missed {skipped} period(s); \
+                 other work is taking its CPU (on a robot, give the loop a core and \
+                 a real-time priority: [realtime] cpu, fifo-priority)"
+            );
+            self.last_line = Some(now);
+            (self.missed, self.overruns) = (0, 0);
+        } else {
+            self.tick(now);
+        }
+    }
+
+    fn tick(&mut self, now: std::time::Instant) {
+        let Some(t) = self.last_line else { return };
+        if now.duration_since(t) < OVERLOAD_LOG_INTERVAL {
+            return;
+        }
+        if self.overruns > 0 {
+            tracing::warn!(
+                "machine overloaded: the control loop missed {} period(s) in {} overrun(s) \
+                 in the last {:.0} s",
+                self.missed,
+                self.overruns,
+                now.duration_since(t).as_secs_f64()
+            );
+            self.last_line = Some(now);
+        } else {
+            // A quiet interval: the next overrun is news again.
+            self.last_line = None;
+        }
+        (self.missed, self.overruns) = (0, 0);
+    }
+}
+
+/// How often an overloaded machine is reported while it lasts.
+pub const OVERLOAD_LOG_INTERVAL: Duration = Duration::from_secs(5);
+
 fn logger(rx: Receiver<Event>, bus_spec: String) {
     let mut refusals = RefusalLog::default();
+    let mut overload = OverloadLog::default();
     loop {
         let ev = match rx.recv_timeout(REFUSAL_LOG_INTERVAL / 4) {
             Ok(ev) => Some(ev),
@@ -481,6 +563,7 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
         if refusals.due(now) {
             refusals.flush(now);
         }
+        overload.tick(now);
         match ev {
             None => {}
             Some(Event::Mode {
@@ -510,9 +593,20 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
             Some(Event::Bus { state }) => {
                 tracing::warn!("bus {bus_spec}: {}", ipc::bus_state_name(state))
             }
-            Some(Event::Overrun { skipped }) => {
-                tracing::warn!("control loop overrun: {skipped} period(s) skipped")
-            }
+            Some(Event::Overrun { skipped }) => overload.overran(now, skipped),
+            Some(Event::NodeErrors {
+                joint,
+                code,
+                anguilla: true,
+            }) => tracing::warn!(
+                "joint {} reports: {}",
+                joint as usize + 1,
+                ErrorBits(code as u16)
+            ),
+            Some(Event::NodeErrors { joint, code, .. }) => tracing::warn!(
+                "joint {} reports error code {code:#010x} (docs/drives.md)",
+                joint as usize + 1
+            ),
             Some(Event::Drive(n @ crate::drive::Notice::Configured { .. })) => {
                 tracing::info!("{n}")
             }
@@ -793,6 +887,8 @@ fn control_loop(
         tracing::warn!("{w}");
     }
     let mut ctl = Controller::new(&cfg, Nanos::from_nanos(rt::monotonic_ns()))?;
+    let joints = cfg.robot.joints.min(ipc::MAX_JOINTS);
+    let anguilla = cfg.robot.drive == anguilla_protocol::Family::Anguilla;
     let states = recording.map(|(records, states)| {
         ctl.set_tap(records);
         states
@@ -820,6 +916,7 @@ fn control_loop(
     let mut deadline = rt::monotonic_ns() + period;
     let mut mode = ctl.supervisor().mode();
     let mut bus_state = 0u8;
+    let mut node_errors = [0u32; ipc::MAX_JOINTS];
     let mut stopping_since: Option<Nanos> = None;
     loop {
         rt::sleep_until_ns(deadline);
@@ -877,6 +974,33 @@ fn control_loop(
         periods += 1;
         while let Some(n) = ctl.take_drive_notice() {
             emit(Event::Drive(n), &mut dropped);
+        }
+        for (j, (js, seen)) in ctl
+            .snapshot()
+            .joints
+            .iter()
+            .zip(node_errors.iter_mut())
+            .enumerate()
+            .take(joints)
+        {
+            // anguilla: new bits; a bought drive: a new code.
+            let code = js.node_errors;
+            let news = if anguilla {
+                code & !*seen != 0
+            } else {
+                code != *seen && code != 0
+            };
+            if news {
+                emit(
+                    Event::NodeErrors {
+                        joint: j as u8,
+                        code,
+                        anguilla,
+                    },
+                    &mut dropped,
+                );
+            }
+            *seen = code;
         }
         let now_bus = ctl.snapshot().bus.state;
         if now_bus != bus_state {

@@ -25,7 +25,9 @@ fn record_session_with(name: &str, refusals: bool, cfg: Config) -> std::path::Pa
     let (st_tx, st_rx) = crossbeam_channel::bounded(16);
     r.ctl.set_tap(rec_tx);
     let (d, c) = (dir.clone(), cfg.clone());
-    let recorder = std::thread::spawn(move || record::recorder(d, c, rec_rx, st_rx));
+    let recorder = std::thread::spawn(move || {
+        record::recorder(d, c, rec_rx, st_rx, crossbeam_channel::never())
+    });
     // Boot (a CiA 402 drive's configuration by SDO included).
     r.run_for(0.6);
     r.command(1, Command::TakeControl);

@@ -30,12 +30,20 @@ pub const SHM_DIR: &str = "/dev/shm";
 /// The end of the node-id segment's name (iceoryx2 0.10).
 const GLOBAL_MGMT: &str = ".global_mgmt";
 
+/// iceoryx2's configuration, read without its chatter: the first read
+/// logs "No config file was loaded" to stdout, which is data for a tool
+/// such as `ctl status --json` (`IOX2_LOG_LEVEL` still overrides).
+pub(crate) fn config() -> &'static Config {
+    set_log_level_from_env_or(LogLevel::Error);
+    Config::global_config()
+}
+
 fn prefix() -> String {
-    Config::global_config().global.prefix.to_string()
+    config().global.prefix.to_string()
 }
 
 fn root_path() -> PathBuf {
-    PathBuf::from(Config::global_config().global.root_path().to_string())
+    PathBuf::from(config().global.root_path().to_string())
 }
 
 /// The node-id segments of the configured iceoryx2 prefix.

@@ -214,7 +214,7 @@ fn attached_pids(full: &str, pattern: MessagingPattern) -> Vec<i32> {
         return Vec::new();
     };
     let me = std::process::id() as i32;
-    let Ok(Some(details)) = ipc::Service::details(&name, Config::global_config(), pattern) else {
+    let Ok(Some(details)) = ipc::Service::details(&name, crate::guard::config(), pattern) else {
         return Vec::new();
     };
     let mut pids: Vec<i32> = details
@@ -593,7 +593,7 @@ impl CommandServer {
 pub fn scan_nodes() -> Option<(Vec<u128>, Vec<u128>)> {
     set_log_level_from_env_or(LogLevel::Error);
     let (mut alive, mut dead) = (Vec::new(), Vec::new());
-    Node::<ipc::Service>::list(Config::global_config(), |state| {
+    Node::<ipc::Service>::list(crate::guard::config(), |state| {
         match state {
             NodeState::Alive(view) => alive.push(view.id().value()),
             NodeState::Dead(view) => {

@@ -249,6 +249,12 @@ impl Plant {
         &self.head
     }
 
+    /// The body's shape at the last step: each node's position from the
+    /// nose, in the model's head frame `(t1, t2, t3)` (m).
+    pub fn shape(&self) -> &[nalgebra::Vector3<f64>] {
+        self.ws.shape()
+    }
+
     /// Puts the head back at the origin with the given state (a test's
     /// initial condition); the joints keep their motion.
     pub fn reset_head(&mut self, head: HeadState) {

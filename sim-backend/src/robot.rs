@@ -361,8 +361,17 @@ pub struct Truth {
     pub angular_velocity: [f64; 3],
     /// Forward speed `−V1` at the head (m/s; positive head first).
     pub forward_speed: f64,
-    /// Yaw of the head axis about the vertical (rad).
+    /// Yaw of the head axis `t1` about the vertical (rad): it points from
+    /// the head to the tail (the paper's convention), and swings with
+    /// every tail beat.
     pub yaw: f64,
+    /// The body's heading in the operator's convention (rad, `(−π, π]`,
+    /// counter-clockwise from the world's x): the direction from the body
+    /// shape's centroid to the nose, as the daemon estimates it.
+    pub heading: f64,
+    /// Depth of the nose below the surface (m): the head sensor's origin
+    /// depth (1 m without a sensor) minus the model's z (up).
+    pub depth: f64,
     /// True joint angles `[pitch, yaw]` (rad), joint 1 first.
     pub joints: Vec<[f64; 2]>,
 }
@@ -684,6 +693,25 @@ impl SimRobot {
         t.angular_velocity = [h.omega.x, h.omega.y, h.omega.z];
         t.forward_speed = -h.v1();
         t.yaw = h.yaw();
+        let shape = self.plant.shape();
+        let centroid = if shape.is_empty() {
+            nalgebra::Vector3::x()
+        } else {
+            shape.iter().sum::<nalgebra::Vector3<f64>>() / shape.len() as f64
+        };
+        let forward = h.orientation * -centroid;
+        t.heading = if forward.x.hypot(forward.y) > 1e-12 {
+            forward.y.atan2(forward.x)
+        } else {
+            h.yaw() + std::f64::consts::PI
+        };
+        let origin_depth = self
+            .sensor
+            .as_ref()
+            .map_or(crate::sensor::DEFAULT_ORIGIN_DEPTH, |s| {
+                s.config().origin_depth
+            });
+        t.depth = origin_depth - h.position.z;
         t.joints.clear();
         t.joints.extend(
             self.nodes

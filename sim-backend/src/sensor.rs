@@ -89,6 +89,10 @@ pub struct SensorConfig {
     pub water_temperature: f64,
 }
 
+/// How deep (m) the model's origin lies below the surface unless a head
+/// sensor says otherwise: the robot starts 1 m deep.
+pub const DEFAULT_ORIGIN_DEPTH: f64 = 1.0;
+
 impl SensorConfig {
     /// A BNO08x-class fusion IMU with an MS5837-class pressure sensor on
     /// node `id` at 100 Hz: datasheet-order noise and bias, no latency,
@@ -109,7 +113,7 @@ impl SensorConfig {
             latency_samples: 0,
             water_density: 1000.0,
             surface_pressure: 101_325.0,
-            origin_depth: 1.0,
+            origin_depth: DEFAULT_ORIGIN_DEPTH,
             water_temperature: 15.0,
         }
     }

@@ -344,6 +344,57 @@ impl ErrorBits {
     pub const fn any(self, bits: u16) -> bool {
         self.0 & bits != 0
     }
+
+    /// Every defined bit with its name for an operator, lowest first.
+    pub const NAMES: [(u16, &'static str); 12] = [
+        (
+            Self::WATCHDOG,
+            "watchdog (no setpoint or SYNC within the node's timeout)",
+        ),
+        (Self::SYNC_MISSED, "SYNC missed"),
+        (
+            Self::POSITION_LIMIT,
+            "setpoint clamped to the position limits",
+        ),
+        (
+            Self::VELOCITY_LIMIT,
+            "setpoint clamped to the velocity limit",
+        ),
+        (Self::TORQUE_LIMIT, "torque at its limit"),
+        (Self::OVER_TEMPERATURE, "over temperature"),
+        (Self::ENCODER, "position sensor fault"),
+        (Self::BUS, "CAN error-passive or bus-off"),
+        (Self::ESTOP_LATCHED, "E-stop latched"),
+        (Self::BAD_FRAME, "undecodable frame ignored"),
+        (Self::STALE_SETPOINT, "stale setpoint discarded"),
+        (Self::UNDER_VOLTAGE, "supply under-voltage"),
+    ];
+}
+
+/// The set bits' names, comma-separated ("none" without any); an
+/// undefined bit is shown by its number.
+impl std::fmt::Display for ErrorBits {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0 == 0 {
+            return f.write_str("none");
+        }
+        let mut first = true;
+        for bit in 0..16 {
+            let b = 1u16 << bit;
+            if self.0 & b == 0 {
+                continue;
+            }
+            if !first {
+                f.write_str(", ")?;
+            }
+            first = false;
+            match Self::NAMES.iter().find(|(v, _)| *v == b) {
+                Some((_, name)) => f.write_str(name)?,
+                None => write!(f, "bit {bit}")?,
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Heartbeat of one node, every [`HEARTBEAT_PERIOD_MS`].
@@ -803,6 +854,22 @@ mod tests {
 
     fn node(n: u8) -> NodeId {
         NodeId::new(n).unwrap()
+    }
+
+    #[test]
+    fn error_bits_read_as_words() {
+        assert_eq!(ErrorBits(0).to_string(), "none");
+        assert_eq!(
+            ErrorBits(ErrorBits::WATCHDOG | ErrorBits::UNDER_VOLTAGE).to_string(),
+            "watchdog (no setpoint or SYNC within the node's timeout), supply under-voltage"
+        );
+        assert_eq!(ErrorBits(1 << 14).to_string(), "bit 14");
+        // Every defined bit has exactly one name.
+        let named = ErrorBits::NAMES.iter().fold(0u16, |acc, (b, _)| {
+            assert_eq!(acc & b, 0, "{b:#x} named twice");
+            acc | b
+        });
+        assert_eq!(named, ErrorBits::ALL);
     }
 
     #[test]

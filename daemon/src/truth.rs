@@ -1,0 +1,147 @@
+//! The simulated robot's ground truth, recorded beside the estimate.
+//!
+//! When `anguilla run` drives its built-in simulated robot, it hands the
+//! simulation's true pose and motion to the recorder
+//! ([`crate::run::Running::ground_truth`]), which writes them to the
+//! session's MCAP file on the channel [`TOPIC`] (schema [`SCHEMA_NAME`]):
+//! the daemon's estimate (`/anguilla/state`, `nav`) can then be judged
+//! against the truth in any viewer. A real robot has no such channel.
+//!
+//! Each message is stamped with the daemon's clock (`time_ns` of the state
+//! snapshot published when the truth was read, so within one state period
+//! of the truth's own time), like every other channel.
+
+use serde_json::{Value, json};
+
+/// The channel's topic.
+pub const TOPIC: &str = "/sim/truth";
+/// The channel's schema name.
+pub const SCHEMA_NAME: &str = "anguilla.SimTruth";
+
+/// The simulated robot's true state at one instant.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GroundTruth {
+    /// The simulation's own time (s), from its start.
+    pub sim_time: f64,
+    /// The nose's position (m; world frame, x and y horizontal, z up; the
+    /// robot starts at the origin).
+    pub position: [f64; 3],
+    /// The head's orientation, unit quaternion `[w, x, y, z]`, from the
+    /// model's head frame (x towards the tail, z up) to the world.
+    pub orientation: [f64; 4],
+    /// The nose's velocity (m/s, world frame).
+    pub velocity: [f64; 3],
+    /// Forward speed at the head (m/s, positive head first).
+    pub speed: f64,
+    /// The body's heading (rad, counter-clockwise from the world's x): the
+    /// direction from the body's centroid to the nose, the operator's and
+    /// the autopilot's convention.
+    pub heading: f64,
+    /// Depth of the nose below the surface (m, positive down).
+    pub depth: f64,
+}
+
+impl GroundTruth {
+    /// The channel's message.
+    pub fn message(&self) -> Value {
+        let [w, x, y, z] = self.orientation;
+        json!({
+            "sim_time": self.sim_time,
+            "position": { "x": self.position[0], "y": self.position[1], "z": self.position[2] },
+            "orientation": { "x": x, "y": y, "z": z, "w": w },
+            "velocity": { "x": self.velocity[0], "y": self.velocity[1], "z": self.velocity[2] },
+            "speed": self.speed,
+            "heading_deg": self.heading.to_degrees().rem_euclid(360.0),
+            "depth": self.depth,
+        })
+    }
+}
+
+fn vector(what: &str, unit: &str, names: [&str; 3]) -> Value {
+    let mut props = serde_json::Map::new();
+    for n in names {
+        props.insert(
+            n.into(),
+            json!({ "type": "number", "description": format!("{what}, {n} ({unit})") }),
+        );
+    }
+    json!({ "type": "object", "properties": props, "required": names,
+            "additionalProperties": false })
+}
+
+/// The channel's JSON Schema (draft 2020-12).
+pub fn schema() -> Value {
+    json!({
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": SCHEMA_NAME,
+        "description": "The simulated robot's ground truth (anguilla run against its built-in robot only)",
+        "type": "object",
+        "properties": {
+            "sim_time": { "type": "number", "description": "the simulation's own time since its start (s)" },
+            "position": vector("the nose's position in the world (z up; start at the origin)", "m", ["x", "y", "z"]),
+            "orientation": {
+                "type": "object",
+                "description": "the head's orientation: unit quaternion from the model's head frame (x towards the tail, z up) to the world",
+                "properties": {
+                    "x": { "type": "number" }, "y": { "type": "number" },
+                    "z": { "type": "number" }, "w": { "type": "number" }
+                },
+                "required": ["x", "y", "z", "w"],
+                "additionalProperties": false
+            },
+            "velocity": vector("the nose's velocity in the world", "m/s", ["x", "y", "z"]),
+            "speed": { "type": "number", "description": "forward speed at the head, positive head first (m/s)" },
+            "heading_deg": {
+                "type": "number", "minimum": 0, "exclusiveMaximum": 360,
+                "description": "the body's heading, counter-clockwise from the world's x, from the body's centroid to the nose: the operator's convention (deg)"
+            },
+            "depth": { "type": "number", "description": "depth of the nose below the surface, positive down (m)" }
+        },
+        "required": ["sim_time", "position", "orientation", "velocity", "speed", "heading_deg", "depth"],
+        "additionalProperties": false
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every key of a message is a property of the schema, every required
+    /// property is present, and a heading of −90° is written as 270°.
+    #[test]
+    fn the_message_matches_its_schema() {
+        let t = GroundTruth {
+            sim_time: 1.5,
+            position: [1.0, -2.0, 0.25],
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            velocity: [-0.2, 0.0, 0.0],
+            speed: 0.2,
+            heading: -std::f64::consts::FRAC_PI_2,
+            depth: 0.75,
+        };
+        let m = t.message();
+        let s = schema();
+        let props = s["properties"].as_object().unwrap();
+        for (k, v) in m.as_object().unwrap() {
+            let p = &props[k];
+            assert!(p.is_object(), "{k} is not in the schema");
+            let want = p["type"].as_str().unwrap();
+            let got = match v {
+                Value::Number(_) => "number",
+                Value::Object(_) => "object",
+                other => panic!("{k}: unexpected {other}"),
+            };
+            assert_eq!(want, got, "{k}");
+            if let Value::Object(o) = v {
+                for sub in o.keys() {
+                    assert!(p["properties"][sub].is_object(), "{k}.{sub}");
+                }
+            }
+        }
+        for r in s["required"].as_array().unwrap() {
+            assert!(m.get(r.as_str().unwrap()).is_some(), "{r} missing");
+        }
+        assert!((m["heading_deg"].as_f64().unwrap() - 270.0).abs() < 1e-9);
+        assert_eq!(m["orientation"]["w"], 1.0);
+    }
+}
