@@ -965,7 +965,11 @@ fn type_text(p: &Value) -> String {
     if let Some(e) = p.get("enum").and_then(Value::as_array) {
         let vs: Vec<String> = e
             .iter()
-            .map(|v| format!("`{}`", v.as_str().map_or(v.to_string(), str::to_string)))
+            .map(|v| match v.as_str() {
+                Some("") => "`\"\"`".to_string(),
+                Some(s) => format!("`{s}`"),
+                None => format!("`{v}`"),
+            })
             .collect();
         return format!("{base}: {}", vs.join(", "));
     }
