@@ -144,9 +144,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
                 .schema(foxglove::Schema::new(
                     "anguilla.CommandReply",
                     "jsonschema",
-                    serde_json::to_vec(
-                        &json!({"type": "object", "title": "anguilla.CommandReply"}),
-                    )?,
+                    serde_json::to_vec(&reply_schema())?,
                 ))
                 .build_raw()
                 .with_context(|| format!("channel {REPLY_TOPIC}"))?,
@@ -253,6 +251,39 @@ impl ServerListener for Commands {
     }
 }
 
+/// What [`REPLY_TOPIC`] says of one command; its schema is
+/// [`reply_schema`].
+fn reply(client: u32, command: &str, accepted: bool, reason: &str) -> serde_json::Value {
+    json!({"client": client, "command": command, "accepted": accepted, "reason": reason})
+}
+
+/// The name [`reply`] gives a reply the session has no record of.
+const UNNAMED: &str = "command";
+
+/// [`REPLY_TOPIC`]'s JSON Schema (`anguilla.CommandReply`).
+fn reply_schema() -> serde_json::Value {
+    use anguilla_daemon::mcap_log::schema::{boolean, count, message, names, string};
+    message(
+        "anguilla.CommandReply",
+        "The outcome of one command a Foxglove client published on /anguilla/command",
+        vec![
+            ("client", count("The Foxglove client's id on this server")),
+            (
+                "command",
+                names(
+                    &format!(
+                        "The command's name; empty when the message was not a command, \
+                         {UNNAMED} when the daemon answered one the view no longer tracks"
+                    ),
+                    Command::ALL.iter().map(Command::name).chain(["", UNNAMED]),
+                ),
+            ),
+            ("accepted", boolean("True if the daemon accepted it")),
+            ("reason", string("Why it was refused; empty when accepted")),
+        ],
+    )
+}
+
 /// The commands a session sent and awaits replies to: (sequence, name).
 type Sent = Vec<(u32, &'static str)>;
 
@@ -269,18 +300,17 @@ struct Operators<'a> {
 impl Operators<'_> {
     /// Forwards what arrived and publishes the outcomes with `publish`.
     fn pump(&mut self, publish: &mut dyn FnMut(serde_json::Value)) {
-        let reply = |client: ClientId, command: &str, accepted: bool, reason: &str| json!({"client": u32::from(client), "command": command, "accepted": accepted, "reason": reason});
         while let Ok(id) = self.gone.try_recv() {
             self.sessions.remove(&id);
         }
         while let Ok(m) = self.from_clients.try_recv() {
             match m {
-                FromClient::Command(id, Err(why)) => publish(reply(id, "", false, &why)),
+                FromClient::Command(id, Err(why)) => publish(reply(u32::from(id), "", false, &why)),
                 FromClient::Command(id, Ok(cmd)) => {
                     if !self.sessions.contains_key(&id) {
                         if self.sessions.len() >= MAX_OPERATORS {
                             publish(reply(
-                                id,
+                                u32::from(id),
                                 cmd.name(),
                                 false,
                                 &format!("{MAX_OPERATORS} Foxglove clients operate already"),
@@ -292,7 +322,7 @@ impl Operators<'_> {
                                 self.sessions.insert(id, (s, Vec::new()));
                             }
                             Err(e) => {
-                                publish(reply(id, cmd.name(), false, &format!("{e:#}")));
+                                publish(reply(u32::from(id), cmd.name(), false, &format!("{e:#}")));
                                 continue;
                             }
                         }
@@ -307,7 +337,7 @@ impl Operators<'_> {
                             }
                             sent.push((seq, cmd.name()));
                         }
-                        Err(e) => publish(reply(id, cmd.name(), false, &e.to_string())),
+                        Err(e) => publish(reply(u32::from(id), cmd.name(), false, &e.to_string())),
                     }
                 }
             }
@@ -317,9 +347,54 @@ impl Operators<'_> {
                 let name = sent
                     .iter()
                     .position(|(q, _)| *q == r.sequence)
-                    .map_or("command", |i| sent.remove(i).1);
-                publish(reply(*id, name, r.accepted == 1, r.reason()));
+                    .map_or(UNNAMED, |i| sent.remove(i).1);
+                publish(reply(u32::from(*id), name, r.accepted == 1, r.reason()));
             });
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use anguilla_daemon::mcap_log::schema::{check, table};
+
+    use super::*;
+
+    /// Every reply the view can publish conforms to [`reply_schema`]: each
+    /// command's, a message that was no command, an untracked reply.
+    #[test]
+    fn replies_conform_to_their_schema() {
+        let schema = reply_schema();
+        let id = 7;
+        let names = Command::ALL.iter().map(Command::name).chain(["", UNNAMED]);
+        for (i, name) in names.enumerate() {
+            let r = reply(id, name, i % 2 == 0, "take control first");
+            assert_eq!(check(&schema, &r), Ok(()), "{r}");
+        }
+        let e = check(&schema, &reply(id, "dance", false, "")).unwrap_err();
+        assert!(e.starts_with("command: \"dance\" is not one of"), "{e}");
+    }
+
+    /// `docs/data.md` between `<!-- command_reply:begin -->` and its end
+    /// is the reply's table (rewritten with ANGUILLA_BLESS=1).
+    #[test]
+    fn docs_data_md_has_the_reply_table() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/data.md");
+        let doc = std::fs::read_to_string(path).unwrap();
+        let (begin, end) = (
+            "<!-- command_reply:begin -->\n",
+            "<!-- command_reply:end -->",
+        );
+        let (head, rest) = doc.split_once(begin).expect("begin marker");
+        let (current, tail) = rest.split_once(end).expect("end marker");
+        let generated = table(&reply_schema());
+        if std::env::var_os("ANGUILLA_BLESS").is_some() {
+            std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
+            return;
+        }
+        assert_eq!(
+            current, generated,
+            "docs/data.md is out of date: rerun this test with ANGUILLA_BLESS=1"
+        );
     }
 }

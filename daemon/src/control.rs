@@ -37,8 +37,8 @@ use crate::autopilot::{self, Autopilot};
 use crate::config::{Config, FaultPolicyConfig};
 use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::ipc::{
-    CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, LimitsSnapshot, MAX_JOINTS,
-    SensorHealth, StateSnapshot,
+    CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, JointSnapshot, LimitsSnapshot,
+    MAX_JOINTS, SensorHealth, StateSnapshot,
 };
 use crate::nav::{Nav, Prediction};
 use crate::nodes::Liveness;
@@ -731,7 +731,7 @@ impl Controller {
                 js.measured_pitch_torque = fb[0].torque;
                 js.measured_yaw_torque = fb[1].torque;
             }
-            js.node_state = e.state.map(|s| s as u8).unwrap_or(0xFF);
+            js.node_state = e.state.map_or(JointSnapshot::NO_NODE_STATE, |s| s as u8);
             js.node_alive =
                 e.last_heard
                     .is_some_and(|t| now.saturating_sub(t) <= hb_timeout) as u8;

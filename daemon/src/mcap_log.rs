@@ -3,7 +3,8 @@
 //!
 //! One message per recorded [`StateSnapshot`] on each channel, stamped with
 //! the daemon's clock (`time_ns`, from the controller's start), JSON
-//! encoded with JSON schemas:
+//! encoded, each channel with its JSON Schema ([`schema`]; the fields,
+//! their units and codes in `docs/data.md`):
 //!
 //! | topic | schema | what |
 //! |---|---|---|
@@ -30,6 +31,8 @@ use serde_json::{Value, json};
 use crate::config::Config;
 use crate::ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot};
 
+pub mod schema;
+
 /// The channels, in the order they are created.
 pub const TOPICS: [&str; 5] = [
     "/anguilla/state",
@@ -43,16 +46,13 @@ fn err(e: mcap::McapError) -> io::Error {
     io::Error::other(e.to_string())
 }
 
-/// A JSON schema that names its type (Foxglove knows the `foxglove.*`
-/// ones by name).
-fn schema(title: &str, properties: Value) -> Vec<u8> {
-    json!({ "title": title, "type": "object", "properties": properties })
-        .to_string()
-        .into_bytes()
-}
-
 fn stamp(ns: u64) -> Value {
     json!({ "sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000 })
+}
+
+/// `v`, or 0 if it is not finite.
+fn finite(v: f32) -> f64 {
+    if v.is_finite() { v as f64 } else { 0.0 }
 }
 
 fn quat(q: &UnitQuaternion<f64>) -> Value {
@@ -76,36 +76,10 @@ pub struct Link {
     pub semi_axes: (f64, f64),
 }
 
-/// The schemas of [`TOPICS`], in order: (name, JSON schema).
+/// The schemas of [`TOPICS`], in order: (name, JSON schema text); see
+/// [`schema`].
 pub fn schemas() -> [(&'static str, Vec<u8>); 5] {
-    let any = json!({});
-    [
-        ("anguilla.State", schema("anguilla.State", any.clone())),
-        ("anguilla.Joints", schema("anguilla.Joints", any)),
-        (
-            "foxglove.Log",
-            schema(
-                "foxglove.Log",
-                json!({ "timestamp": {"type": "object"}, "level": {"type": "integer"},
-                        "message": {"type": "string"}, "name": {"type": "string"},
-                        "file": {"type": "string"}, "line": {"type": "integer"} }),
-            ),
-        ),
-        (
-            "foxglove.FrameTransforms",
-            schema(
-                "foxglove.FrameTransforms",
-                json!({ "transforms": {"type": "array"} }),
-            ),
-        ),
-        (
-            "foxglove.SceneUpdate",
-            schema(
-                "foxglove.SceneUpdate",
-                json!({ "deletions": {"type": "array"}, "entities": {"type": "array"} }),
-            ),
-        ),
-    ]
+    schema::all().map(|(name, s)| (name, s.to_string().into_bytes()))
 }
 
 /// Turns snapshots into the channels' messages (the MCAP file's and the
@@ -154,14 +128,17 @@ impl Scene {
             out.push((2, v));
         }
         // The predicted head, integrated in the plane.
+        // The scene's numbers are finite (the foxglove.* schemas): a value
+        // that is not counts as 0, a pose that is not is not drawn.
         let [x, y, yaw] = &mut self.dead_reckoning;
-        *yaw += s.predicted_turn_rate as f64 * dt;
-        *x += s.predicted_head_speed as f64 * yaw.cos() * dt;
-        *y += s.predicted_head_speed as f64 * yaw.sin() * dt;
+        *yaw += finite(s.predicted_turn_rate) * dt;
+        *x += finite(s.predicted_head_speed) * yaw.cos() * dt;
+        *y += finite(s.predicted_head_speed) * yaw.sin() * dt;
         let predicted_q = UnitQuaternion::from_euler_angles(0.0, 0.0, *yaw);
         let predicted_p = Vector3::new(*x, *y, 0.0);
         let nav = &s.nav;
-        let (head_p, head_q) = if nav.samples > 0 {
+        let measured = [nav.roll_deg, nav.pitch_deg, nav.heading_deg, nav.depth_m];
+        let (head_p, head_q) = if nav.samples > 0 && measured.iter().all(|v| v.is_finite()) {
             let q = UnitQuaternion::from_euler_angles(
                 (nav.roll_deg as f64).to_radians(),
                 -(nav.pitch_deg as f64).to_radians(),
@@ -201,8 +178,8 @@ impl Scene {
             if k > 0 && k - 1 < joints {
                 let j = &s.joints[k - 1];
                 r = r
-                    * UnitQuaternion::from_euler_angles(0.0, j.measured_pitch as f64, 0.0)
-                    * UnitQuaternion::from_euler_angles(0.0, 0.0, j.measured_yaw as f64);
+                    * UnitQuaternion::from_euler_angles(0.0, finite(j.measured_pitch), 0.0)
+                    * UnitQuaternion::from_euler_angles(0.0, 0.0, finite(j.measured_yaw));
             }
             let centre = p + r * Vector3::new(l / 2.0, 0.0, 0.0);
             p += r * Vector3::new(l, 0.0, 0.0);
@@ -478,14 +455,15 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
     out
 }
 
+/// `/anguilla/state`'s message; its schema is [`schema::state`].
 fn state_json(s: &StateSnapshot) -> Value {
     let gait = |g: &crate::ipc::GaitSnapshot| json!({ "amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch });
     let n = &s.nav;
     json!({
         "time_ns": s.time_ns,
         "sequence": s.sequence,
-        "mode": Mode::from_code(s.mode).map_or("unknown", Mode::name),
-        "cause": Cause::from_code(s.cause).map_or("unknown", Cause::name),
+        "mode": Mode::from_code(s.mode).map_or(schema::UNKNOWN, Mode::name),
+        "cause": Cause::from_code(s.cause).map_or(schema::UNKNOWN, Cause::name),
         "fault_kinds": s.fault_kinds,
         "fault_nodes": s.fault_nodes,
         "feedforward_dropped": s.feedforward_dropped != 0,
@@ -504,7 +482,7 @@ fn state_json(s: &StateSnapshot) -> Value {
         "clamped_setpoints": s.clamped_setpoints,
         "refused_commands": s.refused_commands,
         "records_lost": s.records_lost,
-        "nav": { "sensor": SensorHealth::from_code(n.sensor).map_or("unknown", SensorHealth::name),
+        "nav": { "sensor": SensorHealth::from_code(n.sensor).map_or(schema::UNKNOWN, SensorHealth::name),
                  "hold": n.hold, "heading_deg": n.heading_deg, "pitch_deg": n.pitch_deg,
                  "roll_deg": n.roll_deg, "depth_m": n.depth_m, "depth_rate": n.depth_rate,
                  "heading_target_deg": n.heading_target_deg, "depth_target_m": n.depth_target_m,
@@ -513,6 +491,7 @@ fn state_json(s: &StateSnapshot) -> Value {
     })
 }
 
+/// `/anguilla/joints`'s message; its schema is [`schema::joints`].
 fn joints_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
     let js = &s.joints[..n];

@@ -13,6 +13,8 @@
 
 use serde_json::{Value, json};
 
+use crate::mcap_log::schema::{message, number, object};
+
 /// The channel's topic.
 pub const TOPIC: &str = "/sim/truth";
 /// The channel's schema name.
@@ -57,49 +59,65 @@ impl GroundTruth {
     }
 }
 
-fn vector(what: &str, unit: &str, names: [&str; 3]) -> Value {
-    let mut props = serde_json::Map::new();
-    for n in names {
-        props.insert(
-            n.into(),
-            json!({ "type": "number", "description": format!("{what}, {n} ({unit})") }),
-        );
-    }
-    json!({ "type": "object", "properties": props, "required": names,
-            "additionalProperties": false })
+fn vector(what: &str, unit: &str) -> Value {
+    object(
+        what,
+        ["x", "y", "z"]
+            .map(|n| (n, number(&format!("{what}, {n} ({unit})"))))
+            .into(),
+    )
 }
 
-/// The channel's JSON Schema (draft 2020-12).
+/// The channel's JSON Schema (draft 2020-12; [`crate::mcap_log::schema`]).
 pub fn schema() -> Value {
-    json!({
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": SCHEMA_NAME,
-        "description": "The simulated robot's ground truth (anguilla run against its built-in robot only)",
-        "type": "object",
-        "properties": {
-            "sim_time": { "type": "number", "description": "the simulation's own time since its start (s)" },
-            "position": vector("the nose's position in the world (z up; start at the origin)", "m", ["x", "y", "z"]),
-            "orientation": {
-                "type": "object",
-                "description": "the head's orientation: unit quaternion from the model's head frame (x towards the tail, z up) to the world",
-                "properties": {
-                    "x": { "type": "number" }, "y": { "type": "number" },
-                    "z": { "type": "number" }, "w": { "type": "number" }
-                },
-                "required": ["x", "y", "z", "w"],
-                "additionalProperties": false
-            },
-            "velocity": vector("the nose's velocity in the world", "m/s", ["x", "y", "z"]),
-            "speed": { "type": "number", "description": "forward speed at the head, positive head first (m/s)" },
-            "heading_deg": {
-                "type": "number", "minimum": 0, "exclusiveMaximum": 360,
-                "description": "the body's heading, counter-clockwise from the world's x, from the body's centroid to the nose: the operator's convention (deg)"
-            },
-            "depth": { "type": "number", "description": "depth of the nose below the surface, positive down (m)" }
-        },
-        "required": ["sim_time", "position", "orientation", "velocity", "speed", "heading_deg", "depth"],
-        "additionalProperties": false
-    })
+    message(
+        SCHEMA_NAME,
+        "The simulated robot's ground truth (anguilla run against its built-in robot only)",
+        vec![
+            (
+                "sim_time",
+                number("The simulation's own time since its start (s)"),
+            ),
+            (
+                "position",
+                vector(
+                    "The nose's position in the world (z up; the start at the origin)",
+                    "m",
+                ),
+            ),
+            (
+                "orientation",
+                object(
+                    "The head's orientation: unit quaternion from the model's head frame \
+                     (x towards the tail, z up) to the world",
+                    ["x", "y", "z", "w"]
+                        .map(|n| (n, number(&format!("Quaternion component {n}"))))
+                        .into(),
+                ),
+            ),
+            (
+                "velocity",
+                vector("The nose's velocity in the world", "m/s"),
+            ),
+            (
+                "speed",
+                number("Forward speed at the head, positive head first (m/s)"),
+            ),
+            (
+                "heading_deg",
+                json!({
+                    "type": "number", "minimum": 0, "maximum": 360,
+                    "description": "The body's heading, counter-clockwise from the world's x, \
+                        from the body's centroid to the nose: the operator's convention, \
+                        0 ..< 360 (deg)"
+                }),
+            ),
+            (
+                "depth",
+                number("Depth of the nose below the surface, positive down (m)"),
+            ),
+        ],
+    )
 }
 
 #[cfg(test)]
@@ -120,28 +138,15 @@ mod tests {
             depth: 0.75,
         };
         let m = t.message();
-        let s = schema();
-        let props = s["properties"].as_object().unwrap();
-        for (k, v) in m.as_object().unwrap() {
-            let p = &props[k];
-            assert!(p.is_object(), "{k} is not in the schema");
-            let want = p["type"].as_str().unwrap();
-            let got = match v {
-                Value::Number(_) => "number",
-                Value::Object(_) => "object",
-                other => panic!("{k}: unexpected {other}"),
-            };
-            assert_eq!(want, got, "{k}");
-            if let Value::Object(o) = v {
-                for sub in o.keys() {
-                    assert!(p["properties"][sub].is_object(), "{k}.{sub}");
-                }
-            }
-        }
-        for r in s["required"].as_array().unwrap() {
-            assert!(m.get(r.as_str().unwrap()).is_some(), "{r} missing");
-        }
+        crate::mcap_log::schema::check(&schema(), &m).unwrap();
         assert!((m["heading_deg"].as_f64().unwrap() - 270.0).abs() < 1e-9);
         assert_eq!(m["orientation"]["w"], 1.0);
+        // A message missing a field, or with one more, does not pass.
+        let mut less = m.clone();
+        less.as_object_mut().unwrap().remove("depth");
+        assert!(crate::mcap_log::schema::check(&schema(), &less).is_err());
+        let mut more = m;
+        more["yaw"] = json!(0.0);
+        assert!(crate::mcap_log::schema::check(&schema(), &more).is_err());
     }
 }

@@ -144,6 +144,7 @@ fn a_recorded_session_has_its_channels_one_message_per_snapshot_and_a_summary() 
     assert_eq!(counts2, counts);
     assert!(summary2.is_some());
     layout_names_only_fields_the_file_has(&dir.join("session.mcap"));
+    every_message_matches_its_channels_schema(&dir.join("session.mcap"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -161,7 +162,12 @@ fn ground_truth_goes_to_its_own_channel() {
         let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
         match m.channel.topic.as_str() {
             "/sim/truth" => {
-                assert_eq!(m.channel.schema.as_ref().unwrap().name, "anguilla.SimTruth");
+                let schema = m.channel.schema.as_ref().unwrap();
+                assert_eq!(schema.name, "anguilla.SimTruth");
+                let schema: serde_json::Value = serde_json::from_slice(&schema.data).unwrap();
+                if let Err(e) = mcap_log::schema::check(&schema, &v) {
+                    panic!("/sim/truth message {}: {e}", truths.len());
+                }
                 truths.push(v);
             }
             "/anguilla/state" => last_state = Some(v),
@@ -182,6 +188,25 @@ fn ground_truth_goes_to_its_own_channel() {
         "truth {truth:.1} deg, estimate {estimate:.1} deg"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every message of the controller's own snapshots conforms to the schema
+/// its channel's schema record carries (`mcap_log::schema::check`).
+fn every_message_matches_its_channels_schema(path: &Path) {
+    let bytes = std::fs::read(path).unwrap();
+    let mut checked = BTreeMap::<String, usize>::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.expect("a finished file reads to its end");
+        let schema = m.channel.schema.as_ref().expect("a schema");
+        let schema: serde_json::Value = serde_json::from_slice(&schema.data).unwrap();
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        let n = checked.entry(m.channel.topic.clone()).or_insert(0);
+        if let Err(e) = mcap_log::schema::check(&schema, &v) {
+            panic!("{} message {n}: {e}", m.channel.topic);
+        }
+        *n += 1;
+    }
+    assert_eq!(checked.len(), TOPICS.len(), "{checked:?}");
 }
 
 /// deploy/foxglove-layout.json plots message paths (`/topic.field[i]`):

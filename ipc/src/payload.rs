@@ -44,7 +44,9 @@ pub struct JointSnapshot {
     pub measured_pitch_torque: f32,
     /// Measured yaw torque (N·m).
     pub measured_yaw_torque: f32,
-    /// The node's state as it last reported it (protocol encoding).
+    /// The node's state as it last reported it (protocol encoding: 0
+    /// Boot, 1 Disabled, 2 Enabled, 3 Fault, 4 EStop), or
+    /// [`JointSnapshot::NO_NODE_STATE`] if it has reported none yet.
     pub node_state: u8,
     /// 1 if the node's heartbeat is current, 0 if it is overdue.
     pub node_alive: u8,
@@ -52,6 +54,12 @@ pub struct JointSnapshot {
     pub reserved: [u8; 2],
     /// The node's error bits as it last reported them (protocol encoding).
     pub node_errors: u32,
+}
+
+impl JointSnapshot {
+    /// [`JointSnapshot::node_state`] of a node that has reported no state
+    /// yet (no heartbeat, or a drive still being set up).
+    pub const NO_NODE_STATE: u8 = 0xFF;
 }
 
 /// Gait parameters in a [`StateSnapshot`].

@@ -30,6 +30,33 @@ fn requests_roundtrip_and_bad_ones_are_named() {
     assert_eq!(e.command(), Ok(Command::EStop));
 }
 
+/// `Command::ALL` is the table of the commands: each variant once, in
+/// the order of their request codes (1..=10), names distinct. A new
+/// variant fails to compile here until it is placed.
+#[test]
+fn the_command_table_has_every_command_once_in_code_order() {
+    let place = |c: &Command| match c {
+        Command::Enable => code::ENABLE,
+        Command::Disable => code::DISABLE,
+        Command::Swim(_) => code::SWIM,
+        Command::Stop => code::STOP,
+        Command::EStop => code::ESTOP,
+        Command::Reset => code::RESET,
+        Command::TakeControl => code::TAKE_CONTROL,
+        Command::ReleaseControl => code::RELEASE_CONTROL,
+        Command::KeepAlive => code::KEEP_ALIVE,
+        Command::Hold(_) => code::HOLD,
+    };
+    for (i, c) in Command::ALL.iter().enumerate() {
+        assert_eq!(place(c) as usize, i + 1, "{c:?}");
+        assert_eq!(CommandRequest::new(*c, 1).code, place(c), "{c:?}");
+    }
+    let mut names: Vec<_> = Command::ALL.iter().map(Command::name).collect();
+    names.sort_unstable();
+    names.dedup();
+    assert_eq!(names.len(), Command::ALL.len(), "{names:?}");
+}
+
 #[test]
 fn node_watch_reports_dead_and_vanished_nodes_once() {
     let mut w = NodeWatch::default();

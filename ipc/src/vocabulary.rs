@@ -228,6 +228,21 @@ pub enum Command {
 }
 
 impl Command {
+    /// Every command, once each (in the order of their request codes),
+    /// those with parameters at rest: the table of their names.
+    pub const ALL: [Command; 10] = [
+        Command::Enable,
+        Command::Disable,
+        Command::Swim(SwimParams::REST),
+        Command::Stop,
+        Command::EStop,
+        Command::Reset,
+        Command::TakeControl,
+        Command::ReleaseControl,
+        Command::KeepAlive,
+        Command::Hold(Hold::MANUAL),
+    ];
+
     /// Lower-case name, as shown to operators.
     pub fn name(&self) -> &'static str {
         match self {

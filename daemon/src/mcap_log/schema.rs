@@ -1,0 +1,1211 @@
+//! The JSON Schemas (draft 2020-12) of the channels in [`super::TOPICS`]:
+//! what a viewer reads to list a message's fields, their units and their
+//! codes. `docs/data.md`'s field tables are generated from them
+//! ([`markdown`]); a test checks every message [`super::Scene`] writes
+//! against them ([`check`]), and CI checks a daemon's recording again with
+//! Python's `jsonschema` (`scripts/check_mcap.py`).
+//!
+//! Every object the writer makes is closed: all its properties are
+//! written every time (`required` lists them, in the writer's order) and
+//! no other (`additionalProperties: false`). Enumerations come from the
+//! code's own tables ([`Mode::ALL`], [`Cause::ALL`], [`SensorHealth::ALL`],
+//! [`BusState::ALL`], [`behaviour::STATES`], [`FaultKind::ALL`]), so a new
+//! mode or cause is in the schema the moment it exists.
+//!
+//! The builders ([`message`], [`object`], [`real`], …) are public for the
+//! next channel: a schema is a list of described properties.
+//!
+//! ```
+//! use anguilla_daemon::mcap_log::schema::{check, message, real};
+//! use serde_json::json;
+//!
+//! let s = message(
+//!     "example.Depth",
+//!     "One depth reading",
+//!     vec![("depth_m", real("Depth below the surface (m, positive down)"))],
+//! );
+//! assert!(check(&s, &json!({ "depth_m": 1.5 })).is_ok());
+//! assert!(check(&s, &json!({ "depth_m": "deep" })).is_err());
+//! assert!(check(&s, &json!({})).is_err()); // required
+//! ```
+
+use core::fmt::Write as _;
+
+use anguilla_drivers::BusState;
+use anguilla_protocol::behaviour;
+use serde_json::{Map, Value, json};
+
+use crate::ipc::{
+    Cause, FaultKind, Hold, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, bus_state_name,
+    hold_bits,
+};
+
+/// The JSON Schema dialect of every schema here (`$schema`).
+pub const DIALECT: &str = "https://json-schema.org/draft/2020-12/schema";
+
+/// What the writer puts for a name or a code this anguilla does not know
+/// (a snapshot from another version, exported).
+pub const UNKNOWN: &str = "unknown";
+
+/// A property: its name and its schema.
+pub type Property = (&'static str, Value);
+
+fn closed(title: Option<&str>, description: &str, properties: Vec<Property>) -> Map<String, Value> {
+    let mut m = Map::new();
+    if let Some(t) = title {
+        m.insert("title".into(), json!(t));
+    }
+    m.insert("description".into(), json!(description));
+    m.insert("type".into(), json!("object"));
+    let required: Vec<Value> = properties.iter().map(|(k, _)| json!(k)).collect();
+    m.insert(
+        "properties".into(),
+        Value::Object(
+            properties
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+        ),
+    );
+    m.insert("required".into(), Value::Array(required));
+    m.insert("additionalProperties".into(), json!(false));
+    m
+}
+
+/// A message's schema: a closed object (every property required, in this
+/// order, and no other) named `title`, with `$schema` set.
+pub fn message(title: &str, description: &str, properties: Vec<Property>) -> Value {
+    let mut m = closed(Some(title), description, properties);
+    m.insert("$schema".into(), json!(DIALECT));
+    Value::Object(m)
+}
+
+/// A closed object inside a message (every property required, in this
+/// order, and no other).
+pub fn object(description: &str, properties: Vec<Property>) -> Value {
+    Value::Object(closed(None, description, properties))
+}
+
+/// A closed object of a named type (e.g. `foxglove.Vector3`).
+pub fn typed_object(title: &str, description: &str, properties: Vec<Property>) -> Value {
+    Value::Object(closed(Some(title), description, properties))
+}
+
+/// A float of the state: a number, or `null` where it is not finite (JSON
+/// has no NaN; `serde_json` writes one as `null`). Say its unit in
+/// `description`.
+pub fn real(description: &str) -> Value {
+    json!({ "type": ["number", "null"], "description": description })
+}
+
+/// A number that is always finite (the writer guarantees it).
+pub fn number(description: &str) -> Value {
+    json!({ "type": "number", "description": description })
+}
+
+/// A count or a clock: an integer ≥ 0.
+pub fn count(description: &str) -> Value {
+    json!({ "type": "integer", "minimum": 0, "description": description })
+}
+
+/// An integer ≥ 0 and ≤ `max` (a bit set).
+pub fn bits(description: &str, max: u64) -> Value {
+    json!({ "type": "integer", "minimum": 0, "maximum": max, "description": description })
+}
+
+/// A boolean.
+pub fn boolean(description: &str) -> Value {
+    json!({ "type": "boolean", "description": description })
+}
+
+/// A string.
+pub fn string(description: &str) -> Value {
+    json!({ "type": "string", "description": description })
+}
+
+/// A string that is one of `names`.
+pub fn names<'a>(description: &str, names: impl IntoIterator<Item = &'a str>) -> Value {
+    let names: Vec<&str> = names.into_iter().collect();
+    json!({ "type": "string", "enum": names, "description": description })
+}
+
+/// An integer code, one of `codes` (code, meaning); the description ends
+/// with the list of meanings.
+pub fn codes(description: &str, codes: &[(u64, String)]) -> Value {
+    let list: Vec<String> = codes.iter().map(|(c, n)| format!("{c} {n}")).collect();
+    let values: Vec<u64> = codes.iter().map(|(c, _)| *c).collect();
+    json!({
+        "type": "integer",
+        "enum": values,
+        "description": format!("{description}: {}", list.join(", ")),
+    })
+}
+
+/// An array of `items`, at most `max` long.
+pub fn array(description: &str, items: Value, max: usize) -> Value {
+    json!({ "type": "array", "items": items, "maxItems": max, "description": description })
+}
+
+/// An array the writer always leaves empty (a field the published schema
+/// has that we do not use).
+pub fn empty_array(description: &str) -> Value {
+    json!({ "type": "array", "maxItems": 0, "description": description })
+}
+
+/// The modes' names, as `/anguilla/state` writes them.
+pub fn mode_names() -> impl Iterator<Item = &'static str> {
+    Mode::ALL.into_iter().map(Mode::name).chain([UNKNOWN])
+}
+
+/// The causes' names.
+pub fn cause_names() -> impl Iterator<Item = &'static str> {
+    Cause::ALL.into_iter().map(Cause::name).chain([UNKNOWN])
+}
+
+/// The head sensor's health names.
+pub fn sensor_names() -> impl Iterator<Item = &'static str> {
+    SensorHealth::ALL
+        .into_iter()
+        .map(SensorHealth::name)
+        .chain([UNKNOWN])
+}
+
+/// `bus.state`'s codes and names.
+pub fn bus_state_codes() -> Vec<(u64, String)> {
+    BusState::ALL
+        .into_iter()
+        .map(|s| (u64::from(s.code()), bus_state_name(s.code()).to_string()))
+        .collect()
+}
+
+/// `node_state`'s codes and names: the heartbeat's states, and the code
+/// of a node that has reported none yet.
+pub fn node_state_codes() -> Vec<(u64, String)> {
+    behaviour::STATES
+        .into_iter()
+        .map(|s| (s as u64, behaviour::state_name(s).to_string()))
+        .chain([(
+            u64::from(JointSnapshot::NO_NODE_STATE),
+            "none reported yet".to_string(),
+        )])
+        .collect()
+}
+
+/// `nav.hold`'s values: every combination of [`hold_bits`], named as
+/// [`Hold::name`] names it.
+pub fn hold_codes() -> Vec<(u64, String)> {
+    let all = hold_bits::HEADING | hold_bits::DEPTH;
+    (0..=all)
+        .map(|b| {
+            let h = Hold {
+                heading: (b & hold_bits::HEADING != 0).then_some(0.0),
+                depth: (b & hold_bits::DEPTH != 0).then_some(0.0),
+            };
+            debug_assert_eq!(h.bits(), b);
+            (u64::from(b), h.name().to_string())
+        })
+        .collect()
+}
+
+/// `fault_kinds`' bits: (bit number, name).
+pub fn fault_bits() -> Vec<(u32, &'static str)> {
+    FaultKind::ALL
+        .into_iter()
+        .map(|k| ((k as u32).trailing_zeros(), k.name()))
+        .collect()
+}
+
+/// The log levels of `foxglove.LogLevel`: (code, name, meaning).
+pub const LOG_LEVELS: [(u64, &str, &str); 6] = [
+    (0, "UNKNOWN", "unknown level"),
+    (1, "DEBUG", "debug"),
+    (2, "INFO", "information (a mode change)"),
+    (
+        3,
+        "WARNING",
+        "warning (a refused command, the autopilot letting go)",
+    ),
+    (4, "ERROR", "error (a fault, an e-stop)"),
+    (5, "FATAL", "fatal"),
+];
+
+/// A gait's parameters.
+fn gait(description: &str) -> Value {
+    object(
+        description,
+        vec![
+            (
+                "amplitude",
+                real("Undulation amplitude, a fraction of the configured maximum (0..=1)"),
+            ),
+            ("frequency", real("Undulation frequency (Hz)")),
+            (
+                "turn",
+                real("Yaw turn curvature K_c3 (1/m, positive turns left)"),
+            ),
+            ("pitch", real("Pitch curvature K_c2 (1/m, positive dives)")),
+        ],
+    )
+}
+
+/// `anguilla.State`, written by `state_json`.
+pub fn state() -> Value {
+    let faults: Vec<String> = fault_bits()
+        .iter()
+        .map(|(b, n)| format!("{b} {n}"))
+        .collect();
+    message(
+        "anguilla.State",
+        "The daemon's state: mode, faults, gait, the model's prediction, bus and loop \
+         statistics, the head sensor's estimate and the autopilot",
+        vec![
+            (
+                "time_ns",
+                count(
+                    "The daemon's clock when the snapshot was taken (ns since the controller \
+                     started; the message's log time)",
+                ),
+            ),
+            (
+                "sequence",
+                count(
+                    "The snapshot's number: +1 every control period (a recording keeps every \
+                     tenth, the live view at most --rate a second)",
+                ),
+            ),
+            ("mode", names("Operating mode", mode_names())),
+            ("cause", names("Why the mode last changed", cause_names())),
+            (
+                "fault_kinds",
+                bits(
+                    &format!(
+                        "Latched faults, one bit each (0: none); bit {}",
+                        faults.join(", ")
+                    ),
+                    u64::from(u32::MAX),
+                ),
+            ),
+            (
+                "fault_nodes",
+                count("Nodes involved in the faults: bit i set for node id i (0..=63)"),
+            ),
+            (
+                "feedforward_dropped",
+                boolean("True while the torque feedforward is dropped (the model diverged)"),
+            ),
+            (
+                "predicted_head_speed",
+                real("The model's predicted forward speed of the head (m/s)"),
+            ),
+            (
+                "predicted_turn_rate",
+                real("The model's predicted turn rate of the head (rad/s, positive left)"),
+            ),
+            ("gait_target", gait("The gait the operator asked for")),
+            (
+                "gait_actual",
+                gait("The gait being executed: the target shaped by trapezoidal profiles"),
+            ),
+            (
+                "bus",
+                object(
+                    "Bus statistics since start",
+                    vec![
+                        ("tx_frames", count("Frames sent")),
+                        ("rx_frames", count("Frames received")),
+                        (
+                            "tx_dropped",
+                            count("Frames the driver could not send (queue full, bus-off)"),
+                        ),
+                        (
+                            "malformed",
+                            count(
+                                "Frames received that did not decode (unknown id, bad length, bad value)",
+                            ),
+                        ),
+                        ("errors", count("Bus error events the driver reported")),
+                        (
+                            "rx_overruns",
+                            count("Frames lost on reception to a full receive queue"),
+                        ),
+                        ("bus_off_count", count("Times the bus went bus-off")),
+                        (
+                            "state",
+                            codes("The bus state the period acted on", &bus_state_codes()),
+                        ),
+                    ],
+                ),
+            ),
+            (
+                "loop",
+                object(
+                    "Control-loop timing over a sliding window",
+                    vec![
+                        ("period_ns", count("The configured control period (ns)")),
+                        (
+                            "jitter_p99_ns",
+                            count("Wake-up lateness, 99th percentile (ns)"),
+                        ),
+                        ("jitter_max_ns", count("Wake-up lateness, maximum (ns)")),
+                        (
+                            "compute_p99_ns",
+                            count("Compute time of one period, 99th percentile (ns)"),
+                        ),
+                        ("periods", count("Periods run since start")),
+                        (
+                            "overruns",
+                            count(
+                                "Periods that started more than a whole period late (skipped, never caught up)",
+                            ),
+                        ),
+                    ],
+                ),
+            ),
+            (
+                "clamped_setpoints",
+                count("Setpoints clamped to the joint limits since start"),
+            ),
+            (
+                "refused_commands",
+                count("Operator commands refused since start"),
+            ),
+            (
+                "records_lost",
+                count(
+                    "Recording records lost since start (the recorder fell behind or failed); 0 without a recording",
+                ),
+            ),
+            (
+                "nav",
+                object(
+                    "The head sensor, the daemon's estimate of the head's attitude and depth \
+                     (0 until the first sample), and the autopilot (docs/autopilot.md)",
+                    vec![
+                        ("sensor", names("The head sensor's health", sensor_names())),
+                        (
+                            "hold",
+                            codes(
+                                "What the autopilot holds (bit 0 heading, bit 1 depth)",
+                                &hold_codes(),
+                            ),
+                        ),
+                        (
+                            "heading_deg",
+                            real(
+                                "The body's heading (deg, 0..<360, earth frame, counter-clockwise seen from above)",
+                            ),
+                        ),
+                        (
+                            "pitch_deg",
+                            real("The body's pitch (deg, positive nose up)"),
+                        ),
+                        (
+                            "roll_deg",
+                            real("The head's roll (deg, positive right side down)"),
+                        ),
+                        (
+                            "depth_m",
+                            real("The head's depth below the surface (m, positive down)"),
+                        ),
+                        (
+                            "depth_rate",
+                            real("The depth's rate of change (m/s, positive descending)"),
+                        ),
+                        (
+                            "heading_target_deg",
+                            real("The heading held (deg); 0 unless hold has bit 0"),
+                        ),
+                        (
+                            "depth_target_m",
+                            real("The depth held (m, positive down); 0 unless hold has bit 1"),
+                        ),
+                        (
+                            "rate_innovation",
+                            real(
+                                "Model health: the gyro's body rates less the model's predicted head rates (rad/s, magnitude, low-passed over about 1 s)",
+                            ),
+                        ),
+                        (
+                            "depth_innovation",
+                            real(
+                                "Model health: the measured depth less the predicted one at the last sample (m)",
+                            ),
+                        ),
+                        ("samples", count("Head-sensor samples received since start")),
+                        (
+                            "lost_samples",
+                            count("Samples the sensor's counter says were lost since start"),
+                        ),
+                    ],
+                ),
+            ),
+        ],
+    )
+}
+
+/// `anguilla.Joints`, written by `joints_json`: one array per quantity,
+/// one entry per joint, head first.
+pub fn joints() -> Value {
+    let per_joint = |d: &str| array(&format!("{d}, per joint, head first"), real(d), MAX_JOINTS);
+    message(
+        "anguilla.Joints",
+        "Per joint (head first; the configured joints): commanded and measured angles and \
+         rates, the model's feedforward torque, the measured torque, and the node's state",
+        vec![
+            ("commanded_pitch", per_joint("Commanded pitch angle (rad)")),
+            ("commanded_yaw", per_joint("Commanded yaw angle (rad)")),
+            ("measured_pitch", per_joint("Measured pitch angle (rad)")),
+            ("measured_yaw", per_joint("Measured yaw angle (rad)")),
+            (
+                "commanded_pitch_velocity",
+                per_joint("Commanded pitch velocity (rad/s)"),
+            ),
+            (
+                "commanded_yaw_velocity",
+                per_joint("Commanded yaw velocity (rad/s)"),
+            ),
+            (
+                "measured_pitch_velocity",
+                per_joint("Measured pitch velocity (rad/s)"),
+            ),
+            (
+                "measured_yaw_velocity",
+                per_joint("Measured yaw velocity (rad/s)"),
+            ),
+            (
+                "feedforward_pitch_torque",
+                per_joint("The model's pitch torque, sent as feedforward (N·m)"),
+            ),
+            (
+                "feedforward_yaw_torque",
+                per_joint("The model's yaw torque, sent as feedforward (N·m)"),
+            ),
+            (
+                "measured_pitch_torque",
+                per_joint("Measured pitch torque (N·m)"),
+            ),
+            (
+                "measured_yaw_torque",
+                per_joint("Measured yaw torque (N·m)"),
+            ),
+            (
+                "node_state",
+                array(
+                    "The node's state as it last reported it, per joint, head first",
+                    codes(
+                        "The node's state (for a bought drive family, the worse of the \
+                         joint's two drives; docs/ipc.md)",
+                        &node_state_codes(),
+                    ),
+                    MAX_JOINTS,
+                ),
+            ),
+            (
+                "node_alive",
+                array(
+                    "Whether the node's heartbeat is current, per joint, head first",
+                    codes(
+                        "The node's heartbeat",
+                        &[(0, "overdue".into()), (1, "current".into())],
+                    ),
+                    MAX_JOINTS,
+                ),
+            ),
+        ],
+    )
+}
+
+/// `time` of Foxglove's schemas, here the daemon's clock.
+fn time(description: &str) -> Value {
+    json!({
+        "type": "object",
+        "title": "time",
+        "description": description,
+        "properties": {
+            "sec": { "type": "integer", "minimum": 0, "description": "Whole seconds (s)" },
+            "nsec": { "type": "integer", "minimum": 0, "maximum": 999_999_999,
+                      "description": "Nanoseconds past sec (ns)" }
+        },
+        "required": ["sec", "nsec"],
+        "additionalProperties": false
+    })
+}
+
+const STAMP: &str = "The snapshot's time on the daemon's clock (since the controller started, \
+                     not Unix time), as the message's log time";
+
+fn vector3(description: &str, unit: &str) -> Value {
+    typed_object(
+        "foxglove.Vector3",
+        description,
+        vec![
+            ("x", number(&format!("x ({unit})"))),
+            ("y", number(&format!("y ({unit})"))),
+            ("z", number(&format!("z ({unit})"))),
+        ],
+    )
+}
+
+fn quaternion(description: &str) -> Value {
+    typed_object(
+        "foxglove.Quaternion",
+        description,
+        vec![
+            ("x", number("x (unit quaternion)")),
+            ("y", number("y")),
+            ("z", number("z")),
+            ("w", number("w")),
+        ],
+    )
+}
+
+/// `foxglove.Log`, written by `Scene::messages` from `log_lines`.
+pub fn log() -> Value {
+    let levels: Vec<Value> = LOG_LEVELS
+        .iter()
+        .map(|(c, name, what)| json!({ "const": c, "title": name, "description": what }))
+        .collect();
+    message(
+        "foxglove.Log",
+        "A log line: a mode change, a fault, refused commands, the autopilot letting go",
+        vec![
+            ("timestamp", time(STAMP)),
+            (
+                "level",
+                json!({ "title": "foxglove.LogLevel", "description": "Log level", "oneOf": levels }),
+            ),
+            ("message", string("The text")),
+            ("name", string("Who logs: anguilla")),
+            ("file", string("Source file: empty")),
+            (
+                "line",
+                json!({ "type": "integer", "minimum": 0, "description": "Line in the file: 0" }),
+            ),
+        ],
+    )
+}
+
+/// `foxglove.FrameTransforms`, written by `Scene::messages`.
+pub fn frame_transforms() -> Value {
+    let transform = typed_object(
+        "foxglove.FrameTransform",
+        "The pose of a child frame in its parent (translation, then rotation)",
+        vec![
+            ("timestamp", time(STAMP)),
+            (
+                "parent_frame_id",
+                names("The parent frame: the world (x, y level, z up)", ["world"]),
+            ),
+            (
+                "child_frame_id",
+                names(
+                    "head: measured with a head sensor (heading, pitch, roll, depth; x, y \
+                     integrated from the predicted speed), else predicted; head_predicted: \
+                     the model's speed and turn rate integrated in the plane",
+                    ["head", "head_predicted"],
+                ),
+            ),
+            (
+                "translation",
+                vector3("The child frame's origin in the parent frame", "m"),
+            ),
+            (
+                "rotation",
+                quaternion("The child frame's orientation in the parent frame"),
+            ),
+        ],
+    );
+    message(
+        "foxglove.FrameTransforms",
+        "The head's pose in the world, measured and predicted",
+        vec![(
+            "transforms",
+            array("The transforms: head, then head_predicted", transform, 2),
+        )],
+    )
+}
+
+/// `foxglove.SceneUpdate`, written by `Scene::scene_json`.
+pub fn scene_update() -> Value {
+    let sphere = typed_object(
+        "foxglove.SpherePrimitive",
+        "One link of the body as an ellipsoid",
+        vec![
+            (
+                "pose",
+                typed_object(
+                    "foxglove.Pose",
+                    "The link's centre and orientation in the head frame (x along the link towards the tail)",
+                    vec![
+                        ("position", vector3("The link's centre", "m")),
+                        ("orientation", quaternion("The link's orientation")),
+                    ],
+                ),
+            ),
+            (
+                "size",
+                vector3(
+                    "The ellipsoid's diameters: x the link's length, y its width, z its height",
+                    "m",
+                ),
+            ),
+            (
+                "color",
+                typed_object(
+                    "foxglove.Color",
+                    "The link's colour",
+                    vec![
+                        ("r", number("Red (0..=1)")),
+                        ("g", number("Green (0..=1)")),
+                        ("b", number("Blue (0..=1)")),
+                        ("a", number("Alpha (0..=1)")),
+                    ],
+                ),
+            ),
+        ],
+    );
+    let entity = typed_object(
+        "foxglove.SceneEntity",
+        "The body",
+        vec![
+            ("timestamp", time(STAMP)),
+            (
+                "frame_id",
+                names("The frame the body is drawn in", ["head"]),
+            ),
+            ("id", names("The entity: the body", ["body"])),
+            (
+                "lifetime",
+                json!({
+                    "type": "object", "title": "duration",
+                    "description": "How long the entity stays: 0, until replaced",
+                    "properties": {
+                        "sec": { "type": "integer", "description": "Whole seconds (s)" },
+                        "nsec": { "type": "integer", "minimum": 0, "maximum": 999_999_999,
+                                  "description": "Nanoseconds past sec (ns)" }
+                    },
+                    "required": ["sec", "nsec"],
+                    "additionalProperties": false
+                }),
+            ),
+            (
+                "frame_locked",
+                boolean("True: the body follows its frame as the frame moves"),
+            ),
+            ("metadata", empty_array("Key-value pairs: none")),
+            ("arrows", empty_array("Arrow primitives: none")),
+            ("cubes", empty_array("Cube primitives: none")),
+            (
+                "spheres",
+                array("The links, head first", sphere, MAX_JOINTS + 1),
+            ),
+            ("cylinders", empty_array("Cylinder primitives: none")),
+            ("lines", empty_array("Line primitives: none")),
+            ("triangles", empty_array("Triangle list primitives: none")),
+            ("texts", empty_array("Text primitives: none")),
+            ("models", empty_array("Model primitives: none")),
+        ],
+    );
+    message(
+        "foxglove.SceneUpdate",
+        "The body's links as ellipsoids, posed from the measured joint angles, in the head frame",
+        vec![
+            ("deletions", empty_array("Entities deleted: none")),
+            ("entities", array("The body", entity, 1)),
+        ],
+    )
+}
+
+/// The schemas of [`super::TOPICS`], in order: (name, schema).
+pub fn all() -> [(&'static str, Value); 5] {
+    [
+        ("anguilla.State", state()),
+        ("anguilla.Joints", joints()),
+        ("foxglove.Log", log()),
+        ("foxglove.FrameTransforms", frame_transforms()),
+        ("foxglove.SceneUpdate", scene_update()),
+    ]
+}
+
+/// Checks `value` against `schema` structurally: types, `properties` (a
+/// key the schema does not name is an error where `additionalProperties`
+/// is false), `required`, `items`, `maxItems`, `enum`, `const`, `oneOf`,
+/// `minimum` and `maximum`. It knows only the keywords the builders here
+/// use, and refuses a schema with another one rather than pass it
+/// unchecked. The error names the path (`nav.sensor`, `spheres[3].size.x`).
+pub fn check(schema: &Value, value: &Value) -> Result<(), String> {
+    check_at("", schema, value)
+}
+
+fn check_at(path: &str, schema: &Value, value: &Value) -> Result<(), String> {
+    let at = if path.is_empty() { "(message)" } else { path };
+    let s = schema
+        .as_object()
+        .ok_or_else(|| format!("{at}: the schema is not an object"))?;
+    for key in s.keys() {
+        if !matches!(
+            key.as_str(),
+            "$schema"
+                | "title"
+                | "description"
+                | "type"
+                | "properties"
+                | "required"
+                | "additionalProperties"
+                | "items"
+                | "maxItems"
+                | "enum"
+                | "const"
+                | "oneOf"
+                | "minimum"
+                | "maximum"
+        ) {
+            return Err(format!("{at}: schema keyword {key} is not checked here"));
+        }
+    }
+    if let Some(t) = s.get("type") {
+        let types: Vec<&str> = match t {
+            Value::String(t) => vec![t.as_str()],
+            Value::Array(ts) => ts.iter().filter_map(Value::as_str).collect(),
+            _ => return Err(format!("{at}: type {t} is not a type")),
+        };
+        if !types.iter().any(|t| is_type(t, value)) {
+            return Err(format!("{at}: {value} is not of type {t}"));
+        }
+    }
+    if let Some(e) = s.get("enum").and_then(Value::as_array)
+        && !e.contains(value)
+    {
+        return Err(format!(
+            "{at}: {value} is not one of {}",
+            Value::Array(e.clone())
+        ));
+    }
+    if let Some(c) = s.get("const")
+        && c != value
+    {
+        return Err(format!("{at}: {value} is not {c}"));
+    }
+    if let Some(one) = s.get("oneOf").and_then(Value::as_array) {
+        let n = one
+            .iter()
+            .filter(|b| check_at(path, b, value).is_ok())
+            .count();
+        if n != 1 {
+            return Err(format!(
+                "{at}: {value} matches {n} of oneOf's schemas, not 1"
+            ));
+        }
+    }
+    if let Some(x) = value.as_f64() {
+        if let Some(min) = s.get("minimum").and_then(Value::as_f64)
+            && x < min
+        {
+            return Err(format!("{at}: {value} is below the minimum {min}"));
+        }
+        if let Some(max) = s.get("maximum").and_then(Value::as_f64)
+            && x > max
+        {
+            return Err(format!("{at}: {value} is above the maximum {max}"));
+        }
+    }
+    if let Some(o) = value.as_object() {
+        let props = s.get("properties").and_then(Value::as_object);
+        for r in s
+            .get("required")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            let r = r.as_str().unwrap_or_default();
+            if !o.contains_key(r) {
+                return Err(format!("{at}: required property {r} is missing"));
+            }
+        }
+        for (k, v) in o {
+            let p = if path.is_empty() {
+                k.clone()
+            } else {
+                format!("{path}.{k}")
+            };
+            match props.and_then(|ps| ps.get(k)) {
+                Some(ps) => check_at(&p, ps, v)?,
+                None if s.get("additionalProperties") == Some(&Value::Bool(false)) => {
+                    return Err(format!("{p}: not a property of the schema"));
+                }
+                None => {}
+            }
+        }
+    }
+    if let Some(a) = value.as_array() {
+        if let Some(max) = s.get("maxItems").and_then(Value::as_u64)
+            && a.len() as u64 > max
+        {
+            return Err(format!("{at}: {} items, at most {max}", a.len()));
+        }
+        if let Some(items) = s.get("items") {
+            for (i, v) in a.iter().enumerate() {
+                check_at(&format!("{path}[{i}]"), items, v)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn is_type(t: &str, v: &Value) -> bool {
+    match t {
+        "null" => v.is_null(),
+        "boolean" => v.is_boolean(),
+        "string" => v.is_string(),
+        "object" => v.is_object(),
+        "array" => v.is_array(),
+        "number" => v.is_number(),
+        "integer" => v.is_u64() || v.is_i64(),
+        _ => false,
+    }
+}
+
+/// `docs/data.md`'s generated part: per channel, a table of its fields
+/// (in the order written) with their types and descriptions; then the
+/// codes.
+pub fn markdown() -> String {
+    let mut out = String::new();
+    for (topic, (name, s)) in super::TOPICS.iter().zip(all()) {
+        let _ = writeln!(out, "### `{topic}` ({name})\n");
+        out.push_str(&table(&s));
+        out.push('\n');
+    }
+    let _ = writeln!(
+        out,
+        "### `{}` ({}, the built-in simulated robot only)\n",
+        crate::truth::TOPIC,
+        crate::truth::SCHEMA_NAME
+    );
+    out.push_str(&table(&crate::truth::schema()));
+    out.push('\n');
+    let _ = writeln!(out, "### Codes\n");
+    let _ = writeln!(
+        out,
+        "`fault_kinds` (`/anguilla/state`), one bit each; latched until reset:\n"
+    );
+    let _ = writeln!(out, "| bit | value | fault |");
+    let _ = writeln!(out, "|---:|---:|---|");
+    for (b, n) in fault_bits() {
+        let _ = writeln!(out, "| {b} | {:#x} | {n} |", 1u32 << b);
+    }
+    for (what, list) in [
+        ("`bus.state` (`/anguilla/state`)", bus_state_codes()),
+        ("`nav.hold` (`/anguilla/state`)", hold_codes()),
+        ("`node_state[]` (`/anguilla/joints`)", node_state_codes()),
+    ] {
+        let _ = writeln!(out, "\n{what}:\n");
+        let _ = writeln!(out, "| code | meaning |");
+        let _ = writeln!(out, "|---:|---|");
+        for (c, n) in list {
+            let _ = writeln!(out, "| {c} | {n} |");
+        }
+    }
+    let _ = writeln!(out, "\n`level` (`/log`, `foxglove.LogLevel`):\n");
+    let _ = writeln!(out, "| code | name | used for |");
+    let _ = writeln!(out, "|---:|---|---|");
+    for (c, n, what) in LOG_LEVELS {
+        let _ = writeln!(out, "| {c} | {n} | {what} |");
+    }
+    out
+}
+
+/// A message schema's description and the Markdown table of its fields:
+/// one row per field, in the order written, objects and arrays of objects
+/// opened (`nav.sensor`, `transforms[].rotation.w`).
+pub fn table(schema: &Value) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{}.\n", text(&schema["description"]));
+    let _ = writeln!(out, "| field | type | meaning |");
+    let _ = writeln!(out, "|---|---|---|");
+    rows(&mut out, "", schema);
+    out
+}
+
+fn text(v: &Value) -> String {
+    v.as_str().unwrap_or_default().replace('|', "\\|")
+}
+
+/// One row per property, in `required` order (the writer's), descending
+/// into objects and arrays of objects.
+fn rows(out: &mut String, prefix: &str, s: &Value) {
+    let props = &s["properties"];
+    for k in s["required"].as_array().into_iter().flatten() {
+        let k = k.as_str().unwrap_or_default();
+        let p = &props[k];
+        let path = format!("{prefix}{k}");
+        let _ = writeln!(
+            out,
+            "| `{path}` | {} | {} |",
+            type_text(p),
+            text(&p["description"])
+        );
+        if p["type"] == "object" {
+            rows(out, &format!("{path}."), p);
+        } else if p["items"]["type"] == "object" {
+            rows(out, &format!("{path}[]."), &p["items"]);
+        }
+    }
+}
+
+fn type_text(p: &Value) -> String {
+    let base = match &p["type"] {
+        Value::String(t) => t.clone(),
+        Value::Array(ts) => ts
+            .iter()
+            .filter_map(Value::as_str)
+            .collect::<Vec<_>>()
+            .join(" or "),
+        _ if p.get("oneOf").is_some() => "integer".into(),
+        _ => String::new(),
+    };
+    let base = if let Some(t) = p.get("title").and_then(Value::as_str)
+        && p["type"] == "object"
+    {
+        format!("object ({t})")
+    } else {
+        base
+    };
+    if let Some(e) = p.get("enum").and_then(Value::as_array) {
+        let vs: Vec<String> = e
+            .iter()
+            .map(|v| match v.as_str() {
+                Some("") => "`\"\"`".to_string(),
+                Some(s) => format!("`{s}`"),
+                None => format!("`{v}`"),
+            })
+            .collect();
+        return format!("{base}: {}", vs.join(", "));
+    }
+    if p["type"] == "array" {
+        if p["maxItems"] == 0 {
+            return "array, empty".into();
+        }
+        let items = &p["items"];
+        let max = p["maxItems"].as_u64().unwrap_or_default();
+        let inner = if items["type"] == "object" {
+            items["title"]
+                .as_str()
+                .map_or("object".to_string(), |t| format!("object ({t})"))
+        } else {
+            type_text(items)
+        };
+        return format!("array (≤ {max}) of {inner}");
+    }
+    base
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeSet;
+
+    use super::*;
+    use crate::config::Config;
+    use crate::ipc::StateSnapshot;
+    use crate::mcap_log::{Scene, TOPICS};
+
+    /// Snapshots that take every mode, cause, sensor health, bus state,
+    /// hold and node state (255 included), codes this anguilla does not
+    /// know, changing faults and refusals (log lines), and floats that are
+    /// not finite.
+    fn snapshots(joints: usize) -> Vec<StateSnapshot> {
+        let nodes = node_state_codes();
+        (0..96u64)
+            .map(|i| {
+                let mut s = StateSnapshot {
+                    joint_count: joints as u32,
+                    sequence: i * 10,
+                    time_ns: i * 20_000_000,
+                    // One past the table: a code this anguilla does not know.
+                    mode: (i % (Mode::ALL.len() as u64 + 1)) as u8,
+                    cause: (i % (Cause::ALL.len() as u64 + 1)) as u8,
+                    feedforward_dropped: (i % 2) as u8,
+                    fault_kinds: if i % 3 == 0 {
+                        0
+                    } else {
+                        FaultKind::ALL[i as usize % FaultKind::ALL.len()] as u32
+                    },
+                    fault_nodes: 1 << (i % 64),
+                    predicted_head_speed: 0.3,
+                    predicted_turn_rate: -0.2,
+                    refused_commands: i / 4,
+                    ..StateSnapshot::default()
+                };
+                s.bus.state = BusState::ALL[i as usize % BusState::ALL.len()].code();
+                s.bus.tx_frames = i * 1000;
+                s.loop_stats.period_ns = 2_000_000;
+                s.loop_stats.periods = i * 10;
+                let n = &mut s.nav;
+                n.sensor = (i % (SensorHealth::ALL.len() as u64 + 1)) as u8;
+                n.hold = (i % 4) as u8;
+                n.hold_exit = (i / 5 % 7) as u8;
+                n.samples = i / 2;
+                n.heading_deg = (i * 7 % 360) as f32;
+                n.pitch_deg = -10.0;
+                n.roll_deg = 3.0;
+                n.depth_m = 0.5;
+                for (j, js) in s.joints.iter_mut().enumerate().take(joints) {
+                    js.node_state = nodes[(i as usize + j) % nodes.len()].0 as u8;
+                    js.node_alive = ((i as usize + j) % 2) as u8;
+                    js.measured_pitch = 0.1 * j as f32;
+                    js.measured_yaw = -0.2;
+                    js.predicted_yaw_torque = 0.05;
+                }
+                if i % 5 == 0 {
+                    s.predicted_head_speed = f32::NAN;
+                    s.predicted_turn_rate = f32::INFINITY;
+                    s.gait_actual.turn = f32::NAN;
+                    s.nav.heading_deg = f32::NAN;
+                    s.nav.depth_m = f32::NEG_INFINITY;
+                    s.joints[0].measured_pitch = f32::NAN;
+                    s.joints[1].predicted_pitch_torque = f32::INFINITY;
+                }
+                s
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_message_conforms_to_its_channels_schema() {
+        let cfg = Config::default();
+        let mut scene = Scene::new(&cfg);
+        let schemas = all();
+        let mut per_channel = [0usize; 5];
+        let mut seen: [BTreeSet<String>; 3] = Default::default();
+        for s in snapshots(cfg.robot.joints) {
+            for (ch, v) in scene.messages(&s) {
+                if let Err(e) = check(&schemas[ch].1, &v) {
+                    panic!("{} message {}: {e}\n{v}", TOPICS[ch], per_channel[ch]);
+                }
+                per_channel[ch] += 1;
+                if ch == 0 {
+                    for (k, x) in [&v["mode"], &v["cause"], &v["nav"]["sensor"]]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        seen[k].insert(x.as_str().unwrap_or_default().to_string());
+                    }
+                }
+            }
+        }
+        assert!(per_channel.iter().all(|&n| n > 0), "{per_channel:?}");
+        // The snapshots did take every value the enumerations allow.
+        for (k, names) in [
+            mode_names().collect::<BTreeSet<_>>(),
+            cause_names().collect(),
+            sensor_names().collect(),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let names: BTreeSet<String> = names.into_iter().map(String::from).collect();
+            assert_eq!(seen[k], names);
+        }
+    }
+
+    /// Every object is closed and lists all its properties as required,
+    /// every property is described, and every message names its dialect.
+    #[test]
+    fn every_schema_is_closed_and_described() {
+        fn walk(path: &str, s: &Value) {
+            if s.get("description")
+                .and_then(Value::as_str)
+                .is_none_or(str::is_empty)
+            {
+                panic!("{path}: no description");
+            }
+            if s["type"] == "object" {
+                let props: BTreeSet<&str> = s["properties"]
+                    .as_object()
+                    .map(|p| p.keys().map(String::as_str).collect())
+                    .unwrap_or_default();
+                let required: BTreeSet<&str> = s["required"]
+                    .as_array()
+                    .map(|r| r.iter().filter_map(Value::as_str).collect())
+                    .unwrap_or_default();
+                assert_eq!(props, required, "{path}: required");
+                assert_eq!(s["additionalProperties"], false, "{path}: not closed");
+                for (k, p) in s["properties"].as_object().into_iter().flatten() {
+                    walk(&format!("{path}.{k}"), p);
+                }
+            }
+            if let Some(items) = s.get("items") {
+                walk(&format!("{path}[]"), items);
+            }
+        }
+        for (name, s) in all() {
+            assert_eq!(s["$schema"], DIALECT, "{name}");
+            assert_eq!(s["title"], name);
+            walk(name, &s);
+        }
+    }
+
+    /// The check fails what does not conform: an unknown key, a missing
+    /// one, a wrong type, a value outside an enumeration, too many items,
+    /// a keyword it does not check.
+    #[test]
+    fn the_check_refuses_what_does_not_conform() {
+        let cfg = Config::default();
+        let mut scene = Scene::new(&cfg);
+        let mut s = StateSnapshot {
+            joint_count: cfg.robot.joints as u32,
+            ..StateSnapshot::default()
+        };
+        s.nav.samples = 1;
+        let msgs = scene.messages(&s);
+        let written = &msgs[0].1;
+        let schema = state();
+        assert_eq!(check(&schema, written), Ok(()));
+        let bad = |f: &dyn Fn(&mut Value)| {
+            let mut v = written.clone();
+            f(&mut v);
+            check(&schema, &v).unwrap_err()
+        };
+        let e = bad(&|v| v["nav"]["extra"] = json!(1));
+        assert_eq!(e, "nav.extra: not a property of the schema");
+        let e = bad(&|v| {
+            v["bus"].as_object_mut().unwrap().remove("state");
+        });
+        assert_eq!(e, "bus: required property state is missing");
+        let e = bad(&|v| v["sequence"] = json!(1.5));
+        assert!(e.starts_with("sequence: 1.5 is not of type"), "{e}");
+        let e = bad(&|v| v["mode"] = json!("sleeping"));
+        assert!(e.starts_with("mode: \"sleeping\" is not one of"), "{e}");
+        let e = bad(&|v| v["bus"]["state"] = json!(4));
+        assert!(e.starts_with("bus.state: 4 is not one of"), "{e}");
+        let joints = &msgs[1].1;
+        let mut long = joints.clone();
+        long["node_state"] = json!(vec![1; MAX_JOINTS + 1]);
+        let e = check(&super::joints(), &long).unwrap_err();
+        assert_eq!(
+            e,
+            format!("node_state: {} items, at most {MAX_JOINTS}", MAX_JOINTS + 1)
+        );
+        let e = check(&json!({"pattern": "x"}), &json!("x")).unwrap_err();
+        assert_eq!(e, "(message): schema keyword pattern is not checked here");
+    }
+
+    /// `docs/data.md` between `<!-- fields:begin -->` and `<!-- fields:end
+    /// -->` is [`markdown`] (rewritten with ANGUILLA_BLESS=1).
+    #[test]
+    fn docs_data_md_has_the_generated_tables() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/data.md");
+        let doc = std::fs::read_to_string(path).unwrap();
+        let (begin, end) = ("<!-- fields:begin -->\n", "<!-- fields:end -->");
+        let (head, rest) = doc.split_once(begin).expect("begin marker");
+        let (current, tail) = rest.split_once(end).expect("end marker");
+        let generated = markdown();
+        if std::env::var_os("ANGUILLA_BLESS").is_some() {
+            std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
+            return;
+        }
+        assert_eq!(
+            current, generated,
+            "docs/data.md is out of date: rerun this test with ANGUILLA_BLESS=1"
+        );
+    }
+}
