@@ -33,6 +33,9 @@ TOPICS = {
     "/log": "foxglove.Log",
     "/tf": "foxglove.FrameTransforms",
     "/body": "foxglove.SceneUpdate",
+    # The built-in simulated robot's ground truth (anguilla run records it
+    # when it drives that robot, as here).
+    "/sim/truth": "anguilla.SimTruth",
 }
 DATA = ["/anguilla/state", "/anguilla/joints", "/tf", "/body"]
 
