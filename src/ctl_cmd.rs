@@ -9,7 +9,7 @@ use anguilla_ipc::{FaultSet, StateSnapshot, SwimParams};
 use anguilla_teleop::ctl::{self, Ctl, CtlError};
 use anguilla_teleop::json;
 use anguilla_teleop::pad::autopilot_text;
-use anguilla_teleop::view::{cause_name, mode_name, sensor_name};
+use anguilla_teleop::view::{cause_words, mode_name, sensor_name};
 
 use crate::teleop_cmd::DaemonArgs;
 
@@ -105,12 +105,12 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
     let prefix = args
         .daemon
         .prefix()
-        .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?;
+        .map_err(|e| CtlError::NoDaemon(crate::output::error_text(&e)))?;
     if let CtlCmd::Estop = args.cmd {
         let r = match args
             .daemon
             .remote()
-            .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?
+            .map_err(|e| CtlError::NoDaemon(crate::output::error_text(&e)))?
         {
             None => ctl::estop(&prefix)?,
             Some((endpoint, tls)) => ctl::estop_by(
@@ -159,7 +159,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
     let session = args
         .daemon
         .open(&prefix, "anguilla-ctl", true)
-        .map_err(|e| CtlError::NoDaemon(format!("{e:#}")))?;
+        .map_err(|e| CtlError::NoDaemon(crate::output::error_text(&e)))?;
     let mut c = Ctl::over(session)?;
     if let Some(p) = c.provenance_problem() {
         let _ = writeln!(std::io::stderr(), "warning: {p}");
@@ -168,7 +168,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         CtlCmd::Status { json: true } => {
             return out(&format!("{}\n", json::snapshot_json(c.state())));
         }
-        CtlCmd::Status { json: false } => return out(&summary(c.state())),
+        CtlCmd::Status { json: false } => return out(&summary(c.state(), c.holder_text())),
         CtlCmd::Estop => unreachable!("handled above"),
         CtlCmd::Enable => c.enable()?,
         CtlCmd::Disable => c.disable()?,
@@ -197,14 +197,15 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
 }
 
 /// The human summary of `ctl status`.
-fn summary(s: &StateSnapshot) -> String {
+fn summary(s: &StateSnapshot, who: Option<String>) -> String {
     let faults = FaultSet {
         kinds: s.fault_kinds,
         nodes: s.fault_nodes,
     };
-    let holder = match s.holder() {
-        None => "nobody".to_string(),
-        Some(h) => format!("client {h:032x}"),
+    let holder = match (s.holder(), who) {
+        (None, _) => "nobody".to_string(),
+        (Some(_), Some(who)) => who,
+        (Some(h), None) => format!("client {h:032x}"),
     };
     let l = &s.limits;
     let g = &s.gait_actual;
@@ -245,7 +246,7 @@ fn summary(s: &StateSnapshot) -> String {
          limits    frequency <= {} Hz, |turn| <= {} /m, |pitch| <= {} /m, command timeout {} ms\n\
          daemon    pid {}\n",
         mode_name(s.mode),
-        cause_name(s.cause),
+        cause_words(s.cause),
         g.amplitude,
         g.frequency,
         g.turn,

@@ -104,7 +104,7 @@ fn main() -> std::process::ExitCode {
         }
         Err(e) => {
             use std::io::Write as _;
-            let _ = writeln!(std::io::stderr(), "Error: {e:#}");
+            let _ = writeln!(std::io::stderr(), "Error: {}", output::error_text(&e));
             std::process::ExitCode::FAILURE
         }
     }

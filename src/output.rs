@@ -27,6 +27,24 @@ macro_rules! outln {
 
 pub(crate) use {out, outln};
 
+/// `e` and its causes, each said once: `context: cause: its cause`, but a
+/// cause whose text its context already includes (an error that prints
+/// its source, then the source itself) is not repeated.
+pub fn error_text(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let t = cause.to_string();
+        if t.is_empty() || out.contains(&t) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&t);
+    }
+    out
+}
+
 /// Whether `e` is standard output's reader having gone away (EPIPE).
 pub fn closed_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
@@ -57,5 +75,39 @@ impl Status {
                 );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An error that prints its source, wrapped: the source once.
+    #[test]
+    fn each_cause_is_said_once() {
+        #[derive(Debug)]
+        struct Opening(std::io::Error);
+        impl std::fmt::Display for Opening {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "opening /dev/null: {}", self.0)
+            }
+        }
+        impl std::error::Error for Opening {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                Some(&self.0)
+            }
+        }
+        let io = std::io::Error::from_raw_os_error(libc::ENOTTY);
+        let said = io.to_string();
+        let e = anyhow::Error::new(Opening(io)).context("opening bus 'slcan:/dev/null'");
+        let text = error_text(&e);
+        assert_eq!(text.matches(&said).count(), 1, "{text}");
+        assert!(
+            text.starts_with("opening bus 'slcan:/dev/null': opening /dev/null: "),
+            "{text}"
+        );
+        // Causes that are not repeated are all kept.
+        let e = anyhow::anyhow!("root").context("middle").context("top");
+        assert_eq!(error_text(&e), "top: middle: root");
     }
 }

@@ -99,10 +99,11 @@ pub enum Event {
         /// Periods skipped this time.
         skipped: u64,
     },
-    /// A joint's drive reports errors it did not report before.
+    /// Joints' drives report errors they did not report before (one event
+    /// per code: twelve joints latching the same E-stop are one line).
     NodeErrors {
-        /// Joint (0 = head end).
-        joint: u8,
+        /// The joints (bit 0 = the head end's).
+        joints: u64,
         /// Its family's code (`JointSnapshot::node_errors`): anguilla error
         /// bits, a CiA 402 EMCY code or an ODrive axis error.
         code: u32,
@@ -495,6 +496,38 @@ impl RefusalLog {
     }
 }
 
+/// "joint 3", "joints 1–12", "joints 2, 5": 1-based, runs as ranges.
+fn joint_list(joints: u64) -> String {
+    let ids: Vec<u32> = (0..64)
+        .filter(|j| joints & (1 << j) != 0)
+        .map(|j| j + 1)
+        .collect();
+    let mut runs: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < ids.len() {
+        let mut k = i;
+        while k + 1 < ids.len() && ids[k + 1] == ids[k] + 1 {
+            k += 1;
+        }
+        runs.push(match k - i {
+            0 => ids[i].to_string(),
+            1 => format!("{}, {}", ids[i], ids[k]),
+            _ => format!("{}–{}", ids[i], ids[k]),
+        });
+        i = k + 1;
+    }
+    let plural = if ids.len() == 1 { "joint" } else { "joints" };
+    format!("{plural} {}", runs.join(", "))
+}
+
+fn report(joints: u64) -> &'static str {
+    if joints.count_ones() == 1 {
+        "reports"
+    } else {
+        "report"
+    }
+}
+
 /// Overruns, told to the operator as an overloaded machine: the first at
 /// once, with what to do; then a count every [`OVERLOAD_LOG_INTERVAL`]
 /// while they last.
@@ -572,14 +605,14 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
                 cause,
                 faults,
             }) if faults.is_empty() => {
-                tracing::info!("mode {from} -> {to}: {}", cause.name())
+                tracing::info!("mode {from} -> {to}: {}", cause.words())
             }
             Some(Event::Mode {
                 from,
                 to,
                 cause,
                 faults,
-            }) => tracing::warn!("mode {from} -> {to}: {} ({faults})", cause.name()),
+            }) => tracing::warn!("mode {from} -> {to}: {} ({faults})", cause.words()),
             Some(Event::Refused { origin, reply }) => refusals.refused(now, origin, reply),
             Some(Event::HolderGone { crashed: true }) => {
                 tracing::warn!("the client holding control died; control released")
@@ -595,17 +628,19 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
             }
             Some(Event::Overrun { skipped }) => overload.overran(now, skipped),
             Some(Event::NodeErrors {
-                joint,
+                joints,
                 code,
                 anguilla: true,
             }) => tracing::warn!(
-                "joint {} reports: {}",
-                joint as usize + 1,
+                "{} {}: {}",
+                joint_list(joints),
+                report(joints),
                 ErrorBits(code as u16)
             ),
-            Some(Event::NodeErrors { joint, code, .. }) => tracing::warn!(
-                "joint {} reports error code {code:#010x} (docs/drives.md)",
-                joint as usize + 1
+            Some(Event::NodeErrors { joints, code, .. }) => tracing::warn!(
+                "{} {} error code {code:#010x} (docs/drives.md)",
+                joint_list(joints),
+                report(joints)
             ),
             Some(Event::Drive(n @ crate::drive::Notice::Configured { .. })) => {
                 tracing::info!("{n}")
@@ -975,6 +1010,9 @@ fn control_loop(
         while let Some(n) = ctl.take_drive_notice() {
             emit(Event::Drive(n), &mut dropped);
         }
+        // Joints with news, grouped by code (fixed room: no allocation).
+        let mut news = [(0u32, 0u64); ipc::MAX_JOINTS];
+        let mut groups = 0;
         for (j, (js, seen)) in ctl
             .snapshot()
             .joints
@@ -985,22 +1023,32 @@ fn control_loop(
         {
             // anguilla: new bits; a bought drive: a new code.
             let code = js.node_errors;
-            let news = if anguilla {
+            let new = if anguilla {
                 code & !*seen != 0
             } else {
                 code != *seen && code != 0
             };
-            if news {
-                emit(
-                    Event::NodeErrors {
-                        joint: j as u8,
-                        code,
-                        anguilla,
-                    },
-                    &mut dropped,
-                );
-            }
             *seen = code;
+            if !new {
+                continue;
+            }
+            match news[..groups].iter_mut().find(|(c, _)| *c == code) {
+                Some((_, mask)) => *mask |= 1 << j,
+                None => {
+                    news[groups] = (code, 1 << j);
+                    groups += 1;
+                }
+            }
+        }
+        for &(code, joints) in &news[..groups] {
+            emit(
+                Event::NodeErrors {
+                    joints,
+                    code,
+                    anguilla,
+                },
+                &mut dropped,
+            );
         }
         let now_bus = ctl.snapshot().bus.state;
         if now_bus != bus_state {
@@ -1073,6 +1121,15 @@ fn control_loop(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn joints_are_listed_as_ranges() {
+        assert_eq!(super::joint_list(1 << 2), "joint 3");
+        assert_eq!(super::joint_list((1 << 12) - 1), "joints 1–12");
+        assert_eq!(super::joint_list(0b1_0010), "joints 2, 5");
+        assert_eq!(super::joint_list(0b1110_0011), "joints 1, 2, 6–8");
+        assert_eq!(super::report(1 << 4), "reports");
+    }
+
     use super::*;
 
     /// Issue 26, door 7: before, the command thread logged its first error

@@ -511,7 +511,13 @@ impl Supervisor {
         self.swim = SwimParams::REST;
         if self.mode != Mode::EStop {
             self.estop_pending = true;
-            self.enter(Mode::EStop, now, Cause::Fault);
+            // An operator's E-stop is a command, not a fault.
+            let cause = if kind == FaultKind::OperatorEStop {
+                Cause::Command
+            } else {
+                Cause::Fault
+            };
+            self.enter(Mode::EStop, now, cause);
         }
     }
 
@@ -565,7 +571,12 @@ impl Supervisor {
             None => false,
         };
         // Safety reactions (DESIGN.md's table).
-        if !settling && (obs.bus_estop || !obs.estop_nodes.is_empty()) {
+        // Nodes that report E-stop while the daemon is already E-stopped
+        // obey it: a consequence, not another fault (an operator's E-stop
+        // was listed as "e-stop on the bus" of every node). An E-stop frame
+        // from someone else on the bus still latches.
+        let obeying = self.mode == Mode::EStop && !obs.bus_estop;
+        if !settling && !obeying && (obs.bus_estop || !obs.estop_nodes.is_empty()) {
             self.estop(now, FaultKind::BusEStop, obs.estop_nodes.bits());
         }
         if obs.bus_off {
@@ -1042,6 +1053,24 @@ mod tests {
         );
         assert!(d.drop_feedforward);
         assert_eq!(s.mode(), Mode::Fault);
+    }
+
+    /// The nodes E-stopped by an operator's E-stop are not a fault of
+    /// theirs: the faults say "operator e-stop" and name no node.
+    #[test]
+    fn nodes_obeying_an_operator_estop_are_no_fault() {
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.command(MS, A, 1, Command::EStop).unwrap();
+        assert_eq!(s.mode(), Mode::EStop);
+        assert_eq!(s.cause(), Cause::Command);
+        let obs = Observations {
+            estop_nodes: NodeSet::first(12),
+            ..Default::default()
+        };
+        s.tick(2 * MS, &obs);
+        assert!(s.faults().contains(FaultKind::OperatorEStop));
+        assert!(!s.faults().contains(FaultKind::BusEStop), "{}", s.faults());
+        assert_eq!(s.faults().nodes, 0);
     }
 
     #[test]

@@ -27,6 +27,7 @@ fn child_client_takes_control_then_crashes() {
         .request(Command::TakeControl, Duration::from_secs(10))
         .expect("reply");
     assert_eq!(r.accepted, 1, "{}", r.reason());
+    println!("child took control");
     std::process::abort();
 }
 
@@ -54,30 +55,35 @@ fn a_dead_holder_loses_control() {
         .expect("child runs");
     assert!(!child.status.success(), "the child aborts");
     let out = String::from_utf8_lossy(&child.stdout);
-    let child_id = out
-        .lines()
-        .find_map(|l| l.strip_prefix("child client "))
-        .and_then(|h| u128::from_str_radix(h.trim(), 16).ok())
-        .unwrap_or_else(|| panic!("the child names its client: {out}"));
-    let watcher = Client::new(&prefix, "watcher").unwrap();
+    // The daemon accepted the child's TakeControl (it says so only after
+    // the reply), then the child died holding it.
+    assert!(
+        out.contains("child took control"),
+        "the child held control: {out}"
+    );
+    // Control is free again only if the reaper released it (the timeouts
+    // are far longer than the test): another client takes it. A state, not
+    // a moment: a watcher starved by a busy machine could miss the short
+    // hold in the published states, but not this.
+    let mut watcher = Client::new(&prefix, "watcher").unwrap();
     let deadline = Instant::now() + Duration::from_secs(30);
-    let mut held = false;
     let mut released = false;
+    let mut last = String::new();
     while Instant::now() < deadline {
-        if let Ok(Some(s)) = watcher.wait_state(Duration::from_millis(100)) {
-            held |= s.holder() == Some(child_id);
-            if held && s.holder().is_none() {
+        match watcher.request(Command::TakeControl, Duration::from_secs(5)) {
+            Ok(r) if r.accepted == 1 => {
                 released = true;
                 break;
             }
+            Ok(r) => last = r.reason().to_string(),
+            Err(e) => last = e.to_string(),
         }
+        let _ = watcher.wait_state(Duration::from_millis(100));
     }
     running.request_stop();
     running.join().unwrap();
     assert!(
-        held,
-        "the child held control: {}",
-        String::from_utf8_lossy(&child.stdout)
+        released,
+        "control released after the holder died (last refusal: {last})"
     );
-    assert!(released, "control released after the holder died");
 }

@@ -92,6 +92,12 @@ impl Client {
         self.client.id().value()
     }
 
+    /// Who owns the client port `id` (e.g. the holder of control):
+    /// `ctl (user alice, pid 4242)`; `None` if it is gone or unknown.
+    pub fn who(&self, id: u128) -> Option<String> {
+        crate::service::describe_client(&self.command_service, id)
+    }
+
     /// When the state this client reads is not published by the process
     /// that serves its commands (a program squatting the state service, or
     /// a daemon that has gone), says so; `None` when they are one process.
@@ -223,6 +229,12 @@ pub trait Session {
     /// Where the session reaches the daemon, for messages ("prefix
     /// 'anguilla'", "prefix 'anguilla' through tcp/127.0.0.1:7447").
     fn describe(&self) -> String;
+    /// Who owns the client port `id` (the holder of control, say), in
+    /// words: `ctl (user alice, pid 4242)`; `None` where this session
+    /// cannot tell (a remote one).
+    fn who(&self, _id: u128) -> Option<String> {
+        None
+    }
     /// When the state read may not be the robot's, says why.
     fn provenance_problem(&self) -> Option<String>;
     /// Sends `req` exactly as given; its reply arrives through
@@ -292,6 +304,9 @@ pub trait Session {
 impl Session for Client {
     fn id(&self) -> u128 {
         Client::id(self)
+    }
+    fn who(&self, id: u128) -> Option<String> {
+        Client::who(self, id)
     }
     fn describe(&self) -> String {
         format!("prefix '{}'", self.prefix)

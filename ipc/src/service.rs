@@ -84,6 +84,36 @@ pub(crate) fn ice<E: fmt::Debug>(what: &'static str) -> impl Fn(E) -> IpcError {
     move |e| IpcError::Iceoryx(format!("{what}: {e:?}"))
 }
 
+/// Why a tool could not open the service `full`, in words: iceoryx2's
+/// open errors are enum names (`DoesNotExist`, `InsufficientPermissions`,
+/// …); the name is kept only for an error this does not know.
+pub(crate) fn open_failure(full: &str, debug: &str) -> String {
+    let name = debug.split(['(', ' ', '{']).next().unwrap_or(debug);
+    match name {
+        "DoesNotExist" => format!("its service '{full}' does not exist"),
+        n if n.contains("Permission") => format!(
+            "its service '{full}' cannot be opened: permission denied (the daemon's iceoryx2 \
+             files are its user's: run the tool as that user, or through `anguilla link` with \
+             `--connect local` as a member of the operator group)"
+        ),
+        "IsMarkedForDestruction" => {
+            format!("its service '{full}' is being removed: the daemon is stopping")
+        }
+        n if n.contains("Corrupted") => format!(
+            "its service '{full}' is damaged (a killed program left it half made): restart \
+             the daemon"
+        ),
+        n if n.starts_with("Incompatible") => format!(
+            "its service '{full}' has other message types or settings: a daemon of another \
+             anguilla version ({name})"
+        ),
+        n if n.contains("Timeout") || n.contains("HangsInCreation") => {
+            format!("its service '{full}' is still being created: try again")
+        }
+        _ => format!("its service '{full}' cannot be opened (iceoryx2: {debug})"),
+    }
+}
+
 /// Whether `prefix` makes valid service names (letters, digits, '-', '_', '/').
 pub fn valid_prefix(prefix: &str) -> bool {
     !prefix.is_empty()
@@ -133,7 +163,7 @@ fn obtain<F, E1: fmt::Debug, E2: fmt::Debug>(
     match role {
         Role::Tool => open().map_err(|e| IpcError::NoDaemon {
             prefix: prefix.to_string(),
-            detail: format!("{full}: {e:?}"),
+            detail: open_failure(&full, &format!("{e:?}")),
         }),
         Role::Daemon => {
             let create_err = match create() {
@@ -584,6 +614,81 @@ impl CommandServer {
         }
         Ok(n)
     }
+}
+
+/// Who owns the command service's client port `client_id`, for operators:
+/// the tool (its node's name without the `anguilla-` and the numbers),
+/// its process's user and its pid, e.g. `ctl (user alice, pid 4242)`.
+/// `None` when the port or its node is gone. Allocates and scans the node
+/// registry: for tools, never the control period.
+pub(crate) fn describe_client(command: &CommandService, client_id: u128) -> Option<String> {
+    let mut node = None;
+    command.dynamic_config().list_clients(|d| {
+        if d.client_id.value() == client_id {
+            node = Some(d.node_id.value());
+            CallbackProgression::Stop
+        } else {
+            CallbackProgression::Continue
+        }
+    });
+    let node = node?;
+    let mut found = None;
+    Node::<ipc::Service>::list(crate::guard::config(), |state| {
+        if let NodeState::Alive(view) = &state
+            && view.id().value() == node
+        {
+            found = view
+                .details()
+                .as_ref()
+                .map(|d| (d.name().to_string(), d.process_id().value()));
+            return CallbackProgression::Stop;
+        }
+        CallbackProgression::Continue
+    })
+    .ok()?;
+    let (name, pid) = found?;
+    Some(format!(
+        "{} (user {}, pid {pid})",
+        tool_of(&name),
+        user_of(pid).unwrap_or_else(|| "?".into())
+    ))
+}
+
+/// The tool a node name stands for: `anguilla-ctl-4242` → `ctl`,
+/// `anguilla-link-17-3` → `link`.
+pub(crate) fn tool_of(node_name: &str) -> String {
+    let mut parts: Vec<&str> = node_name.split('-').collect();
+    while parts.len() > 1
+        && parts
+            .last()
+            .is_some_and(|p| p.chars().all(|c| c.is_ascii_digit()))
+    {
+        parts.pop();
+    }
+    if parts.len() > 1 && parts[0] == "anguilla" {
+        parts.remove(0);
+    }
+    parts.join("-")
+}
+
+/// The name of the user running `pid` (its real uid, from /proc), or the
+/// uid when /etc/passwd does not name it.
+fn user_of(pid: i32) -> Option<String> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let uid = status
+        .lines()
+        .find_map(|l| l.strip_prefix("Uid:"))?
+        .split_whitespace()
+        .next()?
+        .to_string();
+    let name = std::fs::read_to_string("/etc/passwd").ok().and_then(|p| {
+        p.lines().find_map(|l| {
+            let mut f = l.split(':');
+            let name = f.next()?;
+            (f.nth(1)? == uid).then(|| name.to_string())
+        })
+    });
+    Some(name.unwrap_or(format!("uid {uid}")))
 }
 
 /// One scan of iceoryx2's node registry: the ids of the nodes that exist

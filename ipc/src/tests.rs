@@ -243,6 +243,13 @@ fn a_tool_never_creates_the_services() {
     let e = Client::new(&p, "early-tool").err().expect("no daemon yet");
     assert!(matches!(e, IpcError::NoDaemon { .. }), "{e}");
     assert!(e.to_string().contains("no anguilla daemon serves"), "{e}");
+    // In words, not iceoryx2's enum names.
+    assert!(
+        e.to_string()
+            .contains(&format!("its service '{p}/state' does not exist")),
+        "{e}"
+    );
+    assert!(!e.to_string().contains("DoesNotExist"), "{e}");
     // Nothing was left behind: the daemon creates them afterwards.
     std::thread::scope(|s| {
         s.spawn(|| {

@@ -535,7 +535,20 @@ impl Cause {
         Self::ALL.get(code as usize).copied()
     }
 
-    /// Lower-case name, as shown to operators.
+    /// What brought the mode about, in an operator's words (status lines,
+    /// the mode-change log); [`Cause::name`] is the token of JSON outputs.
+    pub fn words(self) -> &'static str {
+        match self {
+            Cause::None => "since the start",
+            Cause::Command => "by an operator's command",
+            Cause::OperatorSilent => "the operator fell silent",
+            Cause::Fault => "by a fault",
+            Cause::Progress => "step done",
+            Cause::SensorLost => "the head sensor was lost",
+        }
+    }
+
+    /// Lower-case name: the token of JSON outputs and schemas.
     pub fn name(self) -> &'static str {
         match self {
             Cause::None => "none",

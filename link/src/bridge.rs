@@ -113,6 +113,7 @@ pub struct Bridge {
     queries: Receiver<Query>,
     _command_queryable: Option<zenoh::query::Queryable<()>>,
     _estop_queryable: Option<zenoh::query::Queryable<()>>,
+    _info_queryable: zenoh::query::Queryable<()>,
     sessions: HashMap<String, RemoteSession>,
     stats: Arc<BridgeStats>,
     started: Instant,
@@ -134,6 +135,9 @@ fn access_control(s: &LinkSettings) -> String {
             "id": id, "messages": [msg], "flows": [flow], "permission": "allow", "key_exprs": [key],
         }));
     };
+    // Which prefix this link serves: a tool given another says so.
+    rule("prefix-query", "query", "ingress", crate::INFO_KEY.into());
+    rule("prefix-reply", "reply", "egress", crate::INFO_KEY.into());
     if s.allow_command {
         rule(
             "command-query",
@@ -285,6 +289,16 @@ impl Bridge {
         } else {
             None
         };
+        let served = p.clone();
+        let info_queryable = session
+            .declare_queryable(crate::INFO_KEY)
+            .callback(move |q| {
+                if let Err(e) = q.reply(crate::INFO_KEY, served.clone()).wait() {
+                    tracing::debug!("prefix reply: {e}");
+                }
+            })
+            .wait()
+            .map_err(zenoh_err("prefix queryable"))?;
         Ok(Self {
             settings,
             session,
@@ -293,6 +307,7 @@ impl Bridge {
             queries,
             _command_queryable: command_queryable,
             _estop_queryable: estop_queryable,
+            _info_queryable: info_queryable,
             sessions: HashMap::new(),
             stats,
             started: Instant::now(),

@@ -53,6 +53,8 @@ pub mod bridge;
 #[cfg(feature = "zenoh")]
 pub mod certs;
 #[cfg(feature = "zenoh")]
+pub mod diagnose;
+#[cfg(feature = "zenoh")]
 pub mod remote;
 pub mod wire;
 
@@ -63,6 +65,11 @@ use std::path::{Path, PathBuf};
 pub use bridge::{Bridge, BridgeStats, LinkSettings};
 #[cfg(feature = "zenoh")]
 pub use remote::{RemoteClient, remote_estop};
+
+/// Where a link says which daemon prefix it serves (a query's reply: the
+/// prefix, UTF-8), whatever that prefix: a tool given another prefix asks
+/// here to say which one to give (docs/remote.md).
+pub const INFO_KEY: &str = "_anguilla/link/prefix";
 
 /// The state's key under `prefix`.
 pub fn state_key(prefix: &str) -> String {

@@ -87,16 +87,17 @@ fn open_session(endpoint: &Endpoint, tls: Option<&Tls>) -> Result<zenoh::Session
     let config = crate::zenoh_config("client", std::slice::from_ref(endpoint), false, tls)
         .map_err(|e| IpcError::Remote(e.to_string()))?;
     zenoh::open(config).wait().map_err(|e| {
-        IpcError::Remote(format!(
-            "cannot reach a link at {}: {e} (is `anguilla link --listen {}` running there{}?)",
-            endpoint.text,
-            endpoint.text,
-            if endpoint.tls {
-                ", and are this tool's certificate and the link's from the same CA"
-            } else {
-                ""
-            }
-        ))
+        let why = match tls {
+            // Zenoh says only that it could not connect: a handshake of
+            // our own names the cause.
+            Some(t) if endpoint.tls => crate::diagnose::tls_failure(endpoint, t),
+            _ => format!(
+                "{} (is `anguilla link --listen {}` running there?)",
+                crate::diagnose::without_source_paths(&e.to_string()),
+                endpoint.text
+            ),
+        };
+        IpcError::Remote(format!("cannot reach a link at {}: {why}", endpoint.text))
     })
 }
 
@@ -114,6 +115,22 @@ fn stamp(sync: Option<(Stamp, Instant)>) -> Option<Vec<u8>> {
     )
 }
 
+/// The daemon prefix the link on `session` serves, if it answers within
+/// [`INFO_TIMEOUT`] (older links do not).
+pub fn served_prefix(session: &zenoh::Session) -> Option<String> {
+    let replies = session
+        .get(crate::INFO_KEY)
+        .timeout(INFO_TIMEOUT)
+        .wait()
+        .ok()?;
+    let reply = replies.recv().ok()?;
+    let sample = reply.result().ok()?;
+    String::from_utf8(sample.payload().to_bytes().into_owned()).ok()
+}
+
+/// How long a tool waits for the link to say which prefix it serves.
+const INFO_TIMEOUT: Duration = Duration::from_secs(1);
+
 /// Says hello on `key`, waits for the answer, and records the client id
 /// and the link's epoch and clock in `shared`.
 fn hello(session: &zenoh::Session, key: &str, shared: &Shared) -> Result<(), String> {
@@ -122,9 +139,20 @@ fn hello(session: &zenoh::Session, key: &str, shared: &Shared) -> Result<(), Str
         .timeout(HELLO_TIMEOUT)
         .wait()
         .map_err(|e| e.to_string())?;
-    let reply = replies
-        .recv()
-        .map_err(|_| format!("no link answered within {HELLO_TIMEOUT:?}"))?;
+    let reply = replies.recv().map_err(|_| {
+        let prefix = key.split("/command/").next().unwrap_or(key);
+        match served_prefix(session) {
+            Some(served) if served != prefix => format!(
+                "this link serves the daemon at prefix '{served}', not '{prefix}' \
+                 (give --prefix {served})"
+            ),
+            Some(_) => format!(
+                "the link did not answer the hello within {HELLO_TIMEOUT:?} (does it \
+                 accept commands? `[link] commands`)"
+            ),
+            None => format!("no anguilla link answered within {HELLO_TIMEOUT:?}"),
+        }
+    })?;
     let b = match reply.result() {
         Ok(sample) => sample.payload().to_bytes().into_owned(),
         Err(e) => return Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
@@ -182,6 +210,16 @@ impl RemoteClient {
             return Err(IpcError::BadPrefix(prefix.to_string()));
         }
         let session = open_session(endpoint, tls)?;
+        // A link serving another daemon prefix says so: name both.
+        if let Some(served) = served_prefix(&session)
+            && served != prefix
+        {
+            return Err(IpcError::Remote(format!(
+                "the link at {} serves the daemon at prefix '{served}', not '{prefix}' \
+                 (give --prefix {served})",
+                endpoint.text
+            )));
+        }
         let shared = Arc::new(Shared::default());
         let sh = shared.clone();
         let state = session

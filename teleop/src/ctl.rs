@@ -224,6 +224,15 @@ impl Ctl {
         &self.state
     }
 
+    /// Who holds control now, in words (`ctl (user alice, pid 4242)`);
+    /// `None` when nobody does or the session cannot tell.
+    pub fn holder_text(&self) -> Option<String> {
+        if self.state.holder() == Some(self.client.id()) {
+            return Some("this ctl".into());
+        }
+        self.client.who(self.state.holder()?)
+    }
+
     /// When the state does not come from the process serving commands.
     pub fn provenance_problem(&self) -> Option<String> {
         self.client.provenance_problem()

@@ -28,7 +28,7 @@ pub enum NoPad {
         speed: AbsoluteAxisCode,
     },
     /// The device given cannot be opened (absent, or no permission).
-    #[error("cannot open {}: {kind}", .path.display())]
+    #[error("cannot open {}: {}", .path.display(), open_words(*.kind))]
     CannotOpen {
         /// The device given.
         path: PathBuf,
@@ -46,6 +46,22 @@ pub enum NoPad {
         /// What it lacks, e.g. `BTN_TL button`.
         missing: String,
     },
+}
+
+/// Why an event device did not open, in words with the likely fix
+/// (`std::io::ErrorKind`'s own words are "entity not found").
+fn open_words(kind: std::io::ErrorKind) -> String {
+    match kind {
+        std::io::ErrorKind::NotFound => {
+            "no such device (is the pad plugged in? `ls -l /dev/input/by-id/` lists them)".into()
+        }
+        std::io::ErrorKind::PermissionDenied => {
+            "permission denied (join the group that owns it, usually `input`, or add a udev \
+             rule)"
+                .into()
+        }
+        other => other.to_string(),
+    }
 }
 
 /// Where gamepad inputs come from.

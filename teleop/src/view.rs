@@ -229,11 +229,18 @@ pub fn hold_text(h: &Hold) -> Option<String> {
     (!parts.is_empty()).then(|| parts.join(", "))
 }
 
-/// The name of a snapshot's cause code.
+/// The name of a snapshot's cause code (the JSON token).
 pub fn cause_name(cause: u8) -> &'static str {
     Cause::from_code(cause)
         .map(Cause::name)
         .unwrap_or("unknown")
+}
+
+/// A snapshot's cause code in an operator's words.
+pub fn cause_words(cause: u8) -> &'static str {
+    Cause::from_code(cause)
+        .map(Cause::words)
+        .unwrap_or("unknown cause")
 }
 
 fn mode_style(mode: u8) -> Style {
@@ -346,7 +353,7 @@ fn render_header(frame: &mut Frame, area: Rect, v: &ViewModel, nav: Vec<Line<'st
                 mode_name(s.mode).to_uppercase(),
                 mode_style(s.mode),
             ));
-            spans.push(Span::raw(format!(" ({})", cause_name(s.cause))));
+            spans.push(Span::raw(format!(" ({})", cause_words(s.cause))));
             spans.push(Span::raw("  control: "));
             let holder = match s.holder() {
                 None => "nobody".to_string(),

@@ -97,6 +97,50 @@ fn ctl_drives_a_session_and_says_how_it_ended() {
     assert!(text(&o).contains("done: idle"), "{}", text(&o));
 }
 
+/// `ctl status` in an operator's words: the holder as its tool, user and
+/// pid (not a hex client id); the mode's cause ("since the start", an
+/// operator's E-stop "by an operator's command", not "fault"); and no
+/// iceoryx2 enum names when there is no daemon.
+#[test]
+fn ctl_status_names_the_holder_and_the_cause_in_words() {
+    let _dog = Watchdog::new("ctl-words", Duration::from_secs(120));
+    let prefix = format!("anguilla-ctl/words-{}", std::process::id());
+    let o = ctl(&prefix, &["status"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("its service '{prefix}/state' does not exist")),
+        "{}",
+        text(&o)
+    );
+    assert!(!text(&o).contains("DoesNotExist"), "{}", text(&o));
+    let _d = daemon(&prefix, "words");
+    let o = ctl(&prefix, &["status"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("(since the start)"), "{}", text(&o));
+    // This test's process holds control as a "teleop" tool would.
+    let mut holder = anguilla_system_tests::process::connect(
+        &prefix,
+        &format!("anguilla-teleop-{}", std::process::id()),
+    );
+    anguilla_system_tests::process::ok(&mut holder, anguilla_ipc::Command::TakeControl);
+    let o = ctl(&prefix, &["status"]);
+    let me = std::process::id();
+    assert!(
+        text(&o).contains(&format!("teleop (user root, pid {me})"))
+            || text(&o).contains(&format!("pid {me})")),
+        "{}",
+        text(&o)
+    );
+    assert!(!text(&o).contains("client 0"), "{}", text(&o));
+    anguilla_system_tests::process::ok(&mut holder, anguilla_ipc::Command::EStop);
+    let o = ctl(&prefix, &["status"]);
+    assert!(
+        text(&o).contains("e-stop (by an operator's command)"),
+        "{}",
+        text(&o)
+    );
+}
+
 /// `anguilla monitor --json` streams each state once, at most `--rate`
 /// lines a second, and ends after `--count`; without a daemon it is an
 /// error naming the prefix.
@@ -167,12 +211,15 @@ fn ctl_swims_holding_a_heading_and_a_depth() {
     let swim = Proc::new(anguilla_bin())
         .args(["ctl", "--prefix", &prefix, "swim", "--amplitude", "1"])
         .args(["--frequency", "1", "--heading", &format!("{heading}")])
-        .args(["--depth", &format!("{depth}"), "--for", "25"])
+        .args(["--depth", &format!("{depth}"), "--for", "120"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let reached = poll_until("heading and depth held", Duration::from_secs(40), || {
+    // About 15 s on a quiet machine; a starved one runs the simulated
+    // robot slower than the clock, so the swim lasts until the hold is
+    // reached (at most 100 s), then Ctrl-C ends it as an operator would.
+    let reached = poll_until("heading and depth held", Duration::from_secs(100), || {
         let s = status(&prefix)?;
         let h = s["heading_deg"].as_f64()?;
         let d = s["depth_m"].as_f64()?;
@@ -185,6 +232,8 @@ fn ctl_swims_holding_a_heading_and_a_depth() {
             .map(|t| (t - heading).abs() < 0.01),
         Some(true)
     );
+    // SAFETY: kill sends SIGINT to the child we spawned.
+    unsafe { libc::kill(swim.id() as i32, libc::SIGINT) };
     let out = swim.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
 }

@@ -208,6 +208,36 @@ fn remote_tools_monitor_enable_swim_and_estop_through_the_link() {
     assert!(text(&o).contains("done: idle"), "{}", text(&o));
 }
 
+/// A tool given another prefix than the link serves is told both, at
+/// once (it said "no link answered within 3s" after 0.02 s), for a
+/// command session and a monitor alike, and through the CLI.
+#[test]
+fn a_link_serving_another_prefix_names_both() {
+    let _dog = Watchdog::new("link-prefix", Duration::from_secs(120));
+    let (prefix, ep, _d, _l) = rig("prefix", "");
+    let other = format!("{prefix}-other");
+    for commands in [true, false] {
+        let e = RemoteClient::connect(&other, &ep, None, commands).expect_err("refused");
+        let said = e.to_string();
+        assert!(
+            said.contains(&format!(
+                "serves the daemon at prefix '{prefix}', not '{other}' (give --prefix {prefix})"
+            )),
+            "{said}"
+        );
+    }
+    let o = Proc::new(anguilla_bin())
+        .args(["ctl", "--prefix", &other, "--connect", &ep.text, "status"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("not '{other}' (give --prefix {prefix})")),
+        "{}",
+        text(&o)
+    );
+}
+
 #[test]
 fn two_remote_clients_are_two_clients_for_the_daemon() {
     let _dog = Watchdog::new("link-two", Duration::from_secs(120));
@@ -469,6 +499,15 @@ fn tls_admits_the_robots_operators_only() {
     };
     let e = RemoteClient::connect(&prefix, &ep, Some(&mallory), true).unwrap_err();
     assert!(e.to_string().contains("cannot reach a link"), "{e}");
+    // The cause in words, without Zenoh's source paths.
+    assert!(
+        e.to_string()
+            .contains("the link refused this tool's certificate")
+            || e.to_string()
+                .contains("closed the connection during the TLS handshake"),
+        "{e}"
+    );
+    assert!(!e.to_string().contains(".cargo/registry"), "{e}");
     // No certificate at all: plain TCP to the TLS port.
     let plain = tcp(port);
     assert!(RemoteClient::connect(&prefix, &plain, None, true).is_err());

@@ -19,7 +19,7 @@ use std::time::Duration;
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
 use anguilla_protocol::Family;
 use anguilla_sim::scenario::{Action, NodeFault};
-use anguilla_system_tests::process::{connect, ok, take_control_and_enable, wait_for};
+use anguilla_system_tests::process::{REPLY, connect, ok, take_control_and_enable, wait_for};
 use anguilla_system_tests::{Robot, Watchdog, family_config};
 
 const JOINTS: usize = 6;
@@ -63,9 +63,7 @@ fn swim_then(drive: Family, name: &str, fault: NodeFault, kind: FaultKind) {
     );
     let s = wait_for(&mut client, "Fault", 2.0, |s| s.mode == Mode::Fault as u8);
     // The reset is refused while the cause lasts, naming it.
-    let r = client
-        .request(Command::Reset, Duration::from_secs(5))
-        .expect("reply");
+    let r = client.request(Command::Reset, REPLY).expect("reply");
     assert_eq!(
         r.accepted,
         0,
@@ -84,9 +82,7 @@ fn swim_then(drive: Family, name: &str, fault: NodeFault, kind: FaultKind) {
         r.reason()
     );
     // And enabling again cannot get past it.
-    let r = client
-        .request(Command::Enable, Duration::from_secs(5))
-        .expect("reply");
+    let r = client.request(Command::Enable, REPLY).expect("reply");
     assert_eq!(r.accepted, 0, "{drive}: enable in Fault");
 }
 

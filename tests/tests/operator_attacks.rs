@@ -11,7 +11,8 @@ use std::time::{Duration, Instant};
 use anguilla_ipc::{Client, Command, CommandRequest, FaultKind, Mode, SwimParams};
 use anguilla_system_tests::Watchdog;
 use anguilla_system_tests::process::{
-    Killed, anguilla_bin, connect, iceoryx2_sandbox, node_id_segment, ok, poll_until, wait_for,
+    Killed, REPLY, anguilla_bin, connect, iceoryx2_sandbox, node_id_segment, ok, poll_until,
+    wait_for,
 };
 
 const SWIM: SwimParams = SwimParams {
@@ -95,9 +96,7 @@ fn a_second_client_cannot_forge_its_way_to_control_and_the_holders_estop_goes_th
     .enumerate()
     {
         let seq = u32::MAX - 5 + i as u32;
-        let r = b
-            .request_raw(raw(cmd, seq), Duration::from_secs(5))
-            .unwrap();
+        let r = b.request_raw(raw(cmd, seq), REPLY).unwrap();
         assert_eq!(r.accepted, 0, "{} from the forger was accepted", cmd.name());
         assert!(r.reason().contains("holds control"), "{}", r.reason());
     }
@@ -114,16 +113,12 @@ fn a_second_client_cannot_forge_its_way_to_control_and_the_holders_estop_goes_th
         }),
     );
     // ...and its E-stop goes through, even numbered below one it already used.
-    let r = a
-        .request_raw(raw(Command::EStop, 1), Duration::from_secs(5))
-        .unwrap();
+    let r = a.request_raw(raw(Command::EStop, 1), REPLY).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.reason());
     let s = wait_for(&mut a, "e-stop", 5.0, |s| s.mode == Mode::EStop as u8);
     assert!(s.fault_kinds & FaultKind::OperatorEStop as u32 != 0);
     // The forger cannot reset; the holder can.
-    let r = b
-        .request_raw(raw(Command::Reset, u32::MAX), Duration::from_secs(5))
-        .unwrap();
+    let r = b.request_raw(raw(Command::Reset, u32::MAX), REPLY).unwrap();
     assert_eq!(r.accepted, 0);
     ok(&mut a, Command::Reset);
     wait_for(&mut a, "idle", 5.0, |s| s.mode == Mode::Idle as u8);
@@ -141,11 +136,11 @@ fn a_restarted_client_is_a_new_client_and_its_estop_is_never_refused() {
         let mut c = connect(&prefix, "fixed-tool");
         first_id = c.id();
         let r = c
-            .request_raw(raw(Command::TakeControl, u32::MAX), Duration::from_secs(5))
+            .request_raw(raw(Command::TakeControl, u32::MAX), REPLY)
             .unwrap();
         assert_eq!(r.accepted, 1, "{}", r.reason());
         let r = c
-            .request_raw(raw(Command::Enable, u32::MAX), Duration::from_secs(5))
+            .request_raw(raw(Command::Enable, u32::MAX), REPLY)
             .unwrap();
         assert_eq!(r.accepted, 0, "a duplicate number is refused");
         assert!(r.reason().contains("sequence number"), "{}", r.reason());
@@ -153,9 +148,7 @@ fn a_restarted_client_is_a_new_client_and_its_estop_is_never_refused() {
     let mut c = connect(&prefix, "fixed-tool");
     assert_ne!(c.id(), first_id, "a restarted tool is a new client");
     for seq in [0, 1, 1, u32::MAX, 0] {
-        let r = c
-            .request_raw(raw(Command::EStop, seq), Duration::from_secs(5))
-            .unwrap();
+        let r = c.request_raw(raw(Command::EStop, seq), REPLY).unwrap();
         assert_eq!(
             r.accepted,
             1,

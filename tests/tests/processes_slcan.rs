@@ -8,7 +8,15 @@ use std::process::{Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
 use anguilla_ipc::{Command, Mode, SwimParams};
-use anguilla_system_tests::process::{Killed, anguilla_bin, connect, keep_alive_for, ok, wait_for};
+use anguilla_system_tests::process::{
+    Killed, REPLY, anguilla_bin, connect, keep_alive_for, ok, tracking, wait_for,
+};
+
+/// The daemon and the simulator share this machine's CPU, as the built-in
+/// robot does: its relaxed timeouts (`Config::relax_for_builtin`), so a
+/// starved machine does not fault the nodes' watchdogs (an ODrive's fired
+/// under stress-ng).
+const SHARED_CPU: &str = "[control]\ncommand-timeout = 2\nheartbeat-timeout = 2\nnode-watchdog = 1\nfeedback-timeout = 320\n";
 
 #[test]
 fn daemon_and_simulator_processes_over_an_slcan_pty() {
@@ -19,7 +27,11 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     let (sim, device) = sim_on_pty(&bin);
     let prefix = format!("anguilla-test/slcan-processes-{}", std::process::id());
     let config = std::env::temp_dir().join(format!("anguilla-slcan-{}.toml", std::process::id()));
-    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    std::fs::write(
+        &config,
+        format!("[ipc]\nprefix = \"{prefix}\"\n\n{SHARED_CPU}"),
+    )
+    .unwrap();
     let _daemon = run_on_pty(&bin, &device, &config);
     let mut c = connect(&prefix, "slcan-operator");
     wait_for(&mut c, "the daemon's first state", 15.0, |_| true);
@@ -33,26 +45,15 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
         pitch: 0.0,
     });
     ok(&mut c, swim);
-    // The tail joint swings and its measured angle follows the command:
-    // the median error of 20 states near the swing's peaks (one state
-    // taken while a starved machine stalled a process lags more; 0.086 rad
-    // was seen under stress-ng, against 0.08).
-    let mut errors: Vec<f32> = (0..20)
-        .map(|_| {
-            // Within the command timeout: the swim goes on.
-            ok(&mut c, swim);
-            let s = wait_for(&mut c, "the tail swinging", 10.0, |s| {
-                s.mode == Mode::Swimming as u8 && s.joints[11].commanded_yaw.abs() > 0.15
-            });
-            (s.joints[11].measured_yaw - s.joints[11].commanded_yaw).abs()
-        })
-        .collect();
-    errors.sort_by(f32::total_cmp);
-    let err = errors[errors.len() / 2];
+    wait_for(&mut c, "the tail swinging", 10.0, |s| {
+        s.mode == Mode::Swimming as u8 && s.joints[11].commanded_yaw.abs() > 0.15
+    });
+    // The tail joint follows the command (F1 swings it by ~0.25 rad), at
+    // whatever lag the serial link and a busy machine add.
+    let (err, lag, n) = tracking(&mut c, 11, 2.0, swim);
     assert!(
         err < 0.08,
-        "tail yaw tracking error {err} rad (median; up to {} rad)",
-        errors[errors.len() - 1]
+        "tail yaw tracking error {err} rad RMS at its best lag {lag} ms ({n} states)"
     );
     ok(&mut c, Command::Stop);
     wait_for(&mut c, "ready after the stop", 20.0, |s| {
@@ -92,7 +93,9 @@ fn cia402_and_odrive_robots_over_an_slcan_pty() {
         ));
         std::fs::write(
             &config,
-            format!("[robot]\njoints = 6\ndrive = \"{drive}\"\n\n[ipc]\nprefix = \"{prefix}\"\n"),
+            format!(
+                "[robot]\njoints = 6\ndrive = \"{drive}\"\n\n[ipc]\nprefix = \"{prefix}\"\n\n{SHARED_CPU}"
+            ),
         )
         .unwrap();
         let daemon = run_on_pty(&bin, &device, &config);
@@ -112,22 +115,23 @@ fn cia402_and_odrive_robots_over_an_slcan_pty() {
         wait_for(&mut c, &format!("{drive}: ready"), 10.0, |s| {
             s.mode == Mode::Ready as u8
         });
-        ok(
-            &mut c,
-            Command::Swim(SwimParams {
-                amplitude: 1.0,
-                frequency: 1.0,
-                turn: 0.0,
-                pitch: 0.0,
-            }),
-        );
-        let s = wait_for(&mut c, &format!("{drive}: the tail swinging"), 10.0, |s| {
+        let swim = Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        });
+        ok(&mut c, swim);
+        wait_for(&mut c, &format!("{drive}: the tail swinging"), 10.0, |s| {
             s.mode == Mode::Swimming as u8 && s.joints[5].commanded_yaw.abs() > 0.1
         });
-        let err = (s.joints[5].measured_yaw - s.joints[5].commanded_yaw).abs();
         // As in families.rs: the bound catches a joint that does not follow
-        // or a wrong conversion, not the feedback's one-period lag.
-        assert!(err < 0.15, "{drive}: tail yaw tracking error {err} rad");
+        // or a wrong conversion, not the feedback's lag.
+        let (err, lag, n) = tracking(&mut c, 5, 2.0, swim);
+        assert!(
+            err < 0.08,
+            "{drive}: tail yaw tracking error {err} rad RMS at its best lag {lag} ms ({n} states)"
+        );
         ok(&mut c, Command::Stop);
         wait_for(
             &mut c,
@@ -238,7 +242,7 @@ fn an_unplugged_adapter_is_a_named_fault_until_it_is_back() {
         "named as such: {:#x}",
         s.fault_kinds
     );
-    let r = c.request(Command::Reset, Duration::from_secs(5)).unwrap();
+    let r = c.request(Command::Reset, REPLY).unwrap();
     assert_eq!(r.accepted, 0);
     assert!(r.reason().contains("adapter gone"), "{}", r.reason());
     let (_sim2, device2) = sim_on_pty(&bin);
@@ -248,7 +252,7 @@ fn an_unplugged_adapter_is_a_named_fault_until_it_is_back() {
     // Once every node's heartbeat is back too, a reset clears the fault.
     let end = Instant::now() + Duration::from_secs(15);
     loop {
-        let r = c.request(Command::Reset, Duration::from_secs(5)).unwrap();
+        let r = c.request(Command::Reset, REPLY).unwrap();
         if r.accepted == 1 {
             break;
         }
@@ -278,7 +282,11 @@ fn a_forged_heartbeat_and_a_twin_node_do_not_mask_a_dead_joint_over_slcan() {
     let (sim, device) = sim_on_pty_with(&bin, &["--scenario", scenario.to_str().unwrap()]);
     let prefix = format!("anguilla-test/slcan-spoof-{tag}");
     let config = std::env::temp_dir().join(format!("anguilla-slcan-spoof-{tag}.toml"));
-    std::fs::write(&config, format!("[ipc]\nprefix = \"{prefix}\"\n")).unwrap();
+    std::fs::write(
+        &config,
+        format!("[ipc]\nprefix = \"{prefix}\"\n\n{SHARED_CPU}"),
+    )
+    .unwrap();
     let _daemon = run_on_pty(&bin, &device, &config);
     let mut c = connect(&prefix, "slcan-operator");
     let no_feedback = anguilla_ipc::FaultKind::FeedbackLost as u32;

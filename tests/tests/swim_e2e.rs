@@ -13,6 +13,7 @@ use anguilla_ipc::Client;
 use anguilla_ipc::{Command, Mode, SwimParams};
 use anguilla_protocol::message::Variant;
 use anguilla_sim::robot::{RobotConfig, RunningSim, SimRobot};
+use anguilla_system_tests::process::REPLY;
 
 struct System {
     client: Client,
@@ -54,10 +55,7 @@ impl System {
     }
 
     fn ok(&mut self, cmd: Command) {
-        let r = self
-            .client
-            .request(cmd, Duration::from_secs(5))
-            .expect("reply");
+        let r = self.client.request(cmd, REPLY).expect("reply");
         assert_eq!(r.accepted, 1, "{} refused: {}", cmd.name(), r.reason());
     }
 

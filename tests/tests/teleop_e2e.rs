@@ -13,7 +13,7 @@ use anguilla_system_tests::{Robot, Watchdog};
 use anguilla_teleop::app::{Action, Intent, Limits};
 use anguilla_teleop::operator::{Driver, Operator};
 
-const REPLY: Duration = Duration::from_secs(5);
+use anguilla_system_tests::process::REPLY;
 
 /// Pumps `driver` (its steady 10 Hz sender included) until `cond` holds for
 /// the newest state and the states of the last `window`, or fails after

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
 use anguilla_system_tests::process::{
-    Killed, anguilla_bin, connect, keep_alive_for, ok, spawn_listening, wait_for,
+    Killed, REPLY, anguilla_bin, connect, keep_alive_for, ok, spawn_listening, wait_for,
 };
 
 fn iface() -> String {
@@ -221,9 +221,7 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
             s.mode == Mode::Fault as u8 && s.fault_kinds & FaultKind::BusOff as u32 != 0
         });
         assert_eq!(s.bus.state, 2, "bus-off in the snapshot");
-        let r = client
-            .request(Command::Reset, Duration::from_secs(5))
-            .expect("reply");
+        let r = client.request(Command::Reset, REPLY).expect("reply");
         assert_eq!(r.accepted, 0, "reset while the interface is down");
         assert!(r.reason().contains("bus off"), "{}", r.reason());
         // Down for a while: the driver must not reopen a down interface
