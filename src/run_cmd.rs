@@ -271,15 +271,65 @@ pub struct ExportArgs {
     /// file is replaced).
     #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
     mcap: Option<PathBuf>,
+    /// Instead of writing the MCAP file from state.bin, make DIR's own
+    /// session.mcap complete: a daemon killed mid-recording leaves it
+    /// without summary and index, which indexed readers refuse. Every
+    /// message readable before the cut is kept, on every channel.
+    #[arg(long)]
+    repair: bool,
+}
+
+/// A progress bar on standard error for work of `total` steps, when it is
+/// a terminal (none in pipes, logs and CI); `None` otherwise.
+fn progress_bar(what: &str, total: u64) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal as _;
+    if !std::io::stderr().is_terminal() || total < 2 * anguilla_daemon::replay::PROGRESS_EVERY {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{what} [{{bar:40}}] {{pos}}/{{len}} {{msg}} ({{elapsed}}, {{eta}} left)"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    Some(bar)
+}
+
+/// A progress callback that drives a bar made on the first report.
+fn progress(what: &'static str) -> (impl FnMut(u64, u64), impl FnOnce()) {
+    let bar: std::rc::Rc<std::cell::RefCell<Option<indicatif::ProgressBar>>> = Default::default();
+    let (b, done) = (bar.clone(), bar);
+    let mut made = false;
+    let report = move |n: u64, total: u64| {
+        if !made {
+            made = true;
+            *b.borrow_mut() = progress_bar(what, total);
+        }
+        if let Some(bar) = b.borrow().as_ref() {
+            bar.set_position(n);
+        }
+    };
+    let finish = move || {
+        if let Some(bar) = done.borrow_mut().take() {
+            bar.finish_and_clear();
+        }
+    };
+    (report, finish)
 }
 
 pub fn export(args: ExportArgs) -> anyhow::Result<()> {
+    if args.repair {
+        return repair(args);
+    }
     let out = match &args.mcap {
         Some(p) if !p.as_os_str().is_empty() => p.clone(),
         _ => args.dir.join("session.mcap"),
     };
-    let done = anguilla_daemon::mcap_log::export(&args.dir, &out)
-        .with_context(|| format!("exporting {}", args.dir.display()))?;
+    let (mut report, finish) = progress("exporting");
+    let done = anguilla_daemon::mcap_log::export_with(&args.dir, &out, &mut report);
+    finish();
+    let done = done.with_context(|| format!("exporting {}", args.dir.display()))?;
     outln!(
         "{}: {} snapshots{}",
         out.display(),
@@ -296,9 +346,42 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `export --repair`: DIR/session.mcap made complete, in place (through a
+/// temporary file renamed over it), or written to `--mcap FILE`.
+fn repair(args: ExportArgs) -> anyhow::Result<()> {
+    let input = args.dir.join("session.mcap");
+    let out = match &args.mcap {
+        Some(p) if !p.as_os_str().is_empty() => p.clone(),
+        _ => args.dir.join("session.mcap.repairing"),
+    };
+    let done = anguilla_daemon::mcap_log::repair(&input, &out)
+        .with_context(|| format!("repairing {}", input.display()))?;
+    let written = match &args.mcap {
+        Some(p) if !p.as_os_str().is_empty() => out,
+        _ => {
+            std::fs::rename(&out, &input)
+                .with_context(|| format!("replacing {} by {}", input.display(), out.display()))?;
+            input
+        }
+    };
+    outln!(
+        "{}: {} messages on {} channels, with summary and index{}",
+        written.display(),
+        done.messages,
+        done.channels,
+        match &done.cut {
+            Some(why) => format!(" (the recording was cut there: {why})"),
+            None => " (the file was already whole)".to_string(),
+        }
+    )?;
+    Ok(())
+}
+
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
-    let report = anguilla_daemon::replay::replay(&args.dir)
-        .with_context(|| format!("replaying {}", args.dir.display()))?;
+    let (mut progress, finish) = progress("replaying");
+    let report = anguilla_daemon::replay::replay_with(&args.dir, &mut progress);
+    finish();
+    let report = report.with_context(|| format!("replaying {}", args.dir.display()))?;
     match (&report.mismatch, report.truncated_at) {
         (None, None) => outln!(
             "{}: identical: {} periods, {} frames replayed bit for bit",
@@ -310,7 +393,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
             outln!(
                 "{}: truncated at line {line} (period {}): the {} periods before it match bit \
                  for bit ({} frames); the recording has no end (the daemon was killed, or the \
-                 disk filled)",
+                 disk filled; `anguilla export DIR --repair` makes its session.mcap whole)",
                 args.dir.display(),
                 report.periods + 1,
                 report.periods,

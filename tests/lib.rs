@@ -190,12 +190,13 @@ pub mod process {
 
     /// How well joint `joint`'s measured yaw follows its command while the
     /// robot swims: the states read for `seconds` (resending `keep` every
-    /// 100 ms so the swim goes on), then the RMS of measured(t) −
-    /// commanded(t − L) at the lag L (0..=400 ms) that fits best, pairing
-    /// states by their own clocks. Returns (rms rad, lag ms, pairs). A lag
-    /// (a busy machine, a slow serial link) does not count; a joint that
-    /// does not move (≈ 0.7 × its swing), a sign error (≈ 1.4 ×) or a wrong
-    /// gear does.
+    /// 100 ms so the swim goes on), then the median of |measured(t) −
+    /// commanded(t − L)| at the lag L (0..=250 ms) that fits best, pairing
+    /// states by their own clocks. Returns (median rad, lag ms, pairs). A
+    /// lag (a busy machine, a slow serial link) does not count, nor do the
+    /// few states of a stall; at 1 Hz a joint that does not move gives
+    /// ≈ 0.7 × its swing, a sign error ≥ its swing (the lag window stops
+    /// well short of the half period that would mimic one).
     pub fn tracking(
         client: &mut Client,
         joint: usize,
@@ -219,9 +220,10 @@ pub mod process {
             let _ = client.replies(|_| {});
         }
         let mut best = (f32::INFINITY, 0, 0);
-        for lag_ms in (0..=400u64).step_by(5) {
+        let mut errors: Vec<f32> = Vec::with_capacity(samples.len());
+        for lag_ms in (0..=250u64).step_by(5) {
             let lag = lag_ms * 1_000_000;
-            let (mut sum, mut n) = (0.0f64, 0usize);
+            errors.clear();
             let mut k = 0;
             for &(t, _, measured) in &samples {
                 let Some(want) = t.checked_sub(lag) else {
@@ -234,15 +236,14 @@ pub mod process {
                     k += 1;
                 }
                 if samples[k].0.abs_diff(want) <= 10_000_000 {
-                    let e = f64::from(measured - samples[k].1);
-                    sum += e * e;
-                    n += 1;
+                    errors.push((measured - samples[k].1).abs());
                 }
             }
-            if n >= 20 {
-                let rms = (sum / n as f64).sqrt() as f32;
-                if rms < best.0 {
-                    best = (rms, lag_ms, n);
+            if errors.len() >= 20 {
+                errors.sort_by(f32::total_cmp);
+                let median = errors[errors.len() / 2];
+                if median < best.0 {
+                    best = (median, lag_ms, errors.len());
                 }
             }
         }

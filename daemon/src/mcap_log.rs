@@ -378,6 +378,16 @@ pub struct Exported {
 /// `config.toml` and `state.bin`): the MCAP file of a session recorded
 /// without one, or again.
 pub fn export(dir: &Path, out: &Path) -> io::Result<Exported> {
+    export_with(dir, out, &mut |_, _| {})
+}
+
+/// [`export`], telling `progress(snapshots done, snapshots in all)` every
+/// [`crate::replay::PROGRESS_EVERY`] snapshots and at the end.
+pub fn export_with(
+    dir: &Path,
+    out: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> io::Result<Exported> {
     let named = |what: &str, e: io::Error| io::Error::new(e.kind(), format!("{what}: {e}"));
     let cfg_path = dir.join("config.toml");
     let cfg = Config::load(&cfg_path)
@@ -387,14 +397,19 @@ pub fn export(dir: &Path, out: &Path) -> io::Result<Exported> {
     let size = core::mem::size_of::<StateSnapshot>();
     let mut log = McapLog::create(out, &cfg).map_err(|e| named(&out.display().to_string(), e))?;
     let mut n = 0u64;
+    let total = (bytes.len() / size) as u64;
     for (i, chunk) in bytes.chunks_exact(size).enumerate() {
+        if i as u64 % crate::replay::PROGRESS_EVERY == 0 {
+            progress(i as u64, total);
+        }
         let s = StateSnapshot::from_bytes(chunk)
             .ok_or_else(|| io::Error::from(io::ErrorKind::InvalidData))?;
         if s.layout_version != crate::ipc::LAYOUT_VERSION {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidData,
                 format!(
-                    "{}: snapshot {i} has layout version {} (this anguilla reads {});                      export it with the anguilla that recorded it",
+                    "{}: snapshot {i} has layout version {} (this anguilla reads {}); \
+                     export it with the anguilla that recorded it",
                     states.display(),
                     s.layout_version,
                     crate::ipc::LAYOUT_VERSION
@@ -405,9 +420,93 @@ pub fn export(dir: &Path, out: &Path) -> io::Result<Exported> {
         n += 1;
     }
     log.finish()?;
+    progress(total, total);
     Ok(Exported {
         snapshots: n,
         partial_bytes: bytes.len() % size,
+    })
+}
+
+/// What [`repair`] did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Repaired {
+    /// Messages copied (every one readable before the cut).
+    pub messages: u64,
+    /// Channels copied.
+    pub channels: usize,
+    /// Why reading stopped: `None` when the file was whole.
+    pub cut: Option<String>,
+}
+
+/// Copies the MCAP file `input` into a complete one at `out`: every
+/// message readable in order before the end or the cut (a daemon killed
+/// mid-chunk leaves a file without summary and index, which indexed
+/// readers refuse), on the same channels and schemas, then the summary
+/// and index. Any channel is kept, `/sim/truth` included (which an
+/// [`export`] from `state.bin` cannot give back).
+pub fn repair(input: &Path, out: &Path) -> io::Result<Repaired> {
+    let named =
+        |what: &Path, e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", what.display()));
+    let bytes = std::fs::read(input).map_err(|e| named(input, e))?;
+    let stream = mcap::MessageStream::new(&bytes).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("{}: not an MCAP file ({e})", input.display()),
+        )
+    })?;
+    let file = BufWriter::new(File::create(out).map_err(|e| named(out, e))?);
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .profile("")
+        .create(file)
+        .map_err(err)?;
+    // The input's channel ids to the output's.
+    let mut channels: BTreeMap<u16, u16> = BTreeMap::new();
+    let (mut messages, mut cut) = (0u64, None);
+    for m in stream {
+        let m = match m {
+            Ok(m) => m,
+            Err(e) => {
+                cut = Some(e.to_string());
+                break;
+            }
+        };
+        let id = match channels.get(&m.channel.id) {
+            Some(&id) => id,
+            None => {
+                let schema_id = match &m.channel.schema {
+                    Some(s) => w.add_schema(&s.name, &s.encoding, &s.data).map_err(err)?,
+                    None => 0,
+                };
+                let id = w
+                    .add_channel(
+                        schema_id,
+                        &m.channel.topic,
+                        &m.channel.message_encoding,
+                        &m.channel.metadata,
+                    )
+                    .map_err(err)?;
+                channels.insert(m.channel.id, id);
+                id
+            }
+        };
+        w.write_to_known_channel(
+            &MessageHeader {
+                channel_id: id,
+                sequence: m.sequence,
+                log_time: m.log_time,
+                publish_time: m.publish_time,
+            },
+            &m.data,
+        )
+        .map_err(err)?;
+        messages += 1;
+    }
+    w.finish().map_err(err)?;
+    Ok(Repaired {
+        messages,
+        channels: channels.len(),
+        cut,
     })
 }
 

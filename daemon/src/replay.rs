@@ -128,6 +128,15 @@ fn apply(ctl: &mut Controller, r: &Record) {
 
 /// Replays the recording in `dir` and compares every frame sent.
 pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
+    replay_with(dir, &mut |_, _| {})
+}
+
+/// [`replay`], telling `progress(periods done, periods in all)` every
+/// [`PROGRESS_EVERY`] periods and at the end (for a progress bar).
+pub fn replay_with(
+    dir: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<ReplayReport, ReplayError> {
     let cfg_path = dir.join("config.toml");
     let cfg = Config::load(&cfg_path)?;
     let session::Session {
@@ -188,7 +197,11 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
             }
             report.frames += expected.len();
         };
+    let total = periods.len() as u64;
     for (k, p) in periods.iter().enumerate() {
+        if k as u64 % PROGRESS_EVERY == 0 {
+            progress(k as u64, total);
+        }
         for r in &p.before {
             apply(&mut ctl, r);
         }
@@ -212,5 +225,9 @@ pub fn replay(dir: &Path) -> Result<ReplayReport, ReplayError> {
         ctl.disable_all(&mut bus);
         compare(periods.len(), &end, &bus.tx, &mut report);
     }
+    progress(total, total);
     Ok(report)
 }
+
+/// How many periods (or snapshots) between two progress reports.
+pub const PROGRESS_EVERY: u64 = 1000;

@@ -279,6 +279,21 @@ fn a_writer_that_dies_leaves_every_flushed_chunk_readable() {
     assert!(summary.is_none(), "no summary without a finish");
     assert_eq!(counts.get("/anguilla/state"), Some(&30), "{counts:?}");
     assert!(monotonic);
+    // Repaired: the same messages, with the summary and index indexed
+    // readers need; a whole file is copied as it is.
+    let fixed = dir.join("repaired.mcap");
+    let r = mcap_log::repair(&path, &fixed).unwrap();
+    assert!(r.cut.is_some(), "the cut is reported");
+    let (fixed_counts, fixed_monotonic, fixed_summary) = read(&fixed);
+    assert_eq!(fixed_counts, counts);
+    assert!(fixed_monotonic);
+    let fixed_summary = fixed_summary.expect("a repaired file has a summary");
+    assert_eq!(fixed_summary.channels.len(), r.channels);
+    assert_eq!(r.messages, counts.values().sum::<usize>() as u64);
+    let again = mcap_log::repair(&fixed, &dir.join("again.mcap")).unwrap();
+    assert_eq!((again.messages, again.cut), (r.messages, None));
+    let e = mcap_log::repair(&dir.join("nothing.mcap"), &dir.join("x.mcap")).unwrap_err();
+    assert!(e.to_string().contains("nothing.mcap"), "{e}");
     // A session directory whose state.bin was cut mid-snapshot exports
     // the whole ones, and says how much it left out.
     let size = core::mem::size_of::<anguilla_daemon::ipc::StateSnapshot>();

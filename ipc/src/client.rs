@@ -17,6 +17,10 @@ use crate::vocabulary::Command;
 /// [`MAX_REQUESTS_PER_CLIENT`]); the oldest is given up beyond.
 const MAX_PENDING: usize = MAX_REQUESTS_PER_CLIENT - 1;
 
+/// How long a tool that finds the daemon's services waits for its command
+/// server (the daemon creates them in that order).
+const SERVER_WAIT: Duration = Duration::from_secs(2);
+
 /// A tool's side: reads state, waits for new state, sends commands.
 ///
 /// Each `Client` is one session: its iceoryx2 client port is its identity
@@ -72,6 +76,16 @@ impl Client {
             .notifier_builder()
             .create()
             .map_err(ice("command-ready notifier"))?;
+        // The daemon creates its services before its command server: a
+        // tool that opens in between waits for the server, briefly (a dead
+        // daemon's services have none, and its requests are then refused
+        // at once by `send_request`).
+        let until = std::time::Instant::now() + SERVER_WAIT;
+        while command_service.dynamic_config().number_of_servers() == 0
+            && std::time::Instant::now() < until
+        {
+            std::thread::sleep(Duration::from_millis(10));
+        }
         Ok(Self {
             _node: node,
             subscriber,
@@ -124,6 +138,16 @@ impl Client {
             self.pending.remove(0);
         }
         let pending = self.client.send_copy(req).map_err(ice("send command"))?;
+        // A request no server received would wait for ever: the daemon's
+        // command server is not up (it is starting, or its services are a
+        // dead daemon's). Say so now.
+        if pending.number_of_server_connections() == 0 {
+            return Err(IpcError::NoDaemon {
+                prefix: self.prefix.clone(),
+                detail: "its command server is not up: the daemon is starting or has stopped"
+                    .into(),
+            });
+        }
         self.pending.push(pending);
         self.command_ready
             .notify()

@@ -57,7 +57,7 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
     let (worst, lag, n) = tracking(&mut client, JOINTS - 1, 2.0, forward);
     assert!(
         worst < 0.08,
-        "{drive:?}: tail yaw tracking error {worst} rad RMS at its best lag {lag} ms ({n} states)"
+        "{drive:?}: tail yaw tracking error {worst} rad (median) at its best lag {lag} ms ({n} states)"
     );
     let s = wait_for(&mut client, "a state", 5.0, |_| true);
     assert_eq!(s.mode, Mode::Swimming as u8, "{drive:?}");
@@ -77,7 +77,7 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
     );
     eprintln!(
         "{drive:?}: after 5 s of F1 the simulated robot swims at {:.3} m/s (predicted {:.3}), \
-         tail yaw tracking {worst:.3} rad RMS at {lag} ms",
+         tail yaw tracking {worst:.3} rad (median) at {lag} ms",
         truth.forward_speed, s.predicted_head_speed
     );
     // A smooth stop back to Ready.

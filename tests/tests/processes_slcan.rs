@@ -53,7 +53,7 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     let (err, lag, n) = tracking(&mut c, 11, 2.0, swim);
     assert!(
         err < 0.08,
-        "tail yaw tracking error {err} rad RMS at its best lag {lag} ms ({n} states)"
+        "tail yaw tracking error {err} rad (median) at its best lag {lag} ms ({n} states)"
     );
     ok(&mut c, Command::Stop);
     wait_for(&mut c, "ready after the stop", 20.0, |s| {
@@ -130,7 +130,7 @@ fn cia402_and_odrive_robots_over_an_slcan_pty() {
         let (err, lag, n) = tracking(&mut c, 5, 2.0, swim);
         assert!(
             err < 0.08,
-            "{drive}: tail yaw tracking error {err} rad RMS at its best lag {lag} ms ({n} states)"
+            "{drive}: tail yaw tracking error {err} rad (median) at its best lag {lag} ms ({n} states)"
         );
         ok(&mut c, Command::Stop);
         wait_for(
