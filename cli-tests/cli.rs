@@ -1121,3 +1121,85 @@ fn the_builtin_robot_keeps_timeouts_that_were_set() {
     assert!(err.contains("control.heartbeat-timeout = 2"), "{err}");
     assert!(!err.contains("head sensor is node"), "{err}");
 }
+
+/// The completion scripts come from the command line's definition: every
+/// shell's names the subcommands and their flags (down to `ctl swim
+/// --heading`), and an unknown shell is a usage error listing the known.
+#[test]
+fn completions_name_the_subcommands_and_their_flags() {
+    let (ok, bash, err) = run(&["completions", "bash"]);
+    assert!(ok, "{err}");
+    assert!(bash.contains("_anguilla()"), "a bash function: {bash}");
+    assert!(bash.contains("complete -F _anguilla"), "registered: {bash}");
+    for word in ["ctl", "--heading", "--depth", "swim", "estop", "man"] {
+        assert!(bash.contains(word), "bash completion lacks {word}");
+    }
+    for shell in ["zsh", "fish", "elvish", "powershell"] {
+        let (ok, script, err) = run(&["completions", shell]);
+        assert!(ok, "{shell}: {err}");
+        assert!(
+            script.contains("heading") && script.contains("ctl"),
+            "{shell} completion lacks ctl swim --heading: {script}"
+        );
+    }
+    let (ok, _, err) = run(&["completions", "tcsh"]);
+    assert!(!ok);
+    assert!(err.contains("tcsh") && err.contains("bash"), "{err}");
+}
+
+/// `anguilla man DIR` writes one roff page per subcommand, named as man(1)
+/// looks them up, each listed on stdout.
+#[test]
+fn man_writes_a_page_per_subcommand() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-man-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (ok, out, err) = run(&["man", dir.join("man1").to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let dir = dir.join("man1");
+    let listed: Vec<&str> = out.lines().collect();
+    let mut pages: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    pages.sort();
+    assert_eq!(listed.len(), pages.len(), "{out}");
+    for page in [
+        "anguilla.1",
+        "anguilla-run.1",
+        "anguilla-config-check.1",
+        "anguilla-ctl-swim.1",
+        "anguilla-teleop.1",
+        "anguilla-completions.1",
+        "anguilla-man.1",
+    ] {
+        assert!(pages.iter().any(|p| p == page), "{page} missing: {pages:?}");
+    }
+    #[cfg(feature = "remote")]
+    assert!(
+        pages.iter().any(|p| p == "anguilla-link-certs.1"),
+        "{pages:?}"
+    );
+    #[cfg(feature = "foxglove")]
+    assert!(
+        pages.iter().any(|p| p == "anguilla-foxglove.1"),
+        "{pages:?}"
+    );
+    // No page for clap's `help` subcommand.
+    assert!(!pages.iter().any(|p| p.contains("help")), "{pages:?}");
+    let run_page = std::fs::read_to_string(dir.join("anguilla-run.1")).unwrap();
+    let version = env!("CARGO_PKG_VERSION");
+    assert!(
+        run_page.contains(&format!(".TH anguilla-run 1  \"anguilla {version}\"")),
+        "{run_page}"
+    );
+    // roff writes a flag's hyphens as \-.
+    assert!(run_page.contains("\\-\\-bus"), "{run_page}");
+    let swim_page = std::fs::read_to_string(dir.join("anguilla-ctl-swim.1")).unwrap();
+    assert!(swim_page.contains("\\-\\-heading"), "{swim_page}");
+    let top = std::fs::read_to_string(dir.join("anguilla.1")).unwrap();
+    assert!(
+        top.contains(".SH SUBCOMMANDS") && top.contains("anguilla\\-ctl(1)"),
+        "{top}"
+    );
+    let _ = std::fs::remove_dir_all(dir.parent().unwrap());
+}

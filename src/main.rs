@@ -10,6 +10,7 @@ mod dump_cmd;
 mod foxglove_cmd;
 #[cfg(feature = "remote")]
 mod link_cmd;
+mod manual_cmd;
 mod output;
 mod protocol_cmd;
 mod run_cmd;
@@ -17,7 +18,7 @@ mod signals;
 mod sim_cmd;
 mod teleop_cmd;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory as _, Parser, Subcommand};
 
 mod swim;
 
@@ -88,6 +89,13 @@ enum Command {
     /// One operator command per call, for scripts: status, estop, enable,
     /// disable, reset, stop, swim (exit 0 done, 1 refused, 2 no daemon).
     Ctl(ctl_cmd::CtlArgs),
+    /// Print the shell completion script for bash, zsh, fish, elvish or
+    /// powershell (e.g. `anguilla completions bash >
+    /// ~/.local/share/bash-completion/completions/anguilla`).
+    Completions(manual_cmd::CompletionsArgs),
+    /// Write the man pages, one per subcommand (anguilla.1, anguilla-run.1,
+    /// ...), into a directory (e.g. `anguilla man /usr/local/share/man/man1`).
+    Man(manual_cmd::ManArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -132,6 +140,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Joy(args) => teleop_cmd::joy(args),
         Command::Monitor(args) => teleop_cmd::monitor(args),
         Command::Ctl(args) => ctl_cmd::run(args),
+        Command::Completions(args) => manual_cmd::completions(&args, Cli::command()),
+        Command::Man(args) => manual_cmd::man(&args, Cli::command()),
         #[cfg(feature = "foxglove")]
         Command::Foxglove(args) => foxglove_cmd::run(args),
         #[cfg(not(feature = "foxglove"))]

@@ -400,8 +400,9 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 
-    /// README.md and model/README.md show `anguilla swim --paper`'s table
-    /// between their paper-table markers; `ANGUILLA_BLESS=1` rewrites both.
+    /// docs/architecture.md and model/README.md show `anguilla swim
+    /// --paper`'s table between their paper-table markers;
+    /// `ANGUILLA_BLESS=1` rewrites both.
     #[test]
     fn the_readmes_show_the_paper_table() {
         use clap::Parser as _;
@@ -411,7 +412,7 @@ mod tests {
         };
         let block = format!("```text\n{}\n```\n", paper_table(&args).unwrap());
         let (begin, end) = ("<!-- paper-table:begin -->\n", "<!-- paper-table:end -->");
-        for readme in ["README.md", "model/README.md"] {
+        for readme in ["docs/architecture.md", "model/README.md"] {
             let path = format!("{}/{readme}", env!("CARGO_MANIFEST_DIR"));
             let text = std::fs::read_to_string(&path).unwrap();
             let (head, rest) = text.split_once(begin).expect("paper-table:begin marker");

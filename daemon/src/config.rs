@@ -1620,11 +1620,11 @@ mod tests {
     }
 
     #[test]
-    fn the_readme_shows_the_default() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
-        let readme = std::fs::read_to_string(path).unwrap();
+    fn docs_configuration_shows_the_default() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/configuration.md");
+        let page = std::fs::read_to_string(path).unwrap();
         let (begin, end) = ("<!-- config:begin -->\n", "<!-- config:end -->");
-        let (head, rest) = readme.split_once(begin).expect("config:begin marker");
+        let (head, rest) = page.split_once(begin).expect("config:begin marker");
         let (current, tail) = rest.split_once(end).expect("config:end marker");
         let block = format!("```toml\n{}```\n", default_toml());
         if std::env::var_os("ANGUILLA_BLESS").is_some() {
@@ -1633,7 +1633,7 @@ mod tests {
         }
         assert_eq!(
             current, block,
-            "README.md's configuration block is out of date: rerun with ANGUILLA_BLESS=1"
+            "docs/configuration.md's block is out of date: rerun with ANGUILLA_BLESS=1"
         );
     }
 

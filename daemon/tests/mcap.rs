@@ -350,6 +350,15 @@ fn the_readme_picture_is_the_scene() {
     assert!(links[0].centre.x < 0.0 && links[0].centre.x > -0.1);
     let svg = log.body_svg(s);
     assert_eq!(svg.matches("<ellipse").count(), 2 * links.len());
+    fits(&svg);
+    // A body bent far more than any gait bends it still fits: every joint
+    // at 0.6 rad of yaw (the body curls past a half circle) and 0.4 rad of
+    // pitch.
+    let mut curled = *s;
+    for j in curled.joints.iter_mut() {
+        (j.measured_yaw, j.measured_pitch) = (0.6, 0.4);
+    }
+    fits(&log.body_svg(&curled));
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/body.svg");
     if std::env::var_os("ANGUILLA_BLESS").is_some() {
         std::fs::write(path, &svg).unwrap();
@@ -360,4 +369,57 @@ fn the_readme_picture_is_the_scene() {
         "docs/body.svg is out of date: rerun with ANGUILLA_BLESS=1"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The numbers of `attr="..."` in an SVG element's text, in order.
+fn numbers(element: &str, attr: &str) -> Vec<f64> {
+    let value = element
+        .split(&format!(" {attr}=\""))
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .unwrap_or_else(|| panic!("no {attr} in {element}"));
+    value
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .filter(|t| !t.is_empty())
+        .map(|t| t.parse().unwrap())
+        .collect()
+}
+
+/// Every ellipse of `svg` lies inside its viewBox and clear of every label
+/// (a label's box: its baseline less the font size to 4 px below it, 8 px
+/// a character wide, wider than sans-serif 13 px draws them).
+fn fits(svg: &str) {
+    let view = numbers(svg.lines().next().unwrap(), "viewBox");
+    let (w, h) = (view[2], view[3]);
+    let labels: Vec<[f64; 4]> = svg
+        .lines()
+        .filter(|l| l.starts_with("<text"))
+        .map(|l| {
+            let (x, y, size) = (
+                numbers(l, "x")[0],
+                numbers(l, "y")[0],
+                numbers(l, "font-size")[0],
+            );
+            let text = l.split('>').nth(1).unwrap().trim_end_matches("</text");
+            [x, y - size, x + 8.0 * text.chars().count() as f64, y + 4.0]
+        })
+        .collect();
+    assert_eq!(labels.len(), 2, "{svg}");
+    for l in svg.lines().filter(|l| l.starts_with("<ellipse")) {
+        let (cx, cy) = (numbers(l, "cx")[0], numbers(l, "cy")[0]);
+        let (rx, ry) = (numbers(l, "rx")[0], numbers(l, "ry")[0]);
+        let angle = numbers(l, "transform")[0].to_radians();
+        // The rotated ellipse's bounding box (0.1 px: the file's rounding).
+        let hx = (rx * angle.cos()).hypot(ry * angle.sin()) - 0.1;
+        let hy = (rx * angle.sin()).hypot(ry * angle.cos()) - 0.1;
+        let b = [cx - hx, cy - hy, cx + hx, cy + hy];
+        assert!(
+            b[0] >= 0.0 && b[1] >= 0.0 && b[2] <= w && b[3] <= h,
+            "{l} leaves the {w}×{h} picture"
+        );
+        for t in &labels {
+            let apart = b[2] < t[0] || t[2] < b[0] || b[3] < t[1] || t[3] < b[1];
+            assert!(apart, "{l} covers the label at {t:?}");
+        }
+    }
 }

@@ -695,7 +695,7 @@ fn render_plots(frame: &mut Frame, area: Rect, h: &History) {
 }
 
 /// The text of a rendered buffer, one line per row, trailing spaces
-/// trimmed (for tests and the README's screenshot).
+/// trimmed (for tests and the screenshot in docs/operating.md).
 pub fn buffer_text(buf: &ratatui::buffer::Buffer) -> String {
     let a = buf.area;
     let mut out = String::new();
@@ -710,7 +710,7 @@ pub fn buffer_text(buf: &ratatui::buffer::Buffer) -> String {
     out
 }
 
-/// A snapshot of a robot swimming and turning, for tests and the README.
+/// A snapshot of a robot swimming and turning, for tests and the docs.
 pub fn sample_snapshot() -> StateSnapshot {
     let mut s = StateSnapshot {
         joint_count: 12,
@@ -1007,26 +1007,27 @@ mod tests {
     }
 
     /// Replaces the text between `<!-- {tag}:begin -->` and `<!-- {tag}:end -->`
-    /// in the README with `generated`, or checks it is already there.
-    fn check_readme_block(tag: &str, generated: &str) {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
-        let doc = std::fs::read_to_string(path).unwrap();
+    /// in `file` (from the repository's root) with `generated`, or checks it
+    /// is already there.
+    fn check_doc_block(file: &str, tag: &str, generated: &str) {
+        let path = format!("{}/../{file}", env!("CARGO_MANIFEST_DIR"));
+        let doc = std::fs::read_to_string(&path).unwrap();
         let begin = format!("<!-- {tag}:begin -->\n");
         let end = format!("<!-- {tag}:end -->");
         let (head, rest) = doc.split_once(&begin).expect("begin marker");
         let (current, tail) = rest.split_once(&end).expect("end marker");
         if std::env::var_os("ANGUILLA_BLESS").is_some() {
-            std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
+            std::fs::write(&path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
             return;
         }
         assert_eq!(
             current, generated,
-            "README.md's {tag} is out of date: rerun this test with ANGUILLA_BLESS=1"
+            "{file}'s {tag} is out of date: rerun this test with ANGUILLA_BLESS=1"
         );
     }
 
     #[test]
-    fn readme_screenshot_and_keys_are_current() {
+    fn docs_screenshot_and_readme_keys_are_current() {
         let s = sample_snapshot();
         let mut i = Intent::new(Limits::default());
         for _ in 0..6 {
@@ -1041,12 +1042,16 @@ mod tests {
         let mut v = teleop_view(Some(&s), &i, Some(&r));
         v.status = "prefix 'anguilla' · you hold control: sending your command at 10 Hz";
         let text = draw(100, 30, &v);
-        check_readme_block("teleop-screenshot", &format!("```text\n{text}```\n"));
+        check_doc_block(
+            "docs/operating.md",
+            "teleop-screenshot",
+            &format!("```text\n{text}```\n"),
+        );
         let keys: String = KEYS
             .iter()
             .map(|(k, _, long)| format!("| `{k}` | {long} |\n"))
             .collect();
-        check_readme_block("teleop-keys", &keys);
+        check_doc_block("README.md", "teleop-keys", &keys);
     }
 
     #[test]

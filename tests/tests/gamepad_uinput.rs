@@ -367,7 +367,7 @@ fn mode_path(states: &[StateSnapshot]) -> Vec<Mode> {
 
 /// The amplitude joy asks for with the speed stick at `raw` (of
 /// -32768..=32767, pushed forward is negative): the inverted position
-/// with the default 0.15 deadzone cut out, as the README's mapping table
+/// with the default 0.15 deadzone cut out, as docs/operating.md's mapping table
 /// describes it. Written out here rather than with joy's functions.
 fn amplitude_at(raw: i32) -> f64 {
     let x = -(2.0 * (raw as f64 + 32768.0) / 65535.0 - 1.0);
