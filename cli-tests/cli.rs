@@ -522,6 +522,36 @@ fn sighup_stops_the_daemon_smoothly() {
         rest.iter().any(|l| l.starts_with("stopped in mode idle")),
         "a clean stop: {rest:?}"
     );
+    // The signal is logged, with what it does.
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(err.contains("SIGHUP received: stopping"), "{err}");
+}
+
+/// Ctrl-C while a tool waits for the daemon is the user's own stop: exit
+/// 130 (the shell's code for SIGINT), no error message.
+#[test]
+fn ctrl_c_while_waiting_for_the_daemon_exits_130_quietly() {
+    let prefix = format!("anguilla-cli/ctrl-c-{}", std::process::id());
+    let mut child = anguilla()
+        .args(["link", "--prefix", &prefix])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // It says that it waits, then waits.
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    while !line.contains("waiting for the daemon") {
+        line.clear();
+        assert!(err.read_line(&mut line).unwrap() > 0, "link ended: {line}");
+    }
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    assert_eq!(status.code(), Some(130), "{rest}");
+    assert!(!rest.contains("Error"), "{rest}");
 }
 
 #[test]

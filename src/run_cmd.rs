@@ -129,7 +129,18 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     let mut next_truth_ns = 0;
     // Status lines never touch the loop: a failing stdout only ends them.
     let mut out = crate::output::Status::default();
+    let mut signal_logged = false;
     while !running.is_finished() {
+        if let Some(sig) = crate::signals::received()
+            && !signal_logged
+        {
+            signal_logged = true;
+            tracing::info!(
+                "{} received: stopping (a swim ramps down, the actuators are disabled, the \
+                 recording is finished)",
+                crate::signals::name(sig)
+            );
+        }
         if crate::signals::requested()
             || args
                 .duration

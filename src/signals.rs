@@ -23,6 +23,16 @@ extern "C" fn on_signal(sig: libc::c_int) {
     REQUESTED.store(true, Ordering::SeqCst);
 }
 
+/// A stop signal's name.
+pub fn name(sig: i32) -> &'static str {
+    match sig {
+        libc::SIGINT => "SIGINT",
+        libc::SIGTERM => "SIGTERM",
+        libc::SIGHUP => "SIGHUP",
+        _ => "a signal",
+    }
+}
+
 /// The stop signal received, if any (its number).
 pub fn received() -> Option<i32> {
     Some(SIGNAL.load(Ordering::SeqCst)).filter(|&s| s != 0)

@@ -31,10 +31,39 @@ impl Watchdog {
         std::thread::spawn(move || {
             if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = rx.recv_timeout(limit) {
                 eprintln!("watchdog: test '{name}' still running after {limit:?}: aborting");
+                // An abort runs no destructor: the daemons and tools this
+                // process started would outlive it (and load the rest of
+                // the run). Kill them first.
+                kill_children();
                 std::process::abort();
             }
         });
         Self { done: Some(tx) }
+    }
+}
+
+/// Kills (SIGKILL) every process whose parent is this one, as /proc
+/// lists them.
+fn kill_children() {
+    let me = std::process::id().to_string();
+    let Ok(dir) = std::fs::read_dir("/proc") else {
+        return;
+    };
+    for e in dir.flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        // /proc/PID/stat: "pid (comm) state ppid ..."; comm may hold spaces.
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().nth(1));
+        if ppid == Some(me.as_str()) {
+            // SAFETY: kill has no memory effects.
+            unsafe { libc::kill(pid, libc::SIGKILL) };
+        }
     }
 }
 

@@ -481,7 +481,7 @@ pub fn export_with(
     let mut n = 0u64;
     let total = (bytes.len() / size) as u64;
     for (i, chunk) in bytes.chunks_exact(size).enumerate() {
-        if i as u64 % crate::replay::PROGRESS_EVERY == 0 {
+        if (i as u64).is_multiple_of(crate::replay::PROGRESS_EVERY) {
             progress(i as u64, total);
         }
         let s = StateSnapshot::from_bytes(chunk)

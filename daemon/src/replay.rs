@@ -199,7 +199,7 @@ pub fn replay_with(
         };
     let total = periods.len() as u64;
     for (k, p) in periods.iter().enumerate() {
-        if k as u64 % PROGRESS_EVERY == 0 {
+        if (k as u64).is_multiple_of(PROGRESS_EVERY) {
             progress(k as u64, total);
         }
         for r in &p.before {

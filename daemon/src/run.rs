@@ -542,41 +542,43 @@ struct OverloadLog {
 }
 
 impl OverloadLog {
-    fn overran(&mut self, now: std::time::Instant, skipped: u64) {
+    /// An overrun that skipped `skipped` periods at `now`: the line to
+    /// log, if one is due.
+    fn overran(&mut self, now: std::time::Instant, skipped: u64) -> Option<String> {
         self.missed += skipped;
         self.overruns += 1;
         if self.last_line.is_none() {
-            tracing::warn!(
+            self.last_line = Some(now);
+            (self.missed, self.overruns) = (0, 0);
+            Some(format!(
                 "machine overloaded: the control loop missed {skipped} period(s); \
                  other work is taking its CPU (on a robot, give the loop a core and \
                  a real-time priority: [realtime] cpu, fifo-priority)"
-            );
-            self.last_line = Some(now);
-            (self.missed, self.overruns) = (0, 0);
+            ))
         } else {
-            self.tick(now);
+            self.tick(now)
         }
     }
 
-    fn tick(&mut self, now: std::time::Instant) {
-        let Some(t) = self.last_line else { return };
+    /// Time passing: the summary line, if one is due.
+    fn tick(&mut self, now: std::time::Instant) -> Option<String> {
+        let t = self.last_line?;
         if now.duration_since(t) < OVERLOAD_LOG_INTERVAL {
-            return;
+            return None;
         }
-        if self.overruns > 0 {
-            tracing::warn!(
+        let line = (self.overruns > 0).then(|| {
+            format!(
                 "machine overloaded: the control loop missed {} period(s) in {} overrun(s) \
                  in the last {:.0} s",
                 self.missed,
                 self.overruns,
                 now.duration_since(t).as_secs_f64()
-            );
-            self.last_line = Some(now);
-        } else {
-            // A quiet interval: the next overrun is news again.
-            self.last_line = None;
-        }
+            )
+        });
+        // A quiet interval makes the next overrun news again.
+        self.last_line = line.is_some().then_some(now);
         (self.missed, self.overruns) = (0, 0);
+        line
     }
 }
 
@@ -596,7 +598,9 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
         if refusals.due(now) {
             refusals.flush(now);
         }
-        overload.tick(now);
+        if let Some(line) = overload.tick(now) {
+            tracing::warn!("{line}");
+        }
         match ev {
             None => {}
             Some(Event::Mode {
@@ -626,7 +630,11 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
             Some(Event::Bus { state }) => {
                 tracing::warn!("bus {bus_spec}: {}", ipc::bus_state_name(state))
             }
-            Some(Event::Overrun { skipped }) => overload.overran(now, skipped),
+            Some(Event::Overrun { skipped }) => {
+                if let Some(line) = overload.overran(now, skipped) {
+                    tracing::warn!("{line}")
+                }
+            }
             Some(Event::NodeErrors {
                 joints,
                 code,
@@ -1121,6 +1129,34 @@ fn control_loop(
 
 #[cfg(test)]
 mod tests {
+    /// The first overrun is told at once with what to do, the next ones
+    /// counted every 5 s while they last; after a quiet interval an
+    /// overrun is news again.
+    #[test]
+    fn an_overloaded_machine_is_told_once_then_counted() {
+        let t0 = std::time::Instant::now();
+        let s = |secs: f64| t0 + std::time::Duration::from_secs_f64(secs);
+        let mut log = super::OverloadLog::default();
+        let first = log.overran(s(0.0), 3).expect("the first is told");
+        assert!(
+            first.starts_with("machine overloaded: the control loop missed 3 period(s)"),
+            "{first}"
+        );
+        assert!(first.contains("[realtime] cpu, fifo-priority"), "{first}");
+        assert_eq!(log.overran(s(1.0), 2), None);
+        assert_eq!(log.overran(s(2.0), 4), None);
+        assert_eq!(log.tick(s(4.0)), None);
+        let summary = log.tick(s(5.5)).expect("a summary after 5 s");
+        assert_eq!(
+            summary,
+            "machine overloaded: the control loop missed 6 period(s) in 2 overrun(s) in the last 6 s"
+        );
+        // Quiet for 5 s: nothing, and the next overrun is news.
+        assert_eq!(log.tick(s(11.0)), None);
+        let again = log.overran(s(12.0), 1).expect("news again");
+        assert!(again.contains("other work is taking its CPU"), "{again}");
+    }
+
     #[test]
     fn joints_are_listed_as_ranges() {
         assert_eq!(super::joint_list(1 << 2), "joint 3");
