@@ -116,7 +116,7 @@ fn stamp(sync: Option<(Stamp, Instant)>) -> Option<Vec<u8>> {
 }
 
 /// The daemon prefix the link on `session` serves, if it answers within
-/// [`INFO_TIMEOUT`] (older links do not).
+/// `INFO_TIMEOUT` (1 s; older links do not answer).
 pub fn served_prefix(session: &zenoh::Session) -> Option<String> {
     let replies = session
         .get(crate::INFO_KEY)
