@@ -57,13 +57,13 @@ impl Decoder {
     fn decode(&self, f: &anguilla_protocol::Frame) -> String {
         let shown = match self.family {
             Family::Anguilla => message::decode(f, self.variant, NodeSet::all())
-                .map(|m| format!("{m:?}"))
+                .map(|m| crate::plain::plain(&format!("{m:?}")))
                 .map_err(|e| e.to_string()),
             Family::Cia402 => anguilla_protocol::canopen::decode(f)
-                .map(|m| format!("{m:?}"))
+                .map(|m| crate::plain::plain(&format!("{m:?}")))
                 .map_err(|e| e.to_string()),
             Family::Odrive => anguilla_protocol::odrive::decode(f)
-                .map(|m| format!("{m:?}"))
+                .map(|m| crate::plain::plain(&format!("{m:?}")))
                 .map_err(|e| e.to_string()),
         };
         match shown {

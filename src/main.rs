@@ -12,6 +12,7 @@ mod foxglove_cmd;
 mod link_cmd;
 mod manual_cmd;
 mod output;
+mod plain;
 mod protocol_cmd;
 mod run_cmd;
 mod signals;
