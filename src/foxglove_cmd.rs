@@ -380,21 +380,10 @@ mod tests {
     #[test]
     fn docs_data_md_has_the_reply_table() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/data.md");
-        let doc = std::fs::read_to_string(path).unwrap();
-        let (begin, end) = (
-            "<!-- command_reply:begin -->\n",
-            "<!-- command_reply:end -->",
-        );
-        let (head, rest) = doc.split_once(begin).expect("begin marker");
-        let (current, tail) = rest.split_once(end).expect("end marker");
-        let generated = table(&reply_schema());
-        if std::env::var_os("ANGUILLA_BLESS").is_some() {
-            std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
-            return;
-        }
-        assert_eq!(
-            current, generated,
-            "docs/data.md is out of date: rerun this test with ANGUILLA_BLESS=1"
+        anguilla_testkit::generated_block(
+            std::path::Path::new(path),
+            "command_reply",
+            &table(&reply_schema()),
         );
     }
 }

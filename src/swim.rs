@@ -411,20 +411,9 @@ mod tests {
             panic!("`anguilla swim --paper` parses as swim")
         };
         let block = format!("```text\n{}\n```\n", paper_table(&args).unwrap());
-        let (begin, end) = ("<!-- paper-table:begin -->\n", "<!-- paper-table:end -->");
-        for readme in ["docs/architecture.md", "model/README.md"] {
-            let path = format!("{}/{readme}", env!("CARGO_MANIFEST_DIR"));
-            let text = std::fs::read_to_string(&path).unwrap();
-            let (head, rest) = text.split_once(begin).expect("paper-table:begin marker");
-            let (current, tail) = rest.split_once(end).expect("paper-table:end marker");
-            if std::env::var_os("ANGUILLA_BLESS").is_some() {
-                std::fs::write(&path, format!("{head}{begin}{block}{end}{tail}")).unwrap();
-                continue;
-            }
-            assert_eq!(
-                current, block,
-                "{readme}'s paper table is not what `anguilla swim --paper` prints: rerun with ANGUILLA_BLESS=1"
-            );
+        for page in ["docs/architecture.md", "model/README.md"] {
+            let path = format!("{}/{page}", env!("CARGO_MANIFEST_DIR"));
+            anguilla_testkit::generated_block(std::path::Path::new(&path), "paper-table", &block);
         }
     }
 

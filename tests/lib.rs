@@ -369,6 +369,14 @@ pub mod process {
             })
     }
 
+    /// The paper's gait F1 (full amplitude, 1 Hz), straight ahead.
+    pub const F1: Command = Command::Swim(anguilla_ipc::SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.0,
+        pitch: 0.0,
+    });
+
     /// The deadline of a command's reply: only a daemon that hangs reaches
     /// it (a starved machine has taken over 5 s to answer).
     pub const REPLY: Duration = Duration::from_secs(30);

@@ -1622,19 +1622,8 @@ mod tests {
     #[test]
     fn docs_configuration_shows_the_default() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/configuration.md");
-        let page = std::fs::read_to_string(path).unwrap();
-        let (begin, end) = ("<!-- config:begin -->\n", "<!-- config:end -->");
-        let (head, rest) = page.split_once(begin).expect("config:begin marker");
-        let (current, tail) = rest.split_once(end).expect("config:end marker");
         let block = format!("```toml\n{}```\n", default_toml());
-        if std::env::var_os("ANGUILLA_BLESS").is_some() {
-            std::fs::write(path, format!("{head}{begin}{block}{end}{tail}")).unwrap();
-            return;
-        }
-        assert_eq!(
-            current, block,
-            "docs/configuration.md's block is out of date: rerun with ANGUILLA_BLESS=1"
-        );
+        anguilla_testkit::generated_block(std::path::Path::new(path), "config", &block);
     }
 
     #[test]

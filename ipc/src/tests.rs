@@ -132,21 +132,7 @@ fn docs_match_the_generated_codes() {
 /// `generated` (rewritten with ANGUILLA_BLESS=1).
 fn docs_section_is(name: &str, generated: &str) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/ipc.md");
-    let doc = std::fs::read_to_string(path).unwrap();
-    let (begin, end) = (
-        format!("<!-- {name}:begin -->\n"),
-        format!("<!-- {name}:end -->"),
-    );
-    let (head, rest) = doc.split_once(&begin).expect("begin marker");
-    let (current, tail) = rest.split_once(&end).expect("end marker");
-    if std::env::var_os("ANGUILLA_BLESS").is_some() {
-        std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
-        return;
-    }
-    assert_eq!(
-        current, generated,
-        "docs/ipc.md is out of date: rerun this test with ANGUILLA_BLESS=1"
-    );
+    anguilla_testkit::generated_block(std::path::Path::new(path), name, generated);
 }
 
 /// A unique prefix per test so parallel tests do not share services.

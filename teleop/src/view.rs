@@ -1006,24 +1006,11 @@ mod tests {
         assert!((bent[4].1 + other[4].1).abs() < 1e-12);
     }
 
-    /// Replaces the text between `<!-- {tag}:begin -->` and `<!-- {tag}:end -->`
-    /// in `file` (from the repository's root) with `generated`, or checks it
-    /// is already there.
+    /// The part `tag` of `file` (from the repository's root) is `generated`
+    /// (`anguilla_testkit::generated_block`).
     fn check_doc_block(file: &str, tag: &str, generated: &str) {
         let path = format!("{}/../{file}", env!("CARGO_MANIFEST_DIR"));
-        let doc = std::fs::read_to_string(&path).unwrap();
-        let begin = format!("<!-- {tag}:begin -->\n");
-        let end = format!("<!-- {tag}:end -->");
-        let (head, rest) = doc.split_once(&begin).expect("begin marker");
-        let (current, tail) = rest.split_once(&end).expect("end marker");
-        if std::env::var_os("ANGUILLA_BLESS").is_some() {
-            std::fs::write(&path, format!("{head}{begin}{generated}{end}{tail}")).unwrap();
-            return;
-        }
-        assert_eq!(
-            current, generated,
-            "{file}'s {tag} is out of date: rerun this test with ANGUILLA_BLESS=1"
-        );
+        anguilla_testkit::generated_block(std::path::Path::new(&path), tag, generated);
     }
 
     #[test]

@@ -97,6 +97,35 @@ pub fn watched_calls() -> u64 {
     WATCHED_CALLS.load(Ordering::SeqCst)
 }
 
+/// Keeps a generated part of a document current: the text of the file at
+/// `path` between `<!-- TAG:begin -->` (and its newline) and `<!--
+/// TAG:end -->` must be `generated`. With `ANGUILLA_BLESS` set it is
+/// written there instead. Panics naming the file and the tag when the part
+/// differs or a marker is missing.
+pub fn generated_block(path: &std::path::Path, tag: &str, generated: &str) {
+    let shown = path.display();
+    let doc = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{shown}: {e}"));
+    let (begin, end) = (
+        format!("<!-- {tag}:begin -->\n"),
+        format!("<!-- {tag}:end -->"),
+    );
+    let (head, rest) = doc
+        .split_once(&begin)
+        .unwrap_or_else(|| panic!("{shown} has no `<!-- {tag}:begin -->` line"));
+    let (current, tail) = rest
+        .split_once(&end)
+        .unwrap_or_else(|| panic!("{shown} has no `<!-- {tag}:end -->` after its begin"));
+    if std::env::var_os("ANGUILLA_BLESS").is_some() {
+        std::fs::write(path, format!("{head}{begin}{generated}{end}{tail}"))
+            .unwrap_or_else(|e| panic!("{shown}: {e}"));
+        return;
+    }
+    assert_eq!(
+        current, generated,
+        "{shown}'s {tag} is out of date: rerun this test with ANGUILLA_BLESS=1"
+    );
+}
+
 #[cfg(test)]
 mod tests {
     #[global_allocator]

@@ -10,11 +10,11 @@
 use std::time::Duration;
 
 use anguilla_daemon::config::Config;
-use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
+use anguilla_ipc::{Command, FaultKind, Mode};
 use anguilla_protocol::Family;
 use anguilla_system_tests::Robot;
 use anguilla_system_tests::Watchdog;
-use anguilla_system_tests::process::{connect, keep_alive_for, ok, tracking, wait_for};
+use anguilla_system_tests::process::{F1, connect, keep_alive_for, ok, tracking, wait_for};
 
 const JOINTS: usize = 6;
 
@@ -39,12 +39,7 @@ fn swims_stops_and_estops(drive: Family, name: &str) {
             .all(|j| j.node_alive == 1 && j.node_state == DISABLED)
     });
     anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
-    let forward = Command::Swim(SwimParams {
-        amplitude: 1.0,
-        frequency: 1.0,
-        turn: 0.0,
-        pitch: 0.0,
-    });
+    let forward = F1;
     ok(&mut client, forward);
     keep_alive_for(&mut client, 3.0, |_| {});
     // The joints follow their setpoints, and the measured angles the

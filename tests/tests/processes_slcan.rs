@@ -7,9 +7,9 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
-use anguilla_ipc::{Command, Mode, SwimParams};
+use anguilla_ipc::{Command, Mode};
 use anguilla_system_tests::process::{
-    Killed, REPLY, anguilla_bin, connect, keep_alive_for, ok, tracking, wait_for,
+    F1, Killed, REPLY, anguilla_bin, connect, keep_alive_for, ok, tracking, wait_for,
 };
 
 /// The daemon and the simulator share this machine's CPU, as the built-in
@@ -38,12 +38,7 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     ok(&mut c, Command::TakeControl);
     ok(&mut c, Command::Enable);
     wait_for(&mut c, "ready", 10.0, |s| s.mode == Mode::Ready as u8);
-    let swim = Command::Swim(SwimParams {
-        amplitude: 1.0,
-        frequency: 1.0,
-        turn: 0.0,
-        pitch: 0.0,
-    });
+    let swim = F1;
     ok(&mut c, swim);
     wait_for(&mut c, "the tail swinging", 10.0, |s| {
         s.mode == Mode::Swimming as u8 && s.joints[11].commanded_yaw.abs() > 0.15
@@ -115,12 +110,7 @@ fn cia402_and_odrive_robots_over_an_slcan_pty() {
         wait_for(&mut c, &format!("{drive}: ready"), 10.0, |s| {
             s.mode == Mode::Ready as u8
         });
-        let swim = Command::Swim(SwimParams {
-            amplitude: 1.0,
-            frequency: 1.0,
-            turn: 0.0,
-            pitch: 0.0,
-        });
+        let swim = F1;
         ok(&mut c, swim);
         wait_for(&mut c, &format!("{drive}: the tail swinging"), 10.0, |s| {
             s.mode == Mode::Swimming as u8 && s.joints[5].commanded_yaw.abs() > 0.1
