@@ -152,7 +152,7 @@ fn fields_into(out: &mut Vec<String>, prefix: &str, fields: &[(String, Value)]) 
             Value::Struct(name, inner) => Some((name, inner)),
             _ => None,
         };
-        match named.map_or(Err(unwrap(v)), Ok) {
+        match named.ok_or(unwrap(v)) {
             Ok((name, inner)) => {
                 // An enum's variant (`sdo: Download { … }`) says what the
                 // fields are: kept; a type named as its field is not.
