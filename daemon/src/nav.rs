@@ -35,7 +35,7 @@
 //! Nothing here allocates after [`Nav::new`].
 
 use anguilla_ipc::{NavSnapshot, SensorHealth};
-use anguilla_model::{HeadState, depth_at_pressure, forward_axes};
+use anguilla_model::{HeadState, body_axis, depth_at_pressure, forward_axes};
 use anguilla_protocol::Frame;
 use anguilla_protocol::message::{
     self, Function, HeadSample, Message, NodeId, NodeSet, SensorErrors, SensorStatus, Variant,
@@ -81,18 +81,10 @@ impl Prediction {
     /// positions from the nose, in the model's head frame).
     pub fn of(head: &HeadState, shape: &[Vector3<f64>]) -> Self {
         let inv = head.orientation.inverse();
-        let centroid = if shape.is_empty() {
-            Vector3::x()
-        } else {
-            shape.iter().sum::<Vector3<f64>>() / shape.len() as f64
-        };
-        let forward = forward_axes(-centroid)
-            .try_normalize(1e-9)
-            .unwrap_or_else(Vector3::x);
         Self {
             rates: forward_axes(inv * head.omega),
             velocity: forward_axes(inv * head.velocity),
-            forward,
+            forward: forward_axes(body_axis(shape)),
         }
     }
 

@@ -182,6 +182,10 @@ fn ground_truth_goes_to_its_own_channel() {
     let estimate = state["nav"]["heading_deg"]
         .as_f64()
         .expect("the estimate's heading in the state");
+    // The estimate follows the simulated fusion IMU (0.005 rad of attitude
+    // noise, about 0.3°) through the same body axis; 5° still catches the
+    // conventions this channel is for: the head's yaw instead of the
+    // body's (it swings by 10° and more), or the tail-first axis (180°).
     let diff = ((truth - estimate + 540.0).rem_euclid(360.0) - 180.0).abs();
     assert!(
         diff < 5.0,

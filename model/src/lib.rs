@@ -52,8 +52,8 @@ pub use body::{Body, GRAVITY, Profile, TYPICAL_BALLAST, depth_at_pressure, press
 pub use current::{Current, MAX_CURRENT};
 pub use dynamics::{
     DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,
-    ModelConfig, StepReport, Workspace, evaluate, forward_axes, forward_turn, inverse_with,
-    posture, step,
+    ModelConfig, StepReport, Workspace, body_axis, evaluate, forward_axes, forward_turn,
+    inverse_with, posture, step,
 };
 pub use error::{ModelError, Result};
 pub use gait::{

@@ -693,13 +693,7 @@ impl SimRobot {
         t.angular_velocity = [h.omega.x, h.omega.y, h.omega.z];
         t.forward_speed = -h.v1();
         t.yaw = h.yaw();
-        let shape = self.plant.shape();
-        let centroid = if shape.is_empty() {
-            nalgebra::Vector3::x()
-        } else {
-            shape.iter().sum::<nalgebra::Vector3<f64>>() / shape.len() as f64
-        };
-        let forward = h.orientation * -centroid;
+        let forward = h.orientation * anguilla_model::body_axis(self.plant.shape());
         t.heading = if forward.x.hypot(forward.y) > 1e-12 {
             forward.y.atan2(forward.x)
         } else {

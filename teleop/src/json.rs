@@ -223,17 +223,12 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             None => Err(format!("{name} needs a number \"{k}\"")),
         }
     };
-    let simple = [
-        Command::Enable,
-        Command::Disable,
-        Command::Stop,
-        Command::EStop,
-        Command::Reset,
-        Command::TakeControl,
-        Command::ReleaseControl,
-        Command::KeepAlive,
-    ];
-    if let Some(c) = simple.iter().find(|c| c.name() == name) {
+    // The commands without parameters, from the vocabulary's own table.
+    if let Some(c) = Command::ALL
+        .iter()
+        .filter(|c| !matches!(c, Command::Swim(_) | Command::Hold(_)))
+        .find(|c| c.name() == name)
+    {
         return Ok(*c);
     }
     match name {

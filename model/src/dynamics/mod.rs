@@ -103,6 +103,21 @@ pub fn forward_turn() -> UnitQuaternion<f64> {
     UnitQuaternion::from_axis_angle(&Vector3::z_axis(), core::f64::consts::PI)
 }
 
+/// The body's mean axis in the model's head frame `(t1, t2, t3)`: the unit
+/// direction from the centroid of `shape` (node positions from the nose,
+/// [`Workspace::shape`]) to the nose. The head swings with every tail
+/// beat; this axis is what the body's heading follows. A straight body
+/// gives `−t1`, as does an empty or degenerate shape.
+pub fn body_axis(shape: &[Vector3<f64>]) -> Vector3<f64> {
+    if shape.is_empty() {
+        return -Vector3::x();
+    }
+    let centroid = shape.iter().sum::<Vector3<f64>>() / shape.len() as f64;
+    (-centroid)
+        .try_normalize(1e-9)
+        .unwrap_or_else(|| -Vector3::x())
+}
+
 /// A vector of the model's head frame in the forward frame
 /// ([`forward_turn`]): `(−x, −y, z)`, exactly. The turn is its own inverse.
 pub fn forward_axes(v: Vector3<f64>) -> Vector3<f64> {
@@ -208,5 +223,28 @@ fn check(v: &Vector3<f64>, quantity: &'static str, time: f64) -> Result<()> {
         Ok(())
     } else {
         Err(ModelError::NonFinite { quantity, time })
+    }
+}
+
+#[cfg(test)]
+mod body_axis_tests {
+    use super::*;
+
+    /// Straight along t1, the body points to −t1 (head first); bent to +y
+    /// behind the head, the axis turns away from the bend; an empty shape
+    /// is straight.
+    #[test]
+    fn the_body_axis_points_from_the_centroid_to_the_nose() {
+        let straight: Vec<_> = (1..=4)
+            .map(|i| Vector3::new(0.1 * f64::from(i), 0.0, 0.0))
+            .collect();
+        assert!((body_axis(&straight) + Vector3::x()).norm() < 1e-12);
+        let bent: Vec<_> = (1..=4)
+            .map(|i| Vector3::new(0.1 * f64::from(i), 0.02 * f64::from(i), 0.0))
+            .collect();
+        let a = body_axis(&bent);
+        assert!((a.norm() - 1.0).abs() < 1e-12);
+        assert!(a.x < 0.0 && a.y < 0.0, "{a}");
+        assert_eq!(body_axis(&[]), -Vector3::x());
     }
 }
