@@ -26,6 +26,16 @@ pub trait CurvatureSource {
     fn advance(&mut self, dt: f64);
     /// Current time of the source (s).
     fn time(&self) -> f64;
+    /// Whether the curvature is a law of the source's time alone:
+    /// `curvature(tau)` before `advance(dt)` equals `curvature(tau - dt)`
+    /// after it, and nothing else changes it. The model then keeps a
+    /// step's last shape (at `tau = dt`) as the next step's first instead
+    /// of integrating it again. `false` by default (always integrated):
+    /// sources whose parameters a caller changes between steps, or that
+    /// follow measurements, must keep it.
+    fn is_law_of_time(&self) -> bool {
+        false
+    }
 }
 
 /// `sin, cos` of `a0 + slope * x[i]` for every `x[i]`, by the angle-addition
@@ -372,6 +382,9 @@ impl CurvatureSource for LawSource {
     }
     fn time(&self) -> f64 {
         self.t
+    }
+    fn is_law_of_time(&self) -> bool {
+        true
     }
 }
 

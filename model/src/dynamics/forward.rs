@@ -60,6 +60,10 @@ pub(super) fn forward_head(
     let rho = model.body.rho_fluid;
     let nu = model.body.nu;
     let len = model.body.length;
+    // The head inertia `I_o` depends on the shape alone: assembled and
+    // factored once per shape (RK4's two mid-step stages share one, and a
+    // step's last stage the next step's first; see `kinematics::shape`).
+    let assemble = ws.inertia.is_none();
     let mut a_vv = Matrix3::zeros();
     let mut a_wv = Matrix3::zeros();
     let mut a_ww = Matrix3::zeros();
@@ -128,32 +132,35 @@ pub(super) fn forward_head(
         ws.bf[i] = bf;
         ws.bt[i] = bt;
         let wi = model.w[i];
-        // R diag(m) R^T = m1 I + (m2 - m1) t2 t2^T + (m3 - m1) t3 t3^T
-        let t2 = q.column(1).into_owned();
-        let t3 = q.column(2).into_owned();
-        let sym = |m: &Vector3<f64>| {
-            let mut a = t2 * (t2.transpose() * (m.y - m.x)) + t3 * (t3.transpose() * (m.z - m.x));
-            a[(0, 0)] += m.x;
-            a[(1, 1)] += m.x;
-            a[(2, 2)] += m.x;
-            a
-        };
-        let mmh = sym(&mm);
-        let mih = sym(&mi);
-        // p^ M column by column, then (p^ M) p^ row by row (r^T p^ = (r x p)^T)
-        let pm = Matrix3::from_columns(&[
-            p.cross(&mmh.column(0).into_owned()),
-            p.cross(&mmh.column(1).into_owned()),
-            p.cross(&mmh.column(2).into_owned()),
-        ]);
-        let pmp = Matrix3::from_rows(&[
-            pm.row(0).transpose().cross(&p).transpose(),
-            pm.row(1).transpose().cross(&p).transpose(),
-            pm.row(2).transpose().cross(&p).transpose(),
-        ]);
-        a_vv += mmh * wi;
-        a_wv += pm * wi;
-        a_ww += (mih - pmp) * wi;
+        if assemble {
+            // R diag(m) R^T = m1 I + (m2 - m1) t2 t2^T + (m3 - m1) t3 t3^T
+            let t2 = q.column(1).into_owned();
+            let t3 = q.column(2).into_owned();
+            let sym = |m: &Vector3<f64>| {
+                let mut a =
+                    t2 * (t2.transpose() * (m.y - m.x)) + t3 * (t3.transpose() * (m.z - m.x));
+                a[(0, 0)] += m.x;
+                a[(1, 1)] += m.x;
+                a[(2, 2)] += m.x;
+                a
+            };
+            let mmh = sym(&mm);
+            let mih = sym(&mi);
+            // p^ M column by column, then (p^ M) p^ row by row (r^T p^ = (r x p)^T)
+            let pm = Matrix3::from_columns(&[
+                p.cross(&mmh.column(0).into_owned()),
+                p.cross(&mmh.column(1).into_owned()),
+                p.cross(&mmh.column(2).into_owned()),
+            ]);
+            let pmp = Matrix3::from_rows(&[
+                pm.row(0).transpose().cross(&p).transpose(),
+                pm.row(1).transpose().cross(&p).transpose(),
+                pm.row(2).transpose().cross(&p).transpose(),
+            ]);
+            a_vv += mmh * wi;
+            a_wv += pm * wi;
+            a_ww += (mih - pmp) * wi;
+        }
         let bfh = q * bf;
         rhs_f -= bfh * wi;
         rhs_t -= (q * bt + p.cross(&bfh)) * wi;
@@ -178,12 +185,18 @@ pub(super) fn forward_head(
     if flow.accelerating {
         rhs_f.x += model.m_o * flow.u_dot.x;
     }
-    a_vv[(0, 0)] += model.m_o;
-    let mut a = Matrix6::zeros();
-    a.fixed_view_mut::<3, 3>(0, 0).copy_from(&a_ww);
-    a.fixed_view_mut::<3, 3>(0, 3).copy_from(&a_wv);
-    a.fixed_view_mut::<3, 3>(3, 0).copy_from(&a_wv.transpose());
-    a.fixed_view_mut::<3, 3>(3, 3).copy_from(&a_vv);
+    if assemble {
+        a_vv[(0, 0)] += model.m_o;
+        let mut a = Matrix6::zeros();
+        a.fixed_view_mut::<3, 3>(0, 0).copy_from(&a_ww);
+        a.fixed_view_mut::<3, 3>(0, 3).copy_from(&a_wv);
+        a.fixed_view_mut::<3, 3>(3, 0).copy_from(&a_wv.transpose());
+        a.fixed_view_mut::<3, 3>(3, 3).copy_from(&a_vv);
+        ws.inertia = Some(
+            a.cholesky()
+                .ok_or(ModelError::SingularInertia { time: t })?,
+        );
+    }
     let rhs = Vector6::new(rhs_t.x, rhs_t.y, rhs_t.z, rhs_f.x, rhs_f.y, rhs_f.z);
     if !rhs.iter().all(|v| v.is_finite()) {
         return Err(ModelError::NonFinite {
@@ -191,9 +204,9 @@ pub(super) fn forward_head(
             time: t,
         });
     }
-    let chol = a
-        .cholesky()
-        .ok_or(ModelError::SingularInertia { time: t })?;
+    let Some(chol) = &ws.inertia else {
+        return Err(ModelError::SingularInertia { time: t });
+    };
     let u = chol.solve(&rhs);
     Ok((
         Vector3::new(u[0], u[1], u[2]),

@@ -20,9 +20,20 @@ pub fn evaluate<S: CurvatureSource + ?Sized>(
     src: &S,
     head: &HeadState,
 ) -> Result<StepReport> {
+    ws.shape_tau = None;
+    ws.shape_carry = None;
+    evaluate_held(model, ws, src, head)
+}
+
+/// [`evaluate`] on the shape the workspace holds for `tau = 0`, if any.
+fn evaluate_held<S: CurvatureSource + ?Sized>(
+    model: &Model,
+    ws: &mut Workspace,
+    src: &S,
+    head: &HeadState,
+) -> Result<StepReport> {
     let rot = head.orientation.to_rotation_matrix().into_inner();
     let rt = rot.transpose();
-    ws.shape_tau = None;
     shape(model, ws, src, 0.0);
     let flow = Flow::at(&ws.current, head.t, &rt);
     let (wd, vd) = forward_head(
@@ -72,8 +83,13 @@ pub fn step<S: CurvatureSource + ?Sized>(
     src: &mut S,
     head: &mut HeadState,
 ) -> Result<StepReport> {
-    let report = evaluate(model, ws, src, head)?;
     let dt = model.dt;
+    // The last step's final shape is this step's first when the source is
+    // a law of time and has not moved since (bit for bit the same: the
+    // source's time `t + dt` before its advance is `t` after it).
+    let carried = ws.shape_carry.take() == Some(src.time()) && src.is_law_of_time();
+    ws.shape_tau = if carried { Some(0.0) } else { None };
+    let report = evaluate_held(model, ws, src, head)?;
     let t = head.t;
     let q0 = *head.orientation.quaternion();
     let qdot = |q: &Quaternion<f64>, w: &Vector3<f64>| Quaternion::from_parts(0.0, *w) * q * 0.5;
@@ -128,6 +144,7 @@ pub fn step<S: CurvatureSource + ?Sized>(
             )
         }
     };
+    let ends_on_dt = ws.shape_tau == Some(dt);
     ws.shape_tau = None;
     let t_new = t + dt;
     check(&pos, "head position", t_new)?;
@@ -156,5 +173,6 @@ pub fn step<S: CurvatureSource + ?Sized>(
     head.orientation = UnitQuaternion::from_quaternion(q);
     head.t = t_new;
     src.advance(dt);
+    ws.shape_carry = (ends_on_dt && src.is_law_of_time()).then(|| src.time());
     Ok(report)
 }

@@ -62,6 +62,7 @@ impl Kin {
 /// and acceleration fields. The head twist is superposed afterwards (see
 /// [`forward_head`](super::forward::forward_head)), so one pass serves every time stage at the same instant.
 pub(super) fn kinematics(model: &Model, ws: &mut Workspace) {
+    ws.inertia = None;
     let h = model.h;
     let mut y = Kin {
         q: Matrix3::identity(),
@@ -148,6 +149,7 @@ pub fn posture<'a, S: CurvatureSource + ?Sized>(
     src: &S,
 ) -> &'a [JointState] {
     ws.shape_tau = None;
+    ws.shape_carry = None;
     shape(model, ws, src, 0.0);
     ws.shape_tau = None;
     joints(model, ws);

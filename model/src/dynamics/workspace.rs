@@ -5,7 +5,7 @@ use super::JointState;
 use super::model::Model;
 use crate::current::Current;
 use crate::gait::Curvature;
-use nalgebra::{Matrix3, Vector3, Vector6};
+use nalgebra::{Cholesky, Const, Matrix3, Vector3, Vector6};
 
 /// Preallocated per-node buffers; a step writes here and allocates nothing.
 #[derive(Debug, Clone)]
@@ -19,7 +19,14 @@ pub struct Workspace {
     pub(super) ve: Vec<Vector3<f64>>,
     pub(super) al: Vec<Vector3<f64>>,
     pub(super) ac: Vec<Vector3<f64>>,
+    /// The curvature time (relative to the source's) of the shape held.
     pub(super) shape_tau: Option<f64>,
+    /// The source's time at which the shape held is its shape at `tau = 0`
+    /// (set by a step that ended on it; see `kinematics::shape`).
+    pub(super) shape_carry: Option<f64>,
+    /// The head inertia `I_o` (29) of the shape held, factored; `None`
+    /// after the shape changed.
+    pub(super) inertia: Option<Cholesky<f64, Const<6>>>,
     pub(super) om_loc: Vec<Vector3<f64>>,
     pub(super) v_loc: Vec<Vector3<f64>>,
     pub(super) bf: Vec<Vector3<f64>>,
@@ -52,6 +59,8 @@ impl Workspace {
             we: z.clone(),
             ve: z.clone(),
             shape_tau: None,
+            shape_carry: None,
+            inertia: None,
             al: z.clone(),
             ac: z.clone(),
             om_loc: z.clone(),
