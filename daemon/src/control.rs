@@ -155,7 +155,8 @@ pub struct Controller {
 }
 
 /// The control period (ns) for `cfg`: 1 / [`Config::control_rate`] (a
-/// validated configuration always has one; 100 Hz otherwise).
+/// validated configuration always has one, and [`crate::run::spawn`]
+/// refuses one without; 100 Hz otherwise).
 pub fn period_ns(cfg: &Config) -> Nanos {
     let rate = cfg.control_rate().unwrap_or(100.0);
     Nanos::from_nanos((1e9 / rate).ceil() as u64)

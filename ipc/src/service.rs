@@ -555,12 +555,14 @@ impl CommandServer {
     /// Blocks until a client announces a request on `command-ready`, or
     /// `timeout` passes (requests from clients that do not announce them
     /// are still taken by the next [`CommandServer::take`]). However many
-    /// notifications arrived, one call consumes them all.
-    pub fn wait(&self, timeout: Duration) -> Result<(), IpcError> {
+    /// notifications arrived, one call consumes them all. Returns whether
+    /// any had arrived (`false`: the timeout passed).
+    pub fn wait(&self, timeout: Duration) -> Result<bool, IpcError> {
+        let mut notified = false;
         self.listener
-            .timed_wait(|_| {}, timeout)
+            .timed_wait(|_| notified = true, timeout)
             .map_err(ice("wait for commands"))?;
-        Ok(())
+        Ok(notified)
     }
 
     /// The oldest request not yet taken, if any, with who sent it.
