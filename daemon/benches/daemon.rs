@@ -304,7 +304,7 @@ use raw::Raw;
 /// thread's SCHED_FIFO priority (the daemon's p − 1), or `None` for
 /// SCHED_OTHER. The stand-in for the loop stays SCHED_OTHER, like the raw
 /// publisher.
-fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
+fn ours_latency(prefix: &str, fifo: Option<u8>, cpu: Option<usize>, samples: usize) -> Vec<u64> {
     let (tx, rx) = std::sync::mpsc::channel::<u64>();
     let stop = Arc::new(AtomicBool::new(false));
     let p = prefix.to_owned();
@@ -313,6 +313,7 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     let (state_tx, state_rx) = crossbeam_channel::bounded::<StateSnapshot>(4);
     let rt = anguilla_daemon::rt::RtRequest {
         fifo_priority: fifo,
+        cpu,
         ..Default::default()
     };
     let state = std::thread::spawn(move || run::state_thread(&p, rt, state_rx, ready_tx));
@@ -329,6 +330,11 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     });
     up_rx.recv().unwrap();
     let publisher = std::thread::spawn(move || {
+        // The stand-in for the loop on the state thread's CPU, if pinned.
+        let _ = anguilla_daemon::rt::apply(&anguilla_daemon::rt::RtRequest {
+            cpu,
+            ..Default::default()
+        });
         let mut snap = StateSnapshot::default();
         while !s2.load(Ordering::Relaxed) {
             snap.time_ns = monotonic_ns();
@@ -356,12 +362,53 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, samples: usize) -> Vec<u64> {
     ours
 }
 
+/// The alternative the loop cannot take: the stand-in for the loop
+/// publishes itself (no hand-off), which allocates (an `Arc` per loaned
+/// sample in iceoryx2 0.10; `ipc/tests/publish_alloc.rs` counts it).
+fn direct_latency(prefix: &str, samples: usize) -> Vec<u64> {
+    let (tx, rx) = std::sync::mpsc::channel::<u64>();
+    let stop = Arc::new(AtomicBool::new(false));
+    let s2 = stop.clone();
+    let p = prefix.to_owned();
+    let (up_tx, up_rx) = std::sync::mpsc::channel();
+    let publisher = std::thread::spawn(move || {
+        let publisher = anguilla_daemon::ipc::service::StatePublisher::new(&p).unwrap();
+        let _server = anguilla_daemon::ipc::CommandServer::new(&p).unwrap();
+        up_tx.send(()).unwrap();
+        let mut snap = StateSnapshot::default();
+        while !s2.load(Ordering::Relaxed) {
+            snap.time_ns = monotonic_ns();
+            let _ = publisher.publish(&snap);
+            let _ = rx.recv_timeout(Duration::from_millis(100));
+        }
+    });
+    up_rx.recv().unwrap();
+    let client = Client::new(prefix, "bench-sub").unwrap();
+    let mut out = Vec::with_capacity(samples);
+    std::thread::sleep(Duration::from_millis(200));
+    let _ = client.latest();
+    while out.len() < samples {
+        let _ = tx.send(0);
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(200)) {
+            out.push(monotonic_ns() - s.time_ns);
+        }
+    }
+    stop.store(true, Ordering::SeqCst);
+    let _ = tx.send(0);
+    let _ = publisher.join();
+    out.sort_unstable();
+    out
+}
+
 fn state_latency_bench(samples: usize) {
     use iceoryx2::prelude::*;
     let prefix = format!("anguilla-bench-ipc/{}", std::process::id());
     // As the daemon runs it under a loop at priority 2, and at SCHED_OTHER.
-    let ours = ours_latency(&format!("{prefix}/fifo"), Some(1), samples);
-    let other = ours_latency(&format!("{prefix}/other"), None, samples);
+    let ours = ours_latency(&format!("{prefix}/fifo"), Some(1), None, samples);
+    let other = ours_latency(&format!("{prefix}/other"), None, None, samples);
+    // The state thread on the loop's CPU: woken without crossing CPUs.
+    let pinned = ours_latency(&format!("{prefix}/pinned"), Some(1), Some(1), samples);
+    let direct = direct_latency(&format!("{prefix}/direct"), samples);
 
     // Raw iceoryx2: the same pattern with a payload of the same size.
     let node = NodeBuilder::new().create::<ipc::Service>().unwrap();
@@ -437,7 +484,7 @@ fn state_latency_bench(samples: usize) {
         "{{\"bench\":\"state_latency\",\"payload_bytes\":{},\"samples\":{samples},\
 \"ours_fifo1_p50_us\":{:.2},\"ours_fifo1_p99_us\":{:.2},\"ours_other_p50_us\":{:.2},\"ours_other_p99_us\":{:.2},\
 \"iceoryx2_p50_us\":{:.2},\"iceoryx2_p99_us\":{:.2},\"fifo1_p50_ratio\":{:.2},\"fifo1_p99_ratio\":{:.2},\
-\"other_p50_ratio\":{:.2},\"other_p99_ratio\":{:.2},\"goal_ratio\":1.2}}",
+\"other_p50_ratio\":{:.2},\"other_p99_ratio\":{:.2},\"fifo1_same_cpu_p50_us\":{:.2},\"fifo1_same_cpu_p50_ratio\":{:.2},\"direct_p50_us\":{:.2},\"direct_p50_ratio\":{:.2},\"goal_ratio\":1.2}}",
         core::mem::size_of::<StateSnapshot>(),
         us(&ours, 0.5),
         us(&ours, 0.99),
@@ -449,6 +496,10 @@ fn state_latency_bench(samples: usize) {
         ratio(&ours, 0.99),
         ratio(&other, 0.5),
         ratio(&other, 0.99),
+        us(&pinned, 0.5),
+        ratio(&pinned, 0.5),
+        us(&direct, 0.5),
+        ratio(&direct, 0.5),
     );
 }
 
