@@ -30,6 +30,7 @@
 //! assert!(report.conforms());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 use std::fmt;

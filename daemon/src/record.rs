@@ -3,7 +3,7 @@
 //! While recording (`recording.dir`), the controller hands every input and
 //! output of every period to the recorder thread through a bounded channel
 //! that never blocks (a full channel drops the record and counts it). The
-//! recorder writes four files into a fresh directory, flushed and synced to
+//! recorder writes five files into a fresh directory, flushed and synced to
 //! the disk every [`SYNC_INTERVAL`] and at the end (a recording that ends
 //! early, the disk full or the daemon killed, replays as truncated):
 //!

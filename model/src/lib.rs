@@ -38,6 +38,7 @@
 //! assert!(joint.yaw.is_finite() && joint.c3.is_finite());
 //! # Ok::<(), anguilla_model::ModelError>(())
 //! ```
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod body;

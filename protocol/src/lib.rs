@@ -31,6 +31,7 @@
 //! assert_eq!(decode(&sync, Variant::Classic, NodeSet::first(12))?, Message::Sync { counter: 7 });
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod behaviour;

@@ -59,6 +59,7 @@ pub mod actuator;
 pub mod builtin;
 pub mod cia402;
 pub mod device;
+pub mod error;
 pub mod node;
 pub mod odrive;
 pub mod plant;

@@ -65,9 +65,9 @@ use anguilla_protocol::odrive::{
 
 use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive};
 use crate::device::JointDevice;
+use crate::error::SimError;
 use crate::node::{Nanos, NodeCounters, SERVO_DT, SERVO_DT_NS};
 use crate::rng::Rng;
-use crate::robot::SimError;
 
 /// Period of the cyclic `Heartbeat` (`axis.config.can.heartbeat_msg_rate_ms`
 /// default).

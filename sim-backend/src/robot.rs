@@ -23,7 +23,7 @@ use std::time::Duration;
 
 use anguilla_drivers::mem::{MemBus, MemParticipant, ParticipantId};
 use anguilla_drivers::{Bus, BusState, Clock, Frame, Received, TimestampBase};
-use anguilla_model::{Current, HeadState, ModelError};
+use anguilla_model::{Current, HeadState};
 use anguilla_protocol::Family;
 use anguilla_protocol::frame::MAX_STANDARD_ID;
 use anguilla_protocol::message::{ErrorBits, FIRST_UNUSED_ID, NodeId, NodeState, Variant};
@@ -37,41 +37,7 @@ use crate::rng::Rng;
 use crate::scenario::{Action, BusFault, JointFault, NodeFault, Scenario};
 use crate::sensor::{HeadSensor, HeadTruth, SensorConfig};
 
-/// Errors of building or running a simulated robot.
-#[derive(Debug, thiserror::Error)]
-pub enum SimError {
-    /// A configuration value is out of range.
-    #[error("invalid simulation setting {field}: {reason}")]
-    Config {
-        /// The setting.
-        field: &'static str,
-        /// What is accepted.
-        reason: String,
-    },
-    /// The body model refused its configuration.
-    #[error("body model: {0}")]
-    Model(#[from] ModelError),
-    /// A scenario line could not be parsed.
-    #[error(transparent)]
-    Scenario(#[from] crate::scenario::ScenarioError),
-    /// A scenario scripts a bus fault on a bus without fault hooks.
-    #[error(
-        "scenario line {line}: bus faults other than flood need the in-process bus (mem:NAME); \
-         on {bus} only node and joint faults and floods can be simulated"
-    )]
-    BusFaultNeedsMemBus {
-        /// The scenario line.
-        line: usize,
-        /// The bus spec.
-        bus: String,
-    },
-    /// The bus could not be opened.
-    #[error("bus: {0}")]
-    Bus(#[from] anguilla_drivers::OpenError),
-    /// The robot's thread could not be started.
-    #[error("starting the simulated robot's thread: {0}")]
-    Thread(std::io::Error),
-}
+pub use crate::error::SimError;
 
 /// Result of this crate's operations.
 pub type Result<T> = std::result::Result<T, SimError>;
