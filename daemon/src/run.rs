@@ -838,7 +838,7 @@ fn command_thread(
         // COMMAND_ROUND_MIN, each draining all of them at once. A round
         // with requests already waited for the loop's answers, and a round
         // that the poll's timeout ended was no flood: neither delays the
-        // next request (issue 28: one command in ten waited up to 1 ms).
+        // next request (after a timeout, one command in ten would wait up to 1 ms).
         let since = last_round.elapsed();
         if last_round_empty && since < COMMAND_ROUND_MIN {
             std::thread::sleep(COMMAND_ROUND_MIN - since);
@@ -1212,7 +1212,7 @@ mod tests {
 mod rate_tests {
     use super::*;
 
-    /// Issue 28: a benchmark asked for 1 kHz with twelve joints on classic
+    /// A benchmark once asked for 1 kHz with twelve joints on classic
     /// CAN (333 % bus load); the daemon ran at 100 Hz without a word, and
     /// every command seemed to wait for a 10 ms poll. Now it is refused.
     #[test]
