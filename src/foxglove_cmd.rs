@@ -21,6 +21,8 @@ use anguilla_daemon::mcap_log::{Scene, TOPICS, schemas};
 use anyhow::Context as _;
 
 use crate::output::outln;
+
+mod gate;
 use crate::teleop_cmd::DaemonArgs;
 
 /// Arguments of `anguilla foxglove`.
@@ -75,9 +77,11 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     let cfg = args.daemon.at.config()?;
     let prefix = args.daemon.prefix()?;
     let ctx = foxglove::Context::new();
+    // The server listens on an ephemeral loopback port, behind the gate
+    // (its connection limits: foxglove's server has none).
     let mut builder = foxglove::WebSocketServer::new()
         .name("anguilla")
-        .bind(addr.ip().to_string(), addr.port())
+        .bind("127.0.0.1", 0)
         .context(&ctx);
     let (tx, from_clients) = std::sync::mpsc::sync_channel(COMMAND_QUEUE);
     // Departures and E-stops never wait in the bounded queue.
@@ -112,7 +116,15 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
     }
     let server = builder
         .start_blocking()
-        .with_context(|| format!("serving on {addr}"))?;
+        .context("starting the Foxglove server on loopback")?;
+    let limits = gate::Limits {
+        max_clients: cfg.foxglove.max_clients as usize,
+        subscribe_timeout: (cfg.foxglove.subscribe_timeout > 0.0)
+            .then(|| Duration::from_secs_f64(cfg.foxglove.subscribe_timeout)),
+    };
+    let inner = SocketAddr::from(([127, 0, 0, 1], server.port()));
+    let gate =
+        gate::Gate::start(addr, inner, limits).with_context(|| format!("serving on {addr}"))?;
     let mut channels = Vec::new();
     for (i, (name, data)) in schemas().into_iter().enumerate() {
         channels.push(
@@ -124,9 +136,8 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
         );
     }
     outln!(
-        "anguilla foxglove: ws://{}:{} serving the robot at prefix '{prefix}' (Ctrl-C stops)",
-        addr.ip(),
-        server.port()
+        "anguilla foxglove: ws://{} serving the robot at prefix '{prefix}' (Ctrl-C stops)",
+        SocketAddr::new(addr.ip(), gate.local_addr().port())
     )?;
     crate::signals::install();
     let running = crate::signals::running_for(args.duration);
@@ -184,6 +195,15 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
             channels[i].log(v.to_string().as_bytes());
         }
     }
+    let c = gate.counts();
+    outln!(
+        "anguilla foxglove: stopped: {} viewers served, {} refused at [foxglove] max-clients, {} \
+         closed for subscribing to nothing",
+        c.admitted.load(std::sync::atomic::Ordering::SeqCst),
+        c.refused.load(std::sync::atomic::Ordering::SeqCst),
+        c.idle_closed.load(std::sync::atomic::Ordering::SeqCst)
+    )?;
+    gate.stop();
     server.stop().wait_blocking();
     Ok(())
 }

@@ -481,7 +481,7 @@ impl Default for AutopilotConfig {
 
 /// `[foxglove]`: the live view (`anguilla foxglove`, its own process; the
 /// daemon ignores this section).
-#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct FoxgloveConfig {
     /// Accept operator commands that Foxglove clients publish on
@@ -492,6 +492,23 @@ pub struct FoxgloveConfig {
     /// loopback) may drive; this says the owner accepts that. Warned at
     /// every start.
     pub insecure_commands: bool,
+    /// Most viewers connected at once; one more is refused (HTTP 503)
+    /// and the refusal logged.
+    pub max_clients: u32,
+    /// A viewer that subscribes to no channel (and advertises none) this
+    /// long after connecting is closed (s); 0: never.
+    pub subscribe_timeout: f64,
+}
+
+impl Default for FoxgloveConfig {
+    fn default() -> Self {
+        Self {
+            commands: false,
+            insecure_commands: false,
+            max_clients: 16,
+            subscribe_timeout: 30.0,
+        }
+    }
 }
 
 /// `[link]`: remote operation over Zenoh (`anguilla link`, docs/remote.md).
@@ -1132,6 +1149,22 @@ impl Config {
         ] {
             range(key, v, lo, hi, expected)?;
         }
+        range(
+            "foxglove.max-clients",
+            f64::from(self.foxglove.max_clients),
+            1.0,
+            1024.0,
+            "1 ..= 1024 viewers",
+        )?;
+        if self.foxglove.subscribe_timeout != 0.0 {
+            range(
+                "foxglove.subscribe-timeout",
+                self.foxglove.subscribe_timeout,
+                1.0,
+                3600.0,
+                "0 (never) or 1 ..= 3600 s",
+            )?;
+        }
         self.validate_link()
     }
 
@@ -1544,6 +1577,14 @@ pub fn default_toml() -> String {
         "insecure-commands = {}",
         d.foxglove.insecure_commands
     ));
+    w("# Most viewers connected at once; one more is refused (HTTP 503) and logged.".into());
+    w(format!("max-clients = {}", d.foxglove.max_clients));
+    w("# A viewer that subscribes to no channel this long after connecting is closed".into());
+    w("# (s); 0: never.".into());
+    w(format!(
+        "subscribe-timeout = {}",
+        fmt_f(d.foxglove.subscribe_timeout)
+    ));
     w(String::new());
     w("[link]".into());
     w("# Remote operation over Zenoh: `anguilla link` (its own process; the daemon".into());
@@ -1667,6 +1708,22 @@ mod tests {
         assert!(e.to_string().contains("bus.max-load"), "{e}");
         let e = Config::from_toml("[ipc]\nprefix = \"a b\"\n", "t").unwrap_err();
         assert!(e.to_string().contains("ipc.prefix"), "{e}");
+        for (toml, key) in [
+            ("max-clients = 0", "'foxglove.max-clients' = 0"),
+            (
+                "subscribe-timeout = 0.5",
+                "'foxglove.subscribe-timeout' = 0.5",
+            ),
+            (
+                "subscribe-timeout = -1",
+                "'foxglove.subscribe-timeout' = -1",
+            ),
+        ] {
+            let e = Config::from_toml(&format!("[foxglove]\n{toml}\n"), "t").unwrap_err();
+            assert!(e.to_string().contains(key), "{e}");
+        }
+        let never = Config::from_toml("[foxglove]\nsubscribe-timeout = 0\n", "t").unwrap();
+        assert_eq!(never.foxglove.subscribe_timeout, 0.0);
     }
 
     #[test]

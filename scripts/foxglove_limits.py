@@ -1,0 +1,131 @@
+#!/usr/bin/env python3
+"""The Foxglove view's limits, tried from outside with Python `websockets`.
+
+    foxglove_limits.py ws://127.0.0.1:PORT PID MAX CHURN
+
+PID is the `anguilla foxglove` process, started with [foxglove]
+max-clients = MAX and a short subscribe-timeout. Checks, in order:
+- MAX viewers that subscribe are served; one more is refused with HTTP 503;
+  when one leaves, the next is served;
+- a viewer that connects and subscribes to nothing is closed by the server;
+- CHURN more viewers (MAX at a time: connect, subscribe, read one message,
+  leave), after which the process's resident memory is back near where it
+  was before them (printed; fails above 64 MiB more).
+Exits 1 naming what is wrong.
+"""
+
+import asyncio
+import json
+import sys
+
+import websockets
+
+PROTO = ["foxglove.sdk.v1"]
+
+
+def fail(why):
+    print(f"foxglove_limits: {why}")
+    sys.exit(1)
+
+
+def rss_kib(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    fail(f"no VmRSS for pid {pid}")
+
+
+def threads(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("Threads:"):
+                return int(line.split()[1])
+    return -1
+
+
+async def viewer(url):
+    """Connects and subscribes to the first advertised channel."""
+    ws = await websockets.connect(url, subprotocols=PROTO, open_timeout=30)
+    channel = None
+    while channel is None:
+        msg = json.loads(await asyncio.wait_for(ws.recv(), 30))
+        if msg["op"] == "advertise" and msg["channels"]:
+            channel = msg["channels"][0]["id"]
+    await ws.send(json.dumps({
+        "op": "subscribe", "subscriptions": [{"id": 1, "channelId": channel}],
+    }))
+    return ws
+
+
+async def refused(url):
+    """The status of a refused connection, or None if it was served."""
+    try:
+        ws = await websockets.connect(url, subprotocols=PROTO, open_timeout=30)
+    except Exception as e:  # InvalidStatus (websockets >= 14) or InvalidStatusCode
+        response = getattr(e, "response", None)
+        status = getattr(response, "status_code", None) or getattr(e, "status_code", None)
+        return status if status is not None else repr(e)
+    await ws.close()
+    return None
+
+
+async def main(url, pid, most, churn):
+    before = rss_kib(pid)
+    inside = [await viewer(url) for _ in range(most)]
+    status = await refused(url)
+    if status != 503:
+        fail(f"viewer {most + 1} of {most}: expected HTTP 503, got {status}")
+    await inside.pop().close()
+    # The gate frees the place once it sees the close; ask until it has.
+    for _ in range(300):
+        try:
+            inside.append(await viewer(url))
+            break
+        except Exception:
+            await asyncio.sleep(0.1)
+    else:
+        fail("a freed place was never given to the next viewer")
+    for ws in inside:
+        await ws.close()
+    print(f"foxglove_limits: {most} viewers served, viewer {most + 1} refused (HTTP 503), "
+          "a freed place taken")
+
+    # One that subscribes to nothing is closed by the server.
+    ws = await websockets.connect(url, subprotocols=PROTO, open_timeout=30)
+    try:
+        while True:
+            await asyncio.wait_for(ws.recv(), 120)
+    except websockets.exceptions.ConnectionClosed:
+        print("foxglove_limits: a viewer that subscribed to nothing was closed")
+    except asyncio.TimeoutError:
+        fail("a viewer that subscribed to nothing was still open after 120 s")
+
+    peak = before
+    done = 0
+    while done < churn:
+        batch = await asyncio.gather(*[viewer(url) for _ in range(min(most, churn - done))])
+        for ws in batch:
+            await asyncio.wait_for(ws.recv(), 30)
+        peak = max(peak, rss_kib(pid))
+        await asyncio.gather(*[ws.close() for ws in batch])
+        done += len(batch)
+    # Wait until the gate's threads for them are gone, then read the memory.
+    for _ in range(600):
+        if threads(pid) <= base_threads:
+            break
+        await asyncio.sleep(0.1)
+    after = rss_kib(pid)
+    print(f"foxglove_limits: {churn} more viewers, {most} at a time: resident "
+          f"{before / 1024:.1f} MiB before, {peak / 1024:.1f} MiB at most, "
+          f"{after / 1024:.1f} MiB after; threads {threads(pid)} (idle {base_threads})")
+    if after - before > 64 * 1024:
+        fail(f"resident memory grew by {(after - before) / 1024:.1f} MiB after the viewers left")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 5:
+        fail("usage: foxglove_limits.py ws://HOST:PORT PID MAX CHURN")
+    pid = int(sys.argv[2])
+    base_threads = threads(pid)
+    asyncio.run(main(sys.argv[1], pid, int(sys.argv[3]), int(sys.argv[4])))
