@@ -25,7 +25,8 @@ pub struct PrefixArgs {
     /// limits come from the daemon's state).
     #[arg(long, value_name = "FILE")]
     pub(crate) config: Option<PathBuf>,
-    /// The daemon's iceoryx2 service prefix (overrides the configuration's).
+    /// The daemon's iceoryx2 service prefix (overrides the configuration's;
+    /// with --connect to a link but `local`, default: the one it serves).
     #[arg(long, value_name = "PREFIX")]
     prefix: Option<String>,
 }
@@ -73,12 +74,37 @@ pub struct DaemonArgs {
     /// With --connect tls/...: this operator's private key (PEM).
     #[arg(long, value_name = "FILE", requires = "connect")]
     key: Option<PathBuf>,
+    /// The prefix the link said it serves, once asked.
+    #[arg(skip)]
+    served: std::sync::OnceLock<String>,
 }
 
 impl DaemonArgs {
-    /// The prefix (see [`PrefixArgs::prefix`]).
+    /// The prefix: --prefix if given; else, with --connect to a link (but
+    /// `local`, the configured prefix's own socket), the prefix that link
+    /// says it serves; else the configuration's (see
+    /// [`PrefixArgs::prefix`]).
     pub fn prefix(&self) -> anyhow::Result<String> {
-        self.at.prefix()
+        if self.at.prefix.is_some() || self.connect.is_none() {
+            return self.at.prefix();
+        }
+        if let Some(p) = self.served.get() {
+            return Ok(p.clone());
+        }
+        let configured = self.at.prefix()?;
+        // `local` is the configured prefix's socket: nothing to ask.
+        let Some((endpoint, tls)) = self.remote()?.filter(|(e, _)| e.text != "local") else {
+            return Ok(configured);
+        };
+        // A link that cannot be reached now is reported by the connection
+        // itself (a viewer retries); the configured prefix stands until then.
+        let Ok(Some(served)) = ask_prefix(&endpoint, tls.as_ref()) else {
+            return Ok(configured);
+        };
+        if !anguilla_ipc::valid_prefix(&served) {
+            return Ok(configured);
+        }
+        Ok(self.served.get_or_init(|| served).clone())
     }
 
     /// The link to reach, with --connect: its checked endpoint and TLS files.
@@ -98,7 +124,7 @@ impl DaemonArgs {
             (None, None, None) => None,
             _ => anyhow::bail!("--ca, --cert and --key go together (TLS): give all three"),
         };
-        let endpoint = Endpoint::parse_at(e, &self.prefix()?, tls.as_ref())
+        let endpoint = Endpoint::parse_at(e, &self.at.prefix()?, tls.as_ref())
             .map_err(|e| anyhow::anyhow!("--connect {e}"))?;
         if endpoint.unix
             && let Some(why) = anguilla_link::local_access(&endpoint)
@@ -174,6 +200,24 @@ pub fn remote_session(
         "--connect {}: {NOT_REMOTE}",
         endpoint.text
     )))
+}
+
+/// The prefix the link at `endpoint` serves (the `remote` feature).
+#[cfg(feature = "remote")]
+fn ask_prefix(
+    endpoint: &Endpoint,
+    tls: Option<&Tls>,
+) -> Result<Option<String>, anguilla_ipc::IpcError> {
+    anguilla_link::ask_prefix(endpoint, tls)
+}
+
+/// Without the `remote` feature there is no link to ask.
+#[cfg(not(feature = "remote"))]
+fn ask_prefix(
+    _endpoint: &Endpoint,
+    _tls: Option<&Tls>,
+) -> Result<Option<String>, anguilla_ipc::IpcError> {
+    Ok(None)
 }
 
 /// An E-stop on the link's E-stop key at `endpoint` (the `remote` feature).

@@ -64,7 +64,7 @@ use std::path::{Path, PathBuf};
 #[cfg(feature = "zenoh")]
 pub use bridge::{Bridge, BridgeStats, LinkSettings};
 #[cfg(feature = "zenoh")]
-pub use remote::{RemoteClient, remote_estop};
+pub use remote::{RemoteClient, ask_prefix, remote_estop};
 
 /// Where a link says which daemon prefix it serves (a query's reply: the
 /// prefix, UTF-8), whatever that prefix: a tool given another prefix asks

@@ -128,6 +128,15 @@ pub fn served_prefix(session: &zenoh::Session) -> Option<String> {
     String::from_utf8(sample.payload().to_bytes().into_owned()).ok()
 }
 
+/// Asks the link at `endpoint` which daemon prefix it serves (`None`: it
+/// did not answer in time; an older link does not).
+pub fn ask_prefix(endpoint: &Endpoint, tls: Option<&Tls>) -> Result<Option<String>, IpcError> {
+    let session = open_session(endpoint, tls)?;
+    let served = served_prefix(&session);
+    let _ = session.close().wait();
+    Ok(served)
+}
+
 /// How long a tool waits for the link to say which prefix it serves.
 const INFO_TIMEOUT: Duration = Duration::from_secs(1);
 

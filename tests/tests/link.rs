@@ -210,7 +210,8 @@ fn remote_tools_monitor_enable_swim_and_estop_through_the_link() {
 
 /// A tool given another prefix than the link serves is told both, at
 /// once (it said "no link answered within 3s" after 0.02 s), for a
-/// command session and a monitor alike, and through the CLI.
+/// command session and a monitor alike, and through the CLI; a tool given
+/// no prefix takes the link's.
 #[test]
 fn a_link_serving_another_prefix_names_both() {
     let _dog = Watchdog::new("link-prefix", Duration::from_secs(120));
@@ -236,6 +237,17 @@ fn a_link_serving_another_prefix_names_both() {
         "{}",
         text(&o)
     );
+    // Without --prefix, a tool takes the prefix the link says it serves
+    // (its own configuration's, the default, is another).
+    assert_ne!(
+        prefix,
+        anguilla_daemon::config::Config::default().ipc.prefix
+    );
+    let o = Proc::new(anguilla_bin())
+        .args(["ctl", "--connect", &ep.text, "status"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
 }
 
 #[test]
