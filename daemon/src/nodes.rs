@@ -50,6 +50,10 @@ pub struct NodeEntry {
     anomalies: [Option<Nanos>; DUPLICATE_ANOMALIES],
     /// SYNCs sent since its last feedback.
     pub syncs_since_feedback: u32,
+    /// Its states were forgotten (a clear-faults went out) and no
+    /// heartbeat came since: the next one may have been sent before the
+    /// node read the clear, so its state and errors are not taken.
+    stale: bool,
 }
 
 /// Counter anomalies that mean two senders share a node id, when they
@@ -152,6 +156,7 @@ impl NodeTable {
                     last_counter: None,
                     anomalies: [None; DUPLICATE_ANOMALIES],
                     syncs_since_feedback: 0,
+                    stale: false,
                 })
                 .collect(),
             index,
@@ -193,8 +198,16 @@ impl NodeTable {
         match message::decode(frame, self.variant, self.set) {
             Ok(Message::Heartbeat(hb)) => {
                 if let Some(e) = self.entry(hb.node) {
-                    e.state = Some(hb.state);
-                    e.errors = hb.errors;
+                    // The first heartbeat after a clear-faults may be one
+                    // the node sent before it read the clear (at most one:
+                    // it reads its frames in order), so its state is old
+                    // news. A node that stayed latched says so in the next.
+                    if e.stale {
+                        e.stale = false;
+                    } else {
+                        e.state = Some(hb.state);
+                        e.errors = hb.errors;
+                    }
                     e.last_heartbeat = Some(now);
                     e.heartbeats += 1;
                     if e.last_counter
@@ -298,6 +311,7 @@ impl NodeTable {
             e.state = None;
             e.errors = ErrorBits(0);
             e.syncs_since_feedback = 0;
+            e.stale = true;
         }
     }
 }
@@ -374,6 +388,31 @@ mod tests {
         assert_eq!(r.lost, only(2), "node 2 silent for 400 ms");
         assert_eq!(r.fault, only(2));
         assert_eq!(r.estop, only(3));
+    }
+
+    /// A VM run failed this way: a heartbeat the nodes sent before they
+    /// read the reset's clear-faults said E-stop, the simulated robot was
+    /// then starved of CPU past the supervisor's settle time, and that old
+    /// state latched the E-stop again on the enable that followed.
+    #[test]
+    fn the_first_heartbeat_after_a_clear_is_not_taken_but_a_latched_node_is_seen() {
+        let mut t = NodeTable::new(Variant::Classic, &ids(2), Nanos::ZERO);
+        t.ingest(Nanos::ZERO, &hb_n(1, NodeState::EStop, 0));
+        t.ingest(Nanos::ZERO, &hb_n(2, NodeState::EStop, 0));
+        assert_eq!(t.observe(Nanos::ZERO, &LIMITS).estop.bits(), 0b110);
+        t.forget_states();
+        // Sent before the clear was read: old news, for both.
+        t.ingest(10 * MS, &hb_n(1, NodeState::EStop, 1));
+        t.ingest(10 * MS, &hb_n(2, NodeState::EStop, 1));
+        let r = t.observe(10 * MS, &LIMITS);
+        assert!(r.estop.is_empty(), "{r:?}");
+        assert!(r.duplicate.is_empty() && r.lost.is_empty());
+        // Node 1 cleared; node 2 is still latched, and says so again.
+        t.ingest(110 * MS, &hb_n(1, NodeState::Disabled, 2));
+        t.ingest(110 * MS, &hb_n(2, NodeState::EStop, 2));
+        let r = t.observe(110 * MS, &LIMITS);
+        assert_eq!(r.estop.bits(), 0b100, "{r:?}");
+        assert!(!r.all_enabled);
     }
 
     #[test]
