@@ -216,7 +216,12 @@ impl Controller {
                 FaultPolicyConfig::Disable => FaultPolicy::Disable,
             },
             max_depth: cfg.autopilot.max_depth,
-            clear_settle_time: 300 * MS,
+            // A node owes a heartbeat within the heartbeat timeout: that
+            // long after a reset, its report reflects the clear-faults (at
+            // least 300 ms). The built-in robot's relaxed timeout (2 s)
+            // covers its own starvation on a busy machine, which once
+            // re-latched an E-stop after a reset in the VM's gamepad test.
+            clear_settle_time: Nanos::from_secs_f64(c.heartbeat_timeout).max(300 * MS),
         });
         let n = joints;
         let snapshot = StateSnapshot {
