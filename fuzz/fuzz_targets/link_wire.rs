@@ -1,5 +1,6 @@
 //! Arbitrary bytes as the link's messages from another host (a hello's
-//! reply, a command's stamp, a command's reply) and as a query's key:
+//! reply, a command's stamp, a command's reply, a hello's operator name)
+//! and as a query's key:
 //! each decoder must not panic, must accept exactly its own length, and
 //! whatever decodes must encode back to the same bytes.
 #![no_main]
@@ -30,6 +31,13 @@ fuzz_target!(|input: &[u8]| {
         assert_eq!(wire::encode_reply(id, &r), input);
         // What a remote tool shows: never more than the reason's bytes.
         assert!(r.reason().len() <= REASON_LEN);
+    }
+
+    // A hello's operator name: short, and nothing that could split or
+    // dress up the node name it goes into.
+    if let Some(name) = wire::operator_name(input) {
+        assert!(!name.is_empty() && name.len() <= wire::OPERATOR_NAME_MAX);
+        assert!(name.bytes().all(|c| c.is_ascii_alphanumeric() || c == b'.' || c == b'_'));
     }
 
     // A query's key: only `prefix/command/<32 lowercase hex digits>`

@@ -403,8 +403,13 @@ impl Bridge {
         let link_ms = monotonic_ms(self.started);
         if payload.is_empty() {
             // A hello: opens the session if new; the identity and the clock.
-            if !self.sessions.contains_key(&token) && !self.open_session(&q, &token, now) {
-                return;
+            if !self.sessions.contains_key(&token) {
+                let who = q
+                    .attachment()
+                    .and_then(|a| crate::wire::operator_name(&a.to_bytes()));
+                if !self.open_session(&q, &token, now, who.as_deref()) {
+                    return;
+                }
             }
             let Some(sess) = self.sessions.get_mut(&token) else {
                 return;
@@ -563,8 +568,11 @@ impl Bridge {
         Ok(())
     }
 
-    /// Opens a session for `token` (answering `q` with why not); whether it did.
-    fn open_session(&mut self, q: &Query, token: &str, now: Instant) -> bool {
+    /// Opens a session for `token` (answering `q` with why not); whether it
+    /// did. `who`: the operator's name the hello carried; the session's
+    /// iceoryx2 node is then `anguilla-link:WHO-…`, which the daemon's
+    /// tools show as the holder `link:WHO`.
+    fn open_session(&mut self, q: &Query, token: &str, now: Instant, who: Option<&str>) -> bool {
         if self.sessions.len() >= self.settings.max_clients {
             self.reject(
                 q,
@@ -577,10 +585,21 @@ impl Bridge {
             return false;
         }
         self.next_node += 1;
-        let name = format!("anguilla-link-{}-{}", std::process::id(), self.next_node);
+        let name = match who {
+            Some(w) => format!(
+                "anguilla-link:{w}-{}-{}",
+                std::process::id(),
+                self.next_node
+            ),
+            None => format!("anguilla-link-{}-{}", std::process::id(), self.next_node),
+        };
         match Client::new(&self.settings.prefix, &name) {
             Ok(client) => {
-                tracing::info!("remote session {} opened", &token[..8]);
+                tracing::info!(
+                    "remote session {} opened (operator {})",
+                    &token[..8],
+                    who.unwrap_or("unnamed")
+                );
                 self.sessions.insert(
                     token.to_string(),
                     RemoteSession {

@@ -140,11 +140,31 @@ pub fn ask_prefix(endpoint: &Endpoint, tls: Option<&Tls>) -> Result<Option<Strin
 /// How long a tool waits for the link to say which prefix it serves.
 const INFO_TIMEOUT: Duration = Duration::from_secs(1);
 
+/// Who runs this tool, for the link to show as the holder (`link:NAME`):
+/// `$USER`, else `$LOGNAME`, else `uid` and the real uid.
+fn operator() -> String {
+    ["USER", "LOGNAME"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok().filter(|s| !s.is_empty()))
+        .unwrap_or_else(|| {
+            let uid = std::fs::read_to_string("/proc/self/status")
+                .ok()
+                .and_then(|s| {
+                    s.lines()
+                        .find_map(|l| l.strip_prefix("Uid:"))
+                        .and_then(|l| l.split_whitespace().next().map(str::to_string))
+                })
+                .unwrap_or_else(|| "unknown".into());
+            format!("uid{uid}")
+        })
+}
+
 /// Says hello on `key`, waits for the answer, and records the client id
 /// and the link's epoch and clock in `shared`.
 fn hello(session: &zenoh::Session, key: &str, shared: &Shared) -> Result<(), String> {
     let replies = session
         .get(key)
+        .attachment(operator().into_bytes())
         .timeout(HELLO_TIMEOUT)
         .wait()
         .map_err(|e| e.to_string())?;

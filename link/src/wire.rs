@@ -15,6 +15,33 @@ fn word(b: &[u8], at: usize) -> [u8; 8] {
     w
 }
 
+/// Most bytes of the operator's name that a hello may carry (its
+/// attachment).
+pub const OPERATOR_NAME_MAX: usize = 32;
+
+/// The operator's name from a hello's attachment, as the link shows it
+/// (the holder is then `link:NAME`): ASCII letters, digits, `.` and `_`
+/// kept, every other byte (a `-`, which separates a node name's parts, a
+/// space, a control character, non-ASCII) made `_`, cut to
+/// [`OPERATOR_NAME_MAX`] bytes, `_` trimmed at both ends; `None` when
+/// nothing is left. The name is what the tool says: the link cannot check
+/// it (the operator's certificate is what lets it in).
+pub fn operator_name(b: &[u8]) -> Option<String> {
+    let s: String = b
+        .iter()
+        .take(OPERATOR_NAME_MAX)
+        .map(|&c| {
+            if c.is_ascii_alphanumeric() || c == b'.' || c == b'_' {
+                c as char
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let s = s.trim_matches('_');
+    (!s.is_empty()).then(|| s.to_string())
+}
+
 /// The link's clock as a tool knows it: the link process's epoch
 /// (random per process) and its clock in ms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -102,6 +129,26 @@ pub fn token_of(prefix: &str, key: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_operator_name_is_short_and_cannot_split_a_node_name() {
+        assert_eq!(operator_name(b"alice").as_deref(), Some("alice"));
+        assert_eq!(operator_name(b"jean-luc").as_deref(), Some("jean_luc"));
+        assert_eq!(
+            operator_name(b"ctl (user root, pid 1)\n").as_deref(),
+            Some("ctl__user_root__pid_1")
+        );
+        assert_eq!(
+            operator_name("żółw".as_bytes()).as_deref(),
+            Some("w"),
+            "ASCII only"
+        );
+        assert_eq!(operator_name("żół".as_bytes()), None, "nothing ASCII left");
+        assert_eq!(operator_name(b"--__--"), None);
+        assert_eq!(operator_name(b""), None);
+        let long = operator_name(&[b'a'; 10_000]).unwrap();
+        assert_eq!(long.len(), OPERATOR_NAME_MAX);
+    }
 
     #[test]
     fn the_link_messages_decode_what_they_encode_and_nothing_else() {

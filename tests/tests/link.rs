@@ -250,6 +250,8 @@ fn a_link_serving_another_prefix_names_both() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
 }
 
+/// Two remote clients are two identities for the daemon, and each is
+/// shown as the operator its hello named.
 #[test]
 fn two_remote_clients_are_two_clients_for_the_daemon() {
     let _dog = Watchdog::new("link-two", Duration::from_secs(120));
@@ -278,6 +280,22 @@ fn two_remote_clients_are_two_clients_for_the_daemon() {
     until(&mut b, "a holds control", Duration::from_secs(2), |s| {
         s.holder() == Some(a_id)
     });
+    // The daemon's tools name the holder after the operator the hello
+    // named: `link:NAME`, the link's user and pid.
+    let me = ["USER", "LOGNAME"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok().filter(|s| !s.is_empty()));
+    let who = Client::new(&prefix, "anguilla-observer")
+        .unwrap()
+        .who(a_id)
+        .expect("the holder is described");
+    match me
+        .as_deref()
+        .and_then(|m| anguilla_link::wire::operator_name(m.as_bytes()))
+    {
+        Some(m) => assert!(who.starts_with(&format!("link:{m} (user ")), "{who}"),
+        None => assert!(who.starts_with("link:uid"), "{who}"),
+    }
     ok(&mut a, Command::Enable);
     until(&mut a, "ready", Duration::from_secs(10), |s| {
         s.mode == Mode::Ready as u8
