@@ -1049,7 +1049,7 @@ Begin Triggerblock Tue Nov 14 12:00:00.000 am 2023
 End TriggerBlock
 ";
 
-/// Issue 26, door 1: the Foxglove WebSocket protocol has no
+/// Only an operator drives: the Foxglove WebSocket protocol has no
 /// authentication, so commands through it need the owner's explicit
 /// `insecure-commands`; without it `anguilla foxglove` refuses to start and
 /// says why (before, anyone who reached the port could drive).

@@ -1,4 +1,4 @@
-//! `anguilla link`: remote operation over Zenoh (issue 18). Its own
+//! `anguilla link`: remote operation over Zenoh (docs/remote.md). Its own
 //! process on the tether computer, an operator tool of the daemon like any
 //! other (iceoryx2), bridging the daemon's state, commands and E-stop to
 //! Zenoh (`anguilla_link::bridge`), so the real-time daemon never runs a

@@ -1,5 +1,5 @@
-//! Heading and depth hold on the simulated robot, measured (issue 16 item
-//! 7). Prints JSON lines; nothing is asserted (the tests in
+//! Heading and depth hold on the simulated robot, measured. Prints JSON
+//! lines; nothing is asserted (the tests in
 //! `tests/autopilot.rs` assert bounds).
 //!
 //! `cargo bench -p anguilla-daemon --bench autopilot`

@@ -1,4 +1,4 @@
-//! Heading and depth hold (issue 16; docs/autopilot.md).
+//! Heading and depth hold (docs/autopilot.md).
 //!
 //! The autopilot replaces the operator's turn curvature (K_c3) while a
 //! heading is held, and the pitch curvature (K_c2) while a depth is held;

@@ -1729,7 +1729,7 @@ mod tests {
     #[test]
     fn check_and_run_agree_on_the_derived_rate_and_load() {
         // Each was accepted by `config check`, then refused by `run`, or
-        // ran a bus past saturation (issue 13.3).
+        // ran a bus past saturation.
         let err = |t: &str| Config::from_toml(t, "t").unwrap_err().to_string();
         let e = err("[control]\nrate-hz = 15\n");
         assert!(

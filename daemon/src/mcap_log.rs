@@ -1,4 +1,4 @@
-//! The session's MCAP file (issue 17): what robotics tools open —
+//! The session's MCAP file (docs/data.md): what robotics tools open —
 //! Foxglove, Lichtblick, PlotJuggler — beside the bit-exact `bus.log`.
 //!
 //! One message per recorded [`StateSnapshot`] on each channel, stamped with

@@ -1,5 +1,5 @@
 //! The head sensor and the estimate of the head's attitude and depth
-//! (issue 16; docs/autopilot.md).
+//! (docs/autopilot.md).
 //!
 //! [`Nav`] takes the head sensor's frames off the bus (protocol/README.md
 //! "The head sensor": one FD `HeadSample`, or the classic `HeadAttitude`,

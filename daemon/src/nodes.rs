@@ -447,7 +447,7 @@ mod tests {
         NodeSet::empty().with(NodeId::new(n).unwrap())
     }
 
-    /// The attack of issue 26: node 2 is dead, and someone sends perfect
+    /// A forger's attack: node 2 is dead, and someone sends perfect
     /// heartbeats for it (state Enabled, counter +1 each). Its silence on
     /// SYNC gives it away after `feedback_periods` SYNCs, not before.
     #[test]

@@ -1177,8 +1177,8 @@ mod tests {
 
     use super::*;
 
-    /// Issue 26, door 7: before, the command thread logged its first error
-    /// and then nothing for ever. Now a failure that lasts is reported once
+    /// A failure must be heard for as long as it lasts (the command thread
+    /// once logged its first error and then nothing for ever): a failure that lasts is reported once
     /// a second with its count, and its end once.
     #[test]
     fn a_lasting_failure_is_reported_once_a_second_with_its_count() {

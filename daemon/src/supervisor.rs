@@ -885,7 +885,7 @@ mod tests {
 
     #[test]
     fn an_estop_is_never_refused_for_its_sequence_number() {
-        // The attack of issue 12: a number at the top of the range, then the
+        // A hostile client's attack: a number at the top of the range, then the
         // real operator's E-stop with a lower one (or the same one, again).
         let mut s = swimming();
         assert_eq!(s.command(4 * MS, A, u32::MAX, Command::KeepAlive), Ok(()));

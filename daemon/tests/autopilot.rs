@@ -1,6 +1,6 @@
 //! Heading and depth hold on the simulated robot (twelve vertebra nodes,
 //! the swimming body, a head sensor with noise and bias walk), closed loop
-//! on simulated time (issue 16): heading hold reaches and keeps its
+//! on simulated time: heading hold reaches and keeps its
 //! targets and rejects a cross current, the estimate follows the truth,
 //! and every sensor fault ends a hold in the documented safe state (the
 //! swim stops smoothly, straight; cause "head sensor lost"; the snapshot

@@ -303,8 +303,8 @@ fn setpoints_seen(spy: &mut anguilla_drivers::mem::MemParticipant) -> [u32; 64] 
 /// still answer busy: a silent node gets no setpoints (they would be load
 /// on a bus that may be why it is silent), and with every node silent it
 /// sends nothing but SYNC and Disable, so the heartbeats can come back and
-/// a reset succeeds (issue 13.3: a saturated bus kept every node lost and
-/// the reset refused forever).
+/// a reset succeeds (a saturated bus once kept every node lost and the
+/// reset refused forever).
 #[test]
 fn in_fault_the_daemon_does_not_fill_the_bus() {
     let mut r = ready("lifecycle-fault-traffic");
@@ -344,7 +344,7 @@ fn in_fault_the_daemon_does_not_fill_the_bus() {
     assert_eq!(r.ctl.supervisor().mode(), Mode::Idle);
 }
 
-/// Sparse node ids on CAN FD (issue 14.1): the daemon drives every node
+/// Sparse node ids on CAN FD: the daemon drives every node
 /// through the setpoint group of its id, and the automatic rate is budgeted
 /// for the group frames it actually sends (eleven for these twelve ids, not
 /// the two that twelve contiguous ids take), so the bus stays within

@@ -1,4 +1,4 @@
-//! The session's MCAP file (issue 17): a recorded session's file has the
+//! The session's MCAP file (docs/data.md): a recorded session's file has the
 //! five channels with their schemas, one message per recorded snapshot on
 //! each data channel, monotonic daemon-clock timestamps and a summary; a
 //! file whose writer died keeps every chunk flushed before; `export`

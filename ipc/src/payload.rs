@@ -174,7 +174,7 @@ pub fn bus_state_name(code: u8) -> &'static str {
 }
 
 /// The head sensor, the daemon's estimate of the head's attitude and depth,
-/// and the autopilot (issue 16; docs/autopilot.md). The estimate is 0
+/// and the autopilot (docs/autopilot.md). The estimate is 0
 /// until the first sample (`samples` = 0), and moves on with the model's
 /// prediction alone while no sample arrives; a target is 0 unless its
 /// `hold` bit is set.

@@ -93,7 +93,7 @@ impl SwimParams {
     };
 }
 
-/// What the autopilot holds while swimming (issue 16). `None` leaves that
+/// What the autopilot holds while swimming. `None` leaves that
 /// axis to the operator's [`SwimParams::turn`] or [`SwimParams::pitch`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Hold {

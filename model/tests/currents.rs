@@ -1,4 +1,4 @@
-//! A uniform current in the water (issue 16): physical checks of
+//! A uniform current in the water: physical checks of
 //! `Workspace::set_current`.
 //!
 //! Why most tolerances here are tight: the hydrodynamic terms see only the

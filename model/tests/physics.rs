@@ -1,4 +1,4 @@
-//! Physics checks of issue 2 that need no reference data, plus the
+//! Physics checks that need no reference data, plus the
 //! comparison with the paper's simplified-model column.
 
 use anguilla_model::gait::{self, LawSource};

@@ -1,5 +1,5 @@
 //! Every form of a candump log line that can-utils and python-can write,
-//! read by anguilla's reader (issue 13.5).
+//! read by anguilla's reader: a log from either tool replays.
 //!
 //! - `tests/data/candump-corpus/can-utils.log`: the forms of can-utils'
 //!   `sprint_canframe` (lib.c) and `candump -l`/`-x`: standard, extended,

@@ -873,7 +873,7 @@ mod tests {
     #[test]
     fn disable_is_accepted_in_every_state_without_a_bad_frame() {
         // The daemon broadcasts Disable every 100 ms while its nodes are off:
-        // no state may take it for a bad frame (issue 13.6).
+        // no state may take it for a bad frame.
         let mut b = Bench::new(Variant::Classic);
         b.wait(100 * MS);
         assert_eq!(b.node.state(), NodeState::Disabled);

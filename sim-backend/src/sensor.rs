@@ -1,4 +1,4 @@
-//! The simulated head sensor (issue 16 item 2): an IMU and pressure sensor
+//! The simulated head sensor: an IMU and pressure sensor
 //! in the robot's head, derived from the body's true head state.
 //!
 //! Each sample (every `1 / rate_hz`, on the sensor's own clock, at the

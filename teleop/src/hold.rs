@@ -1,4 +1,4 @@
-//! The operator's side of the autopilot (issue 16): which heading and depth
+//! The operator's side of the autopilot (docs/autopilot.md): which heading and depth
 //! the operator wants held, moved by keys (steps) or sticks (rates), and
 //! the [`Command::Hold`] that tells the daemon.
 //!

@@ -184,7 +184,7 @@ fn monitor_json_streams_paced_states() {
     assert!(took >= Duration::from_millis(600), "{took:?}");
 }
 
-/// The whole chain of issue 16 across processes: `ctl swim --heading
+/// The whole chain of heading and depth hold across processes: `ctl swim --heading
 /// --depth` against `anguilla run` whose built-in robot carries a head
 /// sensor (`[sensor] node`), watched by `ctl status --json` from another
 /// process: the autopilot holds both, and the estimate reaches the held

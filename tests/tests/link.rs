@@ -484,7 +484,7 @@ fn tls_admits_the_robots_operators_only() {
     let port = free_port();
     // Plain TCP is refused at start-up, naming why: beyond loopback
     // always; on loopback unless asked for, as every local user could
-    // connect to it and drive (issue 26, door 1).
+    // connect to it and drive.
     for (host, says) in [
         ("0.0.0.0", &["loopback only"][..]),
         ("127.0.0.1", &["every local user", "--insecure-loopback"]),
@@ -636,7 +636,7 @@ fn a_hostile_remote_cannot_intercept_commands_or_forge_state() {
             assert!(r.clone().unwrap_err().contains("ms old"), "{r:?}");
         }
         // Stamped in the future, it would pass the age check for as long
-        // as it is ahead (issue 26, door 7): refused.
+        // as it is ahead: refused.
         if t == i64::MAX {
             assert!(
                 r.clone().unwrap_err().contains("ahead of the link's clock"),

@@ -1,4 +1,4 @@
-//! A dead joint is never masked (issue 26, door 5): a joint's drives are
+//! A dead joint is never masked, whoever sends heartbeats for it: a joint's drives are
 //! judged alive by the feedback they send each period, not only by their
 //! heartbeats, and two senders on one id are told apart by the heartbeat
 //! counter.

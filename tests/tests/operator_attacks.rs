@@ -1,5 +1,4 @@
-//! The operator interface against a buggy or hostile local program, the way
-//! issue 12 tried it: a forged holder, a restarted client's E-stop, every
+//! The operator interface against a buggy or hostile local program: a forged holder, a restarted client's E-stop, every
 //! slot taken and a flood, a notification flood, a refusal flood, squatted
 //! and stale services. The daemon is `anguilla run` as its own process (the
 //! built-in simulated robot); the attacker is this test process.
@@ -278,7 +277,7 @@ fn a_notification_and_refusal_flood_costs_bounded_cpu_and_log_lines() {
     let used = thread_cpu(pid, "anguilla-comman") - before;
     println!(
         "notification flood: {notified} notifications in {wall:.1} s; the command thread used \
-         {used:.2} CPU s ({:.0} % of one core; issue 12 measured ~97 % before the round limit)",
+         {used:.2} CPU s ({:.0} % of one core; ~97 % before the command thread's round limit)",
         100.0 * used / wall
     );
     // The bound is a resource bound, not a speed goal: one round a ms costs
@@ -570,7 +569,7 @@ fn a_holder_that_leaves_without_releasing_is_not_called_dead() {
     assert!(!text.contains("died"), "{text}");
 }
 
-/// Issue 26, door 3: iceoryx2's node-id segment truncated (by a program
+/// No tool hangs for ever: iceoryx2's node-id segment truncated (by a program
 /// of the daemon's own user: others can no longer write it) made every new
 /// tool hang for ever, deaf to SIGTERM. Now a tool ends within 2 s of
 /// SIGTERM while it waits, and gives up by itself after the open limit,

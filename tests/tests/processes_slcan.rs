@@ -258,7 +258,7 @@ fn an_unplugged_adapter_is_a_named_fault_until_it_is_back() {
     let _ = std::fs::remove_file(&config);
 }
 
-/// Issue 26, door 5, over a real serial driver: node 3 dies at once and a
+/// A dead joint is never masked, over a real serial driver: node 3 dies at once and a
 /// forger sends its heartbeats (state and counter as a healthy node's);
 /// node 5 gets a twin on its id. The daemon names both while idle, and an
 /// enable ends in Fault, never in Ready: no swim with a dead joint.

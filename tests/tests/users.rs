@@ -189,7 +189,7 @@ fn only_the_daemons_user_and_group_reach_it() {
 
     // iceoryx2's node-id segment, which iceoryx2 makes 0666: the daemon
     // closed it to other users, so the outsider can neither write nor
-    // truncate it (either blocked every new tool; issue 26, door 2).
+    // truncate it (either blocked every new tool).
     let seg = node_id_segment(&format!("iu{tag}_")).expect("the daemon's node-id segment");
     use std::os::unix::fs::MetadataExt as _;
     assert_eq!(std::fs::metadata(&seg).unwrap().mode() & 0o777, 0o600);
@@ -249,7 +249,7 @@ fn only_the_daemons_user_and_group_reach_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 26, doors 1 and 4: the link's default endpoint, run as the
+/// Only the operators reach the robot, without sudo: the link's default endpoint, run as the
 /// daemon's user, admits the group's members (every tool, no sudo) and
 /// nobody else; before, it listened on plain loopback TCP, where any local
 /// user enabled the robot and made it swim.
@@ -324,7 +324,7 @@ fn only_the_group_reaches_the_local_link() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 26, door 3: a user who makes iceoryx2's directory first no longer
+/// No other user keeps the daemon down: a user who makes iceoryx2's directory first no longer
 /// leaves the daemon failing in iceoryx2's words (or hanging): it refuses at
 /// once, naming the directory, its owner and mode, and the fix.
 #[test]

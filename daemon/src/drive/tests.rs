@@ -769,7 +769,7 @@ fn co_run_keeping<D: Drives + ?Sized>(
     }
 }
 
-/// Issue 26's dead joint: a joint whose drives stop sending feedback
+/// A dead joint is never masked: a joint whose drives stop sending feedback
 /// (anguilla Feedback, CiA 402 TPDO1, ODrive encoder estimates) while
 /// their heartbeats go on is silent after the configured number of
 /// periods, in every family; never before, and never while it answers.
