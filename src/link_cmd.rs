@@ -86,6 +86,10 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
+    // The link's own lines (sessions opened and closed, refusals, a lost
+    // client) and the connections Zenoh refused; before, nothing installed
+    // a logger here and they went nowhere.
+    init_link_logging();
     let cfg = args.at.config()?;
     let prefix = args.at.prefix()?;
     let l = &cfg.link;
@@ -202,4 +206,126 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         st.estops.load(Relaxed),
     );
     Ok(())
+}
+
+/// The link's log on stderr: its own lines at `ANGUILLA_LOG` (default
+/// `info`), and Zenoh's warnings and errors through [`Refusals`] instead
+/// of Zenoh's own words.
+fn init_link_logging() {
+    use std::io::IsTerminal;
+    use tracing_subscriber::Layer as _;
+    use tracing_subscriber::layer::SubscriberExt as _;
+    use tracing_subscriber::util::SubscriberInitExt as _;
+    let filter = tracing_subscriber::EnvFilter::try_from_env("ANGUILLA_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=off"));
+    let terminal = std::io::stderr().is_terminal();
+    let fmt = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_ansi(terminal)
+        .with_target(false);
+    // Under systemd, journald stamps every line itself.
+    let fmt = if terminal {
+        fmt.with_filter(filter).boxed()
+    } else {
+        fmt.without_time().with_filter(filter).boxed()
+    };
+    let refusals = Refusals::default().with_filter(tracing_subscriber::filter::filter_fn(|m| {
+        m.target().starts_with("zenoh") && *m.level() <= tracing::Level::WARN
+    }));
+    let _ = tracing_subscriber::registry()
+        .with(fmt)
+        .with(refusals)
+        .try_init();
+}
+
+/// Zenoh's warnings, told once: a TLS connection it refused (a client
+/// certificate not signed by the robot's CA, none at all) says so in the
+/// operator's words, without Zenoh's hint about open file limits that
+/// follows every failed accept; the same line again within [`Refusals::EVERY`]
+/// is counted instead of printed.
+#[derive(Default)]
+struct Refusals {
+    last: std::sync::Mutex<Option<(String, std::time::Instant, u64)>>,
+}
+
+impl Refusals {
+    const EVERY: std::time::Duration = std::time::Duration::from_secs(5);
+}
+
+/// Zenoh's message for an event.
+#[derive(Default)]
+struct Message(String);
+
+impl tracing::field::Visit for Message {
+    fn record_str(&mut self, field: &tracing::field::Field, value: &str) {
+        if field.name() == "message" {
+            self.0 = value.to_string();
+        }
+    }
+
+    fn record_debug(&mut self, field: &tracing::field::Field, value: &dyn std::fmt::Debug) {
+        if field.name() == "message" {
+            self.0 = format!("{value:?}");
+        }
+    }
+}
+
+/// A Zenoh warning in the operator's words.
+fn refusal_text(zenoh: &str) -> String {
+    let text = zenoh
+        .split(". Hint:")
+        .next()
+        .unwrap_or(zenoh)
+        .trim()
+        .to_string();
+    if let Some(why) = text.strip_prefix("invalid peer certificate: ") {
+        format!(
+            "refused a TLS connection: the client's certificate is not valid for this robot \
+             ({why}: not signed by its CA, or expired)"
+        )
+    } else if text.contains("peer sent no certificates") {
+        "refused a TLS connection: the client sent no certificate (--cert and --key)".into()
+    } else {
+        format!("zenoh: {text}")
+    }
+}
+
+impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Refusals {
+    fn on_event(&self, event: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
+        let mut m = Message::default();
+        event.record(&mut m);
+        let line = refusal_text(&m.0);
+        let Ok(mut last) = self.last.lock() else {
+            return;
+        };
+        match last.as_mut() {
+            Some((l, at, n)) if *l == line && at.elapsed() < Self::EVERY => *n += 1,
+            _ => {
+                let again = match last.take() {
+                    Some((_, _, n)) if n > 0 => format!(" (the line before came {n} more times)"),
+                    _ => String::new(),
+                };
+                eprintln!("anguilla link: {line}{again}");
+                *last = Some((line, std::time::Instant::now(), 0));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::refusal_text;
+
+    #[test]
+    fn zenoh_refusals_read_as_what_happened() {
+        assert_eq!(
+            refusal_text(
+                "invalid peer certificate: BadSignature. Hint: increase the system open file limit."
+            ),
+            "refused a TLS connection: the client's certificate is not valid for this robot \
+             (BadSignature: not signed by its CA, or expired)"
+        );
+        assert!(refusal_text("peer sent no certificates").contains("sent no certificate"));
+        assert_eq!(refusal_text("something else"), "zenoh: something else");
+    }
 }
