@@ -41,7 +41,7 @@ use anguilla_daemon::config::Config;
 use anguilla_daemon::ipc::{Client, StateSnapshot};
 use anguilla_daemon::rt::monotonic_ns;
 use anguilla_daemon::run;
-use anguilla_daemon::supervisor::Command;
+use anguilla_daemon::supervisor::{Command, Mode};
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::MemBus;
 use anguilla_protocol::message::{self, Message, NodeSet};
@@ -198,13 +198,14 @@ fn loop_and_command_bench(setup: &Setup, seconds: f64, commands: usize) {
             }
         }
         client.replies(|_| {}).ok();
-        // Let the nodes settle (clear-faults takes a heartbeat to show),
-        // then send the next command at another phase of the period (the
-        // golden ratio's fractions spread evenly): a fixed pause would send
-        // every command at the same phase and bias the figures.
-        let settle = Duration::from_millis(if i % 2 == 0 { 5 } else { 300 });
+        // The daemon took the command (E-stopped, or reset to idle), then
+        // the next command goes at another phase of the period (the golden
+        // ratio's fractions spread evenly): a fixed pause would send every
+        // command at the same phase and bias the figures. That pause is the
+        // benchmark's pacing, not a wait for anything.
+        wait_mode(&client, if i % 2 == 0 { Mode::EStop } else { Mode::Idle });
         let phase = (i as f64 * 0.618_033_988_75).fract();
-        std::thread::sleep(settle + Duration::from_nanos((phase * period_ns as f64) as u64));
+        std::thread::sleep(Duration::from_nanos((phase * period_ns as f64) as u64));
     }
     lat.sort_unstable();
     running.request_stop();
@@ -343,15 +344,7 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, cpu: Option<usize>, samples: usi
         }
     });
     let client = Client::new(prefix, "bench-sub").unwrap();
-    let mut ours = Vec::with_capacity(samples);
-    std::thread::sleep(Duration::from_millis(200));
-    let _ = client.latest();
-    while ours.len() < samples {
-        let _ = tx.send(0);
-        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(200)) {
-            ours.push(monotonic_ns() - s.time_ns);
-        }
-    }
+    let mut ours = time_states(&client, &tx, samples);
     stop.store(true, Ordering::SeqCst);
     let _ = tx.send(0);
     let _ = publisher.join();
@@ -360,6 +353,47 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, cpu: Option<usize>, samples: usi
     let _ = server.join();
     ours.sort_unstable();
     ours
+}
+
+/// Waits until the daemon's state says `mode` (10 s at most; a daemon that
+/// never gets there is reported, and the benchmark goes on).
+fn wait_mode(client: &Client, mode: Mode) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < deadline {
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(50))
+            && s.mode == mode as u8
+        {
+            return;
+        }
+    }
+    eprintln!("bench: the daemon did not reach mode {mode:?} within 10 s");
+}
+
+/// Asks the stand-in for the loop (through `ask`) for one state at a time
+/// and times each from its stamp to `client`, `samples` times. First waits
+/// until states reach the client at all (it is connected), rather than a
+/// guessed pause; that first state is not timed.
+fn time_states(client: &Client, ask: &std::sync::mpsc::Sender<u64>, samples: usize) -> Vec<u64> {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let _ = ask.send(0);
+        if let Ok(Some(_)) = client.wait_state(Duration::from_millis(100)) {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no state reached the client in 30 s"
+        );
+    }
+    let _ = client.latest();
+    let mut out = Vec::with_capacity(samples);
+    while out.len() < samples {
+        let _ = ask.send(0);
+        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(200)) {
+            out.push(monotonic_ns() - s.time_ns);
+        }
+    }
+    out
 }
 
 /// The alternative the loop cannot take: the stand-in for the loop
@@ -384,15 +418,7 @@ fn direct_latency(prefix: &str, samples: usize) -> Vec<u64> {
     });
     up_rx.recv().unwrap();
     let client = Client::new(prefix, "bench-sub").unwrap();
-    let mut out = Vec::with_capacity(samples);
-    std::thread::sleep(Duration::from_millis(200));
-    let _ = client.latest();
-    while out.len() < samples {
-        let _ = tx.send(0);
-        if let Ok(Some(s)) = client.wait_state(Duration::from_millis(200)) {
-            out.push(monotonic_ns() - s.time_ns);
-        }
-    }
+    let mut out = time_states(&client, &tx, samples);
     stop.store(true, Ordering::SeqCst);
     let _ = tx.send(0);
     let _ = publisher.join();

@@ -199,9 +199,12 @@ impl NodeTable {
             Ok(Message::Heartbeat(hb)) => {
                 if let Some(e) = self.entry(hb.node) {
                     // The first heartbeat after a clear-faults may be one
-                    // the node sent before it read the clear (at most one:
-                    // it reads its frames in order), so its state is old
-                    // news. A node that stayed latched says so in the next.
+                    // the node sent before it read the clear (on a bus, at
+                    // most one: a node reads its frames in order), so its
+                    // state is old news. A node that stayed latched says so
+                    // in the next. A simulated robot catching up after
+                    // starvation can send several at once; the supervisor's
+                    // settle time (one heartbeat timeout) covers those.
                     if e.stale {
                         e.stale = false;
                     } else {

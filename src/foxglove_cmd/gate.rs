@@ -178,7 +178,8 @@ fn accept_loop(
         let (client, peer) = match accepted {
             Ok(c) => c,
             Err(e) => {
-                // Out of descriptors, say: wait a little, tell, go on.
+                // Out of descriptors, say: accept fails at once until one is
+                // freed, so back off a little instead of spinning; tell, go on.
                 failures.say(|n| format!("accepting a viewer: {e}{}", since(n)));
                 std::thread::sleep(Duration::from_millis(50));
                 continue;
@@ -334,7 +335,7 @@ struct Watch {
 
 #[derive(Debug, Default, PartialEq, Eq)]
 enum Phase {
-    /// In the HTTP request; how many bytes of "\r\n\r\n" were just seen.
+    /// In the HTTP request, until its last four bytes are CRLF CRLF.
     #[default]
     Http,
     Header,
