@@ -153,10 +153,30 @@ impl DaemonArgs {
         commands: bool,
     ) -> anyhow::Result<Box<dyn Session>> {
         let s: Box<dyn Session> = match self.remote()? {
-            None => Box::new(Client::new(
-                prefix,
-                &format!("{tool}-{}", std::process::id()),
-            )?),
+            None => match Client::new(prefix, &format!("{tool}-{}", std::process::id())) {
+                Ok(c) => Box::new(c),
+                Err(direct) => match local_link(prefix) {
+                    // Not the daemon's user (its iceoryx2 files are its own),
+                    // but the prefix's local link admits this user: its
+                    // group's members use every tool without sudo or flags.
+                    Some(endpoint) => {
+                        let s =
+                            remote_session(prefix, &endpoint, None, commands).map_err(|link| {
+                                anyhow::anyhow!(
+                                    "over iceoryx2: {direct}; through the local link at {}: {link}",
+                                    endpoint.text
+                                )
+                            })?;
+                        eprintln!(
+                            "{tool}: through the local link ({}): the daemon's iceoryx2 files \
+                             are closed to this user",
+                            endpoint.text
+                        );
+                        s
+                    }
+                    None => return Err(direct.into()),
+                },
+            },
             Some((endpoint, tls)) => remote_session(prefix, &endpoint, tls.as_ref(), commands)?,
         };
         Ok(s)
@@ -168,6 +188,20 @@ impl DaemonArgs {
             .map(Operator::over)
             .with_context(|| format!("connecting to {}", self.describe(prefix)))
     }
+}
+
+/// The local link of `prefix` when this build has remote operation and a
+/// link listens there that admits this user (its user, or a member of its
+/// group): where a tool without `--connect` goes when iceoryx2 is closed to
+/// it.
+fn local_link(prefix: &str) -> Option<Endpoint> {
+    if !cfg!(feature = "remote") {
+        return None;
+    }
+    let endpoint = Endpoint::local(prefix).ok()?;
+    anguilla_link::local_access(&endpoint)
+        .is_none()
+        .then_some(endpoint)
 }
 
 /// Why `--connect` and `anguilla link` fail in a build without them.

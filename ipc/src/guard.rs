@@ -125,6 +125,28 @@ pub fn restrict() -> Result<Vec<PathBuf>, IpcError> {
     Ok(changed)
 }
 
+/// Why this process cannot make an iceoryx2 node, when the likely cause is
+/// that the daemon's node-id segment is another user's (0600 after
+/// [`restrict`]): it names the segment, its owner and mode, and the two
+/// ways in.
+pub fn closed_to_this_user() -> Option<String> {
+    // SAFETY: geteuid has no preconditions.
+    let uid = unsafe { libc::geteuid() };
+    segments().into_iter().find_map(|s| {
+        let m = std::fs::symlink_metadata(&s).ok()?;
+        (m.uid() != uid && uid != 0 && m.mode() & 0o006 != 0o006).then(|| {
+            format!(
+                "the daemon's iceoryx2 files are its user's: {} belongs to uid {} with mode {:o}. \
+                 Run the tool as that user, or join its group and run `anguilla link` beside \
+                 the daemon (the tools then go through its local socket by themselves)",
+                s.display(),
+                m.uid(),
+                m.mode() & 0o7777
+            )
+        })
+    })
+}
+
 /// How long one call into iceoryx2 that makes a node or opens the
 /// daemon's services may take before the process gives up
 /// ([`bounded`]). iceoryx2 retries a segment it cannot read (another

@@ -442,7 +442,10 @@ pub(crate) fn new_node(name: &str) -> Result<Node<ipc::Service>, IpcError> {
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
     })
-    .map_err(ice("node"))?;
+    .map_err(|e| match crate::guard::closed_to_this_user() {
+        Some(why) => IpcError::Foreign(format!("making an iceoryx2 node ({e:?}): {why}")),
+        None => ice("node")(e),
+    })?;
     Ok(node)
 }
 

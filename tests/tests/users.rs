@@ -7,8 +7,9 @@
 //! umask; see docs/ipc.md "Users and permissions"), so the tools that read
 //! state and command over iceoryx2 run as the daemon's user; group members
 //! reach the daemon through the E-stop socket (0660) and, for everything,
-//! through `anguilla link`'s local socket (`--connect local`, a 0770
-//! directory of the daemon's user and group), without sudo.
+//! through `anguilla link`'s local socket (a 0770 directory of the daemon's
+//! user and group; a tool goes there by itself when iceoryx2 is closed to
+//! it, or with `--connect local`), without sudo.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command as Proc, Output, Stdio};
@@ -288,6 +289,12 @@ fn only_the_group_reaches_the_local_link() {
         },
     );
     assert_eq!(mode_of(&status), Some(0), "idle");
+    // Without --connect: iceoryx2 is closed to the operator, and the tool
+    // goes through the local link by itself, saying so.
+    let o = ctl(operator, &bin, &dir, &prefix, &["status", "--json"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(mode_of(&o), Some(0), "operator without --connect: {err}");
+    assert!(err.contains("through the local link"), "{err}");
     // The outsider cannot even reach the socket: no state, no command.
     for args in [
         &["status"][..],
@@ -303,6 +310,15 @@ fn only_the_group_reaches_the_local_link() {
         );
         assert!(
             err.contains("permission denied") && err.contains("group"),
+            "{err}"
+        );
+        // Nor without --connect: no way round to the link.
+        let o = ctl(outsider, &bin, &dir, &prefix, args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "outsider {args:?}: {err}");
+        assert!(!err.contains("through the local link"), "{err}");
+        assert!(
+            err.contains("iceoryx2 files are its user's") && err.contains("join its group"),
             "{err}"
         );
     }
