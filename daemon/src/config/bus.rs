@@ -1,0 +1,83 @@
+//! `[bus]`: which bus, and its physical layer.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Config, ConfigError, fmt_f, range};
+
+/// `[bus]`: which bus, and its physical layer.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct BusConfig {
+    /// Bus spec (`socketcan:can0`, `slcan:/dev/ttyACM0@1000000`, `mem:NAME`);
+    /// empty runs the built-in simulated robot on an in-process bus.
+    pub spec: String,
+    /// Use CAN FD frames.
+    pub fd: bool,
+    /// Nominal (arbitration) bit rate (bit/s).
+    pub bitrate: u32,
+    /// CAN FD data-phase bit rate (bit/s).
+    pub data_bitrate: u32,
+    /// Highest bus load the control rate may cause (fraction).
+    pub max_load: f64,
+}
+
+impl BusConfig {
+    /// The protocol variant the bus carries: CAN FD with `fd = true`.
+    pub fn variant(&self) -> anguilla_protocol::Variant {
+        if self.fd {
+            anguilla_protocol::Variant::Fd
+        } else {
+            anguilla_protocol::Variant::Classic
+        }
+    }
+}
+
+impl Default for BusConfig {
+    fn default() -> Self {
+        Self {
+            spec: String::new(),
+            fd: false,
+            bitrate: 1_000_000,
+            data_bitrate: 5_000_000,
+            max_load: 0.6,
+        }
+    }
+}
+
+impl BusConfig {
+    /// Checks `[bus]` (its load: [`Config::control_rate`]).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let b = self;
+        range(
+            "bus.bitrate",
+            b.bitrate as f64,
+            10_000.0,
+            1_000_000.0,
+            "10000 ..= 1000000 bit/s",
+        )?;
+        range(
+            "bus.data-bitrate",
+            b.data_bitrate as f64,
+            b.bitrate as f64,
+            12_000_000.0,
+            "bus.bitrate ..= 12000000 bit/s",
+        )?;
+        range("bus.max-load", b.max_load, 0.05, 0.95, "0.05 ..= 0.95")?;
+        Ok(())
+    }
+}
+
+/// `[bus]` in the commented default file ([`super::default_toml`]).
+pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+    w("[bus]".into());
+    w("# \"socketcan:can0\", \"slcan:/dev/ttyACM0@1000000\", \"mem:NAME\"; empty runs the".into());
+    w("# built-in simulated robot. Real hardware is driven only when this is set.".into());
+    w("spec = \"\"".into());
+    w("# CAN FD frames; nominal and data-phase bit rates (bit/s).".into());
+    w(format!("fd = {}", d.bus.fd));
+    w(format!("bitrate = {}", d.bus.bitrate));
+    w(format!("data-bitrate = {}", d.bus.data_bitrate));
+    w("# Highest bus load the automatic control rate may cause. 0.05..=0.95".into());
+    w(format!("max-load = {}", fmt_f(d.bus.max_load)));
+    w(String::new());
+}

@@ -1,0 +1,314 @@
+//! The daemon's configuration: TOML, kebab-case keys, every key optional.
+//!
+//! A missing key takes the paper robot's default; an unknown key, a value of
+//! the wrong type or one out of range is an error that names the key and the
+//! accepted range. [`default_toml`] prints the whole default file with a
+//! comment on every key (`anguilla config default`); a test checks that it
+//! parses back to [`Config::default`], so the printed file cannot drift from
+//! the defaults in the code.
+//!
+//! Each section lives in a file of its own, with its struct, its defaults,
+//! its checks and its part of the commented default file; [`Config`]
+//! gathers them and checks what they ask for together (the control rate
+//! against the bus and the model).
+
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+
+mod autopilot;
+mod bus;
+mod control;
+mod foxglove;
+mod gait;
+mod ipc;
+mod limits;
+mod link;
+mod model;
+mod realtime;
+mod recording;
+mod robot;
+mod sensor;
+#[cfg(test)]
+mod tests;
+
+pub use autopilot::AutopilotConfig;
+pub use bus::BusConfig;
+pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
+pub use foxglove::FoxgloveConfig;
+pub use gait::GaitConfig;
+pub use ipc::IpcConfig;
+pub use limits::LimitsConfig;
+pub use link::{LINK_INBOUND, LINK_OUTBOUND, LinkConfig};
+pub use model::ModelConfig;
+pub use realtime::RealtimeConfig;
+pub use recording::RecordingConfig;
+pub use robot::{AxisConfig, AxisDefaults, AxisMap, RobotConfig};
+pub use sensor::SensorConfig;
+
+/// What went wrong loading a configuration.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read configuration file {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The text is not valid TOML, has an unknown key or a value of the wrong type.
+    #[error("configuration {origin}: {message}")]
+    Parse {
+        /// The file, or "text".
+        origin: String,
+        /// toml's message, which names the key and the line.
+        message: String,
+    },
+    /// A value is outside its accepted range.
+    #[error("configuration key '{key}' = {value} is out of range (expected {expected})")]
+    Range {
+        /// The dotted key, e.g. `control.rate-hz`.
+        key: &'static str,
+        /// The value given.
+        value: String,
+        /// The accepted range.
+        expected: &'static str,
+    },
+    /// The keys are each in range, but together ask for what the bus or
+    /// the model cannot do; the text names the keys and the figures.
+    #[error("configuration: {0}")]
+    Derived(String),
+}
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct Config {
+    /// `[robot]`.
+    pub robot: RobotConfig,
+    /// `[control]`.
+    pub control: ControlConfig,
+    /// `[gait]`.
+    pub gait: GaitConfig,
+    /// `[limits]`.
+    pub limits: LimitsConfig,
+    /// `[bus]`.
+    pub bus: BusConfig,
+    /// `[realtime]`.
+    pub realtime: RealtimeConfig,
+    /// `[ipc]`.
+    pub ipc: IpcConfig,
+    /// `[recording]`.
+    pub recording: RecordingConfig,
+    /// `[model]`.
+    pub model: ModelConfig,
+    /// `[sensor]`.
+    pub sensor: SensorConfig,
+    /// `[autopilot]`.
+    pub autopilot: AutopilotConfig,
+    /// `[foxglove]`.
+    pub foxglove: FoxgloveConfig,
+    /// `[link]`.
+    pub link: LinkConfig,
+}
+
+fn range(
+    key: &'static str,
+    value: f64,
+    min: f64,
+    max: f64,
+    expected: &'static str,
+) -> Result<(), ConfigError> {
+    if value.is_finite() && value >= min && value <= max {
+        Ok(())
+    } else {
+        Err(ConfigError::Range {
+            key,
+            value: fmt_number(value),
+            expected,
+        })
+    }
+}
+
+/// Exactly three numbers (serde truncates a longer array into `[f64; 3]`
+/// without a word, extra elements of any type included).
+fn three_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "expected exactly three numbers [a0, a1, a2], got {}",
+            v.len()
+        ))
+    })
+}
+
+/// Writes `v` readably: scientific notation when it is huge or tiny.
+pub fn fmt_number(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+impl Config {
+    /// The control rate (Hz): `control.rate-hz`, or with 0 the highest rate
+    /// at which the configured bus carries the robot's traffic within
+    /// `bus.max-load`. Checked by [`Config::validate`]: at least the
+    /// model's slowest step (1 / `MAX_DT`), and within `bus.max-load`.
+    pub fn control_rate(&self) -> Result<f64, ConfigError> {
+        let rates = self.bitrates();
+        let nodes = self.node_set();
+        let bus_text = || {
+            format!(
+                "{} joints ({} drives) on {} at {} bit/s",
+                self.robot.joints,
+                self.robot.drive,
+                self.bus.variant(),
+                self.bus.bitrate
+            )
+        };
+        let mut traffic = anguilla_protocol::budget::Traffic::of_family(self.robot.drive, nodes);
+        if let anguilla_protocol::budget::Traffic::Anguilla(_, sensor) = &mut traffic
+            && self.sensor.node != 0
+        {
+            *sensor = Some(self.sensor.rate_hz);
+        }
+        let max = anguilla_protocol::budget::max_rate_of(traffic, rates, self.bus.max_load)
+            .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;
+        let min = 1.0 / anguilla_model::MAX_DT;
+        let rate = if self.control.rate_hz > 0.0 {
+            self.control.rate_hz
+        } else {
+            if max < min {
+                return Err(ConfigError::Derived(format!(
+                    "control.rate-hz = 0 (automatic) finds no rate: {} within bus.max-load = {} \
+                     allow {:.1} Hz, and the model needs at least {min} Hz (a step of at most \
+                     {} s); raise bus.max-load or the bit rate, use CAN FD, or fewer joints",
+                    bus_text(),
+                    self.bus.max_load,
+                    max,
+                    anguilla_model::MAX_DT
+                )));
+            }
+            max
+        };
+        let load = anguilla_protocol::budget::budget_of(traffic, rate, rates)
+            .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?
+            .load;
+        // The automatic rate sits exactly at the limit; allow rounding.
+        if load > self.bus.max_load * (1.0 + 1e-9) {
+            return Err(ConfigError::Derived(format!(
+                "control.rate-hz = {} puts {:.0} % load on the bus ({}), above bus.max-load = {} \
+                 ({:.0} %): at most {:.1} Hz, or 0 for the automatic rate",
+                fmt_number(rate),
+                load * 100.0,
+                bus_text(),
+                self.bus.max_load,
+                self.bus.max_load * 100.0,
+                max
+            )));
+        }
+        Ok(rate)
+    }
+
+    /// The nodes' ids as a set, for the bus budget (ids out of range are
+    /// left out; validation names them).
+    pub fn node_set(&self) -> anguilla_protocol::NodeSet {
+        anguilla_protocol::NodeSet::of(
+            self.node_ids()
+                .into_iter()
+                .filter_map(|id| anguilla_protocol::NodeId::new(id).ok()),
+        )
+    }
+
+    /// The bus's bit rates, as the budget arithmetic takes them.
+    pub fn bitrates(&self) -> anguilla_protocol::budget::Bitrates {
+        anguilla_protocol::budget::Bitrates {
+            nominal: self.bus.bitrate,
+            data: self.bus.fd.then_some(self.bus.data_bitrate),
+        }
+    }
+
+    /// Parses and validates TOML text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            origin: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// The configuration as TOML (every key written; used by recordings).
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_default()
+    }
+
+    /// Reads, parses and validates a file.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// Checks every section, then what they ask for together; the error
+    /// names the first key out of range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_robot()?;
+        self.validate_sensor()?;
+        self.autopilot.validate()?;
+        self.foxglove.validate()?;
+        self.link.validate()?;
+        self.control.validate()?;
+        self.gait.validate()?;
+        self.limits.validate()?;
+        self.bus.validate()?;
+        self.realtime.validate()?;
+        self.ipc.validate()?;
+        self.model.validate()?;
+        // What the keys ask for together: a rate the bus and the model can
+        // run (the same check `anguilla run` depends on).
+        self.control_rate()?;
+        Ok(())
+    }
+}
+
+fn fmt_f(v: f64) -> String {
+    // TOML floats need a decimal point or exponent.
+    let s = format!("{v}");
+    if s.contains(['.', 'e', 'E']) || s.contains("inf") || s.contains("nan") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+/// The whole default configuration as a commented TOML file.
+pub fn default_toml() -> String {
+    let d = Config::default();
+    let mut o = String::new();
+    let mut w = |s: String| {
+        let _ = writeln!(o, "{s}");
+    };
+    w("# anguilla daemon configuration. Every key is optional; these are the defaults.".into());
+    w("# Keys are kebab-case; an unknown key or an out-of-range value is an error.".into());
+    w(String::new());
+    robot::write_default(&d, &mut w);
+    control::write_default(&d, &mut w);
+    gait::write_default(&d, &mut w);
+    limits::write_default(&d, &mut w);
+    bus::write_default(&d, &mut w);
+    realtime::write_default(&d, &mut w);
+    ipc::write_default(&d, &mut w);
+    recording::write_default(&d, &mut w);
+    model::write_default(&d, &mut w);
+    sensor::write_default(&d, &mut w);
+    autopilot::write_default(&d, &mut w);
+    foxglove::write_default(&d, &mut w);
+    link::write_default(&d, &mut w);
+    o
+}

@@ -1,0 +1,252 @@
+//! The configuration's tests: defaults, errors, the printed file.
+
+use super::*;
+
+#[test]
+fn the_builtin_robot_gets_a_sensor_on_the_first_free_id() {
+    let mut c = Config::default();
+    assert_eq!(c.fit_builtin_sensor(), Some(13));
+    assert_eq!(c.sensor.node, 13);
+    c.validate().unwrap();
+    // Set: kept. Joints on 1..=12 but not 3: the sensor takes 3.
+    assert_eq!(c.fit_builtin_sensor(), None);
+    let mut c = Config::default();
+    c.robot.node_ids = vec![1, 2, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13];
+    assert_eq!(c.fit_builtin_sensor(), Some(3));
+    // A bought family: no anguilla head sensor.
+    let mut c = Config::default();
+    c.robot.drive = anguilla_protocol::Family::Cia402;
+    assert_eq!(c.fit_builtin_sensor(), None);
+    assert_eq!(c.sensor.node, 0);
+}
+
+#[test]
+fn the_builtin_robot_relaxes_only_default_timeouts() {
+    let mut c = Config::default();
+    c.control.command_timeout = 0.4;
+    let changed = c.relax_for_builtin();
+    assert_eq!(c.control.command_timeout, 0.4, "set in the file: kept");
+    assert_eq!(c.control.heartbeat_timeout, BUILTIN_TIMEOUT);
+    assert_eq!(c.control.node_watchdog, 1.0);
+    let rate = c.control_rate().unwrap();
+    assert_eq!(
+        c.control.feedback_timeout,
+        (BUILTIN_TIMEOUT * rate).ceil() as u32
+    );
+    assert_eq!(changed.len(), 3, "{changed:?}");
+    assert!(!changed.iter().any(|k| k.contains("command-timeout")));
+    c.validate().unwrap();
+}
+
+#[test]
+fn the_printed_default_parses_back_to_the_default() {
+    let parsed = Config::from_toml(&default_toml(), "default").unwrap();
+    assert_eq!(parsed, Config::default());
+    Config::default().validate().unwrap();
+}
+
+#[test]
+fn docs_configuration_shows_the_default() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/configuration.md");
+    let block = format!("```toml\n{}```\n", default_toml());
+    anguilla_testkit::generated_block(std::path::Path::new(path), "config", &block);
+}
+
+#[test]
+fn a_written_configuration_reads_back() {
+    let mut c = Config::default();
+    c.robot.joints = 3;
+    c.robot.node_ids = vec![4, 5, 6];
+    c.bus.fd = true;
+    c.control.rate_hz = 250.0;
+    let back = Config::from_toml(&c.to_toml(), "written").unwrap();
+    assert_eq!(back, c);
+}
+
+#[test]
+fn empty_file_is_the_default() {
+    assert_eq!(Config::from_toml("", "t").unwrap(), Config::default());
+}
+
+#[test]
+fn unknown_keys_and_wrong_types_name_the_key() {
+    let e = Config::from_toml("[control]\nrate = 100\n", "t").unwrap_err();
+    assert!(e.to_string().contains("unknown field `rate`"), "{e}");
+    let e = Config::from_toml("[robot]\njoints = \"twelve\"\n", "t").unwrap_err();
+    assert!(e.to_string().contains("joints"), "{e}");
+    let e = Config::from_toml("[nonsense]\n", "t").unwrap_err();
+    assert!(e.to_string().contains("nonsense"), "{e}");
+}
+
+#[test]
+fn out_of_range_values_name_the_key_and_the_range() {
+    let e = Config::from_toml("[control]\ncommand-timeout = -1.0\n", "t").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "configuration key 'control.command-timeout' = -1 is out of range (expected 0.02 ..= 10 s)"
+    );
+    let e = Config::from_toml("[robot]\njoints = 3\nnode-ids = [1, 2, 2]\n", "t").unwrap_err();
+    assert!(e.to_string().contains("distinct ids"), "{e}");
+    let e = Config::from_toml("[robot]\njoints = 3\nnode-ids = [1, 2]\n", "t").unwrap_err();
+    assert!(e.to_string().contains("one id per joint"), "{e}");
+    let e = Config::from_toml("[bus]\nmax-load = 1.5\n", "t").unwrap_err();
+    assert!(e.to_string().contains("bus.max-load"), "{e}");
+    let e = Config::from_toml("[ipc]\nprefix = \"a b\"\n", "t").unwrap_err();
+    assert!(e.to_string().contains("ipc.prefix"), "{e}");
+    for (toml, key) in [
+        ("max-clients = 0", "'foxglove.max-clients' = 0"),
+        (
+            "subscribe-timeout = 0.5",
+            "'foxglove.subscribe-timeout' = 0.5",
+        ),
+        (
+            "subscribe-timeout = -1",
+            "'foxglove.subscribe-timeout' = -1",
+        ),
+    ] {
+        let e = Config::from_toml(&format!("[foxglove]\n{toml}\n"), "t").unwrap_err();
+        assert!(e.to_string().contains(key), "{e}");
+    }
+    let never = Config::from_toml("[foxglove]\nsubscribe-timeout = 0\n", "t").unwrap();
+    assert_eq!(never.foxglove.subscribe_timeout, 0.0);
+}
+
+#[test]
+fn check_and_run_agree_on_the_derived_rate_and_load() {
+    // Each was accepted by `config check`, then refused by `run`, or
+    // ran a bus past saturation.
+    let err = |t: &str| Config::from_toml(t, "t").unwrap_err().to_string();
+    let e = err("[control]\nrate-hz = 15\n");
+    assert!(
+        e.contains("'control.rate-hz' = 15") && e.contains("20 ..= 5000"),
+        "{e}"
+    );
+    let e = err("[robot]\njoints = 32\n[control]\nrate-hz = 1000\n");
+    assert!(
+        e.contains("control.rate-hz = 1000 puts 875 % load on the bus")
+            && e.contains("bus.max-load = 0.6")
+            && e.contains("at most 64.6 Hz"),
+        "{e}"
+    );
+    let e = err("[robot]\njoints = 32\n[bus]\nmax-load = 0.05\n");
+    assert!(
+        e.contains("finds no rate") && e.contains("at least 20 Hz"),
+        "{e}"
+    );
+    // Every accepted configuration has a rate the model takes.
+    for t in [
+        "",
+        "[robot]\njoints = 32\n",
+        "[bus]\nfd = true\n",
+        "[control]\nrate-hz = 20\n",
+    ] {
+        let c = Config::from_toml(t, "t").unwrap();
+        let rate = c.control_rate().unwrap();
+        assert!(1.0 / rate <= anguilla_model::MAX_DT, "{t}: {rate} Hz");
+    }
+}
+
+#[test]
+fn the_amplitude_polynomial_takes_exactly_three_numbers() {
+    for (t, want) in [
+        (
+            "[1, 2, 3, 4]",
+            "expected exactly three numbers [a0, a1, a2], got 4",
+        ),
+        (
+            "[1, 2]",
+            "expected exactly three numbers [a0, a1, a2], got 2",
+        ),
+        ("[1, 2, 3, \"junk\"]", "invalid type: string \"junk\""),
+    ] {
+        let e = Config::from_toml(&format!("[gait]\namplitude-polynomial = {t}\n"), "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{t}: {e}");
+    }
+    let c = Config::from_toml("[gait]\namplitude-polynomial = [1, 0, 2]\n", "t").unwrap();
+    assert_eq!(c.gait.amplitude_polynomial, [1.0, 0.0, 2.0]);
+}
+
+#[test]
+fn huge_numbers_print_short() {
+    assert_eq!(fmt_number(1e300), "1e300");
+    assert_eq!(fmt_number(1e-300), "1e-300");
+    assert_eq!(fmt_number(176.8), "176.8");
+    let e = Config::from_toml("[gait]\nwavelength = 1e300\n", "t").unwrap_err();
+    assert!(e.to_string().contains("= 1e300 is out of range"), "{e}");
+}
+
+#[test]
+fn an_unknown_drive_family_is_named_with_the_accepted_ones() {
+    let e = Config::from_toml("[robot]\ndrive = \"canopen\"\n", "test")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(
+            "unknown drive family \"canopen\" (expected \"anguilla\", \"cia402\" or \"odrive\")"
+        ) && e.contains("drive"),
+        "{e}"
+    );
+    let c = Config::from_toml("[robot]\ndrive = \"odrive\"\njoints = 4\n", "test").unwrap();
+    assert_eq!(c.robot.drive, anguilla_protocol::Family::Odrive);
+    assert!(c.to_toml().contains("drive = \"odrive\""));
+}
+
+#[test]
+fn a_cia402_eds_is_checked_for_what_the_master_needs() {
+    let sim = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../sim-backend/eds/anguilla-sim-cia402.eds"
+    );
+    let text = |eds: &str, drive: &str| {
+        format!("[robot]\njoints = 2\ndrive = \"{drive}\"\neds = {eds:?}\n")
+    };
+    Config::from_toml(&text(sim, "cia402"), "test").unwrap();
+    // The simulated drive lists 125..=1000 kbit/s, not 100.
+    let e = Config::from_toml(
+        &(text(sim, "cia402")
+            + "[bus]\nbitrate = 100000\nmax-load = 0.95\n[control]\nrate-hz = 20.0\n"),
+        "test",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("bit rate 100 kbit/s"), "{e}");
+    // A drive without a mappable torque offset.
+    let path = std::env::temp_dir().join(format!("anguilla-eds-{}.eds", std::process::id()));
+    let bad = std::fs::read_to_string(sim).unwrap().replace(
+        "[60B2]\nParameterName=Torque offset\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nDefaultValue=0\nPDOMapping=1",
+        "[60B2]\nParameterName=Torque offset\nObjectType=0x7\nDataType=0x0003\nAccessType=rw\nDefaultValue=0\nPDOMapping=0",
+    );
+    std::fs::write(&path, bad).unwrap();
+    let e = Config::from_toml(&text(path.to_str().unwrap(), "cia402"), "test")
+        .unwrap_err()
+        .to_string();
+    let _ = std::fs::remove_file(&path);
+    assert!(
+        e.contains("0x60B2:00 torque offset (not PDO-mappable"),
+        "{e}"
+    );
+    let e = Config::from_toml(&text("/nonexistent.eds", "cia402"), "test")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("/nonexistent.eds"), "{e}");
+    let e = Config::from_toml(&text(sim, "odrive"), "test")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("robot.eds"), "{e}");
+}
+
+#[test]
+fn node_ids_default_to_one_through_joints() {
+    let c = Config::from_toml("[robot]\njoints = 4\n", "t").unwrap();
+    assert_eq!(c.node_ids(), vec![1, 2, 3, 4]);
+    let c = Config::from_toml("[robot]\njoints = 2\nnode-ids = [9, 4]\n", "t").unwrap();
+    assert_eq!(c.node_ids(), vec![9, 4]);
+}
+
+#[test]
+fn a_missing_file_names_the_path() {
+    let e = Config::load(Path::new("/nonexistent/anguilla.toml")).unwrap_err();
+    assert!(e.to_string().contains("/nonexistent/anguilla.toml"), "{e}");
+}
