@@ -38,7 +38,10 @@ impl Family {
     /// Whether a joint is two drives of this family (one per axis), rather
     /// than one node carrying both axes.
     pub const fn drive_per_axis(self) -> bool {
-        !matches!(self, Family::Anguilla)
+        match self {
+            Family::Anguilla => false,
+            Family::Cia402 | Family::Odrive => true,
+        }
     }
 
     /// The range of node ids a drive of this family takes.
@@ -56,7 +59,22 @@ impl Family {
     pub const fn default_ids(self, j: usize) -> [u8; 2] {
         match self {
             Family::Anguilla => [j as u8 + 1, j as u8 + 1],
-            _ => [2 * j as u8 + 1, 2 * j as u8 + 2],
+            Family::Cia402 | Family::Odrive => [2 * j as u8 + 1, 2 * j as u8 + 2],
+        }
+    }
+
+    /// The node (or drive) an 11-bit identifier of this family addresses:
+    /// anguilla's low six bits (`None` for ids no function uses), CANopen's
+    /// low seven (0: a broadcast), ODrive's high six. Every family answers
+    /// here, so a new one cannot compile without saying how it lays out ids.
+    pub const fn node_of(self, id: u16) -> Option<u8> {
+        match self {
+            Family::Anguilla => match crate::message::Function::split_id(id) {
+                Some((_, node)) => Some(node),
+                None => None,
+            },
+            Family::Cia402 => Some((id & 0x7F) as u8),
+            Family::Odrive => Some(crate::odrive::split_id(id).0),
         }
     }
 }
@@ -103,5 +121,21 @@ mod tests {
         assert_eq!(Family::Odrive.default_ids(30), [61, 62]);
         assert!(!Family::Anguilla.drive_per_axis());
         assert!(Family::Odrive.drive_per_axis());
+    }
+
+    #[test]
+    fn node_of_inverts_each_familys_own_ids() {
+        use crate::{canopen, message::Function, odrive};
+        for node in 1..=63u8 {
+            let id = Function::Command.id(node);
+            assert_eq!(Family::Anguilla.node_of(id), Some(node));
+            let hb = canopen::Function::Heartbeat(canopen::NodeId::new(node).unwrap());
+            assert_eq!(Family::Cia402.node_of(hb.cob_id().as_raw()), Some(node));
+            let id =
+                odrive::arbitration_id(odrive::NodeId::new(node).unwrap(), odrive::Cmd::Heartbeat);
+            assert_eq!(Family::Odrive.node_of(id.as_raw()), Some(node));
+        }
+        // Above anguilla's last function: no node.
+        assert_eq!(Family::Anguilla.node_of(0x7FF), None);
     }
 }

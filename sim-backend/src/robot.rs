@@ -946,10 +946,7 @@ impl SimRobot {
             }
             family => (0..16).find_map(|_| {
                 let id = (self.rng.next_u64() % (u64::from(MAX_STANDARD_ID) + 1)) as u16;
-                let node = match family {
-                    Family::Odrive => anguilla_protocol::odrive::split_id(id).0,
-                    _ => (id & 0x7F) as u8,
-                };
+                let node = family.node_of(id)?;
                 let reserved = family == Family::Cia402 && (node == 0 || node == 127);
                 (!reserved && !self.drive_ids_used[usize::from(node & 0x7F)]).then_some(id)
             }),
