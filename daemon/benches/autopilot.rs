@@ -30,8 +30,8 @@
 #[allow(dead_code)]
 mod lockstep;
 
-use anguilla_daemon::ipc::Hold;
-use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+use anguilla_ipc::Hold;
+use anguilla_ipc::vocabulary::{Command, Mode, SwimParams};
 use lockstep::*;
 
 fn per_gait_period(rig: &Rig) -> usize {

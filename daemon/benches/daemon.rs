@@ -38,12 +38,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::ipc::{Client, StateSnapshot};
 use anguilla_daemon::rt::monotonic_ns;
 use anguilla_daemon::run;
-use anguilla_daemon::supervisor::{Command, Mode};
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::MemBus;
+use anguilla_ipc::vocabulary::{Command, Mode};
+use anguilla_ipc::{Client, StateSnapshot};
 use anguilla_protocol::message::{self, Message, NodeSet};
 use anguilla_sim::robot::{RobotConfig, SimRobot};
 
@@ -294,7 +294,7 @@ mod raw {
     #[type_name("anguilla::bench::Raw")]
     pub struct Raw {
         pub stamp: u64,
-        pub rest: [u8; core::mem::size_of::<anguilla_daemon::ipc::StateSnapshot>() - 8],
+        pub rest: [u8; core::mem::size_of::<anguilla_ipc::StateSnapshot>() - 8],
     }
 }
 use raw::Raw;
@@ -324,7 +324,7 @@ fn ours_latency(prefix: &str, fifo: Option<u8>, cpu: Option<usize>, samples: usi
     let (up_tx, up_rx) = std::sync::mpsc::channel();
     let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
     let server = std::thread::spawn(move || {
-        let _server = anguilla_daemon::ipc::CommandServer::new(&p).unwrap();
+        let _server = anguilla_ipc::CommandServer::new(&p).unwrap();
         up_tx.send(()).unwrap();
         // Held until the measurement ends (its sender dropped).
         let _ = done_rx.recv();
@@ -406,8 +406,8 @@ fn direct_latency(prefix: &str, samples: usize) -> Vec<u64> {
     let p = prefix.to_owned();
     let (up_tx, up_rx) = std::sync::mpsc::channel();
     let publisher = std::thread::spawn(move || {
-        let publisher = anguilla_daemon::ipc::service::StatePublisher::new(&p).unwrap();
-        let _server = anguilla_daemon::ipc::CommandServer::new(&p).unwrap();
+        let publisher = anguilla_ipc::service::StatePublisher::new(&p).unwrap();
+        let _server = anguilla_ipc::CommandServer::new(&p).unwrap();
         up_tx.send(()).unwrap();
         let mut snap = StateSnapshot::default();
         while !s2.load(Ordering::Relaxed) {

@@ -36,17 +36,15 @@ use anguilla_protocol::message::{self, AxisSetpoint, NodeSet};
 use crate::autopilot::{self, Autopilot};
 use crate::config::{Config, FaultPolicyConfig};
 use crate::drive::{self, DriveError, Drives, Out, Period};
-use crate::ipc::{
-    CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, JointSnapshot, LimitsSnapshot,
-    MAX_JOINTS, SensorHealth, StateSnapshot,
-};
 use crate::nav::{Nav, Prediction};
 use crate::nodes::Liveness;
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
-use crate::supervisor::{
-    ClientId, Command, FaultPolicy, Mode, Nanos, Observations, Refusal, Supervisor,
-    SupervisorConfig, SwimParams,
+use crate::supervisor::{FaultPolicy, Observations, Supervisor, SupervisorConfig};
+use anguilla_ipc::vocabulary::{ClientId, Command, Mode, Nanos, Refusal, SwimParams};
+use anguilla_ipc::{
+    CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, JointSnapshot, LimitsSnapshot,
+    MAX_JOINTS, SensorHealth, StateSnapshot,
 };
 
 /// The drives' way to `bus` for the controller `ctl` this period: every
@@ -759,7 +757,7 @@ impl Controller {
     }
 
     /// Sets the loop statistics shown in the snapshot.
-    pub fn set_loop_stats(&mut self, stats: crate::ipc::LoopSnapshot) {
+    pub fn set_loop_stats(&mut self, stats: anguilla_ipc::LoopSnapshot) {
         self.snapshot.loop_stats = stats;
     }
 }

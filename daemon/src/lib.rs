@@ -20,7 +20,7 @@ pub mod autopilot;
 pub mod config;
 pub mod control;
 pub mod drive;
-pub use anguilla_ipc as ipc;
+
 pub mod mcap_log;
 pub mod nav;
 pub mod nodes;

@@ -29,7 +29,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use serde_json::{Value, json};
 
 use crate::config::Config;
-use crate::ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot};
+use anguilla_ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot};
 
 pub mod schema;
 
@@ -486,7 +486,7 @@ pub fn export_with(
         }
         let s = StateSnapshot::from_bytes(chunk)
             .ok_or_else(|| io::Error::from(io::ErrorKind::InvalidData))?;
-        if s.layout_version != crate::ipc::LAYOUT_VERSION {
+        if s.layout_version != anguilla_ipc::LAYOUT_VERSION {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidData,
                 format!(
@@ -494,7 +494,7 @@ pub fn export_with(
                      export it with the anguilla that recorded it",
                     states.display(),
                     s.layout_version,
-                    crate::ipc::LAYOUT_VERSION
+                    anguilla_ipc::LAYOUT_VERSION
                 ),
             ));
         }
@@ -638,7 +638,7 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
 
 /// `/anguilla/state`'s message; its schema is [`schema::state`].
 fn state_json(s: &StateSnapshot) -> Value {
-    let gait = |g: &crate::ipc::GaitSnapshot| json!({ "amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch });
+    let gait = |g: &anguilla_ipc::GaitSnapshot| json!({ "amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch });
     let n = &s.nav;
     json!({
         "time_ns": s.time_ns,
@@ -676,8 +676,9 @@ fn state_json(s: &StateSnapshot) -> Value {
 fn joints_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
     let js = &s.joints[..n];
-    let col =
-        |f: &dyn Fn(&crate::ipc::JointSnapshot) -> f32| -> Vec<f32> { js.iter().map(f).collect() };
+    let col = |f: &dyn Fn(&anguilla_ipc::JointSnapshot) -> f32| -> Vec<f32> {
+        js.iter().map(f).collect()
+    };
     json!({
         "commanded_pitch": col(&|j| j.commanded_pitch),
         "commanded_yaw": col(&|j| j.commanded_yaw),

@@ -26,7 +26,7 @@ use anguilla_protocol::message::{
     self, DecodeError, ErrorBits, Feedback, Message, NodeId, NodeSet, NodeState, Target, Variant,
 };
 
-use crate::supervisor::Nanos;
+use anguilla_ipc::vocabulary::Nanos;
 
 /// One node's latest reports.
 #[derive(Debug, Clone, Copy, PartialEq)]

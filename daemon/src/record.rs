@@ -30,11 +30,11 @@ use anguilla_protocol::candump::{self, Interface, LogEntry, Timestamp};
 use crossbeam_channel::Receiver;
 
 use crate::config::Config;
-use crate::ipc::{Raw as _, StateSnapshot};
 use crate::mcap_log::McapLog;
 use crate::session::{self, Record};
-use crate::supervisor::Nanos;
 use crate::truth::GroundTruth;
+use anguilla_ipc::vocabulary::Nanos;
+use anguilla_ipc::{Raw as _, StateSnapshot};
 
 /// Writes a recording; runs on its own thread until the records and the
 /// states close (the ground truth, `(daemon time ns, truth)` from a

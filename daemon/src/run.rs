@@ -7,7 +7,7 @@
 //! allocates (iceoryx2 does, so its ports live on the helpers):
 //!
 //! - the **state** thread (at SCHED_FIFO one below the loop, when the loop
-//!   has a priority above 1; so is the command thread) takes each period's [`ipc::StateSnapshot`] and
+//!   has a priority above 1; so is the command thread) takes each period's [`anguilla_ipc::StateSnapshot`] and
 //!   publishes it on iceoryx2, then wakes the clients (when it falls behind,
 //!   only the newest snapshot is published; the others are counted);
 //! - the **command** thread waits for operator requests (clients announce
@@ -21,7 +21,7 @@
 //!   at most [`COMMAND_BATCH`] requests (every client's in-flight
 //!   requests, so each client is served every round);
 //! - the **E-stop** thread receives on the reserved E-stop socket
-//!   ([`ipc::estop`]) and raises a flag the loop reads every period;
+//!   ([`anguilla_ipc::estop`]) and raises a flag the loop reads every period;
 //! - the **logger** receives [`Event`]s from the loop and writes them with
 //!   `tracing` (the loop never logs itself; when the channel is full the
 //!   event is dropped and counted); refused commands are summed up in one
@@ -53,10 +53,10 @@ use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use crate::config::Config;
 use crate::control::{Controller, SetupError};
-use crate::ipc::{self, CommandReply, Envelope, LoopSnapshot, StateSnapshot};
 use crate::rt::{self, RtRequest};
 use crate::stats::Window;
-use crate::supervisor::{Cause, FaultSet, Mode, Nanos};
+use anguilla_ipc::vocabulary::{Cause, FaultSet, Mode, Nanos};
+use anguilla_ipc::{CommandReply, Envelope, LoopSnapshot, StateSnapshot};
 
 /// What the loop tells the logger. `Copy`, so sending it never allocates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -122,7 +122,7 @@ pub enum RunError {
     /// cause, so the cause is not also its `source` (an error chain printed
     /// with `{:#}` would say it twice).
     #[error("operator interface: {0}")]
-    Ipc(ipc::IpcError),
+    Ipc(anguilla_ipc::IpcError),
     /// A thread could not be started.
     #[error("cannot start the {0} thread: {1}")]
     Thread(&'static str, std::io::Error),
@@ -135,8 +135,8 @@ pub enum RunError {
     Rate(crate::config::ConfigError),
 }
 
-impl From<ipc::IpcError> for RunError {
-    fn from(e: ipc::IpcError) -> Self {
+impl From<anguilla_ipc::IpcError> for RunError {
+    fn from(e: anguilla_ipc::IpcError) -> Self {
         Self::Ipc(e)
     }
 }
@@ -240,13 +240,14 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     let mut helpers = Vec::new();
     // The E-stop socket first: a live daemon on the same prefix is found
     // here, before any iceoryx2 service is touched.
-    let estop_listener = ipc::estop::EStopListener::bind(&cfg.ipc.prefix)?;
+    let estop_listener = anguilla_ipc::estop::EStopListener::bind(&cfg.ipc.prefix)?;
     // iceoryx2's directory and node-id segment: another user's are refused
-    // before any node is made (ipc::guard).
-    ipc::guard::check()?;
+    // before any node is made (anguilla_ipc::guard).
+    anguilla_ipc::guard::check()?;
     // The iceoryx2 helpers first: their setup errors (a bad prefix, a
     // second daemon on the same services) are reported by `spawn`.
-    let (ipc_ready_tx, ipc_ready_rx) = std::sync::mpsc::channel::<Result<(), ipc::IpcError>>();
+    let (ipc_ready_tx, ipc_ready_rx) =
+        std::sync::mpsc::channel::<Result<(), anguilla_ipc::IpcError>>();
     // With the loop at SCHED_FIFO p, the two iceoryx2 helpers run at p - 1:
     // above ordinary threads, so clients see the state and the loop sees
     // commands without waiting for a busy CPU, and never above the loop.
@@ -285,9 +286,11 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             .map_err(|e| RunError::Thread("command", e))?,
     );
     for _ in 0..2 {
-        let r = ipc_ready_rx.recv().unwrap_or(Err(ipc::IpcError::Iceoryx(
-            "an operator-interface thread ended during start-up".into(),
-        )));
+        let r = ipc_ready_rx
+            .recv()
+            .unwrap_or(Err(anguilla_ipc::IpcError::Iceoryx(
+                "an operator-interface thread ended during start-up".into(),
+            )));
         if let Err(e) = r {
             stop.store(true, Ordering::SeqCst);
             // The helpers end when the loop's ends of their channels go.
@@ -300,7 +303,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     }
     // The node-id segment the daemon's nodes made or opened: its user's
     // only from now on (iceoryx2 makes it 0666).
-    match ipc::guard::restrict() {
+    match anguilla_ipc::guard::restrict() {
         Ok(changed) => {
             for s in changed {
                 tracing::info!("{} restricted to this user (mode 0600)", s.display());
@@ -635,7 +638,7 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
                 "adapter gone: {bus_spec}; nothing is sent until it is back (reconnecting)"
             ),
             Some(Event::Bus { state }) => {
-                tracing::warn!("bus {bus_spec}: {}", ipc::bus_state_name(state))
+                tracing::warn!("bus {bus_spec}: {}", anguilla_ipc::bus_state_name(state))
             }
             Some(Event::Overrun { skipped }) => {
                 if let Some(line) = overload.overran(now, skipped) {
@@ -669,7 +672,7 @@ fn logger(rx: Receiver<Event>, bus_spec: String) {
 /// Receives on the E-stop socket until `stop`; each datagram is an E-stop
 /// the loop takes next period. Logs at most one line per second.
 fn estop_thread(
-    listener: ipc::estop::EStopListener,
+    listener: anguilla_ipc::estop::EStopListener,
     estops: Arc<AtomicU64>,
     stop: Arc<AtomicBool>,
 ) {
@@ -700,12 +703,12 @@ fn estop_thread(
 }
 
 fn reaper(watch_rx: Receiver<u128>, tx: Sender<(u128, bool)>, stop: Arc<AtomicBool>) {
-    let mut watch = ipc::NodeWatch::default();
+    let mut watch = anguilla_ipc::NodeWatch::default();
     while !stop.load(Ordering::Relaxed) {
         for id in watch_rx.try_iter() {
             watch.watch(id);
         }
-        if let Some((alive, dead)) = ipc::scan_nodes() {
+        if let Some((alive, dead)) = anguilla_ipc::scan_nodes() {
             for gone in watch.update(&alive, &dead) {
                 let _ = tx.try_send(gone);
             }
@@ -725,7 +728,7 @@ const STATE_QUEUE: usize = 4;
 /// Most operator requests handed to the loop in one round: every client's
 /// requests in flight (iceoryx2 lets a client have no more), so one round
 /// serves every client.
-pub const COMMAND_BATCH: usize = ipc::MAX_TOOLS * ipc::MAX_REQUESTS_PER_CLIENT;
+pub const COMMAND_BATCH: usize = anguilla_ipc::MAX_TOOLS * anguilla_ipc::MAX_REQUESTS_PER_CLIENT;
 /// Shortest time between a round of the command thread that found no
 /// request and the next: a client that floods `command-ready` without
 /// requests wakes it at most this often.
@@ -743,12 +746,12 @@ pub fn state_thread(
     prefix: &str,
     rt: RtRequest,
     rx: Receiver<StateSnapshot>,
-    ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
+    ready: std::sync::mpsc::Sender<Result<(), anguilla_ipc::IpcError>>,
 ) {
     for w in rt::apply(&rt) {
         tracing::warn!("state thread: {w}");
     }
-    let publisher = match ipc::StatePublisher::new(prefix) {
+    let publisher = match anguilla_ipc::StatePublisher::new(prefix) {
         Ok(p) => {
             let _ = ready.send(Ok(()));
             p
@@ -795,7 +798,7 @@ fn command_thread(
     rt: RtRequest,
     links: CommandLinks,
     reply_wait: Duration,
-    ready: std::sync::mpsc::Sender<Result<(), ipc::IpcError>>,
+    ready: std::sync::mpsc::Sender<Result<(), anguilla_ipc::IpcError>>,
 ) {
     use crossbeam_channel::{RecvTimeoutError, TryRecvError};
     let CommandLinks {
@@ -806,7 +809,7 @@ fn command_thread(
     for w in rt::apply(&rt) {
         tracing::warn!("command thread: {w}");
     }
-    let mut server = match ipc::CommandServer::new(prefix) {
+    let mut server = match anguilla_ipc::CommandServer::new(prefix) {
         Ok(s) => {
             let _ = ready.send(Ok(()));
             s
@@ -817,7 +820,8 @@ fn command_thread(
         }
     };
     drop(ready);
-    let mut waiting: Vec<(Envelope, ipc::ActiveRequest)> = Vec::with_capacity(COMMAND_BATCH);
+    let mut waiting: Vec<(Envelope, anguilla_ipc::ActiveRequest)> =
+        Vec::with_capacity(COMMAND_BATCH);
     let mut failing = ErrorLog::default();
     let mut last_round = std::time::Instant::now();
     let mut last_round_empty = false;
@@ -884,7 +888,7 @@ fn command_thread(
                         env.origin == origin && env.request.sequence == reply.sequence
                     });
                     if let Some(at) = at {
-                        ipc::CommandServer::reply(waiting.remove(at).1, reply);
+                        anguilla_ipc::CommandServer::reply(waiting.remove(at).1, reply);
                     }
                 }
                 Err(RecvTimeoutError::Timeout) => {
@@ -916,7 +920,7 @@ fn control_loop(
     links: Links,
     recording: Option<(
         Sender<crate::session::Record>,
-        Sender<crate::ipc::StateSnapshot>,
+        Sender<anguilla_ipc::StateSnapshot>,
     )>,
 ) -> Result<RunReport, RunError> {
     let rt_req = RtRequest {
@@ -939,7 +943,7 @@ fn control_loop(
         tracing::warn!("{w}");
     }
     let mut ctl = Controller::new(&cfg, Nanos::from_nanos(rt::monotonic_ns()))?;
-    let joints = cfg.robot.joints.min(ipc::MAX_JOINTS);
+    let joints = cfg.robot.joints.min(anguilla_ipc::MAX_JOINTS);
     let anguilla = cfg.robot.drive == anguilla_protocol::Family::Anguilla;
     let states = recording.map(|(records, states)| {
         ctl.set_tap(records);
@@ -968,7 +972,7 @@ fn control_loop(
     let mut deadline = rt::monotonic_ns() + period;
     let mut mode = ctl.supervisor().mode();
     let mut bus_state = 0u8;
-    let mut node_errors = [0u32; ipc::MAX_JOINTS];
+    let mut node_errors = [0u32; anguilla_ipc::MAX_JOINTS];
     let mut stopping_since: Option<Nanos> = None;
     loop {
         rt::sleep_until_ns(deadline);
@@ -1028,7 +1032,7 @@ fn control_loop(
             emit(Event::Drive(n), &mut dropped);
         }
         // Joints with news, grouped by code (fixed room: no allocation).
-        let mut news = [(0u32, 0u64); ipc::MAX_JOINTS];
+        let mut news = [(0u32, 0u64); anguilla_ipc::MAX_JOINTS];
         let mut groups = 0;
         for (j, (js, seen)) in ctl
             .snapshot()

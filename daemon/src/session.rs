@@ -34,8 +34,8 @@ use anguilla_drivers::BusState;
 use anguilla_protocol::candump;
 use anguilla_protocol::frame::Frame;
 
-use crate::ipc::{CommandRequest, Envelope, Raw as _};
-use crate::supervisor::Nanos;
+use anguilla_ipc::vocabulary::Nanos;
+use anguilla_ipc::{CommandRequest, Envelope, Raw as _};
 
 /// One recorded event. `Copy`: sending it allocates nothing.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -365,7 +365,7 @@ mod tests {
     fn period_lines_carry_the_published_bus_state_codes() {
         let names: Vec<_> = BusState::ALL
             .iter()
-            .map(|s| crate::ipc::bus_state_name(s.code()))
+            .map(|s| anguilla_ipc::bus_state_name(s.code()))
             .collect();
         assert_eq!(
             names,

@@ -21,7 +21,7 @@
 
 use anguilla_protocol::NodeSet;
 
-pub use anguilla_ipc::vocabulary::{
+use anguilla_ipc::vocabulary::{
     Cause, ClientId, Command, FaultKind, FaultSet, Field, Hold, Mode, Nanos, Refusal, SwimParams,
 };
 

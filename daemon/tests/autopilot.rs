@@ -10,8 +10,8 @@
 #[path = "support/lockstep.rs"]
 mod lockstep;
 
-use anguilla_daemon::ipc::{Hold, SensorHealth};
-use anguilla_daemon::supervisor::{Cause, Command, Mode};
+use anguilla_ipc::vocabulary::{Cause, Command, Mode};
+use anguilla_ipc::{Hold, SensorHealth};
 use lockstep::*;
 
 /// Control periods in one gait period at 1 Hz.

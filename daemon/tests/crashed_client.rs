@@ -7,10 +7,10 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::ipc::Client;
 use anguilla_daemon::run;
-use anguilla_daemon::supervisor::Command;
 use anguilla_drivers::mem::MemBus;
+use anguilla_ipc::Client;
+use anguilla_ipc::vocabulary::Command;
 
 const CHILD_ENV: &str = "ANGUILLA_TEST_CHILD_PREFIX";
 

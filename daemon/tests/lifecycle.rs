@@ -4,7 +4,7 @@
 mod rig;
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::supervisor::{Command, FaultKind, Mode, SwimParams};
+use anguilla_ipc::vocabulary::{Command, FaultKind, Mode, SwimParams};
 use anguilla_protocol::message::NodeState;
 use rig::Rig;
 

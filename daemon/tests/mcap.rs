@@ -12,10 +12,10 @@ mod lockstep;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anguilla_daemon::ipc::Hold;
 use anguilla_daemon::mcap_log::{self, McapLog, TOPICS};
 use anguilla_daemon::record;
-use anguilla_daemon::supervisor::Command;
+use anguilla_ipc::Hold;
+use anguilla_ipc::vocabulary::Command;
 use lockstep::{Rig, config};
 
 /// Records a session of the swimming robot with a head sensor: swim, hold
@@ -268,7 +268,7 @@ fn a_writer_that_dies_leaves_every_flushed_chunk_readable() {
     let path = dir.join("killed.mcap");
     let cfg = config();
     let mut log = McapLog::create(&path, &cfg).unwrap();
-    let mut s = anguilla_daemon::ipc::StateSnapshot::default();
+    let mut s = anguilla_ipc::StateSnapshot::default();
     for i in 0..50u64 {
         s.time_ns = i * 100_000_000;
         s.sequence = i;
@@ -300,8 +300,8 @@ fn a_writer_that_dies_leaves_every_flushed_chunk_readable() {
     assert!(e.to_string().contains("nothing.mcap"), "{e}");
     // A session directory whose state.bin was cut mid-snapshot exports
     // the whole ones, and says how much it left out.
-    let size = core::mem::size_of::<anguilla_daemon::ipc::StateSnapshot>();
-    let snapshot = anguilla_daemon::ipc::StateSnapshot::default();
+    let size = core::mem::size_of::<anguilla_ipc::StateSnapshot>();
+    let snapshot = anguilla_ipc::StateSnapshot::default();
     // SAFETY: a #[repr(C)] snapshot of integers and floats, read as bytes.
     let bytes = unsafe { core::slice::from_raw_parts(&snapshot as *const _ as *const u8, size) };
     let mut data = bytes.repeat(3);
@@ -329,7 +329,7 @@ fn the_readme_picture_is_the_scene() {
     let cfg = config();
     let mut rig = Rig::new(&cfg, 12, [0.0; 3]);
     rig.swim(1.0);
-    rig.ok(Command::Swim(anguilla_daemon::supervisor::SwimParams {
+    rig.ok(Command::Swim(anguilla_ipc::vocabulary::SwimParams {
         amplitude: 1.0,
         frequency: 1.0,
         turn: 0.8,

@@ -13,7 +13,7 @@ mod rig;
 use std::cell::Cell;
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
+use anguilla_ipc::vocabulary::{Command, Mode, SwimParams};
 use anguilla_protocol::Family;
 use rig::Rig;
 
@@ -101,7 +101,7 @@ fn a_control_period_allocates_nothing() {
 /// falling silent and ending the hold.
 #[test]
 fn a_period_with_the_autopilot_allocates_nothing() {
-    use anguilla_daemon::ipc::Hold;
+    use anguilla_ipc::Hold;
     let mut rig = lockstep::Rig::new(&lockstep::config(), 9, [0.0; 3]);
     rig.swim(1.0);
     rig.run(3.0, |_| {});
@@ -125,10 +125,7 @@ fn a_period_with_the_autopilot_allocates_nothing() {
     }
     let s = rig.state();
     assert_eq!(s.nav.hold, 0, "the silent sensor ended the hold");
-    assert_eq!(
-        s.cause,
-        anguilla_daemon::supervisor::Cause::SensorLost.code()
-    );
+    assert_eq!(s.cause, anguilla_ipc::vocabulary::Cause::SensorLost.code());
     // A refused hold (the sensor is silent) formats its reason in place.
     let r = counted(|| rig.command(hold));
     assert_eq!(r.accepted, 0);

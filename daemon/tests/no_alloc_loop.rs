@@ -13,10 +13,10 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anguilla_daemon::config::Config;
-use anguilla_daemon::ipc::{Client, StateSnapshot};
 use anguilla_daemon::run;
-use anguilla_daemon::supervisor::{Command, Mode, SwimParams};
 use anguilla_drivers::mem::MemBus;
+use anguilla_ipc::vocabulary::{Command, Mode, SwimParams};
+use anguilla_ipc::{Client, StateSnapshot};
 use anguilla_sim::robot::{RobotConfig, SimRobot};
 
 #[global_allocator]
@@ -136,7 +136,7 @@ fn the_running_loop_thread_allocates_nothing() {
     accepted(&mut client, Command::Enable);
     wait_mode(&mut client, Mode::Ready, 10.0);
     // An E-stop on the reserved socket, then reset again.
-    anguilla_daemon::ipc::estop::send(&prefix).expect("e-stop socket");
+    anguilla_ipc::estop::send(&prefix).expect("e-stop socket");
     wait_mode(&mut client, Mode::EStop, 5.0);
     let (stopped, _) = hold(&mut client, 0.1);
     assert_eq!(stopped.socket_estops, 1, "taken on the reserved path");

@@ -6,7 +6,7 @@ use anguilla_daemon::config::Config;
 use anguilla_daemon::record;
 use anguilla_daemon::replay::{self, ReplayError};
 use anguilla_daemon::session::SessionError;
-use anguilla_daemon::supervisor::{Command, SwimParams};
+use anguilla_ipc::vocabulary::{Command, SwimParams};
 use anguilla_protocol::Family;
 use anguilla_protocol::frame::Frame;
 use rig::{Hooked, Rig};

@@ -12,7 +12,8 @@ use anguilla_protocol::message::{
 use super::{DriveError, Drives, JointReport, Out, Period};
 use crate::config::Config;
 use crate::nodes::{Liveness, NodeReport, NodeTable, RxCounters};
-use crate::supervisor::{Drive, Mode, Nanos};
+use crate::supervisor::Drive;
+use anguilla_ipc::vocabulary::{Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
 

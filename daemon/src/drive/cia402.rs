@@ -43,7 +43,8 @@ use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
 use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::nodes::{Liveness, NodeReport, RxCounters};
-use crate::supervisor::{Drive, Mode, Nanos};
+use crate::supervisor::Drive;
+use anguilla_ipc::vocabulary::{Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
 /// The shortest wait for an SDO response; the master waits

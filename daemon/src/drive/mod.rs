@@ -36,7 +36,8 @@ use anguilla_protocol::message::{AxisFeedback, AxisSetpoint, NodeSet};
 use crate::config::Config;
 use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::session::Record;
-use crate::supervisor::{Drive, Mode, Nanos};
+use crate::supervisor::Drive;
+use anguilla_ipc::vocabulary::{Mode, Nanos};
 
 /// Where a family's frames go: the bus, with each frame recorded (sent or
 /// refused) and every failure counted. Never blocks, never allocates.

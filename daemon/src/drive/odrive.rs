@@ -19,7 +19,8 @@ use anguilla_protocol::odrive::{
 use super::{AxisIndex, AxisStatus, AxisView, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::nodes::{Liveness, NodeReport, RxCounters};
-use crate::supervisor::{Drive, Mode, Nanos};
+use crate::supervisor::Drive;
+use anguilla_ipc::vocabulary::{Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
 

@@ -14,7 +14,8 @@ use anguilla_protocol::odrive::{self, AxisState, Body, Message as Od, NodeId as 
 
 use super::{Drives, Out, Period};
 use crate::config::{AxisConfig, Config};
-use crate::supervisor::{Drive, Mode, Nanos};
+use crate::supervisor::Drive;
+use anguilla_ipc::vocabulary::{Mode, Nanos};
 use anguilla_protocol::Family;
 
 /// A bus that keeps what is sent.

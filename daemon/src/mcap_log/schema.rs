@@ -35,7 +35,7 @@ use anguilla_drivers::BusState;
 use anguilla_protocol::behaviour;
 use serde_json::{Map, Value, json};
 
-use crate::ipc::{
+use anguilla_ipc::{
     Cause, FaultKind, Hold, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, bus_state_name,
     hold_bits,
 };
@@ -1005,8 +1005,8 @@ mod tests {
 
     use super::*;
     use crate::config::Config;
-    use crate::ipc::StateSnapshot;
     use crate::mcap_log::{Scene, TOPICS};
+    use anguilla_ipc::StateSnapshot;
 
     /// Snapshots that take every mode, cause, sensor health, bus state,
     /// hold and node state (255 included), codes this anguilla does not

@@ -5,10 +5,10 @@
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::control::Controller;
-use anguilla_daemon::ipc::{CommandReply, CommandRequest, Envelope};
-use anguilla_daemon::supervisor::{Command, Nanos};
 use anguilla_drivers::Bus;
 use anguilla_drivers::mem::{MemBus, MemParticipant};
+use anguilla_ipc::vocabulary::{Command, Nanos};
+use anguilla_ipc::{CommandReply, CommandRequest, Envelope};
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::NodeId;
 use anguilla_sim::actuator::ActuatorParams;

@@ -8,10 +8,10 @@ use std::time::Duration;
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::control::Controller;
-use anguilla_daemon::ipc::{CommandReply, CommandRequest, Envelope, StateSnapshot};
-use anguilla_daemon::supervisor::{Command, Mode, Nanos, SwimParams};
 use anguilla_drivers::mem::{MemBus, MemParticipant};
 use anguilla_drivers::{Clock, ManualClock};
+use anguilla_ipc::vocabulary::{Command, Mode, Nanos, SwimParams};
+use anguilla_ipc::{CommandReply, CommandRequest, Envelope, StateSnapshot};
 use anguilla_model::Current;
 use anguilla_sim::robot::{RobotConfig, SimRobot, Truth};
 use anguilla_sim::sensor::SensorConfig;
@@ -288,7 +288,7 @@ pub fn depth_step(rig: &mut Rig, step: f64, seconds: f64, late_after: f64) -> De
     let h0 = rig.state().nav.heading_deg as f64;
     let d0 = true_depth(&rig.truth());
     let target = d0 + step;
-    rig.ok(Command::Hold(anguilla_daemon::ipc::Hold {
+    rig.ok(Command::Hold(anguilla_ipc::Hold {
         heading: Some(h0),
         depth: Some(target),
     }));
