@@ -35,9 +35,9 @@ use anguilla_protocol::message::{self, AxisSetpoint, NodeSet};
 
 use crate::autopilot::{self, Autopilot};
 use crate::config::{Config, FaultPolicyConfig};
+use crate::drive::Liveness;
 use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::nav::{Nav, Prediction};
-use crate::nodes::Liveness;
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
 use crate::supervisor::{FaultPolicy, Observations, Supervisor, SupervisorConfig};

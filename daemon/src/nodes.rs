@@ -23,10 +23,12 @@
 
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
-    self, DecodeError, ErrorBits, Feedback, Message, NodeId, NodeSet, NodeState, Target, Variant,
+    self, ErrorBits, Feedback, Message, NodeId, NodeSet, NodeState, Target, Variant,
 };
 
 use anguilla_ipc::vocabulary::Nanos;
+
+use crate::drive::report::{Liveness, NodeReport, RxCounters};
 
 /// One node's latest reports.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,59 +66,6 @@ pub const DUPLICATE_ANOMALIES: usize = 3;
 
 /// The window for [`DUPLICATE_ANOMALIES`].
 pub const DUPLICATE_WINDOW: Nanos = Nanos::from_millis(1_000);
-
-/// When a node counts as lost.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Liveness {
-    /// A heartbeat older than this is lost.
-    pub heartbeat_timeout: Nanos,
-    /// A node that answered none of this many SYNCs is silent
-    /// (`control.feedback-timeout`).
-    pub feedback_periods: u32,
-}
-
-/// Why frames were not used; counted, never fatal.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct RxCounters {
-    /// Frames that did not decode (unknown id, wrong length, bad value, unknown node).
-    pub malformed: u64,
-    /// The last decode error, for the operator.
-    pub last_error: Option<DecodeError>,
-    /// Host-to-node frames seen from another sender (another tool on the bus).
-    pub foreign_commands: u64,
-    /// E-stop frames seen on the bus.
-    pub estops_seen: u64,
-}
-
-/// The nodes' reports at one instant ([`NodeTable::observe`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NodeReport {
-    /// Every configured node reports Enabled.
-    pub all_enabled: bool,
-    /// Nodes whose heartbeat is overdue.
-    pub lost: NodeSet,
-    /// Nodes that stopped answering SYNC with feedback.
-    pub silent: NodeSet,
-    /// Nodes whose id two senders use.
-    pub duplicate: NodeSet,
-    /// Nodes in Fault.
-    pub fault: NodeSet,
-    /// Nodes in EStop.
-    pub estop: NodeSet,
-}
-
-impl Default for NodeReport {
-    fn default() -> Self {
-        NodeReport {
-            all_enabled: false,
-            lost: NodeSet::empty(),
-            silent: NodeSet::empty(),
-            duplicate: NodeSet::empty(),
-            fault: NodeSet::empty(),
-            estop: NodeSet::empty(),
-        }
-    }
-}
 
 /// The table of nodes, in joint order (head to tail).
 #[derive(Debug, Clone)]

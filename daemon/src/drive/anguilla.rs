@@ -9,9 +9,10 @@ use anguilla_protocol::message::{
     self, Command as NodeCommand, Message, NodeId, NodeSet, NodeState, Target, Variant,
 };
 
+use super::report::{Liveness, NodeReport, RxCounters};
 use super::{DriveError, Drives, JointReport, Out, Period};
 use crate::config::Config;
-use crate::nodes::{Liveness, NodeReport, NodeTable, RxCounters};
+use crate::nodes::NodeTable;
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
 

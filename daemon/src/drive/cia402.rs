@@ -40,9 +40,9 @@ use anguilla_protocol::canopen::{
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
 
+use super::report::{Liveness, NodeReport, RxCounters};
 use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
-use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
 

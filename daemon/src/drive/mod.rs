@@ -28,16 +28,17 @@ pub mod anguilla;
 pub mod axis;
 pub mod cia402;
 pub mod odrive;
+pub mod report;
 
 use anguilla_drivers::Bus;
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, AxisSetpoint, NodeSet};
 
 use crate::config::Config;
-use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::session::Record;
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
+pub use report::{Liveness, NodeReport, RxCounters};
 
 /// Where a family's frames go: the bus, with each frame recorded (sent or
 /// refused) and every failure counted. Never blocks, never allocates.

@@ -16,9 +16,9 @@ use anguilla_protocol::odrive::{
     self, AxisState, Body, ControlMode, InputMode, InputPos, Message, NodeId,
 };
 
+use super::report::{Liveness, NodeReport, RxCounters};
 use super::{AxisIndex, AxisStatus, AxisView, DriveError, Drives, JointReport, Out, Period};
 use crate::config::{AxisMap, Config};
-use crate::nodes::{Liveness, NodeReport, RxCounters};
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
 

@@ -57,7 +57,7 @@ impl Bus for Capture {
 
 const MS: Nanos = Nanos::from_millis(1);
 
-const LIMITS: crate::nodes::Liveness = crate::nodes::Liveness {
+const LIMITS: super::report::Liveness = super::report::Liveness {
     heartbeat_timeout: Nanos::from_millis(350),
     feedback_periods: 20,
 };
