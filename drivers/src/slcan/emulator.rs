@@ -235,13 +235,7 @@ impl<S: Read + Write> Adapter<S> {
                     Token::Line(l) => self.handle(l),
                     Token::Bell | Token::Error(_) => self.bel(),
                 }),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut
-                            | io::ErrorKind::WouldBlock
-                            | io::ErrorKind::Interrupted
-                    ) => {}
+                Err(e) if super::transient(&e) => {}
                 Err(_) => {
                     // The line is gone (e.g. EIO): idle until stopped.
                     std::thread::park_timeout(Duration::from_millis(5));

@@ -306,14 +306,7 @@ impl SlcanBus {
                     });
                 }
                 Ok(k) => k,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut
-                            | io::ErrorKind::WouldBlock
-                            | io::ErrorKind::Interrupted
-                    ) =>
-                {
+                Err(e) if transient(&e) => {
                     continue;
                 }
                 Err(e) => return Err(OpenError::io(spec, e)),
@@ -418,16 +411,7 @@ impl SlcanBus {
                 }
                 Ok(())
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(())
-            }
+            Err(e) if transient(&e) => Ok(()),
             Err(e) => Err(self.disconnected(LostReason::Io((&e).into()))),
         }
     }
@@ -556,4 +540,13 @@ impl Bus for SlcanBus {
     fn spec(&self) -> &str {
         &self.config.spec
     }
+}
+
+/// A serial read or write that found nothing to do this time (a timeout,
+/// no data yet, a signal): try again. Every other error is the line's loss.
+fn transient(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+    )
 }
