@@ -40,7 +40,7 @@ use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::nav::{Nav, Prediction};
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
-use crate::supervisor::{FaultPolicy, Observations, Supervisor, SupervisorConfig};
+use crate::supervisor::{Directives, FaultPolicy, Observations, Supervisor, SupervisorConfig};
 use anguilla_ipc::vocabulary::{ClientId, Command, Mode, Nanos, Refusal, SwimParams};
 use anguilla_ipc::{
     CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, JointSnapshot, LimitsSnapshot,
@@ -449,22 +449,58 @@ impl Controller {
             && self.offsets.iter().flatten().all(|o| o.settled())
     }
 
-    /// Runs one period at time `now` against `bus`.
+    /// Runs one period at time `now` against `bus`: the seven steps of the
+    /// module's documentation, in order.
     pub fn run_period(&mut self, now: Nanos, bus: &mut dyn Bus) {
         self.now = now;
         // The state this period acts on throughout (a bus that goes off
         // meanwhile refuses the sends, recorded as such): a replay sees the
         // same period.
         let period_state = bus.state();
-        // Nothing is sent while bus-off or while the adapter is gone.
-        let bus_off = matches!(period_state, BusState::BusOff | BusState::Gone);
-        let bus_state = period_state.code();
         self.record(Record::Period {
             now,
             bus: period_state,
         });
-        // 1. Everything the drives and the head sensor said since the
-        // last period.
+        self.ingest(now, bus); // 1
+        let d = self.supervise(now, period_state, bus); // 2
+        let mode = self.sup.mode();
+        let (target, followed) = self.follow_targets(&d, mode); // 3
+        self.step_model(); // 4
+        self.straighten_on_ready(mode);
+        self.limit_setpoints(d.drop_feedforward); // 5
+        // 6. Frames: drive commands, setpoints, SYNC. Nothing is sent while
+        // bus-off or while the adapter is gone.
+        let bus_off = matches!(period_state, BusState::BusOff | BusState::Gone);
+        let mut out = out!(self, &mut *bus);
+        self.drives.period(
+            &Period {
+                now,
+                drive: d.drive,
+                mode,
+                entering: mode != self.mode_before,
+                bus_off,
+                counter: self.counter,
+                setpoints: &self.setpoints,
+                skip: self.setpoint_skip,
+            },
+            &mut out,
+        );
+        self.counter = self.counter.wrapping_add(1);
+        self.mode_before = mode;
+        // 7. Snapshot.
+        self.fill_snapshot(
+            now,
+            bus,
+            period_state.code(),
+            &target,
+            followed,
+            d.drop_feedforward,
+        );
+    }
+
+    /// Step 1: everything the drives and the head sensor said since the last
+    /// period.
+    fn ingest(&mut self, now: Nanos, bus: &mut dyn Bus) {
         let drives = &mut self.drives;
         let nav = &mut self.nav;
         let (tap, dropped) = (&self.tap, &mut self.tap_dropped);
@@ -479,8 +515,13 @@ impl Controller {
                 *dropped += 1;
             }
         });
-        // 2. The estimate, from the model's prediction of now (the last
-        // step's) and the newest sample; a hold ends when its sensor fails.
+    }
+
+    /// Step 2: the estimate, from the model's prediction of now (the last
+    /// step's) and the newest sample (a hold ends when its sensor fails);
+    /// then the supervisor's decision on what the drives report, with the
+    /// E-stop and clear-faults it asks for sent at once.
+    fn supervise(&mut self, now: Nanos, period_state: BusState, bus: &mut dyn Bus) -> Directives {
         if let Some(nav) = &mut self.nav {
             nav.step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
             let health = nav.health();
@@ -488,7 +529,6 @@ impl Controller {
                 self.hold_exit = Some(health);
             }
         }
-        // Supervisor.
         let report = self.drives.observe(now, &self.liveness);
         let configured = self.drives.report_ids();
         let obs = Observations {
@@ -506,9 +546,8 @@ impl Controller {
             gait_at_rest: self.at_rest(),
         };
         let d = self.sup.tick(now, &obs);
-        let mode = self.sup.mode();
         // In Fault, setpoints go to the nodes still answering only.
-        self.setpoint_skip = if mode == Mode::Fault {
+        self.setpoint_skip = if self.sup.mode() == Mode::Fault {
             report.lost.union(report.silent)
         } else {
             NodeSet::empty()
@@ -522,8 +561,13 @@ impl Controller {
             self.model_failed = false;
             self.head = HeadState::launch(0.0);
         }
-        // 3. The autopilot's turn and pitch where it holds; gait
-        // parameters along trapezoidal profiles.
+        d
+    }
+
+    /// Step 3: the autopilot's turn and pitch where it holds; the gait
+    /// parameters along trapezoidal profiles. Returns the target and where
+    /// the profiles are: amplitude, frequency, turn and pitch.
+    fn follow_targets(&mut self, d: &Directives, mode: Mode) -> (SwimParams, [f64; 4]) {
         let mut target = d.gait_target;
         if let (Some(ap), Some(nav)) = (&mut self.autopilot, &self.nav) {
             [target.turn, target.pitch] = ap.steer(
@@ -564,7 +608,12 @@ impl Controller {
             kc3: -kc3,
             kc2,
         });
-        // 4. Model: forward + inverse dynamics.
+        (target, [a, f, kc3, kc2])
+    }
+
+    /// Step 4: the model's forward + inverse dynamics step; a failed or
+    /// implausible one leaves the gait's angles without dynamics.
+    fn step_model(&mut self) {
         let step = anguilla_model::step(&self.model, &mut self.ws, &mut self.gait, &mut self.head)
             .and_then(|r| {
                 if plausible(&r) {
@@ -588,8 +637,11 @@ impl Controller {
                 self.head = HeadState::launch(0.0);
             }
         }
-        // Posture: on entering Ready from Enabling, straighten from where
-        // the joints are.
+    }
+
+    /// The posture offsets: on entering Ready from Enabling, straighten
+    /// from where the joints are.
+    fn straighten_on_ready(&mut self, mode: Mode) {
         if self.mode_before == Mode::Enabling && mode == Mode::Ready {
             for (j, off) in self.offsets.iter_mut().enumerate() {
                 if let Some(fb) = self.drives.joint(j).feedback {
@@ -600,7 +652,11 @@ impl Controller {
                 }
             }
         }
-        // 5. Setpoints with limits.
+    }
+
+    /// Step 5: every joint's setpoint: the model's angle, rate and feedforward
+    /// plus the posture offset, clamped (and counted) to the limits.
+    fn limit_setpoints(&mut self, drop_feedforward: bool) {
         let lim = &self.cfg.limits;
         let pmax = lim.angle.min(message::POSITION_LIMIT);
         let vmax = lim.velocity.min(message::VELOCITY_LIMIT);
@@ -622,7 +678,7 @@ impl Controller {
         {
             let off = &mut self.offsets[j];
             let o = [off[0].advance(self.dt), off[1].advance(self.dt)];
-            let ff = if d.drop_feedforward {
+            let ff = if drop_feedforward {
                 [0.0, 0.0]
             } else {
                 js.actuator_torque()
@@ -639,32 +695,6 @@ impl Controller {
             }
         }
         self.counters.clamped += clamped;
-        // 6. Frames: drive commands, setpoints, SYNC.
-        let mut out = out!(self, &mut *bus);
-        self.drives.period(
-            &Period {
-                now,
-                drive: d.drive,
-                mode,
-                entering: mode != self.mode_before,
-                bus_off,
-                counter: self.counter,
-                setpoints: &self.setpoints,
-                skip: self.setpoint_skip,
-            },
-            &mut out,
-        );
-        self.counter = self.counter.wrapping_add(1);
-        self.mode_before = mode;
-        // 7. Snapshot.
-        self.fill_snapshot(
-            now,
-            bus,
-            bus_state,
-            &target,
-            [a, f, kc3, kc2],
-            d.drop_feedforward,
-        );
     }
 
     fn fill_snapshot(
