@@ -41,7 +41,7 @@ use crate::nav::{Nav, Prediction};
 use crate::profile::{Follower, Limits};
 use crate::session::Record;
 use crate::supervisor::{Directives, FaultPolicy, Observations, Supervisor, SupervisorConfig};
-use anguilla_ipc::vocabulary::{ClientId, Command, Mode, Nanos, Refusal, SwimParams};
+use anguilla_ipc::vocabulary::{ClientId, Command, Mode, Nanos, SwimParams};
 use anguilla_ipc::{
     CommandReply, CommandRequest, Envelope, GaitSnapshot, Hold, JointSnapshot, LimitsSnapshot,
     MAX_JOINTS, SensorHealth, StateSnapshot,
@@ -202,7 +202,7 @@ impl Controller {
             kc2: 0.0,
         };
         let c = &cfg.control;
-        let sup = Supervisor::new(SupervisorConfig {
+        let mut sup = Supervisor::new(SupervisorConfig {
             command_timeout: Nanos::from_secs_f64(c.command_timeout),
             control_release_timeout: Nanos::from_secs_f64(c.control_release_timeout),
             enable_timeout: Nanos::from_secs_f64(c.enable_timeout),
@@ -221,6 +221,9 @@ impl Controller {
             // re-latched an E-stop after a reset in the VM's gamepad test.
             clear_settle_time: Nanos::from_secs_f64(c.heartbeat_timeout).max(300 * MS),
         });
+        // The sensor as it is before the first period (waiting, or none):
+        // the supervisor alone judges a Hold, on what it observed.
+        sup.observe_sensor(now, nav.as_ref().map_or(SensorHealth::None, Nav::health));
         let n = joints;
         let snapshot = StateSnapshot {
             joint_count: n.min(MAX_JOINTS) as u32,
@@ -350,21 +353,9 @@ impl Controller {
     pub fn command(&mut self, now: Nanos, env: &Envelope) -> CommandReply {
         self.record(Record::Command(now, *env));
         let req = &env.request;
-        let hold_before = self.sup.hold();
         let reply = match req.command() {
             Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
             Ok(cmd) => match self.sup.command(now, env.origin, req.sequence, cmd) {
-                // A hold needs a healthy sensor: refused after the
-                // supervisor's checks (authority, range), the hold before
-                // it kept.
-                Ok(())
-                    if matches!(cmd, Command::Hold(h) if h.is_active())
-                        && self.sensor_health() != SensorHealth::Ok =>
-                {
-                    self.sup.restore_hold(hold_before);
-                    let why = Refusal::Sensor(self.sensor_health());
-                    CommandReply::refused(req, self.sup.mode() as u8, &why)
-                }
                 Ok(()) => {
                     if self.sup.holder() == Some(env.origin)
                         && self.holder_node != Some((env.origin, env.node))
@@ -525,7 +516,7 @@ impl Controller {
         if let Some(nav) = &mut self.nav {
             nav.step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
             let health = nav.health();
-            if health != SensorHealth::Ok && self.sup.sensor_lost(now) {
+            if self.sup.observe_sensor(now, health) {
                 self.hold_exit = Some(health);
             }
         }

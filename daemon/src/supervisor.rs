@@ -22,7 +22,8 @@
 use anguilla_protocol::NodeSet;
 
 use anguilla_ipc::vocabulary::{
-    Cause, ClientId, Command, FaultKind, FaultSet, Field, Hold, Mode, Nanos, Refusal, SwimParams,
+    Cause, ClientId, Command, FaultKind, FaultSet, Field, Hold, Mode, Nanos, Refusal, SensorHealth,
+    SwimParams,
 };
 
 /// What the loop observed of the robot during one period.
@@ -164,6 +165,8 @@ pub struct Supervisor {
     /// When the last reset was accepted: node faults and E-stops reported
     /// until the clear-faults broadcast has had time to act are not re-latched.
     reset_at: Option<Nanos>,
+    /// The head sensor's health ([`Supervisor::observe_sensor`]).
+    sensor: SensorHealth,
 }
 
 impl Supervisor {
@@ -186,6 +189,7 @@ impl Supervisor {
             disabled_in_fault: false,
             last_obs: Observations::default(),
             reset_at: None,
+            sensor: SensorHealth::None,
         }
     }
 
@@ -225,16 +229,23 @@ impl Supervisor {
         self.hold
     }
 
-    /// Puts back the hold `before` a Hold command the controller refused
-    /// after the supervisor accepted it (the sensor is not healthy).
-    pub fn restore_hold(&mut self, before: Hold) {
-        self.hold = before;
+    /// The head sensor's health, as the controller observes it every
+    /// period (and once before the first): a Hold that holds something is
+    /// accepted only while it is [`SensorHealth::Ok`], and one in force
+    /// ends when it is not (the swim stops smoothly, with
+    /// [`Cause::SensorLost`]). Returns whether a hold was in force and
+    /// ended.
+    pub fn observe_sensor(&mut self, now: Nanos, health: SensorHealth) -> bool {
+        self.sensor = health;
+        health != SensorHealth::Ok && self.sensor_lost(now)
     }
 
-    /// The autopilot lost its sensor: the hold ends and a swim stops
-    /// smoothly, with [`Cause::SensorLost`]. Returns whether a hold was in
-    /// force.
-    pub fn sensor_lost(&mut self, now: Nanos) -> bool {
+    /// The head sensor's health, as last observed.
+    pub fn sensor(&self) -> SensorHealth {
+        self.sensor
+    }
+
+    fn sensor_lost(&mut self, now: Nanos) -> bool {
         if !self.hold.is_active() {
             return false;
         }
@@ -426,6 +437,12 @@ impl Supervisor {
             Command::Hold(h) => {
                 let h = self.validate_hold(&h)?;
                 match mode {
+                    // Holding needs a healthy sensor; manual never does.
+                    Mode::Ready | Mode::Swimming | Mode::Stopping
+                        if h.is_active() && self.sensor != SensorHealth::Ok =>
+                    {
+                        Err(Refusal::Sensor(self.sensor))
+                    }
                     Mode::Ready | Mode::Swimming | Mode::Stopping => {
                         self.hold = h;
                         Ok(())
@@ -689,6 +706,45 @@ mod tests {
         s
     }
 
+    /// One judge: the supervisor alone accepts or refuses a Hold, on the
+    /// sensor health it observed; a hold in force ends (the swim stopping)
+    /// when the sensor fails.
+    #[test]
+    fn a_hold_is_judged_on_the_observed_sensor_alone() {
+        let heading = Command::Hold(Hold {
+            heading: Some(45.0),
+            depth: None,
+        });
+        let mut s = swimming();
+        for health in [
+            SensorHealth::None,
+            SensorHealth::Waiting,
+            SensorHealth::Silent,
+        ] {
+            s.observe_sensor(4 * MS, health);
+            assert_eq!(
+                s.command(4 * MS, A, 4, heading),
+                Err(Refusal::Sensor(health)),
+                "{health:?}"
+            );
+            assert!(!s.hold().is_active(), "a refused hold leaves manual");
+            // Manual needs no sensor.
+            s.command(4 * MS, A, 5, Command::Hold(Hold::MANUAL))
+                .unwrap();
+            s = swimming();
+        }
+        s.observe_sensor(4 * MS, SensorHealth::Ok);
+        s.command(4 * MS, A, 4, heading).unwrap();
+        assert!(s.hold().is_active());
+        assert!(!s.observe_sensor(5 * MS, SensorHealth::Ok), "nothing ends");
+        assert!(s.hold().is_active());
+        // The sensor fails: the hold ends and the swim stops smoothly.
+        assert!(s.observe_sensor(6 * MS, SensorHealth::Stuck));
+        assert!(!s.hold().is_active());
+        assert_eq!(s.mode(), Mode::Stopping);
+        assert_eq!(s.cause(), Cause::SensorLost);
+    }
+
     #[test]
     fn a_hold_set_at_rest_ends_with_an_estop_a_fault_or_a_release() {
         let hold = Command::Hold(Hold {
@@ -705,6 +761,7 @@ mod tests {
             };
             s.tick(5 * MS, &rest);
             assert_eq!(s.mode(), Mode::Ready);
+            s.observe_sensor(5 * MS, SensorHealth::Ok);
             s.command(6 * MS, A, 5, hold).unwrap();
             assert!(s.hold().is_active(), "kept for the next swim");
             s
@@ -719,6 +776,7 @@ mod tests {
         assert!(!s.hold().is_active(), "releasing control ends it");
         // A fault.
         let mut s = swimming();
+        s.observe_sensor(4 * MS, SensorHealth::Ok);
         s.command(4 * MS, A, 4, hold).unwrap();
         let obs = Observations {
             node_fault: nodes(&[3]),
