@@ -523,7 +523,7 @@ pub fn joy(args: JoyArgs) -> anyhow::Result<()> {
             JoyNotice::Mode(m) => eprintln!("anguilla joy: mode {}", view::mode_name(m)),
             JoyNotice::Autopilot(a) => eprintln!("anguilla joy: autopilot {a}"),
             JoyNotice::Refused(r) => {
-                eprintln!("anguilla joy: '{}' refused: {}", r.command, r.reason)
+                eprintln!("anguilla joy: '{}' refused: {}", r.name(), r.reason)
             }
         });
         if interrupted(step)?.is_none() {

@@ -386,7 +386,7 @@ impl Supervisor {
         let mode = self.mode;
         let invalid = |hint| {
             Err(Refusal::InvalidInMode {
-                command: cmd.name(),
+                command: cmd.kind(),
                 mode,
                 hint,
             })

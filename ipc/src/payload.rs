@@ -5,7 +5,7 @@ use core::fmt::{self, Write as _};
 
 use iceoryx2::prelude::*;
 
-use crate::vocabulary::{Command, Hold, SwimParams, hold_bits};
+use crate::vocabulary::{Command, CommandKind, Hold, SwimParams, hold_bits};
 
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
@@ -340,29 +340,31 @@ impl Default for StateSnapshot {
     }
 }
 
-/// Command codes of [`CommandRequest::code`].
+/// Command codes of [`CommandRequest::code`], from [`CommandKind`]'s table.
 pub mod code {
+    use crate::vocabulary::CommandKind;
+
     /// Enable the actuators.
-    pub const ENABLE: u32 = 1;
+    pub const ENABLE: u32 = CommandKind::Enable.code();
     /// Disable the actuators.
-    pub const DISABLE: u32 = 2;
+    pub const DISABLE: u32 = CommandKind::Disable.code();
     /// Swim with the request's gait fields.
-    pub const SWIM: u32 = 3;
+    pub const SWIM: u32 = CommandKind::Swim.code();
     /// Stop swimming smoothly.
-    pub const STOP: u32 = 4;
+    pub const STOP: u32 = CommandKind::Stop.code();
     /// Emergency stop (accepted from any client).
-    pub const ESTOP: u32 = 5;
+    pub const ESTOP: u32 = CommandKind::EStop.code();
     /// Clear a fault or an E-stop.
-    pub const RESET: u32 = 6;
+    pub const RESET: u32 = CommandKind::Reset.code();
     /// Take control authority.
-    pub const TAKE_CONTROL: u32 = 7;
+    pub const TAKE_CONTROL: u32 = CommandKind::TakeControl.code();
     /// Release control authority.
-    pub const RELEASE_CONTROL: u32 = 8;
+    pub const RELEASE_CONTROL: u32 = CommandKind::ReleaseControl.code();
     /// Keep control and the swim alive.
-    pub const KEEP_ALIVE: u32 = 9;
+    pub const KEEP_ALIVE: u32 = CommandKind::KeepAlive.code();
     /// Set the autopilot's holds from the request's `hold`, `heading` and
     /// `depth`.
-    pub const HOLD: u32 = 10;
+    pub const HOLD: u32 = CommandKind::Hold.code();
 }
 
 /// A command from an operator tool. Who sent it is not a field: the
@@ -403,18 +405,11 @@ impl CommandRequest {
             Command::Hold(h) => h,
             _ => Hold::MANUAL,
         };
-        let (code, p) = match cmd {
-            Command::Enable => (code::ENABLE, SwimParams::REST),
-            Command::Disable => (code::DISABLE, SwimParams::REST),
-            Command::Swim(p) => (code::SWIM, p),
-            Command::Stop => (code::STOP, SwimParams::REST),
-            Command::EStop => (code::ESTOP, SwimParams::REST),
-            Command::Reset => (code::RESET, SwimParams::REST),
-            Command::TakeControl => (code::TAKE_CONTROL, SwimParams::REST),
-            Command::ReleaseControl => (code::RELEASE_CONTROL, SwimParams::REST),
-            Command::KeepAlive => (code::KEEP_ALIVE, SwimParams::REST),
-            Command::Hold(_) => (code::HOLD, SwimParams::REST),
+        let p = match cmd {
+            Command::Swim(p) => p,
+            _ => SwimParams::REST,
         };
+        let code = cmd.kind().code();
         Self {
             layout_version: LAYOUT_VERSION,
             code,
@@ -443,21 +438,25 @@ impl CommandRequest {
         if self.layout_version != LAYOUT_VERSION {
             return Err(RequestError::Version(self.layout_version));
         }
-        Ok(match self.code {
-            code::ENABLE => Command::Enable,
-            code::DISABLE => Command::Disable,
-            code::SWIM => Command::Swim(SwimParams {
+        let Some(kind) = CommandKind::from_code(self.code) else {
+            return Err(RequestError::UnknownCode(self.code));
+        };
+        Ok(match kind {
+            CommandKind::Enable => Command::Enable,
+            CommandKind::Disable => Command::Disable,
+            CommandKind::Swim => Command::Swim(SwimParams {
                 amplitude: self.amplitude as f64,
                 frequency: self.frequency as f64,
                 turn: self.turn as f64,
                 pitch: self.pitch as f64,
             }),
-            code::STOP => Command::Stop,
-            code::RESET => Command::Reset,
-            code::TAKE_CONTROL => Command::TakeControl,
-            code::RELEASE_CONTROL => Command::ReleaseControl,
-            code::KEEP_ALIVE => Command::KeepAlive,
-            code::HOLD => {
+            CommandKind::Stop => Command::Stop,
+            CommandKind::EStop => Command::EStop,
+            CommandKind::Reset => Command::Reset,
+            CommandKind::TakeControl => Command::TakeControl,
+            CommandKind::ReleaseControl => Command::ReleaseControl,
+            CommandKind::KeepAlive => Command::KeepAlive,
+            CommandKind::Hold => {
                 let bits = self.hold;
                 if bits & !u32::from(hold_bits::HEADING | hold_bits::DEPTH) != 0 {
                     return Err(RequestError::HoldBits(bits));
@@ -468,7 +467,6 @@ impl CommandRequest {
                     depth: on(hold_bits::DEPTH, self.depth),
                 })
             }
-            other => return Err(RequestError::UnknownCode(other)),
         })
     }
 }
@@ -480,7 +478,7 @@ pub enum RequestError {
     #[error("layout version {0} is not the daemon's ({LAYOUT_VERSION}); update the tool")]
     Version(u32),
     /// The command code is not one of [`code`].
-    #[error("unknown command code {0} (expected 1..=10)")]
+    #[error("unknown command code {0} (expected 1..={n})", n = CommandKind::ALL.len())]
     UnknownCode(u32),
     /// A HOLD request's `hold` has bits beyond heading (1) and depth (2).
     #[error("hold bits {0:#x} unknown (expected 0..=3: 1 heading, 2 depth)")]

@@ -201,6 +201,97 @@ impl fmt::Display for SensorHealth {
     }
 }
 
+/// What a [`Command`] is, without its parameters: one table for its
+/// request code ([`CommandRequest::code`](crate::CommandRequest::code)),
+/// its name for operators and JSON clients, and what a refusal names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum CommandKind {
+    /// [`Command::Enable`].
+    Enable = 1,
+    /// [`Command::Disable`].
+    Disable = 2,
+    /// [`Command::Swim`].
+    Swim = 3,
+    /// [`Command::Stop`].
+    Stop = 4,
+    /// [`Command::EStop`].
+    EStop = 5,
+    /// [`Command::Reset`].
+    Reset = 6,
+    /// [`Command::TakeControl`].
+    TakeControl = 7,
+    /// [`Command::ReleaseControl`].
+    ReleaseControl = 8,
+    /// [`Command::KeepAlive`].
+    KeepAlive = 9,
+    /// [`Command::Hold`].
+    Hold = 10,
+}
+
+impl CommandKind {
+    /// Every kind, in the order of their codes (1, 2, ...).
+    pub const ALL: [CommandKind; 10] = [
+        CommandKind::Enable,
+        CommandKind::Disable,
+        CommandKind::Swim,
+        CommandKind::Stop,
+        CommandKind::EStop,
+        CommandKind::Reset,
+        CommandKind::TakeControl,
+        CommandKind::ReleaseControl,
+        CommandKind::KeepAlive,
+        CommandKind::Hold,
+    ];
+
+    /// Its request code.
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    /// The kind of request code `code`, if any.
+    pub const fn from_code(code: u32) -> Option<Self> {
+        if code >= 1 && code as usize <= Self::ALL.len() {
+            Some(Self::ALL[code as usize - 1])
+        } else {
+            None
+        }
+    }
+
+    /// Lower-case name, as shown to operators and read from JSON.
+    pub const fn name(self) -> &'static str {
+        match self {
+            CommandKind::Enable => "enable",
+            CommandKind::Disable => "disable",
+            CommandKind::Swim => "swim",
+            CommandKind::Stop => "stop",
+            CommandKind::EStop => "e-stop",
+            CommandKind::Reset => "reset",
+            CommandKind::TakeControl => "take-control",
+            CommandKind::ReleaseControl => "release-control",
+            CommandKind::KeepAlive => "keep-alive",
+            CommandKind::Hold => "hold",
+        }
+    }
+
+    /// The kind named `name` ([`CommandKind::name`]), if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Whether the command carries parameters (a swim's gait, a hold's
+    /// targets).
+    pub const fn has_parameters(self) -> bool {
+        matches!(self, CommandKind::Swim | CommandKind::Hold)
+    }
+}
+
+impl fmt::Display for CommandKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// The commands an operator tool can send.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Command {
@@ -243,20 +334,25 @@ impl Command {
         Command::Hold(Hold::MANUAL),
     ];
 
-    /// Lower-case name, as shown to operators.
-    pub fn name(&self) -> &'static str {
+    /// What it is, without its parameters.
+    pub const fn kind(&self) -> CommandKind {
         match self {
-            Command::Enable => "enable",
-            Command::Disable => "disable",
-            Command::Swim(_) => "swim",
-            Command::Stop => "stop",
-            Command::EStop => "e-stop",
-            Command::Reset => "reset",
-            Command::TakeControl => "take-control",
-            Command::ReleaseControl => "release-control",
-            Command::KeepAlive => "keep-alive",
-            Command::Hold(_) => "hold",
+            Command::Enable => CommandKind::Enable,
+            Command::Disable => CommandKind::Disable,
+            Command::Swim(_) => CommandKind::Swim,
+            Command::Stop => CommandKind::Stop,
+            Command::EStop => CommandKind::EStop,
+            Command::Reset => CommandKind::Reset,
+            Command::TakeControl => CommandKind::TakeControl,
+            Command::ReleaseControl => CommandKind::ReleaseControl,
+            Command::KeepAlive => CommandKind::KeepAlive,
+            Command::Hold(_) => CommandKind::Hold,
         }
+    }
+
+    /// Lower-case name, as shown to operators ([`CommandKind::name`]).
+    pub fn name(&self) -> &'static str {
+        self.kind().name()
     }
 }
 
@@ -300,7 +396,7 @@ pub enum Refusal {
     /// The command is not valid in the current mode.
     InvalidInMode {
         /// The command refused.
-        command: &'static str,
+        command: CommandKind,
         /// The mode it arrived in.
         mode: Mode,
         /// What would make it valid.

@@ -206,7 +206,7 @@ mod tests {
 /// `depth` (m). The daemon checks the ranges; this checks the shape, and
 /// each error names the field and what was expected.
 pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> {
-    use anguilla_ipc::{Command, Hold, SwimParams};
+    use anguilla_ipc::{Command, CommandKind, Hold, SwimParams};
     let v: Value = serde_json::from_slice(bytes)
         .map_err(|e| format!("not JSON ({e}); expected {{\"command\": NAME, ...}}"))?;
     let name = v
@@ -224,28 +224,31 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
         }
     };
     // The commands without parameters, from the vocabulary's own table.
-    if let Some(c) = Command::ALL
-        .iter()
-        .filter(|c| !matches!(c, Command::Swim(_) | Command::Hold(_)))
-        .find(|c| c.name() == name)
+    let Some(kind) = CommandKind::from_name(name) else {
+        let names: Vec<_> = CommandKind::ALL.iter().map(|k| k.name()).collect();
+        return Err(format!(
+            "unknown command \"{name}\" (expected one of {})",
+            names.join(", ")
+        ));
+    };
+    if !kind.has_parameters()
+        && let Some(c) = Command::ALL.iter().find(|c| c.kind() == kind)
     {
         return Ok(*c);
     }
-    match name {
-        "swim" => Ok(Command::Swim(SwimParams {
+    match kind {
+        CommandKind::Swim => Ok(Command::Swim(SwimParams {
             amplitude: num("amplitude", true)?.unwrap_or_default(),
             frequency: num("frequency", true)?.unwrap_or_default(),
             turn: num("turn", false)?.unwrap_or(0.0),
             pitch: num("pitch", false)?.unwrap_or(0.0),
         })),
-        "hold" => Ok(Command::Hold(Hold {
+        CommandKind::Hold => Ok(Command::Hold(Hold {
             heading: num("heading", false)?.map(crate::hold::wrap_heading),
             depth: num("depth", false)?,
         })),
-        other => Err(format!(
-            "unknown command \"{other}\" (expected one of take-control, release-control, enable, \
-             disable, reset, stop, e-stop, keep-alive, swim, hold)"
-        )),
+        // Every kind without parameters is in Command::ALL.
+        other => Err(format!("\"{other}\" cannot be read from JSON")),
     }
 }
 

@@ -3,8 +3,8 @@
 
 use std::time::{Duration, Instant};
 
-use anguilla_ipc::Command;
 use anguilla_ipc::{Client, CommandReply, IpcError, Session, StateSnapshot};
+use anguilla_ipc::{Command, CommandKind};
 
 use crate::app::{Action, Intent};
 
@@ -18,16 +18,24 @@ pub const QUIT_TIMEOUT: Duration = Duration::from_secs(1);
 /// A refused command and the daemon's reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Refused {
-    /// The command's name (`swim`, `enable`, ...).
-    pub command: &'static str,
+    /// What was refused (`None`: a reply to a request this tool no longer
+    /// remembers, one of 128 older ones).
+    pub kind: Option<CommandKind>,
     /// The daemon's reason.
     pub reason: String,
+}
+
+impl Refused {
+    /// The refused command's name, for operators.
+    pub fn name(&self) -> &'static str {
+        self.kind.map_or("command", CommandKind::name)
+    }
 }
 
 /// One operator tool's connection to the daemon.
 pub struct Operator {
     client: Box<dyn Session>,
-    sent: Vec<(u32, &'static str)>,
+    sent: Vec<(u32, CommandKind)>,
     state: Option<StateSnapshot>,
     last_refused: Option<Refused>,
     refusals: u64,
@@ -98,7 +106,7 @@ impl Operator {
         if self.sent.len() >= 256 {
             self.sent.drain(..128);
         }
-        self.sent.push((seq, cmd.name()));
+        self.sent.push((seq, cmd.kind()));
         Ok(())
     }
 
@@ -110,7 +118,7 @@ impl Operator {
         if r.accepted == 0 {
             self.refusals += 1;
             self.last_refused = Some(Refused {
-                command: cmd.name(),
+                kind: Some(cmd.kind()),
                 reason: r.reason().to_string(),
             });
         }
@@ -123,15 +131,14 @@ impl Operator {
         let mut count = 0;
         let sent = &mut self.sent;
         self.client.replies(&mut |r| {
-            let name = sent
+            let kind = sent
                 .iter()
                 .position(|(s, _)| *s == r.sequence)
-                .map(|i| sent.swap_remove(i).1)
-                .unwrap_or("command");
+                .map(|i| sent.swap_remove(i).1);
             if r.accepted == 0 {
                 count += 1;
                 refused = Some(Refused {
-                    command: name,
+                    kind,
                     reason: r.reason().to_string(),
                 });
             }
@@ -227,9 +234,9 @@ impl Driver {
         self.op.poll()?;
         if self.op.refusals() != self.refusals_seen {
             self.refusals_seen = self.op.refusals();
-            match self.op.last_refused().map(|r| r.command) {
-                Some("swim") => self.intent.swim_refused(),
-                Some("hold") => self.intent.hold_refused(),
+            match self.op.last_refused().and_then(|r| r.kind) {
+                Some(CommandKind::Swim) => self.intent.swim_refused(),
+                Some(CommandKind::Hold) => self.intent.hold_refused(),
                 _ => {}
             }
         }

@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anguilla_ipc::Command;
 use anguilla_ipc::IpcError;
+use anguilla_ipc::{Command, CommandKind};
 use evdev::{AbsoluteAxisCode, KeyCode};
 
 use crate::joy::{AxisRange, Joy, JoyInput, JoyMapping};
@@ -404,7 +404,7 @@ impl<P: PadSource> JoySession<P> {
         if self.op.last_refused() != self.refused.as_ref() {
             self.refused = self.op.last_refused().cloned();
             if let Some(r) = &self.refused {
-                if r.command == "hold" {
+                if r.kind == Some(CommandKind::Hold) {
                     self.joy.hold_refused();
                 }
                 notice(JoyNotice::Refused(r.clone()));

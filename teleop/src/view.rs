@@ -531,7 +531,7 @@ fn render_status(frame: &mut Frame, area: Rect, v: &ViewModel) {
     match v.refused {
         Some(r) => lines.push(Line::from(vec![
             Span::styled(
-                format!("refused '{}': ", r.command),
+                format!("refused '{}': ", r.name()),
                 Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
             ),
             Span::raw(r.reason.clone()),
@@ -808,7 +808,7 @@ mod tests {
         i.apply(Action::TurnLeft);
         i.apply(Action::TurnLeft);
         let r = Refused {
-            command: "enable",
+            kind: Some(anguilla_ipc::CommandKind::Enable),
             reason: "'enable' is not valid in mode e-stop: reset first".into(),
         };
         let text = draw(100, 30, &teleop_view(Some(&s), &i, Some(&r)));
@@ -1023,7 +1023,7 @@ mod tests {
         i.apply(Action::TurnLeft);
         i.apply(Action::TurnLeft);
         let r = Refused {
-            command: "disable",
+            kind: Some(anguilla_ipc::CommandKind::Disable),
             reason: "'disable' is not valid in mode swimming: stop first, or e-stop".into(),
         };
         let mut v = teleop_view(Some(&s), &i, Some(&r));

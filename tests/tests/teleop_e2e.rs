@@ -368,7 +368,10 @@ fn a_second_client_cannot_take_control_but_can_estop() {
         b.op.wait_state(Duration::from_millis(10)).unwrap();
     }
     assert!(!b.intent.swimming(), "refused swim forgotten");
-    assert_eq!(b.op.last_refused().unwrap().command, "swim");
+    assert_eq!(
+        b.op.last_refused().unwrap().kind,
+        Some(anguilla_ipc::CommandKind::Swim)
+    );
 
     // A swims; B, watching, sees A as the holder and sends nothing steady.
     for _ in 0..5 {
