@@ -2,7 +2,6 @@
 //! hands the work to the library crates; it holds no model maths, frame
 //! layouts or control logic of its own.
 
-mod builtin_sim;
 mod conform_cmd;
 mod ctl_cmd;
 mod dump_cmd;

@@ -101,7 +101,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 relaxed.join(", ")
             );
         }
-        let (bus, sim) = crate::builtin_sim::start_builtin(&cfg)?;
+        let (bus, sim) = anguilla::builtin_sim::start_builtin(&cfg)?;
         tracing::info!("no bus named: running against the built-in simulated robot");
         match (sensor, cfg.sensor.node) {
             (Some(id), _) => tracing::info!(

@@ -14,7 +14,6 @@ use anguilla_daemon::config::Config;
 use anguilla_daemon::run::{self, Running};
 use anguilla_drivers::Bus;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
-use anguilla_sim::sensor::SensorConfig;
 
 /// Aborts the test process if it is not dropped within a time limit, so a
 /// hung test fails instead of blocking CI.
@@ -155,21 +154,12 @@ impl Drop for Robot {
 /// nodes, actuators and the swimming body, in real time), on a bus named
 /// after the daemon's prefix; returns the daemon's end.
 fn start_builtin(cfg: &Config, scenario: &str) -> anyhow::Result<(Box<dyn Bus>, Builtin)> {
+    // `anguilla run`'s own wiring, but for the scenario and the priority:
+    // a test's daemon runs without SCHED_FIFO, and so does its robot.
     let bc = BuiltinConfig {
-        bus_name: format!("{}-bus", cfg.ipc.prefix),
-        bitrate: cfg.bus.bitrate,
-        data_bitrate: cfg.bus.fd.then_some(cfg.bus.data_bitrate),
-        drive: cfg.robot.drive,
-        node_ids: cfg.node_ids(),
-        axis_ids: cfg.axis_ids(),
-        variant: cfg.bus.variant(),
         fifo_priority: None,
         scenario: scenario.to_owned(),
-        head_sensor: (cfg.sensor.node != 0).then(|| {
-            let s = &cfg.sensor;
-            SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure)
-        }),
-        ballast: cfg.model.ballast,
+        ..anguilla::builtin_sim::builtin_config(cfg, &format!("{}-bus", cfg.ipc.prefix))
     };
     Ok(Builtin::start(&bc)?)
 }
