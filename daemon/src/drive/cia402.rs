@@ -38,10 +38,10 @@ use anguilla_protocol::canopen::{
     cia402::{self, Command, CspCommand, CspStatus, DriveState},
 };
 use anguilla_protocol::frame::Frame;
-use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
+use anguilla_protocol::message::{AxisFeedback, NodeState};
 
-use super::report::{Liveness, NodeReport, RxCounters};
-use super::{AxisIndex, AxisStatus, DriveError, Drives, JointReport, Out, Period};
+use super::bought::DriveSet;
+use super::{AxisStatus, DriveError, Drives, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
@@ -258,16 +258,11 @@ impl super::AxisView for Axis {
 
 /// The CiA 402 master and its drives, two per joint.
 pub struct Master {
-    joints: Vec<[Axis; 2]>,
-    index: AxisIndex,
-    ids: NodeSet,
+    set: DriveSet<Axis>,
     master: NodeId,
     period: Nanos,
     consumer_ms: u16,
     sdo_timeout: Nanos,
-    counters: RxCounters,
-    bus_estop: bool,
-    started: Nanos,
     reset_sent: bool,
     last_heartbeat: Option<Nanos>,
     /// Drives whose setup ended (done or failed) and was not yet told.
@@ -284,46 +279,34 @@ impl Master {
             min: 1,
             max: canopen::MAX_NODE_ID,
         };
-        let maps = cfg.axes();
-        let joints = maps
-            .iter()
-            .map(|pair| {
-                let mk = |map: AxisMap| {
-                    Ok(Axis {
-                        map,
-                        node: NodeId::new(map.node).map_err(|_| bad(map.node))?,
-                        nmt: None,
-                        last_heard: None,
-                        syncs_since_tpdo: 0,
-                        setup: Setup::Waiting,
-                        statusword: None,
-                        position: None,
-                        velocity: 0.0,
-                        torque: 0,
-                        rated_mnm: 0,
-                        emcy: None,
-                        reset_fault: false,
-                        name: [0; NAME_LEN],
-                        name_len: 0,
-                    })
-                };
-                Ok([mk(pair[0])?, mk(pair[1])?])
+        let set = DriveSet::new(cfg, now, |map: AxisMap| {
+            Ok(Axis {
+                map,
+                node: NodeId::new(map.node).map_err(|_| bad(map.node))?,
+                nmt: None,
+                last_heard: None,
+                syncs_since_tpdo: 0,
+                setup: Setup::Waiting,
+                statusword: None,
+                position: None,
+                velocity: 0.0,
+                torque: 0,
+                rated_mnm: 0,
+                emcy: None,
+                reset_fault: false,
+                name: [0; NAME_LEN],
+                name_len: 0,
             })
-            .collect::<Result<Vec<_>, DriveError>>()?;
+        })?;
         let master = cfg.robot.master_node_id;
         Ok(Self {
-            index: AxisIndex::new(maps.iter().map(|p| [p[0].node, p[1].node])),
-            ids: super::joint_ids(joints.len()),
-            joints,
+            set,
             master: NodeId::new(master).map_err(|_| bad(master))?,
             period,
             consumer_ms: (cfg.control.heartbeat_timeout * 1e3)
                 .round()
                 .clamp(1.0, 65535.0) as u16,
             sdo_timeout: Nanos::from_secs_f64(cfg.control.heartbeat_timeout).max(SDO_TIMEOUT),
-            counters: RxCounters::default(),
-            bus_estop: false,
-            started: now,
             reset_sent: false,
             last_heartbeat: None,
             untold: 0,
@@ -333,21 +316,25 @@ impl Master {
     /// Why drive `axis` (0 pitch, 1 yaw) of joint `j` failed its
     /// configuration, if it did.
     pub fn config_failure(&self, j: usize, axis: usize) -> Option<(Step, ConfigFailure)> {
-        match self.joints.get(j)?.get(axis)?.setup {
-            Setup::Failed(step, why) => Some((self.step(&self.joints[j][axis], step)?, why)),
+        match self.set.joints.get(j)?.get(axis)?.setup {
+            Setup::Failed(step, why) => Some((self.step(&self.set.joints[j][axis], step)?, why)),
             _ => None,
         }
     }
 
     /// The device name drive `axis` of joint `j` reported (0x1008).
     pub fn device_name(&self, j: usize, axis: usize) -> Option<&str> {
-        let a = self.joints.get(j)?.get(axis)?;
+        let a = self.set.joints.get(j)?.get(axis)?;
         std::str::from_utf8(&a.name[..a.name_len as usize]).ok()
     }
 
     /// Whether every drive is configured and started.
     pub fn configured(&self) -> bool {
-        self.joints.iter().flatten().all(|a| a.setup == Setup::Done)
+        self.set
+            .joints
+            .iter()
+            .flatten()
+            .all(|a| a.setup == Setup::Done)
     }
 
     /// Step `i` of drive `a`'s configuration (`None` past the last).
@@ -420,9 +407,9 @@ impl Master {
     /// Sends what each configuring drive needs next, and times out
     /// unanswered transfers.
     fn configure(&mut self, now: Nanos, out: &mut Out<'_>) {
-        for j in 0..self.joints.len() {
+        for j in 0..self.set.joints.len() {
             for ax in 0..2 {
-                let a = self.joints[j][ax];
+                let a = self.set.joints[j][ax];
                 let Setup::Step {
                     step,
                     sent,
@@ -455,7 +442,7 @@ impl Master {
                                 },
                             },
                         );
-                        self.joints[j][ax].setup =
+                        self.set.joints[j][ax].setup =
                             Setup::Failed(step, ConfigFailure::Timeout(object));
                         self.untold |= 1 << (2 * j + ax);
                         continue;
@@ -483,7 +470,7 @@ impl Master {
                                 node: Some(node),
                             },
                         );
-                        self.joints[j][ax].setup = Setup::Done;
+                        self.set.joints[j][ax].setup = Setup::Done;
                         self.untold |= 1 << (2 * j + ax);
                         continue;
                     }
@@ -497,7 +484,7 @@ impl Master {
                             ..
                         },
                     ) => {
-                        self.joints[j][ax].name_len = 0;
+                        self.set.joints[j][ax].name_len = 0;
                         Message::SdoRequest {
                             node,
                             sdo: SdoRequest::Upload { object },
@@ -513,7 +500,7 @@ impl Master {
                     _ => segment,
                 };
                 Self::send(out, m);
-                self.joints[j][ax].setup = Setup::Step {
+                self.set.joints[j][ax].setup = Setup::Step {
                     step,
                     sent: Some(now),
                     attempts: if sent.is_some() { attempts + 1 } else { 1 },
@@ -525,10 +512,10 @@ impl Master {
 
     /// An SDO response from drive `(j, ax)`.
     fn sdo_response(&mut self, j: usize, ax: usize, r: SdoResponse) {
-        let a = self.joints[j][ax];
+        let a = self.set.joints[j][ax];
         let Setup::Step { step, segment, .. } = a.setup else {
             // Not ours (another client's, or late): ignored.
-            self.counters.foreign_commands += 1;
+            self.set.counters.foreign_commands += 1;
             return;
         };
         let Some(s) = self.step(&a, step) else {
@@ -541,7 +528,7 @@ impl Master {
             attempts: 0,
             segment: None,
         };
-        let axis = &mut self.joints[j][ax];
+        let axis = &mut self.set.joints[j][ax];
         axis.setup = match (s, r) {
             (Step::Read(o, _) | Step::Write(o, _), SdoResponse::Abort { object, code })
                 if object == o =>
@@ -604,7 +591,7 @@ impl Master {
             // request that timed out and was sent again, a stale segment):
             // ignored; the timeout and its retries decide.
             (Step::Read(..) | Step::Write(..), _) => {
-                self.counters.foreign_commands += 1;
+                self.set.counters.foreign_commands += 1;
                 return;
             }
             (Step::Start, _) => a.setup,
@@ -616,10 +603,10 @@ impl Master {
 
     fn tpdo(&mut self, now: Nanos, j: usize, ax: usize, data: &PdoData) {
         let Some(st) = CspStatus::from_pdo(data) else {
-            self.counters.malformed += 1;
+            self.set.counters.malformed += 1;
             return;
         };
-        let a = &mut self.joints[j][ax];
+        let a = &mut self.set.joints[j][ax];
         a.syncs_since_tpdo = 0;
         a.statusword = Some(st.statusword);
         if let Some((prev, t)) = a.position {
@@ -655,36 +642,34 @@ impl Master {
 }
 
 impl Drives for Master {
+    super::bought::drive_set_answers!(set);
+
     fn family(&self) -> anguilla_protocol::Family {
         anguilla_protocol::Family::Cia402
-    }
-
-    fn report_ids(&self) -> NodeSet {
-        self.ids
     }
 
     fn ingest(&mut self, now: Nanos, frame: &Frame) {
         let m = match canopen::decode(frame) {
             Ok(m) => m,
             Err(_) => {
-                self.counters.malformed += 1;
+                self.set.counters.malformed += 1;
                 return;
             }
         };
-        let ours = |node: NodeId| self.index.get(node.get());
+        let ours = |node: NodeId| self.set.index.get(node.get());
         match m {
             Message::Nmt { command, node } => {
                 let at_us = node.is_none_or(|n| ours(n).is_some());
                 if command == NmtCommand::Stop && at_us {
-                    self.counters.estops_seen += 1;
-                    self.bus_estop = true;
+                    self.set.counters.estops_seen += 1;
+                    self.set.bus_estop = true;
                 } else {
-                    self.counters.foreign_commands += 1;
+                    self.set.counters.foreign_commands += 1;
                 }
             }
             Message::Heartbeat { node, state } => {
                 let Some((j, ax)) = ours(node) else { return };
-                let a = &mut self.joints[j][ax];
+                let a = &mut self.set.joints[j][ax];
                 a.last_heard = Some(now);
                 a.nmt = Some(state);
                 // A boot-up (a fresh or rebooted drive), or a drive heard
@@ -705,7 +690,7 @@ impl Drives for Master {
             }
             Message::Emcy { node, emcy } => {
                 if let Some((j, ax)) = ours(node) {
-                    self.joints[j][ax].emcy = (emcy.code != 0).then_some(emcy);
+                    self.set.joints[j][ax].emcy = (emcy.code != 0).then_some(emcy);
                 }
             }
             Message::SdoResponse { node, sdo } => {
@@ -715,30 +700,14 @@ impl Drives for Master {
             }
             Message::Tpdo { .. } => {}
             Message::Sync { .. } | Message::Rpdo { .. } | Message::SdoRequest { .. } => {
-                self.counters.foreign_commands += 1
+                self.set.counters.foreign_commands += 1
             }
         }
     }
 
-    fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
-        super::observe_pairs(&self.joints, self.started, now, limits)
-    }
-
-    fn take_bus_estop(&mut self) -> bool {
-        core::mem::take(&mut self.bus_estop)
-    }
-
-    fn counters(&self) -> RxCounters {
-        self.counters
-    }
-
-    fn joint(&self, j: usize) -> JointReport {
-        super::joint_report(&self.joints[j])
-    }
-
     fn estop(&mut self, out: &mut Out<'_>) {
         out.flush();
-        for a in self.joints.iter().flatten() {
+        for a in self.set.joints.iter().flatten() {
             if a.setup == Setup::Done {
                 let hold = a.position.map_or(0, |p| p.0);
                 Self::rpdo(out, a, Command::QuickStop.word(), hold, 0);
@@ -748,7 +717,7 @@ impl Drives for Master {
     }
 
     fn clear_faults(&mut self, _out: &mut Out<'_>) {
-        for a in self.joints.iter_mut().flatten() {
+        for a in self.set.joints.iter_mut().flatten() {
             a.emcy = None;
             match a.setup {
                 // Configure again from the start.
@@ -765,7 +734,7 @@ impl Drives for Master {
         }
         if !self.reset_sent {
             self.reset_sent = true;
-            for a in self.joints.iter().flatten() {
+            for a in self.set.joints.iter().flatten() {
                 Self::send(
                     out,
                     Message::Nmt {
@@ -776,7 +745,7 @@ impl Drives for Master {
             }
         }
         self.configure(p.now, out);
-        for (j, pair) in self.joints.iter_mut().enumerate() {
+        for (j, pair) in self.set.joints.iter_mut().enumerate() {
             let skip = p.skip.contains(j as u8 + 1);
             for (ax, a) in pair.iter_mut().enumerate() {
                 if a.setup != Setup::Done || a.nmt != Some(NmtState::Operational) {
@@ -815,7 +784,7 @@ impl Drives for Master {
         }
         Self::sync(out);
         // Each drive that is started owes a TPDO1 for this SYNC.
-        for a in self.joints.iter_mut().flatten() {
+        for a in self.set.joints.iter_mut().flatten() {
             a.syncs_since_tpdo = if a.setup == Setup::Done && a.nmt == Some(NmtState::Operational) {
                 a.syncs_since_tpdo.saturating_add(1)
             } else {
@@ -842,7 +811,7 @@ impl Drives for Master {
             let i = self.untold.trailing_zeros() as usize;
             self.untold &= !(1 << i);
             let (j, ax) = (i / 2, i % 2);
-            let Some(a) = self.joints.get(j).map(|p| p[ax]) else {
+            let Some(a) = self.set.joints.get(j).map(|p| p[ax]) else {
                 continue;
             };
             let (joint, axis, node) = (j as u8, ax as u8, a.node.get());
@@ -864,7 +833,7 @@ impl Drives for Master {
     }
 
     fn disable_all(&mut self, out: &mut Out<'_>) {
-        for a in self.joints.iter().flatten() {
+        for a in self.set.joints.iter().flatten() {
             if a.setup == Setup::Done {
                 let hold = a.position.map_or(0, |p| p.0);
                 Self::rpdo(out, a, Command::DisableVoltage.word(), hold, 0);

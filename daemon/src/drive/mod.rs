@@ -26,6 +26,7 @@
 
 pub mod anguilla;
 pub mod axis;
+pub mod bought;
 pub mod cia402;
 pub mod odrive;
 pub mod report;

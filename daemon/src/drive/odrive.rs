@@ -11,13 +11,13 @@
 //! `Get_Encoder_Estimates` are what the master knows of them.
 
 use anguilla_protocol::frame::Frame;
-use anguilla_protocol::message::{AxisFeedback, NodeSet, NodeState};
+use anguilla_protocol::message::{AxisFeedback, NodeState};
 use anguilla_protocol::odrive::{
     self, AxisState, Body, ControlMode, InputMode, InputPos, Message, NodeId,
 };
 
-use super::report::{Liveness, NodeReport, RxCounters};
-use super::{AxisIndex, AxisStatus, AxisView, DriveError, Drives, JointReport, Out, Period};
+use super::bought::DriveSet;
+use super::{AxisStatus, AxisView, DriveError, Drives, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
@@ -84,48 +84,31 @@ impl super::AxisView for Axis {
 
 /// The ODrive axes of a robot, two per joint.
 pub struct Axes {
-    joints: Vec<[Axis; 2]>,
-    index: AxisIndex,
-    ids: NodeSet,
-    counters: RxCounters,
-    bus_estop: bool,
-    started: Nanos,
+    set: DriveSet<Axis>,
     last_command_sent: Nanos,
 }
 
 impl Axes {
     /// The axes of `cfg` (`robot.axes`), unheard-of at `now`.
     pub fn new(cfg: &Config, now: Nanos) -> Result<Self, DriveError> {
-        let maps = cfg.axes();
-        let joints = maps
-            .iter()
-            .map(|pair| {
-                let mk = |map: AxisMap| {
-                    Ok(Axis {
-                        map,
-                        node: NodeId::new(map.node).map_err(|_| DriveError::NodeId {
-                            family: anguilla_protocol::Family::Odrive,
-                            id: map.node,
-                            min: 0,
-                            max: odrive::MAX_NODE_ID,
-                        })?,
-                        state: None,
-                        error: 0,
-                        last_heartbeat: None,
-                        estimate: None,
-                        periods_without_estimates: 0,
-                    })
-                };
-                Ok([mk(pair[0])?, mk(pair[1])?])
+        let set = DriveSet::new(cfg, now, |map: AxisMap| {
+            Ok(Axis {
+                map,
+                node: NodeId::new(map.node).map_err(|_| DriveError::NodeId {
+                    family: anguilla_protocol::Family::Odrive,
+                    id: map.node,
+                    min: 0,
+                    max: odrive::MAX_NODE_ID,
+                })?,
+                state: None,
+                error: 0,
+                last_heartbeat: None,
+                estimate: None,
+                periods_without_estimates: 0,
             })
-            .collect::<Result<Vec<_>, DriveError>>()?;
+        })?;
         Ok(Self {
-            index: AxisIndex::new(maps.iter().map(|p| [p[0].node, p[1].node])),
-            ids: super::joint_ids(joints.len()),
-            joints,
-            counters: RxCounters::default(),
-            bus_estop: false,
-            started: now,
+            set,
             last_command_sent: Nanos::ZERO,
         })
     }
@@ -138,7 +121,7 @@ impl Axes {
     }
 
     fn all(&self, out: &mut Out<'_>, body: Body) {
-        for a in self.joints.iter().flatten() {
+        for a in self.set.joints.iter().flatten() {
             Self::send(out, a.node, body);
         }
     }
@@ -171,28 +154,26 @@ impl Axes {
 }
 
 impl Drives for Axes {
+    super::bought::drive_set_answers!(set);
+
     fn family(&self) -> anguilla_protocol::Family {
         anguilla_protocol::Family::Odrive
-    }
-
-    fn report_ids(&self) -> NodeSet {
-        self.ids
     }
 
     fn ingest(&mut self, now: Nanos, frame: &Frame) {
         let m = match odrive::decode(frame) {
             Ok(m) => m,
             Err(_) => {
-                self.counters.malformed += 1;
+                self.set.counters.malformed += 1;
                 return;
             }
         };
-        let Some((j, ax)) = self.index.get(m.node.get()) else {
+        let Some((j, ax)) = self.set.index.get(m.node.get()) else {
             // Another device on the bus.
-            self.counters.malformed += 1;
+            self.set.counters.malformed += 1;
             return;
         };
-        let a = &mut self.joints[j][ax];
+        let a = &mut self.set.joints[j][ax];
         match m.body {
             Body::Heartbeat(hb) => {
                 a.state = Some(hb.axis_state);
@@ -205,31 +186,15 @@ impl Drives for Axes {
             }
             Body::Estop => {
                 // Someone else E-stopped one of our axes.
-                self.counters.estops_seen += 1;
-                self.bus_estop = true;
+                self.set.counters.estops_seen += 1;
+                self.set.bus_estop = true;
             }
             Body::SetAxisState(_)
             | Body::SetControllerMode { .. }
             | Body::SetInputPos(_)
             | Body::ClearErrors { .. }
-            | Body::Request(_) => self.counters.foreign_commands += 1,
+            | Body::Request(_) => self.set.counters.foreign_commands += 1,
         }
-    }
-
-    fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
-        super::observe_pairs(&self.joints, self.started, now, limits)
-    }
-
-    fn take_bus_estop(&mut self) -> bool {
-        core::mem::take(&mut self.bus_estop)
-    }
-
-    fn counters(&self) -> RxCounters {
-        self.counters
-    }
-
-    fn joint(&self, j: usize) -> JointReport {
-        super::joint_report(&self.joints[j])
     }
 
     fn estop(&mut self, out: &mut Out<'_>) {
@@ -239,7 +204,7 @@ impl Drives for Axes {
 
     fn clear_faults(&mut self, out: &mut Out<'_>) {
         self.all(out, Body::ClearErrors { identify: false });
-        for a in self.joints.iter_mut().flatten() {
+        for a in self.set.joints.iter_mut().flatten() {
             a.state = None;
             a.error = 0;
         }
@@ -250,7 +215,7 @@ impl Drives for Axes {
             return;
         }
         // An axis in closed loop owes its cyclic encoder estimates.
-        for a in self.joints.iter_mut().flatten() {
+        for a in self.set.joints.iter_mut().flatten() {
             a.periods_without_estimates = if a.state == Some(AxisState::ClosedLoopControl) {
                 a.periods_without_estimates.saturating_add(1)
             } else {
@@ -270,7 +235,7 @@ impl Drives for Axes {
                 if resend {
                     self.last_command_sent = p.now;
                 }
-                for a in self.joints.iter().flatten() {
+                for a in self.set.joints.iter().flatten() {
                     match (a.state, a.error) {
                         // In closed loop: hold where it is, feeding the
                         // drive's watchdog.
@@ -285,7 +250,7 @@ impl Drives for Axes {
                 }
             }
             Drive::Setpoints => {
-                for (j, (pair, sp)) in self.joints.iter().zip(p.setpoints).enumerate() {
+                for (j, (pair, sp)) in self.set.joints.iter().zip(p.setpoints).enumerate() {
                     if p.skip.contains(j as u8 + 1) {
                         continue;
                     }

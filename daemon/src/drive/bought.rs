@@ -1,0 +1,102 @@
+//! What the bought-drive masters (CiA 402, ODrive) keep alike: the axes,
+//! pitch then yaw of each joint, found by node id; the joints' report ids;
+//! the receive counters; a bus E-stop seen; when they started. A master
+//! embeds a [`DriveSet`] and answers the [`Drives`](super::Drives)
+//! questions about liveness, counters and joints from it
+//! (`drive_set_answers!`); its protocol is its own.
+
+use anguilla_ipc::vocabulary::Nanos;
+use anguilla_protocol::message::NodeSet;
+
+use super::report::{Liveness, NodeReport, RxCounters};
+use super::{AxisIndex, AxisView, DriveError, JointReport, joint_ids, joint_report, observe_pairs};
+use crate::config::{AxisMap, Config};
+
+/// The axes of a bought family's joints, and what every master counts.
+#[derive(Debug, Clone)]
+pub struct DriveSet<A> {
+    /// The axes, `[pitch, yaw]` per joint, head first.
+    pub joints: Vec<[A; 2]>,
+    /// Node id → `(joint, axis)`.
+    pub index: AxisIndex,
+    /// The joints' report ids, 1..=joints.
+    pub ids: NodeSet,
+    /// Frames not used.
+    pub counters: RxCounters,
+    /// An E-stop seen on the bus and not yet taken by the supervisor.
+    pub bus_estop: bool,
+    /// When the master started: liveness counts from here.
+    pub started: Nanos,
+}
+
+impl<A: AxisView> DriveSet<A> {
+    /// The axes of `cfg` (`robot.axes`, resolved), each made by `axis`,
+    /// unheard-of at `now`.
+    pub fn new(
+        cfg: &Config,
+        now: Nanos,
+        mut axis: impl FnMut(AxisMap) -> Result<A, DriveError>,
+    ) -> Result<Self, DriveError> {
+        let maps = cfg.axes();
+        let joints = maps
+            .iter()
+            .map(|pair| Ok([axis(pair[0])?, axis(pair[1])?]))
+            .collect::<Result<Vec<_>, DriveError>>()?;
+        Ok(Self {
+            index: AxisIndex::new(maps.iter().map(|p| [p[0].node, p[1].node])),
+            ids: joint_ids(joints.len()),
+            joints,
+            counters: RxCounters::default(),
+            bus_estop: false,
+            started: now,
+        })
+    }
+
+    /// The joints' liveness and states at `now`.
+    pub fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport {
+        observe_pairs(&self.joints, self.started, now, limits)
+    }
+
+    /// Whether an E-stop was seen on the bus since the last call.
+    pub fn take_bus_estop(&mut self) -> bool {
+        core::mem::take(&mut self.bus_estop)
+    }
+
+    /// Joint `j`'s report.
+    pub fn joint(&self, j: usize) -> JointReport {
+        joint_report(&self.joints[j])
+    }
+}
+
+/// The [`Drives`](super::Drives) methods a master with a [`DriveSet`] in
+/// its field `$set` answers from it: `report_ids`, `observe`,
+/// `take_bus_estop`, `counters` and `joint`. Used inside the master's
+/// `impl Drives`.
+macro_rules! drive_set_answers {
+    ($set:ident) => {
+        fn report_ids(&self) -> anguilla_protocol::message::NodeSet {
+            self.$set.ids
+        }
+
+        fn observe(
+            &self,
+            now: anguilla_ipc::vocabulary::Nanos,
+            limits: &$crate::drive::Liveness,
+        ) -> $crate::drive::NodeReport {
+            self.$set.observe(now, limits)
+        }
+
+        fn take_bus_estop(&mut self) -> bool {
+            self.$set.take_bus_estop()
+        }
+
+        fn counters(&self) -> $crate::drive::RxCounters {
+            self.$set.counters
+        }
+
+        fn joint(&self, j: usize) -> $crate::drive::JointReport {
+            self.$set.joint(j)
+        }
+    };
+}
+pub(crate) use drive_set_answers;
