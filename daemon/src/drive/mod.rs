@@ -18,8 +18,15 @@
 //! The supervisor, the modes, the watchdogs and recording/replay are the
 //! same for every family: they see joints, numbered by their report id
 //! (the node id for anguilla, the joint number 1..=joints for the bought
-//! families). A further family (moteus, MIT-mode drives) is one new module
-//! implementing [`Drives`] and one arm in [`build`].
+//! families). A bought family's master embeds a [`bought::DriveSet`] (its
+//! axes by joint and id, counters, liveness) and adds its protocol. A
+//! further family (moteus, MIT-mode drives) is a module here implementing
+//! [`Drives`] and an arm in [`build`], but also, outside this module, its
+//! protocol and simulated drive, and an arm wherever `Family` is matched
+//! (the bus budget, `dump`, the simulator; the protocol's `Family` has no
+//! catch-all arm, so the compiler lists its own), and a look at every
+//! `== Family::Anguilla` test (the configuration's id checks, the
+//! simulator), which no compiler flags.
 //!
 //! Every method runs in the control period: none allocates (the
 //! counting-allocator test runs every family).
