@@ -52,6 +52,7 @@
 pub mod bridge;
 #[cfg(feature = "zenoh")]
 pub mod certs;
+pub mod config;
 #[cfg(feature = "zenoh")]
 pub mod diagnose;
 #[cfg(feature = "zenoh")]

@@ -32,6 +32,7 @@ mod sensor;
 #[cfg(test)]
 mod tests;
 
+use anguilla_link::config::LinkConfig;
 pub use autopilot::AutopilotConfig;
 pub use bus::BusConfig;
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
@@ -39,7 +40,6 @@ pub use foxglove::FoxgloveConfig;
 pub use gait::GaitConfig;
 pub use ipc::IpcConfig;
 pub use limits::LimitsConfig;
-pub use link::{LINK_INBOUND, LINK_OUTBOUND, LinkConfig};
 pub use model::ModelConfig;
 pub use realtime::RealtimeConfig;
 pub use recording::RecordingConfig;

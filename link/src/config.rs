@@ -1,0 +1,189 @@
+//! `[link]` of anguilla's configuration file, owned by the crate that uses
+//! it: its keys, defaults and checks. The daemon's configuration reads it
+//! as one of its sections (so `anguilla config check` checks it too) and
+//! writes its commented defaults; the daemon itself ignores it.
+
+use serde::{Deserialize, Serialize};
+
+/// `[link]`: remote operation over Zenoh (`anguilla link`, docs/remote.md).
+/// The daemon ignores it: the link is its own process.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct LinkConfig {
+    /// Zenoh endpoints the link listens on: `local` (the prefix's Unix
+    /// socket, for the link's user and group only), `tls/0.0.0.0:7447`;
+    /// plain `tcp/` only on loopback and with `insecure-loopback`.
+    pub listen: Vec<String>,
+    /// Accept plain `tcp/` on loopback, which every local user can reach
+    /// (no authentication). Warned at every start.
+    pub insecure_loopback: bool,
+    /// Most states a second sent on the link (Hz); a change of mode,
+    /// cause or holder is sent at once.
+    pub state_rate: f64,
+    /// Most remote clients with a session at once.
+    pub max_clients: u32,
+    /// A remote session silent this long is closed (s).
+    pub idle_timeout: f64,
+    /// TLS: the robot's CA certificate (PEM); operators' certificates must
+    /// be signed by it.
+    pub ca: String,
+    /// TLS: the robot's certificate (PEM), signed by `ca`.
+    pub cert: String,
+    /// TLS: the robot's private key (PEM).
+    pub key: String,
+    /// What remote clients may send: `command`, `estop`.
+    pub inbound: Vec<String>,
+    /// What the link publishes: `state`.
+    pub outbound: Vec<String>,
+}
+
+/// Names a `[link]` allowlist may hold, inbound and outbound.
+pub const LINK_INBOUND: [&str; 2] = ["command", "estop"];
+/// See [`LINK_INBOUND`].
+pub const LINK_OUTBOUND: [&str; 1] = ["state"];
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        Self {
+            listen: vec!["local".into()],
+            insecure_loopback: false,
+            state_rate: 50.0,
+            max_clients: 8,
+            idle_timeout: 10.0,
+            ca: String::new(),
+            cert: String::new(),
+            key: String::new(),
+            inbound: LINK_INBOUND.iter().map(|s| s.to_string()).collect(),
+            outbound: LINK_OUTBOUND.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+}
+
+impl LinkConfig {
+    /// Checks `[link]`: every key in range, and the TLS files together.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let l = self;
+        range(
+            "link.state-rate",
+            l.state_rate,
+            0.1,
+            1000.0,
+            "0.1 ..= 1000 Hz",
+        )?;
+        range(
+            "link.max-clients",
+            f64::from(l.max_clients),
+            1.0,
+            f64::from(anguilla_ipc::MAX_TOOLS as u32 / 2),
+            "1 ..= 16 (half the daemon's tool slots)",
+        )?;
+        range(
+            "link.idle-timeout",
+            l.idle_timeout,
+            6.0,
+            3600.0,
+            "6 ..= 3600 s (three of the tools' 2 s hellos)",
+        )?;
+        if l.listen.is_empty() {
+            return Err(ConfigError::Range {
+                key: "link.listen",
+                value: "[]".into(),
+                expected: "at least one endpoint, e.g. \"local\"",
+            });
+        }
+        for (key, list, allowed, expected) in [
+            (
+                "link.inbound",
+                &l.inbound,
+                &LINK_INBOUND[..],
+                "names among \"command\", \"estop\"",
+            ),
+            (
+                "link.outbound",
+                &l.outbound,
+                &LINK_OUTBOUND[..],
+                "names among \"state\"",
+            ),
+        ] {
+            if let Some(bad) = list.iter().find(|n| !allowed.contains(&n.as_str())) {
+                return Err(ConfigError::Range {
+                    key,
+                    value: format!("{bad:?}"),
+                    expected,
+                });
+            }
+        }
+        let tls = [&l.ca, &l.cert, &l.key];
+        if tls.iter().any(|p| !p.is_empty()) && tls.iter().any(|p| p.is_empty()) {
+            return Err(ConfigError::Derived(
+                "link.ca, link.cert and link.key go together: give all three (TLS) or none".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Why `[link]` is not valid.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// A value is outside its accepted range.
+    #[error("configuration key '{key}' = {value} is out of range (expected {expected})")]
+    Range {
+        /// The dotted key, e.g. `link.state-rate`.
+        key: &'static str,
+        /// The value given.
+        value: String,
+        /// The accepted range.
+        expected: &'static str,
+    },
+    /// Keys that are each valid but do not go together; the text names them.
+    #[error("configuration: {0}")]
+    Derived(String),
+}
+
+fn range(
+    key: &'static str,
+    value: f64,
+    min: f64,
+    max: f64,
+    expected: &'static str,
+) -> Result<(), ConfigError> {
+    if value.is_finite() && value >= min && value <= max {
+        Ok(())
+    } else {
+        // As the daemon's configuration writes a number: short when huge
+        // or tiny.
+        let value = if value.is_finite() && value != 0.0 && !(1e-4..1e6).contains(&value.abs()) {
+            format!("{value:e}")
+        } else {
+            format!("{value}")
+        };
+        Err(ConfigError::Range {
+            key,
+            value,
+            expected,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_is_valid_and_each_check_names_its_key() {
+        LinkConfig::default().validate().unwrap();
+        let bad = |f: &dyn Fn(&mut LinkConfig)| {
+            let mut c = LinkConfig::default();
+            f(&mut c);
+            c.validate().unwrap_err().to_string()
+        };
+        assert!(bad(&|c| c.state_rate = 0.0).contains("'link.state-rate'"));
+        assert!(bad(&|c| c.state_rate = 1e9).contains("= 1e9 "), "short");
+        assert!(bad(&|c| c.max_clients = 99).contains("'link.max-clients'"));
+        assert!(bad(&|c| c.idle_timeout = 1.0).contains("'link.idle-timeout'"));
+        assert!(bad(&|c| c.listen.clear()).contains("'link.listen'"));
+        assert!(bad(&|c| c.inbound.push("swim".into())).contains("'link.inbound'"));
+        assert!(bad(&|c| c.ca = "ca.pem".into()).contains("go together"));
+    }
+}
