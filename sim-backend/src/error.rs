@@ -3,6 +3,9 @@
 
 use anguilla_model::ModelError;
 
+/// Result of this crate's operations.
+pub type Result<T> = std::result::Result<T, SimError>;
+
 /// Errors of building or running a simulated robot.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
