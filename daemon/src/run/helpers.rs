@@ -11,7 +11,7 @@ use crossbeam_channel::{Receiver, Sender};
 use crate::rt::{self, RtRequest};
 use anguilla_ipc::{CommandReply, Envelope, StateSnapshot};
 
-use super::ErrorLog;
+use super::log::ErrorLog;
 
 /// Receives on the E-stop socket until `stop`; each datagram is an E-stop
 /// the loop takes next period. Logs at most one line per second.

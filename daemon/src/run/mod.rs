@@ -53,7 +53,7 @@ use crate::config::Config;
 use crate::control::{Controller, SetupError};
 use crate::rt::{self, RtRequest};
 use crate::stats::Window;
-use anguilla_ipc::vocabulary::{Cause, FaultSet, Mode, Nanos};
+use anguilla_ipc::vocabulary::{FaultSet, Mode, Nanos};
 use anguilla_ipc::{CommandReply, Envelope, LoopSnapshot, StateSnapshot};
 
 mod helpers;
@@ -61,62 +61,9 @@ mod log;
 
 pub use helpers::{COMMAND_BATCH, COMMAND_POLL, COMMAND_ROUND_MIN, state_thread};
 use helpers::{CommandLinks, STATE_QUEUE, command_thread, estop_thread, reaper};
+pub use log::Event;
 use log::logger;
 pub use log::{ErrorLog, OVERLOAD_LOG_INTERVAL, REFUSAL_LOG_INTERVAL};
-
-/// What the loop tells the logger. `Copy`, so sending it never allocates.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Event {
-    /// The mode changed.
-    Mode {
-        /// Previous mode.
-        from: Mode,
-        /// New mode.
-        to: Mode,
-        /// Why it changed.
-        cause: Cause,
-        /// The faults that put it in Fault or EStop (none otherwise: faults
-        /// latched while limp do not explain a later change).
-        faults: FaultSet,
-    },
-    /// A command was refused; the reply carries the reason.
-    Refused {
-        /// The client port it came on.
-        origin: u128,
-        /// The answer sent.
-        reply: CommandReply,
-    },
-    /// The client holding control is gone, its control released.
-    HolderGone {
-        /// Its process was seen dead (else its node left the registry:
-        /// the process ended, or died and was cleaned up by another).
-        crashed: bool,
-    },
-    /// The bus changed state (a `BusSnapshot::state` code: 2 bus-off,
-    /// 3 adapter gone, 0 back to normal).
-    Bus {
-        /// The new state's code.
-        state: u8,
-    },
-    /// A drive's notice (configuration done or failed).
-    Drive(crate::drive::Notice),
-    /// The loop overran (periods skipped).
-    Overrun {
-        /// Periods skipped this time.
-        skipped: u64,
-    },
-    /// Joints' drives report errors they did not report before (one event
-    /// per code: twelve joints latching the same E-stop are one line).
-    NodeErrors {
-        /// The joints (bit 0 = the head end's).
-        joints: u64,
-        /// Its family's code (`JointSnapshot::node_errors`): anguilla error
-        /// bits, a CiA 402 EMCY code or an ODrive axis error.
-        code: u32,
-        /// Whether `code` holds anguilla error bits.
-        anguilla: bool,
-    },
-}
 
 /// What went wrong starting the loop.
 #[derive(Debug, thiserror::Error)]
