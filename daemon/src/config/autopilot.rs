@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range};
+use super::error::{ConfigError, fmt_f, range};
 
 /// `[autopilot]`: heading and depth hold (docs/autopilot.md).
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -112,36 +112,21 @@ impl AutopilotConfig {
 }
 
 /// `[autopilot]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &AutopilotConfig, w: &mut dyn FnMut(String)) {
     w("[autopilot]".into());
     w("# Heading hold: turn rate = heading-gain · error (+ integral), at most".into());
     w("# max-turn-rate; the model turns it into a turn curvature (docs/autopilot.md).".into());
-    w(format!(
-        "heading-gain = {}",
-        fmt_f(d.autopilot.heading_gain)
-    ));
-    w(format!(
-        "heading-integral = {}",
-        fmt_f(d.autopilot.heading_integral)
-    ));
-    w(format!(
-        "max-turn-rate = {}",
-        fmt_f(d.autopilot.max_turn_rate)
-    ));
+    w(format!("heading-gain = {}", fmt_f(d.heading_gain)));
+    w(format!("heading-integral = {}", fmt_f(d.heading_integral)));
+    w(format!("max-turn-rate = {}", fmt_f(d.max_turn_rate)));
     w("# Depth hold: dive rate = depth-gain · error (+ integral), flown at a pitch of at".into());
     w("# most max-dive-angle (deg); the model's curvature for that pitch, plus pitch-gain".into());
     w("# times the pitch error (ballasted body; unballasted: pitch rate per error, 1/s);".into());
     w("# holds to max-depth (m).".into());
-    w(format!("depth-gain = {}", fmt_f(d.autopilot.depth_gain)));
-    w(format!(
-        "depth-integral = {}",
-        fmt_f(d.autopilot.depth_integral)
-    ));
-    w(format!(
-        "max-dive-angle = {}",
-        fmt_f(d.autopilot.max_dive_angle)
-    ));
-    w(format!("pitch-gain = {}", fmt_f(d.autopilot.pitch_gain)));
-    w(format!("max-depth = {}", fmt_f(d.autopilot.max_depth)));
+    w(format!("depth-gain = {}", fmt_f(d.depth_gain)));
+    w(format!("depth-integral = {}", fmt_f(d.depth_integral)));
+    w(format!("max-dive-angle = {}", fmt_f(d.max_dive_angle)));
+    w(format!("pitch-gain = {}", fmt_f(d.pitch_gain)));
+    w(format!("max-depth = {}", fmt_f(d.max_depth)));
     w(String::new());
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range};
+use super::error::{ConfigError, fmt_f, range};
 
 /// `[bus]`: which bus, and its physical layer.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -45,7 +45,7 @@ impl Default for BusConfig {
 }
 
 impl BusConfig {
-    /// Checks `[bus]` (its load: [`Config::control_rate`]).
+    /// Checks `[bus]` (its load: [`Config::control_rate`](super::Config::control_rate)).
     pub fn validate(&self) -> Result<(), ConfigError> {
         let b = self;
         range(
@@ -68,16 +68,16 @@ impl BusConfig {
 }
 
 /// `[bus]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &BusConfig, w: &mut dyn FnMut(String)) {
     w("[bus]".into());
     w("# \"socketcan:can0\", \"slcan:/dev/ttyACM0@1000000\", \"mem:NAME\"; empty runs the".into());
     w("# built-in simulated robot. Real hardware is driven only when this is set.".into());
     w("spec = \"\"".into());
     w("# CAN FD frames; nominal and data-phase bit rates (bit/s).".into());
-    w(format!("fd = {}", d.bus.fd));
-    w(format!("bitrate = {}", d.bus.bitrate));
-    w(format!("data-bitrate = {}", d.bus.data_bitrate));
+    w(format!("fd = {}", d.fd));
+    w(format!("bitrate = {}", d.bitrate));
+    w(format!("data-bitrate = {}", d.data_bitrate));
     w("# Highest bus load the automatic control rate may cause. 0.05..=0.95".into());
-    w(format!("max-load = {}", fmt_f(d.bus.max_load)));
+    w(format!("max-load = {}", fmt_f(d.max_load)));
     w(String::new());
 }

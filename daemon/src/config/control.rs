@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range};
+use super::error::{ConfigError, fmt_f, range};
 
 /// What to do with an actuator fault or a lost heartbeat.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
@@ -54,11 +54,11 @@ impl Default for ControlConfig {
 }
 
 /// The liveness and operator timeouts of the built-in simulated robot
-/// (s; [`Config::relax_for_builtin`]).
+/// (s; [`Config::relax_for_builtin`](super::Config::relax_for_builtin)).
 pub const BUILTIN_TIMEOUT: f64 = 2.0;
 
 impl ControlConfig {
-    /// Checks `[control]` alone (its rate against the bus: [`Config::control_rate`]).
+    /// Checks `[control]` alone (its rate against the bus: [`Config::control_rate`](super::Config::control_rate)).
     pub fn validate(&self) -> Result<(), ConfigError> {
         let c = self;
         if c.rate_hz != 0.0 {
@@ -119,81 +119,35 @@ impl ControlConfig {
     }
 }
 
-impl Config {
-    /// The timeouts of the built-in simulated robot. It shares the CPU
-    /// with the daemon and the operator's tools: on a busy machine all of
-    /// them stall together, and a 0.35 s heartbeat or 0.5 s command
-    /// timeout then faults or stops a robot that did nothing wrong. Keys
-    /// still at their defaults become [`BUILTIN_TIMEOUT`] (the node
-    /// watchdog: 1 s, its maximum); keys set in the file are kept. A real
-    /// bus keeps the strict defaults. Returns the keys changed, as
-    /// `key = value` (for the log).
-    pub fn relax_for_builtin(&mut self) -> Vec<String> {
-        let d = ControlConfig::default();
-        let c = &mut self.control;
-        let mut changed = Vec::new();
-        let secs = BUILTIN_TIMEOUT;
-        if c.command_timeout == d.command_timeout {
-            c.command_timeout = secs;
-            changed.push(format!("control.command-timeout = {secs}"));
-        }
-        if c.heartbeat_timeout == d.heartbeat_timeout {
-            c.heartbeat_timeout = secs;
-            changed.push(format!("control.heartbeat-timeout = {secs}"));
-        }
-        if c.node_watchdog == d.node_watchdog {
-            c.node_watchdog = 1.0;
-            changed.push("control.node-watchdog = 1".to_string());
-        }
-        if c.feedback_timeout == d.feedback_timeout
-            && let Ok(rate) = self.control_rate()
-        {
-            let periods = (secs * rate).ceil().min(10_000.0) as u32;
-            self.control.feedback_timeout = periods;
-            changed.push(format!("control.feedback-timeout = {periods}"));
-        }
-        changed
-    }
-}
-
 /// `[control]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &ControlConfig, w: &mut dyn FnMut(String)) {
     w("[control]".into());
     w("# Control rate (Hz). 0: the highest rate the bus carries within bus.max-load.".into());
     w("# Else 20..=5000, and its bus load at most bus.max-load (checked).".into());
-    w(format!("rate-hz = {}", fmt_f(d.control.rate_hz)));
+    w(format!("rate-hz = {}", fmt_f(d.rate_hz)));
     w("# The controlling operator must send a command at least this often (s),".into());
     w("# or the swim stops smoothly. 0.02..=10".into());
-    w(format!(
-        "command-timeout = {}",
-        fmt_f(d.control.command_timeout)
-    ));
+    w(format!("command-timeout = {}", fmt_f(d.command_timeout)));
     w("# Silence after which the operator's control is released (s).".into());
     w(format!(
         "control-release-timeout = {}",
-        fmt_f(d.control.control_release_timeout)
+        fmt_f(d.control_release_timeout)
     ));
     w("# Time allowed for every node to report enabled (s).".into());
-    w(format!(
-        "enable-timeout = {}",
-        fmt_f(d.control.enable_timeout)
-    ));
+    w(format!("enable-timeout = {}", fmt_f(d.enable_timeout)));
     w("# A node whose heartbeat is older than this is lost (s).".into());
     w(format!(
         "heartbeat-timeout = {}",
-        fmt_f(d.control.heartbeat_timeout)
+        fmt_f(d.heartbeat_timeout)
     ));
     w("# A node that answers none of this many SYNCs (control periods) is faulted,".into());
     w("# \"no feedback\", whatever its heartbeats say. ODrive axes answer every".into());
     w("# encoder_msg_rate_ms (10 ms by default): keep this above that in periods.".into());
-    w(format!("feedback-timeout = {}", d.control.feedback_timeout));
+    w(format!("feedback-timeout = {}", d.feedback_timeout));
     w("# The nodes' watchdog, written to them before every enable (s): a node that".into());
     w("# applies no setpoint for this long takes its safe action. 0: five periods,".into());
     w("# at least 100 ms.".into());
-    w(format!(
-        "node-watchdog = {}",
-        fmt_f(d.control.node_watchdog)
-    ));
+    w(format!("node-watchdog = {}", fmt_f(d.node_watchdog)));
     w("# On an actuator fault or a lost node: \"hold\" (stop swimming, healthy joints".into());
     w("# hold straight) or \"disable\" (every actuator off at once).".into());
     w("fault-policy = \"hold\"".into());

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range};
+use super::error::{ConfigError, fmt_f, range};
 
 /// `[foxglove]`: the live view (`anguilla foxglove`, its own process; the
 /// daemon ignores this section).
@@ -60,25 +60,22 @@ impl FoxgloveConfig {
 }
 
 /// `[foxglove]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &FoxgloveConfig, w: &mut dyn FnMut(String)) {
     w("[foxglove]".into());
     w("# `anguilla foxglove` (its own process; the daemon ignores this section): accept".into());
     w("# operator commands Foxglove clients publish on /anguilla/command, each client".into());
     w("# its own operator under the daemon's authority and deadman rules. The".into());
     w("# WebSocket has no authentication: whoever reaches the port may then drive (any".into());
     w("# local user, on loopback), so commands also need insecure-commands = true.".into());
-    w(format!("commands = {}", d.foxglove.commands));
-    w(format!(
-        "insecure-commands = {}",
-        d.foxglove.insecure_commands
-    ));
+    w(format!("commands = {}", d.commands));
+    w(format!("insecure-commands = {}", d.insecure_commands));
     w("# Most viewers connected at once; one more is refused (HTTP 503) and logged.".into());
-    w(format!("max-clients = {}", d.foxglove.max_clients));
+    w(format!("max-clients = {}", d.max_clients));
     w("# A viewer that subscribes to no channel this long after connecting is closed".into());
     w("# (s); 0: never.".into());
     w(format!(
         "subscribe-timeout = {}",
-        fmt_f(d.foxglove.subscribe_timeout)
+        fmt_f(d.subscribe_timeout)
     ));
     w(String::new());
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range, three_numbers};
+use super::error::{ConfigError, fmt_f, range, three_numbers};
 
 /// `[gait]`: the parametric gait and how fast its parameters may change.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -89,12 +89,12 @@ impl GaitConfig {
 }
 
 /// `[gait]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &GaitConfig, w: &mut dyn FnMut(String)) {
     w("[gait]".into());
     w("# Body wave length (m); amplitude polynomial a0 + a1·X + a2·X² (1/m) at full".into());
     w("# amplitude: the paper's F1 gait.".into());
-    w(format!("wavelength = {}", fmt_f(d.gait.wavelength)));
-    let [a0, a1, a2] = d.gait.amplitude_polynomial;
+    w(format!("wavelength = {}", fmt_f(d.wavelength)));
+    let [a0, a1, a2] = d.amplitude_polynomial;
     w(format!(
         "amplitude-polynomial = [{}, {}, {}]",
         fmt_f(a0),
@@ -102,27 +102,18 @@ pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
         fmt_f(a2)
     ));
     w("# Largest frequency (Hz), turn and pitch curvatures (1/m) an operator may ask for.".into());
-    w(format!("max-frequency = {}", fmt_f(d.gait.max_frequency)));
-    w(format!("max-turn = {}", fmt_f(d.gait.max_turn)));
-    w(format!("max-pitch = {}", fmt_f(d.gait.max_pitch)));
+    w(format!("max-frequency = {}", fmt_f(d.max_frequency)));
+    w(format!("max-turn = {}", fmt_f(d.max_turn)));
+    w(format!("max-pitch = {}", fmt_f(d.max_pitch)));
     w(
         "# Trapezoidal shaping of parameter changes: rate (per s) and acceleration (per s²)."
             .into(),
     );
-    w(format!("amplitude-rate = {}", fmt_f(d.gait.amplitude_rate)));
-    w(format!(
-        "amplitude-accel = {}",
-        fmt_f(d.gait.amplitude_accel)
-    ));
-    w(format!("frequency-rate = {}", fmt_f(d.gait.frequency_rate)));
-    w(format!(
-        "frequency-accel = {}",
-        fmt_f(d.gait.frequency_accel)
-    ));
-    w(format!("curvature-rate = {}", fmt_f(d.gait.curvature_rate)));
-    w(format!(
-        "curvature-accel = {}",
-        fmt_f(d.gait.curvature_accel)
-    ));
+    w(format!("amplitude-rate = {}", fmt_f(d.amplitude_rate)));
+    w(format!("amplitude-accel = {}", fmt_f(d.amplitude_accel)));
+    w(format!("frequency-rate = {}", fmt_f(d.frequency_rate)));
+    w(format!("frequency-accel = {}", fmt_f(d.frequency_accel)));
+    w(format!("curvature-rate = {}", fmt_f(d.curvature_rate)));
+    w(format!("curvature-accel = {}", fmt_f(d.curvature_accel)));
     w(String::new());
 }

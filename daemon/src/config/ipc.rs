@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError};
+use super::error::ConfigError;
 
 /// `[ipc]`: the operator interface.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -38,10 +38,10 @@ impl IpcConfig {
 }
 
 /// `[ipc]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &IpcConfig, w: &mut dyn FnMut(String)) {
     w("[ipc]".into());
     w("# Prefix of the iceoryx2 services (<prefix>/state, /state-ready, /command,".into());
     w("# /command-ready).".into());
-    w(format!("prefix = {:?}", d.ipc.prefix));
+    w(format!("prefix = {:?}", d.prefix));
     w(String::new());
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range};
+use super::error::{ConfigError, fmt_f, range};
 
 /// `[limits]`: per-axis joint limits, applied to every setpoint.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -45,12 +45,12 @@ impl LimitsConfig {
 }
 
 /// `[limits]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &LimitsConfig, w: &mut dyn FnMut(String)) {
     w("[limits]".into());
     w("# Per-axis limits applied to every setpoint (clamped and counted).".into());
     w("# Angle (rad) 0.01..=1.5, velocity (rad/s) 0.01..=10, torque (N·m) 0..=5.".into());
-    w(format!("angle = {}", fmt_f(d.limits.angle)));
-    w(format!("velocity = {}", fmt_f(d.limits.velocity)));
-    w(format!("torque = {}", fmt_f(d.limits.torque)));
+    w(format!("angle = {}", fmt_f(d.angle)));
+    w(format!("velocity = {}", fmt_f(d.velocity)));
+    w(format!("torque = {}", fmt_f(d.torque)));
     w(String::new());
 }

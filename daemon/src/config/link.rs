@@ -2,7 +2,9 @@
 //! process). The section is the link crate's ([`anguilla_link::config`]);
 //! here is its part of the commented default file.
 
-use super::{Config, ConfigError, fmt_f};
+use anguilla_link::config::LinkConfig;
+
+use super::error::{ConfigError, fmt_f};
 
 impl From<anguilla_link::config::ConfigError> for ConfigError {
     fn from(e: anguilla_link::config::ConfigError) -> Self {
@@ -23,7 +25,7 @@ impl From<anguilla_link::config::ConfigError> for ConfigError {
 }
 
 /// `[link]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
     w("[link]".into());
     w("# Remote operation over Zenoh: `anguilla link` (its own process; the daemon".into());
     w("# ignores this section; docs/remote.md). Endpoints it listens on: \"local\",".into());
@@ -31,14 +33,14 @@ pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
     w("# group, the operators, only); \"tls/HOST:PORT\" with the robot's CA, certificate".into());
     w("# and key (`anguilla link certs` makes them); plain \"tcp/...\" on loopback only,".into());
     w("# and only with insecure-loopback = true (every local user can reach it).".into());
-    w(format!("listen = {:?}", d.link.listen));
-    w(format!("insecure-loopback = {}", d.link.insecure_loopback));
+    w(format!("listen = {:?}", d.listen));
+    w(format!("insecure-loopback = {}", d.insecure_loopback));
     w("# Most states a second on the link (Hz); mode, cause or holder changes go at once.".into());
-    w(format!("state-rate = {}", fmt_f(d.link.state_rate)));
+    w(format!("state-rate = {}", fmt_f(d.state_rate)));
     w("# Most remote clients with a session at once; a silent one is closed after".into());
     w("# idle-timeout (s).".into());
-    w(format!("max-clients = {}", d.link.max_clients));
-    w(format!("idle-timeout = {}", fmt_f(d.link.idle_timeout)));
+    w(format!("max-clients = {}", d.max_clients));
+    w(format!("idle-timeout = {}", fmt_f(d.idle_timeout)));
     w("# TLS with mutual authentication: PEM files (paths relative to the working".into());
     w("# directory); empty: none.".into());
     w("ca = \"\"".into());
@@ -46,6 +48,6 @@ pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
     w("key = \"\"".into());
     w("# The allowlist: what remote clients may send (\"command\", \"estop\"), and".into());
     w("# what the link publishes (\"state\"). A watch-only link: inbound = [\"estop\"].".into());
-    w(format!("inbound = {:?}", d.link.inbound));
-    w(format!("outbound = {:?}", d.link.outbound));
+    w(format!("inbound = {:?}", d.inbound));
+    w(format!("outbound = {:?}", d.outbound));
 }

@@ -19,6 +19,7 @@ use std::path::Path;
 mod autopilot;
 mod bus;
 mod control;
+mod error;
 mod foxglove;
 mod gait;
 mod ipc;
@@ -31,11 +32,13 @@ mod robot;
 mod sensor;
 #[cfg(test)]
 mod tests;
+mod whole;
 
 use anguilla_link::config::LinkConfig;
 pub use autopilot::AutopilotConfig;
 pub use bus::BusConfig;
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
+pub use error::{ConfigError, fmt_number};
 pub use foxglove::FoxgloveConfig;
 pub use gait::GaitConfig;
 pub use ipc::IpcConfig;
@@ -45,41 +48,6 @@ pub use realtime::RealtimeConfig;
 pub use recording::RecordingConfig;
 pub use robot::{AxisConfig, AxisDefaults, AxisMap, RobotConfig};
 pub use sensor::SensorConfig;
-
-/// What went wrong loading a configuration.
-#[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
-    /// The file could not be read.
-    #[error("cannot read configuration file {path}: {source}")]
-    Read {
-        /// The file.
-        path: String,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// The text is not valid TOML, has an unknown key or a value of the wrong type.
-    #[error("configuration {origin}: {message}")]
-    Parse {
-        /// The file, or "text".
-        origin: String,
-        /// toml's message, which names the key and the line.
-        message: String,
-    },
-    /// A value is outside its accepted range.
-    #[error("configuration key '{key}' = {value} is out of range (expected {expected})")]
-    Range {
-        /// The dotted key, e.g. `control.rate-hz`.
-        key: &'static str,
-        /// The value given.
-        value: String,
-        /// The accepted range.
-        expected: &'static str,
-    },
-    /// The keys are each in range, but together ask for what the bus or
-    /// the model cannot do; the text names the keys and the figures.
-    #[error("configuration: {0}")]
-    Derived(String),
-}
 
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
@@ -111,45 +79,6 @@ pub struct Config {
     pub foxglove: FoxgloveConfig,
     /// `[link]`.
     pub link: LinkConfig,
-}
-
-fn range(
-    key: &'static str,
-    value: f64,
-    min: f64,
-    max: f64,
-    expected: &'static str,
-) -> Result<(), ConfigError> {
-    if value.is_finite() && value >= min && value <= max {
-        Ok(())
-    } else {
-        Err(ConfigError::Range {
-            key,
-            value: fmt_number(value),
-            expected,
-        })
-    }
-}
-
-/// Exactly three numbers (serde truncates a longer array into `[f64; 3]`
-/// without a word, extra elements of any type included).
-fn three_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
-    let v: Vec<f64> = Vec::deserialize(d)?;
-    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
-        serde::de::Error::custom(format!(
-            "expected exactly three numbers [a0, a1, a2], got {}",
-            v.len()
-        ))
-    })
-}
-
-/// Writes `v` readably: scientific notation when it is huge or tiny.
-pub fn fmt_number(v: f64) -> String {
-    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
 }
 
 impl Config {
@@ -277,16 +206,6 @@ impl Config {
     }
 }
 
-fn fmt_f(v: f64) -> String {
-    // TOML floats need a decimal point or exponent.
-    let s = format!("{v}");
-    if s.contains(['.', 'e', 'E']) || s.contains("inf") || s.contains("nan") {
-        s
-    } else {
-        format!("{s}.0")
-    }
-}
-
 /// The whole default configuration as a commented TOML file.
 pub fn default_toml() -> String {
     let d = Config::default();
@@ -297,18 +216,18 @@ pub fn default_toml() -> String {
     w("# anguilla daemon configuration. Every key is optional; these are the defaults.".into());
     w("# Keys are kebab-case; an unknown key or an out-of-range value is an error.".into());
     w(String::new());
-    robot::write_default(&d, &mut w);
-    control::write_default(&d, &mut w);
-    gait::write_default(&d, &mut w);
-    limits::write_default(&d, &mut w);
-    bus::write_default(&d, &mut w);
-    realtime::write_default(&d, &mut w);
-    ipc::write_default(&d, &mut w);
-    recording::write_default(&d, &mut w);
-    model::write_default(&d, &mut w);
-    sensor::write_default(&d, &mut w);
-    autopilot::write_default(&d, &mut w);
-    foxglove::write_default(&d, &mut w);
-    link::write_default(&d, &mut w);
+    robot::write_default(&d.robot, &mut w);
+    control::write_default(&d.control, &mut w);
+    gait::write_default(&d.gait, &mut w);
+    limits::write_default(&d.limits, &mut w);
+    bus::write_default(&d.bus, &mut w);
+    realtime::write_default(&d.realtime, &mut w);
+    ipc::write_default(&d.ipc, &mut w);
+    recording::write_default(&d.recording, &mut w);
+    model::write_default(&d.model, &mut w);
+    sensor::write_default(&d.sensor, &mut w);
+    autopilot::write_default(&d.autopilot, &mut w);
+    foxglove::write_default(&d.foxglove, &mut w);
+    link::write_default(&d.link, &mut w);
     o
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, range};
+use super::error::{ConfigError, fmt_f, range};
 
 /// `[model]`: the feedforward model's discretization.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -35,13 +35,13 @@ impl ModelConfig {
 }
 
 /// `[model]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &ModelConfig, w: &mut dyn FnMut(String)) {
     w("[model]".into());
     w("# Space nodes of the feedforward model along the body. 5..=2000".into());
-    w(format!("nodes = {}", d.model.nodes));
+    w(format!("nodes = {}", d.nodes));
     w("# The body's ballast: its centre of mass this far below each section's axis (m),".into());
     w("# which rights it in roll and pitch (the built-in simulated robot is built the".into());
     w("# same). 0: the paper's body, which rolls freely under pitch curvature. 0..=0.05".into());
-    w(format!("ballast = {}", fmt_f(d.model.ballast)));
+    w(format!("ballast = {}", fmt_f(d.ballast)));
     w(String::new());
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, range};
+use super::error::{ConfigError, range};
 
 /// `[realtime]`: what the loop thread asks of the OS.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -49,13 +49,13 @@ impl RealtimeConfig {
 }
 
 /// `[realtime]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &RealtimeConfig, w: &mut dyn FnMut(String)) {
     w("[realtime]".into());
     w("# SCHED_FIFO priority of the loop thread (0: normal scheduler), its CPU (-1: any),".into());
     w("# and mlockall. When the system refuses, the daemon warns and runs anyway.".into());
     w("# Above 1, the iceoryx2 threads and the built-in simulated robot run one lower.".into());
-    w(format!("fifo-priority = {}", d.realtime.fifo_priority));
-    w(format!("cpu = {}", d.realtime.cpu));
-    w(format!("lock-memory = {}", d.realtime.lock_memory));
+    w(format!("fifo-priority = {}", d.fifo_priority));
+    w(format!("cpu = {}", d.cpu));
+    w(format!("lock-memory = {}", d.lock_memory));
     w(String::new());
 }

@@ -2,8 +2,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::Config;
-
 /// `[recording]`: what is written to disk.
 #[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
@@ -13,9 +11,9 @@ pub struct RecordingConfig {
 }
 
 /// `[recording]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &RecordingConfig, w: &mut dyn FnMut(String)) {
     w("[recording]".into());
     w("# Directory for the session recording (candump log + state records); empty: none.".into());
-    w(format!("dir = {:?}", d.recording.dir));
+    w(format!("dir = {:?}", d.dir));
     w(String::new());
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Config, ConfigError, fmt_f, fmt_number, range};
+use super::error::fmt_f;
 
 /// `[robot] drive` as text: a [`Family`](anguilla_protocol::Family)'s name.
 mod family_name {
@@ -115,7 +115,7 @@ impl Default for RobotConfig {
     }
 }
 
-/// One axis of a bought drive, resolved ([`Config::axes`]).
+/// One axis of a bought drive, resolved ([`Config::axes`](super::Config::axes)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AxisMap {
     /// Node id.
@@ -132,193 +132,11 @@ pub struct AxisMap {
     pub rated_torque: f64,
 }
 
-impl Config {
-    /// Each joint's two axes (bought families), pitch then yaw, with
-    /// `[robot.axis]` filling what `robot.axes` leaves out.
-    pub fn axes(&self) -> Vec<[AxisMap; 2]> {
-        let d = &self.robot.axis;
-        let family = self.robot.drive;
-        (0..self.robot.joints)
-            .map(|j| {
-                let ids = family.default_ids(j);
-                [0, 1].map(|a| {
-                    let e = self.robot.axes.get(2 * j + a).cloned().unwrap_or_default();
-                    AxisMap {
-                        node: e.node.unwrap_or(ids[a]),
-                        direction: e.direction.unwrap_or(d.direction) as f64,
-                        offset: e.offset.unwrap_or(d.offset),
-                        gear: e.gear.unwrap_or(d.gear),
-                        counts_per_turn: e.counts_per_turn.unwrap_or(d.counts_per_turn),
-                        rated_torque: e.rated_torque.unwrap_or(d.rated_torque),
-                    }
-                })
-            })
-            .collect()
-    }
-
-    /// The bought drives' node ids, `[pitch, yaw]` per joint (empty for
-    /// anguilla, whose node carries both axes).
-    pub fn axis_ids(&self) -> Vec<[u8; 2]> {
-        if !self.robot.drive.drive_per_axis() {
-            return Vec::new();
-        }
-        self.axes().iter().map(|p| [p[0].node, p[1].node]).collect()
-    }
-
-    /// The node id of each joint, head to tail (anguilla); for the bought
-    /// families, each joint's report id 1..=joints.
-    pub fn node_ids(&self) -> Vec<u8> {
-        if self.robot.drive.drive_per_axis() {
-            return (1..=self.robot.joints as u8).collect();
-        }
-        if self.robot.node_ids.is_empty() {
-            (1..=self.robot.joints as u8).collect()
-        } else {
-            self.robot.node_ids.clone()
-        }
-    }
-
-    /// Checks `[robot]`: the joints, their ids, and a bought family's
-    /// axes (which read `[bus]`'s bit rate for an EDS).
-    pub(super) fn validate_robot(&self) -> Result<(), ConfigError> {
-        let r = &self.robot;
-        range("robot.joints", r.joints as f64, 1.0, 32.0, "1 ..= 32")?;
-        if !r.node_ids.is_empty() {
-            if r.node_ids.len() != r.joints {
-                return Err(ConfigError::Range {
-                    key: "robot.node-ids",
-                    value: format!("{} ids", r.node_ids.len()),
-                    expected: "one id per joint (robot.joints of them), or none for 1..=joints",
-                });
-            }
-            let mut seen = [false; 256];
-            for &id in &r.node_ids {
-                if !(1..=63).contains(&id) || seen[id as usize] {
-                    return Err(ConfigError::Range {
-                        key: "robot.node-ids",
-                        value: format!("{:?}", r.node_ids),
-                        expected: "distinct ids in 1 ..= 63",
-                    });
-                }
-                seen[id as usize] = true;
-            }
-        }
-        self.validate_axes()
-    }
-
-    fn validate_axes(&self) -> Result<(), ConfigError> {
-        let r = &self.robot;
-        let family = r.drive;
-        if !family.drive_per_axis() {
-            if !r.axes.is_empty() {
-                return Err(ConfigError::Range {
-                    key: "robot.axes",
-                    value: format!("{} entries", r.axes.len()),
-                    expected: "none with drive = \"anguilla\" (a node carries both axes; \
-                               use robot.node-ids)",
-                });
-            }
-            return Ok(());
-        }
-        if !r.node_ids.is_empty() {
-            return Err(ConfigError::Range {
-                key: "robot.node-ids",
-                value: format!("{:?}", r.node_ids),
-                expected: "[] with a bought drive family (give the drives' ids in robot.axes)",
-            });
-        }
-        if !r.axes.is_empty() && r.axes.len() != 2 * r.joints {
-            return Err(ConfigError::Range {
-                key: "robot.axes",
-                value: format!("{} entries", r.axes.len()),
-                expected: "2 × robot.joints entries (pitch then yaw of each joint, head \
-                           first), or none for the default ids",
-            });
-        }
-        if !r.eds.is_empty() {
-            if family != anguilla_protocol::Family::Cia402 {
-                return Err(ConfigError::Range {
-                    key: "robot.eds",
-                    value: format!("{:?}", r.eds),
-                    expected: "\"\" unless drive = \"cia402\" (an EDS describes a CANopen device)",
-                });
-            }
-            use anguilla_protocol::canopen::eds;
-            let text = std::fs::read_to_string(&r.eds).map_err(|source| ConfigError::Read {
-                path: r.eds.clone(),
-                source,
-            })?;
-            eds::Eds::parse(&text)
-                .and_then(|e| eds::check_cia402(&e, self.bus.bitrate))
-                .map_err(|e| ConfigError::Derived(format!("robot.eds = {:?}: {e}", r.eds)))?;
-        }
-        let (lo, hi) = family.id_range();
-        let mut seen = [false; 256];
-        if family == anguilla_protocol::Family::Cia402 {
-            if !(1..=127).contains(&r.master_node_id) {
-                return Err(ConfigError::Range {
-                    key: "robot.master-node-id",
-                    value: r.master_node_id.to_string(),
-                    expected: "1 ..= 127",
-                });
-            }
-            seen[r.master_node_id as usize] = true;
-        }
-        for (j, axes) in self.axes().iter().enumerate() {
-            for a in axes {
-                if a.node < lo || a.node > hi || seen[a.node as usize] {
-                    return Err(ConfigError::Derived(format!(
-                        "robot.axes: joint {} has drive id {}; {} drives take distinct ids in \
-                         {lo}..={hi}{} (by default pitch 2j+1, yaw 2j+2 for joint j from 0: \
-                         at most {} joints)",
-                        j + 1,
-                        a.node,
-                        family,
-                        if family == anguilla_protocol::Family::Cia402 {
-                            ", other than robot.master-node-id"
-                        } else {
-                            ""
-                        },
-                        (hi as usize) / 2
-                    )));
-                }
-                seen[a.node as usize] = true;
-                if a.direction != 1.0 && a.direction != -1.0 {
-                    return Err(ConfigError::Range {
-                        key: "robot.axis.direction",
-                        value: fmt_number(a.direction),
-                        expected: "1 or -1",
-                    });
-                }
-                range("robot.axis.offset", a.offset, -3.2, 3.2, "-3.2 ..= 3.2 rad")?;
-                range("robot.axis.gear", a.gear, 1e-3, 1e4, "0.001 ..= 10000")?;
-                range(
-                    "robot.axis.counts-per-turn",
-                    a.counts_per_turn as f64,
-                    4.0,
-                    (1u64 << 24) as f64,
-                    "4 ..= 16777216",
-                )?;
-                if a.rated_torque != 0.0 {
-                    range(
-                        "robot.axis.rated-torque",
-                        a.rated_torque,
-                        1e-3,
-                        1e4,
-                        "0 (read from the drive) or 0.001 ..= 10000 N·m",
-                    )?;
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
 /// `[robot]` and `[robot.axis]` in the commented default file ([`super::default_toml`]).
-pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
+pub(super) fn write_default(d: &RobotConfig, w: &mut dyn FnMut(String)) {
     w("[robot]".into());
     w("# Actuated joints, head to tail (each: a pitch and a yaw axis on one node). 1..=32".into());
-    w(format!("joints = {}", d.robot.joints));
+    w(format!("joints = {}", d.joints));
     w("# The drives' protocol: \"anguilla\" (vertebra nodes, one per joint), \"cia402\"".into());
     w("# (CANopen CiA 402 drives) or \"odrive\" (ODrive CANSimple), one drive per axis.".into());
     w("drive = \"anguilla\"".into());
@@ -328,7 +146,7 @@ pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
     );
     w("node-ids = []".into());
     w("# cia402: the master's node id (its heartbeat is 0x700 + id). 1..=127".into());
-    w(format!("master-node-id = {}", d.robot.master_node_id));
+    w(format!("master-node-id = {}", d.master_node_id));
     w("# cia402: the drives' EDS file, checked at start-up for every object the master".into());
     w("# uses and the bit rate; \"\": CiA 402's standard objects are taken as given.".into());
     w("eds = \"\"".into());
@@ -341,16 +159,10 @@ pub(super) fn write_default(d: &Config, w: &mut dyn FnMut(String)) {
     w("# Every bought drive's defaults: direction (1 or -1), offset (rad: joint angle at".into());
     w("# motor zero), gear (motor turns per joint turn); cia402: increments per motor".into());
     w("# turn and rated torque (N·m; 0 reads 0x6076 from the drive).".into());
-    w(format!("direction = {}", d.robot.axis.direction));
-    w(format!("offset = {}", fmt_f(d.robot.axis.offset)));
-    w(format!("gear = {}", fmt_f(d.robot.axis.gear)));
-    w(format!(
-        "counts-per-turn = {}",
-        d.robot.axis.counts_per_turn
-    ));
-    w(format!(
-        "rated-torque = {}",
-        fmt_f(d.robot.axis.rated_torque)
-    ));
+    w(format!("direction = {}", d.axis.direction));
+    w(format!("offset = {}", fmt_f(d.axis.offset)));
+    w(format!("gear = {}", fmt_f(d.axis.gear)));
+    w(format!("counts-per-turn = {}", d.axis.counts_per_turn));
+    w(format!("rated-torque = {}", fmt_f(d.axis.rated_torque)));
     w(String::new());
 }
