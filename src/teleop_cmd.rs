@@ -155,7 +155,10 @@ impl DaemonArgs {
         let s: Box<dyn Session> = match self.remote()? {
             None => match Client::new(prefix, &format!("{tool}-{}", std::process::id())) {
                 Ok(c) => Box::new(c),
-                Err(direct) => match local_link(prefix) {
+                // Only when the daemon's files are another user's
+                // (`Foreign`): a daemon that is not running is not looked
+                // for through a link.
+                Err(direct @ anguilla_ipc::IpcError::Foreign(_)) => match local_link(prefix) {
                     // Not the daemon's user (its iceoryx2 files are its own),
                     // but the prefix's local link admits this user: its
                     // group's members use every tool without sudo or flags.
@@ -176,6 +179,7 @@ impl DaemonArgs {
                     }
                     None => return Err(direct.into()),
                 },
+                Err(direct) => return Err(direct.into()),
             },
             Some((endpoint, tls)) => remote_session(prefix, &endpoint, tls.as_ref(), commands)?,
         };
