@@ -21,6 +21,7 @@ import sys
 import websockets
 
 PROTO = ["foxglove.sdk.v1"]
+STATE_TOPIC = "/anguilla/state"
 
 
 def fail(why):
@@ -45,13 +46,19 @@ def threads(pid):
 
 
 async def viewer(url):
-    """Connects and subscribes to the first advertised channel."""
+    """Connects and subscribes to the robot's state, sent every period.
+
+    By topic, not by place: the server advertises its channels in the
+    order of a hash map, which changes from one process to the next, and
+    the first may be /log, which is quiet for minutes."""
     ws = await websockets.connect(url, subprotocols=PROTO, open_timeout=30)
     channel = None
     while channel is None:
         msg = json.loads(await asyncio.wait_for(ws.recv(), 30))
-        if msg["op"] == "advertise" and msg["channels"]:
-            channel = msg["channels"][0]["id"]
+        if msg["op"] == "advertise":
+            for c in msg["channels"]:
+                if c["topic"] == STATE_TOPIC:
+                    channel = c["id"]
     await ws.send(json.dumps({
         "op": "subscribe", "subscriptions": [{"id": 1, "channelId": channel}],
     }))
