@@ -94,9 +94,13 @@ def main():
     ap.add_argument("--update", action="store_true", help="write this run's figures as the baseline")
     ap.add_argument("--runs", type=int, default=2)
     ap.add_argument("--no-build", action="store_true")
+    ap.add_argument("--build-only", action="store_true",
+                    help="build the benchmarks and stop (CI builds them while its tests run)")
     args = ap.parse_args()
     if not args.no_build:
         build()
+    if args.build_only:
+        return 0
     best, worst = measure(args.runs)
     if args.update:
         # The baseline takes the worse figure of the runs, the check the
