@@ -25,8 +25,10 @@
 //!   and the README are made from, and the identifier questions it answers
 //!   ([`addressed_to`], [`estop_target`]);
 //! - `message/codec.rs` — [`Message::encode`] and [`decode`], one encoder
-//!   and one decoder per message side by side, their errors, and
-//!   [`encode_setpoints`].
+//!   and one decoder per message side by side, and [`encode_setpoints`];
+//!   `message/head.rs` the head sensor's, with [`encode_head_sample`];
+//!   `message/field.rs` the field access both go through; `message/error.rs`
+//!   their errors.
 //!
 //! [`Signal`]: crate::signal::Signal
 
@@ -34,9 +36,16 @@ pub mod classic;
 mod codec;
 pub mod common;
 mod definitions;
+mod error;
 pub mod fd;
+mod field;
+mod head;
 mod types;
+mod variant;
 
 pub use codec::*;
 pub use definitions::*;
+pub use error::{DecodeError, EncodeError};
+pub use head::encode_head_sample;
 pub use types::*;
+pub use variant::Variant;

@@ -1,8 +1,8 @@
 //! Energy, power and momentum of the last evaluated instant: the quantities
 //! the conservation and energy-balance checks compare.
 
-use super::HeadState;
 use super::model::Model;
+use super::state::HeadState;
 use super::workspace::Workspace;
 use nalgebra::Vector3;
 

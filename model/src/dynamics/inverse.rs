@@ -1,9 +1,9 @@
 //! Inverse dynamics `G_int` (17)–(20): the internal wrench `n_*`, `c_*`
 //! along the body, the torques `C2`, `C3` and the tail closure residual.
 
-use super::HeadState;
 use super::kinematics::joints;
 use super::model::Model;
+use super::state::HeadState;
 use super::workspace::Workspace;
 use nalgebra::{Vector3, Vector6};
 

@@ -2,8 +2,8 @@
 //! fields along the body (34)–(36) from the curvature, and their mapping
 //! onto the joints of the discrete robot (section 2, figure 2).
 
-use super::JointState;
 use super::model::Model;
+use super::state::JointState;
 use super::workspace::Workspace;
 use crate::gait::{Curvature, CurvatureSource};
 use nalgebra::{Matrix3, Vector3};

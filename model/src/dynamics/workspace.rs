@@ -1,8 +1,8 @@
 //! The preallocated workspace (Pinocchio's `Data`): every per-node buffer
 //! the passes write, sized once for a [`Model`].
 
-use super::JointState;
 use super::model::Model;
+use super::state::JointState;
 use crate::current::Current;
 use crate::gait::Curvature;
 use nalgebra::{Cholesky, Const, Matrix3, Vector3, Vector6};

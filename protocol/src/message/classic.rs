@@ -1,7 +1,8 @@
 //! Classic CAN layouts: 8-byte per-node frames, 14-bit positions, 8-bit
 //! velocities and torques.
 
-use super::{POSITION_LIMIT, TORQUE_LIMIT, VELOCITY_LIMIT, common};
+use super::common;
+use super::types::{POSITION_LIMIT, TORQUE_LIMIT, VELOCITY_LIMIT};
 use crate::signal::Signal;
 
 /// Position scale: 0.2 mrad per count (14 bits, ±1.638 rad representable).

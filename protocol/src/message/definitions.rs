@@ -4,7 +4,9 @@
 //! README tables; [`addressed_to`] and [`estop_target`] read identifiers
 //! through it.
 
-use super::{Addressing, Direction, Function, NodeId, Target, Variant, classic, common, fd};
+use super::types::{Addressing, Direction, Function, NodeId, Target};
+use super::variant::Variant;
+use super::{classic, common, fd};
 use crate::frame::Id;
 use crate::signal::Signal;
 

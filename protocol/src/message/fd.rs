@@ -1,7 +1,8 @@
 //! CAN FD layouts: six-node setpoint groups and 12-byte feedback, 16-bit
 //! positions, 12-bit velocities and torques.
 
-use super::{GROUP_SLOTS, POSITION_LIMIT, TORQUE_LIMIT, VELOCITY_LIMIT, common};
+use super::common;
+use super::types::{GROUP_SLOTS, POSITION_LIMIT, TORQUE_LIMIT, VELOCITY_LIMIT};
 use crate::signal::Signal;
 
 /// Position scale: 0.05 mrad per count (16 bits, ±1.638 rad representable).

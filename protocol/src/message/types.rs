@@ -3,7 +3,7 @@
 //! codes of identifiers ([`Function`]) and how their low bits address
 //! nodes ([`Addressing`]), and the documented ranges.
 
-use super::EncodeError;
+use super::error::EncodeError;
 use crate::frame::Id;
 
 /// Documented joint position range: ±1.5 rad (eel joints stay within about
@@ -36,39 +36,6 @@ pub const HEAD_SENSOR_RATE_HZ: (u16, u16) = (100, 200);
 /// id range, away from vertebrae numbered from 1 (the DBC files list the
 /// sensor's messages for this id).
 pub const DEFAULT_HEAD_SENSOR_ID: u8 = MAX_NODE_ID;
-
-/// Which bus the protocol runs on; layouts and frame kinds differ.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Variant {
-    /// Classic CAN 2.0A, 8-byte frames.
-    Classic,
-    /// CAN FD with bit-rate switching, frames up to 64 bytes.
-    Fd,
-}
-
-impl Variant {
-    /// Bits of the SYNC counter a setpoint carries as its cycle tag.
-    pub const fn cycle_tag_bits(self) -> u8 {
-        match self {
-            Variant::Classic => 4,
-            Variant::Fd => 8,
-        }
-    }
-
-    /// The cycle tag of the setpoints to apply at SYNC `counter`.
-    pub const fn cycle_tag(self, counter: u16) -> u8 {
-        (counter & ((1 << self.cycle_tag_bits()) - 1)) as u8
-    }
-}
-
-impl core::fmt::Display for Variant {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            Variant::Classic => "classic CAN",
-            Variant::Fd => "CAN FD",
-        })
-    }
-}
 
 /// A node (vertebra actuator) id, 1..=63.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -232,7 +199,7 @@ pub struct Setpoint {
     /// Addressed node.
     pub node: NodeId,
     /// Cycle tag: low bits of the SYNC counter this is for
-    /// ([`Variant::cycle_tag`]).
+    /// ([`Variant::cycle_tag`](super::Variant::cycle_tag)).
     pub cycle: u8,
     /// Pitch (index 0) and yaw (index 1).
     pub axes: [AxisSetpoint; 2],
