@@ -204,9 +204,7 @@ impl DriveState {
             DriveState::NotReadyToSwitchOn | DriveState::FaultReactionActive => None,
             DriveState::SwitchOnDisabled => Some(Command::Shutdown),
             DriveState::ReadyToSwitchOn => Some(Command::SwitchOn),
-            DriveState::SwitchedOn | DriveState::OperationEnabled => {
-                Some(Command::EnableOperation)
-            }
+            DriveState::SwitchedOn | DriveState::OperationEnabled => Some(Command::EnableOperation),
             DriveState::QuickStopActive => Some(Command::DisableVoltage),
             DriveState::Fault => Some(Command::FaultReset),
         }

@@ -3,8 +3,8 @@
 
 use super::error::DecodeError;
 use super::types::{
-    EMCY_LEN, Emcy, Function, Message, NmtCommand, NmtState, NodeId, Object, PdoData, SDO_LEN,
-    SdoData, SdoRequest, SdoResponse, SegmentData, classify,
+    AbortCode, EMCY_LEN, Emcy, Function, Message, NmtCommand, NmtState, NodeId, Object, PdoData,
+    SDO_LEN, SdoData, SdoRequest, SdoResponse, SegmentData, classify,
 };
 use crate::frame::{Frame, Id, Kind};
 

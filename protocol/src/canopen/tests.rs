@@ -16,6 +16,7 @@
 
 use super::cia402::{Command, DriveState};
 use super::*;
+use crate::frame::{Frame, Id};
 use proptest::prelude::*;
 
 fn node(n: u8) -> NodeId {

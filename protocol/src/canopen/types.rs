@@ -144,7 +144,7 @@ macro_rules! wire_enum {
                 self as u8
             }
 
-            fn from_raw(message: &'static str, raw: u8) -> Result<Self, DecodeError> {
+            pub(super) fn from_raw(message: &'static str, raw: u8) -> Result<Self, DecodeError> {
                 $name::ALL.iter().copied().find(|v| v.raw() == raw).ok_or(
                     DecodeError::UnknownValue {
                         message,
@@ -334,8 +334,8 @@ fn short<const N: usize>(
 /// The 1..=4 bytes of an expedited SDO transfer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct SdoData {
-    len: u8,
-    bytes: [u8; 4],
+    pub(super) len: u8,
+    pub(super) bytes: [u8; 4],
 }
 
 impl SdoData {
@@ -359,8 +359,8 @@ impl SdoData {
 /// The 0..=8 bytes of a PDO, raw (their meaning is the node's mapping).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct PdoData {
-    len: u8,
-    bytes: [u8; 8],
+    pub(super) len: u8,
+    pub(super) bytes: [u8; 8],
 }
 
 impl PdoData {
@@ -379,8 +379,8 @@ impl PdoData {
 /// The 0..=7 bytes of one segment of a segmented SDO transfer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct SegmentData {
-    len: u8,
-    bytes: [u8; 7],
+    pub(super) len: u8,
+    pub(super) bytes: [u8; 7],
 }
 
 impl SegmentData {
