@@ -4,7 +4,9 @@
 
 use core::fmt::Write as _;
 
-use super::od::{DefaultValue, Entry, OBJECTS};
+use super::od::{
+    DEVICE_NAME, DefaultValue, Entry, Kind, OBJECTS, PRODUCT_CODE, REVISION, VENDOR_ID,
+};
 
 fn eds_default(e: &Entry) -> String {
     match e.default {

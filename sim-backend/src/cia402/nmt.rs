@@ -3,6 +3,14 @@
 //! commands (start, stop, pre-operational, the two resets).
 
 use super::Cia402Axis;
+use super::{
+    EMCY_HEARTBEAT, EMCY_SYNC, ERR_COMMUNICATION, Nmt, S_CONSUMER, S_CYCLE_PERIOD, S_PRODUCER,
+    SYNC_TIMEOUT_MIN, Sdo,
+};
+use crate::node::Nanos;
+use anguilla_protocol::canopen::cia402::DriveState;
+use anguilla_protocol::canopen::{Message, NmtCommand, NmtState};
+use anguilla_protocol::frame::Frame;
 
 impl Cia402Axis {
     pub(super) fn watchdogs(&mut self, t: Nanos, tx: &mut dyn FnMut(Frame)) {

@@ -3,6 +3,15 @@
 //! TPDOs sent on the SYNCs their type asks for.
 
 use super::Cia402Axis;
+use super::{
+    EMCY_PDO_LENGTH, ERR_COMMUNICATION, ERR_GENERIC, RAD_PER_INCREMENT, RPDO_COMM, RPDO_MAP,
+    S_ERROR_REGISTER, S_RATED_TORQUE, S_TARGET, S_TORQUE_OFFSET, S_VELOCITY_OFFSET, TPDO_COMM,
+    TPDO_MAP, lookup,
+};
+use crate::node::Nanos;
+use anguilla_protocol::canopen::PdoData;
+use anguilla_protocol::canopen::cia402::{self, DriveState};
+use anguilla_protocol::frame::Frame;
 
 impl Cia402Axis {
     /// The COB-ID of a PDO whose communication parameter is at `comm`, if
@@ -59,7 +68,13 @@ impl Cia402Axis {
         }
     }
 
-    pub(super) fn apply_rpdo(&mut self, p: usize, pdo: &PdoData, now: Nanos, tx: &mut dyn FnMut(Frame)) {
+    pub(super) fn apply_rpdo(
+        &mut self,
+        p: usize,
+        pdo: &PdoData,
+        now: Nanos,
+        tx: &mut dyn FnMut(Frame),
+    ) {
         let (entries, n) = self.mapping(RPDO_MAP[p]);
         let data = pdo.bytes();
         let mut at = 0;
@@ -130,6 +145,4 @@ impl Cia402Axis {
         }
         (buf, at)
     }
-
-    // ---- SDO server -------------------------------------------------------
 }

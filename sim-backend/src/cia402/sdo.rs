@@ -2,7 +2,18 @@
 //! the checks a write passes (access, size, range, mapping), and what a
 //! written object changes.
 
-use super::Cia402Axis;
+use super::od::{FLAT, STRING_CAPACITY};
+use super::{Cia402Axis, od};
+use super::{
+    Nmt, RPDO_COMM, S_CONSUMER, S_CONTROLWORD, S_CYCLE_PERIOD, S_MODE, S_MODE_DISPLAY, S_PRODUCER,
+    S_SIM_FAULT, Sdo, TPDO_COMM, lookup,
+};
+use crate::node::Nanos;
+use anguilla_protocol::canopen::cia402::{self};
+use anguilla_protocol::canopen::{
+    AbortCode, Message, Object, SdoData, SdoRequest, SdoResponse, SegmentData,
+};
+use anguilla_protocol::frame::Frame;
 
 impl Cia402Axis {
     pub(super) fn respond(&self, tx: &mut dyn FnMut(Frame), sdo: SdoResponse) {
@@ -153,7 +164,11 @@ impl Cia402Axis {
     }
 
     /// The checks an initiate segmented download can make before data.
-    pub(super) fn check_download(&self, object: Object, size: Option<u32>) -> Result<(), AbortCode> {
+    pub(super) fn check_download(
+        &self,
+        object: Object,
+        size: Option<u32>,
+    ) -> Result<(), AbortCode> {
         let s = lookup(object.index, object.sub)?;
         let e = FLAT[s].1;
         if !e.access.writable() {
