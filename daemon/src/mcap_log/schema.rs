@@ -33,124 +33,27 @@ use core::fmt::Write as _;
 
 use anguilla_drivers::BusState;
 use anguilla_protocol::behaviour;
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
+
+mod build;
+mod check;
+mod table;
+
+pub use build::{
+    DIALECT, Property, array, bits, boolean, codes, count, empty_array, message, names, number,
+    object, real, string, typed_object,
+};
+pub use check::check;
+pub use table::table;
 
 use anguilla_ipc::{
     Cause, FaultKind, Hold, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, bus_state_name,
     hold_bits,
 };
 
-/// The JSON Schema dialect of every schema here (`$schema`).
-pub const DIALECT: &str = "https://json-schema.org/draft/2020-12/schema";
-
 /// What the writer puts for a name or a code this anguilla does not know
 /// (a snapshot from another version, exported).
 pub const UNKNOWN: &str = "unknown";
-
-/// A property: its name and its schema.
-pub type Property = (&'static str, Value);
-
-fn closed(title: Option<&str>, description: &str, properties: Vec<Property>) -> Map<String, Value> {
-    let mut m = Map::new();
-    if let Some(t) = title {
-        m.insert("title".into(), json!(t));
-    }
-    m.insert("description".into(), json!(description));
-    m.insert("type".into(), json!("object"));
-    let required: Vec<Value> = properties.iter().map(|(k, _)| json!(k)).collect();
-    m.insert(
-        "properties".into(),
-        Value::Object(
-            properties
-                .into_iter()
-                .map(|(k, v)| (k.to_string(), v))
-                .collect(),
-        ),
-    );
-    m.insert("required".into(), Value::Array(required));
-    m.insert("additionalProperties".into(), json!(false));
-    m
-}
-
-/// A message's schema: a closed object (every property required, in this
-/// order, and no other) named `title`, with `$schema` set.
-pub fn message(title: &str, description: &str, properties: Vec<Property>) -> Value {
-    let mut m = closed(Some(title), description, properties);
-    m.insert("$schema".into(), json!(DIALECT));
-    Value::Object(m)
-}
-
-/// A closed object inside a message (every property required, in this
-/// order, and no other).
-pub fn object(description: &str, properties: Vec<Property>) -> Value {
-    Value::Object(closed(None, description, properties))
-}
-
-/// A closed object of a named type (e.g. `foxglove.Vector3`).
-pub fn typed_object(title: &str, description: &str, properties: Vec<Property>) -> Value {
-    Value::Object(closed(Some(title), description, properties))
-}
-
-/// A float of the state: a number, or `null` where it is not finite (JSON
-/// has no NaN; `serde_json` writes one as `null`). Say its unit in
-/// `description`.
-pub fn real(description: &str) -> Value {
-    json!({ "type": ["number", "null"], "description": description })
-}
-
-/// A number that is always finite (the writer guarantees it).
-pub fn number(description: &str) -> Value {
-    json!({ "type": "number", "description": description })
-}
-
-/// A count or a clock: an integer ≥ 0.
-pub fn count(description: &str) -> Value {
-    json!({ "type": "integer", "minimum": 0, "description": description })
-}
-
-/// An integer ≥ 0 and ≤ `max` (a bit set).
-pub fn bits(description: &str, max: u64) -> Value {
-    json!({ "type": "integer", "minimum": 0, "maximum": max, "description": description })
-}
-
-/// A boolean.
-pub fn boolean(description: &str) -> Value {
-    json!({ "type": "boolean", "description": description })
-}
-
-/// A string.
-pub fn string(description: &str) -> Value {
-    json!({ "type": "string", "description": description })
-}
-
-/// A string that is one of `names`.
-pub fn names<'a>(description: &str, names: impl IntoIterator<Item = &'a str>) -> Value {
-    let names: Vec<&str> = names.into_iter().collect();
-    json!({ "type": "string", "enum": names, "description": description })
-}
-
-/// An integer code, one of `codes` (code, meaning); the description ends
-/// with the list of meanings.
-pub fn codes(description: &str, codes: &[(u64, String)]) -> Value {
-    let list: Vec<String> = codes.iter().map(|(c, n)| format!("{c} {n}")).collect();
-    let values: Vec<u64> = codes.iter().map(|(c, _)| *c).collect();
-    json!({
-        "type": "integer",
-        "enum": values,
-        "description": format!("{description}: {}", list.join(", ")),
-    })
-}
-
-/// An array of `items`, at most `max` long.
-pub fn array(description: &str, items: Value, max: usize) -> Value {
-    json!({ "type": "array", "items": items, "maxItems": max, "description": description })
-}
-
-/// An array the writer always leaves empty (a field the published schema
-/// has that we do not use).
-pub fn empty_array(description: &str) -> Value {
-    json!({ "type": "array", "maxItems": 0, "description": description })
-}
 
 /// The modes' names, as `/anguilla/state` writes them.
 pub fn mode_names() -> impl Iterator<Item = &'static str> {
@@ -727,144 +630,6 @@ pub fn all() -> [(&'static str, Value); 5] {
     ]
 }
 
-/// Checks `value` against `schema` structurally: types, `properties` (a
-/// key the schema does not name is an error where `additionalProperties`
-/// is false), `required`, `items`, `maxItems`, `enum`, `const`, `oneOf`,
-/// `minimum` and `maximum`. It knows only the keywords the builders here
-/// use, and refuses a schema with another one rather than pass it
-/// unchecked. The error names the path (`nav.sensor`, `spheres[3].size.x`).
-pub fn check(schema: &Value, value: &Value) -> Result<(), String> {
-    check_at("", schema, value)
-}
-
-fn check_at(path: &str, schema: &Value, value: &Value) -> Result<(), String> {
-    let at = if path.is_empty() { "(message)" } else { path };
-    let s = schema
-        .as_object()
-        .ok_or_else(|| format!("{at}: the schema is not an object"))?;
-    for key in s.keys() {
-        if !matches!(
-            key.as_str(),
-            "$schema"
-                | "title"
-                | "description"
-                | "type"
-                | "properties"
-                | "required"
-                | "additionalProperties"
-                | "items"
-                | "maxItems"
-                | "enum"
-                | "const"
-                | "oneOf"
-                | "minimum"
-                | "maximum"
-        ) {
-            return Err(format!("{at}: schema keyword {key} is not checked here"));
-        }
-    }
-    if let Some(t) = s.get("type") {
-        let types: Vec<&str> = match t {
-            Value::String(t) => vec![t.as_str()],
-            Value::Array(ts) => ts.iter().filter_map(Value::as_str).collect(),
-            _ => return Err(format!("{at}: type {t} is not a type")),
-        };
-        if !types.iter().any(|t| is_type(t, value)) {
-            return Err(format!("{at}: {value} is not of type {t}"));
-        }
-    }
-    if let Some(e) = s.get("enum").and_then(Value::as_array)
-        && !e.contains(value)
-    {
-        return Err(format!(
-            "{at}: {value} is not one of {}",
-            Value::Array(e.clone())
-        ));
-    }
-    if let Some(c) = s.get("const")
-        && c != value
-    {
-        return Err(format!("{at}: {value} is not {c}"));
-    }
-    if let Some(one) = s.get("oneOf").and_then(Value::as_array) {
-        let n = one
-            .iter()
-            .filter(|b| check_at(path, b, value).is_ok())
-            .count();
-        if n != 1 {
-            return Err(format!(
-                "{at}: {value} matches {n} of oneOf's schemas, not 1"
-            ));
-        }
-    }
-    if let Some(x) = value.as_f64() {
-        if let Some(min) = s.get("minimum").and_then(Value::as_f64)
-            && x < min
-        {
-            return Err(format!("{at}: {value} is below the minimum {min}"));
-        }
-        if let Some(max) = s.get("maximum").and_then(Value::as_f64)
-            && x > max
-        {
-            return Err(format!("{at}: {value} is above the maximum {max}"));
-        }
-    }
-    if let Some(o) = value.as_object() {
-        let props = s.get("properties").and_then(Value::as_object);
-        for r in s
-            .get("required")
-            .and_then(Value::as_array)
-            .into_iter()
-            .flatten()
-        {
-            let r = r.as_str().unwrap_or_default();
-            if !o.contains_key(r) {
-                return Err(format!("{at}: required property {r} is missing"));
-            }
-        }
-        for (k, v) in o {
-            let p = if path.is_empty() {
-                k.clone()
-            } else {
-                format!("{path}.{k}")
-            };
-            match props.and_then(|ps| ps.get(k)) {
-                Some(ps) => check_at(&p, ps, v)?,
-                None if s.get("additionalProperties") == Some(&Value::Bool(false)) => {
-                    return Err(format!("{p}: not a property of the schema"));
-                }
-                None => {}
-            }
-        }
-    }
-    if let Some(a) = value.as_array() {
-        if let Some(max) = s.get("maxItems").and_then(Value::as_u64)
-            && a.len() as u64 > max
-        {
-            return Err(format!("{at}: {} items, at most {max}", a.len()));
-        }
-        if let Some(items) = s.get("items") {
-            for (i, v) in a.iter().enumerate() {
-                check_at(&format!("{path}[{i}]"), items, v)?;
-            }
-        }
-    }
-    Ok(())
-}
-
-fn is_type(t: &str, v: &Value) -> bool {
-    match t {
-        "null" => v.is_null(),
-        "boolean" => v.is_boolean(),
-        "string" => v.is_string(),
-        "object" => v.is_object(),
-        "array" => v.is_array(),
-        "number" => v.is_number(),
-        "integer" => v.is_u64() || v.is_i64(),
-        _ => false,
-    }
-}
-
 /// `docs/data.md`'s generated part: per channel, a table of its fields
 /// (in the order written) with their types and descriptions; then the
 /// codes.
@@ -912,91 +677,6 @@ pub fn markdown() -> String {
         let _ = writeln!(out, "| {c} | {n} | {what} |");
     }
     out
-}
-
-/// A message schema's description and the Markdown table of its fields:
-/// one row per field, in the order written, objects and arrays of objects
-/// opened (`nav.sensor`, `transforms[].rotation.w`).
-pub fn table(schema: &Value) -> String {
-    let mut out = String::new();
-    let _ = writeln!(out, "{}.\n", text(&schema["description"]));
-    let _ = writeln!(out, "| field | type | meaning |");
-    let _ = writeln!(out, "|---|---|---|");
-    rows(&mut out, "", schema);
-    out
-}
-
-fn text(v: &Value) -> String {
-    v.as_str().unwrap_or_default().replace('|', "\\|")
-}
-
-/// One row per property, in `required` order (the writer's), descending
-/// into objects and arrays of objects.
-fn rows(out: &mut String, prefix: &str, s: &Value) {
-    let props = &s["properties"];
-    for k in s["required"].as_array().into_iter().flatten() {
-        let k = k.as_str().unwrap_or_default();
-        let p = &props[k];
-        let path = format!("{prefix}{k}");
-        let _ = writeln!(
-            out,
-            "| `{path}` | {} | {} |",
-            type_text(p),
-            text(&p["description"])
-        );
-        if p["type"] == "object" {
-            rows(out, &format!("{path}."), p);
-        } else if p["items"]["type"] == "object" {
-            rows(out, &format!("{path}[]."), &p["items"]);
-        }
-    }
-}
-
-fn type_text(p: &Value) -> String {
-    let base = match &p["type"] {
-        Value::String(t) => t.clone(),
-        Value::Array(ts) => ts
-            .iter()
-            .filter_map(Value::as_str)
-            .collect::<Vec<_>>()
-            .join(" or "),
-        _ if p.get("oneOf").is_some() => "integer".into(),
-        _ => String::new(),
-    };
-    let base = if let Some(t) = p.get("title").and_then(Value::as_str)
-        && p["type"] == "object"
-    {
-        format!("object ({t})")
-    } else {
-        base
-    };
-    if let Some(e) = p.get("enum").and_then(Value::as_array) {
-        let vs: Vec<String> = e
-            .iter()
-            .map(|v| match v.as_str() {
-                Some("") => "`\"\"`".to_string(),
-                Some(s) => format!("`{s}`"),
-                None => format!("`{v}`"),
-            })
-            .collect();
-        return format!("{base}: {}", vs.join(", "));
-    }
-    if p["type"] == "array" {
-        if p["maxItems"] == 0 {
-            return "array, empty".into();
-        }
-        let items = &p["items"];
-        let max = p["maxItems"].as_u64().unwrap_or_default();
-        let inner = if items["type"] == "object" {
-            items["title"]
-                .as_str()
-                .map_or("object".to_string(), |t| format!("object ({t})"))
-        } else {
-            type_text(items)
-        };
-        return format!("array (≤ {max}) of {inner}");
-    }
-    base
 }
 
 #[cfg(test)]
