@@ -5,7 +5,9 @@
 use std::fmt;
 use std::time::Duration;
 
-use anguilla_protocol::behaviour::{FeedbackFlags, Input, Outcome, describe, result_name, state_name};
+use anguilla_protocol::behaviour::{
+    FeedbackFlags, Input, Outcome, describe, result_name, state_name,
+};
 use anguilla_protocol::message::{ConfigResult, NodeId, NodeState};
 
 /// What the node did after one input, as seen on the wire.
@@ -63,7 +65,7 @@ pub enum Mismatch {
         state: NodeState,
         /// When it was announced after the input (`None`: never).
         after: Option<Duration>,
-        /// The allowed delay ([`Options::prompt`]).
+        /// The allowed delay ([`Options::prompt`](crate::Options::prompt)).
         allowed: Duration,
     },
 }
@@ -245,7 +247,3 @@ impl fmt::Display for Report {
         )
     }
 }
-
-/// The watchdog the suite configures before Enable when it wants the node
-/// to stay Enabled for a whole row without setpoints (ms, the maximum).
-pub const LONG_WATCHDOG_MS: u16 = message::WATCHDOG_RANGE_MS.1;
