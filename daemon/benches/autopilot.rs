@@ -4,7 +4,7 @@
 //!
 //! `cargo bench -p anguilla-daemon --bench autopilot`
 //!
-//! The rig is `tests/support/lockstep.rs`: the controller and the simulated
+//! The rig is `anguilla_testkit::lockstep`: the controller and the simulated
 //! robot (twelve vertebra nodes, the swimming body, a typical fusion IMU
 //! and pressure sensor with noise and bias walk) in lockstep on simulated
 //! time, default configuration plus `[sensor] node = 20`, gait at full
@@ -26,9 +26,7 @@
 //!    the last 10 s of 30, the largest roll; and on the ballasted body in a
 //!    current of 0.1 m/s across and 0.05 m/s down.
 
-#[path = "../tests/support/lockstep.rs"]
-#[allow(dead_code)]
-mod lockstep;
+use anguilla_testkit::lockstep;
 
 use anguilla_ipc::Hold;
 use anguilla_ipc::vocabulary::{Command, Mode, SwimParams};

@@ -7,8 +7,7 @@
 //! says which fault). Figures: `cargo bench -p anguilla-daemon --bench
 //! autopilot`.
 
-#[path = "support/lockstep.rs"]
-mod lockstep;
+use anguilla_testkit::lockstep;
 
 use anguilla_ipc::vocabulary::{Cause, Command, Mode};
 use anguilla_ipc::{Hold, SensorHealth};

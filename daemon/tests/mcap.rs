@@ -5,9 +5,7 @@
 //! rebuilds the same channels from `state.bin`. (CI also reads a daemon's
 //! file with the independent Python `mcap` reader: `scripts/check-mcap`.)
 
-#[path = "support/lockstep.rs"]
-#[allow(dead_code)] // this file uses part of it
-mod lockstep;
+use anguilla_testkit::lockstep;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -5,9 +5,7 @@
 //! simulated robot's half of each period is outside the counted region (it
 //! is not daemon code).
 
-#[path = "support/lockstep.rs"]
-#[allow(dead_code)] // this file uses part of it
-mod lockstep;
+use anguilla_testkit::lockstep;
 mod rig;
 
 use std::cell::Cell;

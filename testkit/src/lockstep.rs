@@ -1,7 +1,8 @@
 //! The controller and the simulated robot (twelve vertebra nodes, the
 //! swimming body and a head sensor) in lockstep on a manual clock: the
-//! whole closed loop, deterministic and faster than real time. Shared by
-//! `tests/autopilot.rs` and `benches/autopilot.rs`.
+//! whole closed loop, deterministic and faster than real time. Used by the
+//! daemon's `tests/autopilot.rs`, `tests/mcap.rs`, `tests/no_alloc.rs` and
+//! `benches/autopilot.rs`.
 
 use std::sync::Arc;
 use std::time::Duration;
