@@ -41,11 +41,25 @@ def run_json_lines(cmd, env=None):
 
 
 def build():
-    # One build of each: the daemon's benchmark and the model's example.
-    subprocess.run(["cargo", "bench", "-p", "anguilla-daemon", "--bench", "daemon", "--no-run"],
-                   cwd=ROOT, check=True)
-    subprocess.run(["cargo", "build", "--release", "-p", "anguilla-model", "--example", "realtime"],
-                   cwd=ROOT, check=True)
+    """Builds the daemon's benchmark and the model's example in one cargo
+    invocation (one feature resolution, so the model and nalgebra are
+    compiled once, in the bench profile) and returns their executables."""
+    out = subprocess.run(
+        ["cargo", "build", "--profile", "bench", "--message-format=json-render-diagnostics",
+         "-p", "anguilla-daemon", "--bench", "daemon", "-p", "anguilla-model", "--example", "realtime"],
+        cwd=ROOT, check=True, stdout=subprocess.PIPE, text=True).stdout
+    exe = {}
+    for line in out.splitlines():
+        try:
+            m = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if m.get("reason") == "compiler-artifact" and m.get("executable"):
+            exe[m["target"]["name"]] = m["executable"]
+    missing = {"daemon", "realtime"} - exe.keys()
+    if missing:
+        sys.exit(f"bench-check: cargo built no executable for {sorted(missing)}")
+    return exe["daemon"], exe["realtime"]
 
 
 def figures_of(lines):
@@ -66,15 +80,15 @@ def figures_of(lines):
     return f
 
 
-def measure(runs):
+def measure(runs, daemon, realtime):
     env = dict(os.environ)
     env.setdefault("ANGUILLA_BENCH_SECONDS", "3")
     env.setdefault("ANGUILLA_BENCH_COMMANDS", "100")
     best, worst = {}, {}
     for i in range(runs):
-        lines = run_json_lines(["cargo", "bench", "-q", "-p", "anguilla-daemon", "--bench", "daemon"], env)
-        lines += run_json_lines(["cargo", "run", "-q", "--release", "-p", "anguilla-model",
-                                 "--example", "realtime", "--", "30"])
+        # `--bench`, as `cargo bench` passes it: the full-length run.
+        lines = run_json_lines([daemon, "--bench"], env)
+        lines += run_json_lines([realtime, "30"])
         for line in lines:
             print(f"run {i + 1}: {json.dumps(line)}")
         for name, (v, better) in figures_of(lines).items():
@@ -93,15 +107,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--update", action="store_true", help="write this run's figures as the baseline")
     ap.add_argument("--runs", type=int, default=2)
-    ap.add_argument("--no-build", action="store_true")
     ap.add_argument("--build-only", action="store_true",
                     help="build the benchmarks and stop (CI builds them while its tests run)")
     args = ap.parse_args()
-    if not args.no_build:
-        build()
+    daemon, realtime = build()
     if args.build_only:
         return 0
-    best, worst = measure(args.runs)
+    best, worst = measure(args.runs, daemon, realtime)
     if args.update:
         # The baseline takes the worse figure of the runs, the check the
         # better one: a noisy run can neither set a bar too high nor fail.
