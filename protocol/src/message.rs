@@ -40,6 +40,8 @@ mod error;
 pub mod fd;
 mod field;
 mod head;
+mod node;
+mod sensor;
 mod types;
 mod variant;
 
@@ -47,5 +49,7 @@ pub use codec::*;
 pub use definitions::*;
 pub use error::{DecodeError, EncodeError};
 pub use head::encode_head_sample;
+pub use node::{MAX_NODE_ID, NodeId, NodeSet};
+pub use sensor::{HeadAttitude, HeadDepth, HeadSample, HeadVector, SensorErrors, SensorStatus};
 pub use types::*;
 pub use variant::Variant;

@@ -18,9 +18,9 @@
 //! Allocations, reallocations and frees all count: each is an allocator call
 //! that may take a lock or a page fault in a real-time period.
 //!
-//! With the feature `lockstep`, [`lockstep`] is the daemon's controller and
-//! the simulated robot on one manual clock (the daemon's tests and
-//! benches).
+//! With the feature `lockstep`, the module `lockstep` is the daemon's
+//! controller and the simulated robot on one manual clock (the daemon's
+//! tests and benches).
 #![warn(missing_docs)]
 
 #[cfg(feature = "lockstep")]

@@ -12,10 +12,11 @@ use super::head::{
     decode_head_attitude, decode_head_depth, decode_head_sample_fd, decode_head_vector,
     encode_head_attitude, encode_head_depth, encode_head_sample_fd, encode_head_vector,
 };
+use super::node::{MAX_NODE_ID, NodeId, NodeSet};
 use super::types::{
     Addressing, Axis, AxisFeedback, AxisSetpoint, Command, ConfigParam, ConfigResult, ErrorBits,
-    Feedback, Function, GROUP_SLOTS, Heartbeat, MAX_NODE_ID, Message, NodeId, NodeSet, NodeState,
-    SafeAction, Setpoint, SetpointGroup, Target, function_name,
+    Feedback, Function, GROUP_SLOTS, Heartbeat, Message, NodeState, SafeAction, Setpoint,
+    SetpointGroup, Target, function_name,
 };
 use super::variant::Variant;
 use super::{classic, common, fd};

@@ -2,9 +2,10 @@
 //! ConfigAck, the status bits of Feedback, and the head sensor's fields
 //! (placed per variant by [`super::classic`] and [`super::fd`]).
 
+use super::sensor::{SensorErrors, SensorStatus};
 use super::types::{
-    ACCEL_LIMIT, ErrorBits, POSITION_LIMIT, RATE_LIMIT, SensorErrors, SensorStatus, TORQUE_LIMIT,
-    VELOCITY_LIMIT, WATCHDOG_RANGE_MS,
+    ACCEL_LIMIT, ErrorBits, POSITION_LIMIT, RATE_LIMIT, TORQUE_LIMIT, VELOCITY_LIMIT,
+    WATCHDOG_RANGE_MS,
 };
 use crate::signal::{Mux, Signal};
 

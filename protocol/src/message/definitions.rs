@@ -4,7 +4,8 @@
 //! README tables; [`addressed_to`] and [`estop_target`] read identifiers
 //! through it.
 
-use super::types::{Addressing, Direction, Function, NodeId, Target};
+use super::node::NodeId;
+use super::types::{Addressing, Direction, Function, Target};
 use super::variant::Variant;
 use super::{classic, common, fd};
 use crate::frame::Id;

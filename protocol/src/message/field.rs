@@ -4,7 +4,8 @@
 
 use super::definitions::MessageDef;
 use super::error::{DecodeError, EncodeError};
-use super::types::{NodeId, NodeSet, Target};
+use super::node::{NodeId, NodeSet};
+use super::types::Target;
 use super::variant::Variant;
 use crate::signal::{Mux, Signal};
 

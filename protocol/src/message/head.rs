@@ -4,9 +4,8 @@
 
 use super::error::{DecodeError, EncodeError};
 use super::field::{Incoming, put};
-use super::types::{
-    HeadAttitude, HeadDepth, HeadSample, HeadVector, Message, SensorErrors, SensorStatus,
-};
+use super::sensor::{HeadAttitude, HeadDepth, HeadSample, HeadVector, SensorErrors, SensorStatus};
+use super::types::Message;
 use super::variant::Variant;
 use super::{classic, fd};
 use crate::frame::Frame;

@@ -3,7 +3,8 @@
 //! codes of identifiers ([`Function`]) and how their low bits address
 //! nodes ([`Addressing`]), and the documented ranges.
 
-use super::error::EncodeError;
+use super::node::{MAX_NODE_ID, NodeId};
+use super::sensor::{HeadAttitude, HeadDepth, HeadSample, HeadVector};
 use crate::frame::Id;
 
 /// Documented joint position range: ±1.5 rad (eel joints stay within about
@@ -13,8 +14,6 @@ pub const POSITION_LIMIT: f64 = 1.5;
 pub const VELOCITY_LIMIT: f64 = 10.0;
 /// Documented joint torque range: ±5 N·m (a 1 m robot).
 pub const TORQUE_LIMIT: f64 = 5.0;
-/// Largest node id the identifier scheme carries (six bits; 0 is broadcast).
-pub const MAX_NODE_ID: u8 = 63;
 /// Nodes per CAN FD setpoint group frame.
 pub const GROUP_SLOTS: usize = 6;
 /// Heartbeat period of every node, in milliseconds.
@@ -36,102 +35,6 @@ pub const HEAD_SENSOR_RATE_HZ: (u16, u16) = (100, 200);
 /// id range, away from vertebrae numbered from 1 (the DBC files list the
 /// sensor's messages for this id).
 pub const DEFAULT_HEAD_SENSOR_ID: u8 = MAX_NODE_ID;
-
-/// A node (vertebra actuator) id, 1..=63.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct NodeId(pub(super) u8);
-
-impl NodeId {
-    /// A node id, checked to be in 1..=63.
-    pub const fn new(id: u8) -> Result<Self, EncodeError> {
-        if id == 0 || id > MAX_NODE_ID {
-            Err(EncodeError::BadNodeId(id))
-        } else {
-            Ok(NodeId(id))
-        }
-    }
-
-    /// The raw id.
-    pub const fn get(self) -> u8 {
-        self.0
-    }
-}
-
-/// The set of node ids a decoder accepts; others are
-/// [`DecodeError::UnknownNode`](super::DecodeError::UnknownNode).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct NodeSet(u64);
-
-impl NodeSet {
-    /// No nodes.
-    pub const fn empty() -> Self {
-        NodeSet(0)
-    }
-
-    /// Every id 1..=63.
-    pub const fn all() -> Self {
-        NodeSet(!1u64)
-    }
-
-    /// Ids 1..=n (n clamped to 63): a robot of n vertebrae numbered from 1.
-    pub const fn first(n: u8) -> Self {
-        let n = if n > MAX_NODE_ID { MAX_NODE_ID } else { n };
-        NodeSet(((1u128 << (n as u32 + 1)) - 2) as u64)
-    }
-
-    /// The same set with `id` added.
-    pub const fn with(self, id: NodeId) -> Self {
-        NodeSet(self.0 | (1 << id.0))
-    }
-
-    /// The set as bits by node id (bit `n` for node `n`), as published in
-    /// the operator interface's fault masks.
-    pub const fn bits(self) -> u64 {
-        self.0
-    }
-
-    /// The nodes in `self` or in `other`.
-    pub const fn union(self, other: NodeSet) -> Self {
-        NodeSet(self.0 | other.0)
-    }
-
-    /// The nodes in `self` and not in `other`.
-    pub const fn without(self, other: NodeSet) -> Self {
-        NodeSet(self.0 & !other.0)
-    }
-
-    /// Whether every node of `other` is in `self`.
-    pub const fn covers(self, other: NodeSet) -> bool {
-        other.0 & !self.0 == 0
-    }
-
-    /// Whether `id` (raw) is in the set.
-    pub const fn contains(self, id: u8) -> bool {
-        id < 64 && (self.0 >> id) & 1 == 1
-    }
-
-    /// The set of the given ids.
-    pub fn of(ids: impl IntoIterator<Item = NodeId>) -> Self {
-        ids.into_iter().fold(Self::empty(), Self::with)
-    }
-
-    /// How many ids the set holds.
-    pub const fn len(self) -> usize {
-        self.0.count_ones() as usize
-    }
-
-    /// Whether the set is empty.
-    pub const fn is_empty(self) -> bool {
-        self.0 == 0
-    }
-
-    /// The ids, ascending.
-    pub fn iter(self) -> impl Iterator<Item = NodeId> {
-        (1..=MAX_NODE_ID)
-            .filter(move |&i| self.contains(i))
-            .map(NodeId)
-    }
-}
 
 /// Who a command is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -469,140 +372,6 @@ pub enum ConfigResult {
     OutOfRange = 1,
     /// Refused because the node is not Disabled.
     NotDisabled = 2,
-}
-
-/// The head sensor's status byte: what the sample holds and how good the
-/// attitude is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct SensorStatus(pub u8);
-
-impl SensorStatus {
-    /// Bits 0..=1: attitude accuracy as a BNO08x reports it (0 unreliable,
-    /// 1 low, 2 medium, 3 high); 0 without attitude.
-    pub const ACCURACY_MASK: u8 = 0b11;
-    /// The attitude (quaternion) is valid: a fusion IMU. A raw 6-axis IMU
-    /// leaves this clear and sends no HeadAttitude frame on classic CAN.
-    pub const ATTITUDE: u8 = 1 << 2;
-    /// Body rates and accelerations are valid.
-    pub const IMU: u8 = 1 << 3;
-    /// Pressure is valid.
-    pub const PRESSURE: u8 = 1 << 4;
-    /// Water temperature is valid.
-    pub const TEMPERATURE: u8 = 1 << 5;
-    /// Every defined bit.
-    pub const ALL: u8 = (1 << 6) - 1;
-
-    /// The attitude accuracy, 0..=3.
-    pub const fn accuracy(self) -> u8 {
-        self.0 & Self::ACCURACY_MASK
-    }
-
-    /// Whether every bit of `bits` is set.
-    pub const fn has(self, bits: u8) -> bool {
-        self.0 & bits == bits
-    }
-}
-
-/// The head sensor's error byte.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct SensorErrors(pub u8);
-
-impl SensorErrors {
-    /// The IMU does not answer or failed its self-test (fault).
-    pub const IMU: u8 = 1 << 0;
-    /// The pressure sensor does not answer (fault).
-    pub const PRESSURE: u8 = 1 << 1;
-    /// The IMU reset since the last sample: attitude is re-converging.
-    pub const IMU_RESET: u8 = 1 << 2;
-    /// Samples were dropped inside the sensor (the sample counter skips).
-    pub const OVERRUN: u8 = 1 << 3;
-    /// CAN error-passive or bus-off seen (warning).
-    pub const BUS: u8 = 1 << 4;
-    /// Every defined bit.
-    pub const ALL: u8 = (1 << 5) - 1;
-
-    /// Whether any of `bits` is set.
-    pub const fn any(self, bits: u8) -> bool {
-        self.0 & bits != 0
-    }
-}
-
-/// One head-sensor sample: everything the sensor measured at one instant.
-/// On CAN FD it travels as one [`Message::HeadSample`] frame; on classic
-/// CAN as [`Message::HeadAttitude`] (fusion IMUs only),
-/// [`Message::HeadRates`], [`Message::HeadAccel`] and
-/// [`Message::HeadDepth`], tied together by `sample`
-/// ([`encode_head_sample`](super::encode_head_sample)).
-///
-/// Frames: the head frame is the body frame of the robot's first link,
-/// x forward, y left, z up; the attitude rotates head-frame vectors into
-/// the world frame (x, y horizontal, z up).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadSample {
-    /// Reporting sensor.
-    pub node: NodeId,
-    /// Sample counter, +1 per sample (wraps): pairs a sample's classic
-    /// frames and shows lost samples.
-    pub sample: u8,
-    /// Attitude quaternion `[w, x, y, z]`, each within ±1 (zeros when the
-    /// status has no [`SensorStatus::ATTITUDE`]).
-    pub quaternion: [f32; 4],
-    /// Body rates about the head's x, y, z axes, rad/s, within
-    /// ±[`RATE_LIMIT`].
-    pub rates: [f32; 3],
-    /// Specific force along the head's x, y, z axes, m/s², within
-    /// ±[`ACCEL_LIMIT`] (what an accelerometer measures: +9.81 on z at rest,
-    /// level).
-    pub accel: [f32; 3],
-    /// Absolute pressure, Pa (0..=16 777 215); the daemon converts it to
-    /// depth with its configured water density and surface pressure.
-    pub pressure: u32,
-    /// Water temperature, °C, -40..=85.
-    pub temperature: f32,
-    /// What is valid, attitude accuracy.
-    pub status: SensorStatus,
-    /// Error bits.
-    pub errors: SensorErrors,
-}
-
-/// Classic CAN: a head sample's attitude.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadAttitude {
-    /// Reporting sensor.
-    pub node: NodeId,
-    /// Sample counter.
-    pub sample: u8,
-    /// `[w, x, y, z]`, each within ±1.
-    pub quaternion: [f32; 4],
-}
-
-/// Classic CAN: a head sample's body rates (rad/s) or accelerations (m/s²).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadVector {
-    /// Reporting sensor.
-    pub node: NodeId,
-    /// Sample counter.
-    pub sample: u8,
-    /// Components along the head's x, y, z axes.
-    pub xyz: [f32; 3],
-}
-
-/// Classic CAN: a head sample's pressure, water temperature, status and
-/// errors.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadDepth {
-    /// Reporting sensor.
-    pub node: NodeId,
-    /// Sample counter.
-    pub sample: u8,
-    /// Absolute pressure, Pa.
-    pub pressure: u32,
-    /// Water temperature, °C.
-    pub temperature: f32,
-    /// What is valid, attitude accuracy.
-    pub status: SensorStatus,
-    /// Error bits.
-    pub errors: SensorErrors,
 }
 
 /// Every message of the protocol, both directions.
