@@ -1,12 +1,49 @@
 //! Speed of the model: one 1 kHz control step (12 joints, forward + inverse
 //! dynamics) and one simulated second of F1 at the converged discretization.
 //! Run with `cargo bench -p anguilla-model`.
+//!
+//! Each case is warmed up, then timed in batches of about 0.1 s for
+//! `ANGUILLA_BENCH_SECONDS` (default 2 s under `cargo bench`, a short run
+//! otherwise); it prints the median and the fastest batch per iteration.
+//! The median is the figure; the fastest says how much the machine's
+//! neighbours took.
 
 use anguilla_model::*;
-use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
-fn control_step(c: &mut Criterion) {
+/// Times `f` in batches for `total`, after a warm-up, and prints one line:
+/// median and fastest time per call.
+fn bench(name: &str, total: Duration, mut f: impl FnMut()) {
+    // Warm-up, and the batch size that takes about 0.1 s.
+    let t0 = Instant::now();
+    let mut calls = 0u64;
+    while t0.elapsed() < Duration::from_millis(200) {
+        f();
+        calls += 1;
+    }
+    let per_call = t0.elapsed().as_secs_f64() / calls as f64;
+    let batch = ((0.1 / per_call).ceil() as u64).max(1);
+    let mut per_iter = Vec::new();
+    let start = Instant::now();
+    while start.elapsed() < total || per_iter.len() < 3 {
+        let t = Instant::now();
+        for _ in 0..batch {
+            f();
+        }
+        per_iter.push(t.elapsed().as_secs_f64() / batch as f64);
+    }
+    per_iter.sort_by(f64::total_cmp);
+    let median = per_iter[per_iter.len() / 2];
+    println!(
+        "{name}: median {:.2} µs, fastest {:.2} µs ({} batches of {batch})",
+        median * 1e6,
+        per_iter[0] * 1e6,
+        per_iter.len()
+    );
+}
+
+fn control_step(total: Duration) {
     for (nodes, integrator) in [
         (52, Integrator::Midpoint),
         (52, Integrator::SemiImplicitEuler),
@@ -19,30 +56,30 @@ fn control_step(c: &mut Criterion) {
             integrator,
             ..ModelConfig::default()
         })
-        .unwrap();
+        .expect("the model's configuration");
         let mut ws = Workspace::new(&model);
-        let mut gait = ParametricGait::from_rest(GaitParams::default(), 0.2).unwrap();
+        let mut gait =
+            ParametricGait::from_rest(GaitParams::default(), 0.2).expect("the default gait");
         let mut head = HeadState::launch(0.0);
         for _ in 0..2000 {
-            step(&model, &mut ws, &mut gait, &mut head).unwrap();
+            step(&model, &mut ws, &mut gait, &mut head).expect("a step");
         }
-        c.bench_function(
+        bench(
             &format!(
                 "control_step_dt1ms_12joints_{}intervals_{integrator:?}",
                 model.intervals()
             ),
-            |b| {
-                b.iter(|| {
-                    let r = step(&model, &mut ws, &mut gait, black_box(&mut head)).unwrap();
-                    black_box((r, ws.joints()[6]))
-                })
+            total,
+            || {
+                let r = step(&model, &mut ws, &mut gait, black_box(&mut head)).expect("a step");
+                black_box((r, ws.joints()[6]));
             },
         );
     }
 }
 
-fn simulated_second(c: &mut Criterion) {
-    let g = gait::named_gait("F1").unwrap();
+fn simulated_second(total: Duration) {
+    let g = gait::named_gait("F1").expect("F1");
     for (nodes, dt) in [(24, 0.04), (24, 0.02), (48, 0.02)] {
         let model = Model::new(ModelConfig {
             nodes,
@@ -50,27 +87,36 @@ fn simulated_second(c: &mut Criterion) {
             joints: 0,
             ..ModelConfig::default()
         })
-        .unwrap();
+        .expect("the model's configuration");
         let mut ws = Workspace::new(&model);
         let mut src = LawSource::new(g.law);
         let mut head = HeadState::launch(0.0);
         let steps = (1.0 / dt).round() as usize;
-        c.bench_function(
+        bench(
             &format!(
                 "f1_one_simulated_second_{}intervals_dt{dt}",
                 model.intervals()
             ),
-            |b| {
-                b.iter(|| {
-                    for _ in 0..steps {
-                        step(&model, &mut ws, &mut src, &mut head).unwrap();
-                    }
-                    black_box(head.velocity)
-                })
+            total,
+            || {
+                for _ in 0..steps {
+                    step(&model, &mut ws, &mut src, &mut head).expect("a step");
+                }
+                black_box(head.velocity);
             },
         );
     }
 }
 
-criterion_group!(benches, control_step, simulated_second);
-criterion_main!(benches);
+fn main() {
+    // `cargo bench` passes --bench; `cargo test --benches` does not: a
+    // short run then.
+    let full = std::env::args().any(|a| a == "--bench");
+    let seconds: f64 = std::env::var("ANGUILLA_BENCH_SECONDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(if full { 2.0 } else { 0.3 });
+    let total = Duration::from_secs_f64(seconds);
+    control_step(total);
+    simulated_second(total);
+}
