@@ -29,7 +29,8 @@ pub struct SwimArgs {
     /// Joints of the discrete robot.
     #[arg(long, default_value_t = 12)]
     pub joints: usize,
-    /// Write one CSV row per 0.01 s of simulated time.
+    /// Write one CSV row per 0.01 s of simulated time (per step when the
+    /// step is longer).
     #[arg(long)]
     pub csv: Option<PathBuf>,
     /// Write an SVG plot (body shapes from above, head velocity).

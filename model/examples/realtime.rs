@@ -1,5 +1,5 @@
 //! The model's real-time factor on F1 at the default discretization
-//! (52 intervals, dt 0.01 s, RK4): simulated seconds per wall second, and
+//! (52 intervals, dt 0.025 s, RK4): simulated seconds per wall second, and
 //! the cost per node per step. `cargo run --release -p anguilla-model
 //! --example realtime [SIMULATED_SECONDS]` prints one JSON line; the
 //! benchmark check (`scripts/bench-check`) reads it.

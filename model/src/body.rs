@@ -347,8 +347,43 @@ pub fn friction_coefficient(re: f64) -> f64 {
     if re <= 8e4 {
         0.664 / re.sqrt()
     } else {
-        0.059 / re.powf(0.2)
+        0.059 * pow_neg_fifth(re)
     }
+}
+
+/// `x^(-1/5)` to within a few units of the last place, three times
+/// cheaper than `powf` (the friction law runs at every node of every
+/// stage; `powf` was 15 % of a model step). `x = m 2^e` with `m` in
+/// `[1, 2)` and `e = 5q + r`: `x^(-1/5) = 2^(-q) 2^(-r/5) m^(-1/5)`, `m^(-1/5)`
+/// from a quartic (relative error 4e-5), then one fourth-order correction
+/// `z (1 - x z^5)^(-1/5)` by its series. Zero, subnormal, infinite, NaN
+/// and negative `x` go to `powf`.
+#[inline]
+pub(crate) fn pow_neg_fifth(x: f64) -> f64 {
+    if !(f64::MIN_POSITIVE..f64::INFINITY).contains(&x) {
+        return x.powf(-0.2);
+    }
+    const FIFTH_ROOTS: [f64; 5] = [
+        1.0,
+        0.8705505632961241,
+        0.757858283255199,
+        0.6597539553864471,
+        0.5743491774985174,
+    ];
+    let bits = x.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    let m = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
+    let (q, r) = (e.div_euclid(5), e.rem_euclid(5));
+    // |q| <= 205: 2^(-q) is a normal number
+    let scale = f64::from_bits(((1023 - q) as u64) << 52) * FIFTH_ROOTS[r as usize];
+    // the quartic by Estrin's scheme: a shorter chain of dependent operations
+    let m2 = m * m;
+    let p = (1.3780080578362996 - 0.6411276239202668 * m)
+        + m2 * ((0.3612264544397209 - 0.11253236432551467 * m) + 0.014386197662337282 * m2);
+    let z = p * scale;
+    let z2 = z * z;
+    let d = 1.0 - x * (z2 * z2 * z);
+    z * (1.0 + d * (0.2 + d * (0.12 + d * 0.088)))
 }
 
 #[cfg(test)]
@@ -415,5 +450,28 @@ mod tests {
     fn friction_law_switches_at_8e4() {
         assert!((friction_coefficient(1e4) - 0.664e-2).abs() < 1e-12);
         assert!((friction_coefficient(1e5) - 0.059 / 10.0).abs() < 1e-12);
+    }
+
+    /// The fast fifth root agrees with `powf` to 4e-16 (relative) over
+    /// every decade, beyond the part `powf` itself gets wrong: the double
+    /// nearest −0.2 is 1.1e-17 too small, which moves `x^-0.2` by that
+    /// times `ln x` (7e-15 at 1e-300). Edge cases go to `powf`.
+    #[test]
+    fn the_fast_fifth_root_is_powf_to_the_last_digits() {
+        let mut worst = 0.0f64;
+        let mut x = 1e-300;
+        while x < 1e300 {
+            for k in 0..97 {
+                let v = x * (1.0 + f64::from(k) * 0.0937);
+                let r = pow_neg_fifth(v) / v.powf(-0.2) - 1.0;
+                worst = worst.max(r.abs() - 1.2e-17 * v.ln().abs());
+            }
+            x *= 7.3;
+        }
+        assert!(worst < 4e-16, "worst relative error {worst:e}");
+        for v in [0.0, -1.0, 1e-310, f64::INFINITY, f64::NAN] {
+            let (a, b) = (pow_neg_fifth(v), v.powf(-0.2));
+            assert!(a == b || (a.is_nan() && b.is_nan()), "{v}: {a} vs {b}");
+        }
     }
 }

@@ -4,7 +4,6 @@
 use super::kinematics::shape;
 use super::model::Model;
 use super::workspace::Workspace;
-use crate::body::friction_coefficient;
 use crate::current::Current;
 use crate::error::{ModelError, Result};
 use crate::gait::CurvatureSource;
@@ -58,8 +57,6 @@ pub(super) fn forward_head(
     t: f64,
 ) -> Result<(Vector3<f64>, Vector3<f64>)> {
     let rho = model.body.rho_fluid;
-    let nu = model.body.nu;
-    let len = model.body.length;
     // The head inertia `I_o` depends on the shape alone: assembled and
     // factored once per shape (RK4's two mid-step stages share one, and a
     // step's last stage the next step's first; see `kinematics::shape`).
@@ -92,16 +89,11 @@ pub(super) fn forward_head(
         let mi = Vector3::from(s.mi);
         let mf = Vector3::from(s.mf);
         // resistive wrench (24) and buoyancy (25), local frame
-        let x = i as f64 / model.n as f64 * len;
-        let k1 = if s.perimeter > 0.0 && x > 0.0 && vl.x != 0.0 {
-            friction_coefficient(x * vl.x.abs() / nu) * s.perimeter
-        } else {
-            0.0
-        };
+        let k1_v = model.friction[i].k1_speed(vl.x);
         let nbar = -0.5
             * rho
             * Vector3::new(
-                k1 * vl.x * vl.x.abs(),
+                k1_v * vl.x,
                 s.k2 * vl.y * vl.y.abs(),
                 s.k3 * vl.z * vl.z.abs(),
             )
