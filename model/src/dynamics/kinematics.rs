@@ -8,52 +8,67 @@ use super::workspace::Workspace;
 use crate::gait::{Curvature, CurvatureSource};
 use nalgebra::{Matrix3, Vector3};
 
-/// Kinematic state along `X1` (head frame).
+/// Kinematic state along `X1` (head frame), flat so that the RK4 updates
+/// run as one vectorized loop: `R = [t1 t2 t3]` by columns (0..9), then
+/// `r`, the deformation angular velocity `w` and velocity `v`, and their
+/// accelerations `al` and `ac` (3 each).
 #[derive(Clone, Copy)]
-struct Kin {
-    q: Matrix3<f64>,
-    p: Vector3<f64>,
-    w: Vector3<f64>,
-    v: Vector3<f64>,
-    al: Vector3<f64>,
-    ac: Vector3<f64>,
+struct Kin([f64; KIN]);
+
+const KIN: usize = 24;
+const P: usize = 9;
+const W: usize = 12;
+const V: usize = 15;
+const AL: usize = 18;
+const AC: usize = 21;
+
+#[inline(always)]
+fn v3(y: &[f64; KIN], at: usize) -> Vector3<f64> {
+    Vector3::new(y[at], y[at + 1], y[at + 2])
+}
+
+#[inline(always)]
+fn put(y: &mut [f64; KIN], at: usize, v: Vector3<f64>) {
+    y[at] = v.x;
+    y[at + 1] = v.y;
+    y[at + 2] = v.z;
 }
 
 impl Kin {
+    fn start() -> Kin {
+        let mut y = [0.0; KIN];
+        (y[0], y[4], y[8]) = (1.0, 1.0, 1.0);
+        Kin(y)
+    }
     /// Space derivative: (34), (35), (36). `R K^` and `R K` are expanded
     /// column by column (`R = [t1 t2 t3]`).
     #[inline(always)]
     fn deriv(&self, c: &Curvature) -> Kin {
-        let t1 = self.q.column(0).into_owned();
-        let t2 = self.q.column(1).into_owned();
-        let t3 = self.q.column(2).into_owned();
+        let y = &self.0;
+        let (t1, t2, t3) = (v3(y, 0), v3(y, 3), v3(y, 6));
+        let (w, al) = (v3(y, W), v3(y, AL));
         let k = &c.k;
         let rk = |v: &Vector3<f64>| t1 * v.x + t2 * v.y + t3 * v.z;
         let qkd = rk(&c.k_dot);
-        let wt1 = self.w.cross(&t1);
-        Kin {
-            q: Matrix3::from_columns(&[
-                t2 * k.z - t3 * k.y,
-                t3 * k.x - t1 * k.z,
-                t1 * k.y - t2 * k.x,
-            ]),
-            p: t1,
-            w: qkd,
-            v: wt1,
-            al: rk(&c.k_ddot) + self.w.cross(&qkd),
-            ac: self.al.cross(&t1) + self.w.cross(&wt1),
-        }
+        let wt1 = w.cross(&t1);
+        let mut d = [0.0; KIN];
+        put(&mut d, 0, t2 * k.z - t3 * k.y);
+        put(&mut d, 3, t3 * k.x - t1 * k.z);
+        put(&mut d, 6, t1 * k.y - t2 * k.x);
+        put(&mut d, P, t1);
+        put(&mut d, W, qkd);
+        put(&mut d, V, wt1);
+        put(&mut d, AL, rk(&c.k_ddot) + w.cross(&qkd));
+        put(&mut d, AC, al.cross(&t1) + w.cross(&wt1));
+        Kin(d)
     }
     #[inline(always)]
     fn axpy(&self, h: f64, d: &Kin) -> Kin {
-        Kin {
-            q: self.q + d.q * h,
-            p: self.p + d.p * h,
-            w: self.w + d.w * h,
-            v: self.v + d.v * h,
-            al: self.al + d.al * h,
-            ac: self.ac + d.ac * h,
+        let mut out = self.0;
+        for (o, di) in out.iter_mut().zip(&d.0) {
+            *o += di * h;
         }
+        Kin(out)
     }
 }
 
@@ -64,21 +79,15 @@ impl Kin {
 pub(super) fn kinematics(model: &Model, ws: &mut Workspace) {
     ws.inertia = None;
     let h = model.h;
-    let mut y = Kin {
-        q: Matrix3::identity(),
-        p: Vector3::zeros(),
-        w: Vector3::zeros(),
-        v: Vector3::zeros(),
-        al: Vector3::zeros(),
-        ac: Vector3::zeros(),
-    };
+    let mut y = Kin::start();
     for i in 0..=model.n {
-        ws.q[i] = y.q;
-        ws.p[i] = y.p;
-        ws.we[i] = y.w;
-        ws.ve[i] = y.v;
-        ws.al[i] = y.al;
-        ws.ac[i] = y.ac;
+        let a = &y.0;
+        ws.q[i] = Matrix3::from_column_slice(&a[0..9]);
+        ws.p[i] = v3(a, P);
+        ws.we[i] = v3(a, W);
+        ws.ve[i] = v3(a, V);
+        ws.al[i] = v3(a, AL);
+        ws.ac[i] = v3(a, AC);
         if i == model.n {
             break;
         }
@@ -89,14 +98,9 @@ pub(super) fn kinematics(model: &Model, ws: &mut Workspace) {
         let k2 = y.axpy(h / 2.0, &k1).deriv(&cm);
         let k3 = y.axpy(h / 2.0, &k2).deriv(&cm);
         let k4 = y.axpy(h, &k3).deriv(&c1);
-        y = Kin {
-            q: y.q + (k1.q + (k2.q + k3.q) * 2.0 + k4.q) * (h / 6.0),
-            p: y.p + (k1.p + (k2.p + k3.p) * 2.0 + k4.p) * (h / 6.0),
-            w: y.w + (k1.w + (k2.w + k3.w) * 2.0 + k4.w) * (h / 6.0),
-            v: y.v + (k1.v + (k2.v + k3.v) * 2.0 + k4.v) * (h / 6.0),
-            al: y.al + (k1.al + (k2.al + k3.al) * 2.0 + k4.al) * (h / 6.0),
-            ac: y.ac + (k1.ac + (k2.ac + k3.ac) * 2.0 + k4.ac) * (h / 6.0),
-        };
+        for j in 0..KIN {
+            y.0[j] += (k1.0[j] + (k2.0[j] + k3.0[j]) * 2.0 + k4.0[j]) * (h / 6.0);
+        }
     }
 }
 
