@@ -78,7 +78,6 @@ pub(super) fn forward_head(
         let v_full = vel_h + wo_p + ws.ve[i];
         let al_full = ws.al[i] + omega_h.cross(&ws.we[i]);
         let ac_full = ws.ac[i] + omega_h.cross(&wo_p) + 2.0 * omega_h.cross(&ws.ve[i]);
-        ws.w[i] = w_full;
         ws.v[i] = v_full;
         let om = qt * w_full;
         // every hydrodynamic term sees the velocity relative to the water
@@ -124,7 +123,20 @@ pub(super) fn forward_head(
         ws.bf[i] = bf;
         ws.bt[i] = bt;
         let wi = model.w[i];
-        if assemble {
+        let bfh = q * bf;
+        rhs_f -= bfh * wi;
+        rhs_t -= (q * bt + p.cross(&bfh)) * wi;
+    }
+    if assemble {
+        // The head inertia, in a loop of its own: it runs for a new shape
+        // only, and the wrench's loop keeps fewer values live without it.
+        for i in 0..=model.n {
+            let s = &model.sec[i];
+            let q = ws.q[i];
+            let p = ws.p[i];
+            let mm = Vector3::from(s.mm);
+            let mi = Vector3::from(s.mi);
+            let wi = model.w[i];
             // R diag(m) R^T = m1 I + (m2 - m1) t2 t2^T + (m3 - m1) t3 t3^T
             let t2 = q.column(1).into_owned();
             let t3 = q.column(2).into_owned();
@@ -153,9 +165,6 @@ pub(super) fn forward_head(
             a_wv += pm * wi;
             a_ww += (mih - pmp) * wi;
         }
-        let bfh = q * bf;
-        rhs_f -= bfh * wi;
-        rhs_t -= (q * bt + p.cross(&bfh)) * wi;
     }
     // tail boundary terms (16), (18), (20)
     let n = model.n;
