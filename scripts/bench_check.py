@@ -88,7 +88,7 @@ def measure(runs, daemon, realtime):
     for i in range(runs):
         # `--bench`, as `cargo bench` passes it: the full-length run.
         lines = run_json_lines([daemon, "--bench"], env)
-        lines += run_json_lines([realtime, "100"])
+        lines += run_json_lines([realtime, "300"])
         for line in lines:
             print(f"run {i + 1}: {json.dumps(line)}")
         for name, (v, better) in figures_of(lines).items():
