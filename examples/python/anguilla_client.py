@@ -19,7 +19,7 @@ try:
 except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
-LAYOUT_VERSION = 5
+LAYOUT_VERSION = 6
 ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD = range(
     1, 11)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
@@ -95,10 +95,21 @@ class StateSnapshot(_Payload):
         return self.holder_hi << 64 | self.holder_lo
 
 
+class SwimBody(_Payload):
+    _fields_ = [("amplitude", f32), ("frequency", f32), ("turn", f32), ("pitch", f32)]
+
+
+class HoldBody(_Payload):
+    _fields_ = [("hold", u32), ("heading", f32), ("depth", f32)]
+
+
+class CommandBody(ctypes.Union):
+    """`CommandRequest.body`: the parameters of the request's code."""
+    _fields_ = [("swim", SwimBody), ("hold", HoldBody), ("words", u32 * 7)]
+
+
 class CommandRequest(_Payload):
-    _fields_ = [("layout_version", u32), ("code", u32), ("sequence", u32), ("amplitude", f32),
-                ("frequency", f32), ("turn", f32), ("pitch", f32), ("hold", u32),
-                ("heading", f32), ("depth", f32)]
+    _fields_ = [("layout_version", u32), ("code", u32), ("sequence", u32), ("body", CommandBody)]
 
 
 class CommandReply(_Payload):
@@ -111,7 +122,7 @@ class CommandReply(_Payload):
 
 for _t, _size in ((JointSnapshot, 56), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
                   (LimitsSnapshot, 24), (NavSnapshot, 64), (StateSnapshot, 2120),
-                  (CommandRequest, 40),
+                  (SwimBody, 16), (HoldBody, 12), (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))
 
@@ -190,7 +201,9 @@ class Client:
     def request(self, code, amplitude=0.0, frequency=0.0, turn=0.0, pitch=0.0, timeout=1.0):
         """Sends one command and returns its CommandReply (TimeoutError if none)."""
         self.sequence += 1
-        req = CommandRequest(LAYOUT_VERSION, code, self.sequence, amplitude, frequency, turn, pitch)
+        req = CommandRequest(LAYOUT_VERSION, code, self.sequence)
+        if code == SWIM:
+            req.body.swim = SwimBody(amplitude, frequency, turn, pitch)
         pending = self.client.send_copy(req)
         self.notifier.notify()
         deadline = time.monotonic() + timeout

@@ -6,7 +6,9 @@
 //! reply unchanged. An E-stop is never refused.
 #![no_main]
 
-use anguilla_ipc::{Command, CommandReply, CommandRequest, LAYOUT_VERSION, Raw as _, hold_bits};
+use anguilla_ipc::{
+    Command, CommandReply, CommandRequest, HoldBody, LAYOUT_VERSION, Raw as _, SwimBody, hold_bits,
+};
 use libfuzzer_sys::fuzz_target;
 
 /// Equal, or both NaN (an f32 NaN's payload need not survive f64 and back).
@@ -29,16 +31,18 @@ fuzz_target!(|input: &[u8]| {
             let back = again.command().expect("a tool's own request reads");
             match (cmd, back) {
                 (Command::Swim(p), Command::Swim(q)) => {
-                    assert!(same(p.amplitude, f64::from(req.amplitude)));
-                    assert!(same(p.frequency, f64::from(req.frequency)));
-                    assert!(same(p.turn, f64::from(req.turn)));
-                    assert!(same(p.pitch, f64::from(req.pitch)));
+                    let b: SwimBody = req.body_as();
+                    assert!(same(p.amplitude, f64::from(b.amplitude)));
+                    assert!(same(p.frequency, f64::from(b.frequency)));
+                    assert!(same(p.turn, f64::from(b.turn)));
+                    assert!(same(p.pitch, f64::from(b.pitch)));
                     assert!(same(p.amplitude, q.amplitude) && same(p.frequency, q.frequency));
                     assert!(same(p.turn, q.turn) && same(p.pitch, q.pitch));
                 }
                 (Command::Hold(h), Command::Hold(g)) => {
-                    assert!(req.hold <= u32::from(hold_bits::HEADING | hold_bits::DEPTH));
-                    assert_eq!(u32::from(h.bits()), req.hold);
+                    let b: HoldBody = req.body_as();
+                    assert!(b.hold <= u32::from(hold_bits::HEADING | hold_bits::DEPTH));
+                    assert_eq!(u32::from(h.bits()), b.hold);
                     assert_eq!(h.bits(), g.bits());
                     let opt = |a: Option<f64>, b: Option<f64>| match (a, b) {
                         (Some(a), Some(b)) => same(a, b),

@@ -6,7 +6,8 @@ use core::time::Duration;
 
 use iceoryx2::prelude::*;
 
-use crate::payload::{CommandReply, CommandRequest, StateSnapshot};
+use crate::command::{CommandReply, CommandRequest};
+use crate::payload::StateSnapshot;
 use crate::service::{
     CommandService, IpcError, MAX_REQUESTS_PER_CLIENT, Role, StateService, command_service,
     event_service, ice, new_node, publisher_and_server_pids, state_service,

@@ -2,6 +2,7 @@
 
 use core::fmt::Write as _;
 
+use crate::command::{CommandReply, CommandRequest, HoldBody, SwimBody};
 use crate::payload::*;
 
 /// One row of the documented payload layout.
@@ -84,10 +85,12 @@ pub fn layout_table() -> Vec<LayoutRow> {
         reserved: "uint32_t", samples: "uint64_t", lost_samples: "uint64_t",
     ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
-        layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", amplitude: "float",
-        frequency: "float", turn: "float", pitch: "float", hold: "uint32_t",
-        heading: "float", depth: "float",
+        layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", body: "uint32_t[7]",
     ]));
+    v.extend(rows!(SwimBody, "SwimBody", [
+        amplitude: "float", frequency: "float", turn: "float", pitch: "float",
+    ]));
+    v.extend(rows!(HoldBody, "HoldBody", [hold: "uint32_t", heading: "float", depth: "float"]));
     v.extend(rows!(CommandReply, "CommandReply", [
         sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
         reason_len: "uint16_t", reason: "char[120]",
@@ -96,7 +99,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
 }
 
 /// Every payload type documented, with its size in bytes.
-pub fn payload_sizes() -> [(&'static str, usize); 9] {
+pub fn payload_sizes() -> [(&'static str, usize); 11] {
     [
         ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
         ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
@@ -106,8 +109,20 @@ pub fn payload_sizes() -> [(&'static str, usize); 9] {
         ("LimitsSnapshot", core::mem::size_of::<LimitsSnapshot>()),
         ("NavSnapshot", core::mem::size_of::<NavSnapshot>()),
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
+        ("SwimBody", core::mem::size_of::<SwimBody>()),
+        ("HoldBody", core::mem::size_of::<HoldBody>()),
         ("CommandReply", core::mem::size_of::<CommandReply>()),
     ]
+}
+
+/// The command whose request body `ty` is, if it is one.
+fn body_of(ty: &str) -> Option<crate::vocabulary::CommandKind> {
+    use crate::command::Body;
+    match ty {
+        "SwimBody" => Some(SwimBody::KIND),
+        "HoldBody" => Some(HoldBody::KIND),
+        _ => None,
+    }
 }
 
 /// Renders [`layout_table`] as Markdown tables with each type's size.
@@ -117,6 +132,14 @@ pub fn layout_markdown() -> String {
     let mut out = String::new();
     for (ty, size) in sizes {
         let _ = writeln!(out, "### `{ty}` ({size} bytes)\n");
+        if let Some(kind) = body_of(ty) {
+            let _ = writeln!(
+                out,
+                "`CommandRequest.body` when `code` is {} ({}); the body's words past its {size} bytes are zero.\n",
+                kind.code(),
+                kind.name()
+            );
+        }
         let _ = writeln!(out, "| offset | size | C type | field |");
         let _ = writeln!(out, "|---:|---:|---|---|");
         for r in rows.iter().filter(|r| r.ty == ty) {
@@ -135,33 +158,23 @@ pub fn layout_markdown() -> String {
 /// causes, fault bits) as Markdown tables: the source of `docs/ipc.md`'s
 /// codes section.
 pub fn codes_markdown() -> String {
-    use crate::payload::code;
-    use crate::vocabulary::{Cause, FaultKind, Mode, SensorHealth};
+    use crate::vocabulary::{Cause, CommandKind, FaultKind, Mode, SensorHealth};
     let mut out = String::new();
     let _ = writeln!(out, "`CommandRequest.code`:\n");
-    let _ = writeln!(out, "| code | command | needs control |");
-    let _ = writeln!(out, "|---:|---|---|");
-    for (c, name, control) in [
-        (code::ENABLE, "enable", "yes"),
-        (code::DISABLE, "disable", "yes"),
-        (
-            code::SWIM,
-            "swim (amplitude, frequency, turn, pitch)",
-            "yes",
-        ),
-        (code::STOP, "stop", "yes"),
-        (code::ESTOP, "e-stop", "**no: never refused**"),
-        (code::RESET, "reset", "yes"),
-        (
-            code::TAKE_CONTROL,
-            "take-control",
-            "no (refused while another client holds it)",
-        ),
-        (code::RELEASE_CONTROL, "release-control", "yes"),
-        (code::KEEP_ALIVE, "keep-alive", "yes"),
-        (code::HOLD, "hold (hold bits, heading, depth)", "yes"),
-    ] {
-        let _ = writeln!(out, "| {c} | {name} | {control} |");
+    let _ = writeln!(out, "| code | command | body | needs control |");
+    let _ = writeln!(out, "|---:|---|---|---|");
+    for k in CommandKind::ALL {
+        let body = match k {
+            CommandKind::Swim => "`SwimBody`: amplitude, frequency, turn, pitch",
+            CommandKind::Hold => "`HoldBody`: hold bits, heading, depth",
+            _ => "none (zero)",
+        };
+        let control = match k {
+            CommandKind::EStop => "**no: never refused**",
+            CommandKind::TakeControl => "no (refused while another client holds it)",
+            _ => "yes",
+        };
+        let _ = writeln!(out, "| {} | {} | {body} | {control} |", k.code(), k.name());
     }
     let _ = writeln!(out, "\n`StateSnapshot.mode` and `CommandReply.mode`:\n");
     let _ = writeln!(out, "| code | mode |");

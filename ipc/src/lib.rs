@@ -1,6 +1,7 @@
 //! The operator interface of the anguilla daemon on iceoryx2: the
-//! operator vocabulary ([`vocabulary`]), the `#[repr(C)]` payloads
-//! ([`payload`]), the daemon's ports ([`StatePublisher`], [`CommandServer`])
+//! operator vocabulary ([`vocabulary`]), the `#[repr(C)]` payloads (the
+//! state in [`payload`], the command request and reply in [`command`]),
+//! the daemon's ports ([`StatePublisher`], [`CommandServer`])
 //! and the tools' [`Client`]. Operator tools depend on this crate, never on
 //! the daemon.
 //!
@@ -48,6 +49,7 @@
 #![warn(missing_docs)]
 
 pub mod client;
+pub mod command;
 pub mod estop;
 pub mod guard;
 pub mod layout;
@@ -56,6 +58,7 @@ pub mod service;
 pub mod vocabulary;
 
 pub use client::{Client, Session};
+pub use command::*;
 pub use layout::{LayoutRow, layout_markdown, layout_table};
 pub use payload::*;
 pub use service::{

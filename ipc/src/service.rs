@@ -18,7 +18,8 @@ use iceoryx2::service::port_factory::{
     request_response::PortFactory as ReqResFactory,
 };
 
-use crate::payload::{CommandReply, CommandRequest, StateSnapshot};
+use crate::command::{CommandReply, CommandRequest};
+use crate::payload::StateSnapshot;
 
 /// Most operator tools connected at once: subscribers of `state`,
 /// listeners of `state-ready`, clients of `command`, notifiers of

@@ -26,7 +26,7 @@ fn requests_roundtrip_and_bad_ones_are_named() {
     // An E-stop is read whatever else the request says.
     let mut e = CommandRequest::new(Command::EStop, 0);
     e.layout_version = 1;
-    e.amplitude = f32::NAN;
+    e.body = [f32::NAN.to_bits(); BODY_WORDS];
     assert_eq!(e.command(), Ok(Command::EStop));
 }
 
@@ -53,6 +53,63 @@ fn the_command_table_has_every_command_once_in_code_order() {
     names.sort_unstable();
     names.dedup();
     assert_eq!(names.len(), CommandKind::ALL.len(), "{names:?}");
+}
+
+/// A body's words are its `#[repr(C)]` fields in order, so the layout
+/// documented for C and Python (`SwimBody`, `HoldBody` at the compiler's
+/// offsets, overlaid on `CommandRequest.body`) is the one the encoder
+/// writes; a command without parameters
+/// sends a zero body; and a request stays 40 bytes whatever the command.
+#[test]
+fn command_bodies_are_laid_out_as_documented() {
+    let swim = SwimBody {
+        amplitude: 0.5,
+        frequency: 1.5,
+        turn: -0.25,
+        pitch: 0.125,
+    };
+    let hold = HoldBody {
+        hold: 3,
+        heading: 270.0,
+        depth: 1.75,
+    };
+    let rows = crate::layout_table();
+    let word = |name: &str| {
+        let (ty, field) = name.split_once('.').unwrap();
+        let r = rows
+            .iter()
+            .find(|r| r.ty == ty && r.field == field)
+            .unwrap();
+        assert_eq!(r.size, 4, "{name}");
+        r.offset / 4
+    };
+    let w = swim.to_words();
+    assert_eq!(w[word("SwimBody.amplitude")], 0.5f32.to_bits());
+    assert_eq!(w[word("SwimBody.frequency")], 1.5f32.to_bits());
+    assert_eq!(w[word("SwimBody.turn")], (-0.25f32).to_bits());
+    assert_eq!(w[word("SwimBody.pitch")], 0.125f32.to_bits());
+    assert_eq!(SwimBody::from_words(&w), swim);
+    let w = hold.to_words();
+    assert_eq!(w[word("HoldBody.hold")], 3);
+    assert_eq!(w[word("HoldBody.heading")], 270.0f32.to_bits());
+    assert_eq!(w[word("HoldBody.depth")], 1.75f32.to_bits());
+    assert_eq!(HoldBody::from_words(&w), hold);
+    assert_eq!(w[3..], [0; BODY_WORDS - 3]);
+    for cmd in Command::ALL {
+        let r = CommandRequest::new(cmd, 7);
+        match cmd.kind() {
+            CommandKind::Swim | CommandKind::Hold => {}
+            _ => assert_eq!(r.body, [0; BODY_WORDS], "{cmd:?}"),
+        }
+        assert_eq!(r.command(), Ok(cmd));
+    }
+    assert_eq!(core::mem::size_of::<CommandRequest>(), 40);
+    // The same words read as HOLD's body are not SWIM's parameters: a
+    // request is read by its code alone.
+    let mut r = CommandRequest::new(Command::Swim(SwimParams::REST), 1);
+    r.code = CommandKind::Hold.code();
+    r.body = hold.to_words();
+    assert!(matches!(r.command(), Ok(Command::Hold(_))));
 }
 
 #[test]
