@@ -166,6 +166,30 @@ impl CommandRequest {
         }
     }
 
+    /// A request of layout 5 (before the body: SWIM's four floats in words
+    /// 3..7, HOLD's bits and floats in words 7..10, with a 40-byte request
+    /// too) read as this layout, so that sessions recorded then still
+    /// replay; any other request unchanged.
+    pub fn from_layout_5(old: Self) -> Self {
+        if old.layout_version != 5 {
+            return old;
+        }
+        let mut words = [0u32; 3 + BODY_WORDS];
+        words[..3].copy_from_slice(&[old.layout_version, old.code, old.sequence]);
+        words[3..].copy_from_slice(&old.body);
+        let mut body = [0; BODY_WORDS];
+        match CommandKind::from_code(old.code) {
+            Some(CommandKind::Swim) => body[..4].copy_from_slice(&words[3..7]),
+            Some(CommandKind::Hold) => body[..3].copy_from_slice(&words[7..10]),
+            _ => {}
+        }
+        Self {
+            layout_version: LAYOUT_VERSION,
+            body,
+            ..old
+        }
+    }
+
     /// The body read as `B`, whatever the code says.
     pub fn body_as<B: Body>(&self) -> B {
         B::from_words(&self.body)

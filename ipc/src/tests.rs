@@ -112,6 +112,52 @@ fn command_bodies_are_laid_out_as_documented() {
     assert!(matches!(r.command(), Ok(Command::Hold(_))));
 }
 
+/// A layout-5 request (recorded in an older session) reads as the same
+/// command: SWIM's floats were words 3..7, HOLD's fields words 7..10.
+#[test]
+fn a_layout_5_request_reads_as_the_same_command() {
+    let f = |x: f32| x.to_bits();
+    let old = |code: CommandKind, words: [u32; 7]| CommandRequest {
+        layout_version: 5,
+        code: code.code(),
+        sequence: 9,
+        body: words,
+    };
+    let swim = old(
+        CommandKind::Swim,
+        [f(0.5), f(1.25), f(-0.5), f(0.25), 3, f(90.0), f(2.0)],
+    );
+    let r = CommandRequest::from_layout_5(swim);
+    assert_eq!(r.layout_version, LAYOUT_VERSION);
+    assert_eq!(r.sequence, 9);
+    assert_eq!(
+        r.command(),
+        Ok(Command::Swim(SwimParams {
+            amplitude: 0.5,
+            frequency: 1.25,
+            turn: -0.5,
+            pitch: 0.25
+        }))
+    );
+    let hold = old(CommandKind::Hold, [f(0.5), 0, 0, 0, 3, f(90.0), f(2.0)]);
+    assert_eq!(
+        CommandRequest::from_layout_5(hold).command(),
+        Ok(Command::Hold(Hold {
+            heading: Some(90.0),
+            depth: Some(2.0)
+        }))
+    );
+    let stop = old(CommandKind::Stop, [0; 7]);
+    assert_eq!(
+        CommandRequest::from_layout_5(stop).command(),
+        Ok(Command::Stop)
+    );
+    // Not layout 5: unchanged (and refused as before if it is neither).
+    let mut other = stop;
+    other.layout_version = 4;
+    assert_eq!(CommandRequest::from_layout_5(other), other);
+}
+
 #[test]
 fn node_watch_reports_dead_and_vanished_nodes_once() {
     let mut w = NodeWatch::default();
