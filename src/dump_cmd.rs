@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use anguilla_protocol::Family;
 use anguilla_protocol::candump::{Interface, LogEntry, Reader, Record, Timestamp, Writer};
-use anguilla_protocol::message::{self, NodeSet, Variant};
+use anguilla_protocol::message::Variant;
 use anyhow::Context;
 
 /// Arguments of `anguilla dump`.
@@ -55,19 +55,8 @@ struct Decoder {
 
 impl Decoder {
     fn decode(&self, f: &anguilla_protocol::Frame) -> String {
-        let shown = match self.family {
-            Family::Anguilla => message::decode(f, self.variant, NodeSet::all())
-                .map(|m| crate::plain::plain(&format!("{m:?}")))
-                .map_err(|e| e.to_string()),
-            Family::Cia402 => anguilla_protocol::canopen::decode(f)
-                .map(|m| crate::plain::plain(&format!("{m:?}")))
-                .map_err(|e| e.to_string()),
-            Family::Odrive => anguilla_protocol::odrive::decode(f)
-                .map(|m| crate::plain::plain(&format!("{m:?}")))
-                .map_err(|e| e.to_string()),
-        };
-        match shown {
-            Ok(s) => s,
+        match self.family.decode(f, self.variant) {
+            Ok(m) => crate::plain::plain(&format!("{m:?}")),
             Err(e) => format!("(not ours: {e})"),
         }
     }
@@ -155,7 +144,7 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
     }
-    if args.fd && args.drive != Family::Anguilla {
+    if args.fd && !args.drive.speaks_fd() {
         anyhow::bail!(
             "--fd decodes anguilla's CAN FD variant; {} drives speak classic CAN",
             args.drive

@@ -165,7 +165,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         Some(text) => parse_current(text)?,
         None => Current::ZERO,
     };
-    if args.fd && args.drive != Family::Anguilla {
+    if args.fd && !args.drive.speaks_fd() {
         bail!(
             "--fd: {} drives speak classic CAN (CAN FD is for anguilla drives)",
             args.drive
@@ -185,7 +185,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     }
     let axis_ids = match &args.axis_ids {
         Some(text) => {
-            if args.drive == Family::Anguilla {
+            if !args.drive.drive_per_axis() {
                 bail!(
                     "--axis-ids: only with --drive cia402 or odrive (anguilla nodes are 1..=--joints)"
                 );
@@ -297,17 +297,17 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             .load_scenario(text)
             .with_context(|| format!("in the scenario file {name}"))?;
     }
-    let drives = match args.drive {
-        Family::Anguilla => format!("nodes 1..={}", args.joints),
-        family => {
-            let pairs: Vec<String> = (0..args.joints)
-                .map(|j| {
-                    let [p, y] = robot.config().drive_ids(j);
-                    format!("{p}:{y}")
-                })
-                .collect();
-            format!("{family} drives {}", pairs.join(","))
-        }
+    // A joint is one node, or two drives (pitch:yaw), as the family says.
+    let drives = if args.drive.drive_per_axis() {
+        let pairs: Vec<String> = (0..args.joints)
+            .map(|j| {
+                let [p, y] = robot.config().drive_ids(j);
+                format!("{p}:{y}")
+            })
+            .collect();
+        format!("{} drives {}", args.drive, pairs.join(","))
+    } else {
+        format!("nodes 1..={}", args.joints)
     };
     out.line(format_args!(
         "simulated robot: {} joints ({} CAN), {drives}, on {}; Ctrl-C stops",

@@ -8,6 +8,9 @@
 use core::fmt;
 use core::str::FromStr;
 
+use crate::frame::Frame;
+use crate::message::{NodeSet, Variant};
+
 /// Which protocol the joints' drives speak (config `[robot] drive`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Family {
@@ -77,6 +80,66 @@ impl Family {
             Family::Odrive => Some(crate::odrive::split_id(id).0),
         }
     }
+
+    /// Whether the family's drives speak CAN FD (anguilla's FD variant);
+    /// the others speak classic CAN only. `dump --fd`, `sim --fd` and the
+    /// DBC's `--fd` ask here.
+    pub const fn speaks_fd(self) -> bool {
+        match self {
+            Family::Anguilla => true,
+            Family::Cia402 | Family::Odrive => false,
+        }
+    }
+
+    /// Whether the head sensor (an anguilla-protocol node, frames from
+    /// 0x240 + id) can share the bus with this family's drives: only where
+    /// the drives use the same identifier layout; the bought families'
+    /// traffic overlaps it. The configuration and the simulator ask here.
+    pub const fn carries_head_sensor(self) -> bool {
+        match self {
+            Family::Anguilla => true,
+            Family::Cia402 | Family::Odrive => false,
+        }
+    }
+
+    /// `frame` as this family's protocol reads it (`variant`: anguilla's
+    /// classic or FD layout; the others ignore it), or why it is not one
+    /// of the family's frames. What `dump` prints.
+    pub fn decode(self, frame: &Frame, variant: Variant) -> Result<Decoded, String> {
+        match self {
+            Family::Anguilla => crate::message::decode(frame, variant, NodeSet::all())
+                .map(Decoded::Anguilla)
+                .map_err(|e| e.to_string()),
+            Family::Cia402 => crate::canopen::decode(frame)
+                .map(Decoded::Cia402)
+                .map_err(|e| e.to_string()),
+            Family::Odrive => crate::odrive::decode(frame)
+                .map(Decoded::Odrive)
+                .map_err(|e| e.to_string()),
+        }
+    }
+}
+
+/// A frame read by its family's protocol ([`Family::decode`]). Its `Debug`
+/// is the message's own.
+#[derive(Clone, PartialEq)]
+pub enum Decoded {
+    /// An anguilla message.
+    Anguilla(crate::message::Message),
+    /// A CANopen message.
+    Cia402(crate::canopen::Message),
+    /// An ODrive CANSimple message.
+    Odrive(crate::odrive::Message),
+}
+
+impl fmt::Debug for Decoded {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Decoded::Anguilla(m) => m.fmt(f),
+            Decoded::Cia402(m) => m.fmt(f),
+            Decoded::Odrive(m) => m.fmt(f),
+        }
+    }
 }
 
 impl fmt::Display for Family {
@@ -137,5 +200,28 @@ mod tests {
         }
         // Above anguilla's last function: no node.
         assert_eq!(Family::Anguilla.node_of(0x7FF), None);
+    }
+
+    /// Each family reads its own frames and says why another's is not
+    /// one; only anguilla speaks CAN FD.
+    #[test]
+    fn each_family_decodes_its_own_frames() {
+        let canopen_hb = Frame::new_standard(0x705, &[0x05]).unwrap();
+        let odrive_hb = Frame::new_standard(3 << 5 | 0x01, &[0, 0, 0, 0, 8, 0, 0, 0]).unwrap();
+        let shown = |f: Family, frame: &Frame| f.decode(frame, Variant::Classic);
+        let m = shown(Family::Cia402, &canopen_hb).unwrap();
+        assert!(format!("{m:?}").starts_with("Heartbeat"), "{m:?}");
+        let m = shown(Family::Odrive, &odrive_hb).unwrap();
+        assert!(format!("{m:?}").contains("Heartbeat"), "{m:?}");
+        let e = shown(Family::Anguilla, &canopen_hb).unwrap_err();
+        assert!(!e.is_empty());
+        assert!(shown(Family::Odrive, &canopen_hb).is_err());
+        let fd: Vec<_> = Family::ALL.into_iter().filter(|f| f.speaks_fd()).collect();
+        assert_eq!(fd, [Family::Anguilla]);
+        let sensor: Vec<_> = Family::ALL
+            .into_iter()
+            .filter(|f| f.carries_head_sensor())
+            .collect();
+        assert_eq!(sensor, [Family::Anguilla]);
     }
 }

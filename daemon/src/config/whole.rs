@@ -231,7 +231,7 @@ impl Config {
     /// already configured, a bought family, no free id, or a configuration
     /// that the sensor's traffic would not fit: then it is left as it was).
     pub fn fit_builtin_sensor(&mut self) -> Option<u8> {
-        if self.sensor.node != 0 || self.robot.drive != anguilla_protocol::Family::Anguilla {
+        if self.sensor.node != 0 || !self.robot.drive.carries_head_sensor() {
             return None;
         }
         let joints = self.node_ids();
@@ -256,7 +256,7 @@ impl Config {
                 63.0,
                 "0 (none) or 1 ..= 63",
             )?;
-            if self.robot.drive != anguilla_protocol::Family::Anguilla {
+            if !self.robot.drive.carries_head_sensor() {
                 return Err(ConfigError::Derived(format!(
                     "sensor.node = {} needs robot.drive = \"anguilla\": the head sensor's \
                      frames (0x240 + id ..) share identifiers with {} drives' traffic; \

@@ -23,10 +23,12 @@
 //! further family (moteus, MIT-mode drives) is a module here implementing
 //! [`Drives`] and an arm in [`build`], but also, outside this module, its
 //! protocol and simulated drive, and an arm wherever `Family` is matched
-//! (the bus budget, `dump`, the simulator; the protocol's `Family` has no
-//! catch-all arm, so the compiler lists its own), and a look at every
-//! `== Family::Anguilla` test (the configuration's id checks, the
-//! simulator), which no compiler flags.
+//! (the bus budget, the simulator's devices; the protocol's `Family` has
+//! no catch-all arm, so the compiler lists its own: what `dump` decodes,
+//! whether it speaks CAN FD, whether the head sensor can share its bus,
+//! its id layout), and a look at the `== Family::…` tests that remain
+//! (family-specific configuration such as CiA 402's, the simulator's
+//! faults), which no compiler flags.
 //!
 //! Every method runs in the control period: none allocates (the
 //! counting-allocator test runs every family).

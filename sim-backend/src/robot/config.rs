@@ -141,7 +141,7 @@ impl RobotConfig {
         if let Some(s) = &self.head_sensor {
             s.validate()
                 .map_err(|(field, reason)| SimError::Config { field, reason })?;
-            if self.drive != Family::Anguilla {
+            if !self.drive.carries_head_sensor() {
                 return Err(SimError::Config {
                     field: "head_sensor",
                     reason: "a head sensor speaks the anguilla protocol (drive = anguilla)".into(),
