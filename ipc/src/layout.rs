@@ -115,14 +115,34 @@ pub fn payload_sizes() -> [(&'static str, usize); 11] {
     ]
 }
 
+/// The body type of `kind`'s request, by its name in [`layout_table`]:
+/// every command answers, so a new one cannot compile without saying.
+fn body_type(kind: crate::vocabulary::CommandKind) -> Option<&'static str> {
+    use crate::command::Body;
+    use crate::vocabulary::CommandKind as K;
+    let named = |k: K, name: &'static str| {
+        debug_assert_eq!(k, kind);
+        Some(name)
+    };
+    match kind {
+        K::Swim => named(SwimBody::KIND, "SwimBody"),
+        K::Hold => named(HoldBody::KIND, "HoldBody"),
+        K::Enable
+        | K::Disable
+        | K::Stop
+        | K::EStop
+        | K::Reset
+        | K::TakeControl
+        | K::ReleaseControl
+        | K::KeepAlive => None,
+    }
+}
+
 /// The command whose request body `ty` is, if it is one.
 fn body_of(ty: &str) -> Option<crate::vocabulary::CommandKind> {
-    use crate::command::Body;
-    match ty {
-        "SwimBody" => Some(SwimBody::KIND),
-        "HoldBody" => Some(HoldBody::KIND),
-        _ => None,
-    }
+    crate::vocabulary::CommandKind::ALL
+        .into_iter()
+        .find(|&k| body_type(k) == Some(ty))
 }
 
 /// Renders [`layout_table`] as Markdown tables with each type's size.
@@ -159,20 +179,35 @@ pub fn layout_markdown() -> String {
 /// codes section.
 pub fn codes_markdown() -> String {
     use crate::vocabulary::{Cause, CommandKind, FaultKind, Mode, SensorHealth};
+    let rows = layout_table();
     let mut out = String::new();
     let _ = writeln!(out, "`CommandRequest.code`:\n");
     let _ = writeln!(out, "| code | command | body | needs control |");
     let _ = writeln!(out, "|---:|---|---|---|");
     for k in CommandKind::ALL {
-        let body = match k {
-            CommandKind::Swim => "`SwimBody`: amplitude, frequency, turn, pitch",
-            CommandKind::Hold => "`HoldBody`: hold bits, heading, depth",
-            _ => "none (zero)",
+        // The body's fields, from the layout table.
+        let body = match body_type(k) {
+            Some(ty) => {
+                let fields: Vec<_> = rows
+                    .iter()
+                    .filter(|r| r.ty == ty)
+                    .map(|r| r.field)
+                    .collect();
+                format!("`{ty}`: {}", fields.join(", "))
+            }
+            None => "none (zero)".into(),
         };
         let control = match k {
             CommandKind::EStop => "**no: never refused**",
             CommandKind::TakeControl => "no (refused while another client holds it)",
-            _ => "yes",
+            CommandKind::Enable
+            | CommandKind::Disable
+            | CommandKind::Swim
+            | CommandKind::Stop
+            | CommandKind::Reset
+            | CommandKind::ReleaseControl
+            | CommandKind::KeepAlive
+            | CommandKind::Hold => "yes",
         };
         let _ = writeln!(out, "| {} | {} | {body} | {control} |", k.code(), k.name());
     }

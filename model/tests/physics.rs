@@ -298,9 +298,9 @@ fn forward_and_turning_gaits_each_within_its_band_of_the_paper() {
 
 /// The default time step (0.025 s, 2.5 times the paper's runs' 0.01 s and
 /// so 2.5 times faster) leaves every row of the paper table within 0.05 %
-/// of the same row at half the step, and so do those rows at a step that
-/// also divides every switching time (0.01 s). A step that straddles them
-/// does not: at 0.02 s T5 moves by 0.54 %, which this test would catch.
+/// of the same row at half the step. A step that straddles the gaits'
+/// switching times does not: at 0.02 s T5 moves by 0.54 % from 0.01 s
+/// (model/README.md, "Time step"), which this test would catch.
 #[test]
 fn the_paper_table_does_not_move_with_the_time_step() {
     let coarse = model(Body::paper(), 52, DEFAULT_DT, 12);

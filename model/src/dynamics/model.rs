@@ -1,7 +1,7 @@
 //! The immutable, validated model (Pinocchio's `Model`): discretization,
 //! body constants at every node, quadrature weights.
 
-use crate::body::{Body, Section, pow_neg_fifth};
+use crate::body::{Body, Friction, Section};
 use crate::error::{ModelError, Result};
 use nalgebra::Vector3;
 
@@ -62,53 +62,6 @@ pub const DEFAULT_DT: f64 = 0.025;
 pub const MAX_DT: f64 = 0.05;
 /// Space intervals the model accepts ([`ModelConfig::nodes`]).
 pub const NODES_RANGE: std::ops::RangeInclusive<usize> = 2..=100_000;
-
-/// The skin friction (24), (41) of one node, split so that a step computes
-/// no Reynolds number: with `K1 = c_f(X1 |V1| / nu) P` (`P` the wetted
-/// perimeter), the drag per unit length is `-rho/2 K1 V1 |V1|`, and
-/// `K1 |V1|` is `laminar |V1|^(1/2)` up to `|V1| = v_switch` (`Re = 8e4`),
-/// `turbulent |V1|^(4/5)` above. Zero at the nose (`X1 = 0`) and where the
-/// body has no perimeter.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Friction {
-    /// `0.664 P (X1 / nu)^(-1/2)`.
-    pub(super) laminar: f64,
-    /// `0.059 P (X1 / nu)^(-1/5)`.
-    pub(super) turbulent: f64,
-    /// The speed of `Re = 8e4` at this node, `8e4 nu / X1` (m/s).
-    pub(super) v_switch: f64,
-}
-
-impl Friction {
-    fn new(x: f64, perimeter: f64, nu: f64) -> Self {
-        if !(x > 0.0 && perimeter > 0.0) {
-            return Friction {
-                laminar: 0.0,
-                turbulent: 0.0,
-                v_switch: f64::INFINITY,
-            };
-        }
-        let r = x / nu;
-        Friction {
-            laminar: 0.664 * perimeter / r.sqrt(),
-            turbulent: 0.059 * perimeter * r.powf(-0.2),
-            v_switch: 8e4 / r,
-        }
-    }
-
-    /// `K1 |V1|` at the relative speed `v1` (m/s).
-    #[inline]
-    pub(super) fn k1_speed(&self, v1: f64) -> f64 {
-        let a = v1.abs();
-        if a == 0.0 {
-            0.0
-        } else if a <= self.v_switch {
-            self.laminar * a.sqrt()
-        } else {
-            self.turbulent * a * pow_neg_fifth(a)
-        }
-    }
-}
 
 /// The immutable, validated model: body constants at every node, quadrature
 /// weights, discretization.
@@ -238,32 +191,5 @@ impl Model {
     }
     pub(super) fn platform_node(&self, k: usize) -> usize {
         (2 * k + 1) * self.n / (2 * (self.joints + 1))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Friction;
-    use crate::body::friction_coefficient;
-
-    /// The split law is (41) times the speed: laminar and turbulent, both
-    /// sides of the switch, reversed flow, and nothing at the nose.
-    #[test]
-    fn the_split_friction_law_is_the_papers() {
-        let (nu, perimeter) = (1e-6, 0.3);
-        for x in [0.01f64, 0.2, 1.0] {
-            let f = Friction::new(x, perimeter, nu);
-            for v in [-1.3f64, -0.05, 1e-4, 0.07, 0.079_999, 0.080_001, 0.45, 2.0] {
-                let expected = friction_coefficient(x * v.abs() / nu) * perimeter * v.abs();
-                let got = f.k1_speed(v);
-                assert!(
-                    (got - expected).abs() <= 1e-13 * expected,
-                    "x {x} v {v}: {got} vs {expected}"
-                );
-            }
-            assert_eq!(f.k1_speed(0.0), 0.0);
-        }
-        assert_eq!(Friction::new(0.0, perimeter, nu).k1_speed(1.0), 0.0);
-        assert_eq!(Friction::new(0.5, 0.0, nu).k1_speed(1.0), 0.0);
     }
 }
