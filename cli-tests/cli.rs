@@ -117,7 +117,7 @@ fn protocol_dbc_writes_the_odrive_dbc_for_the_ids_given_and_refuses_cia402() {
         ),
         (
             &["--node-ids", "1,2"][..],
-            "--node-ids applies to --drive odrive",
+            "--node-ids applies to families with a drive per axis",
         ),
     ] {
         let (ok, _, err) = run(&[&["protocol", "dbc"][..], args].concat());

@@ -175,8 +175,7 @@ fn print_table(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> any
         b.traffic.joints(),
         match b.traffic {
             budget::Traffic::Anguilla(..) => "nodes".to_string(),
-            budget::Traffic::Cia402 { axes } => format!("{axes} CiA 402 drives"),
-            budget::Traffic::Odrive { axes } => format!("{axes} ODrive axes"),
+            budget::Traffic::Drives { family, axes } => format!("{axes} {}", family.drives_noun()),
         },
         b.rate,
         1e6 / b.rate
@@ -264,50 +263,46 @@ fn print_json(out: &mut impl Write, b: &Budget, max_load: f64, max: f64) -> anyh
 }
 
 fn run_dbc(a: DbcArgs) -> anyhow::Result<()> {
-    use anguilla_protocol::{Family, odrive};
     if let Some(n) = a.nodes
         && !(1..=anguilla_protocol::message::MAX_NODE_ID).contains(&n)
     {
         bail!("--nodes {n} is out of range (expected 1..=63)");
     }
-    let text = match a.drive {
-        Family::Anguilla => {
-            if !a.node_ids.is_empty() {
-                bail!(
-                    "--node-ids applies to --drive odrive; the anguilla DBC lists nodes 1..=N (--nodes N)"
-                );
-            }
-            let variant = if a.fd { Variant::Fd } else { Variant::Classic };
-            dbc::generate(variant, a.nodes.unwrap_or(dbc::DEFAULT_NODES))
-        }
-        Family::Odrive => {
-            if a.fd {
-                bail!("--fd does not apply to --drive odrive (CANSimple is classic CAN)");
-            }
-            let ids = match a.nodes {
-                Some(n) => (1..=n)
-                    .map(|i| odrive::NodeId::new(i).expect("checked 1..=63"))
-                    .collect(),
-                None if a.node_ids.is_empty() => odrive::dbc::default_nodes(),
-                None => {
-                    let mut ids = Vec::with_capacity(a.node_ids.len());
-                    for &id in &a.node_ids {
-                        let node = odrive::NodeId::new(id)
-                            .map_err(|e| anyhow::anyhow!("--node-ids: {e}"))?;
-                        if ids.contains(&node) {
-                            bail!("--node-ids: {id} given twice (expected distinct ids)");
-                        }
-                        ids.push(node);
+    if a.fd && !a.drive.speaks_fd() {
+        bail!(
+            "--fd does not apply to --drive {} (its drives speak classic CAN only)",
+            a.drive
+        );
+    }
+    let text = if a.drive.drive_per_axis() {
+        // A bought family: one id per axis, from --nodes N (1..=N), from
+        // --node-ids, or the family's default ids of the default robot.
+        let ids: Vec<u8> = match a.nodes {
+            Some(n) => (1..=n).collect(),
+            None if a.node_ids.is_empty() => (0..dbc::DEFAULT_NODES as usize)
+                .flat_map(|j| a.drive.default_ids(j))
+                .collect(),
+            None => {
+                for (i, id) in a.node_ids.iter().enumerate() {
+                    if a.node_ids[..i].contains(id) {
+                        bail!("--node-ids: {id} given twice (expected distinct ids)");
                     }
-                    ids
                 }
-            };
-            odrive::dbc::dbc(&ids)
+                a.node_ids.clone()
+            }
+        };
+        a.drive
+            .drive_dbc(&ids)
+            .map_err(|why| anyhow::anyhow!("--drive {}: {why}", a.drive))?
+    } else {
+        if !a.node_ids.is_empty() {
+            bail!(
+                "--node-ids applies to families with a drive per axis (--drive odrive); \
+                 the anguilla DBC lists nodes 1..=N (--nodes N)"
+            );
         }
-        Family::Cia402 => bail!(
-            "--drive cia402 has no DBC: CANopen devices are described by EDS files \
-             (e.g. sim-backend/eds/anguilla-sim-cia402.eds); use --drive anguilla or odrive"
-        ),
+        let variant = if a.fd { Variant::Fd } else { Variant::Classic };
+        dbc::generate(variant, a.nodes.unwrap_or(dbc::DEFAULT_NODES))
     };
     match a.out {
         Some(path) => {

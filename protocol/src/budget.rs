@@ -321,30 +321,28 @@ pub enum Traffic {
     /// sensor at this sample rate, Hz, if the robot has one
     /// ([`head_sensor_traffic`]).
     Anguilla(NodeSet, Option<u16>),
-    /// CiA 402 drives (one per axis) and their master, classic CAN: per
-    /// period an RPDO1 to each drive, SYNC, a TPDO1 from each; heartbeats
-    /// every 100 ms from every drive and the master.
-    Cia402 {
+    /// A family's drives (bought ones: one per axis, classic CAN): what
+    /// they and their master send is the family's answer
+    /// ([`Family::drive_traffic`](crate::Family::drive_traffic)).
+    Drives {
+        /// The family.
+        family: crate::Family,
         /// Drives (2 per joint).
-        axes: u32,
-    },
-    /// ODrive axes, classic CAN: per period a Set_Input_Pos to each; each
-    /// axis sends Get_Encoder_Estimates every 10 ms and a Heartbeat every
-    /// 100 ms whatever the control rate.
-    Odrive {
-        /// Axes (2 per joint).
         axes: u32,
     },
 }
 
 impl Traffic {
-    /// The bought family's traffic of `joints` joints (two drives each).
+    /// The traffic of the joints `nodes`: anguilla's nodes by id, a
+    /// bought family's two drives per joint.
     pub fn of_family(family: crate::Family, nodes: NodeSet) -> Traffic {
-        let axes = 2 * nodes.len() as u32;
-        match family {
-            crate::Family::Anguilla => Traffic::Anguilla(nodes, None),
-            crate::Family::Cia402 => Traffic::Cia402 { axes },
-            crate::Family::Odrive => Traffic::Odrive { axes },
+        if family.drive_per_axis() {
+            Traffic::Drives {
+                family,
+                axes: 2 * nodes.len() as u32,
+            }
+        } else {
+            Traffic::Anguilla(nodes, None)
         }
     }
 
@@ -352,28 +350,12 @@ impl Traffic {
     pub fn joints(self) -> u32 {
         match self {
             Traffic::Anguilla(n, _) => n.len() as u32,
-            Traffic::Cia402 { axes } | Traffic::Odrive { axes } => axes / 2,
+            Traffic::Drives { axes, .. } => axes / 2,
         }
     }
 
     /// The cyclic traffic, line by line, computed by encoding the frames.
     pub fn lines(self, variant: Variant) -> Vec<BudgetLine> {
-        let line = |name, f: &Frame, cadence| {
-            let b = worst_case_bits(f);
-            let k = match cadence {
-                Cadence::PerPeriod(c) => c,
-                Cadence::PerSecond(_) => 1,
-            };
-            BudgetLine {
-                name,
-                bytes: f.len() as u8,
-                cadence,
-                bits: FrameBits {
-                    nominal: b.nominal * k,
-                    data: b.data * k,
-                },
-            }
-        };
         match self {
             Traffic::Anguilla(nodes, sensor) => {
                 let mut lines = control_traffic(variant, nodes).to_vec();
@@ -382,71 +364,29 @@ impl Traffic {
                 }
                 lines
             }
-            Traffic::Cia402 { axes } => {
-                use crate::canopen::{Message as Co, NmtState, NodeId as CoNode, Pdo, PdoData};
-                let node = CoNode::new(1).expect("1 is a node id");
-                let pdo = PdoData::new(&[0; 8]).expect("8 bytes");
-                let rpdo = Co::Rpdo {
-                    node,
-                    pdo: Pdo::One,
-                    data: pdo,
-                }
-                .encode();
-                let tpdo = Co::Tpdo {
-                    node,
-                    pdo: Pdo::One,
-                    data: pdo,
-                }
-                .encode();
-                let sync = Co::Sync { counter: None }.encode();
-                let hb = Co::Heartbeat {
-                    node,
-                    state: NmtState::Operational,
-                }
-                .encode();
-                vec![
-                    line("RPDO1", &rpdo, Cadence::PerPeriod(axes)),
-                    line("SYNC", &sync, Cadence::PerPeriod(1)),
-                    line("TPDO1", &tpdo, Cadence::PerPeriod(axes)),
-                    line(
-                        "Heartbeat",
-                        &hb,
-                        Cadence::PerSecond((axes + 1) as f64 * 10.0),
-                    ),
-                ]
-            }
-            Traffic::Odrive { axes } => {
-                use crate::odrive::{
-                    AxisState, Body, EncoderEstimates, Heartbeat as OdHb, InputPos, Message as Od,
-                    NodeId as OdNode,
-                };
-                let node = OdNode::new(1).expect("1 is a node id");
-                let enc = |body| Od { node, body }.encode().expect("encodes");
-                let pos = enc(Body::SetInputPos(InputPos {
-                    input_pos: 0.0,
-                    vel_ff: 0.0,
-                    torque_ff: 0.0,
-                }));
-                let est = enc(Body::EncoderEstimates(EncoderEstimates {
-                    pos: 0.0,
-                    vel: 0.0,
-                }));
-                let hb = enc(Body::Heartbeat(OdHb {
-                    axis_error: 0,
-                    axis_state: AxisState::ClosedLoopControl,
-                    procedure_result: 0,
-                    trajectory_done: false,
-                }));
-                vec![
-                    line("Set_Input_Pos", &pos, Cadence::PerPeriod(axes)),
-                    line(
-                        "Get_Encoder_Estimates",
-                        &est,
-                        Cadence::PerSecond(axes as f64 * 100.0),
-                    ),
-                    line("Heartbeat", &hb, Cadence::PerSecond(axes as f64 * 10.0)),
-                ]
-            }
+            Traffic::Drives { family, axes } => family.drive_traffic(axes, variant),
+        }
+    }
+}
+
+impl BudgetLine {
+    /// The line of `cadence` frames like `f` (per period: that many frames
+    /// each period; per second: one frame's bits, paid `count` times a
+    /// second).
+    pub fn of(name: &'static str, f: &Frame, cadence: Cadence) -> BudgetLine {
+        let b = worst_case_bits(f);
+        let k = match cadence {
+            Cadence::PerPeriod(c) => c,
+            Cadence::PerSecond(_) => 1,
+        };
+        BudgetLine {
+            name,
+            bytes: f.len() as u8,
+            cadence,
+            bits: FrameBits {
+                nominal: b.nominal * k,
+                data: b.data * k,
+            },
         }
     }
 }
@@ -521,11 +461,11 @@ fn check_traffic(t: Traffic, rates: Bitrates) -> Result<Bitrates, BudgetError> {
                 return Err(BudgetError::HeadSensorRate(hz));
             }
         }
-        Traffic::Cia402 { axes } | Traffic::Odrive { axes } => {
+        Traffic::Drives { family, axes } => {
             if axes == 0 {
                 return Err(BudgetError::Joints(0));
             }
-            if rates.data.is_some() {
+            if rates.data.is_some() && !family.speaks_fd() {
                 return Err(BudgetError::ClassicOnly);
             }
         }
@@ -678,7 +618,10 @@ mod tests {
     /// frames a period (24 RPDOs, SYNC, 24 TPDOs).
     #[test]
     fn cia402_and_odrive_traffic() {
-        let co = Traffic::Cia402 { axes: 24 };
+        let co = Traffic::Drives {
+            family: crate::Family::Cia402,
+            axes: 24,
+        };
         let b = budget_of(co, 100.0, CLASSIC_1M).unwrap();
         let per_period: f64 = b
             .lines
@@ -695,15 +638,36 @@ mod tests {
         assert!((budget_of(co, r, CLASSIC_1M).unwrap().load - 0.6).abs() < 1e-9);
         // ODrive: only the setpoints scale with the rate; the encoder
         // estimates at 100 Hz per axis are paid whatever the rate.
-        let od = Traffic::Odrive { axes: 24 };
+        let od = Traffic::Drives {
+            family: crate::Family::Odrive,
+            axes: 24,
+        };
         let b = budget_of(od, 100.0, CLASSIC_1M).unwrap();
         let expect = 24.0 * 135.0 * 100.0 + 24.0 * 110.0 * 135.0;
         assert!((b.load * 1e6 - expect).abs() < 1e-6, "{}", b.load);
         // 40 axes' estimates and heartbeats alone take 59.4 % of 1 Mbit/s.
-        let r = max_rate_of(Traffic::Odrive { axes: 40 }, CLASSIC_1M, 0.6).unwrap();
+        let r = max_rate_of(
+            Traffic::Drives {
+                family: crate::Family::Odrive,
+                axes: 40,
+            },
+            CLASSIC_1M,
+            0.6,
+        )
+        .unwrap();
         assert!(r < 5.0, "{r}");
         assert_eq!(budget_of(co, 100.0, FD_1_5M), Err(BudgetError::ClassicOnly));
-        assert!(budget_of(Traffic::Cia402 { axes: 0 }, 100.0, CLASSIC_1M).is_err());
+        assert!(
+            budget_of(
+                Traffic::Drives {
+                    family: crate::Family::Cia402,
+                    axes: 0
+                },
+                100.0,
+                CLASSIC_1M
+            )
+            .is_err()
+        );
     }
 
     #[test]

@@ -66,5 +66,44 @@ pub use codec::decode;
 pub use error::{DecodeError, EncodeError};
 pub use types::*;
 
+/// The cyclic traffic of `axes` CiA 402 drives and their master (classic
+/// CAN) for the bus budget: per period an RPDO1 to each drive, SYNC, a
+/// TPDO1 from each; heartbeats every 100 ms from every drive and the
+/// master.
+pub fn traffic(axes: u32) -> Vec<crate::budget::BudgetLine> {
+    use crate::budget::{BudgetLine, Cadence};
+    use crate::canopen::{Message as Co, NmtState, NodeId as CoNode, Pdo, PdoData};
+    let node = CoNode::new(1).expect("1 is a node id");
+    let pdo = PdoData::new(&[0; 8]).expect("8 bytes");
+    let rpdo = Co::Rpdo {
+        node,
+        pdo: Pdo::One,
+        data: pdo,
+    }
+    .encode();
+    let tpdo = Co::Tpdo {
+        node,
+        pdo: Pdo::One,
+        data: pdo,
+    }
+    .encode();
+    let sync = Co::Sync { counter: None }.encode();
+    let hb = Co::Heartbeat {
+        node,
+        state: NmtState::Operational,
+    }
+    .encode();
+    vec![
+        BudgetLine::of("RPDO1", &rpdo, Cadence::PerPeriod(axes)),
+        BudgetLine::of("SYNC", &sync, Cadence::PerPeriod(1)),
+        BudgetLine::of("TPDO1", &tpdo, Cadence::PerPeriod(axes)),
+        BudgetLine::of(
+            "Heartbeat",
+            &hb,
+            Cadence::PerSecond((axes + 1) as f64 * 10.0),
+        ),
+    ]
+}
+
 #[cfg(test)]
 mod tests;

@@ -102,6 +102,49 @@ impl Family {
         }
     }
 
+    /// What the drives of a robot of this family are called, in a budget's
+    /// heading ("24 ODrive axes").
+    pub const fn drives_noun(self) -> &'static str {
+        match self {
+            Family::Anguilla => "anguilla axes",
+            Family::Cia402 => "CiA 402 drives",
+            Family::Odrive => "ODrive axes",
+        }
+    }
+
+    /// The cyclic traffic of `axes` axes (two per joint) of this family and
+    /// their master, line by line, for the bus budget
+    /// ([`crate::budget::Traffic::Drives`]): anguilla's nodes 1..=joints in
+    /// `variant`; the bought families' on classic CAN.
+    pub fn drive_traffic(self, axes: u32, variant: Variant) -> Vec<crate::budget::BudgetLine> {
+        match self {
+            Family::Anguilla => {
+                crate::budget::control_traffic(variant, NodeSet::first((axes / 2) as u8)).to_vec()
+            }
+            Family::Cia402 => crate::canopen::traffic(axes),
+            Family::Odrive => crate::odrive::traffic(axes),
+        }
+    }
+
+    /// The DBC file of the drives with these node ids (a bought family's,
+    /// one id per axis), or why the family has none. anguilla's DBC is
+    /// written per node count and variant ([`crate::dbc::generate`]).
+    pub fn drive_dbc(self, ids: &[u8]) -> Result<String, String> {
+        match self {
+            Family::Anguilla => Err("anguilla's DBC lists nodes 1..=N (--nodes N)".into()),
+            Family::Cia402 => Err("CANopen devices are described by EDS files \
+                 (e.g. sim-backend/eds/anguilla-sim-cia402.eds), not a DBC"
+                .into()),
+            Family::Odrive => {
+                let mut nodes = Vec::with_capacity(ids.len());
+                for &id in ids {
+                    nodes.push(crate::odrive::NodeId::new(id).map_err(|e| e.to_string())?);
+                }
+                Ok(crate::odrive::dbc::dbc(&nodes))
+            }
+        }
+    }
+
     /// `frame` as this family's protocol reads it (`variant`: anguilla's
     /// classic or FD layout; the others ignore it), or why it is not one
     /// of the family's frames. What `dump` prints.

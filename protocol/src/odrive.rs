@@ -649,5 +649,43 @@ pub fn decode(frame: &Frame) -> Result<Message, DecodeError> {
     Ok(Message { node, body })
 }
 
+/// The cyclic traffic of `axes` ODrive axes (classic CAN) for the bus
+/// budget: per period a Set_Input_Pos to each; each axis sends
+/// Get_Encoder_Estimates every 10 ms and a Heartbeat every 100 ms whatever
+/// the control rate.
+pub fn traffic(axes: u32) -> Vec<crate::budget::BudgetLine> {
+    use crate::budget::{BudgetLine, Cadence};
+    use crate::odrive::{
+        AxisState, Body, EncoderEstimates, Heartbeat as OdHb, InputPos, Message as Od,
+        NodeId as OdNode,
+    };
+    let node = OdNode::new(1).expect("1 is a node id");
+    let enc = |body| Od { node, body }.encode().expect("encodes");
+    let pos = enc(Body::SetInputPos(InputPos {
+        input_pos: 0.0,
+        vel_ff: 0.0,
+        torque_ff: 0.0,
+    }));
+    let est = enc(Body::EncoderEstimates(EncoderEstimates {
+        pos: 0.0,
+        vel: 0.0,
+    }));
+    let hb = enc(Body::Heartbeat(OdHb {
+        axis_error: 0,
+        axis_state: AxisState::ClosedLoopControl,
+        procedure_result: 0,
+        trajectory_done: false,
+    }));
+    vec![
+        BudgetLine::of("Set_Input_Pos", &pos, Cadence::PerPeriod(axes)),
+        BudgetLine::of(
+            "Get_Encoder_Estimates",
+            &est,
+            Cadence::PerSecond(axes as f64 * 100.0),
+        ),
+        BudgetLine::of("Heartbeat", &hb, Cadence::PerSecond(axes as f64 * 10.0)),
+    ]
+}
+
 #[cfg(test)]
 mod tests;

@@ -768,4 +768,16 @@ impl JointDevice for Cia402Joint {
             a.clear_injected_fault();
         }
     }
+    fn impostor_heartbeat(&self, _state: NodeState, _counter: u8, tx: &mut dyn FnMut(Frame)) {
+        use anguilla_protocol::canopen::{Message, NmtState};
+        for a in &self.axes {
+            if let Some(node) = a.node {
+                let hb = Message::Heartbeat {
+                    node,
+                    state: NmtState::Operational,
+                };
+                tx(hb.encode());
+            }
+        }
+    }
 }

@@ -48,6 +48,10 @@ pub trait JointDevice: Send + std::fmt::Debug {
     fn inject_fault(&mut self, bits: u16, now: Nanos, tx: &mut dyn FnMut(Frame));
     /// Removes an injected fault condition (a fault reset can then succeed).
     fn clear_injected_fault(&mut self);
+    /// Fault injection: what an impostor on this joint's ids sends to look
+    /// alive in `state` (the family's liveness message: a heartbeat, or a
+    /// drive's reply), `counter` where the family's message has one.
+    fn impostor_heartbeat(&self, state: NodeState, counter: u8, tx: &mut dyn FnMut(Frame));
 }
 
 impl JointDevice for crate::node::VertebraNode {
@@ -86,5 +90,19 @@ impl JointDevice for crate::node::VertebraNode {
     }
     fn clear_injected_fault(&mut self) {
         crate::node::VertebraNode::clear_injected_fault(self)
+    }
+    fn impostor_heartbeat(&self, state: NodeState, counter: u8, tx: &mut dyn FnMut(Frame)) {
+        use anguilla_protocol::message::{ErrorBits, Heartbeat, Message};
+        let hb = Message::Heartbeat(Heartbeat {
+            node: self.id(),
+            state,
+            errors: ErrorBits(0),
+            counter,
+            missed_syncs: 0,
+            temperature: 30,
+        });
+        if let Ok(f) = hb.encode(self.variant()) {
+            tx(f);
+        }
     }
 }

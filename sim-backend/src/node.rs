@@ -135,6 +135,11 @@ impl VertebraNode {
         self.cfg.id
     }
 
+    /// Classic CAN or CAN FD.
+    pub fn variant(&self) -> Variant {
+        self.cfg.variant
+    }
+
     /// The state machine state.
     pub fn state(&self) -> NodeState {
         self.state

@@ -570,6 +570,25 @@ impl JointDevice for OdriveJoint {
     fn clear_injected_fault(&mut self) {
         self.injected = 0;
     }
+
+    fn impostor_heartbeat(&self, state: NodeState, _counter: u8, tx: &mut dyn FnMut(Frame)) {
+        let axis_state = if state == NodeState::Enabled {
+            AxisState::ClosedLoopControl
+        } else {
+            AxisState::Idle
+        };
+        for a in &self.axes {
+            a.send(
+                Body::Heartbeat(Heartbeat {
+                    axis_error: 0,
+                    axis_state,
+                    procedure_result: 0,
+                    trajectory_done: true,
+                }),
+                tx,
+            );
+        }
+    }
 }
 
 #[cfg(test)]

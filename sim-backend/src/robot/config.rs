@@ -95,16 +95,14 @@ impl RobotConfig {
     /// `[id, id]` of the vertebra node for anguilla, else
     /// [`RobotConfig::axis_ids`] or the family's defaults.
     pub fn drive_ids(&self, j: usize) -> [u8; 2] {
-        match self.drive {
-            Family::Anguilla => {
-                let id = self.node_ids.get(j).copied().unwrap_or(0);
-                [id, id]
-            }
-            f => self
-                .axis_ids
+        if self.drive.drive_per_axis() {
+            self.axis_ids
                 .get(j)
                 .copied()
-                .unwrap_or_else(|| f.default_ids(j)),
+                .unwrap_or_else(|| self.drive.default_ids(j))
+        } else {
+            let id = self.node_ids.get(j).copied().unwrap_or(0);
+            [id, id]
         }
     }
 

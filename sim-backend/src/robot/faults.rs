@@ -4,7 +4,7 @@
 use anguilla_drivers::{Bus, BusState, Frame};
 use anguilla_protocol::Family;
 use anguilla_protocol::frame::MAX_STANDARD_ID;
-use anguilla_protocol::message::{ErrorBits, FIRST_UNUSED_ID, NodeId, NodeState};
+use anguilla_protocol::message::{ErrorBits, FIRST_UNUSED_ID};
 
 use crate::node::Nanos;
 use crate::scenario::{Action, BusFault, JointFault, NodeFault};
@@ -21,62 +21,8 @@ impl SimRobot {
                 continue;
             }
             let state = self.nodes[imp.mirror].state();
-            let ids = self.cfg.drive_ids(imp.k);
-            match self.cfg.drive {
-                Family::Anguilla => {
-                    let hb = anguilla_protocol::message::Message::Heartbeat(
-                        anguilla_protocol::message::Heartbeat {
-                            node: match NodeId::new(ids[0]) {
-                                Ok(n) => n,
-                                Err(_) => continue,
-                            },
-                            state,
-                            errors: ErrorBits(0),
-                            counter: imp.counter,
-                            missed_syncs: 0,
-                            temperature: 30,
-                        },
-                    );
-                    if let Ok(f) = hb.encode(self.cfg.variant) {
-                        self.out.push(f);
-                    }
-                }
-                Family::Cia402 => {
-                    use anguilla_protocol::canopen::{Message, NmtState, NodeId as CoNode};
-                    for id in ids {
-                        if let Ok(node) = CoNode::new(id) {
-                            let hb = Message::Heartbeat {
-                                node,
-                                state: NmtState::Operational,
-                            };
-                            self.out.push(hb.encode());
-                        }
-                    }
-                }
-                Family::Odrive => {
-                    use anguilla_protocol::odrive::{AxisState, Body, Heartbeat, Message, NodeId};
-                    let axis_state = if state == NodeState::Enabled {
-                        AxisState::ClosedLoopControl
-                    } else {
-                        AxisState::Idle
-                    };
-                    for id in ids {
-                        let Ok(node) = NodeId::new(id) else { continue };
-                        let m = Message {
-                            node,
-                            body: Body::Heartbeat(Heartbeat {
-                                axis_error: 0,
-                                axis_state,
-                                procedure_result: 0,
-                                trajectory_done: true,
-                            }),
-                        };
-                        if let Ok(f) = m.encode() {
-                            self.out.push(f);
-                        }
-                    }
-                }
-            }
+            let out = &mut self.out;
+            self.nodes[imp.k].impostor_heartbeat(state, imp.counter, &mut |f| out.push(f));
             let imp = &mut self.impostors[i];
             imp.counter = imp.counter.wrapping_add(1);
             imp.next = (imp.next + imp.every).max(t);
