@@ -383,3 +383,70 @@ fn emulator_answers_version_and_rejects_commands_in_the_wrong_state() {
         ask(b"garbage\r", b"\x07");
     });
 }
+
+/// An adapter that stops reading (a starved peer process, a USB adapter
+/// whose queue is full): the line's buffer fills, sends are refused as a
+/// full queue, and the status poll that cannot be written either is no
+/// reason to call the adapter gone. On a loaded machine this was read as
+/// "adapter gone" and faulted the daemon.
+#[test]
+fn an_adapter_that_stops_reading_is_a_full_queue_not_a_lost_adapter() {
+    watchdog(|| {
+        let (mut master, slave) = TTYPort::pair().unwrap();
+        master.set_timeout(Duration::from_millis(50)).unwrap();
+        let path = slave.name().unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        // Answers the setup commands, then reads nothing more.
+        let adapter = std::thread::spawn(move || {
+            let mut line = Vec::new();
+            let mut opened = false;
+            while !opened && !s.load(Ordering::Relaxed) {
+                let mut b = [0u8; 64];
+                let Ok(n) = master.read(&mut b) else { continue };
+                for &c in &b[..n] {
+                    if c != b'\r' {
+                        line.push(c);
+                        continue;
+                    }
+                    let reply: &[u8] = match line.first() {
+                        Some(b'V') => b"V1013\r",
+                        _ => b"\r",
+                    };
+                    opened |= line.first() == Some(&b'O');
+                    let _ = master.write_all(reply);
+                    line.clear();
+                }
+            }
+            while !s.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            drop(master);
+        });
+        let mut c = SlcanConfig::new(&path, Bitrate::B1M);
+        c.reply_timeout = Duration::from_secs(2);
+        let mut drv = SlcanBus::open(&c).unwrap();
+        let f = Frame::new_standard(0x123, &[1, 2, 3, 4, 5, 6, 7, 8]).unwrap();
+        let mut sent = 0u32;
+        loop {
+            match drv.send(&f) {
+                Ok(()) => sent += 1,
+                Err(LinkError::TxQueueFull) => break,
+                Err(e) => panic!("after {sent} frames: {e:?}"),
+            }
+            assert!(sent < 1_000_000, "the line never filled");
+        }
+        // Past the status interval: the poll is due and cannot be written.
+        let t0 = Instant::now();
+        while t0.elapsed() < 3 * c.status_interval.unwrap() {
+            match drv.recv(Duration::from_millis(20)) {
+                Ok(_) => {}
+                Err(e) => panic!("a full line read as {e:?}"),
+            }
+        }
+        assert_ne!(drv.state(), anguilla_drivers::BusState::Gone);
+        assert!(matches!(drv.send(&f), Err(LinkError::TxQueueFull)));
+        stop.store(true, Ordering::Relaxed);
+        adapter.join().unwrap();
+    });
+}

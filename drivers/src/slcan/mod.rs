@@ -382,10 +382,13 @@ impl SlcanBus {
         let Some(port) = self.port.as_mut() else {
             return Ok(());
         };
-        if let Err(e) = port.write_all(b"F\r") {
-            return Err(self.disconnected(LostReason::Io((&e).into())));
+        match port.write_all(b"F\r") {
+            Ok(()) => Ok(()),
+            // The line is full (the adapter is not reading yet): a full
+            // queue, as for a frame, not a lost adapter; ask next time.
+            Err(e) if transient(&e) => Ok(()),
+            Err(e) => Err(self.disconnected(LostReason::Io((&e).into()))),
         }
-        Ok(())
     }
 
     /// Reads what is there (waiting up to `timeout`) into the queue.
