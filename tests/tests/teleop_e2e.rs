@@ -51,8 +51,11 @@ fn wait_for(
         if Instant::now() > deadline {
             let last = recent.last().map(|(_, s)| s);
             panic!(
-                "timed out after {timeout:?} waiting for {what}; last mode {:?}, gait {:?}, refused {:?}",
+                "timed out after {timeout:?} waiting for {what}; last mode {:?} (faults {:#x} at \
+                 nodes {:#x}), gait {:?}, refused {:?}",
                 last.map(|s| s.mode),
+                last.map_or(0, |s| s.fault_kinds),
+                last.map_or(0, |s| s.fault_nodes),
                 last.map(|s| s.gait_actual),
                 driver.op.last_refused()
             );
