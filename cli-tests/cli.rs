@@ -605,7 +605,7 @@ fn sim_speaks_the_chosen_drive_family_and_bad_drive_ids_are_named() {
     for (args, want) in [
         (
             &["sim", "--bus", "mem:x", "--drive", "canopen"][..],
-            "unknown drive family \"canopen\" (expected \"anguilla\", \"cia402\" or \"odrive\")",
+            "unknown drive family \"canopen\" (expected one of \"anguilla\", \"cia402\", \"odrive\"",
         ),
         (
             &["sim", "--bus", "mem:x", "--drive", "odrive", "--fd"],
@@ -906,7 +906,7 @@ fn dump_decodes_each_drive_family() {
     assert!(!ok && err.contains("classic CAN"), "{err}");
     let (ok, _, err) = run(&["dump", "--drive", "canopen", "--file", file]);
     assert!(
-        !ok && err.contains("expected \"anguilla\", \"cia402\" or \"odrive\""),
+        !ok && err.contains("expected one of \"anguilla\", \"cia402\", \"odrive\""),
         "{err}"
     );
     let _ = std::fs::remove_file(&path);

@@ -30,16 +30,21 @@ fn counted<T>(f: impl FnOnce() -> T) -> T {
     r
 }
 
-/// Every drive family: anguilla on classic CAN and CAN FD, CiA 402 drives
-/// (their configuration by SDO happens in the warm-up) and ODrive axes.
+/// Every drive family ([`Family::ALL`]), those that speak CAN FD on
+/// classic CAN and CAN FD (CiA 402 drives are configured by SDO in the
+/// warm-up).
 #[test]
 fn a_control_period_allocates_nothing() {
-    for (name, drive, fd) in [
-        ("no-alloc", Family::Anguilla, false),
-        ("no-alloc-fd", Family::Anguilla, true),
-        ("no-alloc-cia402", Family::Cia402, false),
-        ("no-alloc-odrive", Family::Odrive, false),
-    ] {
+    let runs = Family::ALL.into_iter().flat_map(|f| {
+        let fd = f
+            .speaks_fd()
+            .then(|| (format!("no-alloc-{}-fd", f.name()), f, true));
+        [Some((format!("no-alloc-{}", f.name()), f, false)), fd]
+            .into_iter()
+            .flatten()
+    });
+    for (name, drive, fd) in runs {
+        let name = name.as_str();
         let mut cfg = Config::default();
         cfg.bus.fd = fd;
         cfg.robot.drive = drive;

@@ -38,6 +38,16 @@ impl Family {
         }
     }
 
+    /// What the family's drives are, in a sentence's words (the default
+    /// configuration's comment lists them).
+    pub const fn description(self) -> &'static str {
+        match self {
+            Family::Anguilla => "anguilla vertebra nodes, one per joint",
+            Family::Cia402 => "CANopen CiA 402 drives, one per axis",
+            Family::Odrive => "ODrive CANSimple axes, one per axis",
+        }
+    }
+
     /// Whether a joint is two drives of this family (one per axis), rather
     /// than one node carrying both axes.
     pub const fn drive_per_axis(self) -> bool {
@@ -191,10 +201,22 @@ impl fmt::Display for Family {
     }
 }
 
-/// A family name that is none of [`Family::ALL`].
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown drive family {0:?} (expected \"anguilla\", \"cia402\" or \"odrive\")")]
+/// A family name that is none of [`Family::ALL`]; its message lists them.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct UnknownFamily(pub String);
+
+impl fmt::Display for UnknownFamily {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "unknown drive family {:?} (expected one of", self.0)?;
+        for (i, family) in Family::ALL.into_iter().enumerate() {
+            let sep = if i == 0 { "" } else { "," };
+            write!(f, "{sep} {:?}", family.name())?;
+        }
+        f.write_str(")")
+    }
+}
+
+impl std::error::Error for UnknownFamily {}
 
 impl FromStr for Family {
     type Err = UnknownFamily;
@@ -217,7 +239,9 @@ mod tests {
         }
         let e = "canopen".parse::<Family>().unwrap_err();
         assert!(e.to_string().contains("\"canopen\""), "{e}");
-        assert!(e.to_string().contains("cia402"), "{e}");
+        for f in Family::ALL {
+            assert!(e.to_string().contains(&format!("{:?}", f.name())), "{e}");
+        }
     }
 
     #[test]

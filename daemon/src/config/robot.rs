@@ -81,7 +81,8 @@ pub struct AxisConfig {
 pub struct RobotConfig {
     /// Number of actuated joints (each a pitch and a yaw axis).
     pub joints: usize,
-    /// The drives' protocol: `"anguilla"`, `"cia402"` or `"odrive"`.
+    /// The drives' protocol: one of [`anguilla_protocol::Family::ALL`]'s
+    /// names.
     #[serde(with = "family_name")]
     pub drive: anguilla_protocol::Family,
     /// anguilla: node id of each joint from head to tail; empty means
@@ -137,8 +138,14 @@ pub(super) fn write_default(d: &RobotConfig, w: &mut dyn FnMut(String)) {
     w("[robot]".into());
     w("# Actuated joints, head to tail (each: a pitch and a yaw axis on one node). 1..=32".into());
     w(format!("joints = {}", d.joints));
-    w("# The drives' protocol: \"anguilla\" (vertebra nodes, one per joint), \"cia402\"".into());
-    w("# (CANopen CiA 402 drives) or \"odrive\" (ODrive CANSimple), one drive per axis.".into());
+    w("# The drives' protocol, one of:".into());
+    for f in anguilla_protocol::Family::ALL {
+        w(format!(
+            "#   {:<10} {}",
+            format!("{:?}", f.name()),
+            f.description()
+        ));
+    }
     w("drive = \"anguilla\"".into());
     w(
         "# anguilla: node id of each joint, head to tail; [] means 1..=joints. Distinct, 1..=63"
