@@ -23,11 +23,19 @@ pub enum Family {
     /// ODrive CANSimple axes in position control, passthrough input (one
     /// axis per node id).
     Odrive,
+    /// MIT-mode quasi-direct-drive actuators (CubeMars AK, T-Motor and
+    /// clones; one per axis).
+    Mit,
 }
 
 impl Family {
     /// Every family.
-    pub const ALL: [Family; 3] = [Family::Anguilla, Family::Cia402, Family::Odrive];
+    pub const ALL: [Family; 4] = [
+        Family::Anguilla,
+        Family::Cia402,
+        Family::Odrive,
+        Family::Mit,
+    ];
 
     /// The name used in configuration files and on the command line.
     pub const fn name(self) -> &'static str {
@@ -35,6 +43,7 @@ impl Family {
             Family::Anguilla => "anguilla",
             Family::Cia402 => "cia402",
             Family::Odrive => "odrive",
+            Family::Mit => "mit",
         }
     }
 
@@ -45,6 +54,7 @@ impl Family {
             Family::Anguilla => "anguilla vertebra nodes, one per joint",
             Family::Cia402 => "CANopen CiA 402 drives, one per axis",
             Family::Odrive => "ODrive CANSimple axes, one per axis",
+            Family::Mit => "MIT-mode actuators (CubeMars AK, T-Motor), one per axis",
         }
     }
 
@@ -53,7 +63,7 @@ impl Family {
     pub const fn drive_per_axis(self) -> bool {
         match self {
             Family::Anguilla => false,
-            Family::Cia402 | Family::Odrive => true,
+            Family::Cia402 | Family::Odrive | Family::Mit => true,
         }
     }
 
@@ -63,6 +73,7 @@ impl Family {
             Family::Anguilla => (1, 63),
             Family::Cia402 => (1, crate::canopen::MAX_NODE_ID),
             Family::Odrive => (0, crate::odrive::MAX_NODE_ID),
+            Family::Mit => (1, crate::mit::MAX_NODE_ID),
         }
     }
 
@@ -72,7 +83,7 @@ impl Family {
     pub const fn default_ids(self, j: usize) -> [u8; 2] {
         match self {
             Family::Anguilla => [j as u8 + 1, j as u8 + 1],
-            Family::Cia402 | Family::Odrive => [2 * j as u8 + 1, 2 * j as u8 + 2],
+            Family::Cia402 | Family::Odrive | Family::Mit => [2 * j as u8 + 1, 2 * j as u8 + 2],
         }
     }
 
@@ -88,6 +99,7 @@ impl Family {
             },
             Family::Cia402 => Some((id & 0x7F) as u8),
             Family::Odrive => Some(crate::odrive::split_id(id).0),
+            Family::Mit => crate::mit::node_of(id),
         }
     }
 
@@ -97,7 +109,7 @@ impl Family {
     pub const fn speaks_fd(self) -> bool {
         match self {
             Family::Anguilla => true,
-            Family::Cia402 | Family::Odrive => false,
+            Family::Cia402 | Family::Odrive | Family::Mit => false,
         }
     }
 
@@ -108,7 +120,7 @@ impl Family {
     pub const fn carries_head_sensor(self) -> bool {
         match self {
             Family::Anguilla => true,
-            Family::Cia402 | Family::Odrive => false,
+            Family::Cia402 | Family::Odrive | Family::Mit => false,
         }
     }
 
@@ -119,6 +131,7 @@ impl Family {
             Family::Anguilla => "anguilla axes",
             Family::Cia402 => "CiA 402 drives",
             Family::Odrive => "ODrive axes",
+            Family::Mit => "MIT-mode drives",
         }
     }
 
@@ -133,6 +146,7 @@ impl Family {
             }
             Family::Cia402 => crate::canopen::traffic(axes),
             Family::Odrive => crate::odrive::traffic(axes),
+            Family::Mit => crate::mit::traffic(axes),
         }
     }
 
@@ -152,6 +166,7 @@ impl Family {
                 }
                 Ok(crate::odrive::dbc::dbc(&nodes))
             }
+            Family::Mit => crate::mit::dbc(ids).map_err(|e| e.to_string()),
         }
     }
 
@@ -169,6 +184,9 @@ impl Family {
             Family::Odrive => crate::odrive::decode(frame)
                 .map(Decoded::Odrive)
                 .map_err(|e| e.to_string()),
+            Family::Mit => crate::mit::decode(frame, &crate::mit::DEFAULT_RANGES)
+                .map(Decoded::Mit)
+                .map_err(|e| e.to_string()),
         }
     }
 }
@@ -183,6 +201,8 @@ pub enum Decoded {
     Cia402(crate::canopen::Message),
     /// An ODrive CANSimple message.
     Odrive(crate::odrive::Message),
+    /// An MIT-mode message (over [`crate::mit::DEFAULT_RANGES`]).
+    Mit(crate::mit::Message),
 }
 
 impl fmt::Debug for Decoded {
@@ -191,6 +211,7 @@ impl fmt::Debug for Decoded {
             Decoded::Anguilla(m) => m.fmt(f),
             Decoded::Cia402(m) => m.fmt(f),
             Decoded::Odrive(m) => m.fmt(f),
+            Decoded::Mit(m) => m.fmt(f),
         }
     }
 }

@@ -15,8 +15,8 @@
 //! table ([`behaviour`]); and time on the bus ([`time::Nanos`], the one
 //! nanosecond type of the daemon's clock, the simulated firmware's clock,
 //! watchdog timeouts and heartbeat periods); and the wire codec of a bought
-//! drive families, ODrive's CANSimple ([`odrive`]) and CANopen CiA
-//! 301/402 ([`canopen`]), and which of them a robot uses ([`Family`]). `protocol/README.md` is the contract a node's
+//! drive families, ODrive's CANSimple ([`odrive`]), CANopen CiA
+//! 301/402 ([`canopen`]) and MIT-mode actuators ([`mit`]), and which of them a robot uses ([`Family`]). `protocol/README.md` is the contract a node's
 //! firmware implements.
 //!
 //! ```
@@ -43,6 +43,7 @@ pub mod doc;
 pub mod family;
 pub mod frame;
 pub mod message;
+pub mod mit;
 pub mod odrive;
 pub mod signal;
 pub mod time;

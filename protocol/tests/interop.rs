@@ -5,7 +5,8 @@
 //! `tests/data/sample*.json`. This test keeps the committed samples equal to
 //! what the codec produces (regenerate with `ANGUILLA_BLESS=1 cargo test`).
 //! `sample_odrive.*` does the same for ODrive CANSimple axes and
-//! `protocol/odrive.dbc`.
+//! `protocol/odrive.dbc`, `sample_mit.*` for MIT-mode drives and
+//! `protocol/mit.dbc`.
 
 use std::fmt::Write as _;
 
@@ -341,5 +342,115 @@ fn committed_odrive_sample_is_current() {
     assert!(
         old_log == log && old_json == json,
         "sample_odrive.log/.json are stale: run `ANGUILLA_BLESS=1 cargo test -p anguilla-protocol --test interop`"
+    );
+}
+
+/// MIT-mode drives 1 and 2 through a session: enter, hold, a command with
+/// every field off its ends, replies of both lengths, an error, exit. The
+/// special commands carry no signals (a DBC cannot tell them from a
+/// Command; its comment says so), so the JSON lists none for them.
+fn mit_messages() -> Vec<anguilla_protocol::mit::Message> {
+    use anguilla_protocol::mit::{Body, Command, Message, NodeId, Reply, Status};
+    let drive = |n: u8| NodeId::new(n).unwrap();
+    let cmd = |n, position, velocity, kp, kd, torque| Message {
+        node: drive(n),
+        body: Body::Command(Command {
+            position,
+            velocity,
+            kp,
+            kd,
+            torque,
+        }),
+    };
+    let reply = |n, position, velocity, torque, status| Message {
+        node: drive(n),
+        body: Body::Reply(Reply {
+            position,
+            velocity,
+            torque,
+            status,
+        }),
+    };
+    let ok = Some(Status {
+        temperature: 31,
+        error: 0,
+    });
+    vec![
+        Message {
+            node: drive(1),
+            body: Body::EnterMotorMode,
+        },
+        reply(1, 0.01, 0.0, 0.0, ok),
+        cmd(1, 0.25, -1.5, 40.0, 1.2, 0.8),
+        reply(1, 0.2493, -1.48, 0.79, ok),
+        cmd(2, -3.0, 10.0, 500.0, 0.0, -18.0),
+        reply(2, -2.99, 9.9, -17.5, None),
+        reply(
+            2,
+            -2.99,
+            0.0,
+            0.0,
+            Some(Status {
+                temperature: -7,
+                error: 2,
+            }),
+        ),
+        Message {
+            node: drive(2),
+            body: Body::ExitMotorMode,
+        },
+        Message {
+            node: drive(1),
+            body: Body::SetZero,
+        },
+    ]
+}
+
+/// The MIT-mode candump log and the values a DBC reader computes from it
+/// (`mit::dbc_values`, which the unit tests hold to the codec).
+fn mit_sample() -> (String, String) {
+    use anguilla_protocol::mit::{DEFAULT_RANGES, dbc_values, decode};
+    let mut log = Writer::new(Vec::new());
+    let mut json = String::new();
+    let iface = Interface::new("can0").unwrap();
+    for (i, m) in mit_messages().iter().enumerate() {
+        let frame = m.encode(&DEFAULT_RANGES).unwrap();
+        let entry = LogEntry::new(
+            Timestamp {
+                secs: 1_700_000_000,
+                micros: 1000 * i as u32,
+            },
+            iface,
+            frame,
+        );
+        log.write(&entry).unwrap();
+        assert_eq!(decode(&frame, &DEFAULT_RANGES).unwrap().node, m.node);
+        write!(json, "{{\"id\": {}, \"signals\": {{", frame.id().raw()).unwrap();
+        for (k, (name, v)) in dbc_values(&frame, &DEFAULT_RANGES).iter().enumerate() {
+            if k > 0 {
+                json.push_str(", ");
+            }
+            write!(json, "\"{name}\": {v:?}").unwrap();
+        }
+        json.push_str("}}\n");
+    }
+    (String::from_utf8(log.into_inner().unwrap()).unwrap(), json)
+}
+
+#[test]
+fn committed_mit_sample_is_current() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
+    let (log, json) = mit_sample();
+    let log_path = format!("{dir}/sample_mit.log");
+    let json_path = format!("{dir}/sample_mit.json");
+    if std::env::var_os("ANGUILLA_BLESS").is_some() {
+        std::fs::write(&log_path, &log).unwrap();
+        std::fs::write(&json_path, &json).unwrap();
+    }
+    let old_log = std::fs::read_to_string(&log_path).unwrap_or_default();
+    let old_json = std::fs::read_to_string(&json_path).unwrap_or_default();
+    assert!(
+        old_log == log && old_json == json,
+        "sample_mit.log/.json are stale: run `ANGUILLA_BLESS=1 cargo test -p anguilla-protocol --test interop`"
     );
 }

@@ -13,6 +13,7 @@
 //! - [`device`]: the [`device::JointDevice`] trait every joint's drives
 //!   implement;
 //! - [`odrive`]: a joint of two ODrive axes speaking CANSimple (firmware 0.6);
+//! - [`mit`]: a joint of two MIT-mode actuators (CubeMars AK, T-Motor);
 //! - [`plant`]: the swimming body (the Boyer et al. model driven by the
 //!   joints' achieved motion), which gives each actuator its load;
 //! - [`robot`]: the whole robot on a bus ([`SimRobot`]): deterministic
@@ -60,6 +61,7 @@ pub mod builtin;
 pub mod cia402;
 pub mod device;
 pub mod error;
+pub mod mit;
 pub mod node;
 pub mod odrive;
 pub mod plant;

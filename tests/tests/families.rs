@@ -1,6 +1,6 @@
 //! Every drive family end to end: the daemon's real-time loop and the
 //! simulated robot whose joints are anguilla vertebra nodes, CiA 402
-//! drives or ODrive axes (`[robot] drive`), on the in-process bus with CAN
+//! drives, ODrive axes or MIT-mode drives (`[robot] drive`), on the in-process bus with CAN
 //! wire time. The same operator session and the same faults, whatever the
 //! family: the supervisor, the modes and the watchdogs do not change.
 //!
@@ -157,6 +157,11 @@ fn odrive_axes_swim_stop_and_estop() {
 }
 
 #[test]
+fn mit_drives_swim_stop_and_estop() {
+    swims_stops_and_estops(Family::Mit, "swim-mit");
+}
+
+#[test]
 fn anguilla_faults_are_reported() {
     faults_are_reported(Family::Anguilla, "faults-anguilla");
 }
@@ -169,4 +174,26 @@ fn cia402_faults_are_reported() {
 #[test]
 fn odrive_faults_are_reported() {
     faults_are_reported(Family::Odrive, "faults-odrive");
+}
+
+#[test]
+fn mit_faults_are_reported() {
+    faults_are_reported(Family::Mit, "faults-mit");
+}
+
+/// Every family has its two tests above: a new family without them fails
+/// here.
+#[test]
+fn every_family_is_tested() {
+    let this = include_str!("families.rs");
+    for f in Family::ALL {
+        for test in ["_swim_stop_and_estop() {", "_faults_are_reported() {"] {
+            let name = f.name();
+            assert!(
+                this.lines()
+                    .any(|l| l.starts_with("fn ") && l.contains(name) && l.ends_with(test)),
+                "no test named fn {name}…{test} for {f}"
+            );
+        }
+    }
 }

@@ -13,22 +13,25 @@
 //! - [`cia402`]: CANopen CiA 402 drives in cyclic synchronous position
 //!   mode, with the master's NMT, SDO configuration, PDOs, SYNC, heartbeat
 //!   and EMCY handling (one drive per axis);
-//! - [`odrive`]: ODrive CANSimple axes (one per axis).
+//! - [`odrive`]: ODrive CANSimple axes (one per axis);
+//! - [`mit`]: MIT-mode actuators (CubeMars AK, T-Motor; one per axis).
 //!
 //! The supervisor, the modes, the watchdogs and recording/replay are the
 //! same for every family: they see joints, numbered by their report id
 //! (the node id for anguilla, the joint number 1..=joints for the bought
 //! families). A bought family's master embeds a [`bought::DriveSet`] (its
-//! axes by joint and id, counters, liveness) and adds its protocol. A
-//! further family (moteus, MIT-mode drives) is a module here implementing
-//! [`Drives`] and an arm in [`build`], but also, outside this module, its
-//! protocol and simulated drive, and an arm wherever `Family` is matched
-//! (the bus budget, the simulator's devices; the protocol's `Family` has
-//! no catch-all arm, so the compiler lists its own: what `dump` decodes,
-//! whether it speaks CAN FD, whether the head sensor can share its bus,
-//! its id layout), and a look at the `== Family::…` tests that remain
-//! (family-specific configuration such as CiA 402's, the simulator's
-//! faults), which no compiler flags.
+//! axes by joint and id, counters, liveness) and adds its protocol.
+//!
+//! A further family (moteus, say) is, as MIT mode was: its codec, budget
+//! traffic and DBC in a `protocol` module, and the arms of the protocol's
+//! `Family` (no catch-all arm: the compiler lists them); its master here,
+//! implementing [`Drives`], and an arm in [`build`]; its simulated joint
+//! in `sim-backend` (a `JointDevice`) and an arm in the simulator's
+//! `joint_device`; two lines declaring the new modules; two tests in
+//! `tests/tests/families.rs` (a test fails without them). The `==
+//! Family::…` tests that remain are one family's own settings (CiA 402's
+//! configuration and reserved ids, ODrive's watchdog, the simulator's
+//! anguilla-only twin node), which a new family need not touch.
 //!
 //! Every method runs in the control period: none allocates (the
 //! counting-allocator test runs every family).
@@ -37,6 +40,7 @@ pub mod anguilla;
 pub mod axis;
 pub mod bought;
 pub mod cia402;
+pub mod mit;
 pub mod odrive;
 pub mod report;
 
@@ -245,6 +249,7 @@ pub fn build(cfg: &Config, now: Nanos, period: Nanos) -> Result<Box<dyn Drives>,
         anguilla_protocol::Family::Anguilla => Box::new(anguilla::Nodes::new(cfg, now, period)?),
         anguilla_protocol::Family::Cia402 => Box::new(cia402::Master::new(cfg, now, period)?),
         anguilla_protocol::Family::Odrive => Box::new(odrive::Axes::new(cfg, now)?),
+        anguilla_protocol::Family::Mit => Box::new(mit::Master::new(cfg, now)?),
     })
 }
 

@@ -265,6 +265,16 @@ pub fn joint_device(
             },
             start,
         )?)),
+        Family::Mit => Ok(Box::new(crate::mit::MitJoint::new(
+            crate::mit::MitJointConfig {
+                ids: cfg.drive_ids(j),
+                axes: [cfg.actuator; 2],
+                boot_time,
+                seed,
+                timeout: crate::mit::CAN_TIMEOUT,
+            },
+            start,
+        )?)),
         Family::Cia402 => Ok(Box::new(
             crate::cia402::Cia402Joint::try_new(
                 crate::cia402::Cia402JointConfig {

@@ -1,0 +1,300 @@
+//! MIT-mode quasi-direct-drive actuators (CubeMars AK, T-Motor and their
+//! clones; `docs/drives.md`), one per axis.
+//!
+//! The protocol has no heartbeat, no state and no E-stop
+//! ([`anguilla_protocol::mit`]): every frame the master sends is answered
+//! by a reply carrying position, velocity, torque and (CubeMars) an error
+//! code. So the master keeps what the drives cannot say:
+//!
+//! - **Liveness** is the last reply: disabled drives are asked every
+//!   [`POLL`] (an Exit motor mode, which changes nothing in a limp drive),
+//!   enabled ones answer the command of every period. A drive not heard for
+//!   the heartbeat timeout is lost; one in motor mode that answered no
+//!   command for the feedback periods is silent.
+//! - **Enabled** is motor mode, asked with Enter motor mode and confirmed
+//!   by the reply that follows it. Entering, a drive holds where it is
+//!   (the last reply's position, the gains [`KP`] and [`KD`]) until the
+//!   first setpoint.
+//! - **Setpoints** are a Command per axis and period: position, velocity
+//!   feed-forward, [`KP`], [`KD`] and torque feed-forward at the actuator
+//!   (the axis map's direction, offset and gear applied; velocity and torque
+//!   clamped to [`anguilla_protocol::mit::DEFAULT_RANGES`], a position
+//!   outside it not sent and counted).
+//! - **E-stop** is Exit motor mode to every drive (limp); the master
+//!   reports them in EStop until the operator clears faults. An Exit from
+//!   another sender to one of our drives leaves it limp behind our back:
+//!   it is taken as an E-stop on the bus.
+//! - **Faults** are the reply's error code; clearing sends Exit (CubeMars
+//!   firmware clears a fault whose cause is gone when motor mode ends).
+
+use anguilla_protocol::frame::Frame;
+use anguilla_protocol::message::{AxisFeedback, NodeState};
+use anguilla_protocol::mit::{self, Body, Command, DEFAULT_RANGES, Message, NodeId};
+
+use super::bought::DriveSet;
+use super::{AxisStatus, AxisView, DriveError, Drives, Out, Period};
+use crate::config::{AxisMap, Config};
+use crate::supervisor::Drive;
+use anguilla_ipc::vocabulary::Nanos;
+
+/// How often a drive out of motor mode is asked for a reply.
+pub const POLL: Nanos = Nanos::from_millis(20);
+/// How often Enter motor mode is asked again while a drive has not
+/// confirmed it.
+const RETRY: Nanos = Nanos::from_millis(100);
+/// The position gain sent with every command, N·m/rad at the actuator.
+pub const KP: f32 = 40.0;
+/// The velocity gain sent with every command, N·m·s/rad at the actuator.
+pub const KD: f32 = 1.2;
+
+#[derive(Debug, Clone, Copy)]
+struct Axis {
+    map: AxisMap,
+    node: NodeId,
+    /// Enter motor mode sent, not yet confirmed by a reply.
+    entering: bool,
+    /// In motor mode (confirmed).
+    motor_mode: bool,
+    /// E-stopped by us, until faults are cleared.
+    estopped: bool,
+    /// The last reply's error code.
+    error: u8,
+    last_reply: Option<Nanos>,
+    /// Position, velocity, torque of the last reply, at the actuator.
+    reply: Option<(f32, f32, f32)>,
+    /// Periods in motor mode since the last reply.
+    periods_without_reply: u32,
+}
+
+impl Axis {
+    fn node_state(&self) -> Option<NodeState> {
+        self.last_reply?;
+        Some(if self.estopped {
+            NodeState::EStop
+        } else if self.error != 0 {
+            NodeState::Fault
+        } else if self.motor_mode {
+            NodeState::Enabled
+        } else {
+            NodeState::Disabled
+        })
+    }
+}
+
+impl AxisView for Axis {
+    fn status(&self) -> AxisStatus {
+        AxisStatus {
+            state: self.node_state(),
+            last_heard: self.last_reply,
+            periods_without_feedback: self.periods_without_reply,
+        }
+    }
+
+    fn error_code(&self) -> u32 {
+        self.error.into()
+    }
+
+    fn feedback(&self) -> Option<AxisFeedback> {
+        let (p, v, t) = self.reply?;
+        Some(AxisFeedback {
+            position: self.map.joint_angle(p.into()) as f32,
+            velocity: self.map.joint_rate(v.into()) as f32,
+            torque: self.map.joint_torque(t.into()) as f32,
+            limited: false,
+        })
+    }
+}
+
+/// The MIT-mode drives of a robot, two per joint.
+pub struct Master {
+    set: DriveSet<Axis>,
+    last_poll: Nanos,
+    last_enter: Nanos,
+}
+
+impl Master {
+    /// The drives of `cfg` (`robot.axes`), unheard-of at `now`.
+    pub fn new(cfg: &Config, now: Nanos) -> Result<Self, DriveError> {
+        let set = DriveSet::new(cfg, now, |map: AxisMap| {
+            Ok(Axis {
+                map,
+                node: NodeId::new(map.node).map_err(|_| DriveError::NodeId {
+                    family: anguilla_protocol::Family::Mit,
+                    id: map.node,
+                    min: 1,
+                    max: mit::MAX_NODE_ID,
+                })?,
+                entering: false,
+                motor_mode: false,
+                estopped: false,
+                error: 0,
+                last_reply: None,
+                reply: None,
+                periods_without_reply: 0,
+            })
+        })?;
+        Ok(Self {
+            set,
+            last_poll: Nanos::ZERO,
+            last_enter: Nanos::ZERO,
+        })
+    }
+
+    fn send(out: &mut Out<'_>, node: NodeId, body: Body) {
+        match (Message { node, body }).encode(&DEFAULT_RANGES) {
+            Ok(f) => out.send(&f),
+            Err(_) => out.encode_failed(),
+        }
+    }
+
+    /// Exit motor mode to every drive: limp, and a reply from each.
+    fn exit_all(&mut self, out: &mut Out<'_>) {
+        for a in self.set.joints.iter_mut().flatten() {
+            Self::send(out, a.node, Body::ExitMotorMode);
+            a.motor_mode = false;
+            a.entering = false;
+        }
+    }
+
+    fn command(out: &mut Out<'_>, a: &Axis, position: f64, velocity: f64, torque: f64) {
+        let r = DEFAULT_RANGES;
+        let body = Body::Command(Command {
+            position: a.map.motor_angle(position) as f32,
+            velocity: (a.map.motor_rate(velocity) as f32).clamp(-r.velocity, r.velocity),
+            kp: KP,
+            kd: KD,
+            torque: (a.map.motor_torque(torque) as f32).clamp(-r.torque, r.torque),
+        });
+        Self::send(out, a.node, body);
+    }
+}
+
+impl Drives for Master {
+    super::bought::drive_set_answers!(set);
+
+    fn family(&self) -> anguilla_protocol::Family {
+        anguilla_protocol::Family::Mit
+    }
+
+    fn ingest(&mut self, now: Nanos, frame: &Frame) {
+        let m = match mit::decode(frame, &DEFAULT_RANGES) {
+            Ok(m) => m,
+            Err(_) => {
+                self.set.counters.malformed += 1;
+                return;
+            }
+        };
+        let Some((j, ax)) = self.set.index.get(m.node.get()) else {
+            // Another device on the bus.
+            self.set.counters.malformed += 1;
+            return;
+        };
+        let a = &mut self.set.joints[j][ax];
+        match m.body {
+            Body::Reply(r) => {
+                a.last_reply = Some(now);
+                a.reply = Some((r.position, r.velocity, r.torque));
+                a.error = r.status.map_or(0, |s| s.error);
+                a.periods_without_reply = 0;
+                if a.entering && a.error == 0 {
+                    a.entering = false;
+                    a.motor_mode = true;
+                }
+                if a.error != 0 {
+                    // A faulted drive leaves motor mode.
+                    a.motor_mode = false;
+                    a.entering = false;
+                }
+            }
+            Body::ExitMotorMode => {
+                // Someone else made one of our drives limp.
+                self.set.counters.foreign_commands += 1;
+                self.set.counters.estops_seen += 1;
+                self.set.bus_estop = true;
+            }
+            Body::EnterMotorMode | Body::SetZero | Body::Command(_) => {
+                self.set.counters.foreign_commands += 1
+            }
+        }
+    }
+
+    fn estop(&mut self, out: &mut Out<'_>) {
+        out.flush();
+        self.exit_all(out);
+        for a in self.set.joints.iter_mut().flatten() {
+            a.estopped = true;
+        }
+    }
+
+    fn clear_faults(&mut self, out: &mut Out<'_>) {
+        self.exit_all(out);
+        for a in self.set.joints.iter_mut().flatten() {
+            a.estopped = false;
+            a.error = 0;
+        }
+    }
+
+    fn period(&mut self, p: &Period<'_>, out: &mut Out<'_>) {
+        if p.bus_off {
+            return;
+        }
+        for a in self.set.joints.iter_mut().flatten() {
+            a.periods_without_reply = if a.motor_mode {
+                a.periods_without_reply.saturating_add(1)
+            } else {
+                0
+            };
+        }
+        let poll = p.now.saturating_sub(self.last_poll) >= POLL;
+        if poll {
+            self.last_poll = p.now;
+        }
+        match p.drive {
+            Drive::Disabled => {
+                if p.entering || poll {
+                    self.exit_all(out);
+                }
+            }
+            Drive::Enable => {
+                let retry = p.entering || p.now.saturating_sub(self.last_enter) >= RETRY;
+                if retry {
+                    self.last_enter = p.now;
+                }
+                for a in self.set.joints.iter_mut().flatten() {
+                    if a.motor_mode {
+                        // Hold where it is until the first setpoint.
+                        if let Some(fb) = a.feedback() {
+                            Self::command(out, a, fb.position.into(), 0.0, 0.0);
+                        }
+                    } else if a.error == 0 && !a.estopped && (retry || !a.entering) {
+                        Self::send(out, a.node, Body::EnterMotorMode);
+                        a.entering = true;
+                    } else if poll && !a.entering {
+                        // Faulted or E-stopped: still asked, to be heard.
+                        Self::send(out, a.node, Body::ExitMotorMode);
+                    }
+                }
+            }
+            Drive::Setpoints => {
+                for (j, (pair, sp)) in self.set.joints.iter().zip(p.setpoints).enumerate() {
+                    if p.skip.contains(j as u8 + 1) {
+                        continue;
+                    }
+                    for (a, s) in pair.iter().zip(sp) {
+                        Self::command(
+                            out,
+                            a,
+                            s.position as f64,
+                            s.velocity as f64,
+                            s.torque as f64,
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    fn disable_all(&mut self, out: &mut Out<'_>) {
+        self.exit_all(out);
+    }
+}
