@@ -33,11 +33,12 @@ TOPICS = {
     "/log": "foxglove.Log",
     "/tf": "foxglove.FrameTransforms",
     "/body": "foxglove.SceneUpdate",
+    "/anguilla/sensors": "anguilla.Sensors",
     # The built-in simulated robot's ground truth (anguilla run records it
     # when it drives that robot, as here).
     "/sim/truth": "anguilla.SimTruth",
 }
-DATA = ["/anguilla/state", "/anguilla/joints", "/tf", "/body"]
+DATA = ["/anguilla/state", "/anguilla/joints", "/tf", "/body", "/anguilla/sensors"]
 
 
 def fail(why):
@@ -94,6 +95,11 @@ def scan(messages):
                 validated[t] = validated.get(t, 0) + 1
             if t == "/body" and not body["entities"][0]["spheres"]:
                 fail("/body: a scene without links")
+            if t == "/anguilla/sensors":
+                # The recording's daemon has a head sensor and a tail IMU.
+                kinds = [s["kind"] for s in body["sensors"]]
+                if kinds != ["head-nav", "tail-imu"]:
+                    fail(f"/anguilla/sensors: message {i} lists {kinds}, expected head-nav, tail-imu")
     except (McapError, EOFError, ValueError) as e:
         cut = type(e).__name__
     return counts, schemas, validated, cut

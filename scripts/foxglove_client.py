@@ -20,7 +20,7 @@ import sys
 
 import websockets
 
-WANT = {"/anguilla/state", "/anguilla/joints", "/tf", "/body"}
+WANT = {"/anguilla/state", "/anguilla/joints", "/tf", "/body", "/anguilla/sensors"}
 
 
 def fail(why):
@@ -68,6 +68,11 @@ async def main(url, seconds):
             body = json.loads(msg[13:])
             if topic == "/body" and not body["entities"][0]["spheres"]:
                 fail("/body without links")
+            if topic == "/anguilla/sensors":
+                # check-foxglove's daemon has a head sensor and a tail IMU.
+                kinds = [s["kind"] for s in body["sensors"]]
+                if kinds != ["head-nav", "tail-imu"]:
+                    fail(f"/anguilla/sensors lists {kinds}, expected head-nav, tail-imu")
             if t < last_time.get(topic, 0):
                 fail(f"{topic}: time goes back")
             last_time[topic] = t

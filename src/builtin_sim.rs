@@ -59,17 +59,18 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         variant: cfg.bus.variant(),
         fifo_priority: (cfg.realtime.fifo_priority > 1).then(|| cfg.realtime.fifo_priority - 1),
         scenario: String::new(),
-        head_sensor: head_sensor(cfg),
+        head_sensor: head_sensor(cfg, cfg.sensor.node),
+        tail_sensor: head_sensor(cfg, cfg.sensor.tail_imu),
         ballast: cfg.model.ballast,
     }
 }
 
-/// The simulated head sensor of `cfg`'s `[sensor]` (none with node 0): a
-/// typical fusion IMU in the water the daemon assumes.
-fn head_sensor(cfg: &Config) -> Option<SensorConfig> {
+/// The simulated IMU at node `id` of `cfg`'s `[sensor]` (the head sensor
+/// or the tail IMU; none with id 0): a typical fusion IMU in the water the
+/// daemon assumes.
+fn head_sensor(cfg: &Config, id: u8) -> Option<SensorConfig> {
     let s = &cfg.sensor;
-    (s.node != 0)
-        .then(|| SensorConfig::typical_in(s.node, s.rate_hz, s.water_density, s.surface_pressure))
+    (id != 0).then(|| SensorConfig::typical_in(id, s.rate_hz, s.water_density, s.surface_pressure))
 }
 
 /// Creates the in-process bus and the robot; returns the daemon's end of

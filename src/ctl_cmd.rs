@@ -232,6 +232,33 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
             sensor_name(n.sensor)
         )
     };
+    // Every sensor of the list, as its kind names its values.
+    let mut sensors = String::new();
+    for e in s.sensors.iter().filter(|e| e.kind != 0) {
+        let kind = e
+            .sensor_kind()
+            .map_or_else(|| format!("kind {}", e.kind), |k| k.name().to_string());
+        let values: Vec<String> = e
+            .named_values()
+            .map(|(name, unit, v)| format!("{name} {v:.2} {unit}"))
+            .collect();
+        sensors.push_str(&format!(
+            "sensor    {kind} (node {}): {}, {} samples{}{}\n",
+            e.id,
+            sensor_name(e.health),
+            e.samples,
+            if values.is_empty() || e.samples == 0 {
+                ""
+            } else {
+                "; "
+            },
+            if e.samples == 0 {
+                String::new()
+            } else {
+                values.join(", ")
+            }
+        ));
+    }
     format!(
         "mode      {} ({})\n\
          faults    {faults}\n\
@@ -239,6 +266,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
          gait      amplitude {:.2}, frequency {:.2} Hz, turn {:.2} /m, pitch {:.2} /m\n\
          head      {:.3} m/s, {:.3} rad/s (predicted)\n\
          nav       {nav}\n\
+         {sensors}\
          autopilot {}\n\
          bus       {bus_state}; tx {}, rx {}, tx dropped {}, malformed {}\n\
          loop      {:.1} Hz; jitter p99 {:.0} us; overruns {}\n\

@@ -101,6 +101,11 @@ pub struct SimArgs {
     /// only; protocol/README.md "The head sensor").
     #[arg(long, value_name = "ID")]
     head_sensor: Option<u8>,
+    /// An IMU in the tail on node ID (1..=63, not a joint's nor the head
+    /// sensor's): the same simulated sensor, measuring the tail section
+    /// (the daemon's `[sensor] tail-imu`).
+    #[arg(long, value_name = "ID")]
+    tail_imu: Option<u8>,
     /// The body's ballast: its centre of mass this far below its axis (m,
     /// 0..=0.05; default 0.02, as the daemon's `[model] ballast`; 0: the
     /// paper's body, which rolls freely under pitch curvature).
@@ -221,6 +226,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         model_nodes: args.model_nodes.unwrap_or(defaults.model_nodes),
         current,
         head_sensor: args.head_sensor.map(SensorConfig::typical),
+        tail_sensor: args.tail_imu.map(SensorConfig::typical),
         ballast: args.ballast.unwrap_or(defaults.ballast),
         ..defaults
     };
@@ -246,6 +252,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
                 args.joints,
                 args.drive
             ),
+            (SimError::Config { field, reason }, _) if field.starts_with("tail_sensor") => {
+                bail!("--tail-imu {}: {reason}", args.tail_imu.unwrap_or_default())
+            }
             (SimError::Config { field, reason }, _) if field.starts_with("head_sensor") => {
                 bail!(
                     "--head-sensor {}: {reason}",

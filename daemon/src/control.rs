@@ -39,6 +39,7 @@ use crate::drive::Liveness;
 use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::nav::{Nav, Prediction};
 use crate::profile::{Follower, Limits};
+use crate::sensors::Sensors;
 use crate::session::Record;
 use crate::supervisor::{Directives, FaultPolicy, Observations, Supervisor, SupervisorConfig};
 use anguilla_ipc::vocabulary::{ClientId, Command, Mode, Nanos, SwimParams};
@@ -146,7 +147,7 @@ pub struct Controller {
     tap: Option<crossbeam_channel::Sender<Record>>,
     tap_dropped: u64,
     now: Nanos,
-    nav: Option<Nav>,
+    sensors: Sensors,
     autopilot: Option<Autopilot>,
     hold: Hold,
     hold_exit: Option<SensorHealth>,
@@ -185,8 +186,8 @@ impl Controller {
             0 => None,
             _ => Some(Autopilot::new(cfg, autopilot::calibrate(cfg, &model)?)),
         };
-        // After the calibration: the sensor's boot time counts from here.
-        let nav = Nav::new(cfg, now);
+        // After the calibration: the sensors' boot time counts from here.
+        let sensors = Sensors::new(cfg, now);
         let g = &cfg.gait;
         let lim = |v, a| Limits::new(v, a);
         let amp_l = lim(g.amplitude_rate, g.amplitude_accel)?;
@@ -223,7 +224,7 @@ impl Controller {
         });
         // The sensor as it is before the first period (waiting, or none):
         // the supervisor alone judges a Hold, on what it observed.
-        sup.observe_sensor(now, nav.as_ref().map_or(SensorHealth::None, Nav::health));
+        sup.observe_sensor(now, sensors.head_health());
         let n = joints;
         let snapshot = StateSnapshot {
             joint_count: n.min(MAX_JOINTS) as u32,
@@ -276,7 +277,7 @@ impl Controller {
             tap: None,
             tap_dropped: 0,
             now,
-            nav,
+            sensors,
             autopilot,
             hold: Hold::MANUAL,
             hold_exit: None,
@@ -376,12 +377,17 @@ impl Controller {
 
     /// The head sensor's health ([`SensorHealth::None`] without one).
     pub fn sensor_health(&self) -> SensorHealth {
-        self.nav.as_ref().map_or(SensorHealth::None, Nav::health)
+        self.sensors.head_health()
     }
 
     /// The head sensor's estimate, if a sensor is configured.
     pub fn nav(&self) -> Option<&Nav> {
-        self.nav.as_ref()
+        self.sensors.nav()
+    }
+
+    /// Every configured sensor.
+    pub fn sensors(&self) -> &Sensors {
+        &self.sensors
     }
 
     /// The autopilot, if a sensor is configured.
@@ -493,11 +499,11 @@ impl Controller {
     /// period.
     fn ingest(&mut self, now: Nanos, bus: &mut dyn Bus) {
         let drives = &mut self.drives;
-        let nav = &mut self.nav;
+        let sensors = &mut self.sensors;
         let (tap, dropped) = (&self.tap, &mut self.tap_dropped);
         // A receive error shows in the bus state the next period reads.
         let _ = bus.drain(&mut |r| {
-            if !nav.as_mut().is_some_and(|n| n.ingest(now, &r.frame)) {
+            if !sensors.ingest(now, &r.frame) {
                 drives.ingest(now, &r.frame);
             }
             if let Some(t) = tap
@@ -513,9 +519,10 @@ impl Controller {
     /// then the supervisor's decision on what the drives report, with the
     /// E-stop and clear-faults it asks for sent at once.
     fn supervise(&mut self, now: Nanos, period_state: BusState, bus: &mut dyn Bus) -> Directives {
-        if let Some(nav) = &mut self.nav {
-            nav.step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
-            let health = nav.health();
+        self.sensors
+            .step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
+        if self.sensors.nav().is_some() {
+            let health = self.sensors.head_health();
             if self.sup.observe_sensor(now, health) {
                 self.hold_exit = Some(health);
             }
@@ -560,7 +567,7 @@ impl Controller {
     /// the profiles are: amplitude, frequency, turn and pitch.
     fn follow_targets(&mut self, d: &Directives, mode: Mode) -> (SwimParams, [f64; 4]) {
         let mut target = d.gait_target;
-        if let (Some(ap), Some(nav)) = (&mut self.autopilot, &self.nav) {
+        if let (Some(ap), Some(nav)) = (&mut self.autopilot, self.sensors.nav()) {
             [target.turn, target.pitch] = ap.steer(
                 self.dt,
                 &d.hold,
@@ -730,7 +737,8 @@ impl Controller {
         s.refused_commands = self.counters.refused;
         s.records_lost = self.tap_dropped;
         s.operator_silent_stops = self.sup.operator_silent_count();
-        if let Some(nav) = &self.nav {
+        self.sensors.fill(&mut s.sensors);
+        if let Some(nav) = self.sensors.nav() {
             nav.fill(&mut s.nav);
         }
         s.nav.hold = self.hold.bits();

@@ -29,6 +29,7 @@ pub mod record;
 pub mod replay;
 pub mod rt;
 pub mod run;
+pub mod sensors;
 pub mod session;
 pub mod stats;
 pub mod supervisor;

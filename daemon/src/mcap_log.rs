@@ -34,12 +34,13 @@ use anguilla_ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot}
 pub mod schema;
 
 /// The channels, in the order they are created.
-pub const TOPICS: [&str; 5] = [
+pub const TOPICS: [&str; 6] = [
     "/anguilla/state",
     "/anguilla/joints",
     "/log",
     "/tf",
     "/body",
+    "/anguilla/sensors",
 ];
 
 fn err(e: mcap::McapError) -> io::Error {
@@ -78,7 +79,7 @@ pub struct Link {
 
 /// The schemas of [`TOPICS`], in order: (name, JSON schema text); see
 /// [`schema`].
-pub fn schemas() -> [(&'static str, Vec<u8>); 5] {
+pub fn schemas() -> [(&'static str, Vec<u8>); 6] {
     schema::all().map(|(name, s)| (name, s.to_string().into_bytes()))
 }
 
@@ -158,6 +159,7 @@ impl Scene {
                                    tf("head_predicted", &predicted_p, &predicted_q)] }),
         ));
         out.push((4, self.scene_json(s, ns)));
+        out.push((5, sensors_json(s)));
         self.last = Some(*s);
         out
     }
@@ -345,7 +347,7 @@ impl Outline {
 /// The session's MCAP writer.
 pub struct McapLog {
     w: mcap::Writer<BufWriter<File>>,
-    ids: [u16; 5],
+    ids: [u16; TOPICS.len()],
     seq: u32,
     scene: Scene,
     /// The ground truth's channel, added with its first message.
@@ -361,7 +363,7 @@ impl McapLog {
             .profile("")
             .create(file)
             .map_err(err)?;
-        let mut ids = [0u16; 5];
+        let mut ids = [0u16; TOPICS.len()];
         for (i, (name, data)) in schemas().iter().enumerate() {
             let schema_id = w.add_schema(name, "jsonschema", data).map_err(err)?;
             ids[i] = w
@@ -633,6 +635,25 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
         let why = SensorHealth::from_code(s.nav.hold_exit).map_or("unknown", SensorHealth::name);
         out.push((3, format!("the autopilot let go: head sensor {why}")));
     }
+    // A sensor whose health changed, named by its kind and node id (after
+    // the start: its first health is in `/anguilla/sensors`).
+    if let Some(l) = last {
+        for (e, was) in s.sensors.iter().zip(&l.sensors) {
+            if e.kind == 0 || (e.kind, e.id, e.health) == (was.kind, was.id, was.health) {
+                continue;
+            }
+            let kind = e
+                .sensor_kind()
+                .map_or("unknown sensor", anguilla_ipc::SensorKind::name);
+            let health = SensorHealth::from_code(e.health);
+            let level = match health {
+                Some(SensorHealth::Ok | SensorHealth::Waiting) => 2,
+                _ => 3,
+            };
+            let health = health.map_or("unknown", SensorHealth::name);
+            out.push((level, format!("sensor {kind} (node {}): {health}", e.id)));
+        }
+    }
     out
 }
 
@@ -672,6 +693,30 @@ fn state_json(s: &StateSnapshot) -> Value {
     })
 }
 
+/// `/anguilla/sensors`'s message: every sensor of the snapshot's list, its
+/// values named by its kind; its schema is [`schema::sensors`].
+fn sensors_json(s: &StateSnapshot) -> Value {
+    let list: Vec<Value> = s
+        .sensors
+        .iter()
+        .filter(|e| e.kind != 0)
+        .map(|e| {
+            let values: Vec<Value> = e
+                .named_values()
+                .map(|(name, unit, v)| json!({ "name": name, "unit": unit, "value": finite(v) }))
+                .collect();
+            json!({
+                "kind": e.sensor_kind().map_or(schema::UNKNOWN, anguilla_ipc::SensorKind::name),
+                "id": e.id,
+                "health": SensorHealth::from_code(e.health).map_or(schema::UNKNOWN, SensorHealth::name),
+                "samples": e.samples,
+                "values": values,
+            })
+        })
+        .collect();
+    json!({ "time_ns": s.time_ns, "sensors": list })
+}
+
 /// `/anguilla/joints`'s message; its schema is [`schema::joints`].
 fn joints_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
@@ -695,4 +740,33 @@ fn joints_json(s: &StateSnapshot) -> Value {
         "node_state": js.iter().map(|j| j.node_state).collect::<Vec<_>>(),
         "node_alive": js.iter().map(|j| j.node_alive).collect::<Vec<_>>(),
     })
+}
+
+#[cfg(test)]
+mod log_tests {
+    use super::*;
+
+    /// A sensor's change of health is a `/log` line naming its kind and
+    /// node; an unchanged one says nothing.
+    #[test]
+    fn a_sensor_that_changes_health_is_named_in_the_log() {
+        let mut a = StateSnapshot::default();
+        a.sensors[1] = anguilla_ipc::SensorEntry {
+            kind: anguilla_ipc::SensorKind::TailImu as u8,
+            id: 40,
+            health: SensorHealth::Ok as u8,
+            ..Default::default()
+        };
+        let mut b = a;
+        assert!(log_lines(Some(&a), &b).is_empty());
+        b.sensors[1].health = SensorHealth::Silent as u8;
+        assert_eq!(
+            log_lines(Some(&a), &b),
+            [(3, "sensor tail-imu (node 40): silent".to_string())]
+        );
+        assert_eq!(
+            log_lines(Some(&b), &a),
+            [(2, "sensor tail-imu (node 40): ok".to_string())]
+        );
+    }
 }

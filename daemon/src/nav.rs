@@ -37,13 +37,12 @@
 use anguilla_ipc::{NavSnapshot, SensorHealth};
 use anguilla_model::{HeadState, body_axis, depth_at_pressure, forward_axes};
 use anguilla_protocol::Frame;
-use anguilla_protocol::message::{
-    self, Function, HeadSample, Message, NodeId, NodeSet, SensorErrors, SensorStatus, Variant,
-};
+use anguilla_protocol::message::{HeadSample, NodeId, SensorErrors, SensorStatus};
 use anguilla_protocol::time::Nanos;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::config::Config;
+use crate::sensors::frames::SampleReader;
 
 /// Time constant of the pull towards a fusion IMU's attitude (s).
 pub const ATT_TAU: f64 = 0.05;
@@ -115,19 +114,10 @@ pub struct Estimate {
     pub depth_rate: f64,
 }
 
-#[derive(Debug, Clone, Copy, Default)]
-struct Partial {
-    sample: Option<u8>,
-    quaternion: Option<[f32; 4]>,
-    rates: Option<[f32; 3]>,
-    accel: Option<[f32; 3]>,
-}
-
 /// The head sensor, its health and the estimate.
 #[derive(Debug, Clone)]
 pub struct Nav {
     id: NodeId,
-    variant: Variant,
     timeout: Nanos,
     sample_period: f64,
     water_density: f64,
@@ -135,14 +125,10 @@ pub struct Nav {
     max_innovation: f64,
     roll_alarm: f64,
     started: Nanos,
-    partial: Partial,
+    reader: SampleReader,
     pending: Option<(Nanos, HeadSample)>,
-    last: Option<HeadSample>,
-    counter: Option<u8>,
     corrected_at: Option<Nanos>,
     gated: u32,
-    last_at: Option<Nanos>,
-    same: u32,
     initialised: bool,
     attitude: UnitQuaternion<f64>,
     rate_bias: Vector3<f64>,
@@ -157,9 +143,6 @@ pub struct Nav {
     errors: SensorErrors,
     status: SensorStatus,
     health: SensorHealth,
-    samples: u64,
-    lost: u64,
-    heartbeats: u64,
 }
 
 impl Nav {
@@ -169,7 +152,6 @@ impl Nav {
         let id = NodeId::new(s.node).ok()?;
         Some(Self {
             id,
-            variant: cfg.bus.variant(),
             timeout: Nanos::from_secs_f64(s.timeout),
             sample_period: 1.0 / s.rate_hz as f64,
             water_density: s.water_density,
@@ -177,14 +159,10 @@ impl Nav {
             max_innovation: s.max_rate_innovation,
             roll_alarm: s.roll_alarm.to_radians(),
             started: now,
-            partial: Partial::default(),
+            reader: SampleReader::new(id, cfg.bus.variant()),
             pending: None,
-            last: None,
-            counter: None,
             corrected_at: None,
             gated: 0,
-            last_at: None,
-            same: 0,
             initialised: false,
             attitude: UnitQuaternion::identity(),
             rate_bias: Vector3::zeros(),
@@ -199,111 +177,21 @@ impl Nav {
             errors: SensorErrors::default(),
             status: SensorStatus::default(),
             health: SensorHealth::Waiting,
-            samples: 0,
-            lost: 0,
-            heartbeats: 0,
         })
     }
 
     /// Takes `frame` if it is the sensor's (a sample's frame or its
     /// heartbeat); `false` leaves it to the drives.
     pub fn ingest(&mut self, now: Nanos, frame: &Frame) -> bool {
-        let Some(raw) = frame.id().as_standard() else {
-            return false;
-        };
-        let Some((function, low)) = Function::split_id(raw) else {
-            return false;
-        };
-        if low != self.id.get() {
-            return false;
-        }
-        let ours = matches!(
-            function,
-            Function::HeadAttitude
-                | Function::HeadRates
-                | Function::HeadAccel
-                | Function::HeadDepth
-                | Function::HeadSample
-                | Function::Heartbeat
-        );
-        if !ours {
-            return false;
-        }
-        match message::decode(frame, self.variant, NodeSet::empty().with(self.id)) {
-            Ok(Message::HeadSample(s)) => self.complete(now, s),
-            Ok(Message::HeadAttitude(a)) => {
-                self.start(a.sample);
-                self.partial.quaternion = Some(a.quaternion);
-            }
-            Ok(Message::HeadRates(v)) => {
-                self.start(v.sample);
-                self.partial.rates = Some(v.xyz);
-            }
-            Ok(Message::HeadAccel(v)) => {
-                self.start(v.sample);
-                self.partial.accel = Some(v.xyz);
-            }
-            Ok(Message::HeadDepth(d)) => {
-                let p = core::mem::take(&mut self.partial);
-                let attitude_ok = !d.status.has(SensorStatus::ATTITUDE) || p.quaternion.is_some();
-                match (p.sample == Some(d.sample), p.rates, p.accel) {
-                    (true, Some(rates), Some(accel)) if attitude_ok => self.complete(
-                        now,
-                        HeadSample {
-                            node: d.node,
-                            sample: d.sample,
-                            quaternion: p.quaternion.unwrap_or([0.0; 4]),
-                            rates,
-                            accel,
-                            pressure: d.pressure,
-                            temperature: d.temperature,
-                            status: d.status,
-                            errors: d.errors,
-                        },
-                    ),
-                    // A sample whose other frames were lost: counted lost,
-                    // and the counter moves on (its gap is not counted again).
-                    _ => {
-                        self.lost += 1;
-                        self.counter = Some(d.sample);
-                    }
+        match self.reader.ingest(now, frame) {
+            None => false,
+            Some(done) => {
+                if let Some(s) = done {
+                    self.pending = Some((now, s));
                 }
-            }
-            Ok(Message::Heartbeat(_)) => self.heartbeats += 1,
-            // Malformed sensor frames or another message: dropped.
-            _ => {}
-        }
-        true
-    }
-
-    fn start(&mut self, sample: u8) {
-        if self.partial.sample != Some(sample) {
-            self.partial = Partial {
-                sample: Some(sample),
-                ..Partial::default()
-            };
-        }
-    }
-
-    fn complete(&mut self, now: Nanos, s: HeadSample) {
-        if let Some(c) = self.counter {
-            let gap = s.sample.wrapping_sub(c);
-            if gap > 1 {
-                self.lost += u64::from(gap - 1);
+                true
             }
         }
-        self.counter = Some(s.sample);
-        if let Some(last) = &self.last {
-            let same = last.quaternion == s.quaternion
-                && last.rates == s.rates
-                && last.accel == s.accel
-                && last.pressure == s.pressure;
-            self.same = if same { self.same + 1 } else { 0 };
-        }
-        self.samples += 1;
-        self.last = Some(s);
-        self.last_at = Some(now);
-        self.pending = Some((now, s));
     }
 
     /// One control period of `dt` seconds at `now`: propagates the
@@ -411,16 +299,10 @@ impl Nav {
     }
 
     fn judge(&self, now: Nanos) -> SensorHealth {
-        let Some(at) = self.last_at else {
-            // Booting: silent once the timeout has passed five times over.
-            return if now.saturating_sub(self.started) > self.timeout * 5 {
-                SensorHealth::Silent
-            } else {
-                SensorHealth::Waiting
-            };
-        };
-        if now.saturating_sub(at) > self.timeout {
-            SensorHealth::Silent
+        // Booting (silent once the timeout has passed five times over), or
+        // silent.
+        if let Some(h) = self.reader.silence(now, self.started, self.timeout) {
+            h
         } else if self
             .errors
             .any(SensorErrors::IMU | SensorErrors::PRESSURE | SensorErrors::IMU_RESET)
@@ -430,7 +312,7 @@ impl Nav {
             // A fault bit, a re-converging IMU, or a sample without depth,
             // or without either attitude or rates.
             SensorHealth::Error
-        } else if self.same >= STUCK_SAMPLES {
+        } else if self.reader.repeats() >= STUCK_SAMPLES {
             SensorHealth::Stuck
         } else if self.implausible {
             SensorHealth::Implausible
@@ -459,6 +341,26 @@ impl Nav {
         }
     }
 
+    /// The sensor's node id.
+    pub fn id(&self) -> u8 {
+        self.id.get()
+    }
+
+    /// Whole samples received since start.
+    pub fn samples(&self) -> u64 {
+        self.reader.samples()
+    }
+
+    /// Whether the estimate has begun (a first sample was taken).
+    pub fn has_estimate(&self) -> bool {
+        self.initialised
+    }
+
+    /// The water temperature of the last sample that had one (°C).
+    pub fn temperature(&self) -> f64 {
+        self.temperature
+    }
+
     /// The snapshot's sensor and estimate fields (the autopilot's are the
     /// controller's).
     pub fn fill(&self, s: &mut NavSnapshot) {
@@ -475,8 +377,8 @@ impl Nav {
             s.rate_innovation = self.innovation.norm() as f32;
             s.depth_innovation = self.depth_innovation as f32;
         }
-        s.samples = self.samples;
-        s.lost_samples = self.lost;
+        s.samples = self.reader.samples();
+        s.lost_samples = self.reader.lost();
     }
 }
 
@@ -489,7 +391,7 @@ fn level(accel: Vector3<f64>) -> UnitQuaternion<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use anguilla_protocol::message::{HeadSample, encode_head_sample};
+    use anguilla_protocol::message::{HeadSample, Variant, encode_head_sample};
 
     const MS: Nanos = Nanos::from_millis(1);
 

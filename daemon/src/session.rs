@@ -14,8 +14,8 @@
 //!                           an operator request: the client port it came
 //!                           on and that port's node (32 hex digits each;
 //!                           0 for the E-stop socket), the CommandRequest's bytes
-//!                           (layout 5 requests, from sessions recorded before
-//!                           the tagged body, are read as layout 6)
+//!                           (layout 5 and 6 requests, from sessions recorded
+//!                           before, are read as the present layout)
 //! D <ns> <hex>              an iceoryx2 node that died (its id)
 //! S <ns>                    shutdown requested at this time
 //! P <ns> <bus state 0-3>    a period starts at this time (3: adapter gone)
@@ -277,8 +277,8 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
                 let (origin, node) = (id(origin, "origin")?, id(node, "node id")?);
                 let bytes =
                     unhex(rest).ok_or_else(|| err(n, "command: expected hex bytes".into()))?;
-                // Sessions recorded before layout 6 carry layout-5 requests.
-                let req = CommandRequest::from_bytes(&bytes).map(CommandRequest::from_layout_5);
+                // Sessions recorded before layout 7 carry layout-5 or -6 requests.
+                let req = CommandRequest::from_bytes(&bytes).map(CommandRequest::from_older_layout);
                 let req = req.ok_or_else(|| {
                     err(
                         n,

@@ -99,13 +99,16 @@ fn a_control_period_allocates_nothing() {
     }
 }
 
-/// The head sensor's frames, the estimate and the autopilot: a period
-/// with a heading and a depth held allocates nothing, nor does a sensor
-/// falling silent and ending the hold.
+/// The head sensor's frames, the estimate and the autopilot, and a tail
+/// IMU's frames beside them: a period with a heading and a depth held
+/// allocates nothing, nor does a sensor falling silent and ending the hold.
 #[test]
 fn a_period_with_the_autopilot_allocates_nothing() {
     use anguilla_ipc::Hold;
-    let mut rig = lockstep::Rig::new(&lockstep::config(), 9, [0.0; 3]);
+    let mut cfg = lockstep::config();
+    cfg.sensor.tail_imu = 40;
+    cfg.validate().expect("valid");
+    let mut rig = lockstep::Rig::new(&cfg, 9, [0.0; 3]);
     rig.swim(1.0);
     rig.run(3.0, |_| {});
     COUNT.with(|n| n.set(0));
@@ -128,6 +131,9 @@ fn a_period_with_the_autopilot_allocates_nothing() {
     }
     let s = rig.state();
     assert_eq!(s.nav.hold, 0, "the silent sensor ended the hold");
+    // The tail IMU was read all along (its samples counted, in the list).
+    assert_eq!(s.sensors[1].kind, anguilla_ipc::SensorKind::TailImu as u8);
+    assert!(s.sensors[1].samples > 500, "{}", s.sensors[1].samples);
     assert_eq!(s.cause, anguilla_ipc::vocabulary::Cause::SensorLost.code());
     // A refused hold (the sensor is silent) formats its reason in place.
     let r = counted(|| rig.command(hold));

@@ -19,7 +19,7 @@ try:
 except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
-LAYOUT_VERSION = 6
+LAYOUT_VERSION = 7
 ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD = range(
     1, 11)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
@@ -78,6 +78,11 @@ class NavSnapshot(_Payload):
         ("reserved", u32), ("samples", u64), ("lost_samples", u64)]
 
 
+class SensorEntry(_Payload):
+    _fields_ = [("kind", u8), ("id", u8), ("health", u8), ("reserved", u8), ("samples", u32),
+                ("values", f32 * 8)]
+
+
 class StateSnapshot(_Payload):
     _fields_ = [
         ("layout_version", u32), ("joint_count", u32), ("sequence", u64), ("time_ns", u64),
@@ -88,7 +93,8 @@ class StateSnapshot(_Payload):
         ("loop_stats", LoopSnapshot), ("bus", BusSnapshot),
         ("clamped_setpoints", u64), ("refused_commands", u64),
         ("operator_silent_stops", u64), ("socket_estops", u64), ("records_lost", u64),
-        ("limits", LimitsSnapshot), ("nav", NavSnapshot), ("joints", JointSnapshot * 32)]
+        ("limits", LimitsSnapshot), ("nav", NavSnapshot), ("sensors", SensorEntry * 4),
+        ("joints", JointSnapshot * 32)]
 
     def holder(self):
         """The client port id holding control (u128), 0 if nobody."""
@@ -121,7 +127,7 @@ class CommandReply(_Payload):
 
 
 for _t, _size in ((JointSnapshot, 56), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
-                  (LimitsSnapshot, 24), (NavSnapshot, 64), (StateSnapshot, 2120),
+                  (LimitsSnapshot, 24), (NavSnapshot, 64), (SensorEntry, 40), (StateSnapshot, 2280),
                   (SwimBody, 16), (HoldBody, 12), (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))

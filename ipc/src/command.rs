@@ -166,11 +166,19 @@ impl CommandRequest {
         }
     }
 
-    /// A request of layout 5 (before the body: SWIM's four floats in words
-    /// 3..7, HOLD's bits and floats in words 7..10, with a 40-byte request
-    /// too) read as this layout, so that sessions recorded then still
-    /// replay; any other request unchanged.
-    pub fn from_layout_5(old: Self) -> Self {
+    /// A request recorded under an older layout read as this one, so that
+    /// sessions recorded then still replay: layout 5 (before the body:
+    /// SWIM's four floats in words 3..7, HOLD's bits and floats in words
+    /// 7..10, a 40-byte request too) is moved into the body; layout 6
+    /// (whose request is this layout's; 7 changed the state snapshot only)
+    /// is relabelled; any other request unchanged.
+    pub fn from_older_layout(old: Self) -> Self {
+        if old.layout_version == 6 {
+            return Self {
+                layout_version: LAYOUT_VERSION,
+                ..old
+            };
+        }
         if old.layout_version != 5 {
             return old;
         }

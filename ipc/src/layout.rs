@@ -49,7 +49,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
         bus: "BusSnapshot", clamped_setpoints: "uint64_t", refused_commands: "uint64_t",
         operator_silent_stops: "uint64_t", socket_estops: "uint64_t",
         records_lost: "uint64_t",
-        limits: "LimitsSnapshot", nav: "NavSnapshot", joints: "JointSnapshot[32]",
+        limits: "LimitsSnapshot", nav: "NavSnapshot", sensors: "SensorEntry[4]",
+        joints: "JointSnapshot[32]",
     ]));
     v.extend(rows!(JointSnapshot, "JointSnapshot", [
         commanded_pitch: "float", commanded_yaw: "float", measured_pitch: "float",
@@ -77,6 +78,10 @@ pub fn layout_table() -> Vec<LayoutRow> {
         max_frequency: "float", max_turn: "float", max_pitch: "float",
         command_timeout_ms: "uint32_t", control_release_ms: "uint32_t", daemon_pid: "uint32_t",
     ]));
+    v.extend(rows!(SensorEntry, "SensorEntry", [
+        kind: "uint8_t", id: "uint8_t", health: "uint8_t", reserved: "uint8_t",
+        samples: "uint32_t", values: "float[8]",
+    ]));
     v.extend(rows!(NavSnapshot, "NavSnapshot", [
         sensor: "uint8_t", hold: "uint8_t", hold_exit: "uint8_t", roll_alarm: "uint8_t",
         heading_deg: "float", pitch_deg: "float", roll_deg: "float", depth_m: "float",
@@ -99,7 +104,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
 }
 
 /// Every payload type documented, with its size in bytes.
-pub fn payload_sizes() -> [(&'static str, usize); 11] {
+pub fn payload_sizes() -> [(&'static str, usize); 12] {
     [
         ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
         ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
@@ -108,6 +113,7 @@ pub fn payload_sizes() -> [(&'static str, usize); 11] {
         ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
         ("LimitsSnapshot", core::mem::size_of::<LimitsSnapshot>()),
         ("NavSnapshot", core::mem::size_of::<NavSnapshot>()),
+        ("SensorEntry", core::mem::size_of::<SensorEntry>()),
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
         ("SwimBody", core::mem::size_of::<SwimBody>()),
         ("HoldBody", core::mem::size_of::<HoldBody>()),
@@ -178,7 +184,7 @@ pub fn layout_markdown() -> String {
 /// causes, fault bits) as Markdown tables: the source of `docs/ipc.md`'s
 /// codes section.
 pub fn codes_markdown() -> String {
-    use crate::vocabulary::{Cause, CommandKind, FaultKind, Mode, SensorHealth};
+    use crate::vocabulary::{Cause, CommandKind, FaultKind, Mode, SensorHealth, SensorKind};
     let rows = layout_table();
     let mut out = String::new();
     let _ = writeln!(out, "`CommandRequest.code`:\n");
@@ -238,12 +244,33 @@ pub fn codes_markdown() -> String {
     }
     let _ = writeln!(
         out,
-        "\n`NavSnapshot.sensor` and `NavSnapshot.hold_exit` (the head sensor's health):\n"
+        "\n`NavSnapshot.sensor`, `NavSnapshot.hold_exit` and `SensorEntry.health` (a \
+         sensor's health):\n"
     );
     let _ = writeln!(out, "| code | health |");
     let _ = writeln!(out, "|---:|---|");
     for h in SensorHealth::ALL {
         let _ = writeln!(out, "| {} | {} |", h as u8, h.name());
+    }
+    let _ = writeln!(
+        out,
+        "\n`SensorEntry.kind` (0: an empty entry) and what its `values` are, in order:\n"
+    );
+    let _ = writeln!(out, "| code | kind | values |");
+    let _ = writeln!(out, "|---:|---|---|");
+    for k in SensorKind::ALL {
+        let values: Vec<String> = k
+            .values()
+            .iter()
+            .map(|(name, unit)| format!("{name} ({unit})"))
+            .collect();
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} |",
+            k as u8,
+            k.name(),
+            values.join(", ")
+        );
     }
     out
 }

@@ -8,7 +8,11 @@ use crate::vocabulary::SwimParams;
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 6;
+pub const LAYOUT_VERSION: u32 = 7;
+/// Most sensors a snapshot carries.
+pub const MAX_SENSORS: usize = 4;
+/// Values a [`SensorEntry`] carries.
+pub const SENSOR_VALUES: usize = 8;
 
 /// One joint in a [`StateSnapshot`]: angles (rad), velocities (rad/s) and
 /// torques (N·m) of its pitch and yaw axes.
@@ -223,6 +227,45 @@ pub struct NavSnapshot {
     pub lost_samples: u64,
 }
 
+/// One sensor in a [`StateSnapshot`]'s list: what it is, its bus id, its
+/// health and its values, which [`SensorKind::values`](crate::SensorKind::values)
+/// names. An entry of kind 0 is empty.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[repr(C)]
+#[type_name("anguilla::SensorEntry")]
+pub struct SensorEntry {
+    /// `SensorKind` code (1 head-nav, 2 tail-imu); 0: no sensor here.
+    pub kind: u8,
+    /// Its node id on the bus.
+    pub id: u8,
+    /// Its health (`SensorHealth` code).
+    pub health: u8,
+    /// Padding, always 0.
+    pub reserved: u8,
+    /// Samples received since start.
+    pub samples: u32,
+    /// Its values, as its kind names them (0 before its first sample).
+    pub values: [f32; SENSOR_VALUES],
+}
+
+impl SensorEntry {
+    /// What sensor this is (`None`: an empty entry, or a kind this tool
+    /// does not know).
+    pub fn sensor_kind(&self) -> Option<crate::SensorKind> {
+        crate::SensorKind::from_code(self.kind)
+    }
+
+    /// Its values with their names and units, as its kind names them
+    /// (none for an empty or unknown entry).
+    pub fn named_values(&self) -> impl Iterator<Item = (&'static str, &'static str, f32)> + '_ {
+        self.sensor_kind()
+            .map_or(&[][..], |k| k.values())
+            .iter()
+            .zip(self.values)
+            .map(|(&(name, unit), v)| (name, unit, v))
+    }
+}
+
 /// Everything an operator tool shows, published every control period.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
@@ -284,6 +327,9 @@ pub struct StateSnapshot {
     pub limits: LimitsSnapshot,
     /// The head sensor, the estimate and the autopilot.
     pub nav: NavSnapshot,
+    /// Every configured sensor, the head sensor first (`kind` 0 past the
+    /// last).
+    pub sensors: [SensorEntry; MAX_SENSORS],
     /// Per joint, from the head (index 0) to the tail.
     pub joints: [JointSnapshot; MAX_JOINTS],
 }
@@ -331,6 +377,7 @@ impl Default for StateSnapshot {
             records_lost: 0,
             limits: LimitsSnapshot::default(),
             nav: NavSnapshot::default(),
+            sensors: [SensorEntry::default(); MAX_SENSORS],
             joints: [JointSnapshot::default(); MAX_JOINTS],
         }
     }

@@ -127,7 +127,7 @@ fn a_layout_5_request_reads_as_the_same_command() {
         CommandKind::Swim,
         [f(0.5), f(1.25), f(-0.5), f(0.25), 3, f(90.0), f(2.0)],
     );
-    let r = CommandRequest::from_layout_5(swim);
+    let r = CommandRequest::from_older_layout(swim);
     assert_eq!(r.layout_version, LAYOUT_VERSION);
     assert_eq!(r.sequence, 9);
     assert_eq!(
@@ -141,7 +141,7 @@ fn a_layout_5_request_reads_as_the_same_command() {
     );
     let hold = old(CommandKind::Hold, [f(0.5), 0, 0, 0, 3, f(90.0), f(2.0)]);
     assert_eq!(
-        CommandRequest::from_layout_5(hold).command(),
+        CommandRequest::from_older_layout(hold).command(),
         Ok(Command::Hold(Hold {
             heading: Some(90.0),
             depth: Some(2.0)
@@ -149,13 +149,33 @@ fn a_layout_5_request_reads_as_the_same_command() {
     );
     let stop = old(CommandKind::Stop, [0; 7]);
     assert_eq!(
-        CommandRequest::from_layout_5(stop).command(),
+        CommandRequest::from_older_layout(stop).command(),
         Ok(Command::Stop)
     );
-    // Not layout 5: unchanged (and refused as before if it is neither).
+    // Layout 6's request is this layout's: relabelled, the body kept.
+    let six = CommandRequest {
+        layout_version: 6,
+        ..CommandRequest::new(
+            Command::Hold(Hold {
+                heading: Some(45.0),
+                depth: None,
+            }),
+            4,
+        )
+    };
+    let r = CommandRequest::from_older_layout(six);
+    assert_eq!(r.layout_version, LAYOUT_VERSION);
+    assert_eq!(
+        r.command(),
+        Ok(Command::Hold(Hold {
+            heading: Some(45.0),
+            depth: None
+        }))
+    );
+    // Neither: unchanged (and refused as before).
     let mut other = stop;
     other.layout_version = 4;
-    assert_eq!(CommandRequest::from_layout_5(other), other);
+    assert_eq!(CommandRequest::from_older_layout(other), other);
 }
 
 #[test]

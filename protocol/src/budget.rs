@@ -314,13 +314,30 @@ pub fn head_sensor_traffic(variant: Variant, rate_hz: u16) -> Vec<BudgetLine> {
     lines
 }
 
+/// The IMUs on an anguilla bus (the head sensor, a tail IMU): each sends
+/// the head-sensor protocol's samples at `rate_hz` and a heartbeat.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Imus {
+    /// Samples per second of each.
+    pub rate_hz: u16,
+    /// How many (1..).
+    pub count: u8,
+}
+
+impl Imus {
+    /// One IMU (the head sensor) at `rate_hz`.
+    pub const fn one(rate_hz: u16) -> Self {
+        Self { rate_hz, count: 1 }
+    }
+}
+
 /// Whose cyclic traffic a budget counts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Traffic {
-    /// anguilla vertebra nodes with these ids (one per joint), and a head
-    /// sensor at this sample rate, Hz, if the robot has one
-    /// ([`head_sensor_traffic`]).
-    Anguilla(NodeSet, Option<u16>),
+    /// anguilla vertebra nodes with these ids (one per joint), and the
+    /// IMUs (head sensor, tail IMU) if the robot has any
+    /// ([`head_sensor_traffic`] each).
+    Anguilla(NodeSet, Option<Imus>),
     /// A family's drives (bought ones: one per axis, classic CAN): what
     /// they and their master send is the family's answer
     /// ([`Family::drive_traffic`](crate::Family::drive_traffic)).
@@ -359,8 +376,18 @@ impl Traffic {
         match self {
             Traffic::Anguilla(nodes, sensor) => {
                 let mut lines = control_traffic(variant, nodes).to_vec();
-                if let Some(hz) = sensor {
-                    lines.extend(head_sensor_traffic(variant, hz));
+                if let Some(imus) = sensor {
+                    // `count` sensors' per-second lines: each frame as often
+                    // again.
+                    let k = f64::from(imus.count);
+                    lines.extend(head_sensor_traffic(variant, imus.rate_hz).into_iter().map(
+                        |mut l| {
+                            if let Cadence::PerSecond(c) = l.cadence {
+                                l.cadence = Cadence::PerSecond(c * k);
+                            }
+                            l
+                        },
+                    ));
                 }
                 lines
             }
@@ -455,10 +482,10 @@ fn check_traffic(t: Traffic, rates: Bitrates) -> Result<Bitrates, BudgetError> {
     match t {
         Traffic::Anguilla(n, sensor) => {
             check_nodes(n)?;
-            if let Some(hz) = sensor
-                && !(HEAD_SENSOR_RATE_HZ.0..=HEAD_SENSOR_RATE_HZ.1).contains(&hz)
+            if let Some(imus) = sensor
+                && !(HEAD_SENSOR_RATE_HZ.0..=HEAD_SENSOR_RATE_HZ.1).contains(&imus.rate_hz)
             {
-                return Err(BudgetError::HeadSensorRate(hz));
+                return Err(BudgetError::HeadSensorRate(imus.rate_hz));
             }
         }
         Traffic::Drives { family, axes } => {
@@ -680,7 +707,12 @@ mod tests {
             control_traffic(Variant::Classic, nodes).to_vec()
         );
         assert_eq!(budget(nodes, 100.0, CLASSIC_1M).unwrap(), without);
-        let with = budget_of(Traffic::Anguilla(nodes, Some(100)), 100.0, CLASSIC_1M).unwrap();
+        let with = budget_of(
+            Traffic::Anguilla(nodes, Some(Imus::one(100))),
+            100.0,
+            CLASSIC_1M,
+        )
+        .unwrap();
         let names: Vec<_> = with.lines[4..].iter().map(|l| l.name).collect();
         assert_eq!(
             names,
@@ -696,17 +728,33 @@ mod tests {
         // samples/s, plus 10 heartbeats of 115 bits: 53 150 bit/s.
         let added = with.load - without.load;
         assert!((added * 1e6 - 53_150.0).abs() < 1e-6, "{added}");
+        // A tail IMU as well: twice that.
+        let two = Some(Imus {
+            rate_hz: 100,
+            count: 2,
+        });
+        let both = budget_of(Traffic::Anguilla(nodes, two), 100.0, CLASSIC_1M).unwrap();
+        assert!(((both.load - without.load) * 1e6 - 106_300.0).abs() < 1e-6);
         // CAN FD: one 32-byte frame per sample; at 200 Hz.
         let fd = head_sensor_traffic(Variant::Fd, 200);
         assert_eq!((fd[0].name, fd[0].bytes), ("HeadSample", 32));
         assert_eq!(fd[0].cadence, Cadence::PerSecond(200.0));
         // The per-second lines lower the highest control rate.
         let r0 = max_rate_of(Traffic::Anguilla(nodes, None), CLASSIC_1M, 0.6).unwrap();
-        let r1 = max_rate_of(Traffic::Anguilla(nodes, Some(100)), CLASSIC_1M, 0.6).unwrap();
+        let r1 = max_rate_of(
+            Traffic::Anguilla(nodes, Some(Imus::one(100))),
+            CLASSIC_1M,
+            0.6,
+        )
+        .unwrap();
         assert!(r1 < r0, "{r1} {r0}");
         for hz in [99, 201] {
             assert_eq!(
-                budget_of(Traffic::Anguilla(nodes, Some(hz)), 100.0, CLASSIC_1M),
+                budget_of(
+                    Traffic::Anguilla(nodes, Some(Imus::one(hz))),
+                    100.0,
+                    CLASSIC_1M
+                ),
                 Err(BudgetError::HeadSensorRate(hz))
             );
         }

@@ -41,6 +41,8 @@ pub struct BuiltinConfig {
     pub scenario: String,
     /// A head sensor (IMU and pressure) beside the joints, or none.
     pub head_sensor: Option<crate::sensor::SensorConfig>,
+    /// An IMU in the tail, or none.
+    pub tail_sensor: Option<crate::sensor::SensorConfig>,
     /// The body's ballast (m; 0: the paper's body).
     pub ballast: f64,
 }
@@ -79,6 +81,7 @@ impl Builtin {
             variant: cfg.variant,
             boot_time: Duration::from_millis(50),
             head_sensor: cfg.head_sensor,
+            tail_sensor: cfg.tail_sensor,
             ballast: cfg.ballast,
             ..RobotConfig::with_joints(n)
         };

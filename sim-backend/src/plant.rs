@@ -255,6 +255,45 @@ impl Plant {
         self.ws.shape()
     }
 
+    /// The tail's true state, from the head's and the body's shape at the
+    /// last step: what a tail IMU measures (earth frame; its frame is the
+    /// last section's, `t1` along the body towards the tail).
+    pub fn tail(&self) -> crate::sensor::HeadTruth {
+        let h = &self.head;
+        let n = self.ws.shape().len().saturating_sub(1);
+        let frame = self
+            .ws
+            .frames()
+            .get(n)
+            .copied()
+            .unwrap_or_else(nalgebra::Matrix3::identity);
+        let p = self.ws.shape().get(n).copied().unwrap_or_default();
+        let we = self
+            .ws
+            .deformation_rates()
+            .get(n)
+            .copied()
+            .unwrap_or_default();
+        let ve = self
+            .ws
+            .deformation_velocities()
+            .get(n)
+            .copied()
+            .unwrap_or_default();
+        let r = h.orientation;
+        let q = r * nalgebra::UnitQuaternion::from_matrix(&frame);
+        let arm = r * p;
+        let position = h.position + arm;
+        let velocity = h.velocity + h.omega.cross(&arm) + r * ve;
+        let omega = h.omega + r * we;
+        crate::sensor::HeadTruth {
+            position: [position.x, position.y, position.z],
+            orientation: [q.w, q.i, q.j, q.k],
+            velocity: [velocity.x, velocity.y, velocity.z],
+            angular_velocity: [omega.x, omega.y, omega.z],
+        }
+    }
+
     /// Puts the head back at the origin with the given state (a test's
     /// initial condition); the joints keep their motion.
     pub fn reset_head(&mut self, head: HeadState) {

@@ -227,6 +227,7 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
         fifo_priority: None,
         scenario: String::new(),
         head_sensor: None,
+        tail_sensor: None,
         ballast: 0.0,
     })
     .unwrap();

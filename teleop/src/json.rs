@@ -88,6 +88,14 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "depth_rate": estimate(nav.depth_rate),
         "heading_target_deg": hold.heading.map(|_| nav.heading_target_deg),
         "depth_target_m": hold.depth.map(|_| nav.depth_target_m),
+        "sensors": s.sensors.iter().filter(|e| e.kind != 0).map(|e| json!({
+            "kind": e.sensor_kind().map_or("unknown", |k| k.name()),
+            "id": e.id,
+            "health": sensor_name(e.health),
+            "samples": e.samples,
+            "values": e.named_values().map(|(name, _, v)| (name.to_string(), json!(v)))
+                .collect::<serde_json::Map<String, Value>>(),
+        })).collect::<Vec<Value>>(),
         "nav": {
             "sensor": nav.sensor, "hold": nav.hold, "hold_exit": nav.hold_exit,
             "roll_alarm": nav.roll_alarm, "heading_deg": nav.heading_deg,

@@ -75,6 +75,11 @@ impl Rig {
             tune(&mut sensor);
             sensor
         });
+        // A tail IMU when the daemon has one configured.
+        let tail = (s.tail_imu != 0).then(|| SensorConfig {
+            origin_depth: ORIGIN_DEPTH,
+            ..SensorConfig::typical_in(s.tail_imu, s.rate_hz, s.water_density, s.surface_pressure)
+        });
         let robot = SimRobot::on_mem(
             RobotConfig {
                 node_ids: cfg.node_ids(),
@@ -82,6 +87,7 @@ impl Rig {
                 boot_time: Duration::from_millis(10),
                 seed,
                 head_sensor: sensor,
+                tail_sensor: tail,
                 ballast: cfg.model.ballast,
                 current: Current::steady(current).expect("a current within limits"),
                 ..RobotConfig::with_joints(cfg.robot.joints)

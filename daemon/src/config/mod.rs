@@ -100,9 +100,12 @@ impl Config {
         };
         let mut traffic = anguilla_protocol::budget::Traffic::of_family(self.robot.drive, nodes);
         if let anguilla_protocol::budget::Traffic::Anguilla(_, sensor) = &mut traffic
-            && self.sensor.node != 0
+            && (self.sensor.node != 0 || self.sensor.tail_imu != 0)
         {
-            *sensor = Some(self.sensor.rate_hz);
+            *sensor = Some(anguilla_protocol::budget::Imus {
+                rate_hz: self.sensor.rate_hz,
+                count: u8::from(self.sensor.node != 0) + u8::from(self.sensor.tail_imu != 0),
+            });
         }
         let max = anguilla_protocol::budget::max_rate_of(traffic, rates, self.bus.max_load)
             .map_err(|e| ConfigError::Derived(format!("bus budget: {e}")))?;

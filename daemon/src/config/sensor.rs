@@ -24,6 +24,11 @@ pub struct SensorConfig {
     pub max_rate_innovation: f64,
     /// |roll| beyond which the robot is alarmed as rolled over (deg).
     pub roll_alarm: f64,
+    /// An IMU in the tail (the head sensor's protocol, at the same rate and
+    /// timeout): its node id, 1..=63, none of the joints' nor the head
+    /// sensor's; 0: none. Shown to the operator and recorded; the estimate
+    /// and the autopilot use the head sensor alone.
+    pub tail_imu: u8,
 }
 
 impl Default for SensorConfig {
@@ -36,6 +41,7 @@ impl Default for SensorConfig {
             surface_pressure: 101_325.0,
             max_rate_innovation: 1.0,
             roll_alarm: 60.0,
+            tail_imu: 0,
         }
     }
 }
@@ -61,5 +67,9 @@ pub(super) fn write_default(d: &SensorConfig, w: &mut dyn FnMut(String)) {
     ));
     w("# |roll| beyond which the operator is alarmed (deg).".into());
     w(format!("roll-alarm = {}", fmt_f(d.roll_alarm)));
+    w("# An IMU in the tail (the same protocol, rate and timeout): its node id, 1..=63,".into());
+    w("# none of the joints' nor node; shown and recorded, not used by the autopilot.".into());
+    w("# 0: none.".into());
+    w(format!("tail-imu = {}", d.tail_imu));
     w(String::new());
 }

@@ -248,6 +248,32 @@ impl Config {
     /// the joints' ids).
     pub(super) fn validate_sensor(&self) -> Result<(), ConfigError> {
         let s = &self.sensor;
+        if s.tail_imu != 0 {
+            range(
+                "sensor.tail-imu",
+                s.tail_imu as f64,
+                1.0,
+                63.0,
+                "0 (none) or 1 ..= 63",
+            )?;
+            if !self.robot.drive.carries_head_sensor() {
+                return Err(ConfigError::Derived(format!(
+                    "sensor.tail-imu = {} needs robot.drive = \"anguilla\": an IMU's frames \
+                     (0x240 + id ..) share identifiers with {} drives' traffic; set \
+                     sensor.tail-imu = 0",
+                    s.tail_imu, self.robot.drive
+                )));
+            }
+            if self.node_ids().contains(&s.tail_imu) || s.tail_imu == s.node {
+                return Err(ConfigError::Derived(format!(
+                    "sensor.tail-imu = {} is also a joint's or the head sensor's node id \
+                     (robot.node-ids {:?}, sensor.node {}); the IMU needs an id of its own",
+                    s.tail_imu,
+                    self.node_ids(),
+                    s.node
+                )));
+            }
+        }
         if s.node != 0 {
             range(
                 "sensor.node",

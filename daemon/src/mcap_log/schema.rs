@@ -47,8 +47,8 @@ pub use check::check;
 pub use table::table;
 
 use anguilla_ipc::{
-    Cause, FaultKind, Hold, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, bus_state_name,
-    hold_bits,
+    Cause, FaultKind, Hold, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, SensorKind,
+    bus_state_name, hold_bits,
 };
 
 /// What the writer puts for a name or a code this anguilla does not know
@@ -620,14 +620,76 @@ pub fn scene_update() -> Value {
 }
 
 /// The schemas of [`super::TOPICS`], in order: (name, schema).
-pub fn all() -> [(&'static str, Value); 5] {
+pub fn all() -> [(&'static str, Value); 6] {
     [
         ("anguilla.State", state()),
         ("anguilla.Joints", joints()),
         ("foxglove.Log", log()),
         ("foxglove.FrameTransforms", frame_transforms()),
         ("foxglove.SceneUpdate", scene_update()),
+        ("anguilla.Sensors", sensors()),
     ]
+}
+
+/// `anguilla.Sensors`, written by `sensors_json`: one entry per configured
+/// sensor, whatever its kind ([`SensorKind`]'s table names the values).
+pub fn sensors() -> Value {
+    let kinds: Vec<String> = SensorKind::ALL
+        .iter()
+        .map(|k| {
+            let v: Vec<&str> = k.values().iter().map(|(n, _)| *n).collect();
+            format!("{} ({})", k.name(), v.join(", "))
+        })
+        .collect();
+    message(
+        "anguilla.Sensors",
+        "Every configured sensor, the head sensor first: its kind, node id, health and \
+         values (each named, with its unit)",
+        vec![
+            (
+                "time_ns",
+                count("The daemon's clock when the snapshot was taken (ns)"),
+            ),
+            (
+                "sensors",
+                array(
+                    "The sensors",
+                    object(
+                        "One sensor",
+                        vec![
+                            (
+                                "kind",
+                                names(
+                                    &format!("What it is: {}", kinds.join("; ")),
+                                    SensorKind::ALL.iter().map(|k| k.name()).chain([UNKNOWN]),
+                                ),
+                            ),
+                            ("id", count("Its node id on the bus")),
+                            ("health", names("Its health", sensor_names())),
+                            ("samples", count("Samples received since start")),
+                            (
+                                "values",
+                                array(
+                                    "Its values, in its kind's order (none before its \
+                                     first sample is counted, zeros until then)",
+                                    object(
+                                        "One value",
+                                        vec![
+                                            ("name", string("The value's name")),
+                                            ("unit", string("Its unit")),
+                                            ("value", real("The value")),
+                                        ],
+                                    ),
+                                    anguilla_ipc::SENSOR_VALUES,
+                                ),
+                            ),
+                        ],
+                    ),
+                    anguilla_ipc::MAX_SENSORS,
+                ),
+            ),
+        ],
+    )
 }
 
 /// `docs/data.md`'s generated part: per channel, a table of its fields
@@ -728,6 +790,15 @@ mod tests {
                 n.pitch_deg = -10.0;
                 n.roll_deg = 3.0;
                 n.depth_m = 0.5;
+                // 0..=4 sensors of every kind, an unknown kind (from a newer
+                // daemon) and every health, NaN among the values.
+                for (k, e) in s.sensors.iter_mut().enumerate().take(i as usize % 5) {
+                    e.kind = ((i as usize + k) % (SensorKind::ALL.len() + 2)) as u8;
+                    e.id = 20 + k as u8;
+                    e.health = ((i as usize + k) % (SensorHealth::ALL.len() + 1)) as u8;
+                    e.samples = i as u32;
+                    e.values = [1.5, -2.0, f32::NAN, 0.0, 3.0, 4.0, 5.0, 6.0];
+                }
                 for (j, js) in s.joints.iter_mut().enumerate().take(joints) {
                     js.node_state = nodes[(i as usize + j) % nodes.len()].0 as u8;
                     js.node_alive = ((i as usize + j) % 2) as u8;
@@ -754,7 +825,7 @@ mod tests {
         let cfg = Config::default();
         let mut scene = Scene::new(&cfg);
         let schemas = all();
-        let mut per_channel = [0usize; 5];
+        let mut per_channel = [0usize; 6];
         let mut seen: [BTreeSet<String>; 3] = Default::default();
         for s in snapshots(cfg.robot.joints) {
             for (ch, v) in scene.messages(&s) {

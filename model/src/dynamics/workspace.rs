@@ -101,6 +101,21 @@ impl Workspace {
     pub fn shape(&self) -> &[Vector3<f64>] {
         &self.p
     }
+    /// Section frames `R = [t1 t2 t3]` relative to the head's, at every
+    /// node (head frame).
+    pub fn frames(&self) -> &[Matrix3<f64>] {
+        &self.q
+    }
+    /// The deformation's angular velocity of each section relative to the
+    /// head (head frame, rad/s), at every node.
+    pub fn deformation_rates(&self) -> &[Vector3<f64>] {
+        &self.we
+    }
+    /// The deformation's velocity of each node relative to the head (head
+    /// frame, m/s).
+    pub fn deformation_velocities(&self) -> &[Vector3<f64>] {
+        &self.ve
+    }
     /// Internal force `n_*` (head frame) at every node.
     pub fn n_star(&self) -> &[Vector3<f64>] {
         &self.nstar

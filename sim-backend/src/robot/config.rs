@@ -57,6 +57,9 @@ pub struct RobotConfig {
     pub ballast: f64,
     /// A head sensor beside the joints (anguilla family only), or none.
     pub head_sensor: Option<SensorConfig>,
+    /// An IMU in the tail section (the head sensor's protocol; anguilla
+    /// family only), or none. Its pressure is the tail's depth.
+    pub tail_sensor: Option<SensorConfig>,
 }
 
 impl Default for RobotConfig {
@@ -88,6 +91,7 @@ impl RobotConfig {
             current: Current::ZERO,
             ballast: anguilla_model::TYPICAL_BALLAST,
             head_sensor: None,
+            tail_sensor: None,
         }
     }
 
@@ -149,6 +153,31 @@ impl RobotConfig {
                 return Err(SimError::Config {
                     field: "head_sensor.id",
                     reason: format!("{} is a vertebra's node id (expected a distinct id)", s.id),
+                });
+            }
+        }
+        if let Some(s) = &self.tail_sensor {
+            s.validate().map_err(|(field, reason)| SimError::Config {
+                field: if field.starts_with("head_sensor") {
+                    "tail_sensor"
+                } else {
+                    field
+                },
+                reason,
+            })?;
+            if !self.drive.carries_head_sensor() {
+                return Err(SimError::Config {
+                    field: "tail_sensor",
+                    reason: "an IMU speaks the anguilla protocol (drive = anguilla)".into(),
+                });
+            }
+            if self.node_ids.contains(&s.id) || self.head_sensor.is_some_and(|h| h.id == s.id) {
+                return Err(SimError::Config {
+                    field: "tail_sensor.id",
+                    reason: format!(
+                        "{} is a vertebra's or the head sensor's node id (expected a distinct id)",
+                        s.id
+                    ),
                 });
             }
         }

@@ -160,6 +160,8 @@ pub struct SimRobot {
     drive_ids_used: [bool; 128],
     /// The head sensor, if the robot has one.
     sensor: Option<HeadSensor>,
+    /// The tail IMU, if the robot has one.
+    tail_sensor: Option<HeadSensor>,
     stats: SimStats,
 }
 
@@ -220,6 +222,15 @@ impl SimRobot {
             ),
             None => None,
         };
+        // After the head sensor's: a robot without a tail IMU draws the
+        // same seeds as before there was one.
+        let tail_sensor = match cfg.tail_sensor {
+            Some(s) => Some(
+                HeadSensor::new(s, cfg.variant, rng.next_u64(), start)
+                    .map_err(|(field, reason)| SimError::Config { field, reason })?,
+            ),
+            None => None,
+        };
         let stamps = bus.capabilities().timestamps;
         let mut drive_ids_used = [false; 128];
         for j in 0..n {
@@ -251,6 +262,7 @@ impl SimRobot {
             live: Arc::new(Mutex::new(Vec::new())),
             drive_ids_used,
             sensor,
+            tail_sensor,
             stats: SimStats::default(),
             cfg,
         })
@@ -526,6 +538,11 @@ impl SimRobot {
                 velocity: [h.velocity.x, h.velocity.y, h.velocity.z],
                 angular_velocity: [h.omega.x, h.omega.y, h.omega.z],
             };
+            let out = &mut self.out;
+            sensor.advance(t, &truth, &mut |f| out.push(f));
+        }
+        if let Some(sensor) = &mut self.tail_sensor {
+            let truth = self.plant.tail();
             let out = &mut self.out;
             sensor.advance(t, &truth, &mut |f| out.push(f));
         }
