@@ -217,6 +217,40 @@ pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
     vec![Line::from(line1), Line::from(line2)]
 }
 
+/// One line per sensor of the snapshot's list beyond the head sensor
+/// (which [`nav_lines`] shows): its kind, node, health and values, as the
+/// vocabulary's [`anguilla_ipc::SensorKind`] names them.
+pub fn sensor_lines(s: &StateSnapshot) -> Vec<Line<'static>> {
+    s.sensors
+        .iter()
+        .filter(|e| e.kind != 0 && e.kind != anguilla_ipc::SensorKind::HeadNav as u8)
+        .map(|e| {
+            let kind = e.sensor_kind().map_or_else(
+                || format!("sensor kind {}", e.kind),
+                |k| k.name().to_string(),
+            );
+            let ok = e.health == SensorHealth::Ok as u8;
+            let mut spans = vec![
+                Span::raw(format!("{kind} (node {}): ", e.id)),
+                Span::styled(
+                    sensor_name(e.health),
+                    if ok {
+                        Style::default().fg(Color::Green)
+                    } else {
+                        Style::default().fg(Color::Red)
+                    },
+                ),
+            ];
+            if e.samples > 0 {
+                for (name, unit, v) in e.named_values() {
+                    spans.push(Span::raw(format!("  {name} {v:.2} {unit}")));
+                }
+            }
+            Line::from(spans)
+        })
+        .collect()
+}
+
 /// The operator's holds in words: "heading 090.0°, depth 1.50 m", or
 /// `None` for manual.
 pub fn hold_text(h: &Hold) -> Option<String> {
@@ -296,7 +330,11 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
     }
     let nav = v
         .state
-        .map(|s| nav_lines(&s.nav, area.width.saturating_sub(2) as usize))
+        .map(|s| {
+            let mut lines = nav_lines(&s.nav, area.width.saturating_sub(2) as usize);
+            lines.extend(sensor_lines(s));
+            lines
+        })
         .unwrap_or_default();
     let [header, body, footer] = Layout::vertical([
         Constraint::Length(3 + nav.len() as u16),
@@ -893,6 +931,22 @@ mod tests {
         ] {
             assert!(text.contains(want), "missing {want:?} in\n{text}");
         }
+        // Another sensor of the list: a line of its own, from its kind's
+        // table.
+        let mut t = s;
+        t.sensors[1] = anguilla_ipc::SensorEntry {
+            kind: anguilla_ipc::SensorKind::TailImu as u8,
+            id: 40,
+            health: SensorHealth::Stuck as u8,
+            samples: 9,
+            values: [12.5, 0.0, 0.0, 0.25, 0.0, 0.0, 14.0, 0.0],
+            ..Default::default()
+        };
+        let text = draw(120, 32, &teleop_view(Some(&t), &i, None));
+        assert!(
+            text.contains("tail-imu (node 40): stuck  heading 12.50 deg  pitch 0.00 deg"),
+            "{text}"
+        );
         // At 80 columns everything but the gauge still fits on its line.
         let text = draw(80, 24, &teleop_view(Some(&s), &i, None));
         assert!(text.contains("hdg 087.3° → 090.0°"), "{text}");
