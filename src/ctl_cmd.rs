@@ -232,6 +232,21 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
             sensor_name(n.sensor)
         )
     };
+    // The torque residual: the alarmed axes, or the largest residual.
+    let alarms: Vec<String> = s
+        .residual_alarms()
+        .map(|(j, axis, r)| format!("joint {j} {axis} {r:+.2}"))
+        .collect();
+    let residual = if alarms.is_empty() {
+        let n = (s.joint_count as usize).min(s.joints.len());
+        let largest = s.joints[..n]
+            .iter()
+            .flat_map(|j| [j.pitch_torque_residual.abs(), j.yaw_torque_residual.abs()])
+            .fold(0.0f32, f32::max);
+        format!("no alarm (largest |residual| {largest:.2})")
+    } else {
+        format!("ALARM {}", alarms.join(", "))
+    };
     // Every sensor of the list, as its kind names its values.
     let mut sensors = String::new();
     for e in s.sensors.iter().filter(|e| e.kind != 0) {
@@ -268,6 +283,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
          nav       {nav}\n\
          {sensors}\
          autopilot {}\n\
+         residual  {residual}\n\
          bus       {bus_state}; tx {}, rx {}, tx dropped {}, malformed {}\n\
          loop      {:.1} Hz; jitter p99 {:.0} us; overruns {}\n\
          refused   {} command(s); {} out-of-band e-stop(s); {} recording record(s) lost\n\

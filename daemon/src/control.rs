@@ -39,6 +39,7 @@ use crate::drive::Liveness;
 use crate::drive::{self, DriveError, Drives, Out, Period};
 use crate::nav::{Nav, Prediction};
 use crate::profile::{Follower, Limits};
+use crate::residual::ResidualMonitor;
 use crate::sensors::Sensors;
 use crate::session::Record;
 use crate::supervisor::{Directives, FaultPolicy, Observations, Supervisor, SupervisorConfig};
@@ -148,6 +149,7 @@ pub struct Controller {
     tap_dropped: u64,
     now: Nanos,
     sensors: Sensors,
+    residual: ResidualMonitor,
     autopilot: Option<Autopilot>,
     hold: Hold,
     hold_exit: Option<SensorHealth>,
@@ -278,6 +280,7 @@ impl Controller {
             tap_dropped: 0,
             now,
             sensors,
+            residual: ResidualMonitor::new(&cfg.monitor, joints),
             autopilot,
             hold: Hold::MANUAL,
             hold_exit: None,
@@ -746,6 +749,11 @@ impl Controller {
         s.nav.depth_target_m = self.hold.depth.unwrap_or(0.0) as f32;
         s.nav.hold_exit = self.hold_exit.map_or(0, |h| h as u8);
         let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
+        // The torque residual is judged while swimming on the model's
+        // feed-forward, with drives that measure torque.
+        let judge =
+            self.sup.mode() == Mode::Swimming && !ff_dropped && self.drives.measures_torque();
+        let k = self.residual.gain(self.dt);
         for j in 0..self.joints.min(MAX_JOINTS) {
             let e = self.drives.joint(j);
             let js = &mut s.joints[j];
@@ -769,6 +777,25 @@ impl Controller {
                 e.last_heard
                     .is_some_and(|t| now.saturating_sub(t) <= hb_timeout) as u8;
             js.node_errors = e.errors;
+            for axis in 0..2 {
+                let measured = e
+                    .feedback
+                    .filter(|_| judge)
+                    .map(|fb| fb[axis].torque as f64);
+                self.residual
+                    .update(now, k, j, axis, measured, self.torque_ff[j][axis]);
+            }
+            js.pitch_torque_residual = self.residual.residual(j, 0) as f32;
+            js.yaw_torque_residual = self.residual.residual(j, 1) as f32;
+            use anguilla_ipc::residual_bits as rb;
+            js.residual_alarm = [(0, rb::PITCH, rb::PITCH_BELOW), (1, rb::YAW, rb::YAW_BELOW)]
+                .into_iter()
+                .map(|(axis, on, below)| match self.residual.alarm(j, axis) {
+                    0 => 0,
+                    a if a < 0 => on | below,
+                    _ => on,
+                })
+                .fold(0, |bits, b| bits | b);
         }
     }
 

@@ -27,6 +27,7 @@ pub mod nodes;
 pub mod profile;
 pub mod record;
 pub mod replay;
+pub mod residual;
 pub mod rt;
 pub mod run;
 pub mod sensors;

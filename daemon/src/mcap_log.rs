@@ -635,6 +635,54 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
         let why = SensorHealth::from_code(s.nav.hold_exit).map_or("unknown", SensorHealth::name);
         out.push((3, format!("the autopilot let go: head sensor {why}")));
     }
+    // A joint whose torque-residual alarm rose or cleared, named with its
+    // axis and sign.
+    if let Some(l) = last {
+        let n = (s.joint_count as usize).min(s.joints.len());
+        for (j, (now, was)) in s.joints[..n].iter().zip(&l.joints).enumerate() {
+            if now.residual_alarm == was.residual_alarm {
+                continue;
+            }
+            use anguilla_ipc::residual_bits as rb;
+            for (axis, on, below, r) in [
+                (
+                    "pitch",
+                    rb::PITCH,
+                    rb::PITCH_BELOW,
+                    now.pitch_torque_residual,
+                ),
+                ("yaw", rb::YAW, rb::YAW_BELOW, now.yaw_torque_residual),
+            ] {
+                let (a, b) = (
+                    now.residual_alarm & (on | below),
+                    was.residual_alarm & (on | below),
+                );
+                if a == b {
+                    continue;
+                }
+                if a & on != 0 {
+                    let sign = if a & below != 0 { "less" } else { "more" };
+                    out.push((
+                        3,
+                        format!(
+                            "joint {} {axis}: torque residual {r:+.2}, the joint needs {sign} \
+                             torque than the model predicts (a snag, fouling, a failing \
+                             actuator, a tether pulling?)",
+                            j + 1
+                        ),
+                    ));
+                } else {
+                    out.push((
+                        2,
+                        format!(
+                            "joint {} {axis}: torque residual back within its band",
+                            j + 1
+                        ),
+                    ));
+                }
+            }
+        }
+    }
     // A sensor whose health changed, named by its kind and node id (after
     // the start: its first health is in `/anguilla/sensors`).
     if let Some(l) = last {
@@ -737,6 +785,9 @@ fn joints_json(s: &StateSnapshot) -> Value {
         "feedforward_yaw_torque": col(&|j| j.predicted_yaw_torque),
         "measured_pitch_torque": col(&|j| j.measured_pitch_torque),
         "measured_yaw_torque": col(&|j| j.measured_yaw_torque),
+        "pitch_torque_residual": col(&|j| j.pitch_torque_residual),
+        "yaw_torque_residual": col(&|j| j.yaw_torque_residual),
+        "residual_alarm": js.iter().map(|j| j.residual_alarm).collect::<Vec<_>>(),
         "node_state": js.iter().map(|j| j.node_state).collect::<Vec<_>>(),
         "node_alive": js.iter().map(|j| j.node_alive).collect::<Vec<_>>(),
     })

@@ -19,7 +19,7 @@ try:
 except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
-LAYOUT_VERSION = 7
+LAYOUT_VERSION = 8
 ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD = range(
     1, 11)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
@@ -45,7 +45,8 @@ class JointSnapshot(_Payload):
         "measured_pitch_velocity", "measured_yaw_velocity",
         "predicted_pitch_torque", "predicted_yaw_torque",
         "measured_pitch_torque", "measured_yaw_torque")] + [
-        ("node_state", u8), ("node_alive", u8), ("reserved", u8 * 2), ("node_errors", u32)]
+        ("node_state", u8), ("node_alive", u8), ("residual_alarm", u8), ("reserved", u8),
+        ("node_errors", u32), ("pitch_torque_residual", f32), ("yaw_torque_residual", f32)]
 
 
 class GaitSnapshot(_Payload):
@@ -126,8 +127,8 @@ class CommandReply(_Payload):
         return bytes(self.reason[:min(self.reason_len, 120)]).decode("utf-8", "replace")
 
 
-for _t, _size in ((JointSnapshot, 56), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
-                  (LimitsSnapshot, 24), (NavSnapshot, 64), (SensorEntry, 40), (StateSnapshot, 2280),
+for _t, _size in ((JointSnapshot, 64), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
+                  (LimitsSnapshot, 24), (NavSnapshot, 64), (SensorEntry, 40), (StateSnapshot, 2536),
                   (SwimBody, 16), (HoldBody, 12), (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))

@@ -58,7 +58,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
         measured_pitch_velocity: "float", measured_yaw_velocity: "float",
         predicted_pitch_torque: "float", predicted_yaw_torque: "float",
         measured_pitch_torque: "float", measured_yaw_torque: "float", node_state: "uint8_t",
-        node_alive: "uint8_t", reserved: "uint8_t[2]", node_errors: "uint32_t",
+        node_alive: "uint8_t", residual_alarm: "uint8_t", reserved: "uint8_t",
+        node_errors: "uint32_t", pitch_torque_residual: "float", yaw_torque_residual: "float",
     ]));
     v.extend(rows!(GaitSnapshot, "GaitSnapshot", [
         amplitude: "float", frequency: "float", turn: "float", pitch: "float",

@@ -8,7 +8,7 @@ use crate::vocabulary::SwimParams;
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 7;
+pub const LAYOUT_VERSION: u32 = 8;
 /// Most sensors a snapshot carries.
 pub const MAX_SENSORS: usize = 4;
 /// Values a [`SensorEntry`] carries.
@@ -50,10 +50,33 @@ pub struct JointSnapshot {
     pub node_state: u8,
     /// 1 if the node's heartbeat is current, 0 if it is overdue.
     pub node_alive: u8,
+    /// The torque-residual alarms (`[monitor]`, [`residual_bits`]): bit 0
+    /// pitch, bit 1 yaw alarmed; bit 2 pitch, bit 3 yaw below the
+    /// prediction (else above). 0: none.
+    pub residual_alarm: u8,
     /// Padding, always 0.
-    pub reserved: [u8; 2],
+    pub reserved: u8,
     /// The node's error bits as it last reported them (protocol encoding).
     pub node_errors: u32,
+    /// The pitch axis's torque residual: measured less predicted torque,
+    /// low-passed, over the prediction's low-passed magnitude plus a floor
+    /// (`[monitor]`; 0 while not swimming, or without measured torque).
+    pub pitch_torque_residual: f32,
+    /// The yaw axis's torque residual, as the pitch's.
+    pub yaw_torque_residual: f32,
+}
+
+/// [`JointSnapshot::residual_alarm`]'s bits.
+pub mod residual_bits {
+    /// The pitch axis is alarmed.
+    pub const PITCH: u8 = 1;
+    /// The yaw axis is alarmed.
+    pub const YAW: u8 = 2;
+    /// The pitch axis's residual is negative (needs less torque than
+    /// predicted).
+    pub const PITCH_BELOW: u8 = 4;
+    /// The yaw axis's residual is negative.
+    pub const YAW_BELOW: u8 = 8;
 }
 
 impl JointSnapshot {
@@ -335,6 +358,21 @@ pub struct StateSnapshot {
 }
 
 impl StateSnapshot {
+    /// The torque-residual alarms: `(joint from 1, axis name, residual)`
+    /// of every alarmed axis, head first.
+    pub fn residual_alarms(&self) -> impl Iterator<Item = (usize, &'static str, f32)> + '_ {
+        let n = (self.joint_count as usize).min(MAX_JOINTS);
+        self.joints[..n].iter().enumerate().flat_map(|(j, js)| {
+            [
+                (residual_bits::PITCH, "pitch", js.pitch_torque_residual),
+                (residual_bits::YAW, "yaw", js.yaw_torque_residual),
+            ]
+            .into_iter()
+            .filter(move |(bit, _, _)| js.residual_alarm & bit != 0)
+            .map(move |(_, axis, r)| (j + 1, axis, r))
+        })
+    }
+
     /// The client port holding control, if any.
     pub fn holder(&self) -> Option<u128> {
         let h = (self.holder_hi as u128) << 64 | self.holder_lo as u128;

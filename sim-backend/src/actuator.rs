@@ -82,6 +82,9 @@ pub struct AxisFaults {
     pub extra_noise: f64,
     /// One reading offset by this much (rad), then cleared.
     pub spike: f64,
+    /// An external torque on the joint (N·m), added to the body's load: a
+    /// snag.
+    pub snag: f64,
 }
 
 /// The state of one axis.
@@ -160,6 +163,7 @@ impl Actuator {
     /// Advances by `dt` seconds under `drive`, against the body's `load`
     /// torque (N·m, the torque the body demands at this joint).
     pub fn step(&mut self, dt: f64, drive: Drive, load: f64) {
+        let load = load + self.faults.snag;
         let p = self.params;
         let omega0 = self.omega;
         if self.faults.stuck {

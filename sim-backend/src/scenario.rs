@@ -25,6 +25,7 @@
 //! 1.0  joint 2 pitch torque-limit off
 //! 1.0  joint 2 pitch noise 0.01         # extra encoder noise (rad, std dev)
 //! 1.2  joint 2 yaw spike 0.3            # one reading off by 0.3 rad
+//! 1.5  joint 7 yaw snag 0.5             # an external 0.5 N·m on the axis (0: off)
 //! # bus faults (in-process bus only, except flood)
 //! 3.0  bus drop 5             # the next 5 frames on the wire are lost
 //! 3.0  bus drop-fraction 0.1  # each frame lost with probability 0.1 (0 ends)
@@ -121,6 +122,9 @@ pub enum JointFault {
     Noise(f64),
     /// One encoder reading offset by this much (rad).
     Spike(f64),
+    /// A snag: this external torque (N·m) on the axis from now on (a line
+    /// caught on the segment, a tether pulling); 0 ends it.
+    Snag(f64),
 }
 
 /// A fault of the bus.
@@ -203,7 +207,7 @@ pub struct Scenario {
 }
 
 const NODE_FAULTS: &str = "silent [DURATION], speak, reboot, fault, clear, spoof, twin";
-const JOINT_FAULTS: &str = "stuck, free, torque-limit N·m|off, noise RAD, spike RAD";
+const JOINT_FAULTS: &str = "stuck, free, torque-limit N·m|off, noise RAD, spike RAD, snag N·m";
 const SENSOR_FAULTS: &str = "silent [DURATION], stuck, bias-jump RAD/S, ok";
 const BUS_FAULTS: &str = "drop N, drop-fraction F, delay DURATION, corrupt N, bus-off DURATION, flood N [DURATION], clear";
 
@@ -401,6 +405,13 @@ fn parse_action(words: &[&str], node_ids: &[u8]) -> Result<Action, String> {
                     JointFault::Noise(real(words.get(4), "a noise in rad", 10.0)?),
                     5,
                 ),
+                Some("snag") => {
+                    let v: f64 = number(words.get(4), "a torque in N·m")?;
+                    if !(v.is_finite() && v.abs() <= 100.0) {
+                        return Err(format!("snag {v} out of range -100..=100 N·m"));
+                    }
+                    (JointFault::Snag(v), 5)
+                }
                 Some("spike") => {
                     let v: f64 = number(words.get(4), "a spike in rad")?;
                     if !(v.is_finite() && v.abs() <= 10.0) {
@@ -523,6 +534,7 @@ mod tests {
 1.0 joint 2 pitch torque-limit off
 1.0 joint 2 pitch noise 0.01
 1.2 joint 2 yaw spike -0.3
+1.3 joint 4 yaw snag -0.5
 2.0 node 3 speak
 2.5 node 3 reboot
 3000ms bus drop 5
@@ -536,7 +548,7 @@ mod tests {
 6 bus clear
 ";
         let s = Scenario::parse(text, &IDS).unwrap();
-        assert_eq!(s.events.len(), 18);
+        assert_eq!(s.events.len(), 19);
         assert_eq!(s.events[0].line, 2);
         assert_eq!(
             s.events[3].action,
@@ -553,9 +565,17 @@ mod tests {
                 fault: JointFault::Spike(-0.3)
             }
         );
-        assert_eq!(s.events[10].at, Duration::from_secs(3));
         assert_eq!(
-            s.events[16].action,
+            s.events[8].action,
+            Action::Joint {
+                joint: 4,
+                axis: Axis::Yaw,
+                fault: JointFault::Snag(-0.5)
+            }
+        );
+        assert_eq!(s.events[11].at, Duration::from_secs(3));
+        assert_eq!(
+            s.events[17].action,
             Action::Bus(BusFault::Flood {
                 count: 10,
                 over: Duration::from_secs(1)

@@ -88,6 +88,9 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "depth_rate": estimate(nav.depth_rate),
         "heading_target_deg": hold.heading.map(|_| nav.heading_target_deg),
         "depth_target_m": hold.depth.map(|_| nav.depth_target_m),
+        "torque_residual_alarms": s.residual_alarms().map(|(joint, axis, r)| json!({
+            "joint": joint, "axis": axis, "residual": r,
+        })).collect::<Vec<Value>>(),
         "sensors": s.sensors.iter().filter(|e| e.kind != 0).map(|e| json!({
             "kind": e.sensor_kind().map_or("unknown", |k| k.name()),
             "id": e.id,

@@ -251,6 +251,21 @@ pub fn sensor_lines(s: &StateSnapshot) -> Vec<Line<'static>> {
         .collect()
 }
 
+/// The torque-residual alarms, if any: one line naming each alarmed
+/// joint, axis and residual.
+pub fn residual_line(s: &StateSnapshot) -> Option<Line<'static>> {
+    let alarms: Vec<String> = s
+        .residual_alarms()
+        .map(|(j, axis, r)| format!("joint {j} {axis} {r:+.2}"))
+        .collect();
+    (!alarms.is_empty()).then(|| {
+        Line::from(Span::styled(
+            format!("TORQUE RESIDUAL {}", alarms.join(", ")),
+            Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
+        ))
+    })
+}
+
 /// The operator's holds in words: "heading 090.0°, depth 1.50 m", or
 /// `None` for manual.
 pub fn hold_text(h: &Hold) -> Option<String> {
@@ -333,6 +348,7 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
         .map(|s| {
             let mut lines = nav_lines(&s.nav, area.width.saturating_sub(2) as usize);
             lines.extend(sensor_lines(s));
+            lines.extend(residual_line(s));
             lines
         })
         .unwrap_or_default();

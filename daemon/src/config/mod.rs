@@ -26,6 +26,7 @@ mod ipc;
 mod limits;
 mod link;
 mod model;
+mod monitor;
 mod realtime;
 mod recording;
 mod robot;
@@ -44,6 +45,7 @@ pub use gait::GaitConfig;
 pub use ipc::IpcConfig;
 pub use limits::LimitsConfig;
 pub use model::ModelConfig;
+pub use monitor::MonitorConfig;
 pub use realtime::RealtimeConfig;
 pub use recording::RecordingConfig;
 pub use robot::{AxisConfig, AxisDefaults, AxisMap, RobotConfig};
@@ -75,6 +77,8 @@ pub struct Config {
     pub sensor: SensorConfig,
     /// `[autopilot]`.
     pub autopilot: AutopilotConfig,
+    /// `[monitor]`.
+    pub monitor: MonitorConfig,
     /// `[foxglove]`.
     pub foxglove: FoxgloveConfig,
     /// `[link]`.
@@ -193,6 +197,7 @@ impl Config {
         self.validate_robot()?;
         self.validate_sensor()?;
         self.autopilot.validate()?;
+        self.monitor.validate()?;
         self.foxglove.validate()?;
         self.link.validate()?;
         self.control.validate()?;
@@ -230,6 +235,7 @@ pub fn default_toml() -> String {
     model::write_default(&d.model, &mut w);
     sensor::write_default(&d.sensor, &mut w);
     autopilot::write_default(&d.autopilot, &mut w);
+    monitor::write_default(&d.monitor, &mut w);
     foxglove::write_default(&d.foxglove, &mut w);
     link::write_default(&d.link, &mut w);
     o

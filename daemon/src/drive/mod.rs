@@ -223,6 +223,11 @@ pub trait Drives: Send {
     fn take_notice(&mut self) -> Option<Notice> {
         None
     }
+    /// Whether the drives report the torque they apply (the torque
+    /// residual needs it).
+    fn measures_torque(&self) -> bool {
+        true
+    }
 }
 
 /// What went wrong building the drives from a configuration.

@@ -160,6 +160,11 @@ impl Drives for Axes {
         anguilla_protocol::Family::Odrive
     }
 
+    /// CANSimple's cyclic messages carry no torque.
+    fn measures_torque(&self) -> bool {
+        false
+    }
+
     fn ingest(&mut self, now: Nanos, frame: &Frame) {
         let m = match odrive::decode(frame) {
             Ok(m) => m,

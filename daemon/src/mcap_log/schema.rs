@@ -392,6 +392,30 @@ pub fn joints() -> Value {
                 per_joint("Measured yaw torque (N·m)"),
             ),
             (
+                "pitch_torque_residual",
+                per_joint(
+                    "Pitch torque residual: measured less predicted torque, low-passed, over \
+                     the prediction's low-passed magnitude plus a floor ([monitor]; 0 while \
+                     not swimming or without measured torque)",
+                ),
+            ),
+            (
+                "yaw_torque_residual",
+                per_joint("Yaw torque residual, as the pitch's"),
+            ),
+            (
+                "residual_alarm",
+                array(
+                    "The torque-residual alarms, per joint, head first",
+                    bits(
+                        "Bit 0 pitch, bit 1 yaw alarmed; bit 2 pitch, bit 3 yaw below the \
+                         prediction (else above); 0 none",
+                        15,
+                    ),
+                    MAX_JOINTS,
+                ),
+            ),
+            (
                 "node_state",
                 array(
                     "The node's state as it last reported it, per joint, head first",

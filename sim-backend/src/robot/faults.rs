@@ -199,6 +199,7 @@ impl SimRobot {
                     JointFault::TorqueLimit(c) => f.torque_cap = c,
                     JointFault::Noise(s) => f.extra_noise = s,
                     JointFault::Spike(s) => f.spike = s,
+                    JointFault::Snag(t) => f.snag = t,
                 }
             }
             Action::Water(current) => self.plant.set_current(current),
