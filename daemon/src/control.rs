@@ -522,8 +522,12 @@ impl Controller {
     /// then the supervisor's decision on what the drives report, with the
     /// E-stop and clear-faults it asks for sent at once.
     fn supervise(&mut self, now: Nanos, period_state: BusState, bus: &mut dyn Bus) -> Directives {
-        self.sensors
-            .step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
+        // The model's prediction of the head, for the sensors that use it
+        // (none configured: not computed).
+        if !self.sensors.is_empty() {
+            self.sensors
+                .step(now, self.dt, &Prediction::of(&self.head, self.ws.shape()));
+        }
         if self.sensors.nav().is_some() {
             let health = self.sensors.head_health();
             if self.sup.observe_sensor(now, health) {

@@ -99,6 +99,11 @@ impl Sensors {
         }
     }
 
+    /// Whether no sensor is configured.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
     /// Moves every sensor on by one period.
     pub fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
         for s in &mut self.list {
