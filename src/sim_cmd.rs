@@ -101,6 +101,11 @@ pub struct SimArgs {
     /// only; protocol/README.md "The head sensor").
     #[arg(long, value_name = "ID")]
     head_sensor: Option<u8>,
+    /// The bought drives' own watchdog (s, 0.001..=60): an ODrive axis's
+    /// watchdog_timeout, an MIT drive's CAN timeout [default: 0.1 s for
+    /// ODrive, 0.5 s for MIT]. A drive without a message this long stops.
+    #[arg(long, value_name = "S")]
+    drive_watchdog: Option<f64>,
     /// An IMU in the tail on node ID (1..=63, not a joint's nor the head
     /// sensor's): the same simulated sensor, measuring the tail section
     /// (the daemon's `[sensor] tail-imu`).
@@ -209,8 +214,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let defaults = RobotConfig::with_joints(args.joints);
+    let drive_watchdog = match args.drive_watchdog {
+        None => None,
+        Some(v) if v.is_finite() && (0.001..=60.0).contains(&v) => Some(Duration::from_secs_f64(v)),
+        Some(v) => bail!("--drive-watchdog {v}: expected 0.001 ..= 60 s"),
+    };
     let cfg = RobotConfig {
         drive: args.drive,
+        drive_watchdog,
         axis_ids,
         variant: if args.fd {
             Variant::Fd

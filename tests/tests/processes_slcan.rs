@@ -67,20 +67,26 @@ fn daemon_and_simulator_processes_over_an_slcan_pty() {
     drop(sim);
 }
 
-/// The bought families over a pty: `anguilla sim --drive F --slcan-pty` and
+/// The bought families (CiA 402, ODrive, MIT mode) over a pty: `anguilla
+/// sim --drive F --slcan-pty` and
 /// `anguilla run` with `[robot] drive = F`, as two processes. The daemon
 /// configures the CiA 402 drives by SDO through the emulated adapter, the
 /// robot swims, stops, and the E-stop turns every drive off.
 #[test]
-fn cia402_and_odrive_robots_over_an_slcan_pty() {
+fn bought_drive_families_over_an_slcan_pty() {
     let bin = anguilla_bin();
     assert!(
         bin.exists(),
         "{} not built (cargo build --bin anguilla)",
         bin.display()
     );
-    for drive in ["cia402", "odrive"] {
-        let (sim, device) = sim_on_pty_with(&bin, &["--drive", drive, "--joints", "6"]);
+    for drive in ["cia402", "odrive", "mit"] {
+        // The drives' own watchdog relaxed as the daemon's timeouts are
+        // (SHARED_CPU): an ODrive's 100 ms fired under stress-ng.
+        let (sim, device) = sim_on_pty_with(
+            &bin,
+            &["--drive", drive, "--joints", "6", "--drive-watchdog", "1"],
+        );
         let prefix = format!("anguilla-test/slcan-{drive}-{}", std::process::id());
         let config = std::env::temp_dir().join(format!(
             "anguilla-slcan-{drive}-{}.toml",

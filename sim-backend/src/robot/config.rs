@@ -30,9 +30,11 @@ pub struct RobotConfig {
     /// Empty: the family's defaults ([`Family::default_ids`]). Must be
     /// empty for [`Family::Anguilla`].
     pub axis_ids: Vec<[u8; 2]>,
-    /// The watchdog of a simulated ODrive axis (`axis.config.watchdog_timeout`;
-    /// docs/drives.md: 100 ms).
-    pub odrive_watchdog: Duration,
+    /// The bought drives' own watchdog: an ODrive axis's
+    /// `axis.config.watchdog_timeout`, an MIT drive's CAN timeout. `None`:
+    /// the family's default (docs/drives.md: [`ODRIVE_WATCHDOG`],
+    /// [`crate::mit::CAN_TIMEOUT`]).
+    pub drive_watchdog: Option<Duration>,
     /// Classic CAN or CAN FD nodes (anguilla family only).
     pub variant: Variant,
     /// Parameters of every actuator axis.
@@ -80,7 +82,7 @@ impl RobotConfig {
             drive: Family::Anguilla,
             node_ids: (1..=n.min(63) as u8).collect(),
             axis_ids: Vec::new(),
-            odrive_watchdog: ODRIVE_WATCHDOG,
+            drive_watchdog: None,
             variant: Variant::Classic,
             actuator: ActuatorParams::default(),
             boot_time: Duration::from_millis(20),
@@ -188,12 +190,12 @@ impl RobotConfig {
                 reason: format!("{t} s outside 0.1 ms..=20 ms"),
             });
         }
-        if self.drive == Family::Odrive
-            && !(Duration::from_millis(1)..=Duration::from_secs(60)).contains(&self.odrive_watchdog)
+        if let Some(w) = self.drive_watchdog
+            && !(Duration::from_millis(1)..=Duration::from_secs(60)).contains(&w)
         {
             return Err(SimError::Config {
-                field: "odrive_watchdog",
-                reason: format!("{:?} outside 1 ms..=60 s", self.odrive_watchdog),
+                field: "drive_watchdog",
+                reason: format!("{w:?} outside 1 ms..=60 s"),
             });
         }
         Ok(())
@@ -290,7 +292,7 @@ pub fn joint_device(
                 axes: [cfg.actuator; 2],
                 boot_time,
                 seed,
-                watchdog: Nanos::from(cfg.odrive_watchdog),
+                watchdog: Nanos::from(cfg.drive_watchdog.unwrap_or(ODRIVE_WATCHDOG)),
             },
             start,
         )?)),
@@ -300,7 +302,9 @@ pub fn joint_device(
                 axes: [cfg.actuator; 2],
                 boot_time,
                 seed,
-                timeout: crate::mit::CAN_TIMEOUT,
+                timeout: cfg
+                    .drive_watchdog
+                    .map_or(crate::mit::CAN_TIMEOUT, Nanos::from),
             },
             start,
         )?)),
