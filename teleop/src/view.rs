@@ -14,10 +14,13 @@ use ratatui::widgets::{
 };
 
 use crate::app::Intent;
+
+mod lists;
 use crate::history::{History, Series};
 use crate::hold::{has_estimate, held, wrap_heading};
 use crate::keys::KEYS;
 use crate::operator::Refused;
+pub use lists::{residual_line, sensor_lines, sensor_name};
 
 /// Smallest terminal the teleop view fits in (columns).
 pub const MIN_WIDTH: u16 = 80;
@@ -29,13 +32,6 @@ pub const MIN_HEIGHT_MONITOR: u16 = 36;
 /// The name of a snapshot's mode code.
 pub fn mode_name(mode: u8) -> &'static str {
     Mode::from_code(mode).map(Mode::name).unwrap_or("unknown")
-}
-
-/// The name of a snapshot's head-sensor health code.
-pub fn sensor_name(code: u8) -> &'static str {
-    SensorHealth::from_code(code)
-        .map(SensorHealth::name)
-        .unwrap_or("unknown")
 }
 
 /// The autopilot's mode by a snapshot's hold bits: "manual", "heading",
@@ -215,55 +211,6 @@ pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
     line2.extend(autopilot);
     line2.extend(sensor);
     vec![Line::from(line1), Line::from(line2)]
-}
-
-/// One line per sensor of the snapshot's list beyond the head sensor
-/// (which [`nav_lines`] shows): its kind, node, health and values, as the
-/// vocabulary's [`anguilla_ipc::SensorKind`] names them.
-pub fn sensor_lines(s: &StateSnapshot) -> Vec<Line<'static>> {
-    s.sensors
-        .iter()
-        .filter(|e| e.kind != 0 && e.kind != anguilla_ipc::SensorKind::HeadNav as u8)
-        .map(|e| {
-            let kind = e.sensor_kind().map_or_else(
-                || format!("sensor kind {}", e.kind),
-                |k| k.name().to_string(),
-            );
-            let ok = e.health == SensorHealth::Ok as u8;
-            let mut spans = vec![
-                Span::raw(format!("{kind} (node {}): ", e.id)),
-                Span::styled(
-                    sensor_name(e.health),
-                    if ok {
-                        Style::default().fg(Color::Green)
-                    } else {
-                        Style::default().fg(Color::Red)
-                    },
-                ),
-            ];
-            if e.samples > 0 {
-                for (name, unit, v) in e.named_values() {
-                    spans.push(Span::raw(format!("  {name} {v:.2} {unit}")));
-                }
-            }
-            Line::from(spans)
-        })
-        .collect()
-}
-
-/// The torque-residual alarms, if any: one line naming each alarmed
-/// joint, axis and residual.
-pub fn residual_line(s: &StateSnapshot) -> Option<Line<'static>> {
-    let alarms: Vec<String> = s
-        .residual_alarms()
-        .map(|(j, axis, r)| format!("joint {j} {axis} {r:+.2}"))
-        .collect();
-    (!alarms.is_empty()).then(|| {
-        Line::from(Span::styled(
-            format!("TORQUE RESIDUAL {}", alarms.join(", ")),
-            Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
-        ))
-    })
 }
 
 /// The operator's holds in words: "heading 090.0°, depth 1.50 m", or
