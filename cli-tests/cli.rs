@@ -575,7 +575,7 @@ fn numbers_a_user_types_are_bounded_and_named() {
         ),
         (
             &["sim", "--slcan-pty", "--ballast", "0.5"],
-            "ballast: 0.5 m outside 0 ..= 0.05 m",
+            "`ballast` must be within 0 ..= 0.05 m",
         ),
         (
             &["foxglove", "--bind", "localhost"],
@@ -588,6 +588,24 @@ fn numbers_a_user_types_are_bounded_and_named() {
         (
             &["export", "/nonexistent-session"],
             "cannot read configuration file /nonexistent-session/config.toml",
+        ),
+        (
+            &["sim", "--slcan-pty", "--body", "/nonexistent-body.toml"],
+            "--body /nonexistent-body.toml: cannot read configuration file",
+        ),
+        (
+            &["run", "--sim-body", "/nonexistent-body.toml"],
+            "--sim-body /nonexistent-body.toml: cannot read",
+        ),
+        (
+            &[
+                "run",
+                "--bus",
+                "mem:x",
+                "--sim-body",
+                "/nonexistent-body.toml",
+            ],
+            "--sim-body is for the built-in simulated robot; a bus was named",
         ),
     ] {
         let (ok, _, err) = run(args);

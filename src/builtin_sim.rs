@@ -61,7 +61,7 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         scenario: String::new(),
         head_sensor: head_sensor(cfg, cfg.sensor.node),
         tail_sensor: head_sensor(cfg, cfg.sensor.tail_imu),
-        ballast: cfg.model.ballast,
+        body: cfg.model.body(),
     }
 }
 
@@ -73,10 +73,16 @@ fn head_sensor(cfg: &Config, id: u8) -> Option<SensorConfig> {
     (id != 0).then(|| SensorConfig::typical_in(id, s.rate_hz, s.water_density, s.surface_pressure))
 }
 
-/// Creates the in-process bus and the robot; returns the daemon's end of
-/// the bus.
-pub fn start_builtin(cfg: &Config) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)> {
-    let bc = builtin_config(cfg, &format!("anguilla-builtin-{}", std::process::id()));
+/// Creates the in-process bus and the robot (on `body`, else the body
+/// `[model]` describes); returns the daemon's end of the bus.
+pub fn start_builtin(
+    cfg: &Config,
+    body: Option<anguilla_model::Body>,
+) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)> {
+    let mut bc = builtin_config(cfg, &format!("anguilla-builtin-{}", std::process::id()));
+    if let Some(body) = body {
+        bc.body = body;
+    }
     let (host, running) = Builtin::start(&bc).context("building the simulated robot")?;
     if let (Some(p), Some(e)) = (bc.fifo_priority, &running.priority_refused) {
         tracing::warn!("simulated robot thread: SCHED_FIFO priority {p} refused ({e})");

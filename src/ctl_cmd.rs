@@ -77,6 +77,12 @@ pub enum CtlCmd {
         #[arg(long, value_name = "M", allow_negative_numbers = true)]
         depth: Option<f64>,
     },
+    /// Take control and swim the calibration swim (docs/calibration.md):
+    /// a minute of forward gaits at three frequencies, glides, turns both
+    /// ways, a dive and a climb, which `anguilla calibrate` fits the
+    /// model's coefficients to (record it: `[recording] dir`); then stop,
+    /// wait for ready and release. Prints each leg as it starts.
+    CalibrateSwim,
 }
 
 /// `anguilla ctl`: exits with the documented status.
@@ -174,6 +180,36 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         CtlCmd::Disable => c.disable()?,
         CtlCmd::Reset => c.reset()?,
         CtlCmd::Stop => c.stop()?,
+        CtlCmd::CalibrateSwim => {
+            use anguilla_daemon::calibration::{LEGS, duration};
+            let legs: Vec<(SwimParams, Duration)> = LEGS
+                .iter()
+                .map(|l| (l.gait, Duration::from_secs_f64(l.seconds)))
+                .collect();
+            let _ = out(&format!(
+                "calibration swim: {} legs, {:.0} s\n",
+                LEGS.len(),
+                duration()
+            ));
+            let mut at = 0.0;
+            c.swim_legs(
+                &legs,
+                &mut |i| {
+                    let l = &LEGS[i];
+                    let _ = out(&format!(
+                        "{at:5.1} s  {} ({} s: amplitude {}, {} Hz, turn {:+}, pitch {:+})\n",
+                        l.what,
+                        l.seconds,
+                        l.gait.amplitude,
+                        l.gait.frequency,
+                        l.gait.turn,
+                        l.gait.pitch
+                    ));
+                    at += l.seconds;
+                },
+                &|| crate::signals::requested(),
+            )?
+        }
         CtlCmd::Swim {
             amplitude,
             frequency,

@@ -2,6 +2,7 @@
 //! hands the work to the library crates; it holds no model maths, frame
 //! layouts or control logic of its own.
 
+mod calibrate_cmd;
 mod conform_cmd;
 mod ctl_cmd;
 mod dump_cmd;
@@ -42,6 +43,10 @@ enum Command {
     /// Write a recorded session's MCAP file (Foxglove, Lichtblick,
     /// PlotJuggler) from its state.bin and config.toml.
     Export(run_cmd::ExportArgs),
+    /// Fit the model's hydrodynamic coefficients to recorded sessions
+    /// (docs/calibration.md): each with its uncertainty, the fit residual,
+    /// the held-out error, and a [model] fragment.
+    Calibrate(calibrate_cmd::CalibrateArgs),
     /// Configuration: print the commented default, check a file.
     Config {
         #[command(subcommand)]
@@ -131,6 +136,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Config { cmd } => run_cmd::config(cmd),
         Command::Replay(args) => run_cmd::replay(args),
         Command::Export(args) => run_cmd::export(args),
+        Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Swim(args) => swim::run(&args),
         Command::Protocol { cmd } => protocol_cmd::run(cmd),
         Command::Sim(args) => sim_cmd::run(&args),

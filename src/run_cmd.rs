@@ -36,6 +36,11 @@ pub struct RunArgs {
     /// No status line on stdout (logs still go to stderr).
     #[arg(long)]
     quiet: bool,
+    /// The built-in simulated robot's own body (TOML: coefficients, drag
+    /// law, density, ballast; docs/calibration.md) instead of the one
+    /// `[model]` describes: a robot that is not the model.
+    #[arg(long, value_name = "FILE")]
+    sim_body: Option<PathBuf>,
 }
 
 /// `anguilla config ...`.
@@ -89,6 +94,17 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
     }
+    let sim_body = match &args.sim_body {
+        Some(_) if !cfg.bus.spec.is_empty() => {
+            anyhow::bail!("--sim-body is for the built-in simulated robot; a bus was named")
+        }
+        Some(path) => Some(
+            anguilla_daemon::config::BodyFile::load(path)
+                .map_err(|e| anyhow::anyhow!("--sim-body {}: {e}", path.display()))?
+                .body(),
+        ),
+        None => None,
+    };
     crate::signals::install();
     let stop = Arc::new(AtomicBool::new(false));
     let (bus, sim) = if cfg.bus.spec.is_empty() {
@@ -101,7 +117,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 relaxed.join(", ")
             );
         }
-        let (bus, sim) = anguilla::builtin_sim::start_builtin(&cfg)?;
+        let (bus, sim) = anguilla::builtin_sim::start_builtin(&cfg, sim_body)?;
         tracing::info!("no bus named: running against the built-in simulated robot");
         match (sensor, cfg.sensor.node) {
             (Some(id), _) => tracing::info!(

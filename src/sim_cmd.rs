@@ -116,6 +116,11 @@ pub struct SimArgs {
     /// paper's body, which rolls freely under pitch curvature).
     #[arg(long, value_name = "M")]
     ballast: Option<f64>,
+    /// The simulated body's own coefficients, drag law, density and
+    /// ballast (TOML; docs/calibration.md): a robot that is not the
+    /// daemon's model. --ballast overrides its ballast.
+    #[arg(long, value_name = "FILE")]
+    body: Option<PathBuf>,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
@@ -238,7 +243,18 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         current,
         head_sensor: args.head_sensor.map(SensorConfig::typical),
         tail_sensor: args.tail_imu.map(SensorConfig::typical),
-        ballast: args.ballast.unwrap_or(defaults.ballast),
+        body: {
+            let mut body = match &args.body {
+                Some(path) => anguilla_daemon::config::BodyFile::load(path)
+                    .map_err(|e| anyhow::anyhow!("--body {}: {e}", path.display()))?
+                    .body(),
+                None => defaults.body.clone(),
+            };
+            if let Some(b) = args.ballast {
+                body.ballast = b;
+            }
+            body
+        },
         ..defaults
     };
     if let Err(e) = cfg.validate() {

@@ -28,7 +28,7 @@
 
 use anguilla_drivers::{Bus, BusState};
 use anguilla_model::{
-    Body, CurvatureSource, GaitParams, HeadState, Integrator, Model, ModelConfig, ModelError,
+    CurvatureSource, GaitParams, HeadState, Integrator, Model, ModelConfig, ModelError,
     ParametricGait, StepReport, Workspace,
 };
 use anguilla_protocol::message::{self, AxisSetpoint, NodeSet};
@@ -174,10 +174,7 @@ impl Controller {
         let drives = drive::build(cfg, now, period_ns)?;
         let joints = cfg.robot.joints;
         let model = Model::new(ModelConfig {
-            body: Body {
-                ballast: cfg.model.ballast,
-                ..Body::paper()
-            },
+            body: cfg.model.body(),
             nodes: cfg.model.nodes,
             dt,
             joints,

@@ -17,6 +17,7 @@
 #![warn(missing_docs)]
 
 pub mod autopilot;
+pub mod calibration;
 pub mod config;
 pub mod control;
 pub mod drive;

@@ -32,6 +32,7 @@ use crate::config::Config;
 use anguilla_ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot};
 
 pub mod schema;
+pub mod swim;
 
 /// The channels, in the order they are created.
 pub const TOPICS: [&str; 6] = [

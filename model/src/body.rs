@@ -71,6 +71,10 @@ pub struct Body {
     pub c2: f64,
     /// Linear drag coefficient `c_3` along `t3` of (24).
     pub c3: f64,
+    /// The axial (skin) drag law along `t1`: the paper's (41), scaled, or
+    /// a quadratic law the model cannot represent exactly (a simulated
+    /// body that is not the model, `docs/calibration.md`).
+    pub axial: AxialDrag,
     /// Gravity acceleration in the earth frame (m/s²).
     pub gravity: [f64; 3],
     /// How far below each section's axis its centre of mass lies (m): a
@@ -81,6 +85,31 @@ pub struct Body {
     /// Include the resistive wrench (24) and the nose terms (22)–(23).
     /// `false` leaves the purely reactive (Lighthill) model.
     pub resistive: bool,
+}
+
+/// The axial drag law of each section along its `t1` (the `K1` term of (24)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AxialDrag {
+    /// The paper's skin friction (41), `c_f(Re)` laminar then turbulent,
+    /// times `scale` (1: the paper's; a rougher skin, fins or cables drag
+    /// more).
+    SkinFriction {
+        /// Factor on (41), `>= 0`.
+        scale: f64,
+    },
+    /// Quadratic drag `-rho/2 c P V1 |V1|` per unit length, `P` the wetted
+    /// perimeter (as in the FARMS and MuJoCo swimming models): no Reynolds
+    /// dependence, so neither (41) nor any scale of it matches it.
+    Quadratic {
+        /// The coefficient `c`, `>= 0` (about 0.006 drags like (41) at
+        /// 0.2 m/s on the paper's body).
+        c: f64,
+    },
+}
+
+impl AxialDrag {
+    /// The paper's law (41), unscaled.
+    pub const PAPER: AxialDrag = AxialDrag::SkinFriction { scale: 1.0 };
 }
 
 /// Gravity's magnitude (m/s²): the paper's body falls along `−e3` at it.
@@ -125,6 +154,7 @@ impl Body {
             c1: 0.0,
             c2: 1.98,
             c3: 0.5,
+            axial: AxialDrag::PAPER,
             gravity: [0.0, 0.0, -GRAVITY],
             ballast: 0.0,
             resistive: true,
@@ -193,6 +223,10 @@ impl Body {
         nonneg("c1", self.c1)?;
         nonneg("c2", self.c2)?;
         nonneg("c3", self.c3)?;
+        match self.axial {
+            AxialDrag::SkinFriction { scale } => nonneg("friction", scale)?,
+            AxialDrag::Quadratic { c } => nonneg("axial-drag", c)?,
+        }
         if !(0.0..=0.05).contains(&self.ballast) {
             return Err(ModelError::InvalidBody {
                 field: "ballast",
@@ -372,24 +406,43 @@ pub(crate) struct Friction {
     turbulent: f64,
     /// The speed of `Re = 8e4` at this node, `8e4 nu / X1` (m/s).
     v_switch: f64,
+    /// [`AxialDrag::Quadratic`]'s `c P` (m), in place of (41) when `> 0`.
+    quadratic: f64,
 }
 
 impl Friction {
     /// The law at arc length `x` (m) of a section of wetted perimeter
     /// `perimeter` (m), in water of kinematic viscosity `nu` (m²/s).
+    #[cfg(test)]
     pub(crate) fn new(x: f64, perimeter: f64, nu: f64) -> Self {
-        if !(x > 0.0 && perimeter > 0.0) {
-            return Friction {
-                laminar: 0.0,
-                turbulent: 0.0,
-                v_switch: f64::INFINITY,
-            };
-        }
-        let r = x / nu;
-        Friction {
-            laminar: CF_LAMINAR * perimeter / r.sqrt(),
-            turbulent: CF_TURBULENT * perimeter * r.powf(-0.2),
-            v_switch: RE_TRANSITION / r,
+        Self::with_law(x, perimeter, nu, AxialDrag::PAPER)
+    }
+
+    /// The same for the axial law `law`.
+    pub(crate) fn with_law(x: f64, perimeter: f64, nu: f64, law: AxialDrag) -> Self {
+        let none = Friction {
+            laminar: 0.0,
+            turbulent: 0.0,
+            v_switch: f64::INFINITY,
+            quadratic: 0.0,
+        };
+        match law {
+            AxialDrag::Quadratic { c } => Friction {
+                quadratic: c * perimeter,
+                ..none
+            },
+            AxialDrag::SkinFriction { scale } => {
+                if !(x > 0.0 && perimeter > 0.0) {
+                    return none;
+                }
+                let r = x / nu;
+                Friction {
+                    laminar: scale * CF_LAMINAR * perimeter / r.sqrt(),
+                    turbulent: scale * CF_TURBULENT * perimeter * r.powf(-0.2),
+                    v_switch: RE_TRANSITION / r,
+                    quadratic: 0.0,
+                }
+            }
         }
     }
 
@@ -399,6 +452,8 @@ impl Friction {
         let a = v1.abs();
         if a == 0.0 {
             0.0
+        } else if self.quadratic > 0.0 {
+            self.quadratic * a
         } else if a <= self.v_switch {
             self.laminar * a.sqrt()
         } else {
@@ -527,6 +582,31 @@ mod tests {
         }
         assert_eq!(Friction::new(0.0, perimeter, nu).k1_speed(1.0), 0.0);
         assert_eq!(Friction::new(0.5, 0.0, nu).k1_speed(1.0), 0.0);
+    }
+
+    /// A scaled (41) is the scale times (41); the quadratic law is `c P |V1|`
+    /// (times `V1` in the drag) at every node, the nose included, and no
+    /// scale of (41) matches it at two speeds.
+    #[test]
+    fn the_axial_laws_are_what_they_say() {
+        let (nu, perimeter, x) = (1e-6, 0.3, 0.5);
+        let paper = Friction::new(x, perimeter, nu);
+        let scaled = Friction::with_law(x, perimeter, nu, AxialDrag::SkinFriction { scale: 1.7 });
+        let quad = Friction::with_law(x, perimeter, nu, AxialDrag::Quadratic { c: 0.006 });
+        for v in [0.01, 0.1, 0.3, -0.5] {
+            assert!((scaled.k1_speed(v) - 1.7 * paper.k1_speed(v)).abs() < 1e-15);
+            assert!((quad.k1_speed(v) - 0.006 * perimeter * f64::abs(v)).abs() < 1e-15);
+        }
+        let ratio = |v: f64| quad.k1_speed(v) / paper.k1_speed(v);
+        let (slow, fast) = (ratio(0.05), ratio(0.3));
+        assert!((slow / fast - 1.0).abs() > 0.2, "{slow} {fast}");
+        let nose = Friction::with_law(0.0, perimeter, nu, AxialDrag::Quadratic { c: 0.006 });
+        assert!(nose.k1_speed(1.0) > 0.0);
+        let mut b = Body::paper();
+        b.axial = AxialDrag::Quadratic { c: -1.0 };
+        assert!(b.validate().unwrap_err().to_string().contains("axial-drag"));
+        b.axial = AxialDrag::SkinFriction { scale: f64::NAN };
+        assert!(b.validate().unwrap_err().to_string().contains("friction"));
     }
 
     /// The fast fifth root agrees with `powf` to 4e-16 (relative) over

@@ -46,10 +46,13 @@ pub mod current;
 pub mod dynamics;
 pub mod error;
 pub mod gait;
+pub mod identify;
 pub mod paper;
 pub mod run;
 
-pub use body::{Body, GRAVITY, Profile, TYPICAL_BALLAST, depth_at_pressure, pressure_at_depth};
+pub use body::{
+    AxialDrag, Body, GRAVITY, Profile, TYPICAL_BALLAST, depth_at_pressure, pressure_at_depth,
+};
 pub use current::{Current, MAX_CURRENT};
 pub use dynamics::{
     DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,

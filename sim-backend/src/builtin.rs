@@ -43,8 +43,8 @@ pub struct BuiltinConfig {
     pub head_sensor: Option<crate::sensor::SensorConfig>,
     /// An IMU in the tail, or none.
     pub tail_sensor: Option<crate::sensor::SensorConfig>,
-    /// The body's ballast (m; 0: the paper's body).
-    pub ballast: f64,
+    /// The simulated body (its own, not necessarily the daemon's model).
+    pub body: anguilla_model::Body,
 }
 
 /// The in-process robot, running.
@@ -82,7 +82,7 @@ impl Builtin {
             boot_time: Duration::from_millis(50),
             head_sensor: cfg.head_sensor,
             tail_sensor: cfg.tail_sensor,
-            ballast: cfg.ballast,
+            body: cfg.body.clone(),
             ..RobotConfig::with_joints(n)
         };
         let clock: Arc<dyn Clock> = bus.clock();

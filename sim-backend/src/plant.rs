@@ -24,7 +24,7 @@ use anguilla_model::{
 };
 
 /// Configuration of the body plant.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PlantConfig {
     /// Number of joints (one per node).
     pub joints: usize,
@@ -43,9 +43,10 @@ pub struct PlantConfig {
     /// The water's uniform current at the start (earth frame); still water
     /// by default. [`Plant::set_current`] changes it during a run.
     pub current: Current,
-    /// The body's ballast (`anguilla_model::Body::ballast`, m); 0: the
-    /// paper's body.
-    pub ballast: f64,
+    /// The body: its geometry, mass and ballast, and its hydrodynamic
+    /// coefficients and laws. The paper's by default; a simulated robot
+    /// may be given another than the daemon's model (`docs/calibration.md`).
+    pub body: anguilla_model::Body,
 }
 
 impl Default for PlantConfig {
@@ -60,7 +61,7 @@ impl Default for PlantConfig {
             v_init: 0.0,
             rate_loads: false,
             current: Current::ZERO,
-            ballast: 0.0,
+            body: anguilla_model::Body::paper(),
         }
     }
 }
@@ -108,10 +109,7 @@ impl Plant {
             dt: cfg.dt,
             joints: cfg.joints,
             integrator: Integrator::Rk4,
-            body: anguilla_model::Body {
-                ballast: cfg.ballast,
-                ..anguilla_model::Body::paper()
-            },
+            body: cfg.body,
         })?;
         let mut ws = Workspace::new(&model);
         ws.set_current(cfg.current);
@@ -506,7 +504,7 @@ mod tests {
             dt: 0.005,
             ..PlantConfig::default()
         };
-        let mut p = Plant::new(cfg).unwrap();
+        let mut p = Plant::new(cfg.clone()).unwrap();
         let mut ws = Workspace::new(&p.model);
         let g = named_gait("F1").unwrap();
         let mut src = LawSource::new(g.law);

@@ -228,7 +228,7 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
         scenario: String::new(),
         head_sensor: None,
         tail_sensor: None,
-        ballast: 0.0,
+        body: anguilla_model::Body::paper(),
     })
     .unwrap();
     // Real time: wait (bounded, a watchdog against a hang, not a speed

@@ -396,6 +396,35 @@ impl Ctl {
         let r = self
             .take_control()
             .and_then(|()| self.swim_held(p, hold, duration, interrupted));
+        self.stop_and_release(r)
+    }
+
+    /// Takes control and swims `legs` one after the other, each for its
+    /// time, without stopping between them (`anguilla ctl calibrate-swim`),
+    /// calling `each` with a leg's index as it starts; then stops, waits
+    /// for ready and releases, as [`Ctl::swim_holding`].
+    pub fn swim_legs(
+        &mut self,
+        legs: &[(SwimParams, Duration)],
+        each: &mut dyn FnMut(usize),
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<Outcome, CtlError> {
+        let r = self.take_control().and_then(|()| {
+            for (i, (p, d)) in legs.iter().enumerate() {
+                if interrupted() {
+                    break;
+                }
+                each(i);
+                self.swim_held(*p, Hold::MANUAL, Some(*d), interrupted)?;
+            }
+            Ok(())
+        });
+        self.stop_and_release(r)
+    }
+
+    /// After a swim that ended with `r`: stop if still holding control,
+    /// wait for ready, release; `r`'s error first.
+    fn stop_and_release(&mut self, r: Result<(), CtlError>) -> Result<Outcome, CtlError> {
         let stopped = if self.holding {
             self.request(Command::Stop)
                 .and_then(|_| self.wait_mode("stop", |m| matches!(m, Mode::Ready | Mode::Idle)))

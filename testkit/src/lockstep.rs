@@ -7,8 +7,11 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use anguilla_daemon::calibration::Leg;
 use anguilla_daemon::config::Config;
 use anguilla_daemon::control::Controller;
+use anguilla_daemon::mcap_log::McapLog;
+use anguilla_daemon::truth::GroundTruth;
 use anguilla_drivers::mem::{MemBus, MemParticipant};
 use anguilla_drivers::{Clock, ManualClock};
 use anguilla_ipc::vocabulary::{Command, Mode, Nanos, SwimParams};
@@ -58,6 +61,24 @@ impl Rig {
         current: [f64; 3],
         tune: impl FnOnce(&mut SensorConfig),
     ) -> Self {
+        Self::with_robot(cfg, seed, current, tune, |_| {})
+    }
+
+    /// [`Rig::new`] on a simulated body of its own (`body`), not the one
+    /// the daemon's `[model]` describes.
+    pub fn with_body(cfg: &Config, seed: u64, body: anguilla_model::Body) -> Self {
+        Self::with_robot(cfg, seed, [0.0; 3], |_| {}, |r| r.body = body)
+    }
+
+    /// [`Rig::with_sensor`] with the simulated robot's configuration then
+    /// changed by `robot`.
+    pub fn with_robot(
+        cfg: &Config,
+        seed: u64,
+        current: [f64; 3],
+        tune: impl FnOnce(&mut SensorConfig),
+        robot: impl FnOnce(&mut RobotConfig),
+    ) -> Self {
         let clock = ManualClock::new();
         let bus = MemBus::builder(&format!("lockstep-{seed}-{}", std::process::id()))
             .bitrate(cfg.bus.bitrate)
@@ -80,22 +101,20 @@ impl Rig {
             origin_depth: ORIGIN_DEPTH,
             ..SensorConfig::typical_in(s.tail_imu, s.rate_hz, s.water_density, s.surface_pressure)
         });
-        let robot = SimRobot::on_mem(
-            RobotConfig {
-                node_ids: cfg.node_ids(),
-                variant: cfg.bus.variant(),
-                boot_time: Duration::from_millis(10),
-                seed,
-                head_sensor: sensor,
-                tail_sensor: tail,
-                ballast: cfg.model.ballast,
-                current: Current::steady(current).expect("a current within limits"),
-                ..RobotConfig::with_joints(cfg.robot.joints)
-            },
-            bus.participant(),
-            Duration::ZERO,
-        )
-        .expect("simulated robot");
+        let mut rcfg = RobotConfig {
+            node_ids: cfg.node_ids(),
+            variant: cfg.bus.variant(),
+            boot_time: Duration::from_millis(10),
+            seed,
+            head_sensor: sensor,
+            tail_sensor: tail,
+            body: cfg.model.body(),
+            current: Current::steady(current).expect("a current within limits"),
+            ..RobotConfig::with_joints(cfg.robot.joints)
+        };
+        robot(&mut rcfg);
+        let robot =
+            SimRobot::on_mem(rcfg, bus.participant(), Duration::ZERO).expect("simulated robot");
         let ctl = Controller::new(cfg, Nanos::ZERO).expect("controller");
         let period = Duration::from_nanos(ctl.period_ns().as_nanos());
         Self {
@@ -218,6 +237,65 @@ impl Rig {
     /// The simulation's truth.
     pub fn truth(&self) -> Truth {
         self.robot.truth()
+    }
+
+    /// The simulation's truth as a recording's `/sim/truth` holds it.
+    pub fn ground_truth(&self) -> GroundTruth {
+        let t = self.robot.truth();
+        GroundTruth {
+            sim_time: t.time.as_secs_f64(),
+            position: t.position,
+            orientation: t.orientation,
+            velocity: t.velocity,
+            speed: t.forward_speed,
+            heading: t.heading,
+            depth: t.depth,
+        }
+    }
+
+    /// Takes control, enables, swims `legs` (the calibration swim's, or
+    /// any) and records them as `anguilla run` records a session's
+    /// `session.mcap` at `path`: every tenth snapshot, and the ground
+    /// truth every 50 ms.
+    pub fn record_legs(
+        &mut self,
+        cfg: &Config,
+        legs: &[Leg],
+        path: &std::path::Path,
+    ) -> std::io::Result<()> {
+        let mut log = McapLog::create(path, cfg)?;
+        self.ok(Command::TakeControl);
+        self.ok(Command::Enable);
+        assert!(
+            self.run_until(5.0, |r| r.state().mode == Mode::Ready as u8),
+            "ready"
+        );
+        let mut next_truth = 0u64;
+        let mut failed = None;
+        for leg in legs {
+            self.ok(Command::Swim(leg.gait));
+            self.run(leg.seconds, |r| {
+                let s = r.state();
+                let ns = s.time_ns;
+                let mut w = || -> std::io::Result<()> {
+                    if s.sequence % 10 == 0 {
+                        log.write(s)?;
+                    }
+                    if ns >= next_truth {
+                        next_truth = ns + 50_000_000;
+                        log.write_truth(ns, &r.ground_truth())?;
+                    }
+                    Ok(())
+                };
+                if let Err(e) = w() {
+                    failed.get_or_insert(e);
+                }
+            });
+        }
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        log.finish()
     }
 }
 

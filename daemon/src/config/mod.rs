@@ -17,6 +17,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 mod autopilot;
+mod body;
 mod bus;
 mod control;
 mod error;
@@ -37,6 +38,7 @@ mod whole;
 
 use anguilla_link::config::LinkConfig;
 pub use autopilot::AutopilotConfig;
+pub use body::{BodyFile, DragLaw};
 pub use bus::BusConfig;
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
 pub use error::{ConfigError, fmt_number};
@@ -44,7 +46,7 @@ pub use foxglove::FoxgloveConfig;
 pub use gait::GaitConfig;
 pub use ipc::IpcConfig;
 pub use limits::LimitsConfig;
-pub use model::ModelConfig;
+pub use model::{COEFFICIENT_MAX, ModelConfig};
 pub use monitor::MonitorConfig;
 pub use realtime::RealtimeConfig;
 pub use recording::RecordingConfig;

@@ -134,7 +134,9 @@ impl Model {
         let friction = sec
             .iter()
             .enumerate()
-            .map(|(i, s)| Friction::new(i as f64 / n as f64 * len, s.perimeter, body.nu))
+            .map(|(i, s)| {
+                Friction::with_law(i as f64 / n as f64 * len, s.perimeter, body.nu, body.axial)
+            })
             .collect();
         let total_mass = sec.iter().zip(&w).map(|(s, w)| s.mass * w).sum();
         let (k_o, m_o) = if body.resistive {

@@ -53,10 +53,12 @@ pub struct RobotConfig {
     /// The water's uniform current at the start (earth frame; still water
     /// by default). A scenario's `water current` events change it.
     pub current: Current,
-    /// The body's ballast (m below each section's axis; 0: the paper's
-    /// body, which rolls freely). Default: [`anguilla_model::TYPICAL_BALLAST`],
-    /// as the daemon's `[model] ballast`.
-    pub ballast: f64,
+    /// The simulated body: geometry, mass, ballast, hydrodynamic
+    /// coefficients and laws, its own and not the daemon's `[model]` (a
+    /// body that is not the model, `docs/calibration.md`). Default: the
+    /// paper's body with [`anguilla_model::TYPICAL_BALLAST`], as the
+    /// daemon's default `[model]`.
+    pub body: anguilla_model::Body,
     /// A head sensor beside the joints (anguilla family only), or none.
     pub head_sensor: Option<SensorConfig>,
     /// An IMU in the tail section (the head sensor's protocol; anguilla
@@ -91,7 +93,10 @@ impl RobotConfig {
             model_nodes: p.nodes,
             v_init: 0.0,
             current: Current::ZERO,
-            ballast: anguilla_model::TYPICAL_BALLAST,
+            body: anguilla_model::Body {
+                ballast: anguilla_model::TYPICAL_BALLAST,
+                ..anguilla_model::Body::paper()
+            },
             head_sensor: None,
             tail_sensor: None,
         }
@@ -115,10 +120,10 @@ impl RobotConfig {
     /// Checks every setting (what building a robot checks first); the
     /// error names the setting and what is accepted.
     pub fn validate(&self) -> Result<()> {
-        if !(0.0..=0.05).contains(&self.ballast) {
+        if let Err(e) = self.body.validate() {
             return Err(SimError::Config {
-                field: "ballast",
-                reason: format!("{} m outside 0 ..= 0.05 m", self.ballast),
+                field: "body",
+                reason: e.to_string(),
             });
         }
         if self.node_ids.is_empty() {

@@ -204,7 +204,7 @@ impl SimRobot {
             v_init: cfg.v_init,
             rate_loads: !cfg.actuator.ideal,
             current: cfg.current,
-            ballast: cfg.ballast,
+            body: cfg.body.clone(),
         })?;
         let mut plant = plant;
         if !cfg.actuator.ideal {

@@ -1,0 +1,389 @@
+//! Identification of the body's hydrodynamic coefficients from recorded
+//! swims (`anguilla calibrate`, docs/calibration.md).
+//!
+//! **Output error.** A recorded [`Swim`] holds the joints' measured
+//! motion and torques, and the head's horizontal track, heading and depth.
+//! The model is driven by the recorded joint motion (the simulated robot's
+//! way: a [`JointCurvature`](crate::JointCurvature) fed with the angles,
+//! rates and accelerations of a cubic Hermite curve through the samples),
+//! from rest, with candidate coefficients; its head swims where the
+//! coefficients take it, and its internal torques follow. The residuals
+//! ([`replay`]) compare, on a 10 Hz grid, the forward speed, the turn rate
+//! and the depth rate (each over a one-second window, so that no frame,
+//! origin or heading offset matters), and at every joint sample the
+//! measured torque with the model's plus the actuators' own inertia and
+//! friction (`J θ̈ + b θ̇`, solved linearly at every evaluation: a
+//! nuisance the drive adds, not the water). Each group is divided by its
+//! measured RMS (with a floor) and by the square root of its count, so
+//! that torques, speed, turning and diving weigh alike.
+//!
+//! **Levenberg–Marquardt** (`lm.rs`) minimises their sum of squares over
+//! the chosen coefficients, each scaled by its prior (or a floor for a
+//! zero prior), with a finite-difference Jacobian whose simulations run on
+//! every core. At the optimum, the Jacobian gives each coefficient's
+//! standard error (inflated for the residuals' autocorrelation) and their
+//! correlations. A coefficient is *identified* when its 95 % interval is
+//! within 5 % of its value (or of the floor); the others are kept at their
+//! prior and the fit is run again without them, and the report says what
+//! the swim lacked to identify them ([`Coefficient::needs`]).
+//!
+//! Nothing here reads a file: the daemon's `mcap_log::swim` turns a
+//! recorded session into a [`Swim`].
+
+mod lm;
+pub mod replay;
+mod swim;
+
+pub use swim::{JointSample, Swim};
+
+use crate::body::{AxialDrag, Body};
+use crate::error::ModelError;
+
+/// Why a fit could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FitError {
+    /// A swim is not usable; the text says which and why.
+    #[error("{0}")]
+    Swim(String),
+    /// The prior body is invalid, or the model failed replaying a swim.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
+pub use replay::{Channels, Evaluation, Measured, SwimError, Trace, evaluate, simulate};
+
+/// A coefficient the fit can adjust.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Coefficient {
+    /// Nose pressure drag `c_p` (22).
+    CP,
+    /// Nose added mass `k` (23).
+    K,
+    /// Roll drag `c_1` (24).
+    C1,
+    /// Lateral drag `c_2` (24).
+    C2,
+    /// Vertical drag `c_3` (24).
+    C3,
+    /// The factor on the skin friction (41).
+    Friction,
+}
+
+impl Coefficient {
+    /// Every coefficient, in `[model]`'s order.
+    pub const ALL: [Coefficient; 6] = [
+        Coefficient::CP,
+        Coefficient::K,
+        Coefficient::C1,
+        Coefficient::C2,
+        Coefficient::C3,
+        Coefficient::Friction,
+    ];
+
+    /// Its name on the command line (`--fit c_p,k,c1,c2,c3,friction`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Coefficient::CP => "c_p",
+            Coefficient::K => "k",
+            Coefficient::C1 => "c1",
+            Coefficient::C2 => "c2",
+            Coefficient::C3 => "c3",
+            Coefficient::Friction => "friction",
+        }
+    }
+
+    /// Its key in `[model]`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Coefficient::CP => "c-p",
+            other => other.name(),
+        }
+    }
+
+    /// The coefficient named `name` (its command-line name or its key).
+    pub fn parse(name: &str) -> Option<Coefficient> {
+        Self::ALL
+            .into_iter()
+            .find(|c| c.name() == name || c.key() == name)
+    }
+
+    /// Its value in `body` (the friction factor is 1 for another law).
+    pub fn get(self, body: &Body) -> f64 {
+        match self {
+            Coefficient::CP => body.c_p,
+            Coefficient::K => body.k_nose,
+            Coefficient::C1 => body.c1,
+            Coefficient::C2 => body.c2,
+            Coefficient::C3 => body.c3,
+            Coefficient::Friction => match body.axial {
+                AxialDrag::SkinFriction { scale } => scale,
+                AxialDrag::Quadratic { .. } => 1.0,
+            },
+        }
+    }
+
+    /// Sets it in `body` (the friction factor makes the law (41)).
+    pub fn set(self, body: &mut Body, v: f64) {
+        match self {
+            Coefficient::CP => body.c_p = v,
+            Coefficient::K => body.k_nose = v,
+            Coefficient::C1 => body.c1 = v,
+            Coefficient::C2 => body.c2 = v,
+            Coefficient::C3 => body.c3 = v,
+            Coefficient::Friction => body.axial = AxialDrag::SkinFriction { scale: v },
+        }
+    }
+
+    /// The scale its uncertainty is judged against when its value is
+    /// smaller: the paper's `c_1` is 0.
+    pub fn floor(self) -> f64 {
+        match self {
+            Coefficient::C1 => 0.1,
+            Coefficient::K => 0.05,
+            Coefficient::CP => 0.005,
+            _ => 0.05,
+        }
+    }
+
+    /// What a swim must contain to identify it.
+    pub fn needs(self) -> &'static str {
+        match self {
+            Coefficient::CP => {
+                "the nose's drag grows as v² and the skin's as v^1.5..1.8: telling them apart \
+                 needs forward swims over a wide range of speeds"
+            }
+            Coefficient::K => {
+                "the nose's added mass acts only on the head's axial acceleration: it needs \
+                 hard starts, stops and surges"
+            }
+            Coefficient::C1 => "roll drag needs roll motion (rolling the body about its axis)",
+            Coefficient::C2 => "lateral drag needs undulation",
+            Coefficient::C3 => "vertical drag needs pitching: dives and climbs",
+            Coefficient::Friction => "skin friction needs forward swimming",
+        }
+    }
+}
+
+/// Parses a `--fit` list, e.g. `c_p,k,c2`; the error names the unknown one.
+pub fn parse_coefficients(list: &str) -> std::result::Result<Vec<Coefficient>, String> {
+    let mut out = Vec::new();
+    for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let c = Coefficient::parse(name).ok_or_else(|| {
+            format!(
+                "unknown coefficient '{name}' (expected some of {})",
+                Coefficient::ALL.map(Coefficient::name).join(",")
+            )
+        })?;
+        if !out.contains(&c) {
+            out.push(c);
+        }
+    }
+    if out.is_empty() {
+        return Err("no coefficient to fit".into());
+    }
+    Ok(out)
+}
+
+/// How to fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// The coefficients to adjust; the others keep the prior's values.
+    pub fit: Vec<Coefficient>,
+    /// Space nodes of the model replaying the swims (26: within 0.3 % of
+    /// 52 in speed on the calibration swim, in half the time).
+    pub nodes: usize,
+    /// Its time step (s): 5 ms (at 10 ms, RK4 on the recorded joint
+    /// motion swims 2 % slow).
+    pub dt: f64,
+    /// The torques' weight against the head's motion (1: alike).
+    pub torque_weight: f64,
+    /// Most Levenberg–Marquardt iterations.
+    pub max_iterations: usize,
+    /// Threads for the simulations (0: every core).
+    pub threads: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            fit: Coefficient::ALL.to_vec(),
+            nodes: 26,
+            dt: 0.005,
+            torque_weight: TORQUE_WEIGHT,
+            max_iterations: 25,
+            threads: 0,
+        }
+    }
+}
+
+/// One coefficient's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    /// Which.
+    pub coefficient: Coefficient,
+    /// The prior's value.
+    pub prior: f64,
+    /// The value the fitted body has: the estimate when identified, else
+    /// the prior's.
+    pub value: f64,
+    /// The best estimate, identified or not.
+    pub estimate: f64,
+    /// One standard error of the estimate (same unit).
+    pub std_error: f64,
+    /// Whether the swims identify it (95 % interval within 5 % of its
+    /// value or floor).
+    pub identified: bool,
+    /// The coefficient it is most correlated with, and the correlation.
+    pub correlated: Option<(Coefficient, f64)>,
+}
+
+/// What a fit found.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// The body with the fitted coefficients.
+    pub body: Body,
+    /// Every coefficient asked for, in the order asked.
+    pub estimates: Vec<Estimate>,
+    /// The swims' residuals with the prior's coefficients.
+    pub before: Evaluation,
+    /// With the fitted ones (the identified estimates, the prior's others).
+    pub after: Evaluation,
+    /// With every estimate, identified or not.
+    pub estimated: Evaluation,
+    /// Model replays of the swims run.
+    pub simulations: usize,
+    /// Levenberg–Marquardt iterations run (all passes).
+    pub iterations: usize,
+}
+
+/// The torques' default weight: on the simulated robot they keep an
+/// error of about 0.05 N·m RMS that no coefficient explains (the servos'
+/// coupling to the body, the feedback's one-period lag), which at full
+/// weight would pull the coefficients off the head's motion.
+pub const TORQUE_WEIGHT: f64 = 0.1;
+
+/// Per coefficient: its estimate, standard error and strongest
+/// correlation.
+type Found = std::collections::BTreeMap<Coefficient, (f64, f64, Option<(Coefficient, f64)>)>;
+
+/// The relative half-width of the 95 % interval within which a
+/// coefficient counts as identified.
+pub const IDENTIFIED_WITHIN: f64 = 0.05;
+
+/// Fits `opts.fit` of `prior` to `swims`. Every swim is replayed from rest
+/// ([`replay`]); the prior also sets everything not fitted (geometry,
+/// density, ballast).
+pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitError> {
+    prior.validate()?;
+    if swims.is_empty() {
+        return Err(FitError::Swim("no swim to fit".into()));
+    }
+    let joints = swims[0].joints();
+    for s in swims {
+        s.validate().map_err(FitError::Swim)?;
+        if s.joints() != joints {
+            return Err(FitError::Swim(format!(
+                "{} has {} joints, {} has {joints}",
+                s.name,
+                s.joints(),
+                swims[0].name
+            )));
+        }
+    }
+    let measured = replay::Measured::of(swims, opts.torque_weight);
+    let ctx = lm::Problem {
+        prior,
+        swims,
+        measured: &measured,
+        nodes: opts.nodes,
+        dt: opts.dt,
+        threads: opts.threads,
+    };
+    // Fit everything asked for; then, if the swims identify some but not
+    // all, fit those again with the others at the prior (so that what the
+    // data cannot tell does not leak into what it can).
+    let first = lm::solve(&ctx, prior, &opts.fit, opts.max_iterations)?;
+    let mut simulations = first.simulations;
+    let mut iterations = first.iterations;
+    let judge = |run: &lm::Run, free: &[Coefficient]| -> Vec<bool> {
+        free.iter()
+            .enumerate()
+            .map(|(i, &c)| {
+                let scale = c.get(&run.body).abs().max(c.floor());
+                2.0 * run.std_errors[i] / scale <= IDENTIFIED_WITHIN
+            })
+            .collect()
+    };
+    let ok = judge(&first, &opts.fit);
+    let identified: Vec<Coefficient> = opts
+        .fit
+        .iter()
+        .zip(&ok)
+        .filter(|(_, ok)| **ok)
+        .map(|(c, _)| *c)
+        .collect();
+    let mut found: Found = opts
+        .fit
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| {
+            (
+                c,
+                (c.get(&first.body), first.std_errors[i], first.correlated[i]),
+            )
+        })
+        .collect();
+    let body = if identified.len() == opts.fit.len() {
+        first.body.clone()
+    } else if identified.is_empty() {
+        prior.clone()
+    } else {
+        let second = lm::solve(&ctx, prior, &identified, opts.max_iterations)?;
+        simulations += second.simulations;
+        iterations += second.iterations;
+        for (i, &c) in identified.iter().enumerate() {
+            found.insert(
+                c,
+                (
+                    c.get(&second.body),
+                    second.std_errors[i],
+                    second.correlated[i],
+                ),
+            );
+        }
+        second.body
+    };
+    let before = replay::evaluate(prior, swims, &measured, opts.nodes, opts.dt)?;
+    let after = replay::evaluate(&body, swims, &measured, opts.nodes, opts.dt)?;
+    let mut all = prior.clone();
+    for (c, (v, _, _)) in &found {
+        c.set(&mut all, *v);
+    }
+    let estimated = replay::evaluate(&all, swims, &measured, opts.nodes, opts.dt)?;
+    simulations += 3 * swims.len();
+    let estimates = opts
+        .fit
+        .iter()
+        .map(|&c| {
+            let (estimate, std_error, correlated) =
+                found.get(&c).copied().unwrap_or((f64::NAN, f64::NAN, None));
+            Estimate {
+                coefficient: c,
+                prior: c.get(prior),
+                value: c.get(&body),
+                estimate,
+                std_error,
+                identified: identified.contains(&c),
+                correlated,
+            }
+        })
+        .collect();
+    Ok(Fit {
+        body,
+        estimates,
+        before,
+        after,
+        estimated,
+        simulations,
+        iterations,
+    })
+}

@@ -1,0 +1,559 @@
+//! The model replaying a recorded swim, and how far it is from the
+//! recording: the channels compared, their residuals and their errors.
+
+use super::swim::Swim;
+use crate::body::Body;
+use crate::dynamics::{HeadState, Model, ModelConfig, Workspace, body_axis, step};
+use crate::error::Result;
+use crate::gait::JointCurvature;
+use crate::{Integrator, JointMotion};
+
+/// The window (s) over which speed, turn rate and depth rate are taken: a
+/// whole tail beat at 1 Hz, so the head's sway averages out.
+pub const WINDOW: f64 = 1.0;
+/// The grid (s) on which they are compared.
+pub const GRID: f64 = 0.1;
+
+/// The floors of the groups' scales: speed (m/s), turn rate (rad/s), depth
+/// rate (m/s), torque (N·m). A group whose measured RMS is below its
+/// floor is divided by the floor (a swim that never dives weighs its
+/// depth rate in centimetres per second, not in its own noise).
+pub const FLOORS: [f64; 4] = [0.02, 0.02, 0.01, 0.02];
+
+/// What the model did replaying one swim: its pose after every step and
+/// its joint torques at every step's start.
+#[derive(Debug, Clone, Default)]
+pub struct Trace {
+    /// Times (s) of the poses.
+    pub t: Vec<f64>,
+    /// The nose's horizontal position `[x, y]` (m).
+    pub xy: Vec<[f64; 2]>,
+    /// The body's heading (rad, counter-clockwise, unwrapped).
+    pub heading: Vec<f64>,
+    /// The nose's depth (m, down).
+    pub depth: Vec<f64>,
+    /// The head's roll rate (rad/s).
+    pub roll_rate: Vec<f64>,
+    /// Times (s) of the torques.
+    pub torque_t: Vec<f64>,
+    /// Torques `[pitch, yaw]` of every joint at every step, row by row.
+    pub torque: Vec<[f64; 2]>,
+}
+
+/// The compared channels of one swim on the grid: forward speed (m/s),
+/// turn rate (rad/s) and depth rate (m/s), each over [`WINDOW`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Channels {
+    /// Grid times (s).
+    pub t: Vec<f64>,
+    /// Horizontal speed of the nose.
+    pub speed: Vec<f64>,
+    /// Turn rate.
+    pub turn: Vec<f64>,
+    /// Depth rate.
+    pub dive: Vec<f64>,
+}
+
+/// The recorded side, computed once: each swim's channels and joint
+/// accelerations, and the groups' scales.
+#[derive(Debug, Clone)]
+pub struct Measured {
+    pub(super) channels: Vec<Channels>,
+    /// Per swim, per sample, per joint: accelerations `[pitch, yaw]`.
+    pub(super) accel: Vec<Vec<Vec<[f64; 2]>>>,
+    /// Scales of speed, turn, dive, torque.
+    pub(super) scales: [f64; 4],
+    /// Counts of speed, turn, dive and torque residuals.
+    pub(super) counts: [usize; 4],
+}
+
+fn interp(t: &[f64], v: impl Fn(usize) -> f64, at: f64) -> f64 {
+    let i = t.partition_point(|&x| x <= at).clamp(1, t.len().max(2) - 1);
+    let (t0, t1) = (t[i - 1], t[i]);
+    let u = if t1 > t0 {
+        ((at - t0) / (t1 - t0)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    v(i - 1) + u * (v(i) - v(i - 1))
+}
+
+fn wrap(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (mut s, mut n) = (0.0, 0usize);
+    for x in v.filter(|x| x.is_finite()) {
+        s += x * x;
+        n += 1;
+    }
+    if n == 0 { 0.0 } else { (s / n as f64).sqrt() }
+}
+
+impl Measured {
+    /// The recorded channels and accelerations of `swims`.
+    pub fn of(swims: &[Swim], torque_weight: f64) -> Self {
+        let channels: Vec<Channels> = swims.iter().map(measured_channels).collect();
+        let accel = swims.iter().map(accelerations).collect();
+        let all = |f: fn(&Channels) -> &Vec<f64>| rms(channels.iter().flat_map(f).copied());
+        let count = |f: fn(&Channels) -> &Vec<f64>| {
+            channels
+                .iter()
+                .flat_map(f)
+                .filter(|v| v.is_finite())
+                .count()
+        };
+        let torque = rms(swims
+            .iter()
+            .flat_map(|s| &s.samples)
+            .flat_map(|s| &s.torque)
+            .flatten()
+            .copied());
+        let raw = [
+            all(|c| &c.speed),
+            all(|c| &c.turn),
+            all(|c| &c.dive),
+            torque,
+        ];
+        let mut scales: [f64; 4] = std::array::from_fn(|i| raw[i].max(FLOORS[i]));
+        scales[3] /= torque_weight.max(1e-9).sqrt();
+        let counts = [
+            count(|c| &c.speed),
+            count(|c| &c.turn),
+            count(|c| &c.dive),
+            swims
+                .iter()
+                .flat_map(|s| &s.samples)
+                .flat_map(|s| &s.torque)
+                .flatten()
+                .filter(|v| v.is_finite())
+                .count(),
+        ];
+        Self {
+            channels,
+            accel,
+            scales,
+            counts,
+        }
+    }
+}
+
+/// The grid of a swim: every [`GRID`] within its samples, half a window
+/// from either end.
+fn grid(swim: &Swim) -> Vec<f64> {
+    let (Some(a), Some(b)) = (swim.samples.first(), swim.samples.last()) else {
+        return Vec::new();
+    };
+    let (start, end) = (a.t + WINDOW / 2.0, b.t - WINDOW / 2.0);
+    let n = ((end - start) / GRID).floor();
+    if n.is_nan() || n < 0.0 {
+        return Vec::new();
+    }
+    (0..=n as usize).map(|i| start + i as f64 * GRID).collect()
+}
+
+/// A pose series: times, and a value `[a, b]` at each.
+type Series<'a> = (&'a [f64], &'a dyn Fn(usize) -> [f64; 2]);
+
+/// Whether `ts` covers the window around `g`.
+fn covers(ts: &[f64], g: f64) -> bool {
+    ts.len() >= 2 && ts[0] <= g - WINDOW / 2.0 && ts[ts.len() - 1] >= g + WINDOW / 2.0
+}
+
+/// The channels over `grid` (NaN where the series do not cover a window)
+/// of the nose's horizontal track `[x, y]` and of the attitude
+/// `[unwrapped heading, depth]`.
+fn channels_of(grid: &[f64], track: Option<Series>, att: Option<Series>) -> Channels {
+    let nan = vec![f64::NAN; grid.len()];
+    let mut c = Channels {
+        t: grid.to_vec(),
+        speed: nan.clone(),
+        turn: nan.clone(),
+        dive: nan,
+    };
+    for (i, &g) in grid.iter().enumerate() {
+        let (a, b) = (g - WINDOW / 2.0, g + WINDOW / 2.0);
+        if let Some((t, xy)) = track
+            && covers(t, g)
+        {
+            let p = |at| [interp(t, |k| xy(k)[0], at), interp(t, |k| xy(k)[1], at)];
+            let (pa, pb) = (p(a), p(b));
+            c.speed[i] = (pb[0] - pa[0]).hypot(pb[1] - pa[1]) / WINDOW;
+        }
+        if let Some((t, hd)) = att
+            && covers(t, g)
+        {
+            let v = |at, ax: usize| interp(t, |k| hd(k)[ax], at);
+            c.turn[i] = (v(b, 0) - v(a, 0)) / WINDOW;
+            c.dive[i] = (v(b, 1) - v(a, 1)) / WINDOW;
+        }
+    }
+    c
+}
+
+fn measured_channels(swim: &Swim) -> Channels {
+    let tt: Vec<f64> = swim.track.iter().map(|p| p[0]).collect();
+    let ta: Vec<f64> = swim.attitude.iter().map(|p| p[0]).collect();
+    let mut heading = Vec::with_capacity(ta.len());
+    for p in &swim.attitude {
+        let h = match heading.last() {
+            Some(&last) => last + wrap(p[1] - last),
+            None => p[1],
+        };
+        heading.push(h);
+    }
+    let xy = |i: usize| [swim.track[i][1], swim.track[i][2]];
+    let att = |i: usize| [heading[i], swim.attitude[i][2]];
+    channels_of(
+        &grid(swim),
+        (!tt.is_empty()).then_some((&tt[..], &xy as &dyn Fn(usize) -> [f64; 2])),
+        (!ta.is_empty()).then_some((&ta[..], &att as &dyn Fn(usize) -> [f64; 2])),
+    )
+}
+
+/// Joint accelerations at every sample: central differences of the
+/// measured rates (one-sided at the ends).
+fn accelerations(swim: &Swim) -> Vec<Vec<[f64; 2]>> {
+    let s = &swim.samples;
+    let n = s.len();
+    (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
+            let dt = s[b].t - s[a].t;
+            (0..swim.joints())
+                .map(|j| {
+                    std::array::from_fn(|ax| {
+                        if dt > 0.0 {
+                            (s[b].rate[j][ax] - s[a].rate[j][ax]) / dt
+                        } else {
+                            0.0
+                        }
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The joint motion at `t` from a cubic Hermite curve through the samples
+/// (angles and rates at both ends of the segment `k`): angle, rate and
+/// acceleration of every axis.
+fn hermite(swim: &Swim, k: usize, t: f64, out: &mut [JointMotion]) {
+    let (a, b) = (
+        &swim.samples[k],
+        &swim.samples[(k + 1).min(swim.samples.len() - 1)],
+    );
+    let h = (b.t - a.t).max(1e-9);
+    let s = ((t - a.t) / h).clamp(0.0, 1.0);
+    let (s2, s3) = (s * s, s * s * s);
+    let w = [
+        2.0 * s3 - 3.0 * s2 + 1.0,
+        s3 - 2.0 * s2 + s,
+        -2.0 * s3 + 3.0 * s2,
+        s3 - s2,
+    ];
+    let d = [
+        6.0 * s2 - 6.0 * s,
+        3.0 * s2 - 4.0 * s + 1.0,
+        -6.0 * s2 + 6.0 * s,
+        3.0 * s2 - 2.0 * s,
+    ];
+    let dd = [
+        12.0 * s - 6.0,
+        6.0 * s - 4.0,
+        -12.0 * s + 6.0,
+        6.0 * s - 2.0,
+    ];
+    for (j, m) in out.iter_mut().enumerate() {
+        for ax in 0..2 {
+            let (p0, m0, p1, m1) = (
+                a.angle[j][ax],
+                a.rate[j][ax] * h,
+                b.angle[j][ax],
+                b.rate[j][ax] * h,
+            );
+            let f = |c: &[f64; 4]| c[0] * p0 + c[1] * m0 + c[2] * p1 + c[3] * m1;
+            let v = [f(&w), f(&d) / h, f(&dd) / (h * h)];
+            if ax == 0 {
+                m.pitch = v;
+            } else {
+                m.yaw = v;
+            }
+        }
+    }
+}
+
+/// Replays `swim` on the model of `body` (`nodes` space nodes, time step
+/// `dt`, RK4), from rest, its joints moving as recorded.
+pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace> {
+    let joints = swim.joints();
+    let model = Model::new(ModelConfig {
+        body: body.clone(),
+        nodes,
+        dt,
+        joints,
+        integrator: Integrator::Rk4,
+    })?;
+    let mut ws = Workspace::new(&model);
+    let mut src = JointCurvature::new(joints, body.length);
+    let mut head = HeadState::launch(0.0);
+    let t0 = swim.samples[0].t;
+    let end = swim.samples[swim.samples.len() - 1].t;
+    let steps = ((end - t0) / dt).floor() as usize;
+    let mut tr = Trace {
+        t: Vec::with_capacity(steps + 1),
+        xy: Vec::with_capacity(steps + 1),
+        heading: Vec::with_capacity(steps + 1),
+        depth: Vec::with_capacity(steps + 1),
+        roll_rate: Vec::with_capacity(steps + 1),
+        torque_t: Vec::with_capacity(steps),
+        torque: Vec::with_capacity(steps * joints),
+    };
+    let mut k = 0;
+    let mut last_heading = f64::NAN;
+    for i in 0..=steps {
+        let t = t0 + i as f64 * dt;
+        while k + 1 < swim.samples.len() - 1 && swim.samples[k + 1].t <= t {
+            k += 1;
+        }
+        hermite(swim, k, t, src.joints_mut());
+        if i > 0 {
+            step(&model, &mut ws, &mut src, &mut head)?;
+            tr.torque_t.push(t - dt);
+            tr.torque
+                .extend(ws.joints().iter().map(|j| j.actuator_torque()));
+        } else {
+            crate::evaluate(&model, &mut ws, &src, &head)?;
+        }
+        let forward = head.orientation * body_axis(ws.shape());
+        let raw = forward.y.atan2(forward.x);
+        let heading = if last_heading.is_nan() {
+            raw
+        } else {
+            last_heading + wrap(raw - last_heading)
+        };
+        last_heading = heading;
+        tr.t.push(t);
+        tr.xy.push([head.position.x, head.position.y]);
+        tr.heading.push(heading);
+        tr.depth.push(-head.position.z);
+        tr.roll_rate.push(head.roll_rate());
+    }
+    Ok(tr)
+}
+
+/// The model's channels of a trace on the grid of `swim`.
+fn model_channels(tr: &Trace, swim: &Swim) -> Channels {
+    let xy = |i: usize| tr.xy[i];
+    let att = |i: usize| [tr.heading[i], tr.depth[i]];
+    channels_of(
+        &grid(swim),
+        Some((&tr.t[..], &xy as &dyn Fn(usize) -> [f64; 2])),
+        Some((&tr.t[..], &att as &dyn Fn(usize) -> [f64; 2])),
+    )
+}
+
+/// The errors of a body against swims, in their units.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Evaluation {
+    /// The weighted cost (the fit's objective: the groups' mean squared
+    /// errors over their scales, summed).
+    pub cost: f64,
+    /// RMS errors: speed (m/s), turn rate (rad/s), depth rate (m/s),
+    /// torque (N·m); NaN where the swims have no such channel.
+    pub rms: [f64; 4],
+    /// The actuators' own reflected inertia (kg·m²) and viscous friction
+    /// (N·m·s/rad) the torques were fitted with.
+    pub actuator: [f64; 2],
+    /// Per swim: its name, its mean measured speed and the model's (m/s),
+    /// its torque RMS error (N·m).
+    pub swims: Vec<SwimError>,
+    /// RMS roll rate of the replayed head (rad/s).
+    pub roll_rate_rms: f64,
+}
+
+/// One swim's errors.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SwimError {
+    /// The swim's name.
+    pub name: String,
+    /// Its mean measured speed over the grid (m/s; NaN without a track).
+    pub speed: f64,
+    /// The model's (m/s).
+    pub model_speed: f64,
+    /// Its torque RMS error (N·m).
+    pub torque_rms: f64,
+}
+
+impl SwimError {
+    /// The model's speed error relative to the measured speed.
+    pub fn speed_error(&self) -> f64 {
+        (self.model_speed - self.speed) / self.speed
+    }
+}
+
+// Joints and axes index parallel arrays (samples, accelerations, traces).
+#[allow(clippy::needless_range_loop)]
+/// The weighted residuals of `traces` against `swims` into `out` (grouped:
+/// speed, turn, dive, torque; each group in time order) and what they
+/// mean in units.
+pub(super) fn residuals(
+    traces: &[Trace],
+    swims: &[Swim],
+    m: &Measured,
+    out: &mut Vec<f64>,
+) -> Evaluation {
+    out.clear();
+    let mut ev = Evaluation::default();
+    let chans: Vec<Channels> = traces
+        .iter()
+        .zip(swims)
+        .map(|(tr, s)| model_channels(tr, s))
+        .collect();
+    // the actuators' J and b: least squares of (measured - model) on
+    // (acceleration, rate) over every torque sample
+    let mut ata = [[0.0; 2]; 2];
+    let mut atb = [0.0; 2];
+    let model_torque = |tr: &Trace, t: f64, j: usize, ax: usize, n: usize| {
+        interp(&tr.torque_t, |i| tr.torque[i * n + j][ax], t)
+    };
+    for ((tr, s), acc) in traces.iter().zip(swims).zip(&m.accel) {
+        let n = s.joints();
+        for (k, smp) in s.samples.iter().enumerate() {
+            for j in 0..n {
+                for ax in 0..2 {
+                    let meas = smp.torque[j][ax];
+                    if !meas.is_finite() {
+                        continue;
+                    }
+                    let e = meas - model_torque(tr, smp.t, j, ax, n);
+                    let x = [acc[k][j][ax], smp.rate[j][ax]];
+                    for r in 0..2 {
+                        for c in 0..2 {
+                            ata[r][c] += x[r] * x[c];
+                        }
+                        atb[r] += x[r] * e;
+                    }
+                }
+            }
+        }
+    }
+    let det = ata[0][0] * ata[1][1] - ata[0][1] * ata[1][0];
+    let jb = if det.abs() > 1e-12 * (ata[0][0] * ata[1][1]).max(1e-300) {
+        [
+            (atb[0] * ata[1][1] - atb[1] * ata[0][1]) / det,
+            (atb[1] * ata[0][0] - atb[0] * ata[1][0]) / det,
+        ]
+    } else {
+        [0.0; 2]
+    };
+    ev.actuator = jb;
+    let mut sums = [0.0f64; 4];
+    let mut counts = [0usize; 4];
+    let mut push = |g: usize, e: f64, out: &mut Vec<f64>| {
+        if e.is_finite() {
+            sums[g] += e * e;
+            counts[g] += 1;
+            out.push(e / (m.scales[g] * (m.counts[g].max(1) as f64).sqrt()));
+        } else {
+            // a model that did not get there: a large, finite residual
+            out.push(10.0 / (m.counts[g].max(1) as f64).sqrt());
+        }
+    };
+    for g in 0..3 {
+        for (mc, c) in m.channels.iter().zip(&chans) {
+            let (a, b) = match g {
+                0 => (&mc.speed, &c.speed),
+                1 => (&mc.turn, &c.turn),
+                _ => (&mc.dive, &c.dive),
+            };
+            for (x, y) in a.iter().zip(b) {
+                if x.is_finite() {
+                    push(g, y - x, out);
+                }
+            }
+        }
+    }
+    let mut roll = (0.0, 0usize);
+    for (((tr, s), acc), (mc, c)) in traces
+        .iter()
+        .zip(swims)
+        .zip(&m.accel)
+        .zip(m.channels.iter().zip(&chans))
+    {
+        let n = s.joints();
+        let (mut se, mut cnt) = (0.0, 0usize);
+        for (k, smp) in s.samples.iter().enumerate() {
+            for j in 0..n {
+                for ax in 0..2 {
+                    let meas = smp.torque[j][ax];
+                    if !meas.is_finite() {
+                        continue;
+                    }
+                    let pred = model_torque(tr, smp.t, j, ax, n)
+                        + jb[0] * acc[k][j][ax]
+                        + jb[1] * smp.rate[j][ax];
+                    let e = pred - meas;
+                    se += e * e;
+                    cnt += 1;
+                    push(3, e, out);
+                }
+            }
+        }
+        // the means over the grid points the recording has
+        let (mut sm, mut sp, mut cn) = (0.0, 0.0, 0usize);
+        for (x, y) in mc.speed.iter().zip(&c.speed) {
+            if x.is_finite() && y.is_finite() {
+                sm += x;
+                sp += y;
+                cn += 1;
+            }
+        }
+        let (speed, model_speed) = if cn > 0 {
+            (sm / cn as f64, sp / cn as f64)
+        } else {
+            (f64::NAN, f64::NAN)
+        };
+        ev.swims.push(SwimError {
+            name: s.name.clone(),
+            speed,
+            model_speed,
+            torque_rms: if cnt > 0 {
+                (se / cnt as f64).sqrt()
+            } else {
+                f64::NAN
+            },
+        });
+        for r in &tr.roll_rate {
+            roll.0 += r * r;
+            roll.1 += 1;
+        }
+    }
+    ev.roll_rate_rms = (roll.0 / roll.1.max(1) as f64).sqrt();
+    ev.rms = std::array::from_fn(|g| {
+        if counts[g] > 0 {
+            (sums[g] / counts[g] as f64).sqrt()
+        } else {
+            f64::NAN
+        }
+    });
+    ev.cost = out.iter().map(|r| r * r).sum();
+    ev
+}
+
+/// The errors of `body` against `swims` (one replay each).
+pub fn evaluate(
+    body: &Body,
+    swims: &[Swim],
+    m: &Measured,
+    nodes: usize,
+    dt: f64,
+) -> Result<Evaluation> {
+    let traces = swims
+        .iter()
+        .map(|s| simulate(body, s, nodes, dt))
+        .collect::<Result<Vec<_>>>()?;
+    let mut out = Vec::new();
+    Ok(residuals(&traces, swims, m, &mut out))
+}
