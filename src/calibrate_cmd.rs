@@ -109,11 +109,12 @@ fn errors(o: &mut String, label: &str, ev: &Evaluation) {
     };
     let _ = writeln!(
         o,
-        "  {label:<22} speed {}, turn rate {}, depth rate {}, torque {} RMS",
+        "  {label:<22} speed {}, turn rate {}, depth rate {}, head sway {}, torque {} RMS",
         f(ev.rms[0], "m/s"),
         f(ev.rms[1], "rad/s"),
         f(ev.rms[2], "m/s"),
-        f(ev.rms[3], "N·m")
+        f(ev.rms[3], "rad"),
+        f(ev.rms[4], "N·m")
     );
     for s in &ev.swims {
         let _ = writeln!(

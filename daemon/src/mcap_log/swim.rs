@@ -93,6 +93,7 @@ pub fn read(path: &Path, tracking: Option<Vec<[f64; 3]>>) -> Result<ReadSwim, St
         mcap::MessageStream::new(&bytes).map_err(|e| format!("{name}: not an MCAP file ({e})"))?;
     let mut samples = Vec::new();
     let (mut truth_track, mut truth_att, mut nav_att) = (Vec::new(), Vec::new(), Vec::new());
+    let mut head_yaw: Vec<[f64; 2]> = Vec::new();
     let mut bad = 0usize;
     let mut missing_torques = 0usize;
     let mut read_any = false;
@@ -142,10 +143,17 @@ pub fn read(path: &Path, tracking: Option<Vec<[f64; 3]>>) -> Result<ReadSwim, St
                 num(&v, &["heading_deg"]),
                 num(&v, &["depth"]),
             );
-            match p {
-                (Some(x), Some(y), Some(h), Some(d)) => {
+            let q = ["w", "x", "y", "z"].map(|k| num(&v, &["orientation", k]));
+            match (p, q) {
+                (
+                    (Some(x), Some(y), Some(h), Some(d)),
+                    [Some(qw), Some(qx), Some(qy), Some(qz)],
+                ) => {
                     truth_track.push([t, x, y]);
                     truth_att.push([t, h.to_radians(), d]);
+                    // the head frame's x (towards the tail) in the world
+                    let (tx, ty) = (1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy + qw * qz));
+                    head_yaw.push([t, ty.atan2(tx)]);
                 }
                 _ => bad += 1,
             }
@@ -164,6 +172,7 @@ pub fn read(path: &Path, tracking: Option<Vec<[f64; 3]>>) -> Result<ReadSwim, St
     for s in [&mut truth_track, &mut truth_att, &mut nav_att] {
         s.dedup_by(|b, a| b[0] <= a[0]);
     }
+    head_yaw.dedup_by(|b, a| b[0] <= a[0]);
     if samples.len() < 2 {
         return Err(format!(
             "{name}: {} readable joint samples on /anguilla/joints (need at least 2; {bad} messages did not read)",
@@ -189,6 +198,7 @@ pub fn read(path: &Path, tracking: Option<Vec<[f64; 3]>>) -> Result<ReadSwim, St
         samples,
         track,
         attitude,
+        head_yaw,
     };
     swim.validate()?;
     Ok(ReadSwim {

@@ -10,12 +10,13 @@
 //! coefficients take it, and its internal torques follow. The residuals
 //! ([`replay`]) compare, on a 10 Hz grid, the forward speed, the turn rate
 //! and the depth rate (each over a one-second window, so that no frame,
-//! origin or heading offset matters), and at every joint sample the
+//! origin or heading offset matters) and the head's sway (its yaw's RMS
+//! about a line over the window), and at every joint sample the
 //! measured torque with the model's plus the actuators' own inertia and
 //! friction (`J θ̈ + b θ̇`, solved linearly at every evaluation: a
 //! nuisance the drive adds, not the water). Each group is divided by its
 //! measured RMS (with a floor) and by the square root of its count, so
-//! that torques, speed, turning and diving weigh alike.
+//! that torques, speed, turning, diving and sway weigh alike.
 //!
 //! **Levenberg–Marquardt** (`lm.rs`) minimises their sum of squares over
 //! the chosen coefficients, each scaled by its prior (or a floor for a

@@ -15,10 +15,15 @@ pub const WINDOW: f64 = 1.0;
 pub const GRID: f64 = 0.1;
 
 /// The floors of the groups' scales: speed (m/s), turn rate (rad/s), depth
-/// rate (m/s), torque (N·m). A group whose measured RMS is below its
+/// rate (m/s), head sway (rad), torque (N·m). A group whose measured RMS is below its
 /// floor is divided by the floor (a swim that never dives weighs its
 /// depth rate in centimetres per second, not in its own noise).
-pub const FLOORS: [f64; 4] = [0.02, 0.02, 0.01, 0.02];
+pub const FLOORS: [f64; GROUPS] = [0.02, 0.02, 0.01, 0.01, 0.02];
+
+/// The residual groups: speed, turn, dive, sway, torque.
+pub const GROUPS: usize = 5;
+/// The torque group's index.
+const TORQUE: usize = 4;
 
 /// What the model did replaying one swim: its pose after every step and
 /// its joint torques at every step's start.
@@ -34,6 +39,8 @@ pub struct Trace {
     pub depth: Vec<f64>,
     /// The head's roll rate (rad/s).
     pub roll_rate: Vec<f64>,
+    /// The head's yaw (rad, unwrapped).
+    pub head_yaw: Vec<f64>,
     /// Times (s) of the torques.
     pub torque_t: Vec<f64>,
     /// Torques `[pitch, yaw]` of every joint at every step, row by row.
@@ -52,6 +59,9 @@ pub struct Channels {
     pub turn: Vec<f64>,
     /// Depth rate.
     pub dive: Vec<f64>,
+    /// The head's sway: the RMS of its yaw about a straight line over the
+    /// window (rad), the tail beat's recoil, which lateral drag resists.
+    pub sway: Vec<f64>,
 }
 
 /// The recorded side, computed once: each swim's channels and joint
@@ -61,10 +71,10 @@ pub struct Measured {
     pub(super) channels: Vec<Channels>,
     /// Per swim, per sample, per joint: accelerations `[pitch, yaw]`.
     pub(super) accel: Vec<Vec<Vec<[f64; 2]>>>,
-    /// Scales of speed, turn, dive, torque.
-    pub(super) scales: [f64; 4],
-    /// Counts of speed, turn, dive and torque residuals.
-    pub(super) counts: [usize; 4],
+    /// Scales of speed, turn, dive, sway, torque.
+    pub(super) scales: [f64; GROUPS],
+    /// Counts of speed, turn, dive, sway and torque residuals.
+    pub(super) counts: [usize; GROUPS],
 }
 
 fn interp(t: &[f64], v: impl Fn(usize) -> f64, at: f64) -> f64 {
@@ -114,14 +124,16 @@ impl Measured {
             all(|c| &c.speed),
             all(|c| &c.turn),
             all(|c| &c.dive),
+            all(|c| &c.sway),
             torque,
         ];
-        let mut scales: [f64; 4] = std::array::from_fn(|i| raw[i].max(FLOORS[i]));
-        scales[3] /= torque_weight.max(1e-9).sqrt();
+        let mut scales: [f64; GROUPS] = std::array::from_fn(|i| raw[i].max(FLOORS[i]));
+        scales[TORQUE] /= torque_weight.max(1e-9).sqrt();
         let counts = [
             count(|c| &c.speed),
             count(|c| &c.turn),
             count(|c| &c.dive),
+            count(|c| &c.sway),
             swims
                 .iter()
                 .flat_map(|s| &s.samples)
@@ -164,13 +176,19 @@ fn covers(ts: &[f64], g: f64) -> bool {
 /// The channels over `grid` (NaN where the series do not cover a window)
 /// of the nose's horizontal track `[x, y]` and of the attitude
 /// `[unwrapped heading, depth]`.
-fn channels_of(grid: &[f64], track: Option<Series>, att: Option<Series>) -> Channels {
+fn channels_of(
+    grid: &[f64],
+    track: Option<Series>,
+    att: Option<Series>,
+    yaw: Option<(&[f64], &[f64])>,
+) -> Channels {
     let nan = vec![f64::NAN; grid.len()];
     let mut c = Channels {
         t: grid.to_vec(),
         speed: nan.clone(),
         turn: nan.clone(),
-        dive: nan,
+        dive: nan.clone(),
+        sway: nan,
     };
     for (i, &g) in grid.iter().enumerate() {
         let (a, b) = (g - WINDOW / 2.0, g + WINDOW / 2.0);
@@ -188,8 +206,45 @@ fn channels_of(grid: &[f64], track: Option<Series>, att: Option<Series>) -> Chan
             c.turn[i] = (v(b, 0) - v(a, 0)) / WINDOW;
             c.dive[i] = (v(b, 1) - v(a, 1)) / WINDOW;
         }
+        if let Some((t, y)) = yaw
+            && covers(t, g)
+        {
+            c.sway[i] = sway(t, y, a, b);
+        }
     }
     c
+}
+
+/// The RMS of `y` about its least-squares line over the samples in
+/// `[a, b]` (NaN with fewer than five).
+fn sway(t: &[f64], y: &[f64], a: f64, b: f64) -> f64 {
+    let (i0, i1) = (
+        t.partition_point(|&x| x < a),
+        t.partition_point(|&x| x <= b),
+    );
+    let n = i1.saturating_sub(i0);
+    if n < 5 {
+        return f64::NAN;
+    }
+    let (ts, ys) = (&t[i0..i1], &y[i0..i1]);
+    let nf = n as f64;
+    let tm = ts.iter().sum::<f64>() / nf;
+    let ym = ys.iter().sum::<f64>() / nf;
+    let (mut stt, mut sty) = (0.0, 0.0);
+    for (x, v) in ts.iter().zip(ys) {
+        stt += (x - tm) * (x - tm);
+        sty += (x - tm) * (v - ym);
+    }
+    let slope = if stt > 0.0 { sty / stt } else { 0.0 };
+    let ss: f64 = ts
+        .iter()
+        .zip(ys)
+        .map(|(x, v)| {
+            let r = v - ym - slope * (x - tm);
+            r * r
+        })
+        .sum();
+    (ss / nf).sqrt()
 }
 
 fn measured_channels(swim: &Swim) -> Channels {
@@ -203,12 +258,22 @@ fn measured_channels(swim: &Swim) -> Channels {
         };
         heading.push(h);
     }
+    let ty: Vec<f64> = swim.head_yaw.iter().map(|p| p[0]).collect();
+    let mut yaw: Vec<f64> = Vec::with_capacity(ty.len());
+    for p in &swim.head_yaw {
+        let y = match yaw.last() {
+            Some(&last) => last + wrap(p[1] - last),
+            None => p[1],
+        };
+        yaw.push(y);
+    }
     let xy = |i: usize| [swim.track[i][1], swim.track[i][2]];
     let att = |i: usize| [heading[i], swim.attitude[i][2]];
     channels_of(
         &grid(swim),
         (!tt.is_empty()).then_some((&tt[..], &xy as &dyn Fn(usize) -> [f64; 2])),
         (!ta.is_empty()).then_some((&ta[..], &att as &dyn Fn(usize) -> [f64; 2])),
+        (!ty.is_empty()).then_some((&ty[..], &yaw[..])),
     )
 }
 
@@ -240,10 +305,8 @@ fn accelerations(swim: &Swim) -> Vec<Vec<[f64; 2]>> {
 /// (angles and rates at both ends of the segment `k`): angle, rate and
 /// acceleration of every axis.
 fn hermite(swim: &Swim, k: usize, t: f64, out: &mut [JointMotion]) {
-    let (a, b) = (
-        &swim.samples[k],
-        &swim.samples[(k + 1).min(swim.samples.len() - 1)],
-    );
+    let kb = (k + 1).min(swim.samples.len() - 1);
+    let (a, b) = (&swim.samples[k], &swim.samples[kb]);
     let h = (b.t - a.t).max(1e-9);
     let s = ((t - a.t) / h).clamp(0.0, 1.0);
     let (s2, s3) = (s * s, s * s * s);
@@ -307,6 +370,7 @@ pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace
         heading: Vec::with_capacity(steps + 1),
         depth: Vec::with_capacity(steps + 1),
         roll_rate: Vec::with_capacity(steps + 1),
+        head_yaw: Vec::with_capacity(steps + 1),
         torque_t: Vec::with_capacity(steps),
         torque: Vec::with_capacity(steps * joints),
     };
@@ -339,18 +403,31 @@ pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace
         tr.heading.push(heading);
         tr.depth.push(-head.position.z);
         tr.roll_rate.push(head.roll_rate());
+        let yaw = head.yaw();
+        tr.head_yaw.push(match tr.head_yaw.last() {
+            Some(&last) => last + wrap(yaw - last),
+            None => yaw,
+        });
     }
     Ok(tr)
 }
 
 /// The model's channels of a trace on the grid of `swim`.
 fn model_channels(tr: &Trace, swim: &Swim) -> Channels {
+    // the head's yaw at the recording's instants, so that both sways are
+    // sampled alike
+    let ty: Vec<f64> = swim.head_yaw.iter().map(|p| p[0]).collect();
+    let yaw: Vec<f64> = ty
+        .iter()
+        .map(|&t| interp(&tr.t, |i| tr.head_yaw[i], t))
+        .collect();
     let xy = |i: usize| tr.xy[i];
     let att = |i: usize| [tr.heading[i], tr.depth[i]];
     channels_of(
         &grid(swim),
         Some((&tr.t[..], &xy as &dyn Fn(usize) -> [f64; 2])),
         Some((&tr.t[..], &att as &dyn Fn(usize) -> [f64; 2])),
+        (!ty.is_empty()).then_some((&ty[..], &yaw[..])),
     )
 }
 
@@ -360,9 +437,9 @@ pub struct Evaluation {
     /// The weighted cost (the fit's objective: the groups' mean squared
     /// errors over their scales, summed).
     pub cost: f64,
-    /// RMS errors: speed (m/s), turn rate (rad/s), depth rate (m/s),
-    /// torque (N·m); NaN where the swims have no such channel.
-    pub rms: [f64; 4],
+    /// RMS errors: speed (m/s), turn rate (rad/s), depth rate (m/s), head
+    /// sway (rad), torque (N·m); NaN where the swims have no such channel.
+    pub rms: [f64; GROUPS],
     /// The actuators' own reflected inertia (kg·m²) and viscous friction
     /// (N·m·s/rad) the torques were fitted with.
     pub actuator: [f64; 2],
@@ -449,8 +526,8 @@ pub(super) fn residuals(
         [0.0; 2]
     };
     ev.actuator = jb;
-    let mut sums = [0.0f64; 4];
-    let mut counts = [0usize; 4];
+    let mut sums = [0.0f64; GROUPS];
+    let mut counts = [0usize; GROUPS];
     let mut push = |g: usize, e: f64, out: &mut Vec<f64>| {
         if e.is_finite() {
             sums[g] += e * e;
@@ -461,12 +538,13 @@ pub(super) fn residuals(
             out.push(10.0 / (m.counts[g].max(1) as f64).sqrt());
         }
     };
-    for g in 0..3 {
+    for g in 0..TORQUE {
         for (mc, c) in m.channels.iter().zip(&chans) {
             let (a, b) = match g {
                 0 => (&mc.speed, &c.speed),
                 1 => (&mc.turn, &c.turn),
-                _ => (&mc.dive, &c.dive),
+                2 => (&mc.dive, &c.dive),
+                _ => (&mc.sway, &c.sway),
             };
             for (x, y) in a.iter().zip(b) {
                 if x.is_finite() {
@@ -497,7 +575,7 @@ pub(super) fn residuals(
                     let e = pred - meas;
                     se += e * e;
                     cnt += 1;
-                    push(3, e, out);
+                    push(TORQUE, e, out);
                 }
             }
         }

@@ -28,6 +28,10 @@ pub struct Swim {
     /// rad counter-clockwise, m down), in time order: the head sensor, or
     /// the ground truth. Empty: no turning or diving in the fit.
     pub attitude: Vec<[f64; 3]>,
+    /// The head's yaw `[t, yaw]` (s, rad: the direction of the head's
+    /// axis, which sways with every tail beat), in time order: a head
+    /// IMU's attitude, or the ground truth. Empty: no sway in the fit.
+    pub head_yaw: Vec<[f64; 2]>,
 }
 
 impl Swim {
@@ -74,6 +78,17 @@ impl Swim {
                     self.name, s.t
                 ));
             }
+        }
+        if self
+            .head_yaw
+            .iter()
+            .any(|p| p.iter().any(|v| !v.is_finite()))
+            || self.head_yaw.windows(2).any(|w| w[1][0] <= w[0][0])
+        {
+            return Err(format!(
+                "{}: the head's yaw must be numbers in increasing time",
+                self.name
+            ));
         }
         for (what, series) in [("track", &self.track), ("attitude", &self.attitude)] {
             if series.iter().any(|p| p.iter().any(|v| !v.is_finite()))

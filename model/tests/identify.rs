@@ -1,0 +1,219 @@
+//! The fit on swims its own replay reproduces, but for measurement noise:
+//! joint motion given as travelling waves, the head's track, attitude and
+//! yaw and the joints' torques from the model of a body whose
+//! coefficients differ from the prior, plus noise. What the fit then gets
+//! wrong is the fit's own error (the optimiser, the Jacobian, the
+//! uncertainty and the identifiability rule), not the replay's: the
+//! simulated robot's swims add that (daemon/tests/calibrate.rs).
+
+use anguilla_model::identify::{self, Coefficient, FitOptions, JointSample, Swim};
+use anguilla_model::{AxialDrag, Body};
+use std::f64::consts::PI;
+
+/// Twelve joints in a travelling wave, legs of `(seconds, frequency Hz,
+/// amplitude rad, yaw bias rad, pitch bias rad)`, sampled at `rate` Hz.
+fn joint_motion(legs: &[(f64, f64, f64, f64, f64)], rate: f64) -> Vec<JointSample> {
+    let n = 12;
+    let mut out = Vec::new();
+    let (mut t0, mut phase) = (0.0, 0.0);
+    let dt = 1.0 / rate;
+    let mut t = 0.0;
+    for &(secs, f, amp, yaw_bias, pitch_bias) in legs {
+        // one second's ramp of amplitude and biases into each leg
+        while t < t0 + secs {
+            let ramp = ((t - t0) / 1.0).min(1.0);
+            let ph = phase + 2.0 * PI * f * (t - t0);
+            let mut angle = Vec::with_capacity(n);
+            let mut rate_v = Vec::with_capacity(n);
+            for j in 0..n {
+                let x = (j + 1) as f64 / (n + 1) as f64;
+                let a = amp * (0.3 + 0.7 * x);
+                let arg = ph - 2.0 * PI * x;
+                let da = if (t - t0) < 1.0 {
+                    amp * (0.3 + 0.7 * x) / 1.0
+                } else {
+                    0.0
+                };
+                angle.push([pitch_bias * ramp, a * ramp * arg.sin() + yaw_bias * ramp]);
+                rate_v.push([
+                    if (t - t0) < 1.0 { pitch_bias } else { 0.0 },
+                    a * ramp * 2.0 * PI * f * arg.cos()
+                        + da * arg.sin()
+                        + if (t - t0) < 1.0 { yaw_bias } else { 0.0 },
+                ]);
+            }
+            out.push(JointSample {
+                t,
+                angle,
+                rate: rate_v,
+                torque: vec![[0.0; 2]; n],
+            });
+            t += dt;
+        }
+        phase += 2.0 * PI * f * secs;
+        t0 += secs;
+    }
+    out
+}
+
+/// Deterministic noise, uniform in `[-1, 1]` times `scale`.
+struct Noise(u64);
+
+impl Noise {
+    fn next(&mut self, scale: f64) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * scale
+    }
+}
+
+/// A swim of `body`: the joints as given, everything else from its replay,
+/// with a motion-capture's, an IMU's and a drive's measurement noise
+/// (uniform: ±2 mm, ±0.3°, ±2 mm depth, ±0.03 N·m).
+fn swim_of(body: &Body, samples: Vec<JointSample>) -> Swim {
+    let mut noise = Noise(7);
+    let mut s = Swim {
+        name: "synthetic".into(),
+        samples,
+        ..Swim::default()
+    };
+    let tr = identify::simulate(body, &s, 26, 0.005).unwrap();
+    let n = s.joints();
+    let at = |t: f64, v: &dyn Fn(usize) -> f64| {
+        let i = tr.t.partition_point(|&x| x <= t).clamp(1, tr.t.len() - 1);
+        let u = (t - tr.t[i - 1]) / (tr.t[i] - tr.t[i - 1]);
+        v(i - 1) + u * (v(i) - v(i - 1))
+    };
+    let mut t = s.samples[0].t;
+    while t <= tr.t[tr.t.len() - 1] {
+        let (mm, deg) = (0.002, 0.3f64.to_radians());
+        s.track.push([
+            t,
+            at(t, &|i| tr.xy[i][0]) + noise.next(mm),
+            at(t, &|i| tr.xy[i][1]) + noise.next(mm),
+        ]);
+        s.attitude.push([
+            t,
+            at(t, &|i| tr.heading[i]) + noise.next(deg),
+            at(t, &|i| tr.depth[i]) + noise.next(mm),
+        ]);
+        s.head_yaw
+            .push([t, at(t, &|i| tr.head_yaw[i]) + noise.next(deg)]);
+        t += 0.05;
+    }
+    // the drives' own inertia and friction on top of the body's torque
+    let (inertia, friction) = (0.02, 0.05);
+    let k = s.samples.len();
+    for i in 0..k {
+        let (a, b) = (i.saturating_sub(1), (i + 1).min(k - 1));
+        let ts = s.samples[i].t;
+        for j in 0..n {
+            for ax in 0..2 {
+                let acc = (s.samples[b].rate[j][ax] - s.samples[a].rate[j][ax])
+                    / (s.samples[b].t - s.samples[a].t);
+                let body_torque = {
+                    let m = tr
+                        .torque_t
+                        .partition_point(|&x| x <= ts)
+                        .clamp(1, tr.torque_t.len() - 1);
+                    let u = ((ts - tr.torque_t[m - 1]) / (tr.torque_t[m] - tr.torque_t[m - 1]))
+                        .clamp(0.0, 1.0);
+                    let v = |r: usize| tr.torque[r * n + j][ax];
+                    v(m - 1) + u * (v(m) - v(m - 1))
+                };
+                s.samples[i].torque[j][ax] = body_torque
+                    + inertia * acc
+                    + friction * s.samples[i].rate[j][ax]
+                    + noise.next(0.03);
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn on_swims_its_replay_reproduces_the_fit_recovers_the_coefficients() {
+    let prior = Body {
+        ballast: 0.02,
+        ..Body::paper()
+    };
+    let mut body = prior.clone();
+    body.c2 *= 1.35;
+    body.c3 *= 0.65;
+    body.axial = AxialDrag::SkinFriction { scale: 0.7 };
+    // forward at two frequencies, a turn, a dive: 24 s at 17.7 Hz
+    let legs = [
+        (6.0, 0.8, 0.25, 0.0, 0.0),
+        (6.0, 1.4, 0.25, 0.0, 0.0),
+        (6.0, 1.0, 0.25, 0.06, 0.0),
+        (6.0, 1.0, 0.25, 0.0, 0.05),
+    ];
+    let swim = swim_of(&body, joint_motion(&legs, 17.7));
+    let fit = identify::fit(
+        &prior,
+        std::slice::from_ref(&swim),
+        &FitOptions {
+            fit: vec![Coefficient::C2, Coefficient::C3, Coefficient::Friction],
+            ..FitOptions::default()
+        },
+    )
+    .unwrap();
+    for e in &fit.estimates {
+        let truth = e.coefficient.get(&body);
+        let err = e.estimate / truth - 1.0;
+        eprintln!(
+            "{:>8}: prior {:.4}, estimate {:.4} ± {:.4}, body {truth:.4} ({:+.2} %), identified {}",
+            e.coefficient.name(),
+            e.prior,
+            e.estimate,
+            e.std_error,
+            100.0 * err,
+            e.identified
+        );
+        assert!(e.identified, "{e:?}");
+        assert!(err.abs() < 0.05, "{e:?}");
+        // the interval is honest: the error within three standard errors
+        assert!((e.estimate - truth).abs() < 3.0 * e.std_error, "{e:?}");
+    }
+    let [j, b] = fit.after.actuator;
+    eprintln!(
+        "drive inertia {j:.4} (0.02), friction {b:.4} (0.05); {} replays",
+        fit.simulations
+    );
+    assert!(
+        (j / 0.02 - 1.0).abs() < 0.1 && (b / 0.05 - 1.0).abs() < 0.1,
+        "{j} {b}"
+    );
+}
+
+#[test]
+fn bad_fit_lists_and_swims_are_named() {
+    assert_eq!(
+        identify::parse_coefficients("c2, c-p,c2").unwrap(),
+        vec![Coefficient::C2, Coefficient::CP]
+    );
+    let e = identify::parse_coefficients("c2,drag").unwrap_err();
+    assert!(
+        e.contains("unknown coefficient 'drag' (expected some of c_p,k,c1,c2,c3,friction)"),
+        "{e}"
+    );
+    assert_eq!(
+        identify::parse_coefficients(" , ").unwrap_err(),
+        "no coefficient to fit"
+    );
+    let mut s = swim_of(
+        &Body::paper(),
+        joint_motion(&[(1.5, 1.0, 0.2, 0.0, 0.0)], 20.0),
+    );
+    assert!(s.validate().is_ok());
+    s.samples[3].t = s.samples[2].t;
+    assert!(
+        s.validate().unwrap_err().contains("joint sample 3"),
+        "{:?}",
+        s.validate()
+    );
+    let fit = identify::fit(&Body::paper(), &[], &FitOptions::default());
+    assert!(fit.unwrap_err().to_string().contains("no swim"));
+}
