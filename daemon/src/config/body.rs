@@ -122,25 +122,25 @@ impl BodyFile {
         Ok(())
     }
 
-    /// The body: the paper's geometry with these coefficients, law,
-    /// density and ballast.
+    /// The body: the model's of these coefficients and ballast
+    /// ([`ModelConfig::body`]), with this density and axial law.
     pub fn body(&self) -> Body {
-        Body {
+        let model = ModelConfig {
             c_p: self.c_p,
-            k_nose: self.k,
+            k: self.k,
             c1: self.c1,
             c2: self.c2,
             c3: self.c3,
-            axial: match self.drag {
-                DragLaw::Paper => AxialDrag::SkinFriction {
-                    scale: self.friction,
-                },
-                DragLaw::Quadratic => AxialDrag::Quadratic { c: self.axial_drag },
-            },
-            rho_body: self.density,
+            friction: self.friction,
             ballast: self.ballast,
-            ..Body::paper()
+            ..ModelConfig::default()
+        };
+        let mut body = model.body();
+        body.rho_body = self.density;
+        if self.drag == DragLaw::Quadratic {
+            body.axial = AxialDrag::Quadratic { c: self.axial_drag };
         }
+        body
     }
 }
 

@@ -488,32 +488,38 @@ pub(super) fn residuals(
         .zip(swims)
         .map(|(tr, s)| model_channels(tr, s))
         .collect();
-    // the actuators' J and b: least squares of (measured - model) on
-    // (acceleration, rate) over every torque sample
-    let mut ata = [[0.0; 2]; 2];
-    let mut atb = [0.0; 2];
-    let model_torque = |tr: &Trace, t: f64, j: usize, ax: usize, n: usize| {
-        interp(&tr.torque_t, |i| tr.torque[i * n + j][ax], t)
-    };
-    for ((tr, s), acc) in traces.iter().zip(swims).zip(&m.accel) {
-        let n = s.joints();
-        for (k, smp) in s.samples.iter().enumerate() {
-            for j in 0..n {
-                for ax in 0..2 {
-                    let meas = smp.torque[j][ax];
-                    if !meas.is_finite() {
-                        continue;
-                    }
-                    let e = meas - model_torque(tr, smp.t, j, ax, n);
-                    let x = [acc[k][j][ax], smp.rate[j][ax]];
-                    for r in 0..2 {
-                        for c in 0..2 {
-                            ata[r][c] += x[r] * x[c];
+    // every measured torque, per swim: the measured less the model's, and
+    // the axis's (acceleration, rate) the drive's own J and b act on
+    let torques: Vec<Vec<(f64, [f64; 2])>> = traces
+        .iter()
+        .zip(swims)
+        .zip(&m.accel)
+        .map(|((tr, s), acc)| {
+            let n = s.joints();
+            let mut v = Vec::new();
+            for (k, smp) in s.samples.iter().enumerate() {
+                for j in 0..n {
+                    for ax in 0..2 {
+                        let meas = smp.torque[j][ax];
+                        if meas.is_finite() {
+                            let model = interp(&tr.torque_t, |i| tr.torque[i * n + j][ax], smp.t);
+                            v.push((meas - model, [acc[k][j][ax], smp.rate[j][ax]]));
                         }
-                        atb[r] += x[r] * e;
                     }
                 }
             }
+            v
+        })
+        .collect();
+    // J and b: least squares of (measured - model) on (acceleration, rate)
+    let mut ata = [[0.0; 2]; 2];
+    let mut atb = [0.0; 2];
+    for &(e, x) in torques.iter().flatten() {
+        for r in 0..2 {
+            for c in 0..2 {
+                ata[r][c] += x[r] * x[c];
+            }
+            atb[r] += x[r] * e;
         }
     }
     let det = ata[0][0] * ata[1][1] - ata[0][1] * ata[1][0];
@@ -554,30 +560,18 @@ pub(super) fn residuals(
         }
     }
     let mut roll = (0.0, 0usize);
-    for (((tr, s), acc), (mc, c)) in traces
+    for (((tr, s), tq), (mc, c)) in traces
         .iter()
         .zip(swims)
-        .zip(&m.accel)
+        .zip(&torques)
         .zip(m.channels.iter().zip(&chans))
     {
-        let n = s.joints();
         let (mut se, mut cnt) = (0.0, 0usize);
-        for (k, smp) in s.samples.iter().enumerate() {
-            for j in 0..n {
-                for ax in 0..2 {
-                    let meas = smp.torque[j][ax];
-                    if !meas.is_finite() {
-                        continue;
-                    }
-                    let pred = model_torque(tr, smp.t, j, ax, n)
-                        + jb[0] * acc[k][j][ax]
-                        + jb[1] * smp.rate[j][ax];
-                    let e = pred - meas;
-                    se += e * e;
-                    cnt += 1;
-                    push(TORQUE, e, out);
-                }
-            }
+        for &(e_model, x) in tq {
+            let e = jb[0] * x[0] + jb[1] * x[1] - e_model;
+            se += e * e;
+            cnt += 1;
+            push(TORQUE, e, out);
         }
         // the means over the grid points the recording has
         let (mut sm, mut sp, mut cn) = (0.0, 0.0, 0usize);
