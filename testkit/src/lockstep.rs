@@ -82,6 +82,7 @@ impl Rig {
         let clock = ManualClock::new();
         let bus = MemBus::builder(&format!("lockstep-{seed}-{}", std::process::id()))
             .bitrate(cfg.bus.bitrate)
+            .data_bitrate(cfg.bus.data_bitrate)
             .clock(Arc::new(clock.clone()))
             .capacity(1 << 14)
             .build();
