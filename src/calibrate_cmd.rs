@@ -159,6 +159,16 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                 String::new()
             }
         );
+        if let [_, Some(step)] = identify::steps(&r.swim)
+            && step > identify::COARSE_RATE
+        {
+            let _ = writeln!(
+                o,
+                "  warning: its joint rates are recorded in steps of {step:.3} rad/s (classic \
+                 CAN's feedback), too coarse for a fit: the estimates are biased by up to tens \
+                 of percent. Record calibration swims with [bus] fd = true (docs/calibration.md)"
+            );
+        }
     }
     let swims: Vec<_> = read.into_iter().map(|r| r.swim).collect();
     let opts = FitOptions {
@@ -214,11 +224,10 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     errors(&mut o, "every estimate:", &result.estimated);
     if !holdout.is_empty() {
         let hs: Vec<_> = holdout.into_iter().map(|r| r.swim).collect();
-        let m = identify::Measured::of(&hs, opts.torque_weight);
-        let b = identify::evaluate(&prior, &hs, &m, opts.nodes, opts.dt)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        let a = identify::evaluate(&result.body, &hs, &m, opts.nodes, opts.dt)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let [b, a]: [Evaluation; 2] = identify::compare(&[&prior, &result.body], &hs, &opts)
+            .map_err(|e| anyhow::anyhow!("{e}"))?
+            .try_into()
+            .expect("one evaluation per body");
         let _ = writeln!(o, "\nheld-out sessions (not fitted):");
         errors(&mut o, "prior coefficients:", &b);
         errors(&mut o, "fitted coefficients:", &a);

@@ -11,12 +11,15 @@ use anguilla_model::identify::{self, Coefficient, FitOptions};
 use anguilla_testkit::lockstep::{self, Rig};
 
 /// A body 30 % draggier sideways, 30 % less vertically, with 25 % less
-/// skin friction than the model's: the fit moves every coefficient
-/// towards it, every coefficient it calls identified is within 5 %, and
-/// the replayed speed error shrinks.
+/// skin friction than the model's, recorded over CAN FD (classic CAN's
+/// feedback is too coarse: docs/calibration.md): the fit brings every
+/// coefficient within 5 % of the body's, every coefficient it calls
+/// identified is within 5 %, and the replayed speed error shrinks.
 #[test]
-fn a_recorded_calibration_swim_moves_the_coefficients_towards_the_body() {
-    let cfg = lockstep::config();
+fn a_recorded_calibration_swim_recovers_the_coefficients_within_5_percent() {
+    let mut cfg = lockstep::config();
+    cfg.bus.fd = true;
+    cfg.validate().unwrap();
     let prior = cfg.model.body();
     let mut body = prior.clone();
     body.c2 *= 1.3;
@@ -55,8 +58,8 @@ fn a_recorded_calibration_swim_moves_the_coefficients_towards_the_body() {
             e.identified
         );
         assert!(
-            (e.estimate - truth).abs() < (e.prior - truth).abs(),
-            "{} moved away from the body's",
+            (e.estimate / truth - 1.0).abs() < 0.05,
+            "{} is not within 5 % of the body's",
             e.coefficient.name()
         );
         if e.identified {

@@ -1,6 +1,14 @@
 //! Identification of the body's hydrodynamic coefficients from recorded
 //! swims (`anguilla calibrate`, docs/calibration.md).
 //!
+//! **The recorded joint motion, smoothed** ([`smooth`]): each axis's
+//! quantised angles and rates are fused by a Kalman filter and a
+//! Rauch–Tung–Striebel smoother before anything is replayed, so that the
+//! accelerations the model's reactive forces need are not the encoder's
+//! quantisation divided by the sample interval squared. [`steps`] tells
+//! how coarse a recording is; rates in steps above [`COARSE_RATE`] (classic
+//! CAN's 8-bit feedback) are too coarse to fit.
+//!
 //! **Output error.** A recorded [`Swim`] holds the joints' measured
 //! motion and torques, and the head's horizontal track, heading and depth.
 //! The model is driven by the recorded joint motion (the simulated robot's
@@ -33,8 +41,10 @@
 
 mod lm;
 pub mod replay;
+mod smooth;
 mod swim;
 
+pub use smooth::{COARSE_RATE, smooth, steps};
 pub use swim::{JointSample, Swim};
 
 use crate::body::{AxialDrag, Body};
@@ -270,6 +280,26 @@ type Found = std::collections::BTreeMap<Coefficient, (f64, f64, Option<(Coeffici
 /// coefficient counts as identified.
 pub const IDENTIFIED_WITHIN: f64 = 0.05;
 
+/// The errors of each of `bodies` against `swims` (held-out sessions,
+/// say): the swims' joint motion smoothed as the fit smooths it
+/// ([`smooth`]), the channels weighed as the fit weighs them, each body
+/// replayed with `opts`' discretisation.
+pub fn compare(
+    bodies: &[&Body],
+    swims: &[Swim],
+    opts: &FitOptions,
+) -> Result<Vec<Evaluation>, FitError> {
+    for s in swims {
+        s.validate().map_err(FitError::Swim)?;
+    }
+    let smoothed: Vec<Swim> = swims.iter().map(|s| smooth(s).0).collect();
+    let m = replay::Measured::of(&smoothed, opts.torque_weight);
+    bodies
+        .iter()
+        .map(|b| Ok(replay::evaluate(b, &smoothed, &m, opts.nodes, opts.dt)?))
+        .collect()
+}
+
 /// Fits `opts.fit` of `prior` to `swims`. Every swim is replayed from rest
 /// ([`replay`]); the prior also sets everything not fitted (geometry,
 /// density, ballast).
@@ -290,6 +320,8 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
             )));
         }
     }
+    let smoothed: Vec<Swim> = swims.iter().map(|s| smooth(s).0).collect();
+    let swims = &smoothed[..];
     let measured = replay::Measured::of(swims, opts.torque_weight);
     let ctx = lm::Problem {
         prior,
