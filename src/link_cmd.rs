@@ -167,6 +167,13 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         allow_command: l.inbound.iter().any(|n| n == "command"),
         allow_estop: l.inbound.iter().any(|n| n == "estop"),
         publish_state: l.outbound.iter().any(|n| n == "state"),
+        ros2: l.ros2.then(|| anguilla_link::ros2::node::Ros2Settings {
+            domain: l.ros2_domain,
+            namespace: l.ros2_namespace.clone(),
+            node: l.ros2_node.clone(),
+            rate: l.ros2_rate,
+            diagnostics_rate: l.ros2_diagnostics_rate,
+        }),
     };
     crate::signals::install();
     let start = Instant::now();
@@ -192,6 +199,15 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         l.inbound,
         l.outbound,
     );
+    if let Some(n) = bridge.ros2() {
+        let id = n.id();
+        eprintln!(
+            "anguilla link: ROS 2 node {}/{} on domain {} (rmw_zenoh's wire; docs/ros2.md)",
+            id.namespace.trim_end_matches('/'),
+            id.name,
+            id.domain
+        );
+    }
     bridge.run(&|| !running())?;
     let st = bridge.stats();
     use std::sync::atomic::Ordering::Relaxed;

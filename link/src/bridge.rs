@@ -36,6 +36,7 @@ use zenoh::Wait as _;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Query;
 
+use crate::ros2::node::{Ros2Node, Ros2Settings, TOPICS};
 use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
@@ -75,6 +76,8 @@ pub struct LinkSettings {
     pub allow_estop: bool,
     /// The state is published.
     pub publish_state: bool,
+    /// The robot as a ROS 2 node ([`crate::ros2`]), when set.
+    pub ros2: Option<Ros2Settings>,
 }
 
 /// The bridge's counters (shared with the E-stop callback).
@@ -122,6 +125,7 @@ pub struct Bridge {
     command_timeout: Duration,
     next_node: u64,
     epoch: u64,
+    ros2: Option<Ros2Node>,
 }
 
 /// The access-control list of the link's router: remote clients may do
@@ -159,6 +163,55 @@ fn access_control(s: &LinkSettings) -> String {
             format!("{p}/state"),
         );
         rule("state-put", "put", "egress", format!("{p}/state"));
+    }
+    if let Some(r) = &s.ros2 {
+        // The ROS 2 graph: rmw_zenoh's nodes ask for and watch the
+        // liveliness tokens of the domain, and declare their own; they
+        // subscribe to this node's topics, by their data keys. Nothing
+        // else: no ROS 2 node can publish or query here.
+        let graph = format!("@ros2_lv/{}/**", r.domain);
+        rule(
+            "ros2-graph-query",
+            "liveliness_query",
+            "ingress",
+            graph.clone(),
+        );
+        rule(
+            "ros2-graph-watch",
+            "declare_liveliness_subscriber",
+            "ingress",
+            graph.clone(),
+        );
+        rule(
+            "ros2-graph-tokens-in",
+            "liveliness_token",
+            "ingress",
+            graph.clone(),
+        );
+        rule(
+            "ros2-graph-tokens-out",
+            "liveliness_token",
+            "egress",
+            graph.clone(),
+        );
+        rule("ros2-graph-reply", "reply", "egress", graph);
+        for (i, (name, ty)) in TOPICS.iter().enumerate() {
+            let key = crate::ros2::graph::NodeId {
+                domain: r.domain,
+                session: String::new(),
+                node: 0,
+                namespace: r.namespace.clone(),
+                name: r.node.clone(),
+            }
+            .data_key(&crate::ros2::graph::qualified(&r.namespace, name), ty);
+            rule(
+                &format!("ros2-topic-{i}-subscribe"),
+                "declare_subscriber",
+                "ingress",
+                key.clone(),
+            );
+            rule(&format!("ros2-topic-{i}-put"), "put", "egress", key);
+        }
     }
     let ids: Vec<_> = rules.iter().map(|r| r["id"].clone()).collect();
     let policies = if ids.is_empty() {
@@ -299,6 +352,10 @@ impl Bridge {
             })
             .wait()
             .map_err(zenoh_err("prefix queryable"))?;
+        let ros2 = match settings.ros2.clone() {
+            Some(r) => Some(Ros2Node::open(&session, r)?),
+            None => None,
+        };
         Ok(Self {
             settings,
             session,
@@ -316,12 +373,18 @@ impl Bridge {
             command_timeout: Duration::from_millis(500),
             next_node: 0,
             epoch: random_epoch(),
+            ros2,
         })
     }
 
     /// The counters.
     pub fn stats(&self) -> &BridgeStats {
         &self.stats
+    }
+
+    /// The ROS 2 node, when `[link] ros2` is on.
+    pub fn ros2(&self) -> Option<&Ros2Node> {
+        self.ros2.as_ref()
     }
 
     /// Remote sessions open.
@@ -359,6 +422,9 @@ impl Bridge {
             .last_state
             .is_none_or(|l| l.mode != s.mode || l.cause != s.cause || l.holder() != s.holder());
         self.last_state = Some(s);
+        if let Some(n) = &mut self.ros2 {
+            n.publish(&s)?;
+        }
         let due = self
             .last_put
             .is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / self.settings.state_rate);
@@ -653,6 +719,7 @@ mod tests {
             allow_command: false,
             allow_estop: true,
             publish_state: true,
+            ros2: None,
         };
         let acl = access_control(&s);
         assert!(acl.contains("\"default_permission\":\"deny\""));

@@ -35,6 +35,18 @@ pub struct LinkConfig {
     pub inbound: Vec<String>,
     /// What the link publishes: `state`.
     pub outbound: Vec<String>,
+    /// The robot as a ROS 2 node on rmw_zenoh's wire (docs/ros2.md).
+    pub ros2: bool,
+    /// `ROS_DOMAIN_ID` of the ROS 2 node.
+    pub ros2_domain: u32,
+    /// The ROS 2 node's namespace: `/` or `/name`.
+    pub ros2_namespace: String,
+    /// The ROS 2 node's name.
+    pub ros2_node: String,
+    /// Most ROS 2 joint states (and IMU, pressure, torques) a second (Hz).
+    pub ros2_rate: f64,
+    /// Most ROS 2 diagnostics a second (Hz).
+    pub ros2_diagnostics_rate: f64,
 }
 
 /// Names a `[link]` allowlist may hold, inbound and outbound.
@@ -55,6 +67,12 @@ impl Default for LinkConfig {
             key: String::new(),
             inbound: LINK_INBOUND.iter().map(|s| s.to_string()).collect(),
             outbound: LINK_OUTBOUND.iter().map(|s| s.to_string()).collect(),
+            ros2: false,
+            ros2_domain: 0,
+            ros2_namespace: "/".into(),
+            ros2_node: "anguilla".into(),
+            ros2_rate: 20.0,
+            ros2_diagnostics_rate: 1.0,
         }
     }
 }
@@ -112,6 +130,42 @@ impl LinkConfig {
                     expected,
                 });
             }
+        }
+        range("link.ros2-rate", l.ros2_rate, 0.1, 500.0, "0.1 ..= 500 Hz")?;
+        range(
+            "link.ros2-diagnostics-rate",
+            l.ros2_diagnostics_rate,
+            0.1,
+            100.0,
+            "0.1 ..= 100 Hz",
+        )?;
+        // rmw_zenoh, as DDS: 0..=232 (the ports of DDS's domains).
+        if l.ros2_domain > 232 {
+            return Err(ConfigError::Range {
+                key: "link.ros2-domain",
+                value: l.ros2_domain.to_string(),
+                expected: "0 ..= 232 (ROS_DOMAIN_ID)",
+            });
+        }
+        let name_ok = |n: &str| {
+            !n.is_empty()
+                && !n.starts_with(|c: char| c.is_ascii_digit())
+                && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        };
+        if !name_ok(&l.ros2_node) {
+            return Err(ConfigError::Range {
+                key: "link.ros2-node",
+                value: format!("{:?}", l.ros2_node),
+                expected: "a ROS 2 name: letters, digits and _, not starting with a digit",
+            });
+        }
+        let ns = &l.ros2_namespace;
+        if !(ns == "/" || ns.starts_with('/') && ns[1..].split('/').all(name_ok)) {
+            return Err(ConfigError::Range {
+                key: "link.ros2-namespace",
+                value: format!("{ns:?}"),
+                expected: "\"/\" or \"/name\" (ROS 2 names: letters, digits, _), no trailing /",
+            });
         }
         let tls = [&l.ca, &l.cert, &l.key];
         if tls.iter().any(|p| !p.is_empty()) && tls.iter().any(|p| p.is_empty()) {
@@ -182,6 +236,30 @@ mod tests {
         assert!(bad(&|c| c.state_rate = 1e9).contains("= 1e9 "), "short");
         assert!(bad(&|c| c.max_clients = 99).contains("'link.max-clients'"));
         assert!(bad(&|c| c.idle_timeout = 1.0).contains("'link.idle-timeout'"));
+        assert!(bad(&|c| c.ros2_rate = 0.0).contains("'link.ros2-rate'"));
+        assert!(
+            bad(&|c| c.ros2_diagnostics_rate = f64::NAN).contains("'link.ros2-diagnostics-rate'")
+        );
+        assert!(bad(&|c| c.ros2_domain = 233).contains("'link.ros2-domain'"));
+        for n in ["", "1eel", "my-eel", "a/b"] {
+            assert!(
+                bad(&|c| c.ros2_node = n.into()).contains("'link.ros2-node'"),
+                "{n:?}"
+            );
+        }
+        for ns in ["", "eel", "/eel/", "//", "/my eel"] {
+            assert!(
+                bad(&|c| c.ros2_namespace = ns.into()).contains("'link.ros2-namespace'"),
+                "{ns:?}"
+            );
+        }
+        let mut ok = LinkConfig {
+            ros2_namespace: "/fleet/eel_2".into(),
+            ..LinkConfig::default()
+        };
+        ok.validate().unwrap();
+        ok.ros2_namespace = "/".into();
+        ok.validate().unwrap();
         assert!(bad(&|c| c.listen.clear()).contains("'link.listen'"));
         assert!(bad(&|c| c.inbound.push("swim".into())).contains("'link.inbound'"));
         assert!(bad(&|c| c.ca = "ca.pem".into()).contains("go together"));

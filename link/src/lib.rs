@@ -58,6 +58,7 @@ pub mod diagnose;
 mod endpoint;
 #[cfg(feature = "zenoh")]
 pub mod remote;
+pub mod ros2;
 pub mod wire;
 
 #[cfg(feature = "zenoh")]

@@ -50,4 +50,16 @@ pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
     w("# what the link publishes (\"state\"). A watch-only link: inbound = [\"estop\"].".into());
     w(format!("inbound = {:?}", d.inbound));
     w(format!("outbound = {:?}", d.outbound));
+    w("# The robot as a ROS 2 node on rmw_zenoh's wire (no ROS on the robot;".into());
+    w("# docs/ros2.md): ROS_DOMAIN_ID, the node's namespace and name, and the most".into());
+    w("# joint states (and IMU, pressure, torques) and diagnostics a second (Hz).".into());
+    w(format!("ros2 = {}", d.ros2));
+    w(format!("ros2-domain = {}", d.ros2_domain));
+    w(format!("ros2-namespace = {:?}", d.ros2_namespace));
+    w(format!("ros2-node = {:?}", d.ros2_node));
+    w(format!("ros2-rate = {}", fmt_f(d.ros2_rate)));
+    w(format!(
+        "ros2-diagnostics-rate = {}",
+        fmt_f(d.ros2_diagnostics_rate)
+    ));
 }

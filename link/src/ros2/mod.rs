@@ -1,0 +1,16 @@
+//! ROS 2 without ROS: the robot as a ROS 2 node on rmw_zenoh's wire
+//! (docs/ros2.md). rmw_zenoh, ROS 2's Zenoh middleware, talks plain Zenoh:
+//! a session that declares its liveliness tokens, keys, CDR payloads and
+//! attachments is a node to every other node, with no ROS installed here.
+//!
+//! - [`cdr`]: the payloads' encoding;
+//! - [`msgs`]: the messages, their type names and RIHS01 hashes;
+//! - [`graph`]: tokens, keys, QoS text and attachments;
+//! - `node` (feature `zenoh`): the node `anguilla link` runs beside its
+//!   bridge, publishing the daemon's state as ROS 2 topics.
+
+pub mod cdr;
+pub mod graph;
+pub mod msgs;
+#[cfg(feature = "zenoh")]
+pub mod node;

@@ -1,0 +1,346 @@
+//! The ROS 2 messages the link publishes and reads, in CDR
+//! ([`super::cdr`]), with their type names and RIHS01 type hashes.
+//!
+//! The hashes (REP-2016: the SHA-256 of the type's description with every
+//! type it refers to) are pinned here for Jazzy's definitions (the same
+//! in Kilted); `scripts/check-ros2` checks every one against the PyPI
+//! package `rosbags`' own computation, and decodes every message the link
+//! publishes with `rosbags`' CDR reader.
+
+use super::cdr::{CdrError, Reader, Writer};
+
+/// A ROS 2 message type the link speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MsgType {
+    /// `pkg/msg/Type`, as `ros2 topic list -t` prints it.
+    pub name: &'static str,
+    /// `RIHS01_` and the SHA-256 in hex (Jazzy's definitions).
+    pub hash: &'static str,
+}
+
+impl MsgType {
+    /// The DDS-mangled name rmw_zenoh puts in keys and tokens:
+    /// `pkg::msg::dds_::Type_`.
+    pub fn dds_name(&self) -> String {
+        let mut parts = self.name.split('/');
+        let (pkg, kind, ty) = (
+            parts.next().unwrap_or_default(),
+            parts.next().unwrap_or_default(),
+            parts.next().unwrap_or_default(),
+        );
+        format!("{pkg}::{kind}::dds_::{ty}_")
+    }
+}
+
+macro_rules! types {
+    ($($id:ident = $name:literal, $hash:literal;)*) => {
+        $(
+            #[doc = concat!("`", $name, "`")]
+            pub const $id: MsgType = MsgType { name: $name, hash: $hash };
+        )*
+        /// Every type of this module.
+        pub const ALL: &[MsgType] = &[$($id),*];
+    };
+}
+
+types! {
+    JOINT_STATE = "sensor_msgs/msg/JointState", "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e";
+    IMU = "sensor_msgs/msg/Imu", "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b";
+    FLUID_PRESSURE = "sensor_msgs/msg/FluidPressure", "RIHS01_22dfb2b145a0bd5a31a1ac3882a1b32148b51d9b2f3bab250290d66f3595bc32";
+    DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray", "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e";
+    FLOAT64_MULTI_ARRAY = "std_msgs/msg/Float64MultiArray", "RIHS01_1025ddc6b9552d191f89ef1a8d2f60f3d373e28b283d8891ddcc974e8c55397f";
+    STRING = "std_msgs/msg/String", "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18";
+    TF_MESSAGE = "tf2_msgs/msg/TFMessage", "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087";
+    TWIST = "geometry_msgs/msg/Twist", "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a";
+    TWIST_STAMPED = "geometry_msgs/msg/TwistStamped", "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64";
+}
+
+/// `builtin_interfaces/msg/Time`, from nanoseconds since the epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Time {
+    /// Seconds.
+    pub sec: i32,
+    /// Nanoseconds within the second.
+    pub nanosec: u32,
+}
+
+impl Time {
+    /// From nanoseconds (saturates past 2038, as `int32` seconds do).
+    pub fn from_ns(ns: u64) -> Self {
+        Self {
+            sec: i32::try_from(ns / 1_000_000_000).unwrap_or(i32::MAX),
+            nanosec: (ns % 1_000_000_000) as u32,
+        }
+    }
+}
+
+/// `std_msgs/msg/Header`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Header {
+    /// The time of the data.
+    pub stamp: Time,
+    /// The frame the data is in.
+    pub frame_id: String,
+}
+
+fn header(w: &mut Writer, h: &Header) {
+    w.i32(h.stamp.sec).u32(h.stamp.nanosec).string(&h.frame_id);
+}
+
+fn read_header(r: &mut Reader) -> Result<Header, CdrError> {
+    Ok(Header {
+        stamp: Time {
+            sec: r.i32("header.stamp.sec")?,
+            nanosec: r.u32("header.stamp.nanosec")?,
+        },
+        frame_id: r.string("header.frame_id")?,
+    })
+}
+
+/// `sensor_msgs/msg/JointState`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct JointState {
+    /// Stamp and frame.
+    pub header: Header,
+    /// One name per axis.
+    pub name: Vec<String>,
+    /// rad.
+    pub position: Vec<f64>,
+    /// rad/s.
+    pub velocity: Vec<f64>,
+    /// N·m.
+    pub effort: Vec<f64>,
+}
+
+impl JointState {
+    /// CDR.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer::new();
+        header(&mut w, &self.header);
+        w.len(self.name.len());
+        for n in &self.name {
+            w.string(n);
+        }
+        w.f64_seq(&self.position)
+            .f64_seq(&self.velocity)
+            .f64_seq(&self.effort);
+        w.finish()
+    }
+}
+
+/// `geometry_msgs/msg/Vector3` (and a quaternion's vector part).
+pub type Vector3 = [f64; 3];
+
+/// `sensor_msgs/msg/Imu`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Imu {
+    /// Stamp and frame.
+    pub header: Header,
+    /// x, y, z, w.
+    pub orientation: [f64; 4],
+    /// Row-major, rad².
+    pub orientation_covariance: [f64; 9],
+    /// rad/s.
+    pub angular_velocity: Vector3,
+    /// `[-1, 0, …]`: not measured.
+    pub angular_velocity_covariance: [f64; 9],
+    /// m/s².
+    pub linear_acceleration: Vector3,
+    /// `[-1, 0, …]`: not measured.
+    pub linear_acceleration_covariance: [f64; 9],
+}
+
+impl Imu {
+    /// CDR.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer::new();
+        header(&mut w, &self.header);
+        for v in self.orientation {
+            w.f64(v);
+        }
+        for v in self
+            .orientation_covariance
+            .iter()
+            .chain(&self.angular_velocity)
+            .chain(&self.angular_velocity_covariance)
+            .chain(&self.linear_acceleration)
+            .chain(&self.linear_acceleration_covariance)
+        {
+            w.f64(*v);
+        }
+        w.finish()
+    }
+}
+
+/// `sensor_msgs/msg/FluidPressure`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FluidPressure {
+    /// Stamp and frame.
+    pub header: Header,
+    /// Pa.
+    pub fluid_pressure: f64,
+    /// Pa² (0: unknown).
+    pub variance: f64,
+}
+
+impl FluidPressure {
+    /// CDR.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer::new();
+        header(&mut w, &self.header);
+        w.f64(self.fluid_pressure).f64(self.variance);
+        w.finish()
+    }
+}
+
+/// `diagnostic_msgs/msg/DiagnosticStatus` (in a [`DiagnosticArray`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DiagnosticStatus {
+    /// 0 OK, 1 WARN, 2 ERROR, 3 STALE.
+    pub level: u8,
+    /// What this status is about.
+    pub name: String,
+    /// One line.
+    pub message: String,
+    /// The device.
+    pub hardware_id: String,
+    /// Key-value pairs.
+    pub values: Vec<(String, String)>,
+}
+
+/// `diagnostic_msgs/msg/DiagnosticArray`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DiagnosticArray {
+    /// Stamp and frame.
+    pub header: Header,
+    /// One per component.
+    pub status: Vec<DiagnosticStatus>,
+}
+
+impl DiagnosticArray {
+    /// CDR.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer::new();
+        header(&mut w, &self.header);
+        w.len(self.status.len());
+        for s in &self.status {
+            w.u8(s.level)
+                .string(&s.name)
+                .string(&s.message)
+                .string(&s.hardware_id)
+                .len(s.values.len());
+            for (k, v) in &s.values {
+                w.string(k).string(v);
+            }
+        }
+        w.finish()
+    }
+}
+
+/// `std_msgs/msg/Float64MultiArray` with one dimension labelled `label`.
+pub fn float64_array(label: &str, data: &[f64]) -> Vec<u8> {
+    let mut w = Writer::new();
+    let n = u32::try_from(data.len()).unwrap_or(u32::MAX);
+    // layout: one MultiArrayDimension {label, size, stride}, data_offset 0
+    w.len(1).string(label).u32(n).u32(n).u32(0);
+    w.f64_seq(data);
+    w.finish()
+}
+
+/// `std_msgs/msg/String`.
+pub fn string(s: &str) -> Vec<u8> {
+    let mut w = Writer::new();
+    w.string(s);
+    w.finish()
+}
+
+/// A `geometry_msgs/msg/Twist`: m/s and rad/s.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Twist {
+    /// x forward, y left, z up.
+    pub linear: Vector3,
+    /// About x, y, z.
+    pub angular: Vector3,
+}
+
+impl Twist {
+    /// CDR.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer::new();
+        for v in self.linear.iter().chain(&self.angular) {
+            w.f64(*v);
+        }
+        w.finish()
+    }
+
+    /// Reads a `Twist`, or a `TwistStamped` when `stamped` (its header is
+    /// read and dropped: the link stamps commands on arrival).
+    pub fn decode(msg: &[u8], stamped: bool) -> Result<Self, CdrError> {
+        let mut r = Reader::new(msg)?;
+        if stamped {
+            read_header(&mut r)?;
+        }
+        let mut v = [0.0; 6];
+        const NAMES: [&str; 6] = [
+            "linear.x",
+            "linear.y",
+            "linear.z",
+            "angular.x",
+            "angular.y",
+            "angular.z",
+        ];
+        for (x, what) in v.iter_mut().zip(NAMES) {
+            *x = r.f64(what)?;
+        }
+        Ok(Self {
+            linear: [v[0], v[1], v[2]],
+            angular: [v[3], v[4], v[5]],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dds_names_follow_rmw_zenoh() {
+        assert_eq!(
+            JOINT_STATE.dds_name(),
+            "sensor_msgs::msg::dds_::JointState_"
+        );
+        for t in ALL {
+            assert!(
+                t.hash.starts_with("RIHS01_") && t.hash.len() == 7 + 64,
+                "{}",
+                t.name
+            );
+        }
+    }
+
+    #[test]
+    fn a_twist_reads_back_stamped_or_not_and_short_ones_are_named() {
+        let t = Twist {
+            linear: [0.3, 0.0, -0.1],
+            angular: [0.0, 0.0, 0.5],
+        };
+        assert_eq!(Twist::decode(&t.encode(), false), Ok(t));
+        let mut w = Writer::new();
+        header(
+            &mut w,
+            &Header {
+                stamp: Time::from_ns(1_500_000_000),
+                frame_id: "base_link".into(),
+            },
+        );
+        for v in t.linear.iter().chain(&t.angular) {
+            w.f64(*v);
+        }
+        assert_eq!(Twist::decode(&w.finish(), true), Ok(t));
+        let short = &t.encode()[..40];
+        assert_eq!(
+            Twist::decode(short, false),
+            Err(CdrError::Short { what: "angular.y" })
+        );
+    }
+}
