@@ -173,6 +173,10 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             node: l.ros2_node.clone(),
             rate: l.ros2_rate,
             diagnostics_rate: l.ros2_diagnostics_rate,
+            allow_command: l.inbound.iter().any(|n| n == "command"),
+            allow_estop: l.inbound.iter().any(|n| n == "estop"),
+            max_speed: l.ros2_max_speed,
+            frequency: l.ros2_frequency,
         }),
     };
     crate::signals::install();

@@ -36,7 +36,11 @@ use zenoh::Wait as _;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Query;
 
-use crate::ros2::node::{Ros2Node, Ros2Settings, TOPICS};
+use anguilla_ipc::vocabulary::Command;
+
+use crate::ros2::graph::qualified;
+use crate::ros2::msgs;
+use crate::ros2::node::{CMD_VEL, Ros2Node, Ros2Settings, SERVICES, TOPICS, service_name};
 use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
@@ -167,43 +171,32 @@ fn access_control(s: &LinkSettings) -> String {
     if let Some(r) = &s.ros2 {
         // The ROS 2 graph: rmw_zenoh's nodes ask for and watch the
         // liveliness tokens of the domain, and declare their own; they
-        // subscribe to this node's topics, by their data keys. Nothing
-        // else: no ROS 2 node can publish or query here.
+        // subscribe to this node's topics, by their data keys; they drive
+        // through cmd_vel and the services when the allowlist lets them.
+        // Nothing else.
         let graph = format!("@ros2_lv/{}/**", r.domain);
-        rule(
-            "ros2-graph-query",
-            "liveliness_query",
-            "ingress",
-            graph.clone(),
-        );
-        rule(
-            "ros2-graph-watch",
-            "declare_liveliness_subscriber",
-            "ingress",
-            graph.clone(),
-        );
-        rule(
-            "ros2-graph-tokens-in",
-            "liveliness_token",
-            "ingress",
-            graph.clone(),
-        );
-        rule(
-            "ros2-graph-tokens-out",
-            "liveliness_token",
-            "egress",
-            graph.clone(),
-        );
-        rule("ros2-graph-reply", "reply", "egress", graph);
+        for (id, msg, flow) in [
+            ("ros2-graph-query", "liveliness_query", "ingress"),
+            (
+                "ros2-graph-watch",
+                "declare_liveliness_subscriber",
+                "ingress",
+            ),
+            ("ros2-graph-tokens-in", "liveliness_token", "ingress"),
+            ("ros2-graph-tokens-out", "liveliness_token", "egress"),
+            ("ros2-graph-reply", "reply", "egress"),
+        ] {
+            rule(id, msg, flow, graph.clone());
+        }
+        let node = crate::ros2::graph::NodeId {
+            domain: r.domain,
+            session: String::new(),
+            node: 0,
+            namespace: r.namespace.clone(),
+            name: r.node.clone(),
+        };
         for (i, (name, ty)) in TOPICS.iter().enumerate() {
-            let key = crate::ros2::graph::NodeId {
-                domain: r.domain,
-                session: String::new(),
-                node: 0,
-                namespace: r.namespace.clone(),
-                name: r.node.clone(),
-            }
-            .data_key(&crate::ros2::graph::qualified(&r.namespace, name), ty);
+            let key = node.data_key(&qualified(&r.namespace, name), ty);
             rule(
                 &format!("ros2-topic-{i}-subscribe"),
                 "declare_subscriber",
@@ -211,6 +204,51 @@ fn access_control(s: &LinkSettings) -> String {
                 key.clone(),
             );
             rule(&format!("ros2-topic-{i}-put"), "put", "egress", key);
+        }
+        if r.allow_command {
+            for (i, ty) in CMD_VEL.iter().enumerate() {
+                let key = node.data_key(&qualified(&r.namespace, "cmd_vel"), ty);
+                rule(
+                    &format!("ros2-cmd-vel-{i}-put"),
+                    "put",
+                    "ingress",
+                    key.clone(),
+                );
+                rule(
+                    &format!("ros2-cmd-vel-{i}-declare"),
+                    "declare_subscriber",
+                    "egress",
+                    key,
+                );
+            }
+        }
+        for (name, cmd) in SERVICES {
+            if !(if cmd == Command::EStop {
+                r.allow_estop
+            } else {
+                r.allow_command
+            }) {
+                continue;
+            }
+            let key = node.data_key(&service_name(&r.namespace, &r.node, name), &msgs::TRIGGER);
+            rule(
+                &format!("ros2-{name}-query"),
+                "query",
+                "ingress",
+                key.clone(),
+            );
+            rule(
+                &format!("ros2-{name}-reply"),
+                "reply",
+                "egress",
+                key.clone(),
+            );
+            rule(
+                &format!("ros2-{name}-declare"),
+                "declare_queryable",
+                "egress",
+                key,
+            );
         }
     }
     let ids: Vec<_> = rules.iter().map(|r| r["id"].clone()).collect();
@@ -353,7 +391,7 @@ impl Bridge {
             .wait()
             .map_err(zenoh_err("prefix queryable"))?;
         let ros2 = match settings.ros2.clone() {
-            Some(r) => Some(Ros2Node::open(&session, r)?),
+            Some(r) => Some(Ros2Node::open(&session, &p, r)?),
             None => None,
         };
         Ok(Self {
@@ -408,6 +446,9 @@ impl Bridge {
             }
         }
         self.collect()?;
+        if let Some(n) = &mut self.ros2 {
+            n.serve()?;
+        }
         self.publish_state()?;
         self.expire();
         Ok(())

@@ -47,6 +47,11 @@ pub struct LinkConfig {
     pub ros2_rate: f64,
     /// Most ROS 2 diagnostics a second (Hz).
     pub ros2_diagnostics_rate: f64,
+    /// The forward speed a ROS 2 `cmd_vel` asks for at full amplitude
+    /// (m/s).
+    pub ros2_max_speed: f64,
+    /// The undulation frequency a ROS 2 `cmd_vel` swims at (Hz).
+    pub ros2_frequency: f64,
 }
 
 /// Names a `[link]` allowlist may hold, inbound and outbound.
@@ -73,6 +78,8 @@ impl Default for LinkConfig {
             ros2_node: "anguilla".into(),
             ros2_rate: 20.0,
             ros2_diagnostics_rate: 1.0,
+            ros2_max_speed: 0.4,
+            ros2_frequency: 1.0,
         }
     }
 }
@@ -138,6 +145,20 @@ impl LinkConfig {
             0.1,
             100.0,
             "0.1 ..= 100 Hz",
+        )?;
+        range(
+            "link.ros2-max-speed",
+            l.ros2_max_speed,
+            0.01,
+            10.0,
+            "0.01 ..= 10 m/s",
+        )?;
+        range(
+            "link.ros2-frequency",
+            l.ros2_frequency,
+            0.05,
+            10.0,
+            "0.05 ..= 10 Hz",
         )?;
         // rmw_zenoh, as DDS: 0..=232 (the ports of DDS's domains).
         if l.ros2_domain > 232 {
@@ -241,6 +262,8 @@ mod tests {
             bad(&|c| c.ros2_diagnostics_rate = f64::NAN).contains("'link.ros2-diagnostics-rate'")
         );
         assert!(bad(&|c| c.ros2_domain = 233).contains("'link.ros2-domain'"));
+        assert!(bad(&|c| c.ros2_max_speed = 0.0).contains("'link.ros2-max-speed'"));
+        assert!(bad(&|c| c.ros2_frequency = f64::INFINITY).contains("'link.ros2-frequency'"));
         for n in ["", "1eel", "my-eel", "a/b"] {
             assert!(
                 bad(&|c| c.ros2_node = n.into()).contains("'link.ros2-node'"),

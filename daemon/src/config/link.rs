@@ -62,4 +62,9 @@ pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
         "ros2-diagnostics-rate = {}",
         fmt_f(d.ros2_diagnostics_rate)
     ));
+    w("# Driving from ROS 2 (cmd_vel, ~/take_control, ~/enable, ~/estop...; the".into());
+    w("# inbound allowlist applies): the speed asked for at full amplitude (m/s)".into());
+    w("# and the undulation frequency (Hz).".into());
+    w(format!("ros2-max-speed = {}", fmt_f(d.ros2_max_speed)));
+    w(format!("ros2-frequency = {}", fmt_f(d.ros2_frequency)));
 }

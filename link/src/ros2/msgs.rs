@@ -4,8 +4,10 @@
 //! The hashes (REP-2016: the SHA-256 of the type's description with every
 //! type it refers to) are pinned here for Jazzy's definitions (the same
 //! in Kilted); `scripts/check-ros2` checks every one against the PyPI
-//! package `rosbags`' own computation, and decodes every message the link
-//! publishes with `rosbags`' CDR reader.
+//! package `rosbags`' own computation (a service's from its request,
+//! response and event, as rosidl describes one: the same computation
+//! reproduces rmw_zenoh's documented `AddTwoInts` hash), and decodes every
+//! message the link publishes with `rosbags`' CDR reader.
 
 use super::cdr::{CdrError, Reader, Writer};
 
@@ -53,6 +55,14 @@ types! {
     TF_MESSAGE = "tf2_msgs/msg/TFMessage", "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087";
     TWIST = "geometry_msgs/msg/Twist", "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a";
     TWIST_STAMPED = "geometry_msgs/msg/TwistStamped", "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64";
+    TRIGGER = "std_srvs/srv/Trigger", "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f";
+}
+
+/// `std_srvs/srv/Trigger`'s response: `bool success`, `string message`.
+pub fn trigger_response(success: bool, message: &str) -> Vec<u8> {
+    let mut w = Writer::new();
+    w.u8(u8::from(success)).string(message);
+    w.finish()
 }
 
 /// `builtin_interfaces/msg/Time`, from nanoseconds since the epoch.

@@ -14,17 +14,31 @@
 //! Every topic is under the node's namespace. The stamps are the tether
 //! computer's wall clock at publication (ROS 2 tools expect wall time;
 //! the daemon's loop clock is monotonic).
+//!
+//! **Driving** (when the link's `inbound` allows it): `cmd_vel`
+//! (`geometry_msgs/msg/Twist` or `TwistStamped`) becomes swim commands
+//! ([`swim_of`]), and `~/take_control`, `~/release_control`, `~/enable`,
+//! `~/disable`, `~/stop` and `~/estop` (`std_srvs/srv/Trigger`) the
+//! daemon's commands, answered with its reply. The ROS 2 side is one
+//! client of the daemon, so one operator session: it holds control only
+//! by `~/take_control`, and the daemon's deadman stops the swim when the
+//! twists stop. `~/estop` goes through the E-stop socket first.
 
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
-use anguilla_ipc::StateSnapshot;
-use anguilla_ipc::vocabulary::{Cause, FaultKind, Mode};
+use std::collections::HashMap;
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+use std::time::Duration;
+
+use anguilla_ipc::vocabulary::{Cause, Command, FaultKind, Mode, SwimParams};
+use anguilla_ipc::{Client, StateSnapshot};
 use zenoh::Wait as _;
 use zenoh::liveliness::LivelinessToken;
-use zenoh::pubsub::Publisher;
+use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
+use zenoh::query::{Query, Queryable};
 
-use super::graph::{Kind, NodeId, Qos, attachment, qualified};
+use super::graph::{Kind, NodeId, Qos, attachment, qualified, read_attachment};
 use super::msgs::{self, MsgType};
 use crate::{LinkError, zenoh_err};
 
@@ -42,6 +56,40 @@ pub struct Ros2Settings {
     pub rate: f64,
     /// Most `diagnostics` a second (Hz).
     pub diagnostics_rate: f64,
+    /// `cmd_vel` and the control services are served (the link's
+    /// `inbound` has `command`).
+    pub allow_command: bool,
+    /// `~/estop` is served (the link's `inbound` has `estop`).
+    pub allow_estop: bool,
+    /// The forward speed `cmd_vel` asks for at full amplitude (m/s).
+    pub max_speed: f64,
+    /// The undulation frequency `cmd_vel` swims at (Hz).
+    pub frequency: f64,
+}
+
+/// The services, `~/<name>` (std_srvs/srv/Trigger), and what each sends
+/// the daemon. `estop` also goes through the out-of-band E-stop socket
+/// first, as every tool's does.
+pub const SERVICES: [(&str, Command); 6] = [
+    ("take_control", Command::TakeControl),
+    ("release_control", Command::ReleaseControl),
+    ("enable", Command::Enable),
+    ("disable", Command::Disable),
+    ("stop", Command::Stop),
+    ("estop", Command::EStop),
+];
+
+/// What arrives from ROS 2 nodes, queued for the link's loop.
+enum Inbound {
+    Twist(msgs::Twist),
+    Service(usize, Query),
+}
+
+/// A service call waiting for the daemon's reply.
+struct Call {
+    query: Query,
+    attachment: Vec<u8>,
+    sent: Instant,
 }
 
 struct Topic {
@@ -71,16 +119,74 @@ pub const TOPICS: [(&str, MsgType); 6] = [
     ("diagnostics", msgs::DIAGNOSTIC_ARRAY),
 ];
 
+/// `cmd_vel`'s types: a `Twist`, or a `TwistStamped` (Jazzy's
+/// `teleop_twist_joy` publishes those), each on its own key.
+pub const CMD_VEL: [MsgType; 2] = [msgs::TWIST, msgs::TWIST_STAMPED];
+
+/// Inbound messages and calls queued at most (beyond: dropped, a call
+/// answered with an error).
+const INBOX: usize = 64;
+/// A call the daemon has not answered in this long is answered with an
+/// error.
+const CALL_TIMEOUT: Duration = Duration::from_secs(2);
+
 /// The running node.
 pub struct Ros2Node {
     settings: Ros2Settings,
+    prefix: String,
     id: NodeId,
     topics: Vec<Topic>,
     _tokens: Vec<LivelinessToken>,
+    _subscribers: Vec<Subscriber<()>>,
+    _queryables: Vec<Queryable<()>>,
+    inbox: Receiver<Inbound>,
+    /// The ROS 2 side's own client of the daemon: one operator session.
+    client: Option<Client>,
+    calls: HashMap<u32, Call>,
+    limits: Option<anguilla_ipc::LimitsSnapshot>,
     last: Option<Instant>,
     last_diagnostics: Option<Instant>,
     /// Messages published.
     pub published: u64,
+    /// `cmd_vel` messages turned into swim commands.
+    pub twists: u64,
+    /// Inbound messages dropped (a full queue, or not CDR of their type).
+    pub dropped: u64,
+}
+
+/// The service's name under the node: `/<namespace>/<node>/<name>`.
+pub fn service_name(namespace: &str, node: &str, name: &str) -> String {
+    qualified(&qualified(namespace, node), name)
+}
+
+/// The swim a `cmd_vel` asks for (docs/ros2.md): `linear.x` (m/s) as the
+/// amplitude, `linear.x / max_speed` (an eel does not swim backwards: 0
+/// below 0); `angular.z` (rad/s, left positive) as the turn curvature
+/// `angular.z / v` (1/m), with `v` the speed asked for but at least 0.1
+/// m/s; `linear.z` (m/s, up positive) as the pitch curvature `−linear.z /
+/// v` (1/m, the daemon's is dive positive); at `frequency`. Each is
+/// clamped to the daemon's limits when known. Not finite: `None`.
+pub fn swim_of(
+    t: &msgs::Twist,
+    max_speed: f64,
+    frequency: f64,
+    limits: Option<&anguilla_ipc::LimitsSnapshot>,
+) -> Option<SwimParams> {
+    let (x, z, wz) = (t.linear[0], t.linear[2], t.angular[2]);
+    if ![x, z, wz].iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let v = x.max(0.1);
+    let clamp = |value: f64, max: Option<f32>| match max {
+        Some(m) if m > 0.0 => value.clamp(-f64::from(m), f64::from(m)),
+        _ => value,
+    };
+    Some(SwimParams {
+        amplitude: (x / max_speed).clamp(0.0, 1.0),
+        frequency: clamp(frequency, limits.map(|l| l.max_frequency)),
+        turn: clamp(wz / v, limits.map(|l| l.max_turn)),
+        pitch: clamp(-z / v, limits.map(|l| l.max_pitch)),
+    })
 }
 
 fn wall_ns() -> u64 {
@@ -90,8 +196,14 @@ fn wall_ns() -> u64 {
 }
 
 impl Ros2Node {
-    /// Declares the node and its publishers on `session`.
-    pub fn open(session: &zenoh::Session, settings: Ros2Settings) -> Result<Self, LinkError> {
+    /// Declares the node, its publishers, `cmd_vel` and its services on
+    /// `session`; the ROS 2 side's client of the daemon at `prefix` opens
+    /// at the first command.
+    pub fn open(
+        session: &zenoh::Session,
+        prefix: &str,
+        settings: Ros2Settings,
+    ) -> Result<Self, LinkError> {
         let id = NodeId {
             domain: settings.domain,
             session: session.zid().to_string(),
@@ -135,15 +247,176 @@ impl Ros2Node {
                 sequence: 0,
             });
         }
+        let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
+        let mut entity = 1 + TOPICS.len() as u32;
+        let mut subscribers = Vec::new();
+        if settings.allow_command {
+            let name = qualified(&settings.namespace, "cmd_vel");
+            for ty in CMD_VEL {
+                let tx = tx.clone();
+                let stamped = ty == msgs::TWIST_STAMPED;
+                subscribers.push(
+                    session
+                        .declare_subscriber(id.data_key(&name, &ty))
+                        .callback(move |sample| {
+                            // A message that is not this type's CDR is
+                            // dropped here; a full queue drops too (the
+                            // next twist supersedes it).
+                            if let Ok(t) =
+                                msgs::Twist::decode(&sample.payload().to_bytes(), stamped)
+                            {
+                                let _ = tx.try_send(Inbound::Twist(t));
+                            }
+                        })
+                        .wait()
+                        .map_err(zenoh_err("ROS 2 cmd_vel subscriber"))?,
+                );
+                tokens.push(token(id.token(
+                    entity,
+                    Kind::Subscription,
+                    &name,
+                    &ty,
+                    &Qos::reliable(10),
+                ))?);
+                entity += 1;
+            }
+        }
+        let mut queryables = Vec::new();
+        for (i, (svc, cmd)) in SERVICES.iter().enumerate() {
+            let allowed = if *cmd == Command::EStop {
+                settings.allow_estop
+            } else {
+                settings.allow_command
+            };
+            if !allowed {
+                continue;
+            }
+            let name = service_name(&settings.namespace, &settings.node, svc);
+            let tx = tx.clone();
+            queryables.push(
+                session
+                    .declare_queryable(id.data_key(&name, &msgs::TRIGGER))
+                    .complete(true)
+                    .callback(move |q| match tx.try_send(Inbound::Service(i, q)) {
+                        Ok(()) => {}
+                        Err(TrySendError::Full(Inbound::Service(_, q))) => {
+                            reply_err(&q, "the link is busy: call dropped");
+                        }
+                        Err(_) => {}
+                    })
+                    .wait()
+                    .map_err(zenoh_err("ROS 2 service"))?,
+            );
+            tokens.push(token(id.token(
+                entity,
+                Kind::Service,
+                &name,
+                &msgs::TRIGGER,
+                &Qos::reliable(10),
+            ))?);
+            entity += 1;
+        }
         Ok(Self {
             settings,
+            prefix: prefix.to_string(),
             id,
             topics,
             _tokens: tokens,
+            _subscribers: subscribers,
+            _queryables: queryables,
+            inbox,
+            client: None,
+            calls: HashMap::new(),
+            limits: None,
             last: None,
             last_diagnostics: None,
             published: 0,
+            twists: 0,
+            dropped: 0,
         })
+    }
+
+    fn client(&mut self) -> Result<&mut Client, LinkError> {
+        if self.client.is_none() {
+            let name = format!("anguilla-link-ros2-{}", std::process::id());
+            self.client = Some(Client::new(&self.prefix, &name)?);
+        }
+        Ok(self.client.as_mut().expect("opened above"))
+    }
+
+    /// Serves what ROS 2 nodes sent: each `cmd_vel` becomes a swim
+    /// command (the daemon's deadman stops the swim when they stop), each
+    /// service call a command whose reply answers it.
+    pub fn serve(&mut self) -> Result<(), LinkError> {
+        while let Ok(m) = self.inbox.try_recv() {
+            match m {
+                Inbound::Twist(t) => {
+                    let Some(p) = swim_of(
+                        &t,
+                        self.settings.max_speed,
+                        self.settings.frequency,
+                        self.limits.as_ref(),
+                    ) else {
+                        self.dropped += 1;
+                        continue;
+                    };
+                    self.client()?.send(Command::Swim(p))?;
+                    self.twists += 1;
+                }
+                Inbound::Service(i, q) => self.call(i, q)?,
+            }
+        }
+        if let Some(c) = &mut self.client {
+            let calls = &mut self.calls;
+            c.replies(|r| {
+                if let Some(call) = calls.remove(&r.sequence) {
+                    let mode = Mode::from_code(r.mode).map_or("unknown", Mode::name);
+                    let text = if r.accepted != 0 {
+                        format!("accepted; mode {mode}")
+                    } else {
+                        format!("refused: {}; mode {mode}", r.reason())
+                    };
+                    answer(&call, r.accepted != 0, &text);
+                }
+            })?;
+        }
+        self.calls.retain(|_, call| {
+            let keep = call.sent.elapsed() < CALL_TIMEOUT;
+            if !keep {
+                answer(call, false, "the daemon did not answer within 2 s");
+            }
+            keep
+        });
+        Ok(())
+    }
+
+    fn call(&mut self, i: usize, q: Query) -> Result<(), LinkError> {
+        let (name, cmd) = SERVICES[i];
+        let attachment = q
+            .attachment()
+            .map(|a| a.to_bytes().into_owned())
+            .unwrap_or_default();
+        let mut call = Call {
+            query: q,
+            attachment,
+            sent: Instant::now(),
+        };
+        if cmd == Command::EStop {
+            // The out-of-band path first, as every tool's E-stop.
+            if let Err(e) = anguilla_ipc::estop::send(&self.prefix) {
+                tracing::warn!("ROS 2 ~/estop: the e-stop socket: {e}");
+            } else {
+                tracing::warn!("ROS 2 ~/estop: relayed to the daemon's e-stop socket");
+            }
+        }
+        match self.client().and_then(|c| Ok(c.send(cmd)?)) {
+            Ok(seq) => {
+                call.sent = Instant::now();
+                self.calls.insert(seq, call);
+            }
+            Err(e) => answer(&call, false, &format!("~/{name}: {e}")),
+        }
+        Ok(())
     }
 
     /// The node's place on the graph.
@@ -153,6 +426,7 @@ impl Ros2Node {
 
     /// Publishes `s` on every topic that is due.
     pub fn publish(&mut self, s: &StateSnapshot) -> Result<(), LinkError> {
+        self.limits = Some(s.limits);
         let due = |last: Option<Instant>, rate: f64| {
             last.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / rate)
         };
@@ -175,6 +449,31 @@ impl Ros2Node {
             }
         }
         Ok(())
+    }
+}
+
+/// Answers a service call: a `Trigger` response, with rmw_zenoh's
+/// attachment (the request's sequence number and GID, which the caller
+/// matches the reply by).
+fn answer(call: &Call, success: bool, message: &str) {
+    let now = i64::try_from(wall_ns()).unwrap_or(i64::MAX);
+    let (seq, gid) = read_attachment(&call.attachment).map_or((0, [0; 16]), |(s, _, g)| (s, g));
+    let r = call
+        .query
+        .reply(
+            call.query.key_expr().clone(),
+            msgs::trigger_response(success, message),
+        )
+        .attachment(attachment(seq, now, &gid).to_vec())
+        .wait();
+    if let Err(e) = r {
+        tracing::debug!("ROS 2 service reply: {e}");
+    }
+}
+
+fn reply_err(q: &Query, text: &str) {
+    if let Err(e) = q.reply_err(text.to_string()).wait() {
+        tracing::debug!("ROS 2 service error reply: {e}");
     }
 }
 
@@ -375,6 +674,43 @@ mod tests {
         // an unknown mode code (a newer daemon) is an error, not OK
         s.mode = 200;
         assert_eq!(diagnostics(&s, 1).status[0].level, 2);
+    }
+
+    #[test]
+    fn a_twist_maps_to_a_swim_within_the_daemons_limits() {
+        let limits = anguilla_ipc::LimitsSnapshot {
+            max_frequency: 2.0,
+            max_turn: 1.0,
+            max_pitch: 0.5,
+            ..Default::default()
+        };
+        let t = |x: f64, z: f64, wz: f64| msgs::Twist {
+            linear: [x, 0.0, z],
+            angular: [0.0, 0.0, wz],
+        };
+        let p = swim_of(&t(0.2, 0.0, 0.1), 0.4, 1.0, Some(&limits)).unwrap();
+        assert_eq!(
+            (p.amplitude, p.frequency, p.turn, p.pitch),
+            (0.5, 1.0, 0.5, 0.0)
+        );
+        // faster than the maximum, backwards, turning hard on the spot,
+        // climbing steeply: each within its range
+        let p = swim_of(&t(9.0, 0.0, 0.0), 0.4, 1.0, None).unwrap();
+        assert_eq!(p.amplitude, 1.0);
+        let p = swim_of(&t(-0.3, 0.2, 1.0), 0.4, 3.0, Some(&limits)).unwrap();
+        assert_eq!(
+            (p.amplitude, p.frequency, p.turn, p.pitch),
+            (0.0, 2.0, 1.0, -0.5)
+        );
+        for bad in [f64::NAN, f64::INFINITY] {
+            assert!(swim_of(&t(bad, 0.0, 0.0), 0.4, 1.0, None).is_none());
+            assert!(swim_of(&t(0.1, 0.0, bad), 0.4, 1.0, None).is_none());
+        }
+        assert_eq!(
+            service_name("/eel", "anguilla", "estop"),
+            "/eel/anguilla/estop"
+        );
+        assert_eq!(service_name("/", "anguilla", "enable"), "/anguilla/enable");
     }
 
     #[test]

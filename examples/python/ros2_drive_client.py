@@ -1,0 +1,231 @@
+#!/usr/bin/env python3
+"""Driving the robot from ROS 2 as rmw_zenoh would, with other
+implementations: `eclipse-zenoh` (PyPI, 1.10.2) for the wire, `rosbags`
+(PyPI) for the messages and the type hashes.
+
+From the liveliness tokens of `anguilla link` (`[link] ros2 = true`) it
+finds the node's `cmd_vel` subscriptions (`geometry_msgs/msg/Twist` and
+`TwistStamped`) and its services (`std_srvs/srv/Trigger`), checks every
+hash (a service's as rosidl computes one: its request, response and event,
+the computation checked first on rmw_zenoh's documented `AddTwoInts`
+hash), then, as a ROS 2 node would:
+- calls `~/take_control` and `~/enable`: the daemon names a holder and
+  becomes ready;
+- publishes CDR twists with rmw_zenoh's attachment at 10 Hz: the robot
+  swims the mapped gait (docs/ros2.md), and a twist that is not finite
+  changes nothing;
+- stops publishing: the daemon's deadman stops the swim (cause: operator
+  silent);
+- calls `~/estop`: the robot is in e-stop, and stays there while twists
+  keep coming (it latches).
+Every reply must echo the call's sequence number and GID. Exit 0 when all
+holds, 1 otherwise.
+"""
+
+import argparse
+import math
+import struct
+import sys
+import time
+
+import zenoh
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+from anguilla_client import MODES, StateSnapshot
+from ros2_graph_client import fail, parse_token
+from zenoh_client import session
+
+GID = bytes(range(0xA0, 0xB0))
+CAUSE_OPERATOR_SILENT = 2
+ADD_TWO_INTS = "RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a"
+
+
+def _srv_path(x):
+    """rosbags' .msg parser files every type under msg/: put srv/ back."""
+    if isinstance(x, str):
+        return x.replace("/srv/msg/", "/srv/")
+    if isinstance(x, (tuple, list)):
+        return type(x)(_srv_path(y) for y in x)
+    return x
+
+
+def service_store():
+    """Types for services: Time, and ServiceEventInfo with its client_gid
+    as rosidl hashes it (a .msg `char` is IDL uint8; rosbags' Jazzy store
+    keeps `char`)."""
+    ts = get_typestore(Stores.EMPTY)
+    ts.register(get_types_from_msg("int32 sec\nuint32 nanosec\n", "builtin_interfaces/msg/Time"))
+    ts.register(get_types_from_msg(
+        "uint8 event_type\nbuiltin_interfaces/msg/Time stamp\nuint8[16] client_gid\n"
+        "int64 sequence_number\n", "service_msgs/msg/ServiceEventInfo"))
+    return ts
+
+
+def srv_hash(ts, name, req, resp):
+    """REP-2016's hash of the service `pkg/srv/Name`: the description of
+    `request_message`, `response_message` and `event_message`."""
+    types = {}
+    types.update(get_types_from_msg(req, f"{name}_Request"))
+    types.update(get_types_from_msg(resp, f"{name}_Response"))
+    types.update(get_types_from_msg(
+        f"service_msgs/msg/ServiceEventInfo info\n{name}_Request[<=1] request\n"
+        f"{name}_Response[<=1] response\n", f"{name}_Event"))
+    types.update(get_types_from_msg(
+        f"{name}_Request request_message\n{name}_Response response_message\n"
+        f"{name}_Event event_message\n", name))
+    ts.register({_srv_path(k): _srv_path(v) for k, v in types.items()})
+    return ts.hash_rihs01(name)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("endpoint")
+    ap.add_argument("--prefix", required=True)
+    ap.add_argument("--domain", type=int, default=0)
+    ap.add_argument("--node", default="anguilla")
+    ap.add_argument("--max-speed", type=float, default=0.4, help="[link] ros2-max-speed")
+    a = ap.parse_args(argv)
+    jazzy = get_typestore(Stores.ROS2_JAZZY)
+    srv = service_store()
+    got = srv_hash(srv, "example_interfaces/srv/AddTwoInts", "int64 a\nint64 b\n", "int64 sum\n")
+    if got != ADD_TWO_INTS:
+        fail(f"the service hash computation gives {got} for AddTwoInts, rmw_zenoh documents "
+             f"{ADD_TWO_INTS}")
+    trigger = srv_hash(srv, "std_srvs/srv/Trigger", "uint8 structure_needs_at_least_one_member\n",
+                       "bool success\nstring message\n")
+    print(f"service hashes: AddTwoInts = rmw_zenoh's documented one; std_srvs/srv/Trigger {trigger}")
+    z = session(a.endpoint)
+    tokens = []
+    end = time.monotonic() + 30
+    while time.monotonic() < end and not any(t and t["kind"] == "SS" for t in tokens):
+        tokens = [parse_token(str(r.ok.key_expr))
+                  for r in z.liveliness().get(f"@ros2_lv/{a.domain}/**", timeout=2.0) if r.ok]
+        time.sleep(0.2)
+    mine = [t for t in tokens if t and t["node"] == a.node and t["kind"] in ("MS", "SS")]
+    services, cmd_vel = {}, {}
+    for t in mine:
+        if t["kind"] == "SS":
+            if t["type"] != "std_srvs/srv/Trigger" or t["hash"] != trigger:
+                fail(f"service {t['topic']}: {t['type']} {t['hash']}, expected Trigger {trigger}")
+            services[t["topic"].rsplit("/", 1)[1]] = t
+        elif t["topic"].endswith("/cmd_vel"):
+            if t["hash"] != jazzy.hash_rihs01(t["type"]):
+                fail(f"cmd_vel [{t['type']}]: hash {t['hash']} is not rosbags' own")
+            cmd_vel[t["type"]] = t
+        print(f"  {t['kind']} {t['topic']} [{t['type']}] {t['hash']}: hash checked")
+    for name in ("take_control", "release_control", "enable", "disable", "stop", "estop"):
+        if name not in services:
+            fail(f"no service ~/{name} among {sorted(services)}")
+    for ty in ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"):
+        if ty not in cmd_vel:
+            fail(f"no cmd_vel subscription of {ty} among {sorted(cmd_vel)}")
+
+    def key(t):
+        return f"{t['domain']}/{t['topic'].lstrip('/')}/{t['dds_type']}/{t['hash']}"
+
+    state_sub = z.declare_subscriber(f"{a.prefix}/state")
+    last = {}
+
+    def state():
+        s = state_sub.try_recv()
+        while s is not None:
+            last["s"] = StateSnapshot.from_buffer_copy(s.payload.to_bytes())
+            s = state_sub.try_recv()
+        return last.get("s")
+
+    def wait_for(what, pred, timeout):
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            s = state()
+            if s is not None and pred(s):
+                return s
+            time.sleep(0.01)
+        s = state()
+        fail(f"{what} within {timeout} s (mode {MODES[s.mode] if s else None})")
+
+    seq = [0]
+
+    def call(name):
+        seq[0] += 1
+        att = struct.pack("<qq", seq[0], time.time_ns()) + bytes([16]) + GID
+        replies = list(z.get(key(services[name]), payload=b"\x00\x01\x00\x00\x00", attachment=att,
+                             target=zenoh.QueryTarget.ALL_COMPLETE, timeout=5.0))
+        if len(replies) != 1 or replies[0].ok is None:
+            fail(f"~/{name}: {len(replies)} replies "
+                 f"{[r.err.payload.to_bytes() for r in replies if r.err is not None]}")
+        r = replies[0].ok
+        ra = r.attachment.to_bytes() if r.attachment is not None else b""
+        if len(ra) != 33 or struct.unpack_from("<q", ra)[0] != seq[0] or ra[17:] != GID:
+            fail(f"~/{name}: the reply's attachment {ra.hex()} does not echo sequence {seq[0]} "
+                 f"and the GID")
+        body = r.payload.to_bytes()
+        success = body[4] != 0
+        (n,) = struct.unpack_from("<I", body, 8)
+        message = body[12:12 + n - 1].decode()
+        print(f"  ~/{name}: success {success}, {message!r}")
+        return success, message
+
+    twist_pub = z.declare_publisher(key(cmd_vel["geometry_msgs/msg/Twist"]))
+    stamped_pub = z.declare_publisher(key(cmd_vel["geometry_msgs/msg/TwistStamped"]))
+    tseq = [0]
+
+    def twist(x, wz, z_=0.0, stamped=False):
+        tseq[0] += 1
+        att = struct.pack("<qq", tseq[0], time.time_ns()) + bytes([16]) + GID
+        body = struct.pack("<6d", x, 0.0, z_, 0.0, 0.0, wz)
+        if stamped:
+            now = time.time_ns()
+            hdr = struct.pack("<iI", now // 10**9, now % 10**9) + struct.pack("<I", 5) + b"base\x00"
+            hdr += b"\x00" * ((-len(hdr)) % 8)
+            stamped_pub.put(b"\x00\x01\x00\x00" + hdr + body, attachment=att)
+        else:
+            twist_pub.put(b"\x00\x01\x00\x00" + body, attachment=att)
+
+    wait_for("a state", lambda s: True, 10)
+    ok, _ = call("take_control")
+    if not ok:
+        fail("~/take_control was refused")
+    wait_for("a holder", lambda s: s.holder() != 0, 5)
+    ok, _ = call("enable")
+    if not ok:
+        fail("~/enable was refused")
+    wait_for("ready", lambda s: MODES[s.mode] == "ready", 20)
+    # A twist that is not finite is dropped; the robot stays ready.
+    twist(float("nan"), 0.0)
+    time.sleep(0.3)
+    if MODES[state().mode] != "ready":
+        fail(f"a NaN twist changed the mode to {MODES[state().mode]}")
+    x, wz = 0.3, 0.2
+    end = time.monotonic() + 4.0
+    i = 0
+    while time.monotonic() < end:
+        twist(x, wz, stamped=i % 2 == 1)
+        i += 1
+        time.sleep(0.1)
+    s = wait_for("swimming", lambda s: MODES[s.mode] == "swimming", 5)
+    g = s.gait_target
+    want_amp = x / a.max_speed
+    print(f"  swimming: gait asked amplitude {g.amplitude:.3f} (want {want_amp:.3f}), frequency "
+          f"{g.frequency:.2f} Hz, turn {g.turn:.3f} /m (want {min(wz / x, s.limits.max_turn):.3f})")
+    if not math.isclose(g.amplitude, want_amp, abs_tol=1e-3) or \
+            not math.isclose(g.turn, min(wz / x, s.limits.max_turn), abs_tol=1e-3):
+        fail("the gait is not the twist's")
+    t0 = time.monotonic()
+    s = wait_for("the deadman's stop", lambda s: MODES[s.mode] != "swimming", 15)
+    print(f"  twists stopped: mode {MODES[s.mode]} after {time.monotonic() - t0:.1f} s, "
+          f"cause code {s.cause}")
+    if s.cause != CAUSE_OPERATOR_SILENT:
+        fail(f"the swim ended with cause {s.cause}, not 'operator silent' ({CAUSE_OPERATOR_SILENT})")
+    call("estop")
+    wait_for("e-stop", lambda s: MODES[s.mode] == "e-stop", 5)
+    for _ in range(10):
+        twist(x, 0.0)
+        time.sleep(0.1)
+    if MODES[state().mode] != "e-stop":
+        fail(f"twists after the e-stop took the robot to {MODES[state().mode]}")
+    print("ros2 drive client: OK (took control, enabled, swam from cmd_vel, the deadman "
+          "stopped it, e-stop latched)")
+
+
+if __name__ == "__main__":
+    main()
