@@ -171,8 +171,9 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             domain: l.ros2_domain,
             namespace: l.ros2_namespace.clone(),
             node: l.ros2_node.clone(),
-            rate: l.ros2_rate,
-            diagnostics_rate: l.ros2_diagnostics_rate,
+            rates: anguilla_link::ros2::TOPICS
+                .map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
+            humble: l.ros2_distro == "humble",
             allow_command: l.inbound.iter().any(|n| n == "command"),
             allow_estop: l.inbound.iter().any(|n| n == "estop"),
             max_speed: l.ros2_max_speed,
@@ -206,10 +207,11 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     if let Some(n) = bridge.ros2() {
         let id = n.id();
         eprintln!(
-            "anguilla link: ROS 2 node {}/{} on domain {} (rmw_zenoh's wire; docs/ros2.md)",
+            "anguilla link: ROS 2 node {}/{} on domain {} ({}; rmw_zenoh's wire; docs/ros2.md)",
             id.namespace.trim_end_matches('/'),
             id.name,
-            id.domain
+            id.domain,
+            l.ros2_distro
         );
     }
     bridge.run(&|| !running())?;

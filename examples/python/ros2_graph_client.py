@@ -7,7 +7,8 @@ As rmw_zenoh's graph cache does, it asks for the liveliness tokens of the
 domain (`@ros2_lv/<domain>/**`), parses them as rmw_zenoh's design document
 describes (docs/ros2.md), and finds the node and each publisher with its
 type and hash. Every hash must equal `rosbags`' own computation from Jazzy's
-definitions. It then subscribes by the data key built from each token, as a
+definitions (with `--distro humble`: `TypeHashNotSupported`, as Humble's
+rmw_zenoh writes, and Humble's definitions). It then subscribes by the data key built from each token, as a
 ROS 2 subscription would, and deserialises every message with `rosbags`'
 CDR reader. With the link's state on `P/state` at every change (the link
 run with `--state-rate 1000`), each joint state, IMU, pressure and torque
@@ -77,8 +78,13 @@ def main(argv=None):
     ap.add_argument("--node", default="anguilla")
     ap.add_argument("--count", type=int, default=20, help="messages per topic")
     ap.add_argument("--timeout", type=float, default=30.0)
+    ap.add_argument("--distro", choices=["jazzy", "humble"], default="jazzy",
+                    help="humble: TypeHashNotSupported in keys and tokens, Humble's messages")
+    ap.add_argument("--faster", nargs=2, metavar=("FAST", "SLOW"),
+                    help="FAST's rate is configured at least twice SLOW's: its count must be "
+                         "more than 1.5 times SLOW's")
     a = ap.parse_args(argv)
-    ts = get_typestore(Stores.ROS2_JAZZY)
+    ts = get_typestore(Stores.ROS2_HUMBLE if a.distro == "humble" else Stores.ROS2_JAZZY)
     z = session(a.endpoint)
 
     # The graph, as rmw_zenoh's graph cache builds it.
@@ -100,11 +106,11 @@ def main(argv=None):
     for t in tokens:
         if t["kind"] != "MP" or t["zid"] != node["zid"] or t["node"] != a.node:
             continue
-        want = ts.hash_rihs01(t["type"])
+        want = "TypeHashNotSupported" if a.distro == "humble" else ts.hash_rihs01(t["type"])
         if t["hash"] != want:
-            fail(f"{t['topic']}: type hash {t['hash']}, rosbags computes {want} for {t['type']}")
+            fail(f"{t['topic']}: type hash {t['hash']}, expected {want} for {t['type']} ({a.distro})")
         pubs[t["topic"]] = t
-        print(f"  publisher {t['topic']} [{t['type']}] {t['hash']} qos {t['qos']}: hash = rosbags'")
+        print(f"  publisher {t['topic']} [{t['type']}] {t['hash']} qos {t['qos']}: hash checked")
     ns = node["namespace"].rstrip("/")
     for name, ty in TOPICS.items():
         t = pubs.get(f"{ns}/{name}")
@@ -228,6 +234,11 @@ def main(argv=None):
         print(f"  {topic}: {len(msgs)} messages, deserialised by rosbags, sequence "
               f"{seqs[0]}..{seqs[-1]}, GID {next(iter(gids)).hex()}")
     forger.close()
+    if a.faster:
+        fast, slow = (len(got[f"{ns}/{n}"]) for n in a.faster)
+        print(f"  {a.faster[0]}: {fast} messages, {a.faster[1]}: {slow} in the same time")
+        if fast <= 1.5 * slow:
+            fail(f"{a.faster[0]} is configured faster than {a.faster[1]} but came {fast} to {slow}")
     all_gids = {m[0][1][17:] for m in got.values()}
     if len(all_gids) != len(got):
         fail("two publishers share a GID")

@@ -194,6 +194,7 @@ fn access_control(s: &LinkSettings) -> String {
             node: 0,
             namespace: r.namespace.clone(),
             name: r.node.clone(),
+            humble: r.humble,
         };
         for (i, (name, ty)) in TOPICS.iter().enumerate() {
             let key = node.data_key(&qualified(&r.namespace, name), ty);

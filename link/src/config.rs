@@ -3,6 +3,8 @@
 //! as one of its sections (so `anguilla config check` checks it too) and
 //! writes its commented defaults; the daemon itself ignores it.
 
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 /// `[link]`: remote operation over Zenoh (`anguilla link`, docs/remote.md).
@@ -43,10 +45,13 @@ pub struct LinkConfig {
     pub ros2_namespace: String,
     /// The ROS 2 node's name.
     pub ros2_node: String,
-    /// Most ROS 2 joint states (and IMU, pressure, torques) a second (Hz).
+    /// The ROS 2 distribution: `jazzy` (and later) or `humble`.
+    pub ros2_distro: String,
+    /// Most messages a second of each ROS 2 topic (Hz), unless
+    /// `ros2-rates` names it.
     pub ros2_rate: f64,
-    /// Most ROS 2 diagnostics a second (Hz).
-    pub ros2_diagnostics_rate: f64,
+    /// Most messages a second of the topics it names (Hz).
+    pub ros2_rates: BTreeMap<String, f64>,
     /// The forward speed a ROS 2 `cmd_vel` asks for at full amplitude
     /// (m/s).
     pub ros2_max_speed: f64,
@@ -76,8 +81,9 @@ impl Default for LinkConfig {
             ros2_domain: 0,
             ros2_namespace: "/".into(),
             ros2_node: "anguilla".into(),
+            ros2_distro: "jazzy".into(),
             ros2_rate: 20.0,
-            ros2_diagnostics_rate: 1.0,
+            ros2_rates: BTreeMap::from([("diagnostics".to_string(), 1.0)]),
             ros2_max_speed: 0.4,
             ros2_frequency: 1.0,
         }
@@ -139,13 +145,27 @@ impl LinkConfig {
             }
         }
         range("link.ros2-rate", l.ros2_rate, 0.1, 500.0, "0.1 ..= 500 Hz")?;
-        range(
-            "link.ros2-diagnostics-rate",
-            l.ros2_diagnostics_rate,
-            0.1,
-            100.0,
-            "0.1 ..= 100 Hz",
-        )?;
+        for (topic, &rate) in &l.ros2_rates {
+            if !crate::ros2::TOPICS.iter().any(|(n, _)| n == topic) {
+                return Err(ConfigError::Derived(format!(
+                    "link.ros2-rates names {topic:?}, which the ROS 2 node does not publish \
+                     (its topics: {})",
+                    crate::ros2::TOPICS.map(|(n, _)| n).join(", ")
+                )));
+            }
+            if !(rate.is_finite() && (0.1..=500.0).contains(&rate)) {
+                return Err(ConfigError::Derived(format!(
+                    "link.ros2-rates.{topic} = {rate} is out of range (expected 0.1 ..= 500 Hz)"
+                )));
+            }
+        }
+        if !crate::ros2::DISTROS.contains(&l.ros2_distro.as_str()) {
+            return Err(ConfigError::Range {
+                key: "link.ros2-distro",
+                value: format!("{:?}", l.ros2_distro),
+                expected: "\"jazzy\" (also for Kilted and later) or \"humble\"",
+            });
+        }
         range(
             "link.ros2-max-speed",
             l.ros2_max_speed,
@@ -258,9 +278,18 @@ mod tests {
         assert!(bad(&|c| c.max_clients = 99).contains("'link.max-clients'"));
         assert!(bad(&|c| c.idle_timeout = 1.0).contains("'link.idle-timeout'"));
         assert!(bad(&|c| c.ros2_rate = 0.0).contains("'link.ros2-rate'"));
+        assert!(bad(&|c| c.ros2_distro = "rolling".into()).contains("'link.ros2-distro'"));
+        let e = bad(&|c| {
+            c.ros2_rates.insert("cmd_vel".into(), 10.0);
+        });
         assert!(
-            bad(&|c| c.ros2_diagnostics_rate = f64::NAN).contains("'link.ros2-diagnostics-rate'")
+            e.contains("\"cmd_vel\", which the ROS 2 node does not publish"),
+            "{e}"
         );
+        let e = bad(&|c| {
+            c.ros2_rates.insert("imu".into(), f64::NAN);
+        });
+        assert!(e.contains("link.ros2-rates.imu = NaN"), "{e}");
         assert!(bad(&|c| c.ros2_domain = 233).contains("'link.ros2-domain'"));
         assert!(bad(&|c| c.ros2_max_speed = 0.0).contains("'link.ros2-max-speed'"));
         assert!(bad(&|c| c.ros2_frequency = f64::INFINITY).contains("'link.ros2-frequency'"));

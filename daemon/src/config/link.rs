@@ -51,16 +51,23 @@ pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
     w(format!("inbound = {:?}", d.inbound));
     w(format!("outbound = {:?}", d.outbound));
     w("# The robot as a ROS 2 node on rmw_zenoh's wire (no ROS on the robot;".into());
-    w("# docs/ros2.md): ROS_DOMAIN_ID, the node's namespace and name, and the most".into());
-    w("# joint states (and IMU, pressure, torques) and diagnostics a second (Hz).".into());
+    w("# docs/ros2.md): ROS_DOMAIN_ID, the node's namespace and name, the distribution".into());
+    w("# (\"jazzy\", also for Kilted and later, or \"humble\"), and the most messages a".into());
+    w("# second (Hz) of every topic, or of those ros2-rates names (joint_states, imu,".into());
+    w("# pressure, feedforward, torque_residual, diagnostics).".into());
     w(format!("ros2 = {}", d.ros2));
     w(format!("ros2-domain = {}", d.ros2_domain));
     w(format!("ros2-namespace = {:?}", d.ros2_namespace));
     w(format!("ros2-node = {:?}", d.ros2_node));
+    w(format!("ros2-distro = {:?}", d.ros2_distro));
     w(format!("ros2-rate = {}", fmt_f(d.ros2_rate)));
     w(format!(
-        "ros2-diagnostics-rate = {}",
-        fmt_f(d.ros2_diagnostics_rate)
+        "ros2-rates = {{ {} }}",
+        d.ros2_rates
+            .iter()
+            .map(|(k, v)| format!("{k} = {}", fmt_f(*v)))
+            .collect::<Vec<_>>()
+            .join(", ")
     ));
     w("# Driving from ROS 2 (cmd_vel, ~/take_control, ~/enable, ~/estop...; the".into());
     w("# inbound allowlist applies): the speed asked for at full amplitude (m/s)".into());

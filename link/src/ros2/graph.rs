@@ -103,9 +103,20 @@ pub struct NodeId {
     pub namespace: String,
     /// The node's name (no `/`).
     pub name: String,
+    /// Humble's rmw_zenoh: `TypeHashNotSupported` where Jazzy's has the
+    /// type's hash.
+    pub humble: bool,
 }
 
+/// What Humble's rmw_zenoh puts where a type hash goes.
+pub const NO_TYPE_HASH: &str = "TypeHashNotSupported";
+
 impl NodeId {
+    /// The type hash as this node's distribution writes it.
+    pub fn hash<'a>(&self, ty: &'a MsgType) -> &'a str {
+        if self.humble { NO_TYPE_HASH } else { ty.hash }
+    }
+
     fn prefix(&self, entity: u32, kind: Kind) -> String {
         format!(
             "@ros2_lv/{}/{}/{}/{}/{}/%/{}/{}",
@@ -136,7 +147,7 @@ impl NodeId {
             self.prefix(entity, kind),
             mangle(name),
             ty.dds_name(),
-            ty.hash,
+            self.hash(ty),
             qos.token()
         )
     }
@@ -148,7 +159,7 @@ impl NodeId {
             self.domain,
             name.trim_start_matches('/'),
             ty.dds_name(),
-            ty.hash
+            self.hash(ty)
         )
     }
 }
@@ -189,6 +200,7 @@ mod tests {
             node: 0,
             namespace: "/".into(),
             name: "listener".into(),
+            humble: false,
         }
     }
 
@@ -225,6 +237,27 @@ mod tests {
         assert!(ns.node_token().ends_with("/NN/%/%eel/listener"));
         assert_eq!(qualified("/eel", "joint_states"), "/eel/joint_states");
         assert_eq!(qualified("/", "joint_states"), "/joint_states");
+        let humble = NodeId {
+            humble: true,
+            ..node()
+        };
+        assert_eq!(
+            humble.data_key("/chatter", &msgs::STRING),
+            "0/chatter/std_msgs::msg::dds_::String_/TypeHashNotSupported"
+        );
+        assert!(
+            humble
+                .token(
+                    10,
+                    Kind::Publisher,
+                    "/chatter",
+                    &msgs::STRING,
+                    &Qos::reliable(10)
+                )
+                .ends_with(
+                    "/%chatter/std_msgs::msg::dds_::String_/TypeHashNotSupported/::,10:,:,:,,"
+                )
+        );
     }
 
     #[test]

@@ -14,3 +14,19 @@ pub mod graph;
 pub mod msgs;
 #[cfg(feature = "zenoh")]
 pub mod node;
+
+/// The topics the node publishes, in the order they are declared (their
+/// entity ids follow): name under the namespace, and type.
+pub const TOPICS: [(&str, msgs::MsgType); 6] = [
+    ("joint_states", msgs::JOINT_STATE),
+    ("imu", msgs::IMU),
+    ("pressure", msgs::FLUID_PRESSURE),
+    ("feedforward", msgs::FLOAT64_MULTI_ARRAY),
+    ("torque_residual", msgs::FLOAT64_MULTI_ARRAY),
+    ("diagnostics", msgs::DIAGNOSTIC_ARRAY),
+];
+
+/// The ROS 2 distributions the node speaks: `jazzy` (and later: RIHS01
+/// type hashes in keys and tokens) and `humble` (`TypeHashNotSupported`
+/// in their place). The messages it uses are the same in both.
+pub const DISTROS: [&str; 2] = ["jazzy", "humble"];

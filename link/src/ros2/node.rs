@@ -51,11 +51,10 @@ pub struct Ros2Settings {
     pub namespace: String,
     /// The node's name.
     pub node: String,
-    /// Most `joint_states`, `imu`, `pressure`, `feedforward` and
-    /// `torque_residual` messages a second (Hz).
-    pub rate: f64,
-    /// Most `diagnostics` a second (Hz).
-    pub diagnostics_rate: f64,
+    /// Most messages a second (Hz) of each of [`TOPICS`], in its order.
+    pub rates: [f64; 6],
+    /// Humble: `TypeHashNotSupported` in keys and tokens.
+    pub humble: bool,
     /// `cmd_vel` and the control services are served (the link's
     /// `inbound` has `command`).
     pub allow_command: bool,
@@ -96,6 +95,8 @@ struct Topic {
     publisher: Publisher<'static>,
     gid: [u8; 16],
     sequence: i64,
+    rate: f64,
+    last: Option<Instant>,
 }
 
 impl Topic {
@@ -109,15 +110,7 @@ impl Topic {
     }
 }
 
-/// The topics, in the order they are declared (their entity ids follow).
-pub const TOPICS: [(&str, MsgType); 6] = [
-    ("joint_states", msgs::JOINT_STATE),
-    ("imu", msgs::IMU),
-    ("pressure", msgs::FLUID_PRESSURE),
-    ("feedforward", msgs::FLOAT64_MULTI_ARRAY),
-    ("torque_residual", msgs::FLOAT64_MULTI_ARRAY),
-    ("diagnostics", msgs::DIAGNOSTIC_ARRAY),
-];
+pub use super::TOPICS;
 
 /// `cmd_vel`'s types: a `Twist`, or a `TwistStamped` (Jazzy's
 /// `teleop_twist_joy` publishes those), each on its own key.
@@ -144,8 +137,6 @@ pub struct Ros2Node {
     client: Option<Client>,
     calls: HashMap<u32, Call>,
     limits: Option<anguilla_ipc::LimitsSnapshot>,
-    last: Option<Instant>,
-    last_diagnostics: Option<Instant>,
     /// Messages published.
     pub published: u64,
     /// `cmd_vel` messages turned into swim commands.
@@ -210,6 +201,7 @@ impl Ros2Node {
             node: 0,
             namespace: settings.namespace.clone(),
             name: settings.node.clone(),
+            humble: settings.humble,
         };
         let token = |key: String| {
             session
@@ -245,6 +237,8 @@ impl Ros2Node {
                 publisher,
                 gid,
                 sequence: 0,
+                rate: settings.rates[i],
+                last: None,
             });
         }
         let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
@@ -328,8 +322,6 @@ impl Ros2Node {
             client: None,
             calls: HashMap::new(),
             limits: None,
-            last: None,
-            last_diagnostics: None,
             published: 0,
             twists: 0,
             dropped: 0,
@@ -427,24 +419,26 @@ impl Ros2Node {
     /// Publishes `s` on every topic that is due.
     pub fn publish(&mut self, s: &StateSnapshot) -> Result<(), LinkError> {
         self.limits = Some(s.limits);
-        let due = |last: Option<Instant>, rate: f64| {
-            last.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / rate)
-        };
+        let now = Instant::now();
+        let due: Vec<bool> = self
+            .topics
+            .iter()
+            .map(|t| {
+                t.last
+                    .is_none_or(|l| (now - l).as_secs_f64() >= 1.0 / t.rate)
+            })
+            .collect();
+        if !due.contains(&true) {
+            return Ok(());
+        }
         let stamp_ns = wall_ns();
         let now_ns = i64::try_from(stamp_ns).unwrap_or(i64::MAX);
-        if due(self.last, self.settings.rate) {
-            self.last = Some(Instant::now());
-            let m = messages(s, stamp_ns);
-            for (topic, payload) in self.topics.iter_mut().zip(m) {
+        let [a, b, c, d, e] = messages(s, stamp_ns);
+        let payloads = [a, b, c, d, e, diagnostics(s, stamp_ns).encode()];
+        for ((topic, payload), due) in self.topics.iter_mut().zip(payloads).zip(due) {
+            if due {
+                topic.last = Some(now);
                 topic.put(payload, now_ns)?;
-                self.published += 1;
-            }
-        }
-        if due(self.last_diagnostics, self.settings.diagnostics_rate) {
-            self.last_diagnostics = Some(Instant::now());
-            let d = diagnostics(s, stamp_ns).encode();
-            if let Some(t) = self.topics.last_mut() {
-                t.put(d, now_ns)?;
                 self.published += 1;
             }
         }
