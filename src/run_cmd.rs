@@ -304,6 +304,12 @@ pub struct ExportArgs {
     /// message readable before the cut is kept, on every channel.
     #[arg(long)]
     repair: bool,
+    /// Write a rosbag2 MCAP for ROS 2 tools instead (DIR/session.ros2.mcap,
+    /// or --mcap FILE): the topics of `anguilla link`'s ROS 2 node
+    /// (`[link] ros2-*` of the session's configuration: namespace, rates),
+    /// from state.bin (docs/ros2.md).
+    #[arg(long, conflicts_with = "repair")]
+    ros2: bool,
 }
 
 /// A progress bar on standard error for work of `total` steps, when it is
@@ -349,6 +355,9 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
     if args.repair {
         return repair(args);
     }
+    if args.ros2 {
+        return export_ros2(args);
+    }
     let out = match &args.mcap {
         Some(p) if !p.as_os_str().is_empty() => p.clone(),
         _ => args.dir.join("session.mcap"),
@@ -365,6 +374,62 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
             format!(
                 " ({} bytes at the end of state.bin were not a whole snapshot: the recording was cut short)",
                 done.partial_bytes
+            )
+        } else {
+            String::new()
+        }
+    )?;
+    Ok(())
+}
+
+/// `export --ros2`: a rosbag2 MCAP of the ROS 2 node's topics.
+fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
+    use anguilla_link::ros2::{TOPICS, bag};
+    let out = match &args.mcap {
+        Some(p) if !p.as_os_str().is_empty() => p.clone(),
+        _ => args.dir.join("session.ros2.mcap"),
+    };
+    // The session directory's name holds the recorder's start (Unix s):
+    // docs/data.md "Time".
+    let name = args.dir.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    let start_s: u64 = name
+        .strip_prefix("session-")
+        .and_then(|t| t.parse().ok())
+        .with_context(|| {
+            format!(
+                "{}: expected a session directory named session-<Unix time>, as `anguilla run` \
+                 writes (its name dates the recording)",
+                args.dir.display()
+            )
+        })?;
+    let cfg = anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
+        .with_context(|| format!("exporting {}", args.dir.display()))?;
+    let l = &cfg.link;
+    let settings = bag::BagSettings {
+        namespace: l.ros2_namespace.clone(),
+        rates: TOPICS.map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
+        start_ns: start_s.saturating_mul(1_000_000_000),
+    };
+    let mut bag =
+        bag::Bag::create(&out, settings).with_context(|| format!("creating {}", out.display()))?;
+    let (_, n, partial) =
+        anguilla_daemon::mcap_log::for_each_state(&args.dir, |_, _, s| bag.write(s))
+            .with_context(|| format!("exporting {}", args.dir.display()))?;
+    let counts = bag
+        .finish()
+        .with_context(|| format!("writing {}", out.display()))?;
+    outln!(
+        "{}: rosbag2 MCAP from {n} snapshots: {}{}",
+        out.display(),
+        TOPICS
+            .iter()
+            .zip(counts)
+            .map(|((t, _), c)| format!("{t} {c}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        if partial > 0 {
+            format!(
+                " ({partial} bytes at the end of state.bin were not a whole snapshot: the recording was cut short)"
             )
         } else {
             String::new()

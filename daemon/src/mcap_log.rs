@@ -473,6 +473,34 @@ pub fn export_with(
     out: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> io::Result<Exported> {
+    let cfg = Config::load(&dir.join("config.toml"))
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
+    let mut log = McapLog::create(out, &cfg)
+        .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
+    let (_, n, partial) = for_each_state(dir, |i, total, s| {
+        if i.is_multiple_of(crate::replay::PROGRESS_EVERY) {
+            progress(i, total);
+        }
+        log.write(s)
+    })?;
+    log.finish()?;
+    progress(n, n);
+    Ok(Exported {
+        snapshots: n,
+        partial_bytes: partial,
+    })
+}
+
+/// Reads the session `dir`'s configuration and calls `f` with each
+/// snapshot of its `state.bin`, its index and their count: the snapshots
+/// `anguilla export` turns into MCAP and rosbag2 files. Returns the
+/// configuration, the snapshots read and the bytes at the end that were
+/// not a whole snapshot (a recording cut short). A snapshot of another
+/// layout version is an error that says which.
+pub fn for_each_state(
+    dir: &Path,
+    mut f: impl FnMut(u64, u64, &StateSnapshot) -> io::Result<()>,
+) -> io::Result<(Config, u64, usize)> {
     let named = |what: &str, e: io::Error| io::Error::new(e.kind(), format!("{what}: {e}"));
     let cfg_path = dir.join("config.toml");
     let cfg = Config::load(&cfg_path)
@@ -480,13 +508,9 @@ pub fn export_with(
     let states = dir.join("state.bin");
     let bytes = std::fs::read(&states).map_err(|e| named(&states.display().to_string(), e))?;
     let size = core::mem::size_of::<StateSnapshot>();
-    let mut log = McapLog::create(out, &cfg).map_err(|e| named(&out.display().to_string(), e))?;
-    let mut n = 0u64;
     let total = (bytes.len() / size) as u64;
+    let mut n = 0u64;
     for (i, chunk) in bytes.chunks_exact(size).enumerate() {
-        if (i as u64).is_multiple_of(crate::replay::PROGRESS_EVERY) {
-            progress(i as u64, total);
-        }
         let s = StateSnapshot::from_bytes(chunk)
             .ok_or_else(|| io::Error::from(io::ErrorKind::InvalidData))?;
         if s.layout_version != anguilla_ipc::LAYOUT_VERSION {
@@ -501,15 +525,10 @@ pub fn export_with(
                 ),
             ));
         }
-        log.write(&s)?;
+        f(i as u64, total, &s)?;
         n += 1;
     }
-    log.finish()?;
-    progress(total, total);
-    Ok(Exported {
-        snapshots: n,
-        partial_bytes: bytes.len() % size,
-    })
+    Ok((cfg, n, bytes.len() % size))
 }
 
 /// What [`repair`] did.

@@ -6,14 +6,18 @@
 //! - [`cdr`]: the payloads' encoding;
 //! - [`msgs`]: the messages, their type names and RIHS01 hashes;
 //! - [`graph`]: tokens, keys, QoS text and attachments;
+//! - [`state`]: the daemon's state as those messages;
+//! - [`bag`]: a recorded session as a rosbag2 MCAP (`anguilla export --ros2`);
 //! - `node` (feature `zenoh`): the node `anguilla link` runs beside its
 //!   bridge, publishing the daemon's state as ROS 2 topics.
 
+pub mod bag;
 pub mod cdr;
 pub mod graph;
 pub mod msgs;
 #[cfg(feature = "zenoh")]
 pub mod node;
+pub mod state;
 
 /// The topics the node publishes, in the order they are declared (their
 /// entity ids follow): name under the namespace, and type.
