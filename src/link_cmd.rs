@@ -174,6 +174,10 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             rates: anguilla_link::ros2::TOPICS
                 .map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
             humble: l.ros2_distro == "humble",
+            geometry: anguilla_link::ros2::state::Geometry {
+                segments: anguilla_daemon::mcap_log::segments(&cfg),
+                limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
+            },
             allow_command: l.inbound.iter().any(|n| n == "command"),
             allow_estop: l.inbound.iter().any(|n| n == "estop"),
             max_speed: l.ros2_max_speed,

@@ -384,7 +384,7 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
 
 /// `export --ros2`: a rosbag2 MCAP of the ROS 2 node's topics.
 fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
-    use anguilla_link::ros2::{TOPICS, bag};
+    use anguilla_link::ros2::{LATCHED, TOPICS, bag};
     let out = match &args.mcap {
         Some(p) if !p.as_os_str().is_empty() => p.clone(),
         _ => args.dir.join("session.ros2.mcap"),
@@ -409,6 +409,10 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
         namespace: l.ros2_namespace.clone(),
         rates: TOPICS.map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
         start_ns: start_s.saturating_mul(1_000_000_000),
+        geometry: anguilla_link::ros2::state::Geometry {
+            segments: anguilla_daemon::mcap_log::segments(&cfg),
+            limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
+        },
     };
     let mut bag =
         bag::Bag::create(&out, settings).with_context(|| format!("creating {}", out.display()))?;
@@ -423,6 +427,7 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
         out.display(),
         TOPICS
             .iter()
+            .chain(&LATCHED)
             .zip(counts)
             .map(|((t, _), c)| format!("{t} {c}"))
             .collect::<Vec<_>>()

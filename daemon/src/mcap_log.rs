@@ -23,6 +23,7 @@ use std::fs::File;
 use std::io::{self, BufWriter};
 use std::path::Path;
 
+use anguilla_ipc::pose::{HeadTrack, Pose};
 use anguilla_model::Body;
 use mcap::records::MessageHeader;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -84,14 +85,30 @@ pub fn schemas() -> [(&'static str, Vec<u8>); 6] {
     schema::all().map(|(name, s)| (name, s.to_string().into_bytes()))
 }
 
+/// The body's links as the robot configured by `cfg` has them, head
+/// first: the body cut into `joints + 1` equal parts, each one's length
+/// and its semi-axes (width, height) at its middle (m). The recording's
+/// `/body` and the ROS 2 node's URDF draw these.
+pub fn segments(cfg: &Config) -> Vec<(f64, f64, f64)> {
+    let body = Body::paper();
+    let n = cfg.robot.joints + 1;
+    let l = body.length / n as f64;
+    (0..n)
+        .map(|k| {
+            let (a, b) = body.semi_axes((k as f64 + 0.5) / n as f64);
+            (l, a, b)
+        })
+        .collect()
+}
+
 /// Turns snapshots into the channels' messages (the MCAP file's and the
 /// live server's): keeps what needs the snapshot before (the predicted
 /// head's dead reckoning, the changes logged).
 #[derive(Debug, Clone)]
 pub struct Scene {
     last: Option<StateSnapshot>,
-    /// The predicted head's pose in the plane: x, y (m), yaw (rad).
-    dead_reckoning: [f64; 3],
+    /// The head's track (the predicted head dead-reckoned in the plane).
+    track: HeadTrack,
     /// Each link's length and its semi-axes (m), head first.
     links: Vec<(f64, f64, f64)>,
 }
@@ -99,20 +116,10 @@ pub struct Scene {
 impl Scene {
     /// The scene of a robot configured by `cfg`.
     pub fn new(cfg: &Config) -> Self {
-        // The links: the body cut into joints + 1 equal parts, head first.
-        let body = Body::paper();
-        let n = cfg.robot.joints + 1;
-        let l = body.length / n as f64;
-        let links = (0..n)
-            .map(|k| {
-                let (a, b) = body.semi_axes((k as f64 + 0.5) / n as f64);
-                (l, a, b)
-            })
-            .collect();
         Self {
             last: None,
-            dead_reckoning: [0.0; 3],
-            links,
+            track: HeadTrack::default(),
+            links: segments(cfg),
         }
     }
 
@@ -120,44 +127,25 @@ impl Scene {
     /// every channel but `/log`, which gets one per change.
     pub fn messages(&mut self, s: &StateSnapshot) -> Vec<(usize, Value)> {
         let ns = s.time_ns;
-        let dt = self
-            .last
-            .map_or(0.0, |l| s.time_ns.saturating_sub(l.time_ns) as f64 * 1e-9);
         let mut out = vec![(0, state_json(s)), (1, joints_json(s))];
         for (level, message) in log_lines(self.last.as_ref(), s) {
             let v = json!({ "timestamp": stamp(ns), "level": level, "message": message,
                             "name": "anguilla", "file": "", "line": 0 });
             out.push((2, v));
         }
-        // The predicted head, integrated in the plane.
-        // The scene's numbers are finite (the foxglove.* schemas): a value
-        // that is not counts as 0, a pose that is not is not drawn.
-        let [x, y, yaw] = &mut self.dead_reckoning;
-        *yaw += finite(s.predicted_turn_rate) * dt;
-        *x += finite(s.predicted_head_speed) * yaw.cos() * dt;
-        *y += finite(s.predicted_head_speed) * yaw.sin() * dt;
-        let predicted_q = UnitQuaternion::from_euler_angles(0.0, 0.0, *yaw);
-        let predicted_p = Vector3::new(*x, *y, 0.0);
-        let nav = &s.nav;
-        let measured = [nav.roll_deg, nav.pitch_deg, nav.heading_deg, nav.depth_m];
-        let (head_p, head_q) = if nav.samples > 0 && measured.iter().all(|v| v.is_finite()) {
-            let q = UnitQuaternion::from_euler_angles(
-                (nav.roll_deg as f64).to_radians(),
-                -(nav.pitch_deg as f64).to_radians(),
-                (nav.heading_deg as f64).to_radians(),
-            );
-            (Vector3::new(*x, *y, -(nav.depth_m as f64)), q)
-        } else {
-            (predicted_p, predicted_q)
-        };
-        let tf = |child: &str, p: &Vector3<f64>, q: &UnitQuaternion<f64>| {
+        // The head: measured with a head sensor, else predicted; the
+        // predicted one integrated in the plane (ipc::pose, as ROS 2's tf).
+        let (head, predicted) = self.track.update(s);
+        let tf = |child: &str, p: &Pose| {
+            let [x, y, z] = p.translation;
+            let [qx, qy, qz, qw] = p.rotation;
             json!({ "timestamp": stamp(ns), "parent_frame_id": "world", "child_frame_id": child,
-                    "translation": vec3(p), "rotation": quat(q) })
+                    "translation": { "x": x, "y": y, "z": z },
+                    "rotation": { "x": qx, "y": qy, "z": qz, "w": qw } })
         };
         out.push((
             3,
-            json!({ "transforms": [tf("head", &head_p, &head_q),
-                                   tf("head_predicted", &predicted_p, &predicted_q)] }),
+            json!({ "transforms": [tf("head", &head), tf("head_predicted", &predicted)] }),
         ));
         out.push((4, self.scene_json(s, ns)));
         out.push((5, sensors_json(s)));

@@ -18,13 +18,15 @@ import ctypes
 import os
 import struct
 import sys
+import xml.etree.ElementTree as ET
 
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 from anguilla_client import StateSnapshot
 
-TOPICS = ["joint_states", "imu", "pressure", "feedforward", "torque_residual", "diagnostics"]
+TOPICS = ["joint_states", "imu", "pressure", "feedforward", "torque_residual", "diagnostics", "tf"]
+LATCHED = ["robot_description", "tf_static"]
 
 
 def fail(why):
@@ -72,9 +74,17 @@ def main(argv=None):
             q = c.ext.offered_qos_profiles
             if len(q) != 1 or q[0].depth != 10 or q[0].reliability.name != "RELIABLE":
                 fail(f"{t}: offered QoS {q}, expected reliable, keep last 10")
+        for t in LATCHED:
+            c = conns.get(f"{a.namespace}/{t}")
+            if c is None or c.ext.offered_qos_profiles[0].durability.name != "TRANSIENT_LOCAL":
+                fail(f"{t}: missing, or not transient local")
+        latched = {}
         for c, t_ns, data in r.messages():
             name = c.topic.rsplit("/", 1)[1]
             m = ts.deserialize_cdr(data, c.msgtype)
+            if name in LATCHED:
+                latched.setdefault(name, []).append((t_ns, m))
+                continue
             i = got[name]
             got[name] += 1
             if i >= len(expected[name]):
@@ -91,12 +101,20 @@ def main(argv=None):
                         for f in ("measured_pitch", "measured_yaw")]
                 if list(m.position) != want:
                     fail(f"joint_states #{i}: positions are not snapshot {i}'s")
+    for t in LATCHED:
+        msgs = latched.get(t, [])
+        if len(msgs) != 1 or msgs[0][0] != start_ns + states[0].time_ns:
+            fail(f"{t}: {len(msgs)} messages, expected one at the first snapshot's time")
+    urdf = ET.fromstring(latched["robot_description"][0][1].data)
+    joints = [j.get("name") for j in urdf.iter("joint") if j.get("type") == "revolute"]
+    if len(joints) != 2 * states[0].joint_count:
+        fail(f"robot_description has {len(joints)} revolute joints for {states[0].joint_count} joints")
     for t in TOPICS:
         if got[t] != len(expected[t]):
             fail(f"{t}: {got[t]} messages, the session's {len(states)} snapshots at {rates[t]} Hz "
                  f"give {len(expected[t])}")
     print(f"ros2 bag check: OK ({len(states)} snapshots; "
-          + ", ".join(f"{t} {got[t]}" for t in TOPICS)
+          + ", ".join(f"{t} {got[t]}" for t in TOPICS) + "; robot_description and tf_static once"
           + "; every message deserialised by rosbags' rosbag2 reader, joint states = snapshots)")
 
 

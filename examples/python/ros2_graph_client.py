@@ -20,11 +20,15 @@ Exit 0 when all holds, 1 otherwise (the first failure is printed).
 """
 
 import argparse
+import math
 import struct
+import xml.etree.ElementTree as ET
 import sys
 import time
 
 import numpy
+import zenoh
+import zenoh.ext
 from rosbags.typesys import Stores, get_typestore
 
 from anguilla_client import MODES, StateSnapshot
@@ -37,6 +41,12 @@ TOPICS = {
     "feedforward": "std_msgs/msg/Float64MultiArray",
     "torque_residual": "std_msgs/msg/Float64MultiArray",
     "diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+    "tf": "tf2_msgs/msg/TFMessage",
+}
+# Transient local: a late subscriber gets their last message.
+LATCHED = {
+    "robot_description": "std_msgs/msg/String",
+    "tf_static": "tf2_msgs/msg/TFMessage",
 }
 
 
@@ -112,10 +122,25 @@ def main(argv=None):
         pubs[t["topic"]] = t
         print(f"  publisher {t['topic']} [{t['type']}] {t['hash']} qos {t['qos']}: hash checked")
     ns = node["namespace"].rstrip("/")
-    for name, ty in TOPICS.items():
+    for name, ty in list(TOPICS.items()) + list(LATCHED.items()):
         t = pubs.get(f"{ns}/{name}")
         if t is None or t["type"] != ty:
             fail(f"no publisher of {ns}/{name} [{ty}] among {sorted(pubs)}")
+    latched = {}
+    for name in LATCHED:
+        t = pubs.pop(f"{ns}/{name}")
+        durability = t["qos"].split(":")[1]
+        if durability != "1":
+            fail(f"{name}: QoS {t['qos']} is not transient local (durability 1)")
+        latched[name] = t
+    # A late joiner, as rmw_zenoh subscribes to a transient-local topic:
+    # an advanced subscriber with history, which asks the publisher's cache.
+    late = {}
+    for name, t in latched.items():
+        key = f"{t['domain']}/{t['topic'].lstrip('/')}/{t['dds_type']}/{t['hash']}"
+        late[name] = zenoh.ext.declare_advanced_subscriber(
+            z, key, history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+            subscriber_detection=True)
 
     # Subscribe by the data keys, as a ROS 2 subscription does, and to the
     # daemon's state through the link.
@@ -220,6 +245,25 @@ def main(argv=None):
                     fail(f"imu orientation not a unit quaternion: {q}")
                 if m.angular_velocity_covariance[0] != -1.0:
                     fail("imu: rates not marked unknown")
+            elif name == "tf":
+                frames = [(x.header.frame_id, x.child_frame_id) for x in m.transforms]
+                if frames[0] != ("odom", "head"):
+                    fail(f"tf: the first transform is {frames[0]}, expected odom -> head")
+                # each joint: its pitch about -y, then its yaw about z, as
+                # the URDF's joints; from one state the daemon published
+                def rotations(st):
+                    out = []
+                    for j in st.joints[:st.joint_count]:
+                        p, y = f32(j.measured_pitch), f32(j.measured_yaw)
+                        out += [(0.0, -math.sin(p / 2), 0.0, math.cos(p / 2)),
+                                (0.0, 0.0, math.sin(y / 2), math.cos(y / 2))]
+                    return out
+                got_r = [(x.transform.rotation.x, x.transform.rotation.y, x.transform.rotation.z,
+                          x.transform.rotation.w) for x in m.transforms[1:]]
+                if not any(len(got_r) == 2 * st.joint_count and all(
+                        abs(u - v) < 1e-12 for a_, b_ in zip(got_r, rotations(st))
+                        for u, v in zip(a_, b_)) for st in states):
+                    fail(f"tf's joint rotations {got_r[:2]}... are no state's joints")
             elif name == "diagnostics":
                 daemon = [x for x in m.status if x.name == "anguilla: daemon"]
                 if not daemon:
@@ -234,6 +278,28 @@ def main(argv=None):
         print(f"  {topic}: {len(msgs)} messages, deserialised by rosbags, sequence "
               f"{seqs[0]}..{seqs[-1]}, GID {next(iter(gids)).hex()}")
     forger.close()
+    for name, sub in late.items():
+        sample, end = None, time.monotonic() + 10
+        while sample is None and time.monotonic() < end:
+            sample = sub.try_recv()
+            time.sleep(0.01)
+        if sample is None:
+            fail(f"a late subscriber got no {name} from the publisher's cache")
+        m = ts.deserialize_cdr(sample.payload.to_bytes(), LATCHED[name])
+        if name == "robot_description":
+            robot = ET.fromstring(m.data)
+            joints = [j.get("name") for j in robot.iter("joint") if j.get("type") == "revolute"]
+            n = states[-1].joint_count
+            want = [f"joint{j}_{ax}" for j in range(1, n + 1) for ax in ("pitch", "yaw")]
+            if joints != want:
+                fail(f"robot_description's revolute joints {joints}, expected joint_states' {want}")
+            print(f"  late joiner: robot_description, a URDF of {len(list(robot.iter('link')))} "
+                  f"links and {len(joints)} revolute joints named as joint_states'")
+        else:
+            frames = [(x.header.frame_id, x.child_frame_id) for x in m.transforms]
+            if frames != [("head", "head_sensor")]:
+                fail(f"tf_static: {frames}")
+            print(f"  late joiner: tf_static {frames}")
     if a.faster:
         fast, slow = (len(got[f"{ns}/{n}"]) for n in a.faster)
         print(f"  {a.faster[0]}: {fast} messages, {a.faster[1]}: {slow} in the same time")

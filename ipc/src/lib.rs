@@ -54,6 +54,7 @@ pub mod estop;
 pub mod guard;
 pub mod layout;
 pub mod payload;
+pub mod pose;
 pub mod service;
 pub mod vocabulary;
 

@@ -40,7 +40,7 @@ use anguilla_ipc::vocabulary::Command;
 
 use crate::ros2::graph::qualified;
 use crate::ros2::msgs;
-use crate::ros2::node::{CMD_VEL, Ros2Node, Ros2Settings, SERVICES, TOPICS, service_name};
+use crate::ros2::node::{CMD_VEL, LATCHED, Ros2Node, Ros2Settings, SERVICES, TOPICS, service_name};
 use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
@@ -205,6 +205,39 @@ fn access_control(s: &LinkSettings) -> String {
                 key.clone(),
             );
             rule(&format!("ros2-topic-{i}-put"), "put", "egress", key);
+        }
+        // The transient-local topics: their data keys, and their
+        // publishers' caches and liveliness under `<key>/@adv/`, which a
+        // late subscriber (rmw_zenoh's, an advanced subscriber) asks.
+        for (name, ty) in LATCHED {
+            let key = node.data_key(&qualified(&r.namespace, name), &ty);
+            rule(
+                &format!("ros2-{name}-subscribe"),
+                "declare_subscriber",
+                "ingress",
+                key.clone(),
+            );
+            rule(&format!("ros2-{name}-put"), "put", "egress", key.clone());
+            // the cache replies with its samples on their own key
+            rule(
+                &format!("ros2-{name}-cached"),
+                "reply",
+                "egress",
+                key.clone(),
+            );
+            let adv = format!("{key}/@adv/**");
+            for (id, msg, flow) in [
+                ("cache-query", "query", "ingress"),
+                ("cache-reply", "reply", "egress"),
+                ("heartbeat", "put", "egress"),
+                ("heartbeat-subscribe", "declare_subscriber", "ingress"),
+                ("detect-query", "liveliness_query", "ingress"),
+                ("detect-watch", "declare_liveliness_subscriber", "ingress"),
+                ("detect-token-out", "liveliness_token", "egress"),
+                ("detect-token-in", "liveliness_token", "ingress"),
+            ] {
+                rule(&format!("ros2-{name}-{id}"), msg, flow, adv.clone());
+            }
         }
         if r.allow_command {
             for (i, ty) in CMD_VEL.iter().enumerate() {

@@ -21,13 +21,21 @@ pub mod state;
 
 /// The topics the node publishes, in the order they are declared (their
 /// entity ids follow): name under the namespace, and type.
-pub const TOPICS: [(&str, msgs::MsgType); 6] = [
+pub const TOPICS: [(&str, msgs::MsgType); 7] = [
     ("joint_states", msgs::JOINT_STATE),
     ("imu", msgs::IMU),
     ("pressure", msgs::FLUID_PRESSURE),
     ("feedforward", msgs::FLOAT64_MULTI_ARRAY),
     ("torque_residual", msgs::FLOAT64_MULTI_ARRAY),
     ("diagnostics", msgs::DIAGNOSTIC_ARRAY),
+    ("tf", msgs::TF_MESSAGE),
+];
+
+/// The transient-local topics (reliable, keep last 1; late joiners get
+/// their last message from the publisher's cache): published once.
+pub const LATCHED: [(&str, msgs::MsgType); 2] = [
+    ("robot_description", msgs::STRING),
+    ("tf_static", msgs::TF_MESSAGE),
 ];
 
 /// The ROS 2 distributions the node speaks: `jazzy` (and later: RIHS01

@@ -37,6 +37,9 @@ use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::query::{Query, Queryable};
+use zenoh_ext::{
+    AdvancedPublisher, AdvancedPublisherBuilderExt as _, CacheConfig, MissDetectionConfig,
+};
 
 use super::graph::{Kind, NodeId, Qos, attachment, qualified, read_attachment};
 use super::msgs::{self, MsgType};
@@ -53,7 +56,9 @@ pub struct Ros2Settings {
     /// The node's name.
     pub node: String,
     /// Most messages a second (Hz) of each of [`TOPICS`], in its order.
-    pub rates: [f64; 6],
+    pub rates: [f64; 7],
+    /// The body, for `tf` and `robot_description`.
+    pub geometry: state::Geometry,
     /// Humble: `TypeHashNotSupported` in keys and tokens.
     pub humble: bool,
     /// `cmd_vel` and the control services are served (the link's
@@ -111,7 +116,7 @@ impl Topic {
     }
 }
 
-pub use super::TOPICS;
+pub use super::{LATCHED, TOPICS};
 
 /// `cmd_vel`'s types: a `Twist`, or a `TwistStamped` (Jazzy's
 /// `teleop_twist_joy` publishes those), each on its own key.
@@ -133,6 +138,8 @@ pub struct Ros2Node {
     _tokens: Vec<LivelinessToken>,
     _subscribers: Vec<Subscriber<()>>,
     _queryables: Vec<Queryable<()>>,
+    _latched: Vec<AdvancedPublisher<'static>>,
+    conv: state::RosState,
     inbox: Receiver<Inbound>,
     /// The ROS 2 side's own client of the daemon: one operator session.
     client: Option<Client>,
@@ -242,8 +249,53 @@ impl Ros2Node {
                 last: None,
             });
         }
-        let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
         let mut entity = 1 + TOPICS.len() as u32;
+        // robot_description and tf_static: transient local, as rmw_zenoh
+        // declares such a publisher (an advanced publisher with a cache of
+        // one, detected by late subscribers, with heartbeats for their
+        // missed-sample recovery); published once, kept in the cache.
+        let mut latched = Vec::new();
+        let stamp = wall_ns();
+        let now = i64::try_from(stamp).unwrap_or(i64::MAX);
+        let urdf = state::urdf(&settings.geometry);
+        for (name, ty) in LATCHED {
+            let name = qualified(&settings.namespace, name);
+            let p = session
+                .declare_publisher(id.data_key(&name, &ty))
+                .cache(CacheConfig::default().max_samples(1))
+                .sample_miss_detection(
+                    MissDetectionConfig::default().sporadic_heartbeat(Duration::from_millis(500)),
+                )
+                .publisher_detection()
+                .wait()
+                .map_err(zenoh_err("ROS 2 transient-local publisher"))?;
+            let payload = if ty == msgs::STRING {
+                msgs::string(&urdf)
+            } else {
+                state::tf_static(stamp)
+            };
+            let mut gid = [0u8; 16];
+            gid.copy_from_slice(&zid[..16]);
+            gid[12..].copy_from_slice(&entity.to_le_bytes());
+            p.put(payload)
+                .attachment(attachment(1, now, &gid).to_vec())
+                .wait()
+                .map_err(zenoh_err("ROS 2 put"))?;
+            tokens.push(token(id.token(
+                entity,
+                Kind::Publisher,
+                &name,
+                &ty,
+                &Qos {
+                    best_effort: false,
+                    transient_local: true,
+                    depth: 1,
+                },
+            ))?);
+            latched.push(p);
+            entity += 1;
+        }
+        let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
         let mut subscribers = Vec::new();
         if settings.allow_command {
             let name = qualified(&settings.namespace, "cmd_vel");
@@ -311,6 +363,7 @@ impl Ros2Node {
             ))?);
             entity += 1;
         }
+        let conv = state::RosState::new(settings.geometry.clone());
         Ok(Self {
             settings,
             prefix: prefix.to_string(),
@@ -319,6 +372,8 @@ impl Ros2Node {
             _tokens: tokens,
             _subscribers: subscribers,
             _queryables: queryables,
+            _latched: latched,
+            conv,
             inbox,
             client: None,
             calls: HashMap::new(),
@@ -430,11 +485,12 @@ impl Ros2Node {
             })
             .collect();
         if !due.contains(&true) {
+            self.conv.advance(s);
             return Ok(());
         }
         let stamp_ns = wall_ns();
         let now_ns = i64::try_from(stamp_ns).unwrap_or(i64::MAX);
-        let payloads = state::all(s, stamp_ns);
+        let payloads = self.conv.all(s, stamp_ns);
         for ((topic, payload), due) in self.topics.iter_mut().zip(payloads).zip(due) {
             if due {
                 topic.last = Some(now);

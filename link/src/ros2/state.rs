@@ -3,15 +3,216 @@
 //! ([`super::bag`]), from the same snapshot to the same bytes.
 
 use anguilla_ipc::StateSnapshot;
+use anguilla_ipc::pose::{HeadTrack, Pose, quaternion_rpy};
 use anguilla_ipc::vocabulary::{Cause, FaultKind, Mode};
 
 use super::msgs;
 
-/// Every topic's message of `s`, in [`super::TOPICS`]' order, stamped
-/// `stamp_ns` (ns since the epoch).
-pub fn all(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 6] {
-    let [a, b, c, d, e] = messages(s, stamp_ns);
-    [a, b, c, d, e, diagnostics(s, stamp_ns).encode()]
+/// The head sensor's frame: `imu` and `pressure` are in it; `tf_static`
+/// puts it at the head's origin.
+pub const SENSOR_FRAME: &str = "head_sensor";
+/// The world frame `tf` puts the head in (REP 105's `odom`: continuous,
+/// drifting, its origin where the head was at the first state).
+pub const ODOM_FRAME: &str = "odom";
+
+/// The body as the URDF and `tf` draw it: each segment's length and
+/// semi-axes (width, height) (m), head first (`joints + 1` of them), and
+/// the joints' limits (rad, rad/s, N·m).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Geometry {
+    /// (length, half width, half height) of each segment, head first.
+    pub segments: Vec<(f64, f64, f64)>,
+    /// `[limits] angle`, `velocity`, `torque`.
+    pub limits: [f64; 3],
+}
+
+/// A segment's frame: `head`, then `segment1`, `segment2`, …
+pub fn segment_frame(k: usize) -> String {
+    if k == 0 {
+        "head".into()
+    } else {
+        format!("segment{k}")
+    }
+}
+
+/// The robot as a URDF, for rviz2's RobotModel (`robot_description`):
+/// the head, then for each joint `k` a pitch joint `joint<k>_pitch` into
+/// the massless `segment<k>_pitch` and a yaw joint `joint<k>_yaw` into
+/// `segment<k>`, as the daemon's joints turn (pitch, then yaw about the
+/// pitched z). Frames face forward (x to the nose, REP 103), so each joint
+/// sits a segment's length behind its parent's origin, the pitch axis is
+/// −y (the model's `t2` seen from the front), and each segment is drawn
+/// as a box of its length, width and height behind its joint. The head
+/// sensor's frame is fixed at the head's origin.
+pub fn urdf(g: &Geometry) -> String {
+    use std::fmt::Write as _;
+    let [angle, velocity, effort] = g.limits;
+    let mut u = String::from(
+        "<?xml version=\"1.0\"?>\n<robot name=\"anguilla\">\n  \
+         <material name=\"eel\"><color rgba=\"0.1 0.6 0.6 1\"/></material>\n",
+    );
+    for (k, &(l, a, b)) in g.segments.iter().enumerate() {
+        let this = segment_frame(k);
+        if k > 0 {
+            let parent = segment_frame(k - 1);
+            let pl = g.segments[k - 1].0;
+            let limit = format!(
+                "<limit lower=\"{}\" upper=\"{angle}\" effort=\"{effort}\" velocity=\"{velocity}\"/>",
+                -angle
+            );
+            let _ = write!(
+                u,
+                "  <link name=\"{this}_pitch\"/>\n  \
+                 <joint name=\"joint{k}_pitch\" type=\"revolute\"><parent link=\"{parent}\"/>\
+                 <child link=\"{this}_pitch\"/><origin xyz=\"{} 0 0\" rpy=\"0 0 0\"/>\
+                 <axis xyz=\"0 -1 0\"/>{limit}</joint>\n  \
+                 <joint name=\"joint{k}_yaw\" type=\"revolute\"><parent link=\"{this}_pitch\"/>\
+                 <child link=\"{this}\"/><origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>\
+                 <axis xyz=\"0 0 1\"/>{limit}</joint>\n",
+                -pl
+            );
+        }
+        let _ = writeln!(
+            u,
+            "  <link name=\"{this}\"><visual><origin xyz=\"{} 0 0\" rpy=\"0 0 0\"/>\
+             <geometry><box size=\"{l} {} {}\"/></geometry><material name=\"eel\"/></visual></link>",
+            -l / 2.0,
+            2.0 * a,
+            2.0 * b
+        );
+    }
+    let _ = write!(
+        u,
+        "  <link name=\"{SENSOR_FRAME}\"/>\n  <joint name=\"{SENSOR_FRAME}\" type=\"fixed\">\
+         <parent link=\"head\"/><child link=\"{SENSOR_FRAME}\"/>\
+         <origin xyz=\"0 0 0\" rpy=\"0 0 0\"/></joint>\n</robot>\n"
+    );
+    u
+}
+
+/// A `geometry_msgs/msg/TransformStamped`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Transform {
+    /// The parent frame.
+    pub parent: String,
+    /// The child frame.
+    pub child: String,
+    /// The child's origin and orientation in the parent.
+    pub pose: Pose,
+}
+
+/// A `tf2_msgs/msg/TFMessage` of `transforms`, stamped `stamp_ns`.
+pub fn tf_message(transforms: &[Transform], stamp_ns: u64) -> Vec<u8> {
+    let mut w = super::cdr::Writer::new();
+    w.len(transforms.len());
+    let t = msgs::Time::from_ns(stamp_ns);
+    for x in transforms {
+        w.i32(t.sec)
+            .u32(t.nanosec)
+            .string(&x.parent)
+            .string(&x.child);
+        for v in x.pose.translation.iter().chain(&x.pose.rotation) {
+            w.f64(*v);
+        }
+    }
+    w.finish()
+}
+
+/// `tf_static`: the head sensor at the head's origin.
+pub fn tf_static(stamp_ns: u64) -> Vec<u8> {
+    tf_message(
+        &[Transform {
+            parent: "head".into(),
+            child: SENSOR_FRAME.into(),
+            pose: Pose {
+                translation: [0.0; 3],
+                rotation: [0.0, 0.0, 0.0, 1.0],
+            },
+        }],
+        stamp_ns,
+    )
+}
+
+/// The transforms of `s`: the head in `odom` (measured with a head
+/// sensor, else predicted; dead-reckoned in the plane), and each joint's
+/// pitch and yaw as the URDF's joints.
+pub fn transforms(s: &StateSnapshot, head: Pose, g: &Geometry) -> Vec<Transform> {
+    let mut out = vec![Transform {
+        parent: ODOM_FRAME.into(),
+        child: "head".into(),
+        pose: head,
+    }];
+    let n = (s.joint_count as usize)
+        .min(s.joints.len())
+        .min(g.segments.len().saturating_sub(1));
+    let finite = |v: f32| if v.is_finite() { f64::from(v) } else { 0.0 };
+    for (i, j) in s.joints[..n].iter().enumerate() {
+        let k = i + 1;
+        let (sp, cp) = (finite(j.measured_pitch) / 2.0).sin_cos();
+        let (sy, cy) = (finite(j.measured_yaw) / 2.0).sin_cos();
+        out.push(Transform {
+            parent: segment_frame(k - 1),
+            child: format!("{}_pitch", segment_frame(k)),
+            pose: Pose {
+                translation: [-g.segments[k - 1].0, 0.0, 0.0],
+                rotation: [0.0, -sp, 0.0, cp],
+            },
+        });
+        out.push(Transform {
+            parent: format!("{}_pitch", segment_frame(k)),
+            child: segment_frame(k),
+            pose: Pose {
+                translation: [0.0; 3],
+                rotation: [0.0, 0.0, sy, cy],
+            },
+        });
+    }
+    out
+}
+
+/// Turns a stream of snapshots into the node's topics: keeps the head's
+/// track (`tf` dead-reckons it) and the body's geometry.
+#[derive(Debug, Clone)]
+pub struct RosState {
+    geometry: Geometry,
+    track: HeadTrack,
+}
+
+impl RosState {
+    /// For a body of `geometry`, the head at `odom`'s origin.
+    pub fn new(geometry: Geometry) -> Self {
+        Self {
+            geometry,
+            track: HeadTrack::default(),
+        }
+    }
+
+    /// The body's geometry.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// Advances the head's track to `s` (a snapshot not published).
+    pub fn advance(&mut self, s: &StateSnapshot) {
+        self.track.update(s);
+    }
+
+    /// Every topic's message of `s`, in [`super::TOPICS`]' order, stamped
+    /// `stamp_ns` (ns since the epoch). Advances the head's track: call
+    /// it with every snapshot, due or not, or the track skips.
+    pub fn all(&mut self, s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 7] {
+        let (head, _) = self.track.update(s);
+        let [a, b, c, d, e] = messages(s, stamp_ns);
+        [
+            a,
+            b,
+            c,
+            d,
+            e,
+            diagnostics(s, stamp_ns).encode(),
+            tf_message(&transforms(s, head, &self.geometry), stamp_ns),
+        ]
+    }
 }
 
 /// The axes' names, in every array's order: `joint1_pitch`, `joint1_yaw`, …
@@ -50,34 +251,30 @@ pub fn messages(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 5] {
         effort: pairs(|j| [j.measured_pitch_torque, j.measured_yaw_torque]),
     };
     let nav = &s.nav;
-    // REP 103 (x forward, y left, z up): yaw anticlockwise seen from
-    // above, as the daemon's heading (0 along the earth frame's x); pitch
-    // about y is nose-down positive (the daemon's is nose-up); roll about
-    // x is right side down positive, as the daemon's.
-    let yaw = f64::from(nav.heading_deg).to_radians();
-    let pitch = -f64::from(nav.pitch_deg).to_radians();
-    let roll = f64::from(nav.roll_deg).to_radians();
-    let (sr, cr) = (roll / 2.0).sin_cos();
-    let (sp, cp) = (pitch / 2.0).sin_cos();
-    let (sy, cy) = (yaw / 2.0).sin_cos();
     let mut unknown = [0.0; 9];
     unknown[0] = -1.0;
+    // The attitude as the recording's /tf and this node's tf give it
+    // (REP 103; anguilla_ipc::pose); unknown without a head sensor.
+    let sensed = nav.samples > 0;
     let imu = msgs::Imu {
-        header: header("head"),
-        orientation: [
-            sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy,
-        ],
-        orientation_covariance: [0.0; 9],
+        header: header(SENSOR_FRAME),
+        orientation: if sensed {
+            quaternion_rpy(
+                f64::from(nav.roll_deg).to_radians(),
+                -f64::from(nav.pitch_deg).to_radians(),
+                f64::from(nav.heading_deg).to_radians(),
+            )
+        } else {
+            [0.0, 0.0, 0.0, 1.0]
+        },
+        orientation_covariance: if sensed { [0.0; 9] } else { unknown },
         angular_velocity: [0.0; 3],
         angular_velocity_covariance: unknown,
         linear_acceleration: [0.0; 3],
         linear_acceleration_covariance: unknown,
     };
     let pressure = msgs::FluidPressure {
-        header: header("head"),
+        header: header(SENSOR_FRAME),
         fluid_pressure: ATMOSPHERE + RHO_G * f64::from(nav.depth_m),
         variance: 0.0,
     };
@@ -211,6 +408,65 @@ mod tests {
         // an unknown mode code (a newer daemon) is an error, not OK
         s.mode = 200;
         assert_eq!(diagnostics(&s, 1).status[0].level, 2);
+    }
+
+    fn geometry(joints: usize) -> Geometry {
+        Geometry {
+            segments: (0..=joints)
+                .map(|k| (0.1, 0.05 - 0.002 * k as f64, 0.02))
+                .collect(),
+            limits: [1.0, 8.0, 4.0],
+        }
+    }
+
+    /// The URDF's chain and `tf`'s transforms are the same joints: a
+    /// pitch about −y a segment behind its parent, then a yaw about z.
+    #[test]
+    fn the_urdf_and_tf_chain_the_joints_alike() {
+        let u = urdf(&geometry(2));
+        for want in [
+            "<joint name=\"joint1_pitch\" type=\"revolute\"><parent link=\"head\"/><child link=\"segment1_pitch\"/><origin xyz=\"-0.1 0 0\"",
+            "<joint name=\"joint2_yaw\" type=\"revolute\"><parent link=\"segment2_pitch\"/><child link=\"segment2\"/>",
+            "<axis xyz=\"0 -1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"4\" velocity=\"8\"/>",
+            "<link name=\"segment2\"><visual><origin xyz=\"-0.05 0 0\"",
+            "<joint name=\"head_sensor\" type=\"fixed\">",
+        ] {
+            assert!(u.contains(want), "{want} not in\n{u}");
+        }
+        assert_eq!(u.matches("type=\"revolute\"").count(), 4);
+        let mut s = StateSnapshot {
+            joint_count: 2,
+            ..StateSnapshot::default()
+        };
+        s.joints[1].measured_pitch = 0.5;
+        s.joints[1].measured_yaw = f32::NAN;
+        let head = Pose {
+            translation: [1.0, 2.0, -3.0],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+        };
+        let t = transforms(&s, head, &geometry(2));
+        let names: Vec<(&str, &str)> = t
+            .iter()
+            .map(|x| (x.parent.as_str(), x.child.as_str()))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                ("odom", "head"),
+                ("head", "segment1_pitch"),
+                ("segment1_pitch", "segment1"),
+                ("segment1", "segment2_pitch"),
+                ("segment2_pitch", "segment2"),
+            ]
+        );
+        assert_eq!(t[3].pose.translation, [-0.1, 0.0, 0.0]);
+        let half = 0.25f64;
+        assert_eq!(t[3].pose.rotation, [0.0, -half.sin(), 0.0, half.cos()]);
+        // a yaw that is not finite is drawn straight, not as NaN
+        assert_eq!(t[4].pose.rotation, [0.0, 0.0, 0.0, 1.0]);
+        // more joints in the state than segments: only what the body has
+        s.joint_count = 3;
+        assert_eq!(transforms(&s, head, &geometry(2)).len(), 5);
     }
 
     #[test]
