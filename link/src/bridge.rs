@@ -803,4 +803,80 @@ mod tests {
         s.allow_command = true;
         assert!(access_control(&s).contains("p/command/*"));
     }
+
+    /// A watch-only ROS 2 node (inbound: estop) lets no one put on
+    /// cmd_vel or call a service but ~/estop; with commands, those keys
+    /// and no others; and nothing outside the node's domain.
+    #[test]
+    fn the_ros2_access_list_follows_the_allowlist() {
+        let ros2 = Ros2Settings {
+            domain: 7,
+            namespace: "/eel".into(),
+            node: "anguilla".into(),
+            rates: [20.0; 7],
+            humble: false,
+            geometry: crate::ros2::state::Geometry {
+                segments: vec![(0.5, 0.05, 0.03); 2],
+                limits: [1.0, 8.0, 4.0],
+            },
+            allow_command: false,
+            allow_estop: true,
+            max_speed: 0.4,
+            frequency: 1.0,
+        };
+        let mut s = LinkSettings {
+            prefix: "p".into(),
+            listen: Vec::new(),
+            tls: None,
+            state_rate: 50.0,
+            max_clients: 8,
+            idle_timeout: Duration::from_secs(10),
+            allow_command: false,
+            allow_estop: true,
+            publish_state: true,
+            ros2: Some(ros2),
+        };
+        let acl: serde_json::Value = serde_json::from_str(&access_control(&s)).unwrap();
+        let keys = |acl: &serde_json::Value, msg: &str, flow: &str| -> Vec<String> {
+            acl["rules"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|r| r["messages"][0] == msg && r["flows"][0] == flow)
+                .map(|r| r["key_exprs"][0].as_str().unwrap().to_string())
+                .collect()
+        };
+        let queries = keys(&acl, "query", "ingress");
+        assert!(
+            queries
+                .iter()
+                .any(|k| k.starts_with("7/eel/anguilla/estop/"))
+        );
+        assert!(
+            !queries
+                .iter()
+                .any(|k| k.contains("take_control") || k.contains("enable"))
+        );
+        assert!(keys(&acl, "put", "ingress").is_empty(), "no cmd_vel: {acl}");
+        for k in keys(&acl, "liveliness_query", "ingress") {
+            assert!(k.starts_with("@ros2_lv/7/") || k.contains("/@adv/"), "{k}");
+        }
+        s.ros2.as_mut().unwrap().allow_command = true;
+        let acl: serde_json::Value = serde_json::from_str(&access_control(&s)).unwrap();
+        let puts = keys(&acl, "put", "ingress");
+        assert_eq!(
+            puts.len(),
+            2,
+            "Twist and TwistStamped on cmd_vel only: {puts:?}"
+        );
+        assert!(
+            puts.iter()
+                .all(|k| k.starts_with("7/eel/cmd_vel/geometry_msgs::msg::dds_::Twist"))
+        );
+        assert_eq!(
+            keys(&acl, "query", "ingress").len(),
+            6 + 2 + 2,
+            "six services, two caches, the link's prefix and e-stop"
+        );
+    }
 }
