@@ -805,7 +805,8 @@ fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
     std::fs::write(
         &cfg,
         format!(
-            "[ipc]\nprefix = \"anguilla-cli/full-{}\"\n[recording]\ndir = {:?}\n",
+            // min-free off: this is the disk filling unguarded
+            "[ipc]\nprefix = \"anguilla-cli/full-{}\"\n[recording]\ndir = {:?}\nmin-free = 0\n",
             std::process::id(),
             dir.display().to_string()
         ),

@@ -347,8 +347,12 @@ impl McapLog {
     /// Creates `path` for a robot configured by `cfg`.
     pub fn create(path: &Path, cfg: &Config) -> io::Result<Self> {
         let file = BufWriter::new(File::create(path)?);
+        let compression = match cfg.recording.compression.as_str() {
+            "zstd" => Some(mcap::Compression::Zstd),
+            _ => None,
+        };
         let mut w = mcap::WriteOptions::new()
-            .compression(None)
+            .compression(compression)
             .profile("")
             .create(file)
             .map_err(err)?;

@@ -90,7 +90,7 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
         format!(
             // The VM emulates its CPU (TCG) and is slow: a 50 Hz loop, and
             // heartbeats allowed 2 s, the nodes' watchdog 1 s.
-            "[control]\nrate-hz = 50.0\nheartbeat-timeout = 2.0\nenable-timeout = 10.0\nnode-watchdog = 1.0\n[ipc]\nprefix = \"{prefix}\"\n[recording]\ndir = \"{}\"\n",
+            "[control]\nrate-hz = 50.0\nheartbeat-timeout = 2.0\nenable-timeout = 10.0\nnode-watchdog = 1.0\n[ipc]\nprefix = \"{prefix}\"\n[recording]\ndir = \"{}\"\nmin-free = 0\n",
             dir.join("rec").display()
         ),
     )

@@ -209,6 +209,7 @@ impl Config {
         self.realtime.validate()?;
         self.ipc.validate()?;
         self.model.validate()?;
+        self.recording.validate()?;
         // What the keys ask for together: a rate the bus and the model can
         // run (the same check `anguilla run` depends on).
         self.control_rate()?;
