@@ -408,15 +408,24 @@ impl Ros2Node {
                         self.dropped += 1;
                         continue;
                     };
-                    self.client()?.send(Command::Swim(p))?;
-                    self.twists += 1;
+                    // The daemon away (restarting, stopped): the twist is
+                    // dropped and the client opened again at the next one;
+                    // the link keeps serving.
+                    match self.client().and_then(|c| Ok(c.send(Command::Swim(p))?)) {
+                        Ok(_) => self.twists += 1,
+                        Err(e) => {
+                            self.dropped += 1;
+                            self.client = None;
+                            tracing::warn!("ROS 2 cmd_vel: {e}");
+                        }
+                    }
                 }
                 Inbound::Service(i, q) => self.call(i, q)?,
             }
         }
         if let Some(c) = &mut self.client {
             let calls = &mut self.calls;
-            c.replies(|r| {
+            let r = c.replies(|r| {
                 if let Some(call) = calls.remove(&r.sequence) {
                     let mode = Mode::from_code(r.mode).map_or("unknown", Mode::name);
                     let text = if r.accepted != 0 {
@@ -426,7 +435,11 @@ impl Ros2Node {
                     };
                     answer(&call, r.accepted != 0, &text);
                 }
-            })?;
+            });
+            if let Err(e) = r {
+                tracing::warn!("ROS 2 replies: {e}");
+                self.client = None;
+            }
         }
         self.calls.retain(|_, call| {
             let keep = call.sent.elapsed() < CALL_TIMEOUT;
