@@ -782,9 +782,9 @@ impl Bridge {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_access_list_follows_the_allowlist() {
-        let mut s = LinkSettings {
+    /// A link on prefix `p` that publishes the state and takes E-stops.
+    fn settings(ros2: Option<Ros2Settings>) -> LinkSettings {
+        LinkSettings {
             prefix: "p".into(),
             listen: Vec::new(),
             tls: None,
@@ -794,8 +794,13 @@ mod tests {
             allow_command: false,
             allow_estop: true,
             publish_state: true,
-            ros2: None,
-        };
+            ros2,
+        }
+    }
+
+    #[test]
+    fn the_access_list_follows_the_allowlist() {
+        let mut s = settings(None);
         let acl = access_control(&s);
         assert!(acl.contains("\"default_permission\":\"deny\""));
         assert!(acl.contains("p/estop") && acl.contains("p/state"));
@@ -824,18 +829,7 @@ mod tests {
             max_speed: 0.4,
             frequency: 1.0,
         };
-        let mut s = LinkSettings {
-            prefix: "p".into(),
-            listen: Vec::new(),
-            tls: None,
-            state_rate: 50.0,
-            max_clients: 8,
-            idle_timeout: Duration::from_secs(10),
-            allow_command: false,
-            allow_estop: true,
-            publish_state: true,
-            ros2: Some(ros2),
-        };
+        let mut s = settings(Some(ros2));
         let acl: serde_json::Value = serde_json::from_str(&access_control(&s)).unwrap();
         let keys = |acl: &serde_json::Value, msg: &str, flow: &str| -> Vec<String> {
             acl["rules"]

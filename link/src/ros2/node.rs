@@ -188,6 +188,14 @@ pub fn swim_of(
     })
 }
 
+/// A publisher's GID: the session's id with the entity's number in its
+/// last four bytes (unique within the graph, as rmw_zenoh's).
+fn gid(zid: &[u8; 16], entity: u32) -> [u8; 16] {
+    let mut gid = *zid;
+    gid[12..].copy_from_slice(&entity.to_le_bytes());
+    gid
+}
+
 fn wall_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -236,11 +244,7 @@ impl Ros2Node {
                 ty,
                 &Qos::reliable(10),
             ))?);
-            // The GID: the session's id with the entity's number in its
-            // last four bytes (unique within the graph, as rmw_zenoh's).
-            let mut gid = [0u8; 16];
-            gid.copy_from_slice(&zid[..16]);
-            gid[12..].copy_from_slice(&entity.to_le_bytes());
+            let gid = gid(&zid, entity);
             topics.push(Topic {
                 publisher,
                 gid,
@@ -274,11 +278,8 @@ impl Ros2Node {
             } else {
                 state::tf_static(stamp)
             };
-            let mut gid = [0u8; 16];
-            gid.copy_from_slice(&zid[..16]);
-            gid[12..].copy_from_slice(&entity.to_le_bytes());
             p.put(payload)
-                .attachment(attachment(1, now, &gid).to_vec())
+                .attachment(attachment(1, now, &gid(&zid, entity)).to_vec())
                 .wait()
                 .map_err(zenoh_err("ROS 2 put"))?;
             tokens.push(token(id.token(
