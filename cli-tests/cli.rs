@@ -41,6 +41,94 @@ fn config_default_round_trips_through_check() {
 }
 
 #[test]
+fn the_robots_file_runs_nothing_until_its_bus_is_set() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-robot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("anguilla.toml");
+    let (ok, robot, _) = run(&["config", "default", "--robot"]);
+    assert!(ok);
+    // The package's conffile is exactly this file.
+    let shipped = include_str!("../deploy/anguilla.toml");
+    assert_eq!(robot, shipped);
+    // Recordings in a scratch place, not /var/lib/anguilla.
+    let robot = robot.replace("/var/lib/anguilla/recordings", "");
+    std::fs::write(&path, &robot).unwrap();
+    let file = path.to_str().unwrap();
+    let (ok, out, err) = run(&["config", "check", file]);
+    assert!(ok, "{err}");
+    assert!(out.contains("bus NOT SET"), "{out}");
+    // Both binaries refuse it, naming the file and what to do, exit 78.
+    for bin in [
+        env!("CARGO_BIN_EXE_anguilla"),
+        env!("CARGO_BIN_EXE_anguillad"),
+    ] {
+        let mut c = Command::new(bin);
+        if bin.ends_with("anguilla") {
+            c.arg("run");
+        }
+        let o = c
+            .args(["--config", file, "--duration", "1"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(78), "{bin}: {err}");
+        assert!(
+            err.contains(&format!("{file}: [bus] spec is \"unset\"")) && err.contains("set-bus"),
+            "{bin}: {err}"
+        );
+    }
+    // A bad spec is refused by name and the file is left as it was.
+    let (ok, _, err) = run(&["config", "set-bus", "cann0", "--file", file]);
+    assert!(!ok);
+    assert!(err.contains("bad bus spec 'cann0'"), "{err}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), robot);
+    // A file that is not there is named.
+    let (ok, _, err) = run(&[
+        "config",
+        "set-bus",
+        "socketcan:can0",
+        "--file",
+        "/nonexistent/a.toml",
+    ]);
+    assert!(!ok);
+    assert!(err.contains("reading /nonexistent/a.toml"), "{err}");
+    // A good one changes that line only, and the daemon takes it.
+    let (ok, out, err) = run(&["config", "set-bus", "builtin", "--file", file]);
+    assert!(ok, "{err}");
+    assert!(out.contains("[bus] spec = \"builtin\""), "{out}");
+    let new = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(new, robot.replace("spec = \"unset\"", "spec = \"builtin\""));
+    assert!(!dir.join(".anguilla.toml.set-bus").exists());
+    let (ok, out, err) = run(&["config", "check", file]);
+    assert!(ok && out.contains("built-in simulated robot"), "{out}{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn anguillad_is_the_daemon_alone() {
+    let o = Command::new(env!("CARGO_BIN_EXE_anguillad"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    for flag in ["--config", "--bus", "--duration", "--quiet"] {
+        assert!(help.contains(flag), "{help}");
+    }
+    // No subcommands: the tools are `anguilla`'s.
+    assert!(
+        !help.contains("teleop") && !help.contains("Commands:"),
+        "{help}"
+    );
+    let o = Command::new(env!("CARGO_BIN_EXE_anguillad"))
+        .args(["--duration", "0"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--duration 0 is invalid"));
+}
+
+#[test]
 fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["run", "--duration=-1"]);
     assert!(!ok);

@@ -11,14 +11,13 @@ mod foxglove_cmd;
 #[cfg(feature = "remote")]
 mod link_cmd;
 mod manual_cmd;
-mod output;
 mod plain;
 mod protocol_cmd;
 mod run_cmd;
-mod signals;
 mod sim_cmd;
 mod teleop_cmd;
 
+use anguilla::{daemon_cli, output, signals};
 use clap::{CommandFactory as _, Parser, Subcommand};
 
 mod swim;
@@ -36,7 +35,7 @@ struct Cli {
 enum Command {
     /// Run the daemon: against the built-in simulated robot, or the bus named
     /// with --bus (real hardware is driven only then).
-    Run(run_cmd::RunArgs),
+    Run(daemon_cli::RunArgs),
     /// Rerun the control loop on a recorded session (simulated clock) and
     /// check that its output matches the recording bit for bit.
     Replay(run_cmd::ReplayArgs),
@@ -104,23 +103,7 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
-    match run(cli) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
-        // `anguilla ... | head`: the reader has what it wanted.
-        Err(e) if output::closed_pipe(&e) => std::process::ExitCode::SUCCESS,
-        // Stopped by Ctrl-C (or SIGTERM, SIGHUP) before it could finish,
-        // e.g. while waiting for the daemon: the user's own stop, not an
-        // error; the shell's code for it (128 + the signal: 130 for SIGINT).
-        Err(_) if signals::received().is_some() => {
-            std::process::ExitCode::from(128 + signals::received().unwrap_or(2) as u8)
-        }
-        Err(e) => {
-            use std::io::Write as _;
-            let _ = writeln!(std::io::stderr(), "Error: {}", output::error_text(&e));
-            std::process::ExitCode::FAILURE
-        }
-    }
+    anguilla::exit_code(run(Cli::parse()))
 }
 
 /// The arguments of a command this build leaves out (it says so).
@@ -132,7 +115,7 @@ struct NotBuilt {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Run(args) => run_cmd::run(args),
+        Command::Run(args) => daemon_cli::run(args),
         Command::Config { cmd } => run_cmd::config(cmd),
         Command::Replay(args) => run_cmd::replay(args),
         Command::Export(args) => run_cmd::export(args),

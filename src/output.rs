@@ -16,16 +16,18 @@ pub fn write_fmt(args: std::fmt::Arguments) -> anyhow::Result<()> {
 }
 
 /// `print!` that returns an error instead of panicking.
+#[macro_export]
 macro_rules! out {
     ($($arg:tt)*) => { $crate::output::write_fmt(format_args!($($arg)*)) };
 }
 
 /// `println!` that returns an error instead of panicking.
+#[macro_export]
 macro_rules! outln {
     ($($arg:tt)*) => { $crate::output::write_fmt(format_args!("{}\n", format_args!($($arg)*))) };
 }
 
-pub(crate) use {out, outln};
+pub use crate::{out, outln};
 
 /// `e` and its causes, each said once: `context: cause: its cause`, but a
 /// cause whose text its context already includes (an error that prints

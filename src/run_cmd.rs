@@ -1,250 +1,50 @@
-//! `anguilla run` and `anguilla config`: parse, load, hand over to the daemon.
+//! `anguilla config`, `replay` and `export` (`anguilla run` is the
+//! library's [`anguilla::daemon_cli`], shared with `anguillad`).
 
 use crate::output::{out, outln};
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
-use std::time::{Duration, Instant};
 
-use anguilla_daemon::config::{Config, default_toml};
-use anguilla_daemon::run;
-use anguilla_ipc::Client;
-use anguilla_ipc::Mode;
+use anguilla_daemon::config::{BUS_BUILTIN, BUS_UNSET, Config, default_toml};
 use anyhow::Context;
-
-/// Arguments of `anguilla run`.
-#[derive(clap::Args, Debug)]
-#[command(
-    after_help = "Signals: SIGINT, SIGTERM and SIGHUP each stop a swim smoothly (at most \
-    3 s), disable the actuators and exit 0. There is no configuration reload: restart the daemon \
-    to apply a new configuration. Status lines go to stdout; when it fails (a closed pipe, a full \
-    disk) they stop and the daemon goes on."
-)]
-pub struct RunArgs {
-    /// Configuration file (TOML); every key is optional (see `anguilla config default`).
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
-    /// Bus to drive, e.g. `socketcan:can0`, `slcan:/dev/ttyACM0@1000000`,
-    /// `mem:NAME`. Overrides `bus.spec`. Without one, the daemon runs
-    /// against the built-in simulated robot; real hardware is only driven
-    /// when a bus is named.
-    #[arg(long, value_name = "SPEC")]
-    bus: Option<String>,
-    /// Stop (smoothly) after this many seconds.
-    #[arg(long, value_name = "SECONDS")]
-    duration: Option<f64>,
-    /// No status line on stdout (logs still go to stderr).
-    #[arg(long)]
-    quiet: bool,
-    /// The built-in simulated robot's own body (TOML: coefficients, drag
-    /// law, density, ballast; docs/calibration.md) instead of the one
-    /// `[model]` describes: a robot that is not the model.
-    #[arg(long, value_name = "FILE")]
-    sim_body: Option<PathBuf>,
-}
 
 /// `anguilla config ...`.
 #[derive(clap::Subcommand, Debug)]
 pub enum ConfigCmd {
     /// Print the whole default configuration, commented.
-    Default,
+    Default {
+        /// The file a robot's tether computer starts from instead (the
+        /// Debian package's /etc/anguilla/anguilla.toml): the bus left to
+        /// set, SCHED_FIFO and locked memory, recordings bounded for a 32 GB
+        /// card.
+        #[arg(long)]
+        robot: bool,
+    },
     /// Check a configuration file and say what is wrong with it.
     Check {
         /// The file.
         file: PathBuf,
     },
-}
-
-pub fn init_logging() {
-    use std::io::IsTerminal;
-    let filter = tracing_subscriber::EnvFilter::try_from_env("ANGUILLA_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let terminal = std::io::stderr().is_terminal();
-    let builder = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(terminal)
-        .with_target(false);
-    // Under systemd, journald stamps every line itself.
-    if terminal {
-        builder.init();
-    } else {
-        builder.without_time().init();
-    }
-}
-
-/// How often the simulated robot's ground truth is recorded (ns).
-const TRUTH_PERIOD_NS: u64 = 50_000_000;
-
-fn mode_name(m: u8) -> &'static str {
-    Mode::from_code(m).map(Mode::name).unwrap_or("?")
-}
-
-pub fn run(args: RunArgs) -> anyhow::Result<()> {
-    init_logging();
-    let mut cfg = match &args.config {
-        Some(path) => Config::load(path)?,
-        None => Config::default(),
-    };
-    if let Some(b) = &args.bus {
-        cfg.bus.spec = b.clone();
-    }
-    if let Some(d) = args.duration
-        && !(d.is_finite() && d > 0.0)
-    {
-        anyhow::bail!("--duration {d} is invalid (expected a number of seconds > 0)");
-    }
-    let sim_body = match &args.sim_body {
-        Some(_) if !cfg.bus.spec.is_empty() => {
-            anyhow::bail!("--sim-body is for the built-in simulated robot; a bus was named")
-        }
-        Some(path) => Some(
-            anguilla_daemon::config::BodyFile::load(path)
-                .map_err(|e| anyhow::anyhow!("--sim-body {}: {e}", path.display()))?
-                .body(),
-        ),
-        None => None,
-    };
-    crate::signals::install();
-    let stop = Arc::new(AtomicBool::new(false));
-    let (bus, sim) = if cfg.bus.spec.is_empty() {
-        let sensor = cfg.fit_builtin_sensor();
-        let relaxed = cfg.relax_for_builtin();
-        if !relaxed.is_empty() {
-            tracing::info!(
-                "simulated robot: it shares this machine's CPU with the daemon, so the \
-                 timeouts left at their defaults are relaxed: {} (a real bus keeps the strict defaults)",
-                relaxed.join(", ")
-            );
-        }
-        let (bus, sim) = anguilla::builtin_sim::start_builtin(&cfg, sim_body)?;
-        tracing::info!("no bus named: running against the built-in simulated robot");
-        match (sensor, cfg.sensor.node) {
-            (Some(id), _) => tracing::info!(
-                "the simulated robot's head sensor is node {id} (heading and depth hold; \
-                 [sensor] node chooses another id)"
-            ),
-            (None, 0) => tracing::info!(
-                "the simulated robot has no head sensor ({} drives: heading and depth hold unavailable)",
-                cfg.robot.drive
-            ),
-            (None, _) => {}
-        }
-        (bus, Some(sim))
-    } else {
-        let bus = anguilla_drivers::open(&cfg.bus.spec)
-            .with_context(|| format!("opening bus '{}'", cfg.bus.spec))?;
-        (bus, None)
-    };
-    let prefix = cfg.ipc.prefix.clone();
-    let running = run::spawn(cfg, bus, stop.clone())?;
-    let status =
-        Client::new(&prefix, "anguilla-run-status").context("reading the daemon's state")?;
-    let start = Instant::now();
-    let mut last_print = Instant::now();
-    let mut next_truth_ns = 0;
-    // Status lines never touch the loop: a failing stdout only ends them.
-    let mut out = crate::output::Status::default();
-    let mut signal_logged = false;
-    while !running.is_finished() {
-        if let Some(sig) = crate::signals::received()
-            && !signal_logged
-        {
-            signal_logged = true;
-            tracing::info!(
-                "{} received: stopping (a swim ramps down, the actuators are disabled, the \
-                 recording is finished)",
-                crate::signals::name(sig)
-            );
-        }
-        if crate::signals::requested()
-            || args
-                .duration
-                .is_some_and(|d| start.elapsed().as_secs_f64() >= d)
-        {
-            running.request_stop();
-        }
-        let state = status.wait_state(Duration::from_millis(100)).ok().flatten();
-        // The simulated robot's truth beside the estimate, 20 times a
-        // second, stamped with the state just published.
-        if let (Some(s), Some(sim), Some(tx)) = (&state, &sim, running.ground_truth())
-            && s.time_ns >= next_truth_ns
-        {
-            next_truth_ns = s.time_ns + TRUTH_PERIOD_NS;
-            let _ = tx.try_send((s.time_ns, sim.ground_truth()));
-        }
-        if let Some(s) = state
-            && !args.quiet
-            && last_print.elapsed() >= Duration::from_secs(1)
-        {
-            last_print = Instant::now();
-            let truth = sim.as_ref().map(|s| s.truth_line()).unwrap_or_default();
-            out.line(format_args!(
-                "t={:7.1}s mode={:<8} predicted speed {:+.3} m/s turn {:+.3} rad/s | loop {:.0} Hz jitter p99 {:.0} µs compute p99 {:.0} µs overruns {} | bus tx {} rx {} malformed {}{}{}{}",
-                s.time_ns as f64 * 1e-9,
-                mode_name(s.mode),
-                s.predicted_head_speed + 0.0, // no "-0.000" at rest
-                s.predicted_turn_rate + 0.0,
-                1e9 / s.loop_stats.period_ns.max(1) as f64,
-                s.loop_stats.jitter_p99_ns as f64 / 1e3,
-                s.loop_stats.compute_p99_ns as f64 / 1e3,
-                s.loop_stats.overruns,
-                s.bus.tx_frames,
-                s.bus.rx_frames,
-                s.bus.malformed,
-                if s.bus.state >= 2 {
-                    format!(
-                        " | BUS {}",
-                        anguilla_ipc::bus_state_name(s.bus.state).to_uppercase()
-                    )
-                } else {
-                    String::new()
-                },
-                if s.records_lost > 0 {
-                    format!(" | RECORDING LOST {} records", s.records_lost)
-                } else {
-                    String::new()
-                },
-                truth,
-            ));
-        }
-    }
-    let report = running.join()?;
-    if let Some(sim) = sim {
-        sim.stop();
-    }
-    out.line(format_args!(
-        "stopped in mode {}: {} periods, {} overruns (latest wake-up {:.0} µs, longest period {:.0} µs), last second's jitter p50/p99/max {:.0}/{:.0}/{:.0} µs, compute p99 {:.0} µs",
-        report.final_mode,
-        report.periods,
-        report.overruns,
-        report.worst_late_ns as f64 / 1e3,
-        report.worst_compute_ns as f64 / 1e3,
-        report.jitter.p50 as f64 / 1e3,
-        report.jitter.p99 as f64 / 1e3,
-        report.jitter.max as f64 / 1e3,
-        report.compute.p99 as f64 / 1e3,
-    ));
-    if report.records_dropped > 0 {
-        out.line(format_args!(
-            "the recording lost {} records (the recorder fell behind or failed; replay says where it ends)",
-            report.records_dropped
-        ));
-    }
-    if report.states_dropped > 0 {
-        out.line(format_args!(
-            "the state thread fell behind: {} snapshots were not published (newer ones were)",
-            report.states_dropped
-        ));
-    }
-    Ok(())
+    /// Name the robot's bus in a configuration file (`[bus] spec`), keeping
+    /// its comments and every other line; checks the result before writing.
+    SetBus {
+        /// The bus, e.g. `socketcan:can0` or `slcan:/dev/serial/by-id/...@1000000`
+        /// (`builtin`: the built-in simulated robot).
+        spec: String,
+        /// The file to change.
+        #[arg(long, value_name = "FILE", default_value = anguilla_daemon::config::SYSTEM_FILE)]
+        file: PathBuf,
+    },
 }
 
 pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
     match cmd {
-        ConfigCmd::Default => {
+        ConfigCmd::Default { robot: false } => {
             out!("{}", default_toml())
         }
+        ConfigCmd::Default { robot: true } => {
+            out!("{}", anguilla_daemon::config::robot_toml())
+        }
+        ConfigCmd::SetBus { spec, file } => set_bus(&file, &spec),
         ConfigCmd::Check { file } => {
             let cfg = Config::load(&file)?;
             let tls = !cfg.link.ca.is_empty();
@@ -264,13 +64,147 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
                 file.display(),
                 cfg.robot.joints,
                 1e9 / period.as_nanos() as f64,
-                if cfg.bus.spec.is_empty() {
+                if cfg.bus.spec.is_empty() || cfg.bus.spec == BUS_BUILTIN {
                     "built-in simulated robot"
+                } else if cfg.bus.spec == BUS_UNSET {
+                    "NOT SET: the daemon refuses to start until [bus] spec names the robot's \
+                     bus (`anguilla config set-bus SPEC`)"
                 } else {
                     &cfg.bus.spec
                 }
             )
         }
+    }
+}
+
+/// `anguilla config set-bus`: `[bus] spec = SPEC` in `file`, every other
+/// line as it was. The spec must parse (or be `builtin`) and the new file
+/// must check; it replaces the old one at once (a file beside it, renamed
+/// over it, with the old one's mode), so a failure leaves the old file.
+fn set_bus(file: &std::path::Path, spec: &str) -> anyhow::Result<()> {
+    let shown = file.display();
+    if spec != BUS_BUILTIN {
+        anguilla_drivers::BusSpec::parse(spec)?;
+    }
+    let text = std::fs::read_to_string(file).with_context(|| format!("reading {shown}"))?;
+    let new = with_bus_spec(&text, spec);
+    Config::from_toml(&new, &shown.to_string())
+        .and_then(|c| c.validate().map(|()| c))
+        .with_context(|| format!("{shown} with [bus] spec = {spec:?}"))?;
+    let tmp = file.with_file_name(format!(
+        ".{}.set-bus",
+        file.file_name()
+            .map_or("config".into(), |n| n.to_string_lossy())
+    ));
+    let perms = std::fs::metadata(file)
+        .with_context(|| format!("reading {shown}"))?
+        .permissions();
+    std::fs::write(&tmp, &new)
+        .and_then(|()| std::fs::set_permissions(&tmp, perms))
+        .and_then(|()| std::fs::rename(&tmp, file))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            anyhow::Error::new(e).context(format!("writing {shown}"))
+        })?;
+    outln!("{shown}: [bus] spec = {spec:?}")
+}
+
+/// `text` (a TOML configuration) with its `[bus]` table's `spec` line set
+/// to `spec`: that line replaced, or one added under `[bus]`, or a `[bus]`
+/// table appended.
+fn with_bus_spec(text: &str, spec: &str) -> String {
+    let line = format!("spec = {}", toml::Value::String(spec.into()));
+    let mut out = Vec::new();
+    let (mut in_bus, mut done) = (false, false);
+    for l in text.lines() {
+        let t = l.trim_start();
+        if t.starts_with('[') {
+            if in_bus && !done {
+                // The table ended without a spec: it goes at its top.
+                let at = out
+                    .iter()
+                    .rposition(|o: &String| o.trim() == "[bus]")
+                    .unwrap_or(0);
+                out.insert(at + 1, line.clone());
+                done = true;
+            }
+            in_bus = t.starts_with("[bus]");
+        } else if in_bus
+            && !done
+            && let Some(rest) = t.strip_prefix("spec")
+            && rest.trim_start().starts_with('=')
+        {
+            out.push(line.clone());
+            done = true;
+            continue;
+        }
+        out.push(l.to_string());
+    }
+    if in_bus && !done {
+        let at = out.iter().rposition(|o| o.trim() == "[bus]").unwrap_or(0);
+        out.insert(at + 1, line.clone());
+        done = true;
+    }
+    if !done {
+        if out.last().is_some_and(|l| !l.is_empty()) {
+            out.push(String::new());
+        }
+        out.push("[bus]".into());
+        out.push(line);
+    }
+    let mut s = out.join("\n");
+    s.push('\n');
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_bus_changes_the_spec_line_and_nothing_else() {
+        let robot = anguilla_daemon::config::robot_toml();
+        let new = with_bus_spec(&robot, "socketcan:can0");
+        let cfg = Config::from_toml(&new, "t").unwrap();
+        assert_eq!(cfg.bus.spec, "socketcan:can0");
+        let mut want = anguilla_daemon::config::robot_config();
+        want.bus.spec = "socketcan:can0".into();
+        assert_eq!(cfg, want);
+        // Only one line differs, and the comments stay.
+        let diff: Vec<_> = robot
+            .lines()
+            .zip(new.lines())
+            .filter(|(a, b)| a != b)
+            .collect();
+        assert_eq!(diff, [("spec = \"unset\"", "spec = \"socketcan:can0\"")]);
+        assert_eq!(robot.lines().count(), new.lines().count());
+        // A quote or a backslash in a path stays a string.
+        let odd = with_bus_spec(&robot, "slcan:/dev/a\"b\\c@1000000");
+        assert_eq!(
+            Config::from_toml(&odd, "t").unwrap().bus.spec,
+            "slcan:/dev/a\"b\\c@1000000"
+        );
+    }
+
+    #[test]
+    fn set_bus_adds_a_missing_spec_or_table() {
+        let no_table = "[realtime]\nlock-memory = true\n";
+        let c = Config::from_toml(&with_bus_spec(no_table, "socketcan:can1"), "t").unwrap();
+        assert_eq!(c.bus.spec, "socketcan:can1");
+        assert!(c.realtime.lock_memory);
+        let no_spec = "[bus]\nfd = true\n[realtime]\ncpu = 1\n";
+        let c = Config::from_toml(&with_bus_spec(no_spec, "socketcan:can1"), "t").unwrap();
+        assert_eq!(
+            (c.bus.spec.as_str(), c.bus.fd, c.realtime.cpu),
+            ("socketcan:can1", true, 1)
+        );
+        let last = "[bus]\nfd = true\n";
+        let c = Config::from_toml(&with_bus_spec(last, "socketcan:can1"), "t").unwrap();
+        assert_eq!(c.bus.spec, "socketcan:can1");
+        // `spec` of another table is not the bus's.
+        let other = "[link]\n\n[bus]\nspec = \"mem:x\"\n";
+        let c = Config::from_toml(&with_bus_spec(other, "socketcan:can1"), "t").unwrap();
+        assert_eq!(c.bus.spec, "socketcan:can1");
     }
 }
 

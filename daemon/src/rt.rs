@@ -41,6 +41,33 @@ fn errno() -> i32 {
     std::io::Error::last_os_error().raw_os_error().unwrap_or(0)
 }
 
+/// What a process that will lock its memory (`req.lock_memory`) does
+/// before it starts its threads: one malloc arena for all of them.
+/// glibc gives each new thread an arena of its own, each reserving 64 MiB
+/// of address space; `mlockall` counts every reserved page as locked
+/// (`VmLck`), though none of it is touched, so a daemon of 8 threads
+/// showed 627 MB locked for 39 MB resident. The loop allocates nothing,
+/// so the arenas' lock is never its wait. Harmless when threads exist
+/// already: arenas made before stay, no new one is made.
+pub fn prepare(req: &RtRequest) {
+    if req.lock_memory {
+        #[cfg(all(target_os = "linux", target_env = "gnu"))]
+        // SAFETY: mallopt takes two integers; M_ARENA_MAX is a valid option.
+        unsafe {
+            libc::mallopt(libc::M_ARENA_MAX, 1);
+        }
+    }
+}
+
+/// The memory this process has locked (`VmLck` of /proc/self/status), in
+/// bytes; `None` where it cannot be read.
+pub fn locked_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmLck:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
 /// Applies `req` to the calling thread; returns what was refused (at most
 /// one warning per request).
 pub fn apply(req: &RtRequest) -> Vec<RtWarning> {
@@ -166,5 +193,22 @@ mod tests {
         assert!(w[0].to_string().starts_with("CPU affinity refused ("));
         // Nothing asked, nothing refused.
         assert!(apply(&RtRequest::default()).is_empty());
+    }
+
+    #[test]
+    fn locked_memory_is_read_from_the_kernel() {
+        // Nothing locked yet in a test process: VmLck exists and is a
+        // number, 0 unless something locked.
+        let before = locked_bytes().expect("VmLck in /proc/self/status");
+        let page = vec![1u8; 4096];
+        // SAFETY: the range is the Vec's own memory.
+        let r = unsafe { libc::mlock(page.as_ptr().cast(), page.len()) };
+        if r != 0 {
+            eprintln!("mlock refused here (RLIMIT_MEMLOCK): only the read is checked");
+            return;
+        }
+        assert!(locked_bytes().unwrap() > before);
+        // SAFETY: as above.
+        unsafe { libc::munlock(page.as_ptr().cast(), page.len()) };
     }
 }

@@ -191,8 +191,12 @@ pub fn bounded<T>(what: &str, f: impl FnOnce() -> T) -> T {
             files_to_check()
         ),
     );
+    // A small stack: it only waits. glibc keeps the stacks of ended
+    // threads for the next ones, and a locked daemon (`mlockall`) counts
+    // each; Rust's default (2 MiB) made 8 MB of them.
     let dog = std::thread::Builder::new()
         .name("anguilla-open-limit".into())
+        .stack_size(64 << 10)
         .spawn(move || {
             let (m, cv) = &*d;
             let Ok(g) = m.lock() else { return };

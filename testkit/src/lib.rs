@@ -133,6 +133,22 @@ pub fn generated_block(path: &std::path::Path, tag: &str, generated: &str) {
     );
 }
 
+/// Checks that the whole file at `path` is `generated`; with
+/// `ANGUILLA_BLESS` set, writes it instead (a generated file that is
+/// committed, such as the Debian package's configuration).
+pub fn generated_file(path: &std::path::Path, generated: &str) {
+    let shown = path.display();
+    if std::env::var_os("ANGUILLA_BLESS").is_some() {
+        std::fs::write(path, generated).unwrap_or_else(|e| panic!("{shown}: {e}"));
+        return;
+    }
+    let current = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{shown}: {e}"));
+    assert_eq!(
+        current, generated,
+        "{shown} is out of date: rerun this test with ANGUILLA_BLESS=1"
+    );
+}
+
 #[cfg(test)]
 mod tests {
     #[global_allocator]

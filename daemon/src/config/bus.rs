@@ -21,6 +21,15 @@ pub struct BusConfig {
     pub max_load: f64,
 }
 
+/// `[bus] spec` for the built-in simulated robot, said outright (`--bus
+/// builtin`); the same as an empty spec.
+pub const BUS_BUILTIN: &str = "builtin";
+
+/// `[bus] spec` of a file whose bus the operator has not named yet (the
+/// Debian package's `/etc/anguilla/anguilla.toml`): the daemon refuses to
+/// start on it, saying how to set it; the tools read the file as usual.
+pub const BUS_UNSET: &str = "unset";
+
 impl BusConfig {
     /// The protocol variant the bus carries: CAN FD with `fd = true`.
     pub fn variant(&self) -> anguilla_protocol::Variant {
@@ -70,9 +79,21 @@ impl BusConfig {
 /// `[bus]` in the commented default file ([`super::default_toml`]).
 pub(super) fn write_default(d: &BusConfig, w: &mut dyn FnMut(String)) {
     w("[bus]".into());
-    w("# \"socketcan:can0\", \"slcan:/dev/ttyACM0@1000000\", \"mem:NAME\"; empty runs the".into());
-    w("# built-in simulated robot. Real hardware is driven only when this is set.".into());
-    w("spec = \"\"".into());
+    if d.spec == BUS_UNSET {
+        w("# The robot's bus: SET IT. The daemon refuses to start while it is \"unset\".".into());
+        w("# \"socketcan:can0\" (a CAN card or a USB adapter with a kernel driver), or".into());
+        w(
+            "# \"slcan:/dev/serial/by-id/<adapter>@1000000\" (an SLCAN adapter); every form in"
+                .into(),
+        );
+        w("# /usr/share/doc/anguilla/drivers-README.md. \"builtin\": the built-in simulated robot.".into());
+        w("# `sudo anguilla config set-bus SPEC` writes it here.".into());
+    } else {
+        w("# \"socketcan:can0\", \"slcan:/dev/ttyACM0@1000000\", \"mem:NAME\"; empty (or".into());
+        w("# \"builtin\") runs the built-in simulated robot. Real hardware is driven only".into());
+        w("# when this names a bus.".into());
+    }
+    w(format!("spec = {:?}", d.spec));
     w("# CAN FD frames; nominal and data-phase bit rates (bit/s).".into());
     w(format!("fd = {}", d.fd));
     w(format!("bitrate = {}", d.bitrate));

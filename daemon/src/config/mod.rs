@@ -39,7 +39,7 @@ mod whole;
 use anguilla_link::config::LinkConfig;
 pub use autopilot::AutopilotConfig;
 pub use body::{BodyFile, DragLaw};
-pub use bus::BusConfig;
+pub use bus::{BUS_BUILTIN, BUS_UNSET, BusConfig};
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
 pub use error::{ConfigError, fmt_number};
 pub use foxglove::FoxgloveConfig;
@@ -219,13 +219,68 @@ impl Config {
 
 /// The whole default configuration as a commented TOML file.
 pub fn default_toml() -> String {
-    let d = Config::default();
+    write_toml(
+        &Config::default(),
+        &[
+            "# anguilla daemon configuration. Every key is optional; these are the defaults.",
+            "# Keys are kebab-case; an unknown key or an out-of-range value is an error.",
+        ],
+    )
+}
+
+/// Where the robot's configuration lives on a tether computer (the
+/// Debian package's conffile, the systemd unit's `--config`).
+pub const SYSTEM_FILE: &str = "/etc/anguilla/anguilla.toml";
+
+/// Where the robot's sessions are recorded on a tether computer: the
+/// unit's state directory (`StateDirectory=anguilla`).
+pub const SYSTEM_RECORDINGS: &str = "/var/lib/anguilla/recordings";
+
+/// The configuration a robot's tether computer starts from (the Debian
+/// package's [`SYSTEM_FILE`]): the defaults but for the bus, left
+/// [`BUS_UNSET`] for the operator to name; the loop at SCHED_FIFO 80 with
+/// its memory locked; and sessions recorded in [`SYSTEM_RECORDINGS`],
+/// bounded for a 32 GB card (16 GB of sessions at most, 90 days, 2 GB
+/// always left free).
+pub fn robot_config() -> Config {
+    let mut c = Config::default();
+    c.bus.spec = BUS_UNSET.into();
+    c.realtime.fifo_priority = 80;
+    c.realtime.lock_memory = true;
+    c.recording.dir = SYSTEM_RECORDINGS.into();
+    c.recording.max_total = 16_000.0;
+    c.recording.keep_days = 90.0;
+    c.recording.min_free = 2_000.0;
+    c
+}
+
+/// [`robot_config`] as a commented TOML file: the Debian package's
+/// `/etc/anguilla/anguilla.toml` (`anguilla config default --robot`).
+pub fn robot_toml() -> String {
+    write_toml(
+        &robot_config(),
+        &[
+            "# anguilla daemon configuration for this robot (/etc/anguilla/anguilla.toml).",
+            "# Set [bus] spec below: the daemon (`systemctl start anguilla`) refuses to start",
+            "# until it names the robot's bus. Every other key is optional: these are the",
+            "# defaults of `anguilla config default`, but for [realtime] (SCHED_FIFO 80,",
+            "# memory locked) and [recording] (sessions in /var/lib/anguilla/recordings, at",
+            "# most 16 GB of them, 90 days, 2 GB always left free: a 32 GB card).",
+            "# Keys are kebab-case; an unknown key or an out-of-range value is an error.",
+            "# `anguilla config check /etc/anguilla/anguilla.toml` checks an edit.",
+        ],
+    )
+}
+
+/// `d` as a commented TOML file, under `header`'s lines.
+fn write_toml(d: &Config, header: &[&str]) -> String {
     let mut o = String::new();
     let mut w = |s: String| {
         let _ = writeln!(o, "{s}");
     };
-    w("# anguilla daemon configuration. Every key is optional; these are the defaults.".into());
-    w("# Keys are kebab-case; an unknown key or an out-of-range value is an error.".into());
+    for line in header {
+        w((*line).into());
+    }
     w(String::new());
     robot::write_default(&d.robot, &mut w);
     control::write_default(&d.control, &mut w);

@@ -46,6 +46,25 @@ fn the_printed_default_parses_back_to_the_default() {
 }
 
 #[test]
+fn the_robots_file_parses_back_and_only_its_bus_stops_the_daemon() {
+    let robot = super::robot_config();
+    let parsed = Config::from_toml(&super::robot_toml(), "robot").unwrap();
+    assert_eq!(parsed, robot);
+    // Everything but the unset bus checks: the tools read the file at once.
+    robot.validate().unwrap();
+    assert_eq!(robot.bus.spec, super::BUS_UNSET);
+    assert!(robot.realtime.lock_memory && robot.realtime.fifo_priority == 80);
+    assert!(robot.recording.max_total > 0.0 && robot.recording.keep_days > 0.0);
+    assert!(robot.recording.min_free > 0.0);
+}
+
+#[test]
+fn deploy_config_is_the_robots_file() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/anguilla.toml");
+    anguilla_testkit::generated_file(std::path::Path::new(path), &super::robot_toml());
+}
+
+#[test]
 fn docs_configuration_shows_the_default() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/configuration.md");
     let block = format!("```toml\n{}```\n", default_toml());

@@ -178,6 +178,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     // A configuration that was never validated may ask for a rate the bus
     // cannot carry: refused here, never run at another rate.
     cfg.control_rate().map_err(RunError::Rate)?;
+    rt::prepare(&rt_request(&cfg));
     let (ev_tx, ev_rx) = crossbeam_channel::bounded::<Event>(1024);
     let (dead_tx, dead_rx) = crossbeam_channel::bounded::<(u128, bool)>(64);
     let (watch_tx, watch_rx) = crossbeam_channel::bounded::<u128>(64);
@@ -210,8 +211,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     };
     let (prefix, ready) = (cfg.ipc.prefix.clone(), ipc_ready_tx.clone());
     helpers.push(
-        std::thread::Builder::new()
-            .name("anguilla-state".into())
+        thread("anguilla-state", IPC_STACK)
             .spawn(move || state_thread(&prefix, helper_rt, state_rx, ready))
             .map_err(|e| RunError::Thread("state", e))?,
     );
@@ -221,8 +221,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     // that the loop is stalled and the clients' own timeouts report it.
     let reply_wait = Duration::from_secs(1) + 10 * Duration::from(crate::control::period_ns(&cfg));
     helpers.push(
-        std::thread::Builder::new()
-            .name("anguilla-command".into())
+        thread("anguilla-command", IPC_STACK)
             .spawn(move || {
                 command_thread(
                     &prefix,
@@ -267,8 +266,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     let helpers_stop = Arc::new(AtomicBool::new(false));
     let (sock_estops, estop_stop) = (estops.clone(), helpers_stop.clone());
     helpers.push(
-        std::thread::Builder::new()
-            .name("anguilla-estop".into())
+        thread("anguilla-estop", STACK)
             .spawn(move || {
                 for w in rt::apply(&helper_rt) {
                     tracing::warn!("e-stop thread: {w}");
@@ -279,15 +277,13 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     );
     let bus_spec = bus.spec().to_string();
     helpers.push(
-        std::thread::Builder::new()
-            .name("anguilla-log".into())
+        thread("anguilla-log", STACK)
             .spawn(move || logger(ev_rx, bus_spec))
             .map_err(|e| RunError::Thread("logger", e))?,
     );
     let reaper_stop = helpers_stop.clone();
     helpers.push(
-        std::thread::Builder::new()
-            .name("anguilla-reaper".into())
+        thread("anguilla-reaper", STACK)
             .spawn(move || reaper(watch_rx, dead_tx, reaper_stop))
             .map_err(|e| RunError::Thread("reaper", e))?,
     );
@@ -300,15 +296,14 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             .map(|d| d.as_secs())
             .unwrap_or(0);
         let dir = std::path::Path::new(&cfg.recording.dir).join(format!("session-{secs}"));
-        let (rec_tx, rec_rx) = crossbeam_channel::bounded(1 << 16);
+        let (rec_tx, rec_rx) = crossbeam_channel::bounded(record_queue(&cfg));
         let (st_tx, st_rx) = crossbeam_channel::bounded(256);
         let (truth_tx, truth_rx) = crossbeam_channel::bounded(64);
         ground_truth = Some(truth_tx);
         let rcfg = cfg.clone();
         let shown = dir.display().to_string();
         helpers.push(
-            std::thread::Builder::new()
-                .name("anguilla-rec".into())
+            thread("anguilla-rec", STACK)
                 .spawn(move || {
                     if let Err(e) = crate::record::recorder(dir, rcfg, rec_rx, st_rx, truth_rx) {
                         tracing::error!("recording to {shown} failed: {e}");
@@ -320,8 +315,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     };
     let loop_stop = stop.clone();
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-    let loop_thread = std::thread::Builder::new()
-        .name("anguilla-loop".into())
+    let loop_thread = thread("anguilla-loop", STACK)
         .spawn(move || {
             let links = Links {
                 events: ev_tx,
@@ -359,6 +353,52 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     }
 }
 
+/// The stack of the daemon's threads that make iceoryx2 nodes (state,
+/// commands) in a release build (Rust's default is 2 MiB): they used at
+/// most 200 kB (resident pages of an unlocked run, swimming). With
+/// `[realtime] lock-memory`, every thread's whole stack is locked: stacks
+/// sized for their use keep the locked memory to what the daemon touches
+/// (docs/performance.md). A debug build (the tests) keeps 2 MiB: its
+/// frames are several times larger, and 512 KiB overflowed there.
+const IPC_STACK: usize = if cfg!(debug_assertions) {
+    2 << 20
+} else {
+    1 << 20
+};
+/// The stack of the other daemon threads (the loop used 48 kB).
+const STACK: usize = if cfg!(debug_assertions) {
+    2 << 20
+} else {
+    512 << 10
+};
+
+/// Records the loop may queue for the recorder: two seconds of them at the
+/// control rate, counting each period's frames out and in as at most two
+/// per joint and eight more (measured: 15 a period with 12 joints). A
+/// recorder behind by more loses records, counted and reported; a bigger
+/// queue is memory the loop writes, locked with `lock-memory` (96 bytes a
+/// record: 1.1 MB at the defaults, where 65536 slots took 6.3 MB).
+fn record_queue(cfg: &Config) -> usize {
+    let periods = (2e9 / crate::control::period_ns(cfg).as_nanos() as f64).ceil() as usize;
+    (periods * (2 * cfg.robot.joints + 8)).clamp(1024, 1 << 16)
+}
+
+/// A daemon thread named `name` with a `stack`-byte stack.
+fn thread(name: &str, stack: usize) -> std::thread::Builder {
+    std::thread::Builder::new()
+        .name(name.into())
+        .stack_size(stack)
+}
+
+/// What the loop thread asks of the system (`[realtime]`).
+pub fn rt_request(cfg: &Config) -> RtRequest {
+    RtRequest {
+        fifo_priority: (cfg.realtime.fifo_priority > 0).then_some(cfg.realtime.fifo_priority),
+        cpu: (cfg.realtime.cpu >= 0).then_some(cfg.realtime.cpu as usize),
+        lock_memory: cfg.realtime.lock_memory,
+    }
+}
+
 /// The loop thread's channels to its helpers.
 struct Links {
     events: Sender<Event>,
@@ -381,11 +421,7 @@ fn control_loop(
         Sender<anguilla_ipc::StateSnapshot>,
     )>,
 ) -> Result<RunReport, RunError> {
-    let rt_req = RtRequest {
-        fifo_priority: (cfg.realtime.fifo_priority > 0).then_some(cfg.realtime.fifo_priority),
-        cpu: (cfg.realtime.cpu >= 0).then_some(cfg.realtime.cpu as usize),
-        lock_memory: cfg.realtime.lock_memory,
-    };
+    let rt_req = rt_request(&cfg);
     let Links {
         events,
         dead,
@@ -397,8 +433,15 @@ fn control_loop(
         estops,
     } = links;
     let mut estops_seen = 0u64;
-    for w in rt::apply(&rt_req) {
+    let refused = rt::apply(&rt_req);
+    for w in &refused {
         tracing::warn!("{w}");
+    }
+    if rt_req.lock_memory
+        && !refused.iter().any(|w| w.what == "mlockall")
+        && let Some(b) = rt::locked_bytes()
+    {
+        tracing::info!("memory locked: {:.1} MB (VmLck)", b as f64 / 1e6);
     }
     let mut ctl = Controller::new(&cfg, Nanos::from_nanos(rt::monotonic_ns()))?;
     let joints = cfg.robot.joints.min(anguilla_ipc::MAX_JOINTS);

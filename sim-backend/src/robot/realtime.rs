@@ -59,8 +59,11 @@ impl SimRobot {
         let status = Arc::new(Mutex::new(Status::default()));
         let (s, t, st) = (stop.clone(), truth.clone(), status.clone());
         let live = self.live.clone();
+        // 1 MiB, not Rust's 2 MiB: in the daemon's process (the built-in
+        // robot), a locked daemon locks every thread's whole stack.
         let thread = std::thread::Builder::new()
             .name("anguilla-sim".into())
+            .stack_size(1 << 20)
             .spawn(move || {
                 let mut last = u64::MAX;
                 self.run_realtime(clock.as_ref(), &s, |r| {
