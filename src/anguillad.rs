@@ -8,7 +8,7 @@ use clap::Parser;
 
 /// The anguilla daemon (the robot's service): `anguilla run` alone.
 #[derive(Parser, Debug)]
-#[command(name = "anguillad", version, about, long_about = None)]
+#[command(name = "anguillad", version, long_about = None)]
 struct Cli {
     #[command(flatten)]
     run: anguilla::daemon_cli::RunArgs,
