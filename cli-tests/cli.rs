@@ -9,6 +9,10 @@ fn anguilla() -> Command {
     Command::new(env!("CARGO_BIN_EXE_anguilla"))
 }
 
+fn anguillad() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_anguillad"))
+}
+
 fn run(args: &[&str]) -> (bool, String, String) {
     let o = anguilla().args(args).output().expect("runs");
     (
@@ -106,10 +110,7 @@ fn the_robots_file_runs_nothing_until_its_bus_is_set() {
 
 #[test]
 fn anguillad_is_the_daemon_alone() {
-    let o = Command::new(env!("CARGO_BIN_EXE_anguillad"))
-        .arg("--help")
-        .output()
-        .unwrap();
+    let o = anguillad().arg("--help").output().unwrap();
     let help = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success());
     for flag in ["--config", "--bus", "--duration", "--quiet"] {
@@ -120,10 +121,7 @@ fn anguillad_is_the_daemon_alone() {
         !help.contains("teleop") && !help.contains("Commands:"),
         "{help}"
     );
-    let o = Command::new(env!("CARGO_BIN_EXE_anguillad"))
-        .args(["--duration", "0"])
-        .output()
-        .unwrap();
+    let o = anguillad().args(["--duration", "0"]).output().unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--duration 0 is invalid"));
 }

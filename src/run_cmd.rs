@@ -115,33 +115,31 @@ fn set_bus(file: &std::path::Path, spec: &str) -> anyhow::Result<()> {
 fn with_bus_spec(text: &str, spec: &str) -> String {
     let line = format!("spec = {}", toml::Value::String(spec.into()));
     let mut out = Vec::new();
-    let (mut in_bus, mut done) = (false, false);
+    // Where the `[bus]` header is in `out` while its table has shown no
+    // `spec` yet; `done` once the spec line is written.
+    let (mut header, mut done) = (None, false);
     for l in text.lines() {
         let t = l.trim_start();
         if t.starts_with('[') {
-            if in_bus && !done {
+            if let Some(at) = header.take() {
                 // The table ended without a spec: it goes at its top.
-                let at = out
-                    .iter()
-                    .rposition(|o: &String| o.trim() == "[bus]")
-                    .unwrap_or(0);
                 out.insert(at + 1, line.clone());
                 done = true;
             }
-            in_bus = t.starts_with("[bus]");
-        } else if in_bus
-            && !done
+            if !done && t.starts_with("[bus]") {
+                header = Some(out.len());
+            }
+        } else if header.is_some()
             && let Some(rest) = t.strip_prefix("spec")
             && rest.trim_start().starts_with('=')
         {
             out.push(line.clone());
-            done = true;
+            (header, done) = (None, true);
             continue;
         }
         out.push(l.to_string());
     }
-    if in_bus && !done {
-        let at = out.iter().rposition(|o| o.trim() == "[bus]").unwrap_or(0);
+    if let Some(at) = header {
         out.insert(at + 1, line.clone());
         done = true;
     }
@@ -197,6 +195,13 @@ mod tests {
         assert_eq!(
             (c.bus.spec.as_str(), c.bus.fd, c.realtime.cpu),
             ("socketcan:can1", true, 1)
+        );
+        // A header with a comment after it is the bus's too.
+        let commented = "[realtime]\ncpu = 1\n[bus] # the robot's\nfd = true\n";
+        let new = with_bus_spec(commented, "socketcan:can1");
+        assert!(
+            new.contains("[bus] # the robot's\nspec = \"socketcan:can1\"\nfd = true"),
+            "{new}"
         );
         let last = "[bus]\nfd = true\n";
         let c = Config::from_toml(&with_bus_spec(last, "socketcan:can1"), "t").unwrap();

@@ -356,8 +356,8 @@ impl McapLog {
             // zstd in the recorder thread itself: the mcap crate's default
             // (a worker thread per physical core) adds threads that compete
             // with the loop for the CPU and, with `[realtime] lock-memory`,
-            // about 65 MB of locked buffers (VmLck 105 MB against 38 MB
-            // uncompressed). At level 1 (the crate's default is 3) its
+            // about 63 MB of locked buffers (VmLck 105 MB with them, 41.8 MB
+            // without). At level 1 (the crate's default is 3) its
             // context is 2.5 MB smaller and it costs less CPU
             // (docs/performance.md has both sizes).
             .compression_threads(0)
