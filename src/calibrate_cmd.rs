@@ -45,7 +45,7 @@ pub struct CalibrateArgs {
     /// session's config.toml, the one it was recorded with).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// Write the identified coefficients into this configuration file's
+    /// Write the fitted coefficients into this configuration file's
     /// [model] (created if missing; its other keys are kept, its comments
     /// are not).
     #[arg(long, value_name = "FILE")]
@@ -203,10 +203,15 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                     .map(|(o, r)| format!("; correlated {r:+.2} with {}", o.name()))
                     .unwrap_or_default();
                 format!(
-                    "NOT identified (95 % interval ±{:.0} % of {:.3}, more than {:.0} %){with}: {}",
+                    "NOT identified (95 % interval ±{:.0} % of {:.3}, more than {:.0} %){with}; {}: {}",
                     200.0 * e.std_error / scale,
                     scale,
                     100.0 * IDENTIFIED_WITHIN,
+                    if e.fitted {
+                        "fitted all the same, standing in for what the prior's lack"
+                    } else {
+                        "left at the prior, the swims knowing less of it than the prior"
+                    },
                     c.needs()
                 )
             }
@@ -224,22 +229,41 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     errors(&mut o, "every estimate:", &result.estimated);
     if !holdout.is_empty() {
         let hs: Vec<_> = holdout.into_iter().map(|r| r.swim).collect();
-        let [b, a]: [Evaluation; 2] = identify::compare(&[&prior, &result.body], &hs, &opts)
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .try_into()
-            .expect("one evaluation per body");
+        // each model with the drives' inertia and friction it was fitted
+        // with, not refitted to the held-out sessions
+        let judge = |body: &anguilla_model::Body, fitted: &Evaluation| {
+            let opts = FitOptions {
+                actuator: Some(fitted.actuator),
+                ..opts.clone()
+            };
+            identify::compare(&[body], &hs, &opts)
+                .map_err(|e| anyhow::anyhow!("{e}"))
+                .map(|mut v| v.remove(0))
+        };
+        let b = judge(&prior, &result.before)?;
+        let a = judge(&result.body, &result.after)?;
         let _ = writeln!(o, "\nheld-out sessions (not fitted):");
         errors(&mut o, "prior coefficients:", &b);
         errors(&mut o, "fitted coefficients:", &a);
     }
-    let kept: Vec<_> = result.estimates.iter().filter(|e| e.identified).collect();
-    let _ = writeln!(o, "\n# [model] fragment (identified coefficients only):");
+    let kept: Vec<_> = result.estimates.iter().filter(|e| e.fitted).collect();
+    let _ = writeln!(o, "\n# [model] fragment (the fitted coefficients):");
     let _ = writeln!(o, "[model]");
     if kept.is_empty() {
-        let _ = writeln!(o, "# none identified: keep the current values");
+        let _ = writeln!(o, "# none fitted: keep the current values");
     }
     for e in &kept {
-        let _ = writeln!(o, "{} = {:.5}", e.coefficient.key(), e.value);
+        let _ = writeln!(
+            o,
+            "{} = {:.5}{}",
+            e.coefficient.key(),
+            e.value,
+            if e.identified {
+                ""
+            } else {
+                "  # not identified: stands in for the coefficients left at the prior"
+            }
+        );
     }
     if let Some(path) = &args.write {
         write_model(

@@ -155,12 +155,36 @@ fn on_swims_its_replay_reproduces_the_fit_recovers_the_coefficients() {
         &prior,
         std::slice::from_ref(&swim),
         &FitOptions {
-            fit: vec![Coefficient::C2, Coefficient::C3, Coefficient::Friction],
+            // the nose's added mass too, which these swims (no starts or
+            // stops) see only dimly: fitted (they know it better than the
+            // prior's ±20 %), not identified, and not keeping the others
+            // from being identified
+            fit: vec![
+                Coefficient::C2,
+                Coefficient::C3,
+                Coefficient::Friction,
+                Coefficient::K,
+            ],
             ..FitOptions::default()
         },
     )
     .unwrap();
     for e in &fit.estimates {
+        if e.coefficient == Coefficient::K {
+            eprintln!(
+                "       k: prior {:.4}, estimate {:.4} ± {:.4}, body {:.4}, fitted {}, identified {}",
+                e.prior, e.estimate, e.std_error, body.k_nose, e.fitted, e.identified
+            );
+            assert!(e.fitted && !e.identified, "{e:?}");
+            assert!(2.0 * e.std_error / e.estimate > 0.05, "{e:?}");
+            assert!(
+                (e.estimate - body.k_nose).abs() < 3.0 * e.std_error,
+                "{e:?}"
+            );
+            assert_eq!(fit.body.k_nose, e.value);
+            continue;
+        }
+        assert!(e.fitted, "{e:?}");
         let truth = e.coefficient.get(&body);
         let err = e.estimate / truth - 1.0;
         eprintln!(

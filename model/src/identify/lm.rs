@@ -30,6 +30,10 @@ pub(super) struct Run {
     /// Per free coefficient: the other free one it is most correlated
     /// with.
     pub correlated: Vec<Option<(Coefficient, f64)>>,
+    /// The weighted residuals at the optimum.
+    pub residuals: Vec<f64>,
+    /// Their Jacobian there (a column per free coefficient, scaled units).
+    pub jacobian: DMatrix<f64>,
     pub simulations: usize,
     pub iterations: usize,
 }
@@ -201,51 +205,54 @@ pub(super) fn solve(
         body: body_at(p, start, free, &theta),
         std_errors,
         correlated,
+        residuals: r,
+        jacobian: jac,
         simulations,
         iterations,
     })
 }
 
-/// Lag-1 autocorrelation of a series.
-fn lag1(v: &[f64]) -> f64 {
-    if v.len() < 3 {
+/// The autocorrelation of a series at lag `lag`.
+fn autocorrelation(v: &[f64], lag: usize) -> f64 {
+    if v.len() < lag + 2 {
         return 0.0;
     }
     let mean = v.iter().sum::<f64>() / v.len() as f64;
     let (mut num, mut den) = (0.0, 0.0);
     for (i, x) in v.iter().enumerate() {
         den += (x - mean) * (x - mean);
-        if i > 0 {
-            num += (x - mean) * (v[i - 1] - mean);
+        if i >= lag {
+            num += (x - mean) * (v[i - lag] - mean);
         }
     }
     if den > 0.0 { num / den } else { 0.0 }
 }
 
-/// Standard errors (coefficient units) and strongest correlations, by the
-/// sandwich estimator: each group's residual variance, inflated by its
-/// lag-1 autocorrelation `(1 + ρ) / (1 − ρ)` (neighbouring samples of a
-/// swim are not independent measurements).
-fn uncertainty(
-    p: &Problem,
-    free: &[Coefficient],
-    r: &[f64],
-    jac: &DMatrix<f64>,
-) -> (Vec<f64>, Vec<Option<(Coefficient, f64)>>) {
-    let m = free.len();
-    let none = (vec![f64::INFINITY; m], vec![None; m]);
-    let a = jac.transpose() * jac;
-    let Some(ainv) = a.clone().try_inverse() else {
-        return none;
-    };
+/// The covariance of the coefficients of `jac`'s columns (scaled units)
+/// by the sandwich estimator: each group's residual variance, inflated by
+/// its autocorrelation one sample apart in time, `(1 + ρ) / (1 − ρ)`
+/// (neighbouring samples of a swim are not independent measurements; a
+/// torque's neighbour in time is the same axis's next sample, one joint
+/// count of pairs further on). `None` where `jac`'s columns
+/// are dependent.
+fn covariance(p: &Problem, r: &[f64], jac: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let m = jac.ncols();
+    let ainv = (jac.transpose() * jac).try_inverse()?;
     let mut meat = DMatrix::zeros(m, m);
     let mut start = 0;
-    for &count in &p.measured.counts {
+    for (group, &count) in p.measured.counts.iter().enumerate() {
         let end = (start + count).min(r.len());
         let g = &r[start..end];
         if !g.is_empty() {
             let n = g.len() as f64;
-            let rho = lag1(g).clamp(0.0, 0.999);
+            // one step of time: the next grid point, or the same axis's
+            // next torque sample
+            let lag = if group == replay::TORQUE {
+                p.measured.torque_stride.max(1)
+            } else {
+                1
+            };
+            let rho = autocorrelation(g, lag).clamp(0.0, 0.999);
             let var = g.iter().map(|x| x * x).sum::<f64>() / n * (1.0 + rho) / (1.0 - rho);
             let jg = jac.rows(start, end - start);
             meat += jg.transpose() * jg * var;
@@ -253,7 +260,21 @@ fn uncertainty(
         start = end;
     }
     let dof = (r.len() as f64 / (r.len() as f64 - m as f64).max(1.0)).max(1.0);
-    let cov = &ainv * meat * &ainv * dof;
+    Some(&ainv * meat * &ainv * dof)
+}
+
+/// Standard errors (coefficient units) and strongest correlations, by
+/// [`covariance`].
+fn uncertainty(
+    p: &Problem,
+    free: &[Coefficient],
+    r: &[f64],
+    jac: &DMatrix<f64>,
+) -> (Vec<f64>, Vec<Option<(Coefficient, f64)>>) {
+    let m = free.len();
+    let Some(cov) = covariance(p, r, jac) else {
+        return (vec![f64::INFINITY; m], vec![None; m]);
+    };
     let se: Vec<f64> = (0..m)
         .map(|i| cov[(i, i)].max(0.0).sqrt() * scale(free[i], p.prior))
         .collect();
@@ -270,4 +291,69 @@ fn uncertainty(
         })
         .collect();
     (se, corr)
+}
+
+/// How far a coefficient left at its prior may be from the body's, one
+/// standard deviation in scaled units: a fifth of the prior (the bodies
+/// of issue 30 differ from the paper's by up to ±40 %, two of these), or
+/// the floor itself for a zero prior.
+pub(super) fn prior_spread(c: Coefficient, prior: &Body) -> f64 {
+    if c.get(prior) == 0.0 {
+        1.0
+    } else {
+        super::PRIOR_SPREAD
+    }
+}
+
+/// Standard errors (coefficient units) of the coefficients `kept` (indices
+/// into `free`, the columns of `jac`) when the ones `dropped` stay at their
+/// prior: the sandwich covariance of `kept` alone plus what the dropped
+/// ones' own spread ([`prior_spread`]) moves them by, `S Σ Sᵀ` with `S =
+/// (J_kᵀ J_k)⁻¹ J_kᵀ J_d` (Schmidt's *consider* covariance). A coefficient
+/// that only the dropped ones' prior holds in place is not identified,
+/// however narrow its own interval.
+pub(super) fn consider(
+    p: &Problem,
+    free: &[Coefficient],
+    r: &[f64],
+    jac: &DMatrix<f64>,
+    kept: &[usize],
+    dropped: &[usize],
+) -> Vec<f64> {
+    let jk = jac.select_columns(kept);
+    let Some(mut cov) = covariance(p, r, &jk) else {
+        return vec![f64::INFINITY; kept.len()];
+    };
+    if !dropped.is_empty() {
+        let jd = jac.select_columns(dropped);
+        let Some(ainv) = (jk.transpose() * &jk).try_inverse() else {
+            return vec![f64::INFINITY; kept.len()];
+        };
+        let s = ainv * jk.transpose() * jd;
+        let sigma = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+            dropped.len(),
+            dropped
+                .iter()
+                .map(|&d| prior_spread(free[d], p.prior).powi(2)),
+        ));
+        cov += &s * sigma * s.transpose();
+    }
+    kept.iter()
+        .enumerate()
+        .map(|(i, &k)| cov[(i, i)].max(0.0).sqrt() * scale(free[k], p.prior))
+        .collect()
+}
+
+/// The residuals and the Jacobian of `free` at `body` (`1 + free`
+/// replays of every swim).
+pub(super) fn jacobian_at(
+    p: &Problem,
+    body: &Body,
+    free: &[Coefficient],
+) -> Result<(Vec<f64>, DMatrix<f64>)> {
+    let theta: Vec<f64> = free
+        .iter()
+        .map(|c| c.get(body) / scale(*c, p.prior))
+        .collect();
+    linearize(p, body, free, &theta)
 }

@@ -23,7 +23,7 @@ pub const FLOORS: [f64; GROUPS] = [0.02, 0.02, 0.01, 0.01, 0.02];
 /// The residual groups: speed, turn, dive, sway, torque.
 pub const GROUPS: usize = 5;
 /// The torque group's index.
-const TORQUE: usize = 4;
+pub(super) const TORQUE: usize = 4;
 
 /// What the model did replaying one swim: its pose after every step and
 /// its joint torques at every step's start.
@@ -75,6 +75,12 @@ pub struct Measured {
     pub(super) scales: [f64; GROUPS],
     /// Counts of speed, turn, dive, sway and torque residuals.
     pub(super) counts: [usize; GROUPS],
+    /// How far apart one axis's consecutive torque residuals are (two
+    /// per joint: they are pushed sample by sample, joint by joint).
+    pub(super) torque_stride: usize,
+    /// The drives' reflected inertia and viscous friction, if known;
+    /// otherwise fitted with every body by least squares.
+    pub(super) actuator: Option<[f64; 2]>,
 }
 
 fn interp(t: &[f64], v: impl Fn(usize) -> f64, at: f64) -> f64 {
@@ -147,6 +153,8 @@ impl Measured {
             accel,
             scales,
             counts,
+            torque_stride: 2 * swims.first().map_or(1, Swim::joints),
+            actuator: None,
         }
     }
 }
@@ -523,7 +531,9 @@ pub(super) fn residuals(
         }
     }
     let det = ata[0][0] * ata[1][1] - ata[0][1] * ata[1][0];
-    let jb = if det.abs() > 1e-12 * (ata[0][0] * ata[1][1]).max(1e-300) {
+    let jb = if let Some(known) = m.actuator {
+        known
+    } else if det.abs() > 1e-12 * (ata[0][0] * ata[1][1]).max(1e-300) {
         [
             (atb[0] * ata[1][1] - atb[1] * ata[0][1]) / det,
             (atb[1] * ata[0][0] - atb[0] * ata[1][0]) / det,
