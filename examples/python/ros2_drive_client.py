@@ -33,7 +33,7 @@ from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
 from anguilla_client import MODES, StateSnapshot
 from ros2_graph_client import fail, parse_token
-from zenoh_client import session
+from zenoh_client import close, session
 
 GID = bytes(range(0xA0, 0xB0))
 CAUSE_OPERATOR_SILENT = 2
@@ -225,6 +225,7 @@ def main(argv=None):
         fail(f"twists after the e-stop took the robot to {MODES[state().mode]}")
     print("ros2 drive client: OK (took control, enabled, swam from cmd_vel, the deadman "
           "stopped it, e-stop latched)")
+    close(z)
 
 
 if __name__ == "__main__":

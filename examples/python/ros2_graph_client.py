@@ -32,7 +32,7 @@ import zenoh.ext
 from rosbags.typesys import Stores, get_typestore
 
 from anguilla_client import MODES, StateSnapshot
-from zenoh_client import session
+from zenoh_client import close, session
 
 TOPICS = {
     "joint_states": "sensor_msgs/msg/JointState",
@@ -324,6 +324,8 @@ def main(argv=None):
     if len(all_gids) != len(got):
         fail("two publishers share a GID")
     print(f"ros2 graph client: OK ({len(states)} states; {moved} joint states with the joints moved)")
+    close(forger)
+    close(z)
 
 
 if __name__ == "__main__":
