@@ -208,7 +208,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                     scale,
                     100.0 * IDENTIFIED_WITHIN,
                     if e.fitted {
-                        "fitted all the same, standing in for what the prior's lack"
+                        "fitted all the same, standing in for the coefficients left at the prior"
                     } else {
                         "left at the prior, the swims knowing less of it than the prior"
                     },

@@ -41,7 +41,8 @@ pub(super) struct Run {
 /// Forward-difference step in scaled units.
 const FD_STEP: f64 = 1e-3;
 
-fn scale(c: Coefficient, prior: &Body) -> f64 {
+/// A coefficient's unit in the fit: its prior, or its floor for a zero prior.
+pub(super) fn scale(c: Coefficient, prior: &Body) -> f64 {
     c.get(prior).abs().max(c.floor())
 }
 

@@ -384,7 +384,7 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
         );
         let excess = kept.iter().zip(&se).map(|(&i, &s)| {
             let c = opts.fit[i];
-            s / c.get(prior).abs().max(c.floor()) / lm::prior_spread(c, prior)
+            s / lm::scale(c, prior) / lm::prior_spread(c, prior)
         });
         let Some((worst, e)) = excess.enumerate().max_by(|a, b| a.1.total_cmp(&b.1)) else {
             break;
