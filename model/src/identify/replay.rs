@@ -386,10 +386,13 @@ pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace
     let mut last_heading = f64::NAN;
     for i in 0..=steps {
         let t = t0 + i as f64 * dt;
-        while k + 1 < swim.samples.len() - 1 && swim.samples[k + 1].t <= t {
+        // the joints as at the start of the step that ends at `t` (the
+        // step extrapolates them over itself, as the model's sources do)
+        let at = if i > 0 { t - dt } else { t };
+        while k + 1 < swim.samples.len() - 1 && swim.samples[k + 1].t <= at {
             k += 1;
         }
-        hermite(swim, k, t, src.joints_mut());
+        hermite(swim, k, at, src.joints_mut());
         if i > 0 {
             step(&model, &mut ws, &mut src, &mut head)?;
             tr.torque_t.push(t - dt);
