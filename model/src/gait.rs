@@ -666,6 +666,11 @@ impl JointCurvature {
     pub fn joints_mut(&mut self) -> &mut [JointMotion] {
         &mut self.joints
     }
+
+    /// The joint motions as last set.
+    pub fn joints(&self) -> &[JointMotion] {
+        &self.joints
+    }
 }
 
 impl CurvatureSource for JointCurvature {

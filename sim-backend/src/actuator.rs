@@ -101,6 +101,12 @@ pub struct Actuator {
     tau: f64,
     faults: AxisFaults,
     saturated: bool,
+    /// How much of a change of its own net torque (motor less friction)
+    /// the body's load takes up at once (the body's implicit coupling's
+    /// diagonal, [`Actuator::couple_load`]).
+    load_gain: f64,
+    /// The net torque the load was computed with.
+    load_ref: f64,
 }
 
 impl Actuator {
@@ -114,6 +120,8 @@ impl Actuator {
             tau: 0.0,
             faults: AxisFaults::default(),
             saturated: false,
+            load_gain: 0.0,
+            load_ref: 0.0,
         }
     }
 
@@ -158,6 +166,21 @@ impl Actuator {
         } else {
             raw
         }
+    }
+
+    /// From now on, the load given to [`Actuator::step`] was computed with
+    /// the axis's net torque (motor less friction) as it is now, and takes
+    /// up `gain` (0..1) of its changes at once: the body's inertial
+    /// reaction, which the simulated robot's plant computes once per
+    /// physics tick, follows the axis's own torque within the tick (the
+    /// servo's steps are finer) instead of being held.
+    pub fn couple_load(&mut self, gain: f64) {
+        self.load_gain = if gain.is_finite() {
+            gain.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        self.load_ref = self.tau - self.params.damping * self.omega;
     }
 
     /// Advances by `dt` seconds under `drive`, against the body's `load`
@@ -228,7 +251,9 @@ impl Actuator {
             1.0
         };
         self.tau += k * (sat - self.tau);
-        let acc = (self.tau - load - p.damping * self.omega) / p.inertia;
+        let net = self.tau - p.damping * self.omega;
+        let load = load + self.load_gain * (net - self.load_ref);
+        let acc = (net - load) / p.inertia;
         // Semi-implicit Euler.
         self.omega += acc * dt;
         self.theta += self.omega * dt;
@@ -307,6 +332,48 @@ mod tests {
         run(&mut l, Drive::Limp, 0.2, 0.1);
         assert!(l.torque().abs() < 1e-12);
         assert!(l.kinematics().1 < 0.0, "a limp joint yields to its load");
+    }
+
+    #[test]
+    fn a_coupled_load_takes_up_its_share_of_the_axis_torque() {
+        // no servo, no lag, no friction: a pure torque of 1 N·m on the
+        // reflected inertia alone accelerates it at 1/J; with half of the
+        // torque's change taken up by the body's load (its coupling's
+        // diagonal 0.5), at half that
+        let p = ActuatorParams {
+            kp: 0.0,
+            kd: 0.0,
+            torque_lag: 0.0,
+            damping: 0.0,
+            ..ActuatorParams::default()
+        };
+        let push = Drive::Servo {
+            position: 0.0,
+            velocity: 0.0,
+            torque: 1.0,
+        };
+        let mut held = Actuator::new(p);
+        run(&mut held, push, 0.0, 0.1);
+        let mut coupled = Actuator::new(p);
+        coupled.couple_load(0.5);
+        run(&mut coupled, push, 0.0, 0.1);
+        let rate = |a: &Actuator| a.kinematics().1;
+        assert!(
+            (rate(&held) - 0.1 / p.inertia).abs() < 1e-6,
+            "{}",
+            rate(&held)
+        );
+        assert!(
+            (rate(&coupled) - 0.05 / p.inertia).abs() < 1e-6,
+            "{}",
+            rate(&coupled)
+        );
+        // a gain beyond 0..1 (or not finite) is clamped: never a load that
+        // pushes with the motor
+        let mut odd = Actuator::new(p);
+        odd.couple_load(f64::NAN);
+        run(&mut odd, push, 0.0, 0.1);
+        assert!((rate(&odd) - rate(&held)).abs() < 1e-9);
     }
 
     #[test]

@@ -347,9 +347,12 @@ impl Cia402Axis {
         self.actuator.torque()
     }
 
-    /// The torque the body demands (N·m), used from now on.
-    pub fn set_load(&mut self, load: f64) {
+    /// The torque the body demands (N·m), used from now on, and how much of a change of its own net torque (motor
+    /// less friction) it takes up at once (`gain`, 0..1: the body's
+    /// coupling's diagonal, [`crate::actuator::Actuator::couple_load`]).
+    pub fn set_load(&mut self, load: f64, gain: f64) {
         self.load = load;
+        self.actuator.couple_load(gain);
     }
 
     /// Counters.
@@ -720,9 +723,9 @@ impl JointDevice for Cia402Joint {
         self.axis(axis).motor_torque()
     }
 
-    fn set_load(&mut self, load: [f64; 2]) {
-        for (a, l) in self.axes.iter_mut().zip(load) {
-            a.set_load(l);
+    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
+        for ((a, l), g) in self.axes.iter_mut().zip(load).zip(gain) {
+            a.set_load(l, g);
         }
     }
 

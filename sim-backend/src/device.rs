@@ -28,8 +28,11 @@ pub trait JointDevice: Send + std::fmt::Debug {
     fn kinematics(&self, axis: usize) -> (f64, f64, f64);
     /// The torque the actuator of an axis applies to the joint (N·m).
     fn motor_torque(&self, axis: usize) -> f64;
-    /// The torque the body demands at each axis (N·m), used from now on.
-    fn set_load(&mut self, load: [f64; 2]);
+    /// The torque the body demands at each axis (N·m), used from now on,
+    /// and how much of a change of the axis's own net torque (motor less
+    /// friction) it takes up at once (`gain`, 0..1: the body's coupling's
+    /// diagonal, [`crate::actuator::Actuator::couple_load`]; 0: held).
+    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]);
     /// The joint's state in the anguilla vocabulary: for two drives, the
     /// worse of the two (EStop, then Fault, then Boot, then Disabled;
     /// Enabled only when both are).
@@ -67,8 +70,8 @@ impl JointDevice for crate::node::VertebraNode {
     fn motor_torque(&self, axis: usize) -> f64 {
         crate::node::VertebraNode::motor_torque(self, axis)
     }
-    fn set_load(&mut self, load: [f64; 2]) {
-        crate::node::VertebraNode::set_load(self, load)
+    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
+        crate::node::VertebraNode::set_load(self, load, gain)
     }
     fn state(&self) -> NodeState {
         crate::node::VertebraNode::state(self)

@@ -327,9 +327,10 @@ impl JointDevice for MitJoint {
         self.drives[axis].actuator.torque()
     }
 
-    fn set_load(&mut self, load: [f64; 2]) {
-        for (d, l) in self.drives.iter_mut().zip(load) {
+    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
+        for ((d, l), g) in self.drives.iter_mut().zip(load).zip(gain) {
             d.load = l;
+            d.actuator.couple_load(g);
         }
     }
 

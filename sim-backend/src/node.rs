@@ -170,9 +170,15 @@ impl VertebraNode {
         self.axes[axis].torque()
     }
 
-    /// Sets the torque the body demands at each axis (N·m), used from now on.
-    pub fn set_load(&mut self, load: [f64; 2]) {
+    /// Sets the torque the body demands at each axis (N·m), used from now
+    /// on, and how much of a change of its own net torque (motor
+    /// less friction) it takes up at once (`gain`, 0..1: the body's
+    /// coupling's diagonal, [`crate::actuator::Actuator::couple_load`]).
+    pub fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
         self.load = load;
+        for (a, g) in self.axes.iter_mut().zip(gain) {
+            a.couple_load(g);
+        }
     }
 
     /// Places the joint at an angle (a simulation's initial pose).

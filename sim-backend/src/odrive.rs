@@ -496,9 +496,10 @@ impl JointDevice for OdriveJoint {
         self.axes[axis].actuator.torque()
     }
 
-    fn set_load(&mut self, load: [f64; 2]) {
-        for (a, l) in self.axes.iter_mut().zip(load) {
+    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
+        for ((a, l), g) in self.axes.iter_mut().zip(load).zip(gain) {
             a.load = l;
+            a.actuator.couple_load(g);
         }
     }
 

@@ -47,6 +47,10 @@ pub struct PlantConfig {
     /// coefficients and laws. The paper's by default; a simulated robot
     /// may be given another than the daemon's model (`docs/calibration.md`).
     pub body: anguilla_model::Body,
+    /// Physics steps between two linearisations of the servos' coupling to
+    /// the body about its current shape ([`Plant::couple_servos`]); 0:
+    /// about the straight body only.
+    pub recouple_every: usize,
 }
 
 impl Default for PlantConfig {
@@ -62,6 +66,10 @@ impl Default for PlantConfig {
             rate_loads: false,
             current: Current::ZERO,
             body: anguilla_model::Body::paper(),
+            // 20 ms: a bent body's joint-space inertia differs from the
+            // straight one's by tens of per cent (a turn, a climb), and
+            // changes little over a fiftieth of a tail beat
+            recouple_every: 10,
         }
     }
 }
@@ -83,13 +91,38 @@ pub struct Plant {
     loads: Vec<[f64; 2]>,
     /// The same without the joints' own accelerations.
     rate_loads: Option<Vec<[f64; 2]>>,
-    /// `K = M0 (J I + M0)^-1` (row-major, 2n x 2n) once
-    /// [`Plant::couple_servos`] was called.
-    coupling: Option<Vec<f64>>,
-    /// The body's joint-space inertia, computed on first use.
-    m0: Option<Vec<f64>>,
+    /// The servos' coupling to the body, once [`Plant::couple_servos`]
+    /// was called.
+    coupling: Option<Coupling>,
+    /// [`PlantConfig::recouple_every`].
+    recouple_every: usize,
+    /// Physics steps since the coupling was last linearised.
+    since_coupled: usize,
     /// Scratch: the residual torques of the coupled load.
     residual: Vec<f64>,
+}
+
+/// The servos' coupling to the body: `K = M (J I + M)^-1` about a shape,
+/// and what computing it again needs, kept so that it allocates nothing.
+#[derive(Debug, Clone)]
+struct Coupling {
+    /// Each axis's reflected inertia (kg·m²; infinite: jammed).
+    inertia: Vec<[f64; 2]>,
+    /// `K` (row-major, 2n x 2n).
+    k: Vec<f64>,
+    /// The body's joint-space inertia `M` about the shape (2n x 2n).
+    m: Vec<f64>,
+    /// Scratch of the inversion of `J I + M` over the free axes.
+    a: Vec<f64>,
+    inv: Vec<f64>,
+    /// The free axes.
+    free: Vec<usize>,
+    /// The model it is computed on (coarser than the plant's).
+    model: Model,
+    /// Scratch of the model's evaluations.
+    ws: Workspace,
+    src: JointCurvature,
+    base: Vec<[f64; 2]>,
 }
 
 /// One joint's measured motion, as the actuators achieve it.
@@ -125,7 +158,8 @@ impl Plant {
             loads: vec![[0.0; 2]; cfg.joints],
             rate_loads: cfg.rate_loads.then(|| vec![[0.0; 2]; cfg.joints]),
             coupling: None,
-            m0: None,
+            recouple_every: cfg.recouple_every,
+            since_coupled: 0,
             residual: vec![0.0; 2 * cfg.joints],
         })
     }
@@ -136,69 +170,51 @@ impl Plant {
     /// joint axis `k` alone accelerates at 1 rad/s².
     pub fn joint_inertia(&self) -> Result<Vec<f64>, ModelError> {
         let n = self.joints();
-        let m = 2 * n;
         let mut ws = Workspace::new(&self.model);
         let mut src = JointCurvature::new(n, self.model.body().length);
-        let head = HeadState::launch(0.0);
-        evaluate(&self.model, &mut ws, &src, &head)?;
-        let base: Vec<[f64; 2]> = ws.joints().iter().map(|j| j.actuator_torque()).collect();
-        let mut out = vec![0.0; m * m];
-        for col in 0..m {
-            for (j, jm) in src.joints_mut().iter_mut().enumerate() {
-                jm.pitch[2] = if 2 * j == col { 1.0 } else { 0.0 };
-                jm.yaw[2] = if 2 * j + 1 == col { 1.0 } else { 0.0 };
-            }
-            evaluate(&self.model, &mut ws, &src, &head)?;
-            for (k, js) in ws.joints().iter().enumerate() {
-                let load = js.actuator_torque();
-                out[(2 * k) * m + col] = load[0] - base[k][0];
-                out[(2 * k + 1) * m + col] = load[1] - base[k][1];
-            }
-        }
+        let mut out = vec![0.0; 4 * n * n];
+        let mut base = vec![[0.0; 2]; n];
+        inertia_about(&self.model, &mut ws, &mut src, &mut base, &mut out)?;
         Ok(out)
     }
 
     /// Couples servos of reflected inertia `inertia[j][axis]` (kg·m²) to
-    /// the body implicitly, linearized about the straight body: see
-    /// [`Plant::coupled_loads`]. A jammed axis is given an infinite inertia
-    /// (`f64::INFINITY`): it does not move, and its neighbours feel it.
-    /// Allocates (call it at set-up and on fault changes, not every tick).
+    /// the body implicitly, linearised about its shape now and again every
+    /// [`PlantConfig::recouple_every`] steps: see [`Plant::coupled_loads`].
+    /// A jammed axis is given an infinite inertia (`f64::INFINITY`): it
+    /// does not move, and its neighbours feel it. Allocates (call it at
+    /// set-up and on fault changes, not every tick); the relinearisations
+    /// in [`Plant::step`] do not.
     pub fn couple_servos(&mut self, inertia: &[[f64; 2]]) -> Result<(), ModelError> {
-        if self.m0.is_none() {
-            self.m0 = Some(self.joint_inertia()?);
-        }
-        let m0 = self.m0.as_deref().unwrap_or_default();
-        let m = 2 * self.joints();
-        // Infinite inertia: the axis is removed (row and column of the
-        // coupling are zero, so its load is the rate load and the others do
-        // not see it accelerate).
-        let free: Vec<bool> = (0..m)
-            .map(|i| inertia.get(i / 2).is_some_and(|x| x[i % 2].is_finite()))
-            .collect();
-        let idx: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
-        let f = idx.len();
-        let mut a = vec![0.0; f * f];
-        for (r, &i) in idx.iter().enumerate() {
-            for (c, &j) in idx.iter().enumerate() {
-                a[r * f + c] = m0[i * m + j];
-            }
-            a[r * f + r] += inertia[i / 2][i % 2];
-        }
-        let inv = invert(&a, f).ok_or(ModelError::NonFinite {
-            quantity: "joint-space inertia (singular)",
-            time: 0.0,
+        let n = self.joints();
+        let m = 2 * n;
+        let model = Model::new(ModelConfig {
+            // the coarsest the model takes (two intervals a joint): the
+            // robot's torques matched the model's inverse dynamics as
+            // closely as with the plant's own nodes (docs/calibration.md)
+            nodes: 2 * (n + 1),
+            dt: self.model.dt(),
+            joints: n,
+            integrator: Integrator::Rk4,
+            body: self.model.body().clone(),
         })?;
-        let mut k = vec![0.0; m * m];
-        for &i in &idx {
-            for (c, &j) in idx.iter().enumerate() {
-                k[i * m + j] = idx
-                    .iter()
-                    .enumerate()
-                    .map(|(l, &ll)| m0[i * m + ll] * inv[l * f + c])
-                    .sum();
-            }
-        }
-        self.coupling = Some(k);
+        let mut c = Coupling {
+            inertia: (0..n)
+                .map(|j| inertia.get(j).copied().unwrap_or([f64::INFINITY; 2]))
+                .collect(),
+            k: vec![0.0; m * m],
+            m: vec![0.0; m * m],
+            a: vec![0.0; m * m],
+            inv: vec![0.0; m * m],
+            free: Vec::with_capacity(m),
+            ws: Workspace::new(&model),
+            model,
+            src: JointCurvature::new(n, self.model.body().length),
+            base: vec![[0.0; 2]; n],
+        };
+        c.linearise(&self.src)?;
+        self.coupling = Some(c);
+        self.since_coupled = 0;
         Ok(())
     }
 
@@ -206,7 +222,8 @@ impl Plant {
     /// axis's motor torque and friction torque now: the rate-dependent load
     /// plus the body's inertial reaction to the acceleration these torques
     /// will give, `L = C_rate + K (tau - friction - C_rate)` with
-    /// `K = M0 (J I + M0)^-1`, solved for all joints at once so that the
+    /// `K = M (J I + M)^-1` (`M` the joint-space inertia about the body's
+    /// shape at the last linearisation), solved for all joints at once so that the
     /// loop is stable whatever the ratio of body to servo inertia. Writes
     /// into `out`; without coupling, `out` gets the rate loads.
     pub fn coupled_loads(&mut self, tau: &[[f64; 2]], friction: &[[f64; 2]], out: &mut [[f64; 2]]) {
@@ -215,7 +232,9 @@ impl Plant {
             return;
         };
         out.copy_from_slice(rl);
-        let Some(k) = &self.coupling else { return };
+        let Some(Coupling { k, .. }) = &self.coupling else {
+            return;
+        };
         let m = self.residual.len();
         for j in 0..m / 2 {
             for a in 0..2 {
@@ -229,6 +248,23 @@ impl Plant {
                 .zip(&self.residual)
                 .map(|(a, b)| a * b)
                 .sum::<f64>();
+        }
+    }
+
+    /// How much of a change of each axis's own net torque its coupled
+    /// load takes up at once (`K`'s diagonal: see
+    /// [`Plant::coupled_loads`]; 0 without coupling), into `out`
+    /// (`[pitch, yaw]` per joint).
+    pub fn load_gains(&self, out: &mut [[f64; 2]]) {
+        let m = 2 * self.joints();
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = std::array::from_fn(|a| {
+                let i = 2 * j + a;
+                self.coupling
+                    .as_ref()
+                    .and_then(|c| c.k.get(i * m + i).copied())
+                    .unwrap_or(0.0)
+            });
         }
     }
 
@@ -361,6 +397,14 @@ impl Plant {
             m.pitch[2] = a[0];
             m.yaw[2] = a[1];
         }
+        if let Some(c) = &mut self.coupling {
+            self.since_coupled += 1;
+            if self.recouple_every > 0 && self.since_coupled >= self.recouple_every {
+                self.since_coupled = 0;
+                // on failure (a singular inertia) the last coupling stays
+                let _ = c.linearise(&self.src);
+            }
+        }
         match step(&self.model, &mut self.ws, &mut self.src, &mut self.head) {
             Ok(_) => {
                 for (l, js) in self.loads.iter_mut().zip(self.ws.joints()) {
@@ -385,18 +429,104 @@ impl Plant {
     }
 }
 
-/// Inverse of the `m x m` row-major matrix `a` (Gauss–Jordan with partial
-/// pivoting); `None` if singular.
-fn invert(a: &[f64], m: usize) -> Option<Vec<f64>> {
-    let mut a = a.to_vec();
-    let mut inv = vec![0.0; m * m];
+impl Coupling {
+    /// `M` about the shape of `shape` (its joints' angles; at rest) and
+    /// `K = M (J I + M)^-1` over the free axes (a jammed axis's row and
+    /// column are zero: its load is the rate load, and the others do not
+    /// see it accelerate). Allocates nothing; on error `K` is unchanged.
+    fn linearise(&mut self, shape: &JointCurvature) -> Result<(), ModelError> {
+        for (d, s) in self.src.joints_mut().iter_mut().zip(shape.joints()) {
+            d.pitch = [s.pitch[0], 0.0, 0.0];
+            d.yaw = [s.yaw[0], 0.0, 0.0];
+        }
+        inertia_about(
+            &self.model,
+            &mut self.ws,
+            &mut self.src,
+            &mut self.base,
+            &mut self.m,
+        )?;
+        let m = self.base.len() * 2;
+        self.free.clear();
+        self.free
+            .extend((0..m).filter(|&i| self.inertia[i / 2][i % 2].is_finite()));
+        let (free, f) = (&self.free, self.free.len());
+        for (r, &i) in free.iter().enumerate() {
+            for (c, &j) in free.iter().enumerate() {
+                self.a[r * f + c] = self.m[i * m + j];
+            }
+            self.a[r * f + r] += self.inertia[i / 2][i % 2];
+        }
+        if !invert(&mut self.a[..f * f], &mut self.inv[..f * f], f) {
+            return Err(ModelError::NonFinite {
+                quantity: "joint-space inertia (singular)",
+                time: 0.0,
+            });
+        }
+        self.k.fill(0.0);
+        for &i in free {
+            for (c, &j) in free.iter().enumerate() {
+                self.k[i * m + j] = free
+                    .iter()
+                    .enumerate()
+                    .map(|(l, &ll)| self.m[i * m + ll] * self.inv[l * f + c])
+                    .sum();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The body's joint-space inertia (row-major into `out`, `2n x 2n`) with
+/// its joints at `src`'s angles, at rest, the head free and level: the
+/// load change when each axis alone accelerates at 1 rad/s². `src`'s rates
+/// and accelerations are overwritten; `base` is scratch.
+fn inertia_about(
+    model: &Model,
+    ws: &mut Workspace,
+    src: &mut JointCurvature,
+    base: &mut [[f64; 2]],
+    out: &mut [f64],
+) -> Result<(), ModelError> {
+    let m = 2 * base.len();
+    let head = HeadState::launch(0.0);
+    for jm in src.joints_mut() {
+        jm.pitch[1..].fill(0.0);
+        jm.yaw[1..].fill(0.0);
+    }
+    evaluate(model, ws, src, &head)?;
+    for (b, js) in base.iter_mut().zip(ws.joints()) {
+        *b = js.actuator_torque();
+    }
+    for col in 0..m {
+        for (j, jm) in src.joints_mut().iter_mut().enumerate() {
+            jm.pitch[2] = if 2 * j == col { 1.0 } else { 0.0 };
+            jm.yaw[2] = if 2 * j + 1 == col { 1.0 } else { 0.0 };
+        }
+        evaluate(model, ws, src, &head)?;
+        for (k, js) in ws.joints().iter().enumerate() {
+            let load = js.actuator_torque();
+            out[(2 * k) * m + col] = load[0] - base[k][0];
+            out[(2 * k + 1) * m + col] = load[1] - base[k][1];
+        }
+    }
+    Ok(())
+}
+
+/// Inverts the `m x m` row-major matrix `a` into `inv` (Gauss–Jordan with
+/// partial pivoting; `a` is destroyed); false if singular.
+fn invert(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
+    inv.fill(0.0);
     for i in 0..m {
         inv[i * m + i] = 1.0;
     }
     for c in 0..m {
-        let p = (c..m).max_by(|&x, &y| a[x * m + c].abs().total_cmp(&a[y * m + c].abs()))?;
+        let Some(p) = (c..m).max_by(|&x, &y| a[x * m + c].abs().total_cmp(&a[y * m + c].abs()))
+        else {
+            return false;
+        };
         if a[p * m + c].abs() < 1e-12 || !a[p * m + c].is_finite() {
-            return None;
+            return false;
         }
         if p != c {
             for k in 0..m {
@@ -421,7 +551,7 @@ fn invert(a: &[f64], m: usize) -> Option<Vec<f64>> {
             }
         }
     }
-    Some(inv)
+    true
 }
 
 #[cfg(test)]
@@ -468,7 +598,8 @@ mod tests {
                 );
             }
         }
-        let inv = invert(&m0, m).unwrap();
+        let (mut a, mut inv) = (m0.clone(), vec![0.0; m * m]);
+        assert!(invert(&mut a, &mut inv, m));
         for i in 0..m {
             let e: f64 = (0..m).map(|l| m0[i * m + l] * inv[l * m + i]).sum();
             assert!((e - 1.0).abs() < 1e-9, "{e}");
@@ -486,13 +617,48 @@ mod tests {
         let mut inertia = vec![[0.02; 2]; 3];
         inertia[1][1] = f64::INFINITY;
         p.couple_servos(&inertia).unwrap();
-        let k = p.coupling.as_ref().unwrap();
+        let k = &p.coupling.as_ref().unwrap().k;
         let m = 6;
         for i in 0..m {
             assert_eq!(k[3 * m + i], 0.0);
             assert_eq!(k[i * m + 3], 0.0);
         }
         assert!(k[0] > 0.0 && k[0] < 1.0, "{}", k[0]);
+    }
+
+    #[test]
+    fn the_coupling_follows_the_bodys_shape() {
+        let mut p = Plant::new(PlantConfig {
+            joints: 4,
+            rate_loads: true,
+            recouple_every: 3,
+            ..PlantConfig::default()
+        })
+        .unwrap();
+        p.couple_servos(&[[0.02; 2]; 4]).unwrap();
+        let straight = p.coupling.as_ref().unwrap().k.clone();
+        let bent = [JointInput {
+            angle: [0.3, 0.5],
+            rate: [0.0; 2],
+        }; 4];
+        let k = |p: &Plant| p.coupling.as_ref().unwrap().k.clone();
+        let apart = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max)
+        };
+        for _ in 0..2 {
+            p.step(&bent).unwrap();
+        }
+        assert_eq!(k(&p), straight, "not before recouple_every steps");
+        p.step(&bent).unwrap();
+        let moved = apart(&k(&p), &straight);
+        assert!(moved > 0.01, "a bent body couples otherwise: {moved}");
+        // the same as a coupling computed afresh about the bent shape
+        let mut fresh = p.clone();
+        fresh.couple_servos(&[[0.02; 2]; 4]).unwrap();
+        assert!(apart(&k(&p), &k(&fresh)) < 1e-12);
     }
 
     #[test]
