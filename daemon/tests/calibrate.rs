@@ -4,19 +4,17 @@
 //! fitted. The figures are printed (docs/calibration.md quotes them).
 
 use anguilla_daemon::calibration::{LEGS, Leg};
+use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::swim::{self, Source};
 use anguilla_ipc::vocabulary::{Mode, SwimParams};
-use anguilla_model::AxialDrag;
 use anguilla_model::identify::{self, Coefficient, FitOptions};
+use anguilla_model::{AxialDrag, Body};
 use anguilla_testkit::lockstep::{self, Rig};
 
-/// A body 30 % draggier sideways, 30 % less vertically, with 25 % less
-/// skin friction than the model's, recorded over CAN FD (classic CAN's
-/// feedback is too coarse: docs/calibration.md): the fit brings every
-/// coefficient within 5 % of the body's, every coefficient it calls
-/// identified is within 5 %, and the replayed speed error shrinks.
-#[test]
-fn a_recorded_calibration_swim_recovers_the_coefficients_within_5_percent() {
+/// The lockstep configuration over CAN FD, its model's body (the prior)
+/// and a body 30 % draggier sideways, 30 % less vertically, with 25 % less
+/// skin friction.
+fn draggier() -> (Config, Body, Body) {
     let mut cfg = lockstep::config();
     cfg.bus.fd = true;
     cfg.validate().unwrap();
@@ -25,6 +23,17 @@ fn a_recorded_calibration_swim_recovers_the_coefficients_within_5_percent() {
     body.c2 *= 1.3;
     body.c3 *= 0.7;
     body.axial = AxialDrag::SkinFriction { scale: 0.75 };
+    (cfg, prior, body)
+}
+
+/// A body 30 % draggier sideways, 30 % less vertically, with 25 % less
+/// skin friction than the model's, recorded over CAN FD (classic CAN's
+/// feedback is too coarse: docs/calibration.md): the fit brings every
+/// coefficient within 5 % of the body's, every coefficient it calls
+/// identified is within 5 %, and the replayed speed error shrinks.
+#[test]
+fn a_recorded_calibration_swim_recovers_the_coefficients_within_5_percent() {
+    let (cfg, prior, body) = draggier();
     let dir = std::env::temp_dir().join(format!("anguilla-calibrate-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("session.mcap");
@@ -91,14 +100,7 @@ fn a_recorded_calibration_swim_recovers_the_coefficients_within_5_percent() {
 /// than the paper's: docs/calibration.md.)
 #[test]
 fn the_robots_torques_are_the_models_on_a_bent_body() {
-    let mut cfg = lockstep::config();
-    cfg.bus.fd = true;
-    cfg.validate().unwrap();
-    let prior = cfg.model.body();
-    let mut body = prior.clone();
-    body.c2 *= 1.3;
-    body.c3 *= 0.7;
-    body.axial = AxialDrag::SkinFriction { scale: 0.75 };
+    let (cfg, prior, body) = draggier();
     let leg = Leg {
         what: "turning and climbing",
         seconds: 12.0,
