@@ -347,9 +347,10 @@ impl Cia402Axis {
         self.actuator.torque()
     }
 
-    /// The torque the body demands (N·m), used from now on, and how much of a change of its own net torque (motor
-    /// less friction) it takes up at once (`gain`, 0..1: the body's
-    /// coupling's diagonal, [`crate::actuator::Actuator::couple_load`]).
+    /// The torque the body demands (N·m), used from now on, and how much
+    /// of a change of the axis's own net torque (motor less friction) it
+    /// takes up at once (`gain`, 0..1: the body's coupling's diagonal,
+    /// [`crate::actuator::Actuator::couple_load`]).
     pub fn set_load(&mut self, load: f64, gain: f64) {
         self.load = load;
         self.actuator.couple_load(gain);

@@ -47,10 +47,10 @@ pub struct PlantConfig {
     /// coefficients and laws. The paper's by default; a simulated robot
     /// may be given another than the daemon's model (`docs/calibration.md`).
     pub body: anguilla_model::Body,
-    /// Physics steps between two linearisations of the servos' coupling to
-    /// the body about its current shape ([`Plant::couple_servos`]); 0:
-    /// about the straight body only.
-    pub recouple_every: usize,
+    /// Seconds between two linearisations of the servos' coupling to the
+    /// body about its current shape ([`Plant::couple_servos`]), rounded to
+    /// whole physics steps; 0: only when coupled.
+    pub recouple_period: f64,
 }
 
 impl Default for PlantConfig {
@@ -69,7 +69,7 @@ impl Default for PlantConfig {
             // 20 ms: a bent body's joint-space inertia differs from the
             // straight one's by tens of per cent (a turn, a climb), and
             // changes little over a fiftieth of a tail beat
-            recouple_every: 10,
+            recouple_period: 0.02,
         }
     }
 }
@@ -94,7 +94,7 @@ pub struct Plant {
     /// The servos' coupling to the body, once [`Plant::couple_servos`]
     /// was called.
     coupling: Option<Coupling>,
-    /// [`PlantConfig::recouple_every`].
+    /// [`PlantConfig::recouple_period`] in physics steps (0: never).
     recouple_every: usize,
     /// Physics steps since the coupling was last linearised.
     since_coupled: usize,
@@ -158,7 +158,11 @@ impl Plant {
             loads: vec![[0.0; 2]; cfg.joints],
             rate_loads: cfg.rate_loads.then(|| vec![[0.0; 2]; cfg.joints]),
             coupling: None,
-            recouple_every: cfg.recouple_every,
+            recouple_every: if cfg.recouple_period > 0.0 {
+                ((cfg.recouple_period / cfg.dt).round() as usize).max(1)
+            } else {
+                0
+            },
             since_coupled: 0,
             residual: vec![0.0; 2 * cfg.joints],
         })
@@ -180,7 +184,7 @@ impl Plant {
 
     /// Couples servos of reflected inertia `inertia[j][axis]` (kg·m²) to
     /// the body implicitly, linearised about its shape now and again every
-    /// [`PlantConfig::recouple_every`] steps: see [`Plant::coupled_loads`].
+    /// [`PlantConfig::recouple_period`]: see [`Plant::coupled_loads`].
     /// A jammed axis is given an infinite inertia (`f64::INFINITY`): it
     /// does not move, and its neighbours feel it. Allocates (call it at
     /// set-up and on fault changes, not every tick); the relinearisations
@@ -251,21 +255,18 @@ impl Plant {
         }
     }
 
-    /// How much of a change of each axis's own net torque its coupled
-    /// load takes up at once (`K`'s diagonal: see
-    /// [`Plant::coupled_loads`]; 0 without coupling), into `out`
-    /// (`[pitch, yaw]` per joint).
-    pub fn load_gains(&self, out: &mut [[f64; 2]]) {
+    /// How much of a change of joint `j`'s own net torque (`[pitch,
+    /// yaw]`) its coupled load takes up at once: `K`'s diagonal (see
+    /// [`Plant::coupled_loads`]); 0 without coupling.
+    pub fn load_gain(&self, j: usize) -> [f64; 2] {
         let m = 2 * self.joints();
-        for (j, o) in out.iter_mut().enumerate() {
-            *o = std::array::from_fn(|a| {
-                let i = 2 * j + a;
-                self.coupling
-                    .as_ref()
-                    .and_then(|c| c.k.get(i * m + i).copied())
-                    .unwrap_or(0.0)
-            });
-        }
+        std::array::from_fn(|a| {
+            let i = 2 * j + a;
+            self.coupling
+                .as_ref()
+                .and_then(|c| c.k.get(i * m + i).copied())
+                .unwrap_or(0.0)
+        })
     }
 
     /// The physics step (s).
@@ -631,7 +632,8 @@ mod tests {
         let mut p = Plant::new(PlantConfig {
             joints: 4,
             rate_loads: true,
-            recouple_every: 3,
+            // three physics steps
+            recouple_period: 0.006,
             ..PlantConfig::default()
         })
         .unwrap();
@@ -654,6 +656,8 @@ mod tests {
         assert_eq!(k(&p), straight, "not before recouple_every steps");
         p.step(&bent).unwrap();
         let moved = apart(&k(&p), &straight);
+        // K's entries are fractions (0..1 on the diagonal); a hundredth
+        // is a change, not rounding
         assert!(moved > 0.01, "a bent body couples otherwise: {moved}");
         // the same as a coupling computed afresh about the bent shape
         let mut fresh = p.clone();

@@ -153,8 +153,9 @@ fn samples_are_the_truth_in_the_head_frame_within_quantization() {
             assert!((up[i] - t3[i]).abs() < 1e-4, "up {up:?} vs t3 {t3:?}");
         }
         // Rates: the world angular velocity in the head frame; 2 mrad/s a
-        // count, half a count plus the attitude's 1e-4 (rad) times |ω|
-        // (the enabling's jolt spins the head at up to 17 rad/s in roll).
+        // count, half a count plus the attitude's 1e-4 (rad) times |ω|, with
+        // a fifth's margin (the enabling's jolt spins the head at up to 17
+        // rad/s in roll).
         let w = rotate(conj(q), tr.angular_velocity);
         let tol = 1.0e-3 + 1.2e-4 * w.iter().map(|x| x * x).sum::<f64>().sqrt();
         for i in 0..3 {

@@ -149,9 +149,6 @@ pub struct SimRobot {
     tau: Vec<[f64; 2]>,
     friction: Vec<[f64; 2]>,
     node_loads: Vec<[f64; 2]>,
-    /// Scratch: how much of its own torque's change each axis's load takes
-    /// up within a tick (`Plant::load_gains`).
-    load_gains: Vec<[f64; 2]>,
     scenario: Scenario,
     next_event: usize,
     undo: Vec<(Nanos, Undo)>,
@@ -208,9 +205,7 @@ impl SimRobot {
             rate_loads: !cfg.actuator.ideal,
             current: cfg.current,
             body: cfg.body.clone(),
-            // the servos' coupling linearised about the body's shape every
-            // 20 ms of physics (`PlantConfig::recouple_every`)
-            recouple_every: ((0.02 / cfg.tick.as_secs_f64()).round() as usize).max(1),
+            ..PlantConfig::default()
         })?;
         let mut plant = plant;
         if !cfg.actuator.ideal {
@@ -260,7 +255,6 @@ impl SimRobot {
             tau: vec![[0.0; 2]; n],
             friction: vec![[0.0; 2]; n],
             node_loads: vec![[0.0; 2]; n],
-            load_gains: vec![[0.0; 2]; n],
             scenario: Scenario::default(),
             next_event: 0,
             undo: Vec::new(),
@@ -562,14 +556,8 @@ impl SimRobot {
         }
         self.plant
             .coupled_loads(&self.tau, &self.friction, &mut self.node_loads);
-        self.plant.load_gains(&mut self.load_gains);
-        for ((node, load), gain) in self
-            .nodes
-            .iter_mut()
-            .zip(&self.node_loads)
-            .zip(&self.load_gains)
-        {
-            node.set_load(*load, *gain);
+        for (j, (node, load)) in self.nodes.iter_mut().zip(&self.node_loads).enumerate() {
+            node.set_load(*load, self.plant.load_gain(j));
         }
         self.flood_tick();
         self.impostors_tick(t);
