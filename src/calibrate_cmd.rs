@@ -219,9 +219,12 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     }
     let _ = writeln!(
         o,
-        "(the swims' head rolled at {:.2} rad/s RMS in the replay; the drives' own inertia and \
-         friction fitted as {:.4} kg·m² and {:.4} N·m·s/rad)",
-        result.after.roll_rate_rms, result.after.actuator[0], result.after.actuator[1]
+        "(the swims' head rolled at {:.2} rad/s RMS in the replay; the drives' own inertia, \
+         friction and torque lag fitted as {:.4} kg·m², {:.4} N·m·s/rad and {:.1} ms)",
+        result.after.roll_rate_rms,
+        result.after.actuator[0],
+        result.after.actuator[1],
+        1e3 * result.after.actuator[2]
     );
     let _ = writeln!(o, "\nfit residual (RMS, fitted sessions):");
     errors(&mut o, "prior coefficients:", &result.before);

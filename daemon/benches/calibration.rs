@@ -6,6 +6,10 @@
 //! `cargo bench -p anguilla-daemon --bench calibration` (about 5 min on
 //! the project's 2-vCPU machine). `ANGUILLA_CAL_SEEDS=1` runs one body;
 //! `ANGUILLA_CAL_MONITOR=0` leaves out the ten-minute swims of 3.
+//! `ANGUILLA_CAL_DT=S` replays at a step of `S` seconds instead of the
+//! fit's 5 ms, `ANGUILLA_CAL_TICK=S` records with the simulated robot's
+//! physics at `S` seconds instead of its 2 ms (how far the figures move
+//! with either: docs/calibration.md, "What is left").
 //!
 //! Each session is recorded as `anguilla run` records one (`session.mcap`:
 //! every tenth state snapshot, `/sim/truth` at 20 Hz), by the controller
@@ -98,10 +102,32 @@ fn factors(seed: u64) -> [f64; 6] {
     })
 }
 
+/// A positive number of seconds from the environment variable `name`.
+fn seconds(name: &str) -> Option<f64> {
+    let v = std::env::var(name).ok()?;
+    match v.parse::<f64>() {
+        Ok(s) if s > 0.0 && s.is_finite() => Some(s),
+        _ => panic!("{name}={v}: expected a positive number of seconds"),
+    }
+}
+
 fn record(cfg: &Config, seed: u64, body: &Body, legs: &[Leg], dir: &Path) -> Swim {
     std::fs::create_dir_all(dir).expect("session directory");
     let path = dir.join("session.mcap");
-    let mut rig = Rig::with_body(cfg, seed, body.clone());
+    let body = body.clone();
+    let tick = seconds("ANGUILLA_CAL_TICK");
+    let mut rig = Rig::with_robot(
+        cfg,
+        seed,
+        [0.0; 3],
+        |_| {},
+        move |r| {
+            r.body = body;
+            if let Some(t) = tick {
+                r.tick = std::time::Duration::from_secs_f64(t);
+            }
+        },
+    );
     rig.record_legs(cfg, legs, &path).expect("recorded");
     let read = swim::read(dir, None).expect("readable session");
     std::fs::remove_dir_all(dir).expect("removed");
@@ -207,12 +233,12 @@ fn print_prediction(bodies: [&Body; 3], cal: &[Swim], hs: &[Swim], refit: bool) 
             let actuator = if refit {
                 None
             } else {
-                let ev = identify::compare(&[b], cal, &FitOptions::default()).expect("replayed");
+                let ev = identify::compare(&[b], cal, &fit_options()).expect("replayed");
                 Some(ev[0].actuator)
             };
             let opts = FitOptions {
                 actuator,
-                ..FitOptions::default()
+                ..fit_options()
             };
             identify::compare(&[b], hs, &opts)
                 .expect("replayed")
@@ -226,13 +252,16 @@ fn print_prediction(bodies: [&Body; 3], cal: &[Swim], hs: &[Swim], refit: bool) 
             "refitted on each held-out gait".to_string()
         } else {
             format!(
-                "from the calibration swim: paper's {:.4}, {:.4}; fitted {:.4}, {:.4}; body's own {:.4}, {:.4}",
+                "(and lag) from the calibration swim: paper's {:.4}, {:.4}, {:.1} ms; fitted {:.4}, {:.4}, {:.1} ms; body's own {:.4}, {:.4}, {:.1} ms",
                 p.actuator[0],
                 p.actuator[1],
+                1e3 * p.actuator[2],
                 f.actuator[0],
                 f.actuator[1],
+                1e3 * f.actuator[2],
                 b.actuator[0],
-                b.actuator[1]
+                b.actuator[1],
+                1e3 * b.actuator[2]
             )
         }
     );
@@ -270,8 +299,15 @@ fn main() {
     let dir = std::env::temp_dir().join(format!("anguilla-bench-cal-{}", std::process::id()));
     let opts = FitOptions {
         fit: Coefficient::ALL.to_vec(),
-        ..FitOptions::default()
+        ..fit_options()
     };
+    if let Some(t) = seconds("ANGUILLA_CAL_TICK") {
+        println!(
+            "the simulated robot's physics step: {:.2} ms (ANGUILLA_CAL_TICK)",
+            1e3 * t
+        );
+    }
+    println!("the replay's step: {:.2} ms", 1e3 * opts.dt);
     println!(
         "calibration: lockstep, CAN FD, calibration swim {:.0} s, held-out gaits 3 × 15 s; published band: ≈1 % at the fitted gait, 10-16 % off-gait (Kelasidi et al. 2016)",
         lockstep_duration()
@@ -371,6 +407,15 @@ fn main() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The fit's options, the replay's step from `ANGUILLA_CAL_DT` if set.
+fn fit_options() -> FitOptions {
+    let d = FitOptions::default();
+    FitOptions {
+        dt: seconds("ANGUILLA_CAL_DT").unwrap_or(d.dt),
+        ..d
+    }
 }
 
 fn lockstep_duration() -> f64 {

@@ -121,7 +121,7 @@ fn the_robots_torques_are_the_models_on_a_bent_body() {
     // the simulated drives' reflected inertia and friction
     let actuator = anguilla_sim::actuator::ActuatorParams::default();
     let opts = FitOptions {
-        actuator: Some([actuator.inertia, actuator.damping]),
+        actuator: Some([actuator.inertia, actuator.damping, 0.0]),
         ..FitOptions::default()
     };
     let ev = identify::compare(&[&body, &prior], &[read.swim], &opts).unwrap();

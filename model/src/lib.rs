@@ -61,5 +61,6 @@ pub use dynamics::{
 };
 pub use error::{ModelError, Result};
 pub use gait::{
-    Curvature, CurvatureSource, GaitParams, JointCurvature, JointMotion, LawSource, ParametricGait,
+    Curvature, CurvatureSource, GaitParams, JointCurvature, JointMotion, JointSegment, LawSource,
+    ParametricGait,
 };

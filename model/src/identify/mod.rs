@@ -11,18 +11,18 @@
 //!
 //! **Output error.** A recorded [`Swim`] holds the joints' measured
 //! motion and torques, and the head's horizontal track, heading and depth.
-//! The model is driven by the recorded joint motion (the simulated robot's
-//! way: a [`JointCurvature`](crate::JointCurvature) fed with the angles,
-//! rates and accelerations of a cubic Hermite curve through the samples),
-//! from rest, with candidate coefficients; its head swims where the
+//! The model is driven by the recorded joint motion (the angles, rates and
+//! accelerations of a cubic Hermite curve through the samples, at every
+//! stage of every step), from rest, with candidate coefficients; its head swims where the
 //! coefficients take it, and its internal torques follow. The residuals
 //! ([`replay`]) compare, on a 10 Hz grid, the forward speed, the turn rate
 //! and the depth rate (each over a one-second window, so that no frame,
 //! origin or heading offset matters) and the head's sway (its yaw's RMS
 //! about a line over the window), and at every joint sample the
-//! measured torque with the model's plus the actuators' own inertia and
-//! friction (`J θ̈ + b θ̇`, solved linearly at every evaluation: a
-//! nuisance the drive adds, not the water). Each group is divided by its
+//! measured torque with the model's, delayed by the drive's torque lag,
+//! plus the drive's own inertia and friction (`J θ̈ + b θ̇`; the three
+//! solved linearly at every evaluation: nuisances the drive adds, not the
+//! water). Each group is divided by its
 //! measured RMS (with a floor) and by the square root of its count, so
 //! that torques, speed, turning, diving and sway weigh alike.
 //!
@@ -204,11 +204,14 @@ pub fn parse_coefficients(list: &str) -> std::result::Result<Vec<Coefficient>, S
 pub struct FitOptions {
     /// The coefficients to adjust; the others keep the prior's values.
     pub fit: Vec<Coefficient>,
-    /// Space nodes of the model replaying the swims (26: within 0.3 % of
-    /// 52 in speed on the calibration swim, in half the time).
+    /// Space nodes of the model replaying the swims (52, the simulated
+    /// robot's: at 26, on recordings of it, `c2` and `c3` came out 2.5 %
+    /// high whether the robot's body had 52 or 104; at 52, within 1 %).
     pub nodes: usize,
-    /// Its time step (s): 5 ms (at 10 ms, RK4 on the recorded joint
-    /// motion swims 2 % slow).
+    /// Its time step (s): 5 ms (RK4, the joints on their Hermite curve at
+    /// every stage: a 10 s fast, turning swim ends within 2 % of the
+    /// distance swum from where a 1.25 ms step ends it, 2.5 ms within
+    /// 0.5 %; `tests/identify.rs`).
     pub dt: f64,
     /// The torques' weight against the head's motion (1: alike).
     pub torque_weight: f64,
@@ -221,14 +224,14 @@ pub struct FitOptions {
     /// fit found ([`Evaluation::actuator`]), not refitted to it (which
     /// would let them absorb the coefficients' error). `None`: fitted with
     /// every body by least squares.
-    pub actuator: Option<[f64; 2]>,
+    pub actuator: Option<[f64; replay::DRIVE]>,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
         Self {
             fit: Coefficient::ALL.to_vec(),
-            nodes: 26,
+            nodes: 52,
             dt: 0.005,
             torque_weight: TORQUE_WEIGHT,
             max_iterations: 25,

@@ -5,8 +5,8 @@ use super::swim::Swim;
 use crate::body::Body;
 use crate::dynamics::{HeadState, Model, ModelConfig, Workspace, body_axis, step};
 use crate::error::Result;
-use crate::gait::JointCurvature;
-use crate::{Integrator, JointMotion};
+use crate::gait::{CurvatureSource, hermite, spread_joints};
+use crate::{Curvature, Integrator};
 
 /// The window (s) over which speed, turn rate and depth rate are taken: a
 /// whole tail beat at 1 Hz, so the head's sway averages out.
@@ -22,6 +22,11 @@ pub const FLOORS: [f64; GROUPS] = [0.02, 0.02, 0.01, 0.01, 0.02];
 
 /// The residual groups: speed, turn, dive, sway, torque.
 pub const GROUPS: usize = 5;
+
+/// The drive's own terms in a measured torque, fitted with every body
+/// (nuisances, not the water's): its reflected inertia `J`, viscous
+/// friction `b` and torque lag, `τ_measured(t) = τ_model(t − lag) + J θ̈ + b θ̇`.
+pub const DRIVE: usize = 3;
 /// The torque group's index.
 pub(super) const TORQUE: usize = 4;
 
@@ -78,9 +83,9 @@ pub struct Measured {
     /// How far apart one axis's consecutive torque residuals are (two
     /// per joint: they are pushed sample by sample, joint by joint).
     pub(super) torque_stride: usize,
-    /// The drives' reflected inertia and viscous friction, if known;
-    /// otherwise fitted with every body by least squares.
-    pub(super) actuator: Option<[f64; 2]>,
+    /// The drives' reflected inertia, viscous friction and torque lag, if
+    /// known; otherwise fitted with every body by least squares.
+    pub(super) actuator: Option<[f64; DRIVE]>,
 }
 
 fn interp(t: &[f64], v: impl Fn(usize) -> f64, at: f64) -> f64 {
@@ -309,49 +314,56 @@ fn accelerations(swim: &Swim) -> Vec<Vec<[f64; 2]>> {
         .collect()
 }
 
-/// The joint motion at `t` from a cubic Hermite curve through the samples
-/// (angles and rates at both ends of the segment `k`): angle, rate and
-/// acceleration of every axis.
-fn hermite(swim: &Swim, k: usize, t: f64, out: &mut [JointMotion]) {
+/// Joint `j`'s pitch and yaw `[angle, rate, acceleration]` at `t` from a
+/// cubic Hermite curve through the samples (angles and rates at both ends
+/// of the segment `k`).
+fn joint_at(swim: &Swim, k: usize, t: f64, j: usize) -> ([f64; 3], [f64; 3]) {
     let kb = (k + 1).min(swim.samples.len() - 1);
     let (a, b) = (&swim.samples[k], &swim.samples[kb]);
     let h = (b.t - a.t).max(1e-9);
     let s = ((t - a.t) / h).clamp(0.0, 1.0);
-    let (s2, s3) = (s * s, s * s * s);
-    let w = [
-        2.0 * s3 - 3.0 * s2 + 1.0,
-        s3 - 2.0 * s2 + s,
-        -2.0 * s3 + 3.0 * s2,
-        s3 - s2,
-    ];
-    let d = [
-        6.0 * s2 - 6.0 * s,
-        3.0 * s2 - 4.0 * s + 1.0,
-        -6.0 * s2 + 6.0 * s,
-        3.0 * s2 - 2.0 * s,
-    ];
-    let dd = [
-        12.0 * s - 6.0,
-        6.0 * s - 4.0,
-        -12.0 * s + 6.0,
-        6.0 * s - 2.0,
-    ];
-    for (j, m) in out.iter_mut().enumerate() {
-        for ax in 0..2 {
-            let (p0, m0, p1, m1) = (
-                a.angle[j][ax],
-                a.rate[j][ax] * h,
-                b.angle[j][ax],
-                b.rate[j][ax] * h,
-            );
-            let f = |c: &[f64; 4]| c[0] * p0 + c[1] * m0 + c[2] * p1 + c[3] * m1;
-            let v = [f(&w), f(&d) / h, f(&dd) / (h * h)];
-            if ax == 0 {
-                m.pitch = v;
-            } else {
-                m.yaw = v;
-            }
-        }
+    let axis = |ax: usize| {
+        hermite(
+            [a.angle[j][ax], a.rate[j][ax], 0.0],
+            [b.angle[j][ax], b.rate[j][ax], 0.0],
+            h,
+            s,
+        )
+    };
+    (axis(0), axis(1))
+}
+
+/// The recorded joint motion as a law of time: every stage of a step sees
+/// the joints where the Hermite curve through the samples has them then.
+/// (Extrapolated from the step's start instead, as the daemon's
+/// [`JointCurvature`] is, the joints' acceleration is off by the jerk
+/// times the step within it, and the replay at 5 ms swam as a robot whose
+/// `c2` is 9 % lower than at 2 ms: RK4 is fourth-order only in a source
+/// it can evaluate anywhere.)
+struct Recorded<'a> {
+    swim: &'a Swim,
+    t: f64,
+    length: f64,
+}
+
+impl CurvatureSource for Recorded<'_> {
+    fn curvature(&self, tau: f64, x: &[f64], out: &mut [Curvature]) {
+        let at = self.t + tau;
+        let s = &self.swim.samples;
+        // the segment holding `at` (the first or last beyond the ends)
+        let k = s.partition_point(|p| p.t <= at).clamp(1, s.len() - 1) - 1;
+        spread_joints(self.swim.joints(), self.length, x, out, |j| {
+            joint_at(self.swim, k, at, j)
+        });
+    }
+    fn advance(&mut self, dt: f64) {
+        self.t += dt;
+    }
+    fn time(&self) -> f64 {
+        self.t
+    }
+    fn is_law_of_time(&self) -> bool {
+        true
     }
 }
 
@@ -367,10 +379,14 @@ pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace
         integrator: Integrator::Rk4,
     })?;
     let mut ws = Workspace::new(&model);
-    let mut src = JointCurvature::new(joints, body.length);
     let mut head = HeadState::launch(0.0);
     let t0 = swim.samples[0].t;
     let end = swim.samples[swim.samples.len() - 1].t;
+    let mut src = Recorded {
+        swim,
+        t: t0,
+        length: body.length,
+    };
     let steps = ((end - t0) / dt).floor() as usize;
     let mut tr = Trace {
         t: Vec::with_capacity(steps + 1),
@@ -382,18 +398,11 @@ pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace
         torque_t: Vec::with_capacity(steps),
         torque: Vec::with_capacity(steps * joints),
     };
-    let mut k = 0;
     let mut last_heading = f64::NAN;
     for i in 0..=steps {
         let t = t0 + i as f64 * dt;
-        // the joints as at the start of the step that ends at `t` (the
-        // step extrapolates them over itself, as the model's sources do)
-        let at = if i > 0 { t - dt } else { t };
-        while k + 1 < swim.samples.len() - 1 && swim.samples[k + 1].t <= at {
-            k += 1;
-        }
-        hermite(swim, k, at, src.joints_mut());
         if i > 0 {
+            // the torques are the step's start's (its first evaluation)
             step(&model, &mut ws, &mut src, &mut head)?;
             tr.torque_t.push(t - dt);
             tr.torque
@@ -451,9 +460,9 @@ pub struct Evaluation {
     /// RMS errors: speed (m/s), turn rate (rad/s), depth rate (m/s), head
     /// sway (rad), torque (N·m); NaN where the swims have no such channel.
     pub rms: [f64; GROUPS],
-    /// The actuators' own reflected inertia (kg·m²) and viscous friction
-    /// (N·m·s/rad) the torques were fitted with.
-    pub actuator: [f64; 2],
+    /// The drives' own reflected inertia (kg·m²), viscous friction
+    /// (N·m·s/rad) and torque lag (s) the torques were fitted with.
+    pub actuator: [f64; DRIVE],
     /// Per swim: its name, its mean measured speed and the model's (m/s),
     /// its torque RMS error (N·m).
     pub swims: Vec<SwimError>,
@@ -500,21 +509,33 @@ pub(super) fn residuals(
         .map(|(tr, s)| model_channels(tr, s))
         .collect();
     // every measured torque, per swim: the measured less the model's, and
-    // the axis's (acceleration, rate) the drive's own J and b act on
-    let torques: Vec<Vec<(f64, [f64; 2])>> = traces
+    // what the drive's own J, b and lag act on: the axis's acceleration
+    // and rate, and the model's torque's rate of change (a torque measured
+    // `lag` late is the model's less `lag` times its rate)
+    let torques: Vec<Vec<(f64, [f64; DRIVE])>> = traces
         .iter()
         .zip(swims)
         .zip(&m.accel)
         .map(|((tr, s), acc)| {
             let n = s.joints();
+            let h = match tr.torque_t.as_slice() {
+                [a, b, ..] => b - a,
+                _ => 0.0,
+            };
             let mut v = Vec::new();
             for (k, smp) in s.samples.iter().enumerate() {
                 for j in 0..n {
                     for ax in 0..2 {
                         let meas = smp.torque[j][ax];
                         if meas.is_finite() {
-                            let model = interp(&tr.torque_t, |i| tr.torque[i * n + j][ax], smp.t);
-                            v.push((meas - model, [acc[k][j][ax], smp.rate[j][ax]]));
+                            let at = |t: f64| interp(&tr.torque_t, |i| tr.torque[i * n + j][ax], t);
+                            let model = at(smp.t);
+                            let rate = if h > 0.0 {
+                                (at(smp.t + h) - at(smp.t - h)) / (2.0 * h)
+                            } else {
+                                0.0
+                            };
+                            v.push((meas - model, [acc[k][j][ax], smp.rate[j][ax], -rate]));
                         }
                     }
                 }
@@ -522,27 +543,22 @@ pub(super) fn residuals(
             v
         })
         .collect();
-    // J and b: least squares of (measured - model) on (acceleration, rate)
-    let mut ata = [[0.0; 2]; 2];
-    let mut atb = [0.0; 2];
-    for &(e, x) in torques.iter().flatten() {
-        for r in 0..2 {
-            for c in 0..2 {
-                ata[r][c] += x[r] * x[c];
-            }
-            atb[r] += x[r] * e;
-        }
-    }
-    let det = ata[0][0] * ata[1][1] - ata[0][1] * ata[1][0];
+    // J, b and the lag: least squares of (measured - model) on them, the
+    // lag no less than zero (a drive measures a torque after it acts)
     let jb = if let Some(known) = m.actuator {
         known
-    } else if det.abs() > 1e-12 * (ata[0][0] * ata[1][1]).max(1e-300) {
-        [
-            (atb[0] * ata[1][1] - atb[1] * ata[0][1]) / det,
-            (atb[1] * ata[0][0] - atb[0] * ata[1][0]) / det,
-        ]
     } else {
-        [0.0; 2]
+        let mut ata = nalgebra::Matrix3::<f64>::zeros();
+        let mut atb = nalgebra::Vector3::<f64>::zeros();
+        for &(e, x) in torques.iter().flatten() {
+            let x = nalgebra::Vector3::from(x);
+            ata += x * x.transpose();
+            atb += x * e;
+        }
+        match drive_terms(&ata, &atb, DRIVE) {
+            Some(y) if y[2] >= 0.0 => y,
+            _ => drive_terms(&ata, &atb, 2).unwrap_or([0.0; DRIVE]),
+        }
     };
     ev.actuator = jb;
     let mut sums = [0.0f64; GROUPS];
@@ -581,7 +597,7 @@ pub(super) fn residuals(
     {
         let (mut se, mut cnt) = (0.0, 0usize);
         for &(e_model, x) in tq {
-            let e = jb[0] * x[0] + jb[1] * x[1] - e_model;
+            let e = jb[0] * x[0] + jb[1] * x[1] + jb[2] * x[2] - e_model;
             se += e * e;
             cnt += 1;
             push(TORQUE, e, out);
@@ -625,6 +641,31 @@ pub(super) fn residuals(
     });
     ev.cost = out.iter().map(|r| r * r).sum();
     ev
+}
+
+/// The least-squares solution of the normal equations `ata y = atb` over
+/// the first `p` of the drive's terms (the others zero); `None` when those
+/// columns are not independent.
+fn drive_terms(
+    ata: &nalgebra::Matrix3<f64>,
+    atb: &nalgebra::Vector3<f64>,
+    p: usize,
+) -> Option<[f64; DRIVE]> {
+    let a = ata.view((0, 0), (p, p)).into_owned();
+    let b = atb.rows(0, p).into_owned();
+    // columns scaled to unit norm, so that the test of rank is fair
+    let d = nalgebra::DVector::from_fn(p, |i, _| a[(i, i)].sqrt().max(1e-300));
+    let scaled = a.component_div(&(&d * d.transpose()));
+    if scaled.determinant() <= 1e-12 {
+        return None;
+    }
+    let y = scaled
+        .cholesky()?
+        .solve(&b.component_div(&d))
+        .component_div(&d);
+    let mut out = [0.0; DRIVE];
+    out[..p].copy_from_slice(y.as_slice());
+    Some(out)
 }
 
 /// The errors of `body` against `swims` (one replay each).
