@@ -232,7 +232,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     errors(&mut o, "every estimate:", &result.estimated);
     if !holdout.is_empty() {
         let hs: Vec<_> = holdout.into_iter().map(|r| r.swim).collect();
-        // each model with the drives' inertia and friction it was fitted
+        // each model with the drives' inertia, friction and lag it was fitted
         // with, not refitted to the held-out sessions
         let judge = |body: &anguilla_model::Body, fitted: &Evaluation| {
             let opts = FitOptions {

@@ -3,7 +3,7 @@
 //! of another drag law, and what a fit costs. Prints text; nothing is
 //! asserted (`tests/calibrate.rs` asserts).
 //!
-//! `cargo bench -p anguilla-daemon --bench calibration` (about 5 min on
+//! `cargo bench -p anguilla-daemon --bench calibration` (about 4 min on
 //! the project's 2-vCPU machine). `ANGUILLA_CAL_SEEDS=1` runs one body;
 //! `ANGUILLA_CAL_MONITOR=0` leaves out the ten-minute swims of 3.
 //! `ANGUILLA_CAL_DT=S` replays at a step of `S` seconds instead of the
@@ -222,7 +222,7 @@ fn print_fit(fit: &Fit, body: &Body, took: f64) {
 /// Prints the held-out errors; returns the largest speed error with the
 /// fitted coefficients and the torque RMS ratios to the paper's: the
 /// fitted coefficients' and the body's own (the least any fit could
-/// reach). Each body's model carries the drives' inertia and friction it
+/// reach). Each body's model carries the drives' inertia, friction and lag it
 /// was fitted with on the calibration swim (`cal`), as `anguilla
 /// calibrate --holdout` does, or refits them on each held-out gait
 /// (`refit`).
@@ -247,12 +247,12 @@ fn print_prediction(bodies: [&Body; 3], cal: &[Swim], hs: &[Swim], refit: bool) 
         .collect();
     let (p, f, b) = (&evs[0], &evs[1], &evs[2]);
     println!(
-        "  the drives' inertia and friction {}",
+        "  the drives' inertia, friction and lag {}",
         if refit {
             "refitted on each held-out gait".to_string()
         } else {
             format!(
-                "(and lag) from the calibration swim: paper's {:.4}, {:.4}, {:.1} ms; fitted {:.4}, {:.4}, {:.1} ms; body's own {:.4}, {:.4}, {:.1} ms",
+                "from the calibration swim: paper's {:.4}, {:.4}, {:.1} ms; fitted {:.4}, {:.4}, {:.1} ms; body's own {:.4}, {:.4}, {:.1} ms",
                 p.actuator[0],
                 p.actuator[1],
                 1e3 * p.actuator[2],

@@ -252,11 +252,11 @@ fn bad_fit_lists_and_swims_are_named() {
 /// Hermite curve through the samples at every stage of the integrator, and
 /// the fit's 5 ms step ends a 10 s swim within 2 % of the distance swum
 /// from where a 1.25 ms step ends it (2.5 ms: 0.5 %). Extrapolated from
-/// each step's start with the acceleration held (the daemon's
-/// `JointCurvature`, this project's replay until issue 30's fifth stop),
-/// the same swim ended 31 % apart at 5 ms and 9 % at 2.5 ms, and the fit
-/// on the simulated robot found `c2` 7 % lower at 5 ms than at 2.5 ms
-/// (docs/calibration.md).
+/// each step's start with the acceleration held (as the simulated robot's
+/// `JointCurvature` did; this project's replay until issue 30's fifth
+/// stop), the same swim ended 31 % apart at 5 ms and 9 % at 2.5 ms, and
+/// the fit on the simulated robot found `c2` 8.7 % lower at 5 ms than at
+/// 2.5 ms (docs/calibration.md).
 #[test]
 fn the_replay_is_converged_in_its_step() {
     let body = Body {

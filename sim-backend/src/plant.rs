@@ -79,12 +79,15 @@ impl Default for PlantConfig {
     }
 }
 
-/// How far (rad) a joint's angle may be from where the mean of its rates
-/// over a physics step takes it before [`Plant::step`] calls it placed
-/// rather than moved. A servo's motion is within micro-radians of the
-/// trapezoid (its jerk times the step cubed); a set pose or an ideal
-/// servo's setpoint step is not.
-const PLACED: f64 = 1e-3;
+/// How far a joint's angle may be from where the mean of its rates over a
+/// physics step `dt` takes it, as `PLACED_ACCEL · dt² / 8` (rad), before
+/// [`Plant::step`] calls it placed rather than moved: the gap a change of
+/// acceleration of `PLACED_ACCEL` (rad/s²) within the step leaves. A
+/// servo's acceleration changes by at most twice its torque limit over
+/// its inertia within a step (400 rad/s² for the default servo); a set
+/// pose or an ideal servo's setpoint step is a gap of its own (1 mrad at
+/// the 2 ms step).
+const PLACED_ACCEL: f64 = 2000.0;
 
 /// The body: model, workspace, joint-driven curvature and head state.
 #[derive(Debug, Clone)]
@@ -385,9 +388,9 @@ impl Plant {
     /// now with its joints moving from where they were then to `input`
     /// (angles and rates now) along a cubic curve ([`JointSegment`]), and
     /// the loads now are computed (accelerations: the rates' difference
-    /// over the step). The first call only sets the joints. Returns the
-    /// loads. On a model error the head state is unchanged and the loads
-    /// are zeroed.
+    /// over the step). The first call only sets the joints (and moves the
+    /// head's clock). Returns the loads. On a model error the head state
+    /// is unchanged and the loads (and rate loads) are zeroed.
     pub fn step(&mut self, input: &[JointInput]) -> Result<&[[f64; 2]], ModelError> {
         let dt = self.model.dt();
         let mut failed = None;
@@ -400,7 +403,7 @@ impl Plant {
                 // brought it: a curve through the jump would be an impulse
                 let start = |ax: usize| {
                     let moved = 0.5 * dt * (p.rate[ax] + q.rate[ax]);
-                    if (q.angle[ax] - p.angle[ax] - moved).abs() > PLACED {
+                    if (q.angle[ax] - p.angle[ax] - moved).abs() > PLACED_ACCEL * dt * dt / 8.0 {
                         q.angle[ax] - moved
                     } else {
                         p.angle[ax]
@@ -412,6 +415,10 @@ impl Plant {
                 b.yaw = [q.angle[1], q.rate[1], 0.0];
             }
             failed = step(&self.model, &mut self.ws, &mut self.seg, &mut self.head).err();
+        } else {
+            // the joints were where they are: the body did not move, its
+            // clock did
+            self.head.t += dt;
         }
         for (j, m) in self.src.joints_mut().iter_mut().enumerate() {
             let inp = input.get(j).copied().unwrap_or_default();
@@ -428,8 +435,14 @@ impl Plant {
             self.prev[j] = inp;
         }
         self.primed = true;
+        let zero = |loads: &mut Vec<[f64; 2]>, rl: &mut Option<Vec<[f64; 2]>>| {
+            loads.iter_mut().for_each(|l| *l = [0.0; 2]);
+            if let Some(rl) = rl {
+                rl.iter_mut().for_each(|l| *l = [0.0; 2]);
+            }
+        };
         if let Some(e) = failed {
-            self.loads.iter_mut().for_each(|l| *l = [0.0; 2]);
+            zero(&mut self.loads, &mut self.rate_loads);
             return Err(e);
         }
         if let Some(rl) = &mut self.rate_loads {
@@ -439,7 +452,10 @@ impl Plant {
                         *l = js.actuator_torque();
                     }
                 }
-                Err(_) => rl.iter_mut().for_each(|l| *l = [0.0; 2]),
+                Err(e) => {
+                    zero(&mut self.loads, &mut self.rate_loads);
+                    return Err(e);
+                }
             }
         }
         for (m, a) in self.src.joints_mut().iter_mut().zip(&self.acc) {

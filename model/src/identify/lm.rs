@@ -166,8 +166,8 @@ pub(super) fn solve(
         let mean_curvature = (a.trace() / m as f64).max(1e-12);
         // a coefficient held at zero that the gradient pushes below it is
         // left out of the step (an active bound): otherwise every step
-        // asks for it, is clipped, and the fit crawls (c1 at zero on a
-        // body without roll drag took 50 iterations instead of 7)
+        // asks for it, is clipped, and the fit crawls (c1 at zero on the
+        // paper's body took 50 iterations instead of 13)
         let held: Vec<bool> = (0..m).map(|i| theta[i] <= 0.0 && g[i] > 0.0).collect();
         let mut improved = false;
         for _ in 0..12 {
@@ -198,6 +198,10 @@ pub(super) fn solve(
                 }
             }
             let Some(delta) = delta else { break };
+            if delta.amax() == 0.0 {
+                // every coefficient held at its bound: nothing to move
+                break 'outer;
+            }
             let trial: Vec<f64> = theta
                 .iter()
                 .zip(delta.iter())

@@ -219,11 +219,11 @@ pub struct FitOptions {
     pub max_iterations: usize,
     /// Threads for the simulations (0: every core).
     pub threads: usize,
-    /// The drives' own reflected inertia (kg·m²) and viscous friction
-    /// (N·m·s/rad), if known: a held-out session is judged with those a
-    /// fit found ([`Evaluation::actuator`]), not refitted to it (which
-    /// would let them absorb the coefficients' error). `None`: fitted with
-    /// every body by least squares.
+    /// The drives' own reflected inertia (kg·m²), viscous friction
+    /// (N·m·s/rad) and torque lag (s), if known: a held-out session is
+    /// judged with those a fit found ([`Evaluation::actuator`]), not
+    /// refitted to it (which would let them absorb the coefficients'
+    /// error). `None`: fitted with every body by least squares.
     pub actuator: Option<[f64; replay::DRIVE]>,
 }
 

@@ -335,11 +335,11 @@ fn joint_at(swim: &Swim, k: usize, t: f64, j: usize) -> ([f64; 3], [f64; 3]) {
 
 /// The recorded joint motion as a law of time: every stage of a step sees
 /// the joints where the Hermite curve through the samples has them then.
-/// (Extrapolated from the step's start instead, as the daemon's
-/// [`JointCurvature`] is, the joints' acceleration is off by the jerk
-/// times the step within it, and the replay at 5 ms swam as a robot whose
-/// `c2` is 9 % lower than at 2 ms: RK4 is fourth-order only in a source
-/// it can evaluate anywhere.)
+/// (Extrapolated from the step's start instead, as the simulated robot's
+/// [`JointCurvature`](crate::JointCurvature) was, the joints'
+/// acceleration is off by the jerk times the step within it, and the fit
+/// at 5 ms found `c2` 8.7 % lower than at 2.5 ms: RK4 is fourth-order only
+/// in a source it can evaluate anywhere.)
 struct Recorded<'a> {
     swim: &'a Swim,
     t: f64,
@@ -351,7 +351,10 @@ impl CurvatureSource for Recorded<'_> {
         let at = self.t + tau;
         let s = &self.swim.samples;
         // the segment holding `at` (the first or last beyond the ends)
-        let k = s.partition_point(|p| p.t <= at).clamp(1, s.len() - 1) - 1;
+        let k = s
+            .partition_point(|p| p.t <= at)
+            .clamp(1, s.len().max(2) - 1)
+            - 1;
         spread_joints(self.swim.joints(), self.length, x, out, |j| {
             joint_at(self.swim, k, at, j)
         });
