@@ -53,6 +53,21 @@ impl Default for ActuatorParams {
     }
 }
 
+/// What the swimming body asks of an axis until the next physics step
+/// (the simulated robot's plant sets it once a step: `Plant::coupled_loads`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Load {
+    /// The torque the body demands at the joint now (N·m).
+    pub torque: f64,
+    /// How much of a change of the axis's own net torque (motor less
+    /// friction) the body takes up at once (0..1; the body's implicit
+    /// coupling's diagonal; 0: none).
+    pub gain: f64,
+    /// How fast the demand changes otherwise (N·m/s): the body's motion and
+    /// the other axes' torques, followed within the step instead of held.
+    pub rate: f64,
+}
+
 /// What the axis is asked to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Drive {
@@ -101,12 +116,12 @@ pub struct Actuator {
     tau: f64,
     faults: AxisFaults,
     saturated: bool,
-    /// How much of a change of its own net torque (motor less friction)
-    /// the body's load takes up at once (the body's implicit coupling's
-    /// diagonal, [`Actuator::couple_load`]).
-    load_gain: f64,
+    /// The body's load ([`Actuator::set_load`]).
+    load: Load,
     /// The net torque the load was computed with.
     load_ref: f64,
+    /// Seconds since the load was set.
+    load_age: f64,
 }
 
 impl Actuator {
@@ -120,8 +135,9 @@ impl Actuator {
             tau: 0.0,
             faults: AxisFaults::default(),
             saturated: false,
-            load_gain: 0.0,
+            load: Load::default(),
             load_ref: 0.0,
+            load_age: 0.0,
         }
     }
 
@@ -168,25 +184,36 @@ impl Actuator {
         }
     }
 
-    /// From now on, the load given to [`Actuator::step`] was computed with
-    /// the axis's net torque (motor less friction) as it is now, and takes
-    /// up `gain` (0..1) of its changes at once: the body's inertial
-    /// reaction, which the simulated robot's plant computes once per
-    /// physics tick, follows the axis's own torque within the tick (the
-    /// servo's steps are finer) instead of being held.
-    pub fn couple_load(&mut self, gain: f64) {
-        self.load_gain = if gain.is_finite() {
-            gain.clamp(0.0, 1.0)
-        } else {
-            0.0
+    /// The body's load from now on, computed with the axis's net torque
+    /// (motor less friction) as it is now. The simulated robot's plant
+    /// computes it once per physics step; within the step (the servo's
+    /// steps are finer) it takes up `gain` of the axis's own torque's
+    /// changes at once and follows `rate` otherwise, instead of being
+    /// held. A gain outside 0..1 is clamped; a gain or rate that is not
+    /// finite is 0.
+    pub fn set_load(&mut self, load: Load) {
+        let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+        self.load = Load {
+            torque: finite(load.torque),
+            gain: finite(load.gain).clamp(0.0, 1.0),
+            rate: finite(load.rate),
         };
         self.load_ref = self.tau - self.params.damping * self.omega;
+        self.load_age = 0.0;
     }
 
-    /// Advances by `dt` seconds under `drive`, against the body's `load`
-    /// torque (N·m, the torque the body demands at this joint).
-    pub fn step(&mut self, dt: f64, drive: Drive, load: f64) {
-        let load = load + self.faults.snag;
+    /// The body's load as last set.
+    pub fn load(&self) -> Load {
+        self.load
+    }
+
+    /// Advances by `dt` seconds under `drive`, against the body's load
+    /// ([`Actuator::set_load`]).
+    pub fn step(&mut self, dt: f64, drive: Drive) {
+        // the load at the step's middle
+        let load =
+            self.load.torque + self.load.rate * (self.load_age + 0.5 * dt) + self.faults.snag;
+        self.load_age += dt;
         let p = self.params;
         let omega0 = self.omega;
         if self.faults.stuck {
@@ -252,7 +279,7 @@ impl Actuator {
         };
         self.tau += k * (sat - self.tau);
         let net = self.tau - p.damping * self.omega;
-        let load = load + self.load_gain * (net - self.load_ref);
+        let load = load + self.load.gain * (net - self.load_ref);
         let acc = (net - load) / p.inertia;
         // Semi-implicit Euler.
         self.omega += acc * dt;
@@ -274,8 +301,10 @@ mod tests {
 
     fn run(a: &mut Actuator, drive: Drive, load: f64, seconds: f64) {
         let dt = 2.5e-4;
+        let l = a.load();
+        a.set_load(Load { torque: load, ..l });
         for _ in 0..(seconds / dt) as usize {
-            a.step(dt, drive, load);
+            a.step(dt, drive);
         }
     }
 
@@ -355,7 +384,10 @@ mod tests {
         let mut held = Actuator::new(p);
         run(&mut held, push, 0.0, 0.1);
         let mut coupled = Actuator::new(p);
-        coupled.couple_load(0.5);
+        coupled.set_load(Load {
+            gain: 0.5,
+            ..Load::default()
+        });
         run(&mut coupled, push, 0.0, 0.1);
         let rate = |a: &Actuator| a.kinematics().1;
         assert!(
@@ -371,9 +403,43 @@ mod tests {
         // a gain beyond 0..1 (or not finite) is clamped: never a load that
         // pushes with the motor
         let mut odd = Actuator::new(p);
-        odd.couple_load(f64::NAN);
+        odd.set_load(Load {
+            gain: f64::NAN,
+            rate: f64::INFINITY,
+            ..Load::default()
+        });
         run(&mut odd, push, 0.0, 0.1);
         assert!((rate(&odd) - rate(&held)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_load_is_followed_along_its_rate_within_the_step() {
+        // a load rising at 2 N·m/s from zero on the bare inertia: after T
+        // the axis turns back at -r T² / (2 J), as if the load had been
+        // set every servo step (held, it would not move at all)
+        let p = ActuatorParams {
+            kp: 0.0,
+            kd: 0.0,
+            torque_lag: 0.0,
+            damping: 0.0,
+            ..ActuatorParams::default()
+        };
+        let (r, t) = (2.0, 0.002);
+        let mut a = Actuator::new(p);
+        a.set_load(Load {
+            rate: r,
+            ..Load::default()
+        });
+        for _ in 0..8 {
+            a.step(t / 8.0, Drive::Limp);
+        }
+        let want = -r * t * t / (2.0 * p.inertia);
+        let got = a.kinematics().1;
+        assert!((got - want).abs() < 1e-9 * want.abs(), "{got} {want}");
+        // set again: the ramp starts again from the new torque
+        a.set_load(Load::default());
+        a.step(t / 8.0, Drive::Limp);
+        assert!((a.kinematics().1 - got).abs() < 1e-12);
     }
 
     #[test]

@@ -77,7 +77,7 @@ use anguilla_protocol::canopen::{
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{ErrorBits, NodeState};
 
-use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive};
+use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive, Load};
 use crate::device::JointDevice;
 use crate::node::{Nanos, NodeCounters};
 use crate::rng::Rng;
@@ -249,7 +249,6 @@ pub struct Cia402Axis {
     consumer_expired: bool,
     time: Nanos,
     actuator: Actuator,
-    load: f64,
     rng: Rng,
     silent: bool,
     counters: NodeCounters,
@@ -283,7 +282,6 @@ impl Cia402Axis {
             consumer_expired: false,
             time: now,
             actuator: Actuator::new(params),
-            load: 0.0,
             rng: Rng::new(seed),
             silent: false,
             counters: NodeCounters::default(),
@@ -347,13 +345,10 @@ impl Cia402Axis {
         self.actuator.torque()
     }
 
-    /// The torque the body demands (N·m), used from now on, and how much
-    /// of a change of the axis's own net torque (motor less friction) it
-    /// takes up at once (`gain`, 0..1: the body's coupling's diagonal,
-    /// [`crate::actuator::Actuator::couple_load`]).
-    pub fn set_load(&mut self, load: f64, gain: f64) {
-        self.load = load;
-        self.actuator.couple_load(gain);
+    /// The body's load from now on
+    /// ([`crate::actuator::Actuator::set_load`]).
+    pub fn set_load(&mut self, load: Load) {
+        self.actuator.set_load(load);
     }
 
     /// Counters.
@@ -371,7 +366,6 @@ impl Cia402Axis {
     pub fn reboot(&mut self, now: Nanos) {
         let mut fresh = Self::new(self.raw_id, *self.actuator.params(), self.boot_time, 0, now);
         fresh.actuator = self.actuator.clone();
-        fresh.load = self.load;
         fresh.rng = self.rng.clone();
         *self = fresh;
     }
@@ -515,7 +509,7 @@ impl Cia402Axis {
             self.time += SERVO_DT_NS;
             let t = self.time;
             let drive = self.drive_command();
-            self.actuator.step(SERVO_DT, drive, self.load);
+            self.actuator.step(SERVO_DT, drive);
             let measured = self.actuator.measure(&mut self.rng);
             let (_, omega, _) = self.actuator.kinematics();
             self.od.set_num(S_POSITION, increments(measured));
@@ -724,9 +718,9 @@ impl JointDevice for Cia402Joint {
         self.axis(axis).motor_torque()
     }
 
-    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
-        for ((a, l), g) in self.axes.iter_mut().zip(load).zip(gain) {
-            a.set_load(l, g);
+    fn set_load(&mut self, load: [Load; 2]) {
+        for (a, l) in self.axes.iter_mut().zip(load) {
+            a.set_load(l);
         }
     }
 

@@ -11,7 +11,7 @@
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::NodeState;
 
-use crate::actuator::AxisFaults;
+use crate::actuator::{AxisFaults, Load};
 use crate::node::{Nanos, NodeCounters};
 
 /// One joint's drives on the bus (the simulated firmware of one node, or
@@ -28,11 +28,9 @@ pub trait JointDevice: Send + std::fmt::Debug {
     fn kinematics(&self, axis: usize) -> (f64, f64, f64);
     /// The torque the actuator of an axis applies to the joint (N·m).
     fn motor_torque(&self, axis: usize) -> f64;
-    /// The torque the body demands at each axis (N·m), used from now on,
-    /// and how much of a change of the axis's own net torque (motor less
-    /// friction) it takes up at once (`gain`, 0..1: the body's coupling's
-    /// diagonal, [`crate::actuator::Actuator::couple_load`]; 0: held).
-    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]);
+    /// The body's load on each axis from now on
+    /// ([`crate::actuator::Actuator::set_load`]).
+    fn set_load(&mut self, load: [Load; 2]);
     /// The joint's state in the anguilla vocabulary: for two drives, the
     /// worse of the two (EStop, then Fault, then Boot, then Disabled;
     /// Enabled only when both are).
@@ -70,8 +68,8 @@ impl JointDevice for crate::node::VertebraNode {
     fn motor_torque(&self, axis: usize) -> f64 {
         crate::node::VertebraNode::motor_torque(self, axis)
     }
-    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
-        crate::node::VertebraNode::set_load(self, load, gain)
+    fn set_load(&mut self, load: [Load; 2]) {
+        crate::node::VertebraNode::set_load(self, load)
     }
     fn state(&self) -> NodeState {
         crate::node::VertebraNode::state(self)

@@ -42,7 +42,7 @@ use anguilla_protocol::mit::{
     self, Body, Command, DEFAULT_RANGES, Message, NodeId, Reply, Status, error_code,
 };
 
-use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive};
+use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive, Load};
 use crate::device::JointDevice;
 use crate::error::SimError;
 use crate::node::{Nanos, NodeCounters, SERVO_DT, SERVO_DT_NS};
@@ -98,7 +98,6 @@ struct MitDrive {
     error: u8,
     last_command: Nanos,
     actuator: Actuator,
-    load: f64,
 }
 
 const LIMP: Command = Command {
@@ -120,7 +119,6 @@ impl MitDrive {
             error: 0,
             last_command: Nanos::ZERO,
             actuator: Actuator::new(params),
-            load: 0.0,
         }
     }
 
@@ -296,7 +294,7 @@ impl JointDevice for MitJoint {
             let t = self.time;
             for d in &mut self.drives {
                 let drive = d.drive();
-                d.actuator.step(SERVO_DT, drive, d.load);
+                d.actuator.step(SERVO_DT, drive);
             }
             if self.silent {
                 continue;
@@ -327,10 +325,9 @@ impl JointDevice for MitJoint {
         self.drives[axis].actuator.torque()
     }
 
-    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
-        for ((d, l), g) in self.drives.iter_mut().zip(load).zip(gain) {
-            d.load = l;
-            d.actuator.couple_load(g);
+    fn set_load(&mut self, load: [Load; 2]) {
+        for (d, l) in self.drives.iter_mut().zip(load) {
+            d.actuator.set_load(l);
         }
     }
 
@@ -358,7 +355,6 @@ impl JointDevice for MitJoint {
         for d in &mut self.drives {
             let fresh = MitDrive {
                 actuator: d.actuator.clone(),
-                load: d.load,
                 ..MitDrive::new(d.id, ActuatorParams::default())
             };
             *d = fresh;

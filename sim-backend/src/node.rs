@@ -17,7 +17,7 @@ use anguilla_protocol::message::{
     Heartbeat, Message, NodeId, NodeSet, NodeState, SafeAction, Target, Variant,
 };
 
-use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive};
+use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive, Load};
 use crate::rng::Rng;
 
 /// Nanoseconds of simulated time (the bus's one time type).
@@ -93,7 +93,6 @@ pub struct VertebraNode {
     time: Nanos,
     boot_done: Nanos,
     axes: [Actuator; 2],
-    load: [f64; 2],
     rng: Rng,
     silent: bool,
     injected_fault: u16,
@@ -122,7 +121,6 @@ impl VertebraNode {
             time: now,
             boot_done: now + cfg.boot_time,
             axes: [Actuator::new(cfg.axes[0]), Actuator::new(cfg.axes[1])],
-            load: [0.0; 2],
             rng: Rng::new(cfg.seed),
             silent: false,
             injected_fault: 0,
@@ -170,14 +168,11 @@ impl VertebraNode {
         self.axes[axis].torque()
     }
 
-    /// Sets the torque the body demands at each axis (N·m), used from now
-    /// on, and how much of a change of its own net torque (motor
-    /// less friction) it takes up at once (`gain`, 0..1: the body's
-    /// coupling's diagonal, [`crate::actuator::Actuator::couple_load`]).
-    pub fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
-        self.load = load;
-        for (a, g) in self.axes.iter_mut().zip(gain) {
-            a.couple_load(g);
+    /// Sets the body's load on each axis from now on
+    /// ([`crate::actuator::Actuator::set_load`]).
+    pub fn set_load(&mut self, load: [Load; 2]) {
+        for (a, l) in self.axes.iter_mut().zip(load) {
+            a.set_load(l);
         }
     }
 
@@ -202,7 +197,6 @@ impl VertebraNode {
     pub fn reboot(&mut self, now: Nanos) {
         let mut fresh = Self::new(self.cfg, now);
         fresh.axes = self.axes.clone();
-        fresh.load = self.load;
         fresh.rng = self.rng.clone();
         *self = fresh;
     }
@@ -300,7 +294,7 @@ impl VertebraNode {
             let mut saturated = false;
             for axis in 0..2 {
                 let drive = self.drive(axis);
-                self.axes[axis].step(SERVO_DT, drive, self.load[axis]);
+                self.axes[axis].step(SERVO_DT, drive);
                 saturated |= self.axes[axis].saturated();
             }
             if saturated {

@@ -63,7 +63,7 @@ use anguilla_protocol::odrive::{
     NodeId,
 };
 
-use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive};
+use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive, Load};
 use crate::device::JointDevice;
 use crate::error::SimError;
 use crate::node::{Nanos, NodeCounters, SERVO_DT, SERVO_DT_NS};
@@ -157,7 +157,6 @@ struct OdriveAxis {
     next_heartbeat: Nanos,
     next_estimate: Nanos,
     actuator: Actuator,
-    load: f64,
 }
 
 const TURN: f64 = core::f64::consts::TAU;
@@ -179,7 +178,6 @@ impl OdriveAxis {
             next_heartbeat: Nanos::ZERO,
             next_estimate: Nanos::ZERO,
             actuator: Actuator::new(params),
-            load: 0.0,
         }
     }
 
@@ -458,7 +456,7 @@ impl JointDevice for OdriveJoint {
             let t = self.time;
             for a in &mut self.axes {
                 let drive = a.drive();
-                a.actuator.step(SERVO_DT, drive, a.load);
+                a.actuator.step(SERVO_DT, drive);
             }
             if self.silent {
                 continue;
@@ -496,10 +494,9 @@ impl JointDevice for OdriveJoint {
         self.axes[axis].actuator.torque()
     }
 
-    fn set_load(&mut self, load: [f64; 2], gain: [f64; 2]) {
-        for ((a, l), g) in self.axes.iter_mut().zip(load).zip(gain) {
-            a.load = l;
-            a.actuator.couple_load(g);
+    fn set_load(&mut self, load: [Load; 2]) {
+        for (a, l) in self.axes.iter_mut().zip(load) {
+            a.actuator.set_load(l);
         }
     }
 
@@ -545,7 +542,6 @@ impl JointDevice for OdriveJoint {
         };
         for (f, a) in fresh.axes.iter_mut().zip(&self.axes) {
             f.actuator = a.actuator.clone();
-            f.load = a.load;
         }
         *self = fresh;
     }

@@ -11,6 +11,7 @@ use anguilla_protocol::canopen::{
 use anguilla_protocol::frame::Id;
 use anguilla_protocol::message::{ErrorBits, NodeState};
 use anguilla_protocol::time::Nanos;
+use anguilla_sim::actuator::Load;
 use anguilla_sim::cia402::{self as sim, Cia402Joint, Cia402JointConfig, RAD_PER_INCREMENT};
 use anguilla_sim::device::JointDevice;
 use proptest::prelude::*;
@@ -673,7 +674,13 @@ fn rpdo_controlwords_reach_operation_enabled_and_csp_moves_the_joint() {
     // giving 0.2 N·m = 400 ‰. Settled after 0.5 s (ωn 45 rad/s, ζ 0.67):
     // 0.0003 rad is 2 % of the 0.0025 rad offset, ±2 ‰ the rounding and
     // the settling residue.
-    b.joint.set_load([0.2, 0.0], [0.0; 2]);
+    b.joint.set_load([
+        Load {
+            torque: 0.2,
+            ..Load::default()
+        },
+        Load::default(),
+    ]);
     for _ in 0..250 {
         last = b.period([(0x0F, target(0.3), 200), (0x0F, target(-0.2), 0)]);
     }

@@ -27,6 +27,7 @@ use anguilla_model::{Current, HeadState};
 use anguilla_protocol::Family;
 use anguilla_protocol::message::NodeState;
 
+use crate::actuator::Load;
 use crate::device::JointDevice;
 use crate::node::Nanos;
 use crate::plant::{JointInput, Plant, PlantConfig};
@@ -148,7 +149,7 @@ pub struct SimRobot {
     inputs: Vec<JointInput>,
     tau: Vec<[f64; 2]>,
     friction: Vec<[f64; 2]>,
-    node_loads: Vec<[f64; 2]>,
+    node_loads: Vec<[Load; 2]>,
     scenario: Scenario,
     next_event: usize,
     undo: Vec<(Nanos, Undo)>,
@@ -254,7 +255,7 @@ impl SimRobot {
             inputs: vec![JointInput::default(); n],
             tau: vec![[0.0; 2]; n],
             friction: vec![[0.0; 2]; n],
-            node_loads: vec![[0.0; 2]; n],
+            node_loads: vec![[Load::default(); 2]; n],
             scenario: Scenario::default(),
             next_event: 0,
             undo: Vec::new(),
@@ -556,8 +557,8 @@ impl SimRobot {
         }
         self.plant
             .coupled_loads(&self.tau, &self.friction, &mut self.node_loads);
-        for (j, (node, load)) in self.nodes.iter_mut().zip(&self.node_loads).enumerate() {
-            node.set_load(*load, self.plant.load_gain(j));
+        for (node, load) in self.nodes.iter_mut().zip(&self.node_loads) {
+            node.set_load(*load);
         }
         self.flood_tick();
         self.impostors_tick(t);
