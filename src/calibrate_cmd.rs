@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::swim::{self, ReadSwim};
-use anguilla_model::identify::{self, Coefficient, Evaluation, FitOptions, IDENTIFIED_WITHIN};
+use anguilla_model::identify::{
+    self, Coefficient, Evaluation, FitOptions, IDENTIFIED_WITHIN, MAX_CORRELATION,
+};
 use anyhow::{Context, bail};
 use clap::Args;
 
@@ -207,10 +209,16 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                     200.0 * e.std_error / scale,
                     scale,
                     100.0 * IDENTIFIED_WITHIN,
-                    if e.fitted {
-                        "fitted all the same, standing in for the coefficients left at the prior"
-                    } else {
-                        "left at the prior, the swims knowing less of it than the prior"
+                    match (e.fitted, e.correlated) {
+                        (true, _) => {
+                            "fitted all the same, standing in for the coefficients left at the prior"
+                        }
+                        (false, Some((_, r))) if r.abs() > MAX_CORRELATION => {
+                            "left at the prior, the swims telling only its combination with the \
+                             one it is correlated with (the prior knowing it better)"
+                        }
+                        (false, _) =>
+                            "left at the prior, the swims knowing less of it than the prior",
                     },
                     c.needs()
                 )

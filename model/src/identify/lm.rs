@@ -306,6 +306,22 @@ fn covariance(p: &Problem, r: &[f64], jac: &DMatrix<f64>) -> Option<DMatrix<f64>
     Some(&ainv * meat * &ainv * dof)
 }
 
+/// The correlations of the coefficients `kept` (indices into `jac`'s
+/// columns) with the others free, by [`covariance`]; `None` where their
+/// columns are dependent.
+pub(super) fn correlations(
+    p: &Problem,
+    r: &[f64],
+    jac: &DMatrix<f64>,
+    kept: &[usize],
+) -> Option<DMatrix<f64>> {
+    let cov = covariance(p, r, &jac.select_columns(kept))?;
+    let n = kept.len();
+    Some(DMatrix::from_fn(n, n, |i, j| {
+        cov[(i, j)] / (cov[(i, i)] * cov[(j, j)]).sqrt().max(1e-300)
+    }))
+}
+
 /// Standard errors (coefficient units) and strongest correlations, by
 /// [`covariance`].
 fn uncertainty(

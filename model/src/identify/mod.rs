@@ -33,7 +33,9 @@
 //! standard error (inflated for the residuals' autocorrelation) and their
 //! correlations. A coefficient the swims know less well than the prior
 //! does (its standard error beyond [`PRIOR_SPREAD`] of it) is left at the
-//! prior, the worst first, and the others are fitted again; one of those
+//! prior, the worst first, and so is one of two the swims cannot tell
+//! apart (correlated beyond [`MAX_CORRELATION`]: the nose's drag and the
+//! skin friction), and the others are fitted again; one of those
 //! is *identified* when its 95 % interval, widened by what the ones left
 //! at the prior may be off by (Schmidt's consider covariance), is within
 //! 5 % of its value (or of the floor). One fitted but not identified
@@ -302,6 +304,13 @@ type Found = std::collections::BTreeMap<Coefficient, (f64, f64, Option<(Coeffici
 /// coefficient counts as identified.
 pub const IDENTIFIED_WITHIN: f64 = 0.05;
 
+/// The correlation beyond which two fitted coefficients count as one
+/// (the swims tell only a combination of them, such as the nose's drag
+/// and the skin friction, both resisting forward motion): the one whose
+/// prior is the better knowledge is left at it, and widens the other's
+/// interval by what it may be off by.
+pub const MAX_CORRELATION: f64 = 0.95;
+
 /// How far the model's prior coefficients may be from a robot's, one
 /// standard deviation as a fraction of the prior: a coefficient the fit
 /// leaves at its prior widens the others' intervals by this much of its
@@ -385,17 +394,35 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
             &kept,
             &[],
         );
-        let excess = kept.iter().zip(&se).map(|(&i, &s)| {
-            let c = opts.fit[i];
-            s / lm::scale(c, prior) / lm::prior_spread(c, prior)
-        });
-        let Some((worst, e)) = excess.enumerate().max_by(|a, b| a.1.total_cmp(&b.1)) else {
+        let excess: Vec<f64> = kept
+            .iter()
+            .zip(&se)
+            .map(|(&i, &s)| {
+                let c = opts.fit[i];
+                s / lm::scale(c, prior) / lm::prior_spread(c, prior)
+            })
+            .collect();
+        let Some((worst, &e)) = excess.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
             break;
         };
-        if e <= 1.0 {
-            break;
+        if e > 1.0 {
+            dropped.push(kept.remove(worst));
+            continue;
         }
-        dropped.push(kept.remove(worst));
+        // two the swims cannot tell apart: the one its prior knows better
+        // (relative to what the swims say) stays at it
+        let corr = lm::correlations(&ctx, &first.residuals, &first.jacobian, &kept);
+        let pair = corr.as_ref().and_then(|c| {
+            (0..kept.len())
+                .flat_map(|a| (a + 1..kept.len()).map(move |b| (a, b)))
+                .map(|(a, b)| (a, b, c[(a, b)].abs()))
+                .filter(|&(_, _, r)| r > MAX_CORRELATION)
+                .max_by(|x, y| x.2.total_cmp(&y.2))
+        });
+        let Some((a, b, _)) = pair else {
+            break;
+        };
+        dropped.push(kept.remove(if excess[a] >= excess[b] { a } else { b }));
     }
     let mut found: Found = opts
         .fit

@@ -181,9 +181,16 @@ fn grid(swim: &Swim) -> Vec<f64> {
 /// A pose series: times, and a value `[a, b]` at each.
 type Series<'a> = (&'a [f64], &'a dyn Fn(usize) -> [f64; 2]);
 
+/// How far short of a window's end a series may stop and still cover it
+/// (s): the grid's first window starts at the swim's first sample, which
+/// `(t + WINDOW / 2) - WINDOW / 2` may miss by a rounding.
+const COVER_SLACK: f64 = 1e-6;
+
 /// Whether `ts` covers the window around `g`.
 fn covers(ts: &[f64], g: f64) -> bool {
-    ts.len() >= 2 && ts[0] <= g - WINDOW / 2.0 && ts[ts.len() - 1] >= g + WINDOW / 2.0
+    ts.len() >= 2
+        && ts[0] <= g - WINDOW / 2.0 + COVER_SLACK
+        && ts[ts.len() - 1] >= g + WINDOW / 2.0 - COVER_SLACK
 }
 
 /// The channels over `grid` (NaN where the series do not cover a window)
@@ -390,7 +397,8 @@ pub fn simulate(body: &Body, swim: &Swim, nodes: usize, dt: f64) -> Result<Trace
         t: t0,
         length: body.length,
     };
-    let steps = ((end - t0) / dt).floor() as usize;
+    // to the last sample or just past it: the last window ends there
+    let steps = ((end - t0) / dt - 1e-9).ceil().max(0.0) as usize;
     let mut tr = Trace {
         t: Vec::with_capacity(steps + 1),
         xy: Vec::with_capacity(steps + 1),
