@@ -3,7 +3,7 @@
 //! of another drag law, and what a fit costs. Prints text; nothing is
 //! asserted (`tests/calibrate.rs` asserts).
 //!
-//! `cargo bench -p anguilla-daemon --bench calibration` (about 4 min on
+//! `cargo bench -p anguilla-daemon --bench calibration` (about 5 min on
 //! the project's 2-vCPU machine). `ANGUILLA_CAL_SEEDS=1` runs one body;
 //! `ANGUILLA_CAL_MONITOR=0` leaves out the ten-minute swims of 3.
 //! `ANGUILLA_CAL_DT=S` replays at a step of `S` seconds instead of the

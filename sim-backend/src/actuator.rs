@@ -363,19 +363,24 @@ mod tests {
         assert!(l.kinematics().1 < 0.0, "a limp joint yields to its load");
     }
 
+    /// The reflected inertia alone: no servo, no lag, no friction.
+    fn bare() -> ActuatorParams {
+        ActuatorParams {
+            kp: 0.0,
+            kd: 0.0,
+            torque_lag: 0.0,
+            damping: 0.0,
+            ..ActuatorParams::default()
+        }
+    }
+
     #[test]
     fn a_coupled_load_takes_up_its_share_of_the_axis_torque() {
         // no servo, no lag, no friction: a pure torque of 1 N·m on the
         // reflected inertia alone accelerates it at 1/J; with half of the
         // torque's change taken up by the body's load (its coupling's
         // diagonal 0.5), at half that
-        let p = ActuatorParams {
-            kp: 0.0,
-            kd: 0.0,
-            torque_lag: 0.0,
-            damping: 0.0,
-            ..ActuatorParams::default()
-        };
+        let p = bare();
         let push = Drive::Servo {
             position: 0.0,
             velocity: 0.0,
@@ -417,13 +422,7 @@ mod tests {
         // a load rising at 2 N·m/s from zero on the bare inertia: after T
         // the axis turns back at -r T² / (2 J), as if the load had been
         // set every servo step (held, it would not move at all)
-        let p = ActuatorParams {
-            kp: 0.0,
-            kd: 0.0,
-            torque_lag: 0.0,
-            damping: 0.0,
-            ..ActuatorParams::default()
-        };
+        let p = bare();
         let (r, t) = (2.0, 0.002);
         let mut a = Actuator::new(p);
         a.set_load(Load {
