@@ -4,7 +4,8 @@
 //! asserted (`tests/calibrate.rs` asserts).
 //!
 //! `cargo bench -p anguilla-daemon --bench calibration` (about 5 min on
-//! the project's 2-vCPU machine). `ANGUILLA_CAL_SEEDS=1` runs one body;
+//! the project's 2-vCPU machine). `ANGUILLA_CAL_SEEDS=1` runs one body,
+//! `ANGUILLA_CAL_FIRST_SEED=4` bodies from seed 4 on;
 //! `ANGUILLA_CAL_MONITOR=0` leaves out the ten-minute swims of 3.
 //! `ANGUILLA_CAL_DT=S` replays at a step of `S` seconds instead of the
 //! fit's 5 ms, `ANGUILLA_CAL_TICK=S` records with the simulated robot's
@@ -290,6 +291,12 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(3);
+    // ANGUILLA_CAL_FIRST_SEED=K: seeds K.. instead of 1.. (other bodies
+    // than the ones the docs quote)
+    let first: u64 = std::env::var("ANGUILLA_CAL_FIRST_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
     // ANGUILLA_CAL_MONITOR=0 leaves out the residual monitor's two
     // ten-minute swims (said in the output)
     let monitor = std::env::var("ANGUILLA_CAL_MONITOR").map_or(true, |v| v != "0");
@@ -313,7 +320,7 @@ fn main() {
         lockstep_duration()
     );
     let mut summary = Vec::new();
-    for seed in 1..=seeds {
+    for seed in first..first + seeds {
         let f = factors(seed);
         let mut body = prior.clone();
         for (c, k) in Coefficient::ALL.into_iter().zip(f) {
