@@ -209,16 +209,20 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                     200.0 * e.std_error / scale,
                     scale,
                     100.0 * IDENTIFIED_WITHIN,
-                    match (e.fitted, e.correlated) {
-                        (true, _) => {
-                            "fitted all the same, standing in for the coefficients left at the prior"
+                    match (e.fitted, e.confounded) {
+                        (true, _) => "fitted all the same, standing in for the coefficients \
+                                      left at the prior"
+                            .to_string(),
+                        (false, Some((o, r))) => format!(
+                            "left at the prior, the swims telling only its combination with {} \
+                             (correlated {r:+.2}, beyond {MAX_CORRELATION}; the prior knowing it \
+                             better)",
+                            o.name()
+                        ),
+                        (false, None) => {
+                            "left at the prior, the swims knowing less of it than the prior"
+                                .to_string()
                         }
-                        (false, Some((_, r))) if r.abs() > MAX_CORRELATION => {
-                            "left at the prior, the swims telling only its combination with the \
-                             one it is correlated with (the prior knowing it better)"
-                        }
-                        (false, _) =>
-                            "left at the prior, the swims knowing less of it than the prior",
                     },
                     c.needs()
                 )

@@ -189,8 +189,9 @@ impl Actuator {
     /// computes it once per physics step; within the step (the servo's
     /// steps are finer) it takes up `gain` of the axis's own torque's
     /// changes at once and follows `rate` otherwise, instead of being
-    /// held. A gain outside 0..1 is clamped; a gain or rate that is not
-    /// finite is 0.
+    /// held. A gain outside 0..1 is clamped; a torque, gain or rate that
+    /// is not finite is taken as 0 (the plant zeroes its loads when the
+    /// model fails, and sets the next ones afresh).
     pub fn set_load(&mut self, load: Load) {
         let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
         self.load = Load {

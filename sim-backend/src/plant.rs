@@ -129,8 +129,12 @@ pub struct Plant {
     last_coupled: Vec<[f64; 2]>,
     last_net: Vec<[f64; 2]>,
     /// Whether they are there to take a rate from (not after a change
-    /// that makes the next load a jump: a new coupling, a failed step).
+    /// that makes the next load a jump: a new coupling, a failed step or
+    /// linearisation, a new current, a head put back).
     coupled_primed: bool,
+    /// Whether the last [`Plant::step`] succeeded (after a failed one the
+    /// loads are zero: no rate is taken across that).
+    step_ok: bool,
 }
 
 /// The servos' coupling to the body: `K = M (J I + M)^-1` about a shape,
@@ -152,6 +156,9 @@ struct Coupling {
     /// the first, or a failed one).
     k_trend: Vec<f64>,
     m_trend: Vec<f64>,
+    /// Whether the last linearisation succeeded one period ago (the
+    /// trends are then the change over one period).
+    trend_ok: bool,
     /// Scratch of the inversion of `J I + M` over the free axes.
     a: Vec<f64>,
     inv: Vec<f64>,
@@ -209,6 +216,7 @@ impl Plant {
             last_coupled: vec![[0.0; 2]; cfg.joints],
             last_net: vec![[0.0; 2]; cfg.joints],
             coupled_primed: false,
+            step_ok: true,
         })
     }
 
@@ -254,6 +262,7 @@ impl Plant {
             m: vec![0.0; m * m],
             k_trend: vec![0.0; m * m],
             m_trend: vec![0.0; m * m],
+            trend_ok: false,
             a: vec![0.0; m * m],
             inv: vec![0.0; m * m],
             free: Vec::with_capacity(m),
@@ -262,10 +271,8 @@ impl Plant {
             src: JointCurvature::new(n, self.model.body().length),
             base: vec![[0.0; 2]; n],
         };
+        // the first linearisation has no trend (`trend_ok` false)
         c.linearise(&self.src)?;
-        // the first linearisation has no trend
-        c.k_trend.fill(0.0);
-        c.m_trend.fill(0.0);
         self.coupling = Some(c);
         self.since_coupled = 0;
         self.coupled_primed = false;
@@ -336,7 +343,7 @@ impl Plant {
                 &mut self.last_coupled[i / 2][i % 2],
                 &mut self.last_net[i / 2][i % 2],
             );
-            let rate = if self.coupled_primed {
+            let rate = if self.coupled_primed && self.step_ok {
                 ((torque - *last) - gain * (net - *last_net)) / dt
             } else {
                 0.0
@@ -344,7 +351,7 @@ impl Plant {
             (*last, *last_net) = (torque, net);
             *o = Load { torque, gain, rate };
         }
-        self.coupled_primed = true;
+        self.coupled_primed = self.step_ok;
     }
 
     /// How far the coupling is extrapolated from its last linearisation,
@@ -421,6 +428,7 @@ impl Plant {
     /// initial condition); the joints keep their motion.
     pub fn reset_head(&mut self, head: HeadState) {
         self.head = head;
+        self.coupled_primed = false;
     }
 
     /// Sets the water's current (earth frame) from the next step on: the
@@ -428,6 +436,7 @@ impl Plant {
     /// (`anguilla_model::dynamics`, "Currents"). Allocates nothing.
     pub fn set_current(&mut self, current: Current) {
         self.ws.set_current(current);
+        self.coupled_primed = false;
     }
 
     /// The water's current.
@@ -510,9 +519,10 @@ impl Plant {
                 rl.iter_mut().for_each(|l| *l = [0.0; 2]);
             }
         };
+        // true again only on success
+        self.step_ok = false;
         if let Some(e) = failed {
             zero(&mut self.loads, &mut self.rate_loads);
-            self.coupled_primed = false;
             return Err(e);
         }
         if let Some(rl) = &mut self.rate_loads {
@@ -524,7 +534,6 @@ impl Plant {
                 }
                 Err(e) => {
                     zero(&mut self.loads, &mut self.rate_loads);
-                    self.coupled_primed = false;
                     return Err(e);
                 }
             }
@@ -537,8 +546,11 @@ impl Plant {
             self.since_coupled += 1;
             if self.recouple_every > 0 && self.since_coupled >= self.recouple_every {
                 self.since_coupled = 0;
-                // on failure (a singular inertia) the last coupling stays
-                let _ = c.linearise(&self.src);
+                // on failure (a singular inertia) the last coupling stays,
+                // held: its load is not a continuation of the last
+                if c.linearise(&self.src).is_err() {
+                    self.coupled_primed = false;
+                }
             }
         }
         // coupled servos: the rate loads plus the body's inertial reaction
@@ -557,6 +569,7 @@ impl Plant {
                         .map(|(k, (mk, t))| (mk + s * t) * self.acc[k / 2][k % 2])
                         .sum::<f64>();
             }
+            self.step_ok = true;
             return Ok(&self.loads);
         }
         match evaluate(&self.model, &mut self.ws, &self.src, &self.head) {
@@ -564,6 +577,7 @@ impl Plant {
                 for (l, js) in self.loads.iter_mut().zip(self.ws.joints()) {
                     *l = js.actuator_torque();
                 }
+                self.step_ok = true;
                 Ok(&self.loads)
             }
             Err(e) => {
@@ -591,7 +605,9 @@ impl Coupling {
     fn linearise(&mut self, shape: &JointCurvature) -> Result<(), ModelError> {
         let r = self.linearise_anew(shape);
         if r.is_err() {
-            // back to the last (the trends hold it), held from now on
+            // back to the last (the trends hold it), held from now on,
+            // and the next one's change is over more than one period: no
+            // trend from it either
             for ((m, t), (k, kt)) in self
                 .m
                 .iter_mut()
@@ -600,16 +616,19 @@ impl Coupling {
             {
                 (*m, *t, *k, *kt) = (*t, 0.0, *kt, 0.0);
             }
+            self.trend_ok = false;
             return r;
         }
+        let ok = self.trend_ok;
         for ((m, t), (k, kt)) in self
             .m
             .iter()
             .zip(&mut self.m_trend)
             .zip(self.k.iter().zip(&mut self.k_trend))
         {
-            (*t, *kt) = (m - *t, k - *kt);
+            (*t, *kt) = if ok { (m - *t, k - *kt) } else { (0.0, 0.0) };
         }
+        self.trend_ok = true;
         Ok(())
     }
 
@@ -990,6 +1009,67 @@ mod tests {
         );
         assert!(error < 0.08, "{error}");
         assert!(lag.abs() < 0.001, "{lag}");
+    }
+
+    /// A load's rate is never taken across a jump: after a failed step
+    /// (its loads zeroed), a new current or a head put back, the next
+    /// loads are held for one step, and then followed again.
+    #[test]
+    fn no_load_rate_is_taken_across_a_failed_step_or_a_new_current() {
+        let n = 4;
+        let mut p = Plant::new(PlantConfig {
+            joints: n,
+            rate_loads: true,
+            ..PlantConfig::default()
+        })
+        .unwrap();
+        p.couple_servos(&vec![[0.02; 2]; n]).unwrap();
+        let (tau, friction) = (vec![[0.05, -0.03]; n], vec![[0.0; 2]; n]);
+        let mut out = vec![[Load::default(); 2]; n];
+        let moving = |k: usize| -> Vec<JointInput> {
+            (0..n)
+                .map(|j| {
+                    let ph = 0.02 * k as f64 * 6.0 + j as f64;
+                    JointInput {
+                        angle: [0.0, 0.3 * ph.sin()],
+                        rate: [0.0, 0.3 * 6.0 * 10.0 * ph.cos()],
+                    }
+                })
+                .collect()
+        };
+        let rates = |out: &[[Load; 2]]| {
+            out.iter()
+                .flatten()
+                .map(|l| l.rate.abs())
+                .fold(0.0, f64::max)
+        };
+        for k in 0..10 {
+            p.step(&moving(k)).unwrap();
+            p.coupled_loads(&tau, &friction, &mut out);
+        }
+        assert!(rates(&out) > 0.0, "a moving body's loads change");
+        let mut bad = moving(10);
+        bad[1].angle[1] = f64::NAN;
+        assert!(p.step(&bad).is_err());
+        p.coupled_loads(&tau, &friction, &mut out);
+        assert_eq!(rates(&out), 0.0, "the failed step's zero loads are held");
+        // the step after starts from the bad input and fails too
+        let mut k = 11;
+        while p.step(&moving(k)).is_err() {
+            p.coupled_loads(&tau, &friction, &mut out);
+            assert_eq!(rates(&out), 0.0);
+            k += 1;
+            assert!(k < 15, "the plant recovers");
+        }
+        p.coupled_loads(&tau, &friction, &mut out);
+        assert_eq!(rates(&out), 0.0, "no rate from the zero loads to these");
+        p.step(&moving(k + 1)).unwrap();
+        p.coupled_loads(&tau, &friction, &mut out);
+        assert!(rates(&out) > 0.0, "followed again");
+        p.set_current(Current::steady([0.2, 0.0, 0.0]).unwrap());
+        p.step(&moving(k + 2)).unwrap();
+        p.coupled_loads(&tau, &friction, &mut out);
+        assert_eq!(rates(&out), 0.0, "no rate across a new current");
     }
 
     #[test]

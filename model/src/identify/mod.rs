@@ -270,6 +270,11 @@ pub struct Estimate {
     pub fitted: bool,
     /// The coefficient it is most correlated with, and the correlation.
     pub correlated: Option<(Coefficient, f64)>,
+    /// Of one left at the prior for its correlation with another fitted
+    /// one (beyond [`MAX_CORRELATION`]): that one, and the correlation;
+    /// `None` for one left at the prior because the swims know less of
+    /// it than the prior does (and for every fitted one).
+    pub confounded: Option<(Coefficient, f64)>,
 }
 
 /// What a fit found.
@@ -399,6 +404,8 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
     let width = |c: Coefficient, at: &Body, se: f64| 2.0 * se / c.get(at).abs().max(c.floor());
     let mut kept: Vec<usize> = (0..opts.fit.len()).collect();
     let mut dropped: Vec<usize> = Vec::new();
+    let mut confounded: std::collections::BTreeMap<Coefficient, (Coefficient, f64)> =
+        std::collections::BTreeMap::new();
     while !kept.is_empty() {
         let se = lm::consider(
             &ctx,
@@ -433,10 +440,17 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
                 .filter(|&(_, _, r)| r > MAX_CORRELATION)
                 .max_by(|x, y| x.2.total_cmp(&y.2))
         });
-        let Some((a, b, _)) = pair else {
+        let Some((a, b, r)) = pair else {
             break;
         };
-        dropped.push(kept.remove(if excess[a] >= excess[b] { a } else { b }));
+        let (drop, other) = if excess[a] >= excess[b] {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let r = corr.as_ref().map_or(r, |c| c[(a, b)]);
+        confounded.insert(opts.fit[kept[drop]], (opts.fit[kept[other]], r));
+        dropped.push(kept.remove(drop));
     }
     let mut found: Found = opts
         .fit
@@ -512,6 +526,7 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
                 identified: identified.contains(&c),
                 fitted: free.contains(&c),
                 correlated,
+                confounded: confounded.get(&c).copied(),
             }
         })
         .collect();
