@@ -317,9 +317,13 @@ pub(super) fn correlations(
 ) -> Option<DMatrix<f64>> {
     let cov = covariance(p, r, &jac.select_columns(kept))?;
     let n = kept.len();
-    Some(DMatrix::from_fn(n, n, |i, j| {
-        cov[(i, j)] / (cov[(i, i)] * cov[(j, j)]).sqrt().max(1e-300)
-    }))
+    Some(DMatrix::from_fn(n, n, |i, j| correlation(&cov, i, j)))
+}
+
+/// The correlation of `cov`'s `i`th and `j`th coefficients (not finite
+/// where either has no variance).
+fn correlation(cov: &DMatrix<f64>, i: usize, j: usize) -> f64 {
+    cov[(i, j)] / (cov[(i, i)] * cov[(j, j)]).sqrt()
 }
 
 /// Standard errors (coefficient units) and strongest correlations, by
@@ -341,10 +345,7 @@ fn uncertainty(
         .map(|i| {
             (0..m)
                 .filter(|&j| j != i)
-                .map(|j| {
-                    let c = cov[(i, j)] / (cov[(i, i)] * cov[(j, j)]).sqrt();
-                    (free[j], c)
-                })
+                .map(|j| (free[j], correlation(&cov, i, j)))
                 .filter(|(_, c)| c.is_finite())
                 .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
         })

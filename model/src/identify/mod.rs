@@ -433,12 +433,12 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
         // two the swims cannot tell apart: the one its prior knows better
         // (relative to what the swims say) stays at it
         let corr = lm::correlations(&ctx, &first.residuals, &first.jacobian, &kept);
-        let pair = corr.as_ref().and_then(|c| {
+        let pair = corr.and_then(|c| {
             (0..kept.len())
                 .flat_map(|a| (a + 1..kept.len()).map(move |b| (a, b)))
-                .map(|(a, b)| (a, b, c[(a, b)].abs()))
-                .filter(|&(_, _, r)| r > MAX_CORRELATION)
-                .max_by(|x, y| x.2.total_cmp(&y.2))
+                .map(|(a, b)| (a, b, c[(a, b)]))
+                .filter(|&(_, _, r)| r.abs() > MAX_CORRELATION)
+                .max_by(|x, y| x.2.abs().total_cmp(&y.2.abs()))
         });
         let Some((a, b, r)) = pair else {
             break;
@@ -448,7 +448,6 @@ pub fn fit(prior: &Body, swims: &[Swim], opts: &FitOptions) -> Result<Fit, FitEr
         } else {
             (b, a)
         };
-        let r = corr.as_ref().map_or(r, |c| c[(a, b)]);
         confounded.insert(opts.fit[kept[drop]], (opts.fit[kept[other]], r));
         dropped.push(kept.remove(drop));
     }
