@@ -22,6 +22,43 @@ fn run(args: &[&str]) -> (bool, String, String) {
     )
 }
 
+/// [`run`] for a command that could block for ever (a named pipe for a
+/// file): a watchdog kills it after 60 s and fails the test, naming it. Not
+/// a speed bound: a command that works ends at once.
+fn run_watched(args: &[&str]) -> (bool, String, String) {
+    let mut child = anguilla()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    let read = |r: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut r) = r {
+                let _ = r.read_to_string(&mut s);
+            }
+            s
+        })
+    };
+    let out = read(child.stdout.take().map(|s| Box::new(s) as _));
+    let err = read(child.stderr.take().map(|s| Box::new(s) as _));
+    let end = Instant::now() + Duration::from_secs(60);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > end {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("anguilla {args:?} was still running after 60 s: blocked");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    (status.success(), out.join().unwrap(), err.join().unwrap())
+}
+
 #[test]
 fn config_default_round_trips_through_check() {
     let (ok, out, _) = run(&["config", "default"]);
@@ -105,6 +142,115 @@ fn the_robots_file_runs_nothing_until_its_bus_is_set() {
     assert!(!dir.join(".anguilla.toml.set-bus").exists());
     let (ok, out, err) = run(&["config", "check", file]);
     assert!(ok && out.contains("built-in simulated robot"), "{out}{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 45: `config set-bus`, run as root on a file in a directory another
+/// user can write, follows no symlink planted beside the file (the old
+/// `.NAME.set-bus` made root overwrite and chmod any file), keeps the
+/// file's owner, group and mode (a `root:anguilla 0640` file stayed
+/// readable to the daemon only so), and writes a symlinked configuration
+/// through to its target, leaving the symlink.
+#[test]
+fn set_bus_follows_no_planted_symlink_and_keeps_owner_group_and_mode() {
+    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _, symlink};
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-setbus-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("anguilla.toml");
+    let (ok, robot, _) = run(&["config", "default", "--robot"]);
+    assert!(ok);
+    let robot = robot.replace("/var/lib/anguilla/recordings", "");
+    std::fs::write(&path, &robot).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640)).unwrap();
+    // SAFETY: geteuid cannot fail.
+    let root = (unsafe { libc::geteuid() }) == 0;
+    if root {
+        std::os::unix::fs::chown(&path, Some(1234), Some(1234)).unwrap();
+    } else {
+        eprintln!("not root: the owner kept is the caller's (CI runs this as root: 1234:1234)");
+    }
+    let owner = std::fs::metadata(&path)
+        .map(|m| (m.uid(), m.gid()))
+        .unwrap();
+    let victim = dir.join("victim");
+    std::fs::write(&victim, "secret\n").unwrap();
+    std::fs::set_permissions(&victim, std::fs::Permissions::from_mode(0o600)).unwrap();
+    symlink(&victim, dir.join(".anguilla.toml.set-bus")).unwrap();
+    let file = path.to_str().unwrap();
+    let (ok, out, err) = run(&["config", "set-bus", "builtin", "--file", file]);
+    assert!(ok, "{err}");
+    assert!(out.contains("[bus] spec = \"builtin\""), "{out}");
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "secret\n");
+    let v = std::fs::metadata(&victim).unwrap();
+    assert_eq!(v.mode() & 0o7777, 0o600, "the victim's mode");
+    let m = std::fs::metadata(&path).unwrap();
+    assert_eq!(
+        (m.mode() & 0o7777, (m.uid(), m.gid())),
+        (0o640, owner),
+        "the configuration's mode, owner and group"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&path).unwrap(),
+        robot.replace("spec = \"unset\"", "spec = \"builtin\"")
+    );
+    // Nothing new beside it: the planted symlink, the victim, the file.
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, [".anguilla.toml.set-bus", "anguilla.toml", "victim"]);
+    // A symlinked configuration is written through; the symlink stays.
+    std::fs::create_dir(dir.join("robots")).unwrap();
+    let real = dir.join("robots").join("eel.toml");
+    std::fs::rename(&path, &real).unwrap();
+    symlink("robots/eel.toml", &path).unwrap();
+    let (ok, out, err) = run(&["config", "set-bus", "socketcan:can0", "--file", file]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("(the symlink's target ") && out.contains("robots/eel.toml"),
+        "{out}"
+    );
+    assert!(
+        std::fs::symlink_metadata(&path)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    let m = std::fs::metadata(&real).unwrap();
+    assert_eq!((m.mode() & 0o7777, (m.uid(), m.gid())), (0o640, owner));
+    assert!(
+        std::fs::read_to_string(&real)
+            .unwrap()
+            .contains("spec = \"socketcan:can0\""),
+    );
+    // A symlink to nothing and a named pipe are refused by name (reading
+    // a pipe would wait for a writer for ever).
+    let dangling = dir.join("dangling.toml");
+    symlink("nowhere.toml", &dangling).unwrap();
+    let fifo = dir.join("fifo.toml");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    for (f, why) in [
+        (&dangling, "nowhere.toml, which does not exist"),
+        (&fifo, "fifo.toml: not a regular file"),
+    ] {
+        let (ok, _, err) = run_watched(&[
+            "config",
+            "set-bus",
+            "builtin",
+            "--file",
+            f.to_str().unwrap(),
+        ]);
+        assert!(!ok && err.contains(why), "{err}");
+    }
+    assert!(!dir.join("nowhere.toml").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

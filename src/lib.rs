@@ -9,6 +9,7 @@ pub mod builtin_sim;
 pub mod daemon_cli;
 pub mod output;
 pub mod signals;
+pub mod user_file;
 
 /// The exit status of a command that returned `result`, its error on
 /// stderr: 0 done; 0 too when standard output was closed (`anguilla ... |

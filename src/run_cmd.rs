@@ -78,81 +78,46 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
 }
 
 /// `anguilla config set-bus`: `[bus] spec = SPEC` in `file`, every other
-/// line as it was. The spec must parse (or be `builtin`) and the new file
-/// must check; it replaces the old one at once (a file beside it, renamed
-/// over it, with the old one's mode), so a failure leaves the old file.
+/// byte as it was (comments and layout; the file is parsed as TOML, so a
+/// `[bus]` inside a multi-line string is left alone). The spec must parse
+/// (or be `builtin`) and the new file must check; it replaces the old one
+/// at once, keeping its mode, owner and group, through
+/// [`anguilla::user_file`] (a random name beside it, renamed over it), so a
+/// failure leaves the old file and nothing planted beside it is followed.
+/// A symlinked file is written through to the file it names.
 fn set_bus(file: &std::path::Path, spec: &str) -> anyhow::Result<()> {
     let shown = file.display();
     if spec != BUS_BUILTIN {
         anguilla_drivers::BusSpec::parse(spec)?;
     }
-    let text = std::fs::read_to_string(file).with_context(|| format!("reading {shown}"))?;
-    let new = with_bus_spec(&text, spec);
+    let (target, meta) = anguilla::user_file::resolve(file)?;
+    if meta.is_none() {
+        anyhow::bail!(
+            "reading {shown}: no such file (expected a configuration: `anguilla config default \
+             --robot > FILE` writes one)"
+        );
+    }
+    let text = std::fs::read_to_string(&target).with_context(|| format!("reading {shown}"))?;
+    let new = with_bus_spec(&text, spec).with_context(|| shown.to_string())?;
     Config::from_toml(&new, &shown.to_string())
         .and_then(|c| c.validate().map(|()| c))
         .with_context(|| format!("{shown} with [bus] spec = {spec:?}"))?;
-    let tmp = file.with_file_name(format!(
-        ".{}.set-bus",
-        file.file_name()
-            .map_or("config".into(), |n| n.to_string_lossy())
-    ));
-    let perms = std::fs::metadata(file)
-        .with_context(|| format!("reading {shown}"))?
-        .permissions();
-    std::fs::write(&tmp, &new)
-        .and_then(|()| std::fs::set_permissions(&tmp, perms))
-        .and_then(|()| std::fs::rename(&tmp, file))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            anyhow::Error::new(e).context(format!("writing {shown}"))
-        })?;
-    outln!("{shown}: [bus] spec = {spec:?}")
+    let written = anguilla::user_file::replace(file, new.as_bytes())?;
+    if written == file {
+        outln!("{shown}: [bus] spec = {spec:?}")
+    } else {
+        outln!(
+            "{shown} (the symlink's target {}): [bus] spec = {spec:?}",
+            written.display()
+        )
+    }
 }
 
-/// `text` (a TOML configuration) with its `[bus]` table's `spec` line set
-/// to `spec`: that line replaced, or one added under `[bus]`, or a `[bus]`
-/// table appended.
-fn with_bus_spec(text: &str, spec: &str) -> String {
-    let line = format!("spec = {}", toml::Value::String(spec.into()));
-    let mut out = Vec::new();
-    // Where the `[bus]` header is in `out` while its table has shown no
-    // `spec` yet; `done` once the spec line is written.
-    let (mut header, mut done) = (None, false);
-    for l in text.lines() {
-        let t = l.trim_start();
-        if t.starts_with('[') {
-            if let Some(at) = header.take() {
-                // The table ended without a spec: it goes at its top.
-                out.insert(at + 1, line.clone());
-                done = true;
-            }
-            if !done && t.starts_with("[bus]") {
-                header = Some(out.len());
-            }
-        } else if header.is_some()
-            && let Some(rest) = t.strip_prefix("spec")
-            && rest.trim_start().starts_with('=')
-        {
-            out.push(line.clone());
-            (header, done) = (None, true);
-            continue;
-        }
-        out.push(l.to_string());
-    }
-    if let Some(at) = header {
-        out.insert(at + 1, line.clone());
-        done = true;
-    }
-    if !done {
-        if out.last().is_some_and(|l| !l.is_empty()) {
-            out.push(String::new());
-        }
-        out.push("[bus]".into());
-        out.push(line);
-    }
-    let mut s = out.join("\n");
-    s.push('\n');
-    s
+/// `text` (a TOML configuration) with its `[bus]` table's `spec` set to
+/// `spec`: its value replaced (its comment kept), or the key added to
+/// `[bus]`, or a `[bus]` table appended.
+fn with_bus_spec(text: &str, spec: &str) -> anyhow::Result<String> {
+    anguilla::user_file::set_toml(text, "bus", &[("spec", spec.into())])
 }
 
 #[cfg(test)]
@@ -162,7 +127,7 @@ mod tests {
     #[test]
     fn set_bus_changes_the_spec_line_and_nothing_else() {
         let robot = anguilla_daemon::config::robot_toml();
-        let new = with_bus_spec(&robot, "socketcan:can0");
+        let new = with_bus_spec(&robot, "socketcan:can0").unwrap();
         let cfg = Config::from_toml(&new, "t").unwrap();
         assert_eq!(cfg.bus.spec, "socketcan:can0");
         let mut want = anguilla_daemon::config::robot_config();
@@ -177,7 +142,7 @@ mod tests {
         assert_eq!(diff, [("spec = \"unset\"", "spec = \"socketcan:can0\"")]);
         assert_eq!(robot.lines().count(), new.lines().count());
         // A quote or a backslash in a path stays a string.
-        let odd = with_bus_spec(&robot, "slcan:/dev/a\"b\\c@1000000");
+        let odd = with_bus_spec(&robot, "slcan:/dev/a\"b\\c@1000000").unwrap();
         assert_eq!(
             Config::from_toml(&odd, "t").unwrap().bus.spec,
             "slcan:/dev/a\"b\\c@1000000"
@@ -187,29 +152,95 @@ mod tests {
     #[test]
     fn set_bus_adds_a_missing_spec_or_table() {
         let no_table = "[realtime]\nlock-memory = true\n";
-        let c = Config::from_toml(&with_bus_spec(no_table, "socketcan:can1"), "t").unwrap();
+        let c =
+            Config::from_toml(&with_bus_spec(no_table, "socketcan:can1").unwrap(), "t").unwrap();
         assert_eq!(c.bus.spec, "socketcan:can1");
         assert!(c.realtime.lock_memory);
         let no_spec = "[bus]\nfd = true\n[realtime]\ncpu = 1\n";
-        let c = Config::from_toml(&with_bus_spec(no_spec, "socketcan:can1"), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(no_spec, "socketcan:can1").unwrap(), "t").unwrap();
         assert_eq!(
             (c.bus.spec.as_str(), c.bus.fd, c.realtime.cpu),
             ("socketcan:can1", true, 1)
         );
         // A header with a comment after it is the bus's too.
         let commented = "[realtime]\ncpu = 1\n[bus] # the robot's\nfd = true\n";
-        let new = with_bus_spec(commented, "socketcan:can1");
+        let new = with_bus_spec(commented, "socketcan:can1").unwrap();
         assert!(
-            new.contains("[bus] # the robot's\nspec = \"socketcan:can1\"\nfd = true"),
+            new.contains("[bus] # the robot's\nfd = true\nspec = \"socketcan:can1\"\n"),
             "{new}"
         );
         let last = "[bus]\nfd = true\n";
-        let c = Config::from_toml(&with_bus_spec(last, "socketcan:can1"), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(last, "socketcan:can1").unwrap(), "t").unwrap();
         assert_eq!(c.bus.spec, "socketcan:can1");
         // `spec` of another table is not the bus's.
         let other = "[link]\n\n[bus]\nspec = \"mem:x\"\n";
-        let c = Config::from_toml(&with_bus_spec(other, "socketcan:can1"), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(other, "socketcan:can1").unwrap(), "t").unwrap();
         assert_eq!(c.bus.spec, "socketcan:can1");
+    }
+
+    /// The text of `key` in `table` of the TOML `text`.
+    fn string_at(text: &str, table: &str, key: &str) -> String {
+        let t: toml::Table = toml::from_str(text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        t[table][key].as_str().unwrap().to_string()
+    }
+
+    /// Issue 45: headers and keys inside multi-line strings, comments,
+    /// quoted and spaced headers, a multi-line spec, an inline table and
+    /// dotted keys are what TOML says they are, not what a line looks like.
+    #[test]
+    fn set_bus_reads_the_file_as_toml_not_as_lines() {
+        let set = |text: &str| with_bus_spec(text, "socketcan:can1").unwrap();
+        // `[bus]` and `spec =` inside another table's multi-line strings
+        // (basic and literal) are that string's text.
+        for quote in ["\"\"\"", "'''"] {
+            let text = format!(
+                "[link]\nnote = {quote}\n[bus]\nspec = \"mem:x\"\n{quote}\n\n[bus]\nspec = \"unset\"\n"
+            );
+            let new = set(&text);
+            assert_eq!(
+                string_at(&new, "link", "note"),
+                "[bus]\nspec = \"mem:x\"\n",
+                "{new}"
+            );
+            assert_eq!(string_at(&new, "bus", "spec"), "socketcan:can1", "{new}");
+            assert_eq!(new, text.replace("\"unset\"", "\"socketcan:can1\""));
+        }
+        // ... and inside the bus's own table, before its spec.
+        let text = "[bus]\nnote = '''\nspec = \"mem:x\"\n'''\nspec = \"unset\"\n";
+        let new = set(text);
+        assert_eq!(string_at(&new, "bus", "note"), "spec = \"mem:x\"\n");
+        assert_eq!(string_at(&new, "bus", "spec"), "socketcan:can1");
+        // A spec written as a multi-line string is replaced whole.
+        let new = set("[bus]\nspec = \"\"\"\nunset\"\"\"\nfd = true\n");
+        assert_eq!(new, "[bus]\nspec = \"socketcan:can1\"\nfd = true\n");
+        // Comments are neither headers nor keys, and a value's comment stays.
+        let text =
+            "# [bus]\n# spec = \"x\"\n[bus]\n#spec = \"old\"\nspec = \"unset\" # the robot's\n";
+        assert_eq!(set(text), text.replace("\"unset\"", "\"socketcan:can1\""));
+        // Spaced and quoted headers, an inline table, dotted keys.
+        for text in [
+            "[ bus ]\nspec = \"unset\"\n",
+            "[\"bus\"]\nspec = \"unset\"\n",
+            "bus = { spec = \"unset\", fd = true }\n",
+            "bus.spec = \"unset\"\n",
+        ] {
+            assert_eq!(set(text), text.replace("\"unset\"", "\"socketcan:can1\""));
+        }
+        // `bus` that is not a table, and a file that is not TOML, are named.
+        for (text, why) in [
+            (
+                "[[bus]]\nspec = \"x\"\n",
+                "its `bus` is not a table but array of tables",
+            ),
+            ("bus = 3\n", "its `bus` is not a table but integer"),
+            ("[bus\nspec = 1\n", "not a TOML file"),
+            ("x = '''\n[bus]\n", "not a TOML file"),
+        ] {
+            let e = with_bus_spec(text, "socketcan:can1")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(why), "{text:?}: {e}");
+        }
     }
 }
 
