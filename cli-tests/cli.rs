@@ -254,6 +254,86 @@ fn set_bus_follows_no_planted_symlink_and_keeps_owner_group_and_mode() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A session.mcap of 10 samples of one joint with 3 unreadable ones.
+fn damaged_session(path: &std::path::Path) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .create(file)
+        .unwrap();
+    let ch = w
+        .add_channel(0, "/anguilla/joints", "json", &Default::default())
+        .unwrap();
+    for i in 0..13u64 {
+        let data = if i % 4 == 3 {
+            "{\"measured_pitch\": [0.0]}".to_string()
+        } else {
+            format!(
+                "{{\"measured_pitch\": [0.0], \"measured_yaw\": [{}], \
+                 \"measured_pitch_velocity\": [0.0], \"measured_yaw_velocity\": [0.1], \
+                 \"measured_pitch_torque\": [0.0], \"measured_yaw_torque\": [0.01]}}",
+                0.01 * i as f64
+            )
+        };
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: i * 10_000_000,
+            publish_time: i * 10_000_000,
+        };
+        w.write_to_known_channel(&header, data.as_bytes()).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+/// Issue 45: `calibrate` refuses a named pipe at once (it read it whole,
+/// waiting for a writer for ever), names a file over --max-size, and says
+/// how many samples it could not read.
+#[test]
+fn calibrate_refuses_a_named_pipe_and_counts_what_it_drops() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-cal-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let fifo = dir.join("pipe.mcap");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let (ok, _, err) = run_watched(&["calibrate", fifo.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(
+        err.contains(
+            "pipe.mcap: a named pipe, not a regular file (expected a recorded session.mcap)"
+        ),
+        "{err}"
+    );
+    // The same for a tracking file and a prior configuration.
+    let session = dir.join("session.mcap");
+    damaged_session(&session);
+    let s = session.to_str().unwrap();
+    let (ok, _, err) = run_watched(&["calibrate", s, "--tracking", fifo.to_str().unwrap()]);
+    assert!(!ok && err.contains("pipe.mcap: a named pipe"), "{err}");
+    let (ok, _, err) = run_watched(&["calibrate", s, "--config", fifo.to_str().unwrap()]);
+    assert!(!ok && err.contains("pipe.mcap: a named pipe"), "{err}");
+    let (ok, _, err) = run(&["calibrate", s, "--max-size", "0"]);
+    assert!(
+        !ok && err.contains("bytes, more than the 0 read at most (--max-size"),
+        "{err}"
+    );
+    // Three unreadable samples are counted aloud (the fit itself may
+    // refuse so short a swim: the count is printed before it).
+    let (_, out, err) = run(&["calibrate", s]);
+    assert!(
+        out.contains("not taken: 3 unreadable joint samples (/anguilla/joints)"),
+        "{out}{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn anguillad_is_the_daemon_alone() {
     let o = anguillad().arg("--help").output().unwrap();

@@ -48,20 +48,46 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Write the fitted coefficients into this configuration file's
-    /// [model] (created if missing; its other keys are kept, its comments
-    /// are not).
+    /// [model] (created if missing; its other keys, comments and layout
+    /// are kept, and its mode, owner and group; a symlink is written
+    /// through to its target).
     #[arg(long, value_name = "FILE")]
     write: Option<PathBuf>,
+    /// The largest session (or tracking) file read, in MiB: a bigger one
+    /// is refused by name. Sessions are streamed, not read whole.
+    #[arg(long, value_name = "MIB", default_value_t = swim::MAX_SESSION_BYTES >> 20)]
+    max_size: u64,
 }
 
-fn read_all(paths: &[PathBuf], tracking: &[PathBuf]) -> anyhow::Result<Vec<ReadSwim>> {
+/// The largest configuration read as the prior (bytes).
+const MAX_CONFIG_BYTES: u64 = 16 << 20;
+
+/// Reads the regular file `path` of at most `max` bytes as text (a named
+/// pipe or a device is refused at once, [`swim::open_regular`]).
+fn read_text(path: &Path, max: u64, what: &str) -> anyhow::Result<String> {
+    use std::io::Read as _;
+    let (f, len) = swim::open_regular(path, max, what).map_err(anyhow::Error::msg)?;
+    let mut text = String::with_capacity(len as usize);
+    f.take(max)
+        .read_to_string(&mut text)
+        .with_context(|| format!("reading {}", path.display()))?;
+    Ok(text)
+}
+
+/// The configuration `path` (a regular file).
+fn load_config(path: &Path) -> anyhow::Result<Config> {
+    let text = read_text(path, MAX_CONFIG_BYTES, "a configuration file")?;
+    Ok(Config::from_toml(&text, &path.display().to_string())?)
+}
+
+fn read_all(paths: &[PathBuf], tracking: &[PathBuf], max: u64) -> anyhow::Result<Vec<ReadSwim>> {
     paths
         .iter()
         .enumerate()
         .map(|(i, p)| {
             let track = match tracking.get(i) {
                 Some(f) => {
-                    let text = std::fs::read_to_string(f)
+                    let text = read_text(f, max, "a tracking CSV file")
                         .with_context(|| format!("--tracking {}", f.display()))?;
                     Some(
                         swim::parse_tracking(&text, &f.display().to_string())
@@ -70,14 +96,14 @@ fn read_all(paths: &[PathBuf], tracking: &[PathBuf]) -> anyhow::Result<Vec<ReadS
                 }
                 None => None,
             };
-            swim::read(p, track).map_err(anyhow::Error::msg)
+            swim::read_limited(p, track, max).map_err(anyhow::Error::msg)
         })
         .collect()
 }
 
 fn prior_config(args: &CalibrateArgs) -> anyhow::Result<(Config, String)> {
     if let Some(c) = &args.config {
-        return Ok((Config::load(c)?, c.display().to_string()));
+        return Ok((load_config(c)?, c.display().to_string()));
     }
     let first = &args.sessions[0];
     let dir = if first.is_dir() {
@@ -87,7 +113,7 @@ fn prior_config(args: &CalibrateArgs) -> anyhow::Result<(Config, String)> {
     };
     let recorded = dir.join("config.toml");
     if recorded.exists() {
-        Ok((Config::load(&recorded)?, recorded.display().to_string()))
+        Ok((load_config(&recorded)?, recorded.display().to_string()))
     } else {
         Ok((Config::default(), "the default configuration".into()))
     }
@@ -143,8 +169,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     }
     let (cfg, prior_from) = prior_config(&args)?;
     let prior = cfg.model.body();
-    let read = read_all(&args.sessions, &args.tracking)?;
-    let holdout = read_all(&args.holdout, &[])?;
+    let max = args.max_size.saturating_mul(1 << 20);
+    let read = read_all(&args.sessions, &args.tracking, max)?;
+    let holdout = read_all(&args.holdout, &[], max)?;
     let mut o = String::new();
     for r in read.iter().chain(&holdout) {
         let _ = writeln!(
@@ -161,6 +188,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                 String::new()
             }
         );
+        if r.dropped.any() {
+            let _ = writeln!(o, "  not taken: {}", r.dropped);
+        }
         if let [_, Some(step)] = identify::steps(&r.swim)
             && step > identify::COARSE_RATE
         {
@@ -172,6 +202,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             );
         }
     }
+    // what was read, before the fit (which takes minutes)
+    crate::output::out!("{o}")?;
+    o.clear();
     let swims: Vec<_> = read.into_iter().map(|r| r.swim).collect();
     let opts = FitOptions {
         fit,
@@ -281,50 +314,105 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.write {
-        write_model(
+        let written = write_model(
             path,
             &kept
                 .iter()
                 .map(|e| (e.coefficient, e.value))
                 .collect::<Vec<_>>(),
         )?;
-        let _ = writeln!(
-            o,
-            "\nwrote {} coefficient(s) into {}",
-            kept.len(),
-            path.display()
-        );
+        let _ = writeln!(o, "\nwrote {} coefficient(s) into {written}", kept.len());
     }
-    print!("{o}");
-    Ok(())
+    crate::output::out!("{o}")
 }
 
-/// Sets `values` in `path`'s `[model]` (a new file if missing), checking
-/// the whole result before writing it.
-fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<()> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
-        Err(e) => return Err(e).with_context(|| format!("--write {}", path.display())),
+/// Sets `values` in `path`'s `[model]` (a new file if missing), every
+/// other byte kept, checking the whole result before it replaces the file
+/// ([`anguilla::user_file`]: mode, owner and group kept; a symlink written
+/// through). Returns what was written, for the report.
+fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<String> {
+    let shown = path.display();
+    let (target, meta) = anguilla::user_file::resolve(path).context("--write")?;
+    let text = match meta {
+        Some(_) => read_text(&target, MAX_CONFIG_BYTES, "a configuration file")
+            .with_context(|| format!("--write {shown}"))?,
+        None => String::new(),
     };
-    let mut table: toml::Table = toml::from_str(&text)
-        .with_context(|| format!("--write {}: not a TOML file", path.display()))?;
-    let model = table
-        .entry("model")
-        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-    let Some(model) = model.as_table_mut() else {
-        bail!("--write {}: its `model` is not a table", path.display());
-    };
-    for (c, v) in values {
-        model.insert(c.key().to_string(), toml::Value::Float(*v));
-    }
-    let out = toml::to_string(&table)?;
-    Config::from_toml(&out, &path.display().to_string()).with_context(|| {
-        format!(
-            "--write {}: the result would not be a valid configuration",
-            path.display()
-        )
+    let entries: Vec<_> = values
+        .iter()
+        .map(|(c, v)| (c.key(), toml_edit::Value::from(*v)))
+        .collect();
+    let out = anguilla::user_file::set_toml(&text, "model", &entries)
+        .with_context(|| format!("--write {shown}"))?;
+    Config::from_toml(&out, &shown.to_string()).with_context(|| {
+        format!("--write {shown}: the result would not be a valid configuration")
     })?;
-    std::fs::write(path, out).with_context(|| format!("--write {}", path.display()))?;
-    Ok(())
+    let written = anguilla::user_file::replace(path, out.as_bytes()).context("--write")?;
+    Ok(if written == path {
+        shown.to_string()
+    } else {
+        format!("{shown} (the symlink's target {})", written.display())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _, symlink};
+
+    /// Issue 45: `--write` wrote in place (a reader saw half a file),
+    /// through any symlink, dropping comments. Now a planted symlink is not
+    /// followed, the file's comments, mode, owner and group stay, and a
+    /// symlinked configuration is written through.
+    #[test]
+    fn write_keeps_comments_owner_and_mode_and_follows_no_planted_symlink() {
+        let d = std::env::temp_dir().join(format!("anguilla-cal-write-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(d.join("robots")).unwrap();
+        let real = d.join("robots").join("eel.toml");
+        let text = "# the eel's\n[model]\n# fitted 2026-11\nc2 = 1.98 # from the tank\n";
+        std::fs::write(&real, text).unwrap();
+        std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o640)).unwrap();
+        // SAFETY: geteuid cannot fail.
+        if (unsafe { libc::geteuid() }) == 0 {
+            std::os::unix::fs::chown(&real, Some(1234), Some(1234)).unwrap();
+        }
+        let owner = std::fs::metadata(&real)
+            .map(|m| (m.uid(), m.gid()))
+            .unwrap();
+        let link = d.join("anguilla.toml");
+        symlink("robots/eel.toml", &link).unwrap();
+        let victim = d.join("victim");
+        std::fs::write(&victim, "secret\n").unwrap();
+        for planted in [".eel.toml.tmp", "eel.toml.tmp", ".eel.toml.write"] {
+            symlink(&victim, d.join("robots").join(planted)).unwrap();
+        }
+        let shown = write_model(&link, &[(Coefficient::C2, 2.5), (Coefficient::C3, 0.4)]).unwrap();
+        assert!(shown.contains("the symlink's target"), "{shown}");
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "secret\n");
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(
+            std::fs::read_to_string(&real).unwrap(),
+            "# the eel's\n[model]\n# fitted 2026-11\nc2 = 2.5 # from the tank\nc3 = 0.4\n"
+        );
+        let m = std::fs::metadata(&real).unwrap();
+        assert_eq!((m.mode() & 0o7777, (m.uid(), m.gid())), (0o640, owner));
+        // A result that would not check leaves the file as it was.
+        std::fs::write(&real, "[model]\nc2 = 1.0\nbogus = 1\n").unwrap();
+        let e = format!(
+            "{:#}",
+            write_model(&link, &[(Coefficient::C2, 2.5)]).unwrap_err()
+        );
+        assert!(e.contains("would not be a valid configuration"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(&real).unwrap(),
+            "[model]\nc2 = 1.0\nbogus = 1\n"
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }
