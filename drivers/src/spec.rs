@@ -38,9 +38,56 @@ pub enum BusSpec {
 
 fn err(spec: &str, reason: impl Into<String>) -> SpecError {
     SpecError {
-        spec: spec.to_owned(),
+        // shown as `\u{1b}`, never sent raw to the operator's terminal
+        spec: spec
+            .chars()
+            .flat_map(|c| {
+                let e: Vec<char> = if junk(c) {
+                    c.escape_unicode().collect()
+                } else {
+                    vec![c]
+                };
+                e
+            })
+            .collect(),
         reason: reason.into(),
     }
+}
+
+/// A character no device path or interface name has: a control character
+/// (C0, DEL, C1: a newline, an escape sequence, a NUL) or an invisible
+/// format character (bidirectional overrides, zero-width ones, a BOM) that
+/// makes a name read as another.
+fn junk(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200B}'..='\u{200F}' | '\u{202A}'..='\u{202E}' | '\u{2060}'..='\u{206F}' | '\u{FEFF}')
+}
+
+/// Refuses `name` (the `what` of `spec`) with a junk character
+/// ([`junk`]) or a space at either end, naming the character's code and
+/// byte position in `name`.
+fn printable(spec: &str, what: &str, name: &str) -> Result<(), SpecError> {
+    if let Some((i, c)) = name.char_indices().find(|&(_, c)| junk(c)) {
+        return Err(err(
+            spec,
+            format!(
+                "{what} has {} U+{:04X} at byte {i} (expected printable characters only)",
+                if c.is_control() {
+                    "the control character"
+                } else {
+                    "the invisible character"
+                },
+                c as u32
+            ),
+        ));
+    }
+    if name.starts_with(char::is_whitespace) || name.ends_with(char::is_whitespace) {
+        return Err(err(
+            spec,
+            format!("{what} '{name}' starts or ends with a space (expected none)"),
+        ));
+    }
+    Ok(())
 }
 
 fn parse_bool(spec: &str, key: &str, v: &str) -> Result<bool, SpecError> {
@@ -95,6 +142,7 @@ impl BusSpec {
         match scheme {
             "socketcan" | "can" => {
                 let (iface, opts) = split_options(spec, body)?;
+                printable(spec, "interface name", iface)?;
                 if iface.is_empty() || iface.len() > 15 || iface.contains('/') {
                     return Err(err(
                         spec,
@@ -120,6 +168,7 @@ impl BusSpec {
                 if path.is_empty() {
                     return Err(err(spec, "empty device path"));
                 }
+                printable(spec, "device path", path)?;
                 let bitrate = rate
                     .parse::<u32>()
                     .ok()
@@ -228,9 +277,49 @@ mod tests {
             ("mem:x?speed=3", "unknown option 'speed'"),
             ("socketcan:vcan0?fd=maybe", "fd=maybe"),
             ("socketcan:", "interface name"),
+            (
+                "slcan:/dev/tty\nACM0@1000000",
+                "device path has the control character U+000A at byte 8",
+            ),
+            (
+                "slcan:/dev/ttyACM0\u{1b}[2J@1000000",
+                "device path has the control character U+001B at byte 12",
+            ),
+            (
+                "slcan:/dev/tty\u{0}@1000000",
+                "device path has the control character U+0000 at byte 8",
+            ),
+            (
+                "slcan:/dev/tty\u{7f}@1000000",
+                "device path has the control character U+007F at byte 8",
+            ),
+            (
+                "slcan:/dev/ttyUSB\u{202e}0@1000000",
+                "device path has the invisible character U+202E at byte 11",
+            ),
+            (
+                "slcan: /dev/ttyACM0@1000000",
+                "device path ' /dev/ttyACM0' starts or ends with a space",
+            ),
+            (
+                "socketcan:can\t0",
+                "interface name has the control character U+0009 at byte 3",
+            ),
         ] {
             let e = BusSpec::parse(spec).unwrap_err().to_string();
-            assert!(e.contains(spec), "{e}");
+            // the spec shown, its junk escaped: nothing raw reaches a terminal
+            let shown: String = spec
+                .chars()
+                .map(|c| {
+                    if junk(c) {
+                        c.escape_unicode().to_string()
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect();
+            assert!(e.contains(&shown), "{e}");
+            assert!(!e.chars().any(junk), "{e:?}");
             assert!(e.contains(needle), "{e}");
             assert!(e.contains("slcan:PATH@BITRATE"), "{e}");
         }
