@@ -334,6 +334,37 @@ fn calibrate_refuses_a_named_pipe_and_counts_what_it_drops() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Issue 45: `dump --log` never replaces a file (a recording, or anything
+/// a symlink planted at that name points to).
+#[test]
+fn dump_log_never_replaces_a_file() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-dumplog-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let old = dir.join("old.log");
+    std::fs::write(&old, "recorded\n").unwrap();
+    let link = dir.join("link.log");
+    std::os::unix::fs::symlink(&old, &link).unwrap();
+    for f in [&old, &link] {
+        let bus = format!("mem:cli-dumplog-{}", std::process::id());
+        let (ok, _, err) = run_watched(&[
+            "dump",
+            "--bus",
+            &bus,
+            "--log",
+            f.to_str().unwrap(),
+            "--count",
+            "1",
+        ]);
+        assert!(
+            !ok && err.contains("already exists (a recording is never replaced"),
+            "{err}"
+        );
+    }
+    assert_eq!(std::fs::read_to_string(&old).unwrap(), "recorded\n");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn anguillad_is_the_daemon_alone() {
     let o = anguillad().arg("--help").output().unwrap();

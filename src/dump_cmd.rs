@@ -23,7 +23,8 @@ pub struct DumpArgs {
     /// input): can-utils' and python-can's forms, error frames included.
     #[arg(long, value_name = "LOG", conflicts_with_all = ["bus", "log", "duration"])]
     file: Option<PathBuf>,
-    /// Also write every frame to this file (`candump -l` format).
+    /// Also write every frame to this file (`candump -l` format), a new
+    /// one: an existing file is never replaced (a recording).
     #[arg(long, value_name = "FILE")]
     log: Option<PathBuf>,
     /// Decode as CAN FD (default: classic CAN).
@@ -168,7 +169,7 @@ pub fn run(args: DumpArgs) -> anyhow::Result<()> {
     let mut bus = anguilla_drivers::open(&spec).with_context(|| format!("opening bus '{spec}'"))?;
     let mut log = match &args.log {
         Some(p) => Some(Writer::new(std::io::BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+            anguilla::user_file::create_new(p)?,
         ))),
         None => None,
     };

@@ -63,7 +63,7 @@ fn write_pages(
     let path = dir.join(man.get_filename());
     let mut page = Vec::new();
     man.render(&mut page)?;
-    std::fs::write(&path, page).with_context(|| format!("writing {}", path.display()))?;
+    anguilla::user_file::replace(&path, &page)?;
     written.push(path);
     for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
         write_pages(sub, source, dir, written)?;

@@ -306,7 +306,7 @@ fn run_dbc(a: DbcArgs) -> anyhow::Result<()> {
     };
     match a.out {
         Some(path) => {
-            std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?
+            anguilla::user_file::replace(&path, text.as_bytes())?;
         }
         None => crate::output::write_fmt(format_args!("{text}"))?,
     }

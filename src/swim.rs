@@ -91,8 +91,8 @@ pub fn run(args: &SwimArgs) -> Result<()> {
     let n = model.joints();
     let mut csv = match &args.csv {
         Some(p) => {
-            let f =
-                std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
+            // a file beside it, renamed over the path when complete
+            let f = anguilla::user_file::Replacement::new(p)?;
             let mut w = std::io::BufWriter::new(f);
             let mut h = String::from("t,x,y,z,qw,qx,qy,qz,wx,wy,wz,vx,vy,vz,V1,yaw_deg");
             for pre in ["C2", "C3", "pitch", "yaw"] {
@@ -180,8 +180,11 @@ pub fn run(args: &SwimArgs) -> Result<()> {
     if let Some(e) = io_err {
         return Err(e).context("writing the CSV file");
     }
-    if let Some(mut w) = csv {
-        w.flush().context("writing the CSV file")?;
+    if let Some(w) = csv {
+        w.into_inner()
+            .map_err(|e| e.into_error())
+            .context("writing the CSV file")?
+            .commit()?;
     }
     if let Some(p) = &args.plot {
         plot(p, g.name, &shapes, &vel).with_context(|| format!("writing plot {}", p.display()))?;
