@@ -365,6 +365,96 @@ fn dump_log_never_replaces_a_file() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Issue 45: `export` (MCAP, rosbag2) and `export --repair` replace their
+/// output through a new file renamed over it: its mode, owner and group
+/// kept, nothing left beside it, and a repair in place never a half file.
+#[test]
+fn export_and_repair_replace_their_output_keeping_its_owner_and_mode() {
+    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
+    let base = std::env::temp_dir().join(format!("anguilla-cli-export-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let cfg = base.with_extension("toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/export-{}\"\n[recording]\ndir = {:?}\ncompression = \"none\"\n",
+            std::process::id(),
+            base.display().to_string()
+        ),
+    )
+    .unwrap();
+    let (ok, _, err) = run(&[
+        "run",
+        "--quiet",
+        "--duration",
+        "1",
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let session = std::fs::read_dir(&base)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let s = session.to_str().unwrap();
+    // SAFETY: geteuid cannot fail.
+    let root = (unsafe { libc::geteuid() }) == 0;
+    let names = || {
+        let mut v: Vec<_> = std::fs::read_dir(&session)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        v.sort();
+        v
+    };
+    let before = names();
+    for (args, file) in [
+        (vec!["export", s, "--mcap", "out.mcap"], "out.mcap"),
+        (
+            vec!["export", s, "--ros2", "--mcap", "out.ros2.mcap"],
+            "out.ros2.mcap",
+        ),
+        (vec!["export", s, "--repair"], "session.mcap"),
+    ] {
+        let out = session.join(file);
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| {
+                if *a == file {
+                    out.display().to_string()
+                } else {
+                    a.to_string()
+                }
+            })
+            .collect();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        // once to make it, once to replace it
+        for _ in 0..2 {
+            let (ok, o, err) = run(&args);
+            assert!(ok, "{args:?}: {o}{err}");
+            std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o640)).unwrap();
+            if root {
+                std::os::unix::fs::chown(&out, Some(1234), Some(1234)).unwrap();
+            }
+        }
+        let (ok, o, err) = run(&args);
+        assert!(ok, "{args:?}: {o}{err}");
+        let m = std::fs::metadata(&out).unwrap();
+        assert_eq!(m.mode() & 0o7777, 0o640, "{file}");
+        if root {
+            assert_eq!((m.uid(), m.gid()), (1234, 1234), "{file}");
+        }
+    }
+    let mut want = before.clone();
+    want.extend(["out.mcap".to_string(), "out.ros2.mcap".to_string()]);
+    want.sort();
+    assert_eq!(names(), want, "nothing else left in the session");
+    let _ = std::fs::remove_dir_all(&base);
+    let _ = std::fs::remove_file(&cfg);
+}
+
 #[test]
 fn anguillad_is_the_daemon_alone() {
     let o = anguillad().arg("--help").output().unwrap();

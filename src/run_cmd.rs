@@ -332,10 +332,19 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
         Some(p) if !p.as_os_str().is_empty() => p.clone(),
         _ => args.dir.join("session.mcap"),
     };
+    // the session's own errors before any file is made
+    anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
+        .with_context(|| format!("exporting {}", args.dir.display()))?;
     let (mut report, finish) = progress("exporting");
-    let done = anguilla_daemon::mcap_log::export_with(&args.dir, &out, &mut report);
+    let replacement = anguilla::user_file::Replacement::new(&out)?;
+    let done = anguilla_daemon::mcap_log::export_into(
+        &args.dir,
+        replacement.try_clone_file()?,
+        &mut report,
+    );
     finish();
     let done = done.with_context(|| format!("exporting {}", args.dir.display()))?;
+    replacement.commit()?;
     outln!(
         "{}: {} snapshots{}",
         out.display(),
@@ -384,14 +393,16 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
             limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
         },
     };
-    let mut bag =
-        bag::Bag::create(&out, settings).with_context(|| format!("creating {}", out.display()))?;
+    let replacement = anguilla::user_file::Replacement::new(&out)?;
+    let mut bag = bag::Bag::from_file(replacement.try_clone_file()?, settings)
+        .with_context(|| format!("creating {}", out.display()))?;
     let (_, n, partial) =
         anguilla_daemon::mcap_log::for_each_state(&args.dir, |_, _, s| bag.write(s))
             .with_context(|| format!("exporting {}", args.dir.display()))?;
     let counts = bag
         .finish()
         .with_context(|| format!("writing {}", out.display()))?;
+    replacement.commit()?;
     outln!(
         "{}: rosbag2 MCAP from {n} snapshots: {}{}",
         out.display(),
@@ -414,23 +425,21 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
 }
 
 /// `export --repair`: DIR/session.mcap made complete, in place (through a
-/// temporary file renamed over it), or written to `--mcap FILE`.
+/// new file beside it renamed over it, [`anguilla::user_file`]), or written
+/// to `--mcap FILE` (replaced the same way).
 fn repair(args: ExportArgs) -> anyhow::Result<()> {
     let input = args.dir.join("session.mcap");
+    // in place: a new file beside it (a random name, made exclusively),
+    // renamed over it once complete
     let out = match &args.mcap {
         Some(p) if !p.as_os_str().is_empty() => p.clone(),
-        _ => args.dir.join("session.mcap.repairing"),
+        _ => input.clone(),
     };
-    let done = anguilla_daemon::mcap_log::repair(&input, &out)
+    let replacement = anguilla::user_file::Replacement::new(&out)?;
+    let done = anguilla_daemon::mcap_log::repair_into(&input, replacement.try_clone_file()?)
         .with_context(|| format!("repairing {}", input.display()))?;
-    let written = match &args.mcap {
-        Some(p) if !p.as_os_str().is_empty() => out,
-        _ => {
-            std::fs::rename(&out, &input)
-                .with_context(|| format!("replacing {} by {}", input.display(), out.display()))?;
-            input
-        }
-    };
+    replacement.commit()?;
+    let written = out;
     outln!(
         "{}: {} messages on {} channels, with summary and index{}",
         written.display(),

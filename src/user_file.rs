@@ -232,6 +232,16 @@ impl Replacement {
             .with_context(|| format!("{shown}: 16 random names in {} taken", dir_path.display()))
     }
 
+    /// Another descriptor of the new file, for a writer that wants a
+    /// [`File`] of its own (an MCAP writer): what it writes is committed
+    /// with this replacement, once it has flushed and dropped it.
+    pub fn try_clone_file(&self) -> anyhow::Result<File> {
+        match &self.file {
+            Some(f) => Ok(f.try_clone()?),
+            None => bail!("{}: already committed", self.shown.display()),
+        }
+    }
+
     /// The file replaced: the path given after its symlinks.
     pub fn target(&self) -> &Path {
         &self.target

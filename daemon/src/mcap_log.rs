@@ -346,7 +346,13 @@ pub struct McapLog {
 impl McapLog {
     /// Creates `path` for a robot configured by `cfg`.
     pub fn create(path: &Path, cfg: &Config) -> io::Result<Self> {
-        let file = BufWriter::new(File::create(path)?);
+        Self::from_file(File::create(path)?, cfg)
+    }
+
+    /// Writes into `file` (opened by the caller: a tool's output made
+    /// exclusively beside its target, `anguilla::user_file`).
+    pub fn from_file(file: File, cfg: &Config) -> io::Result<Self> {
+        let file = BufWriter::new(file);
         let compression = match cfg.recording.compression.as_str() {
             "zstd" => Some(mcap::Compression::Zstd),
             _ => None,
@@ -446,7 +452,8 @@ impl McapLog {
     /// Writes the summary and the index, and closes the file.
     pub fn finish(mut self) -> io::Result<()> {
         self.w.finish().map_err(err)?;
-        Ok(())
+        // the buffer's last bytes, whose error a drop would lose
+        io::Write::flush(&mut self.w.into_inner())
     }
 }
 
@@ -474,10 +481,20 @@ pub fn export_with(
     out: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> io::Result<Exported> {
+    let file = File::create(out)
+        .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
+    export_into(dir, file, progress)
+}
+
+/// [`export_with`] into `file`, opened by the caller.
+pub fn export_into(
+    dir: &Path,
+    file: File,
+    progress: &mut dyn FnMut(u64, u64),
+) -> io::Result<Exported> {
     let cfg = Config::load(&dir.join("config.toml"))
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
-    let mut log = McapLog::create(out, &cfg)
-        .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
+    let mut log = McapLog::from_file(file, &cfg)?;
     let (_, n, partial) = for_each_state(dir, |i, total, s| {
         if i.is_multiple_of(crate::replay::PROGRESS_EVERY) {
             progress(i, total);
@@ -550,6 +567,13 @@ pub struct Repaired {
 /// and index. Any channel is kept, `/sim/truth` included (which an
 /// [`export`] from `state.bin` cannot give back).
 pub fn repair(input: &Path, out: &Path) -> io::Result<Repaired> {
+    let file = File::create(out)
+        .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
+    repair_into(input, file)
+}
+
+/// [`repair`] into `out`, opened by the caller.
+pub fn repair_into(input: &Path, out: File) -> io::Result<Repaired> {
     let named =
         |what: &Path, e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", what.display()));
     let bytes = std::fs::read(input).map_err(|e| named(input, e))?;
@@ -559,7 +583,7 @@ pub fn repair(input: &Path, out: &Path) -> io::Result<Repaired> {
             format!("{}: not an MCAP file ({e})", input.display()),
         )
     })?;
-    let file = BufWriter::new(File::create(out).map_err(|e| named(out, e))?);
+    let file = BufWriter::new(out);
     let mut w = mcap::WriteOptions::new()
         .compression(None)
         .profile("")
@@ -608,6 +632,7 @@ pub fn repair(input: &Path, out: &Path) -> io::Result<Repaired> {
         messages += 1;
     }
     w.finish().map_err(err)?;
+    io::Write::flush(&mut w.into_inner())?;
     Ok(Repaired {
         messages,
         channels: channels.len(),

@@ -82,7 +82,13 @@ fn err(e: mcap::McapError) -> io::Error {
 impl Bag {
     /// Creates `path` (replaced if it exists).
     pub fn create(path: &Path, settings: BagSettings) -> io::Result<Self> {
-        let file = BufWriter::new(File::create(path)?);
+        Self::from_file(File::create(path)?, settings)
+    }
+
+    /// Writes into `file` (opened by the caller: a tool's output made
+    /// exclusively beside its target).
+    pub fn from_file(file: File, settings: BagSettings) -> io::Result<Self> {
+        let file = BufWriter::new(file);
         let mut w = mcap::WriteOptions::new()
             .compression(None)
             .profile("ros2")
@@ -166,6 +172,9 @@ impl Bag {
     /// Writes the summary and index and closes the file.
     pub fn finish(mut self) -> io::Result<[u64; 9]> {
         self.w.finish().map_err(err)?;
-        Ok(self.counts)
+        let counts = self.counts;
+        // the buffer's last bytes, whose error a drop would lose
+        io::Write::flush(&mut self.w.into_inner())?;
+        Ok(counts)
     }
 }
