@@ -977,3 +977,31 @@ fn ros2_estop_under_a_cmd_vel_flood_answers_that_the_robot_stopped() {
     );
     assert!(msg.contains("e-stop"), "{msg}");
 }
+
+/// A remote tool whose link stopped says so, not "is the daemon
+/// running?" (the daemon was running all along).
+#[test]
+fn a_remote_tool_names_the_link_when_the_link_stopped() {
+    let _dog = Watchdog::new("link-stopped", Duration::from_secs(120));
+    let (prefix, ep, _d, l) = rig("stopped", "");
+    let mut r = remote(&prefix, &ep);
+    ok(&mut r, Command::TakeControl);
+    drop(l); // SIGKILL
+    let observer = Client::new(&prefix, "link-stopped-observer").unwrap();
+    let e = poll_until("a request unanswered", Duration::from_secs(20), || {
+        r.request(Command::ReleaseControl, Duration::from_secs(1))
+            .err()
+    })
+    .to_string();
+    assert!(
+        e.contains("the link at") && e.contains("stopped") && !e.contains("is the daemon running"),
+        "{e}"
+    );
+    // The daemon is running indeed.
+    assert!(
+        observer
+            .wait_state(Duration::from_secs(2))
+            .unwrap()
+            .is_some()
+    );
+}
