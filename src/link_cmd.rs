@@ -231,6 +231,17 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         st.rejected.load(Relaxed),
         st.estops.load(Relaxed),
     );
+    if let Some(n) = bridge.ros2() {
+        eprintln!(
+            "anguilla link: ROS 2: {} messages published, {} twists sent as swims, {} superseded \
+             by a newer one (latest wins, one swim per control period), {} dropped, {} not CDR",
+            n.published,
+            n.twists,
+            n.superseded(),
+            n.dropped,
+            n.undecodable(),
+        );
+    }
     Ok(())
 }
 

@@ -262,6 +262,12 @@ pub trait Session {
     }
     /// When the state read may not be the robot's, says why.
     fn provenance_problem(&self) -> Option<String>;
+    /// What to ask when a request went unanswered: what may have gone
+    /// away on this session's path ("is the daemon running?" locally; a
+    /// remote session names the link when it is the link that went).
+    fn silence_hint(&self) -> String {
+        "is the daemon running?".into()
+    }
     /// Sends `req` exactly as given; its reply arrives through
     /// [`Session::replies`]. Returns its sequence number.
     fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError>;
@@ -309,10 +315,10 @@ pub trait Session {
             let now = std::time::Instant::now();
             if now >= deadline {
                 return Err(IpcError::Iceoryx(format!(
-                    "no reply to request {seq} (code {}) within {timeout:?} from {}: \
-                     is the daemon running?",
+                    "no reply to request {seq} (code {}) within {timeout:?} from {}: {}",
                     req.code,
-                    self.describe()
+                    self.describe(),
+                    self.silence_hint()
                 )));
             }
             self.wait_any((deadline - now).min(Duration::from_millis(2)))?;

@@ -212,10 +212,17 @@ impl Endpoint {
                 tls: false,
                 unix: false,
             }),
+            // An IPv6 address keeps its brackets in the suggestion
+            // (`tls/[::]:7447`, not `tls/:::7447`).
             "tcp" => Err(bad(format!(
                 "plain TCP is allowed on loopback only (127.0.0.1, ::1, localhost), and '{host}' \
-                 is not loopback: use tls/{host}:{port} with the robot's CA, certificate and key \
-                 (anguilla link certs makes them)"
+                 is not loopback: use tls/{}:{port} with the robot's CA, certificate and key \
+                 (anguilla link certs makes them)",
+                if host.contains(':') {
+                    format!("[{host}]")
+                } else {
+                    host.to_string()
+                }
             ))),
             "tls" => match tls {
                 true => Ok(Self {

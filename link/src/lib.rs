@@ -124,7 +124,9 @@ mod tests {
         for (bad, says) in [
             ("tcp/0.0.0.0:7447", "loopback only"),
             ("tcp/192.168.1.5:7447", "loopback only"),
-            ("tcp/[::]:7447", "loopback only"),
+            ("tcp/[::]:7447", "use tls/[::]:7447 with"),
+            ("tcp/[fe80::1]:7447", "use tls/[fe80::1]:7447 with"),
+            ("tcp/192.168.1.5:7447", "use tls/192.168.1.5:7447 with"),
             ("tcp/robot.local:7447", "loopback only"),
             ("tls/0.0.0.0:7447", "needs the robot's CA"),
             ("udp/127.0.0.1:7447", "not supported"),

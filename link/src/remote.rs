@@ -374,6 +374,20 @@ impl Session for RemoteClient {
         )
     }
 
+    fn silence_hint(&self) -> String {
+        // The link is this session's router: none connected means the
+        // link went away (or the network), not the daemon behind it.
+        let routers = self.session.info().routers_zid().wait().count();
+        if routers == 0 {
+            format!(
+                "the link at {} stopped or cannot be reached (is `anguilla link` running?)",
+                self.endpoint
+            )
+        } else {
+            "the link is up: is the daemon behind it running?".into()
+        }
+    }
+
     fn provenance_problem(&self) -> Option<String> {
         let at = self.shared.lock().state_at;
         match at {

@@ -862,3 +862,146 @@ fn a_killed_remote_tool_stops_the_swim_and_loses_control() {
         t0.elapsed()
     );
 }
+
+/// Calls the ROS 2 service `~/name` (std_srvs/srv/Trigger) of the link's
+/// node `/anguilla` on domain 0 as rmw_zenoh does (CDR request, the
+/// attachment with a sequence number and a GID): its `success` and
+/// `message`.
+fn trigger(z: &zenoh::Session, name: &str, seq: i64) -> (bool, String) {
+    use anguilla_link::ros2::{cdr, graph, msgs, node};
+    use zenoh::Wait as _;
+    let id = graph::NodeId {
+        domain: 0,
+        session: String::new(),
+        node: 0,
+        namespace: "/".into(),
+        name: "anguilla".into(),
+        humble: false,
+    };
+    let key = id.data_key(&node::service_name("/", "anguilla", name), &msgs::TRIGGER);
+    let gid = [0xa5; 16];
+    let r = z
+        .get(key)
+        .payload(vec![0u8, 1, 0, 0, 0])
+        .attachment(graph::attachment(seq, 0, &gid).to_vec())
+        .timeout(Duration::from_secs(5))
+        .wait()
+        .unwrap();
+    let reply = r
+        .recv()
+        .unwrap_or_else(|e| panic!("~/{name}: no reply: {e}"));
+    let sample = reply
+        .result()
+        .unwrap_or_else(|e| panic!("~/{name}: an error reply: {:?}", e.payload().to_bytes()));
+    let att = sample.attachment().map(|a| a.to_bytes().into_owned());
+    let (s, _, g) = graph::read_attachment(&att.unwrap_or_default()).expect("an attachment");
+    assert_eq!((s, g), (seq, gid), "~/{name}: the reply echoes the call");
+    let body = sample.payload().to_bytes();
+    let mut rd = cdr::Reader::new(&body).unwrap();
+    let success = rd.u8("success").unwrap() != 0;
+    (success, rd.string("message").unwrap())
+}
+
+/// The attack of issue 45: ROS 2 nodes flood `cmd_vel` while one calls
+/// `~/estop`. The robot E-stops through the socket at once; the reply must
+/// say so (it said "the daemon did not answer within 2 s", success false:
+/// the flood's swims pushed the E-stop's request out of the link's client,
+/// and the inbox the flood kept full held the state back).
+#[test]
+fn ros2_estop_under_a_cmd_vel_flood_answers_that_the_robot_stopped() {
+    use anguilla_link::ros2::{graph, msgs};
+    use zenoh::Wait as _;
+    let _dog = Watchdog::new("link-ros2-flood", Duration::from_secs(120));
+    let (prefix, ep, _d, _l) = rig("ros2-flood", "[link]\nros2 = true\n");
+    let mut observer = Client::new(&prefix, "link-ros2-flood-observer").unwrap();
+    let z = raw_client(&ep);
+    // The node's services appear with the link.
+    poll_until("the ROS 2 services", Duration::from_secs(20), || {
+        let (ok, _) = trigger(&z, "take_control", 1);
+        ok.then_some(())
+    });
+    let (ok, msg) = trigger(&z, "enable", 2);
+    assert!(ok, "~/enable: {msg}");
+    until(&mut observer, "ready", Duration::from_secs(10), |s| {
+        s.mode == Mode::Ready as u8
+    });
+    let id = graph::NodeId {
+        domain: 0,
+        session: String::new(),
+        node: 0,
+        namespace: "/".into(),
+        name: "anguilla".into(),
+        humble: false,
+    };
+    let key = id.data_key("/cmd_vel", &msgs::TWIST);
+    let twist = msgs::Twist {
+        linear: [0.2, 0.0, 0.0],
+        angular: [0.0, 0.0, 0.1],
+    }
+    .encode();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let floods: Vec<_> = (0..3)
+        .map(|t| {
+            let (z, key, twist, stop) = (z.clone(), key.clone(), twist.clone(), stop.clone());
+            std::thread::spawn(move || {
+                let p = z.declare_publisher(key).wait().unwrap();
+                let gid = [t as u8; 16];
+                let mut n = 0i64;
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    n += 1;
+                    let _ = p
+                        .put(twist.clone())
+                        .attachment(graph::attachment(n, 0, &gid).to_vec())
+                        .wait();
+                }
+                n
+            })
+        })
+        .collect();
+    // The twists drive the robot: it swims under the flood.
+    until(&mut observer, "swimming", Duration::from_secs(10), |s| {
+        s.mode == Mode::Swimming as u8
+    });
+    let (ok, msg) = trigger(&z, "estop", 3);
+    let s = until(&mut observer, "e-stop", Duration::from_secs(2), |s| {
+        s.mode == Mode::EStop as u8
+    });
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let sent: i64 = floods.into_iter().map(|f| f.join().unwrap()).sum();
+    eprintln!("~/estop under a flood of {sent} twists: success {ok}, {msg:?}");
+    assert!(sent > 1000, "a flood: {sent} twists");
+    assert!(
+        ok,
+        "the robot is e-stopped (mode {}), the reply says {msg:?}",
+        s.mode
+    );
+    assert!(msg.contains("e-stop"), "{msg}");
+}
+
+/// A remote tool whose link stopped says so, not "is the daemon
+/// running?" (the daemon was running all along).
+#[test]
+fn a_remote_tool_names_the_link_when_the_link_stopped() {
+    let _dog = Watchdog::new("link-stopped", Duration::from_secs(120));
+    let (prefix, ep, _d, l) = rig("stopped", "");
+    let mut r = remote(&prefix, &ep);
+    ok(&mut r, Command::TakeControl);
+    drop(l); // SIGKILL
+    let observer = Client::new(&prefix, "link-stopped-observer").unwrap();
+    let e = poll_until("a request unanswered", Duration::from_secs(20), || {
+        r.request(Command::ReleaseControl, Duration::from_secs(1))
+            .err()
+    })
+    .to_string();
+    assert!(
+        e.contains("the link at") && e.contains("stopped") && !e.contains("is the daemon running"),
+        "{e}"
+    );
+    // The daemon is running indeed.
+    assert!(
+        observer
+            .wait_state(Duration::from_secs(2))
+            .unwrap()
+            .is_some()
+    );
+}

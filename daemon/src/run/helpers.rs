@@ -114,7 +114,7 @@ pub fn state_thread(
         }
         match publisher.publish(&snap) {
             Ok(()) => {
-                if let Some(l) = failing.succeeded("state publication") {
+                if let Some(l) = failing.succeeded(std::time::Instant::now(), "state publication") {
                     tracing::info!("{l}");
                 }
             }
@@ -209,7 +209,9 @@ pub(super) fn command_thread(
                     last_round_empty = false;
                 }
                 Ok(None) => {
-                    if let Some(l) = failing.succeeded("taking operator commands") {
+                    if let Some(l) =
+                        failing.succeeded(std::time::Instant::now(), "taking operator commands")
+                    {
                         tracing::info!("{l}");
                     }
                     break;

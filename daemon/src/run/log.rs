@@ -70,12 +70,17 @@ pub const REFUSAL_LOG_INTERVAL: Duration = Duration::from_secs(1);
 /// A helper thread's repeated failure (publishing the state, taking
 /// commands): every failure counted, logged at most once per
 /// [`REFUSAL_LOG_INTERVAL`] for as long as it lasts, with the count since
-/// the last line, and its end logged once.
+/// the last line and how many of those were not logged; its end logged once,
+/// when successes have lasted a whole interval with no failure between. A
+/// success between failures resets nothing (a flood that fails every other
+/// request once logged two lines per failure: 882 lines in 24 s).
 #[derive(Debug, Default)]
 pub struct ErrorLog {
     last_line: Option<std::time::Instant>,
     since_line: u64,
     total: u64,
+    /// The first success since the last failure.
+    ok_since: Option<std::time::Instant>,
 }
 
 impl ErrorLog {
@@ -88,13 +93,17 @@ impl ErrorLog {
     ) -> Option<String> {
         self.total += 1;
         self.since_line += 1;
+        self.ok_since = None;
         match self.last_line {
             Some(t) if now.duration_since(t) < REFUSAL_LOG_INTERVAL => None,
             _ => {
                 let n = core::mem::take(&mut self.since_line);
                 self.last_line = Some(now);
                 Some(if n > 1 {
-                    format!("{what} failed {n} times since the last report: {e}")
+                    format!(
+                        "{what} failed {n} times since the last report ({} more suppressed): {e}",
+                        n - 1
+                    )
                 } else {
                     format!("{what} failed: {e}")
                 })
@@ -102,12 +111,25 @@ impl ErrorLog {
         }
     }
 
-    /// A success: returns the line that says the failures ended, if any.
-    pub fn succeeded(&mut self, what: &str) -> Option<String> {
+    /// A success at `now`: returns the line that says the failures ended,
+    /// once successes have lasted [`REFUSAL_LOG_INTERVAL`] without a
+    /// failure (with the failures not yet reported).
+    pub fn succeeded(&mut self, now: std::time::Instant, what: &str) -> Option<String> {
         if self.total == 0 {
             return None;
         }
-        let line = format!("{what} works again after {} failure(s)", self.total);
+        let since = *self.ok_since.get_or_insert(now);
+        if now.duration_since(since) < REFUSAL_LOG_INTERVAL {
+            return None;
+        }
+        let line = if self.since_line > 0 {
+            format!(
+                "{what} works again after {} failure(s) ({} suppressed since the last report)",
+                self.total, self.since_line
+            )
+        } else {
+            format!("{what} works again after {} failure(s)", self.total)
+        };
         *self = Self::default();
         Some(line)
     }
@@ -385,16 +407,80 @@ mod tests {
             lines,
             [
                 "taking operator commands failed: closed",
-                "taking operator commands failed 10 times since the last report: closed",
-                "taking operator commands failed 10 times since the last report: closed",
+                "taking operator commands failed 10 times since the last report (9 more \
+                 suppressed): closed",
+                "taking operator commands failed 10 times since the last report (9 more \
+                 suppressed): closed",
             ]
         );
+        // The end is told once successes have lasted a whole interval.
+        let t1 = t0 + Duration::from_millis(2500);
+        assert_eq!(log.succeeded(t1, "taking operator commands"), None);
         assert_eq!(
-            log.succeeded("taking operator commands").as_deref(),
-            Some("taking operator commands works again after 25 failure(s)")
+            log.succeeded(t1 + REFUSAL_LOG_INTERVAL, "taking operator commands")
+                .as_deref(),
+            Some(
+                "taking operator commands works again after 25 failure(s) (4 suppressed since \
+                 the last report)"
+            )
         );
-        assert_eq!(log.succeeded("taking operator commands"), None);
+        assert_eq!(log.succeeded(t1 + REFUSAL_LOG_INTERVAL, "x"), None);
         // A new failure after the recovery is logged at once.
-        assert!(log.failed(t0, "x", &"again").is_some());
+        assert!(log.failed(t1, "x", &"again").is_some());
+    }
+
+    /// Issue 45's flood: a request that fails every other time for 24 s
+    /// (a failure, then a success, every 10 ms). One success used to
+    /// reset the throttle: two lines per failure. Now a line a second at
+    /// most, every failure counted in them, and the end told once.
+    #[test]
+    fn alternating_failures_and_successes_are_throttled_and_counted() {
+        let t0 = std::time::Instant::now();
+        let mut log = ErrorLog::default();
+        let mut lines = Vec::new();
+        let what = "taking operator commands";
+        for i in 0..2400u64 {
+            let now = t0 + Duration::from_millis(10 * i);
+            let line = if i % 2 == 0 {
+                log.failed(now, what, &"closed")
+            } else {
+                log.succeeded(now, what)
+            };
+            lines.extend(line);
+        }
+        // The flood over, successes only, for a second and more.
+        for i in 0..=110u64 {
+            lines.extend(log.succeeded(t0 + Duration::from_millis(24_000 + 10 * i), what));
+        }
+        // One line a second of the 24 (the first at once), and the end.
+        assert!(lines.len() <= 26, "{} lines: {lines:#?}", lines.len());
+        assert!(
+            lines
+                .last()
+                .unwrap()
+                .contains("works again after 1200 failure(s)")
+        );
+        // Every failure is in a line: the counts add up to 1200.
+        let counted: u64 = lines
+            .iter()
+            .map(|l| {
+                if l.contains(" failed: ") {
+                    1
+                } else if let Some(rest) = l.split(" failed ").nth(1) {
+                    rest.split(' ')
+                        .next()
+                        .and_then(|n| n.parse().ok())
+                        .unwrap_or(1)
+                } else if let Some(rest) = l.split("failure(s) (").nth(1) {
+                    rest.split(' ')
+                        .next()
+                        .and_then(|n| n.parse().ok())
+                        .unwrap_or(0)
+                } else {
+                    0
+                }
+            })
+            .sum();
+        assert_eq!(counted, 1200, "{lines:#?}");
     }
 }

@@ -27,7 +27,9 @@
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anguilla_ipc::vocabulary::{Command, Mode, SwimParams};
@@ -84,10 +86,33 @@ pub const SERVICES: [(&str, Command); 6] = [
     ("estop", Command::EStop),
 ];
 
-/// What arrives from ROS 2 nodes, queued for the link's loop.
-enum Inbound {
-    Twist(msgs::Twist),
-    Service(usize, Query),
+/// A service call, queued for the link's loop: the service's index in
+/// [`SERVICES`], the query, and for `~/estop` what relaying it to the
+/// E-stop socket gave (done at once, on Zenoh's thread).
+struct Inbound(usize, Query, Option<Result<(), String>>);
+
+/// The newest `cmd_vel` not yet sent (latest wins: a flood is one slot,
+/// never a queue), written by Zenoh's threads.
+#[derive(Default)]
+struct TwistSlot {
+    latest: Mutex<Option<msgs::Twist>>,
+    /// Twists replaced by a newer one before they were sent.
+    superseded: AtomicU64,
+    /// Messages that were not their type's CDR.
+    undecodable: AtomicU64,
+}
+
+impl TwistSlot {
+    fn put(&self, t: msgs::Twist) {
+        let mut slot = self.latest.lock().unwrap_or_else(|p| p.into_inner());
+        if slot.replace(t).is_some() {
+            self.superseded.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn take(&self) -> Option<msgs::Twist> {
+        self.latest.lock().unwrap_or_else(|p| p.into_inner()).take()
+    }
 }
 
 /// A service call waiting for the daemon's reply.
@@ -95,6 +120,13 @@ struct Call {
     query: Query,
     attachment: Vec<u8>,
     sent: Instant,
+}
+
+/// An `~/estop` call waiting for the state to say e-stop.
+struct EStopCall {
+    call: Call,
+    /// What was relayed, and how: for the answer.
+    relayed: String,
 }
 
 struct Topic {
@@ -122,12 +154,15 @@ pub use super::{LATCHED, TOPICS};
 /// `teleop_twist_joy` publishes those), each on its own key.
 pub const CMD_VEL: [MsgType; 2] = [msgs::TWIST, msgs::TWIST_STAMPED];
 
-/// Inbound messages and calls queued at most (beyond: dropped, a call
-/// answered with an error).
+/// Service calls queued at most (beyond, a call is answered "busy" at
+/// once; an `~/estop` has been relayed to the E-stop socket by then).
 const INBOX: usize = 64;
 /// A call the daemon has not answered in this long is answered with an
-/// error.
-const CALL_TIMEOUT: Duration = Duration::from_secs(2);
+/// error; an `~/estop` whose effect the state has not shown in this long
+/// is answered a failure, naming what was relayed.
+pub const CALL_TIMEOUT: Duration = Duration::from_secs(2);
+/// The control period assumed until the first state says it.
+const DEFAULT_PERIOD: Duration = Duration::from_millis(10);
 
 /// The running node.
 pub struct Ros2Node {
@@ -141,15 +176,25 @@ pub struct Ros2Node {
     _latched: Vec<AdvancedPublisher<'static>>,
     conv: state::RosState,
     inbox: Receiver<Inbound>,
+    twist: Arc<TwistSlot>,
     /// The ROS 2 side's own client of the daemon: one operator session.
     client: Option<Client>,
     calls: HashMap<u32, Call>,
+    estops: Vec<EStopCall>,
     limits: Option<anguilla_ipc::LimitsSnapshot>,
+    /// The daemon's control period (from its state).
+    period: Duration,
+    /// The newest mode the state showed.
+    mode: Option<u8>,
+    /// When the last swim went to the daemon, and its sequence number
+    /// while unanswered.
+    last_swim: Option<Instant>,
+    swim_in_flight: Option<u32>,
     /// Messages published.
     pub published: u64,
     /// `cmd_vel` messages turned into swim commands.
     pub twists: u64,
-    /// Inbound messages dropped (a full queue, or not CDR of their type).
+    /// Twists dropped: not finite, or the daemon away.
     pub dropped: u64,
 }
 
@@ -297,23 +342,25 @@ impl Ros2Node {
             entity += 1;
         }
         let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
+        let twist = Arc::new(TwistSlot::default());
         let mut subscribers = Vec::new();
         if settings.allow_command {
             let name = qualified(&settings.namespace, "cmd_vel");
             for ty in CMD_VEL {
-                let tx = tx.clone();
+                let slot = twist.clone();
                 let stamped = ty == msgs::TWIST_STAMPED;
                 subscribers.push(
                     session
                         .declare_subscriber(id.data_key(&name, &ty))
                         .callback(move |sample| {
                             // A message that is not this type's CDR is
-                            // dropped here; a full queue drops too (the
-                            // next twist supersedes it).
-                            if let Ok(t) =
-                                msgs::Twist::decode(&sample.payload().to_bytes(), stamped)
-                            {
-                                let _ = tx.try_send(Inbound::Twist(t));
+                            // dropped here, counted; a newer twist
+                            // replaces one not yet sent.
+                            match msgs::Twist::decode(&sample.payload().to_bytes(), stamped) {
+                                Ok(t) => slot.put(t),
+                                Err(_) => {
+                                    slot.undecodable.fetch_add(1, Ordering::Relaxed);
+                                }
                             }
                         })
                         .wait()
@@ -341,16 +388,43 @@ impl Ros2Node {
             }
             let name = service_name(&settings.namespace, &settings.node, svc);
             let tx = tx.clone();
+            let estop_prefix = (*cmd == Command::EStop).then(|| prefix.to_string());
             queryables.push(
                 session
                     .declare_queryable(id.data_key(&name, &msgs::TRIGGER))
                     .complete(true)
-                    .callback(move |q| match tx.try_send(Inbound::Service(i, q)) {
-                        Ok(()) => {}
-                        Err(TrySendError::Full(Inbound::Service(_, q))) => {
-                            reply_err(&q, "the link is busy: call dropped");
+                    .callback(move |q| {
+                        // The out-of-band path first and at once, as the
+                        // link's own e-stop key: no queue lies before it.
+                        let relayed = estop_prefix.as_deref().map(|p| {
+                            let r = anguilla_ipc::estop::send(p).map_err(|e| e.to_string());
+                            match &r {
+                                Ok(()) => tracing::warn!(
+                                    "ROS 2 ~/estop: relayed to the daemon's e-stop socket"
+                                ),
+                                Err(e) => tracing::warn!("ROS 2 ~/estop: the e-stop socket: {e}"),
+                            }
+                            r
+                        });
+                        match tx.try_send(Inbound(i, q, relayed)) {
+                            Ok(()) => {}
+                            Err(TrySendError::Full(Inbound(_, q, relayed))) => {
+                                let text = match relayed {
+                                    Some(Ok(())) => {
+                                        "the link is busy: the e-stop was relayed to the \
+                                         daemon's e-stop socket, but the link cannot confirm it \
+                                         in the state; read the state"
+                                    }
+                                    Some(Err(_)) => {
+                                        "the link is busy and the e-stop socket refused the \
+                                         e-stop: it did NOT go out"
+                                    }
+                                    None => "the link is busy: call dropped",
+                                };
+                                reply_err(&q, text);
+                            }
+                            Err(_) => {}
                         }
-                        Err(_) => {}
                     })
                     .wait()
                     .map_err(zenoh_err("ROS 2 service"))?,
@@ -376,9 +450,15 @@ impl Ros2Node {
             _latched: latched,
             conv,
             inbox,
+            twist,
             client: None,
             calls: HashMap::new(),
+            estops: Vec::new(),
             limits: None,
+            period: DEFAULT_PERIOD,
+            mode: None,
+            last_swim: None,
+            swim_in_flight: None,
             published: 0,
             twists: 0,
             dropped: 0,
@@ -393,40 +473,37 @@ impl Ros2Node {
         Ok(self.client.as_mut().expect("opened above"))
     }
 
-    /// Serves what ROS 2 nodes sent: each `cmd_vel` becomes a swim
-    /// command (the daemon's deadman stops the swim when they stop), each
-    /// service call a command whose reply answers it.
+    /// Twists replaced by a newer one before they were sent (latest
+    /// wins: at most one swim goes out per control period).
+    pub fn superseded(&self) -> u64 {
+        self.twist.superseded.load(Ordering::Relaxed)
+    }
+
+    /// `cmd_vel` messages that were not their type's CDR.
+    pub fn undecodable(&self) -> u64 {
+        self.twist.undecodable.load(Ordering::Relaxed)
+    }
+
+    /// Serves what ROS 2 nodes sent: the newest `cmd_vel` becomes a swim
+    /// command, at most one per control period and none while the last is
+    /// unanswered (the daemon's deadman stops the swim when they stop);
+    /// each service call a command whose reply answers it; `~/estop` is
+    /// answered from the state. Bounded work per call, whatever arrives.
     pub fn serve(&mut self) -> Result<(), LinkError> {
-        while let Ok(m) = self.inbox.try_recv() {
-            match m {
-                Inbound::Twist(t) => {
-                    let Some(p) = swim_of(
-                        &t,
-                        self.settings.max_speed,
-                        self.settings.frequency,
-                        self.limits.as_ref(),
-                    ) else {
-                        self.dropped += 1;
-                        continue;
-                    };
-                    // The daemon away (restarting, stopped): the twist is
-                    // dropped and the client opened again at the next one;
-                    // the link keeps serving.
-                    match self.client().and_then(|c| Ok(c.send(Command::Swim(p))?)) {
-                        Ok(_) => self.twists += 1,
-                        Err(e) => {
-                            self.dropped += 1;
-                            self.client = None;
-                            tracing::warn!("ROS 2 cmd_vel: {e}");
-                        }
-                    }
-                }
-                Inbound::Service(i, q) => self.call(i, q)?,
-            }
+        for _ in 0..INBOX {
+            let Ok(Inbound(i, q, relayed)) = self.inbox.try_recv() else {
+                break;
+            };
+            self.call(i, q, relayed)?;
         }
+        self.send_twist();
         if let Some(c) = &mut self.client {
             let calls = &mut self.calls;
+            let in_flight = &mut self.swim_in_flight;
             let r = c.replies(|r| {
+                if *in_flight == Some(r.sequence) {
+                    *in_flight = None;
+                }
                 if let Some(call) = calls.remove(&r.sequence) {
                     let mode = Mode::from_code(r.mode).map_or("unknown", Mode::name);
                     let text = if r.accepted != 0 {
@@ -440,6 +517,7 @@ impl Ros2Node {
             if let Err(e) = r {
                 tracing::warn!("ROS 2 replies: {e}");
                 self.client = None;
+                self.swim_in_flight = None;
             }
         }
         self.calls.retain(|_, call| {
@@ -449,34 +527,135 @@ impl Ros2Node {
             }
             keep
         });
+        self.answer_estops();
         Ok(())
     }
 
-    fn call(&mut self, i: usize, q: Query) -> Result<(), LinkError> {
+    /// Sends the newest twist as a swim when one control period has
+    /// passed since the last and the daemon has answered it (or not within
+    /// [`CALL_TIMEOUT`]): a flood is one swim a period, never a queue that
+    /// pushes other requests out of the client.
+    fn send_twist(&mut self) {
+        let now = Instant::now();
+        let due = self.last_swim.is_none_or(|t| {
+            let since = now.duration_since(t);
+            since >= self.period && (self.swim_in_flight.is_none() || since >= CALL_TIMEOUT)
+        });
+        if !due {
+            return;
+        }
+        let Some(t) = self.twist.take() else {
+            return;
+        };
+        let Some(p) = swim_of(
+            &t,
+            self.settings.max_speed,
+            self.settings.frequency,
+            self.limits.as_ref(),
+        ) else {
+            self.dropped += 1;
+            return;
+        };
+        // The daemon away (restarting, stopped): the twist is dropped and
+        // the client opened again at the next one; the link keeps serving.
+        match self.client().and_then(|c| Ok(c.send(Command::Swim(p))?)) {
+            Ok(seq) => {
+                self.twists += 1;
+                self.last_swim = Some(now);
+                self.swim_in_flight = Some(seq);
+            }
+            Err(e) => {
+                self.dropped += 1;
+                self.client = None;
+                self.swim_in_flight = None;
+                tracing::warn!("ROS 2 cmd_vel: {e}");
+            }
+        }
+    }
+
+    /// Answers the `~/estop` calls: success once the state says e-stop;
+    /// a failure naming what was relayed when it has not within
+    /// [`CALL_TIMEOUT`].
+    fn answer_estops(&mut self) {
+        let mode = self.mode;
+        let stopped = mode == Some(Mode::EStop as u8);
+        self.estops.retain(|e| {
+            if stopped {
+                answer(
+                    &e.call,
+                    true,
+                    &format!("e-stopped: the robot's state says e-stop ({})", e.relayed),
+                );
+                return false;
+            }
+            if e.call.sent.elapsed() < CALL_TIMEOUT {
+                return true;
+            }
+            let shown = mode
+                .and_then(Mode::from_code)
+                .map_or("none read", Mode::name);
+            answer(
+                &e.call,
+                false,
+                &format!(
+                    "NOT confirmed: {}, but the robot's state does not say e-stop after {:?} \
+                     (mode {shown})",
+                    e.relayed, CALL_TIMEOUT
+                ),
+            );
+            false
+        });
+    }
+
+    fn call(
+        &mut self,
+        i: usize,
+        q: Query,
+        relayed: Option<Result<(), String>>,
+    ) -> Result<(), LinkError> {
         let (name, cmd) = SERVICES[i];
         let attachment = q
             .attachment()
             .map(|a| a.to_bytes().into_owned())
             .unwrap_or_default();
-        let mut call = Call {
+        let call = Call {
             query: q,
             attachment,
             sent: Instant::now(),
         };
-        if cmd == Command::EStop {
-            // The out-of-band path first, as every tool's E-stop.
-            if let Err(e) = anguilla_ipc::estop::send(&self.prefix) {
-                tracing::warn!("ROS 2 ~/estop: the e-stop socket: {e}");
-            } else {
-                tracing::warn!("ROS 2 ~/estop: relayed to the daemon's e-stop socket");
+        let sent = self.client().and_then(|c| Ok(c.send(cmd)?));
+        if let Err(e) = &sent {
+            self.client = None;
+            self.swim_in_flight = None;
+            if cmd != Command::EStop {
+                answer(&call, false, &format!("~/{name}: {e}"));
+                return Ok(());
             }
         }
-        match self.client().and_then(|c| Ok(c.send(cmd)?)) {
-            Ok(seq) => {
-                call.sent = Instant::now();
+        match (cmd, sent) {
+            (Command::EStop, sent) => {
+                // Both paths, and what each gave; the answer waits for the
+                // state (the command's reply may never come: the E-stop
+                // acts first through the socket).
+                let socket = match relayed {
+                    Some(Ok(())) => "relayed to the daemon's e-stop socket".to_string(),
+                    Some(Err(e)) => format!("the e-stop socket failed: {e}"),
+                    None => "not relayed to the e-stop socket".to_string(),
+                };
+                let command = match sent {
+                    Ok(_) => "sent as a command".to_string(),
+                    Err(e) => format!("the command failed: {e}"),
+                };
+                self.estops.push(EStopCall {
+                    call,
+                    relayed: format!("{socket}; {command}"),
+                });
+                self.answer_estops();
+            }
+            (_, Ok(seq)) => {
                 self.calls.insert(seq, call);
             }
-            Err(e) => answer(&call, false, &format!("~/{name}: {e}")),
+            (_, Err(_)) => {}
         }
         Ok(())
     }
@@ -489,6 +668,13 @@ impl Ros2Node {
     /// Publishes `s` on every topic that is due.
     pub fn publish(&mut self, s: &StateSnapshot) -> Result<(), LinkError> {
         self.limits = Some(s.limits);
+        self.mode = Some(s.mode);
+        if s.loop_stats.period_ns > 0 {
+            self.period = Duration::from_nanos(u64::from(s.loop_stats.period_ns));
+        }
+        if !self.estops.is_empty() {
+            self.answer_estops();
+        }
         let now = Instant::now();
         let due: Vec<bool> = self
             .topics
