@@ -543,6 +543,8 @@ impl Controller {
             all_lost: !configured.is_empty() && report.lost.covers(configured),
             node_fault: report.fault,
             estop_nodes: report.estop,
+            booting: report.booting,
+            disabled: report.disabled,
             bus_estop: self.drives.take_bus_estop(),
             bus_off: period_state == BusState::BusOff,
             bus_gone: period_state == BusState::Gone,

@@ -249,7 +249,15 @@ impl NodeTable {
                     r.estop = r.estop.with(e.id);
                     r.all_enabled = false;
                 }
-                _ => r.all_enabled = false,
+                Some(NodeState::Boot) => {
+                    r.booting = r.booting.with(e.id);
+                    r.all_enabled = false;
+                }
+                Some(NodeState::Disabled) => {
+                    r.disabled = r.disabled.with(e.id);
+                    r.all_enabled = false;
+                }
+                None => r.all_enabled = false,
             }
         }
         r

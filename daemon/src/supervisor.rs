@@ -15,7 +15,9 @@
 //!    │ reset                                     Swimming ─stop──► Stopping
 //!    │                                          (operator silent ──►)
 //!  Fault ◄── heartbeat lost, no feedback, duplicate node id, node fault,
-//!            bus-off, model diverged (any active mode)
+//!            bus-off, model diverged (any active mode); a node rebooted
+//!            or disabled (Ready, Swimming, Stopping: the nodes must be
+//!            enabled there)
 //!  EStop ◄── E-stop from any client or from the bus (any mode); latched until reset
 //! ```
 
@@ -43,6 +45,10 @@ pub struct Observations {
     pub all_lost: bool,
     /// Nodes that report a fault.
     pub node_fault: NodeSet,
+    /// Nodes that report Boot (they rebooted: their joints are limp).
+    pub booting: NodeSet,
+    /// Nodes that report Disabled (their joints are limp).
+    pub disabled: NodeSet,
     /// Nodes that sent or report an E-stop (bit = node id); `bus_estop`
     /// covers E-stops whose sender is not a node.
     pub estop_nodes: NodeSet,
@@ -587,6 +593,13 @@ impl Supervisor {
             }
             None => false,
         };
+        // Where every node must be enabled: a node that reports anything
+        // else here went limp behind the supervisor's back (a reboot, a
+        // Disable from another sender, its own firmware). While enabling
+        // the nodes are on their way; in Idle, Fault and E-stop they may be
+        // anything. Judged on the mode the period starts in, so a fault
+        // found in the same period does not hide it.
+        let must_be_enabled = matches!(self.mode, Mode::Ready | Mode::Swimming | Mode::Stopping);
         // Safety reactions (DESIGN.md's table).
         // Nodes that report E-stop while the daemon is already E-stopped
         // obey it: a consequence, not another fault (an operator's E-stop
@@ -616,6 +629,12 @@ impl Supervisor {
         }
         if obs.model_diverged {
             self.fault(now, FaultKind::ModelDiverged, 0);
+        }
+        if must_be_enabled && !obs.booting.is_empty() {
+            self.fault(now, FaultKind::NodeRebooted, obs.booting.bits());
+        }
+        if must_be_enabled && !obs.disabled.is_empty() {
+            self.fault(now, FaultKind::NodeDisabled, obs.disabled.bits());
         }
         // Progress.
         match self.mode {
@@ -977,6 +996,102 @@ mod tests {
         s.tick(6 * MS, &ok_obs());
         s.command(7 * MS, A, 5, Command::Reset).unwrap();
         assert_eq!(s.mode(), Mode::Idle);
+    }
+
+    /// A node that leaves Enabled where the nodes must be enabled (Ready,
+    /// Swimming, Stopping) faults the robot, naming the node and what it
+    /// reported: a reboot mid-swim, a Disable from another sender.
+    #[test]
+    fn a_node_that_goes_limp_while_enabled_faults_naming_it_and_what_it_said() {
+        let cases = [
+            (
+                Observations {
+                    booting: nodes(&[3]),
+                    all_enabled: false,
+                    ..ok_obs()
+                },
+                FaultKind::NodeRebooted,
+                "actuator rebooted (node 3)",
+            ),
+            (
+                Observations {
+                    disabled: nodes(&[5]),
+                    all_enabled: false,
+                    ..ok_obs()
+                },
+                FaultKind::NodeDisabled,
+                "actuator disabled (node 5)",
+            ),
+        ];
+        for (obs, kind, text) in cases {
+            // Swimming.
+            let mut s = swimming();
+            let d = s.tick(4 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "{text}");
+            assert_eq!(s.cause(), Cause::Fault);
+            assert!(s.faults().contains(kind));
+            assert_eq!(s.faults().to_string(), text);
+            assert_eq!(d.gait_target, SwimParams::REST, "the swim stops");
+            // Stopping.
+            let mut s = swimming();
+            s.command(4 * MS, A, 4, Command::Stop).unwrap();
+            s.tick(5 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "stopping: {text}");
+            // Ready.
+            let mut s = swimming();
+            s.command(4 * MS, A, 4, Command::Stop).unwrap();
+            s.tick(5 * MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::Ready);
+            s.tick(6 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "ready: {text}");
+            assert_eq!(s.faults().to_string(), text);
+            // Not a fault to reset past once the node is enabled again: the
+            // reset goes to Idle, where a limp node is what is asked for.
+            s.tick(7 * MS, &ok_obs());
+            s.command(8 * MS, A, 5, Command::Reset).unwrap();
+            s.tick(9 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Idle, "{text}");
+        }
+    }
+
+    /// Where a limp node is expected or already handled, its report is no
+    /// new fault: Idle, Enabling (on its way), Fault, E-stop.
+    #[test]
+    fn a_limp_node_is_no_fault_while_idle_enabling_in_fault_or_estopped() {
+        let limp = Observations {
+            booting: nodes(&[1]),
+            disabled: nodes(&[2]),
+            all_enabled: false,
+            ..ok_obs()
+        };
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.tick(MS, &limp);
+        assert_eq!((s.mode(), s.faults()), (Mode::Idle, FaultSet::default()));
+        s.command(MS, A, 1, Command::TakeControl).unwrap();
+        s.command(MS, A, 2, Command::Enable).unwrap();
+        s.tick(2 * MS, &limp);
+        assert_eq!(s.mode(), Mode::Enabling);
+        assert!(s.faults().is_empty(), "{}", s.faults());
+        // Enabled now: Ready, and the first period there is judged on
+        // Enabling's terms; from the next on, a limp node is a fault.
+        s.tick(3 * MS, &ok_obs());
+        assert_eq!(s.mode(), Mode::Ready);
+        // In Fault (another cause) a node going limp adds nothing.
+        let mut s = swimming();
+        s.tick(
+            4 * MS,
+            &Observations {
+                node_fault: nodes(&[4]),
+                ..ok_obs()
+            },
+        );
+        s.tick(5 * MS, &limp);
+        assert_eq!(s.faults().to_string(), "actuator fault (node 4)");
+        // E-stopped: the nodes obey it.
+        let mut s = swimming();
+        s.command(4 * MS, A, 4, Command::EStop).unwrap();
+        s.tick(5 * MS, &limp);
+        assert_eq!(s.faults().to_string(), "operator e-stop");
     }
 
     #[test]

@@ -564,11 +564,18 @@ pub enum FaultKind {
     /// A node's heartbeat counter did not advance by one, again and again:
     /// two senders use its id (a second node, or a forger on the bus).
     DuplicateNode = 1 << 9,
+    /// A node reported Boot while it should have been enabled (Ready,
+    /// Swimming, Stopping): it rebooted, and its joint went limp.
+    NodeRebooted = 1 << 10,
+    /// A node reported Disabled while it should have been enabled (Ready,
+    /// Swimming, Stopping): someone disabled it, or it did itself; its
+    /// joint went limp.
+    NodeDisabled = 1 << 11,
 }
 
 impl FaultKind {
     /// Every kind, in bit order.
-    pub const ALL: [FaultKind; 10] = [
+    pub const ALL: [FaultKind; 12] = [
         FaultKind::HeartbeatLost,
         FaultKind::NodeFault,
         FaultKind::BusOff,
@@ -579,6 +586,8 @@ impl FaultKind {
         FaultKind::AdapterGone,
         FaultKind::FeedbackLost,
         FaultKind::DuplicateNode,
+        FaultKind::NodeRebooted,
+        FaultKind::NodeDisabled,
     ];
 
     /// Short name, as shown to operators.
@@ -594,6 +603,8 @@ impl FaultKind {
             FaultKind::AdapterGone => "adapter gone",
             FaultKind::FeedbackLost => "no feedback",
             FaultKind::DuplicateNode => "duplicate node id",
+            FaultKind::NodeRebooted => "actuator rebooted",
+            FaultKind::NodeDisabled => "actuator disabled",
         }
     }
 }

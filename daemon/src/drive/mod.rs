@@ -377,7 +377,15 @@ pub fn observe_joints(
                 r.estop = r.estop.with(id);
                 r.all_enabled = false;
             }
-            _ => r.all_enabled = false,
+            Some(NodeState::Boot) => {
+                r.booting = r.booting.with(id);
+                r.all_enabled = false;
+            }
+            Some(NodeState::Disabled) => {
+                r.disabled = r.disabled.with(id);
+                r.all_enabled = false;
+            }
+            None => r.all_enabled = false,
         }
     }
     r

@@ -44,6 +44,10 @@ pub struct NodeReport {
     pub fault: NodeSet,
     /// Nodes in EStop.
     pub estop: NodeSet,
+    /// Nodes that report Boot (they rebooted, or never finished booting).
+    pub booting: NodeSet,
+    /// Nodes that report Disabled.
+    pub disabled: NodeSet,
 }
 
 impl Default for NodeReport {
@@ -55,6 +59,8 @@ impl Default for NodeReport {
             duplicate: NodeSet::empty(),
             fault: NodeSet::empty(),
             estop: NodeSet::empty(),
+            booting: NodeSet::empty(),
+            disabled: NodeSet::empty(),
         }
     }
 }
