@@ -132,6 +132,12 @@ impl Robot {
         self.sim.as_ref().expect("running").inject(action);
     }
 
+    /// Another sender on the robot's bus (`cansend`): `frame` goes on the
+    /// wire now, heard by the daemon and the robot alike.
+    pub fn send_foreign(&self, frame: &anguilla_protocol::frame::Frame) {
+        self.sim.as_ref().expect("running").send_foreign(frame);
+    }
+
     /// The simulated robot's ground truth now.
     pub fn truth(&self) -> anguilla_sim::Truth {
         self.sim.as_ref().expect("running").truth()

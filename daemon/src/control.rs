@@ -546,6 +546,7 @@ impl Controller {
             booting: report.booting,
             disabled: report.disabled,
             bus_estop: self.drives.take_bus_estop(),
+            foreign_command: self.drives.take_foreign_command(),
             bus_off: period_state == BusState::BusOff,
             bus_gone: period_state == BusState::Gone,
             model_diverged: self.model_failed,

@@ -18,7 +18,8 @@
 //!            bus-off, model diverged (any active mode); a node rebooted
 //!            or disabled (Ready, Swimming, Stopping: the nodes must be
 //!            enabled there)
-//!  EStop ◄── E-stop from any client or from the bus (any mode); latched until reset
+//!  EStop ◄── E-stop from any client or from the bus, or a foreign drive
+//!            command on the bus (any mode); latched until reset
 //! ```
 
 use anguilla_protocol::NodeSet;
@@ -54,6 +55,10 @@ pub struct Observations {
     pub estop_nodes: NodeSet,
     /// An E-stop frame was seen on the bus.
     pub bus_estop: bool,
+    /// Nodes that another sender on the bus told to change state (enable,
+    /// disable, clear faults, re-zero, change mode): an E-stop from the
+    /// bus, whatever the mode.
+    pub foreign_command: NodeSet,
     /// The bus is bus-off.
     pub bus_off: bool,
     /// The bus adapter is gone (unplugged; the driver reconnects).
@@ -608,6 +613,13 @@ impl Supervisor {
         let obeying = self.mode == Mode::EStop && !obs.bus_estop;
         if !settling && !obeying && (obs.bus_estop || !obs.estop_nodes.is_empty()) {
             self.estop(now, FaultKind::BusEStop, obs.estop_nodes.bits());
+        }
+        // Another sender told our drives to change state: they obey it
+        // behind the supervisor's back (limp, enabled, faults cleared, a
+        // new zero), so the robot is no longer what it commands. The same
+        // answer as to its E-stop frame.
+        if !obs.foreign_command.is_empty() {
+            self.estop(now, FaultKind::ForeignCommand, obs.foreign_command.bits());
         }
         if obs.bus_off {
             self.fault(now, FaultKind::BusOff, 0);
@@ -1258,6 +1270,34 @@ mod tests {
         );
         assert_eq!(s.mode(), Mode::EStop);
         assert!(s.faults().contains(FaultKind::BusEStop));
+    }
+
+    /// A foreign drive command (a one-byte Disable, `083#02`; a Set zero)
+    /// is an E-stop from the bus in every mode, naming the nodes it was
+    /// aimed at, latched until reset like any E-stop.
+    #[test]
+    fn a_foreign_drive_command_is_an_estop_naming_its_nodes() {
+        let foreign = Observations {
+            foreign_command: nodes(&[3]),
+            ..ok_obs()
+        };
+        let mut s = swimming();
+        let d = s.tick(4 * MS, &foreign);
+        assert_eq!(s.mode(), Mode::EStop);
+        assert_eq!(s.cause(), Cause::Fault);
+        assert!(d.send_estop, "every node told to stop at once");
+        assert_eq!(d.drive, Drive::Disabled);
+        assert_eq!(s.faults().to_string(), "foreign drive command (node 3)");
+        // Latched: gone from the bus, still E-stopped.
+        for i in 5..10 {
+            s.tick(i * MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::EStop);
+        }
+        s.command(10 * MS, A, 4, Command::Reset).unwrap();
+        assert_eq!(s.mode(), Mode::Idle);
+        // In Idle too: a foreign Enable would stiffen joints nobody drives.
+        s.tick(11 * MS, &foreign);
+        assert_eq!(s.mode(), Mode::EStop);
     }
 
     #[test]

@@ -5,6 +5,9 @@
 //!
 //! - a node that reboots mid-swim: a fault naming it and what it reported
 //!   (Boot, or Disabled once booted);
+//! - another sender's state-changing command to one of our drives (a
+//!   one-byte Disable, `083#02`; an NMT reset; Set axis state Idle; Set
+//!   zero, Enter motor mode): an E-stop from the bus, naming the joint;
 //! - the healthy swim beside them: no fault (the false-positive check).
 //!
 //! The same attacks against the daemon's real loop and the built-in robot
@@ -16,6 +19,8 @@ mod rig;
 use anguilla_daemon::config::Config;
 use anguilla_ipc::vocabulary::{Command, FaultKind, FaultSet, Mode, SwimParams};
 use anguilla_protocol::Family;
+use anguilla_protocol::frame::Frame;
+use anguilla_protocol::{canopen, mit, odrive};
 use rig::Rig;
 
 /// Joint 3 (index 2): its report id is 3 in every family of the default
@@ -117,6 +122,85 @@ fn a_joint_that_reboots_mid_swim_faults_naming_it() {
         assert_eq!(r.command(1, Command::Enable).accepted, 1, "{name}");
         r.run_for(0.6);
         assert_eq!(r.ctl.supervisor().mode(), Mode::Ready, "{name}");
+    }
+}
+
+/// Another sender's state-changing commands to joint 3's drives (the
+/// pitch drive, for the families with one drive per axis), by family.
+fn foreign_commands(cfg: &Config) -> Vec<(&'static str, Frame)> {
+    let pitch = cfg.axes()[JOINT][0].node;
+    match cfg.robot.drive {
+        // One byte, as `cansend can0 083#02` sends it: Command to node 3,
+        // Disable. Enable and ClearFaults (01, 03) change state as well.
+        Family::Anguilla => vec![
+            ("disable", Frame::new_standard(0x083, &[0x02]).unwrap()),
+            ("clear faults", Frame::new_standard(0x083, &[0x03]).unwrap()),
+            ("enable", Frame::new_standard(0x083, &[0x01]).unwrap()),
+        ],
+        Family::Cia402 => {
+            let node = Some(canopen::NodeId::new(pitch).unwrap());
+            let nmt = |command| canopen::Message::Nmt { command, node }.encode();
+            vec![
+                ("NMT reset node", nmt(canopen::NmtCommand::ResetNode)),
+                (
+                    "NMT pre-operational",
+                    nmt(canopen::NmtCommand::EnterPreOperational),
+                ),
+            ]
+        }
+        Family::Odrive => {
+            let node = odrive::NodeId::new(pitch).unwrap();
+            let m = |body| odrive::Message { node, body }.encode().unwrap();
+            vec![
+                (
+                    "set axis state idle",
+                    m(odrive::Body::SetAxisState(odrive::AxisState::Idle)),
+                ),
+                (
+                    "clear errors",
+                    m(odrive::Body::ClearErrors { identify: false }),
+                ),
+            ]
+        }
+        Family::Mit => {
+            let node = mit::NodeId::new(pitch).unwrap();
+            let m = |body| {
+                mit::Message { node, body }
+                    .encode(&mit::DEFAULT_RANGES)
+                    .unwrap()
+            };
+            vec![
+                ("set zero", m(mit::Body::SetZero)),
+                ("enter motor mode", m(mit::Body::EnterMotorMode)),
+            ]
+        }
+    }
+}
+
+/// The attack: another sender on the bus tells one of joint 3's drives to
+/// change state mid-swim. Before issue 45 only a foreign E-stop frame was
+/// an E-stop: a one-byte Disable left the joint limp and the robot swam
+/// on, silently; a foreign Set zero or Enter motor mode was only counted.
+#[test]
+fn a_foreign_drive_command_mid_swim_is_an_estop_naming_the_joint() {
+    for drive in Family::ALL {
+        let cfg = config(drive);
+        for (what, frame) in foreign_commands(&cfg) {
+            let name = format!("limp-foreign-{}-{}", drive.name(), what.replace(' ', "-"));
+            let mut r = swimming(&name, drive);
+            let counted = r.ctl.drives().counters().foreign_commands;
+            r.bus.inject(&frame);
+            let f = until_not_swimming(&mut r, 0.2);
+            assert_eq!(r.ctl.supervisor().mode(), Mode::EStop, "{name}: {f}");
+            assert!(f.contains(FaultKind::ForeignCommand), "{name}: {f}");
+            assert_eq!(f.nodes, 1 << REPORT_ID, "{name}: joint 3 named: {f}");
+            assert_eq!(
+                r.ctl.drives().counters().foreign_commands,
+                counted + 1,
+                "{name}: counted too"
+            );
+            eprintln!("{name}: {f}");
+        }
     }
 }
 

@@ -571,11 +571,17 @@ pub enum FaultKind {
     /// Swimming, Stopping): someone disabled it, or it did itself; its
     /// joint went limp.
     NodeDisabled = 1 << 11,
+    /// Another sender on the bus told one of our drives to change state
+    /// (anguilla: Enable, Disable, ClearFaults; CiA 402: an NMT command
+    /// other than Stop, an RPDO; ODrive: Set axis state, Clear errors, Set
+    /// controller mode; MIT: Enter motor mode, Set zero): taken as an
+    /// E-stop from the bus.
+    ForeignCommand = 1 << 12,
 }
 
 impl FaultKind {
     /// Every kind, in bit order.
-    pub const ALL: [FaultKind; 12] = [
+    pub const ALL: [FaultKind; 13] = [
         FaultKind::HeartbeatLost,
         FaultKind::NodeFault,
         FaultKind::BusOff,
@@ -588,6 +594,7 @@ impl FaultKind {
         FaultKind::DuplicateNode,
         FaultKind::NodeRebooted,
         FaultKind::NodeDisabled,
+        FaultKind::ForeignCommand,
     ];
 
     /// Short name, as shown to operators.
@@ -605,6 +612,7 @@ impl FaultKind {
             FaultKind::DuplicateNode => "duplicate node id",
             FaultKind::NodeRebooted => "actuator rebooted",
             FaultKind::NodeDisabled => "actuator disabled",
+            FaultKind::ForeignCommand => "foreign drive command",
         }
     }
 }

@@ -187,3 +187,33 @@ fn cia402_a_drive_rebooting_mid_swim_faults() {
 fn odrive_an_axis_rebooting_mid_swim_faults() {
     reboot_mid_swim(Family::Odrive, "reboot-odrive");
 }
+
+/// One foreign frame, `cansend can0 083#02` (Command to node 3: Disable),
+/// mid-swim: node 3 obeys it and goes limp; before issue 45 the daemon only
+/// counted it and the robot swam on. Now an E-stop from the bus, naming
+/// node 3 (the other families' commands: `daemon/tests/limp.rs`).
+#[test]
+fn anguilla_a_foreign_one_byte_disable_mid_swim_estops() {
+    let name = "foreign-disable-anguilla";
+    let _wd = Watchdog::new(name, Duration::from_secs(120));
+    let (robot, mut client) = swimming(Family::Anguilla, name);
+    let disable = anguilla_protocol::frame::Frame::new_standard(0x083, &[0x02]).unwrap();
+    robot.send_foreign(&disable);
+    let s = wait_for(&mut client, "E-stop", 5.0, |s| s.mode == Mode::EStop as u8);
+    let faults = anguilla_ipc::FaultSet {
+        kinds: s.fault_kinds,
+        nodes: s.fault_nodes,
+    };
+    // Node 3 says it is disabled at once: when its heartbeat arrives in
+    // the frame's period, "actuator disabled" is latched with it.
+    let expected = FaultKind::ForeignCommand as u32 | FaultKind::NodeDisabled as u32;
+    assert!(
+        faults.contains(FaultKind::ForeignCommand) && s.fault_kinds & !expected == 0,
+        "{faults}"
+    );
+    assert_eq!(s.fault_nodes, 1 << 3, "node 3 named: {faults}");
+    let s = wait_for(&mut client, "every node off", 3.0, |s| {
+        s.joints[..JOINTS].iter().all(|j| j.node_state != 2)
+    });
+    assert_eq!(s.mode, Mode::EStop as u8, "latched");
+}

@@ -106,6 +106,10 @@ impl Drives for Nodes {
         self.table.take_bus_estop()
     }
 
+    fn take_foreign_command(&mut self) -> NodeSet {
+        self.table.take_foreign_command()
+    }
+
     fn counters(&self) -> RxCounters {
         self.table.counters()
     }

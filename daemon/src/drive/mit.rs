@@ -212,9 +212,11 @@ impl Drives for Master {
                 self.set.counters.estops_seen += 1;
                 self.set.bus_estop = true;
             }
-            Body::EnterMotorMode | Body::SetZero | Body::Command(_) => {
-                self.set.counters.foreign_commands += 1
-            }
+            // Another sender puts our drive in motor mode (zero gains: limp
+            // until commanded) or moves its zero (every position after it
+            // off by where the joint stood): behind the master's back.
+            Body::EnterMotorMode | Body::SetZero => self.set.foreign_command(j),
+            Body::Command(_) => self.set.counters.foreign_commands += 1,
         }
     }
 

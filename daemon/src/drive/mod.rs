@@ -205,6 +205,12 @@ pub trait Drives: Send {
     /// Whether an E-stop from another sender was seen since the last call
     /// (then cleared).
     fn take_bus_estop(&mut self) -> bool;
+    /// The joints (report ids) that another sender told to change state
+    /// since the last call (then cleared): the family's commands that
+    /// enable, disable, clear faults, re-zero or change mode, which the
+    /// drives obey behind the master's back (`docs/safety.md`). Frames
+    /// that change no state (SYNC, requests, setpoints) are only counted.
+    fn take_foreign_command(&mut self) -> NodeSet;
     /// Receive counters.
     fn counters(&self) -> RxCounters;
     /// Joint `j`'s report (`j` in 0..joints).
