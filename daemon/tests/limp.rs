@@ -43,7 +43,13 @@ fn config(drive: Family) -> Config {
 /// A rig of `drive`'s family swimming F1 at full amplitude for a second,
 /// client 1 holding control.
 fn swimming(name: &str, drive: Family) -> Rig {
-    let mut r = Rig::new(name, &config(drive));
+    swimming_with(name, &config(drive))
+}
+
+/// A rig of `cfg` swimming F1 at full amplitude for a second, client 1
+/// holding control.
+fn swimming_with(name: &str, cfg: &Config) -> Rig {
+    let mut r = Rig::new(name, cfg);
     // Boot (CiA 402: configuration by SDO).
     r.run_for(0.6);
     assert_eq!(r.command(1, Command::TakeControl).accepted, 1);
@@ -202,6 +208,121 @@ fn a_foreign_drive_command_mid_swim_is_an_estop_naming_the_joint() {
             eprintln!("{name}: {f}");
         }
     }
+}
+
+/// A reply from joint 3's pitch drive, as another sender (or the drive)
+/// puts it on the bus: position, velocity, torque and the error code.
+fn mit_reply(cfg: &Config, error: u8) -> Frame {
+    mit_reply_of(cfg, 0, error)
+}
+
+/// A reply from joint 3's drive of `axis` (0 pitch, 1 yaw).
+fn mit_reply_of(cfg: &Config, axis: usize, error: u8) -> Frame {
+    mit::Message {
+        node: mit::NodeId::new(cfg.axes()[JOINT][axis].node).unwrap(),
+        body: mit::Body::Reply(mit::Reply {
+            position: 0.0,
+            velocity: 0.0,
+            torque: 0.0,
+            status: Some(mit::Status {
+                temperature: 30,
+                error,
+            }),
+        }),
+    }
+    .encode(&mit::DEFAULT_RANGES)
+    .unwrap()
+}
+
+/// One control period with `frame` put on the bus after the controller's
+/// frames and before the drives answer them: the drives' own replies
+/// follow it, as they would a drive's one bad reply.
+fn step_with(r: &mut Rig, frame: &Frame) {
+    r.ctl.run_period(r.now, &mut r.host);
+    r.bus.inject(frame);
+    r.nodes_step();
+}
+
+/// The attack (issue 45): one MIT reply carrying an error code, the
+/// drive's next replies clean. Before, motor mode ended for good with no
+/// fault (the drive shown Disabled) and its replies were no longer
+/// counted. Now the code is latched until faults are cleared: a fault
+/// naming the joint, with its code, whatever the replies after it say.
+#[test]
+fn mit_a_reply_with_an_error_code_is_a_fault_until_cleared() {
+    let name = "limp-mit-error-code";
+    let cfg = config(Family::Mit);
+    let mut r = swimming(name, Family::Mit);
+    step_with(&mut r, &mit_reply(&cfg, mit::error_code::OVER_CURRENT));
+    let f = until_not_swimming(&mut r, 0.2);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault, "{f}");
+    assert_eq!(f.to_string(), "actuator fault (node 3)");
+    // A second of clean replies later, still faulted, with the code.
+    r.run_for(1.0);
+    let j = r.ctl.drives().joint(JOINT);
+    assert_eq!(j.state, Some(anguilla_protocol::message::NodeState::Fault));
+    assert_eq!(j.errors, u32::from(mit::error_code::OVER_CURRENT));
+    // Cleared by the operator's reset, the robot enables again.
+    assert_eq!(r.command(1, Command::Reset).accepted, 1);
+    r.run_for(0.5);
+    assert_eq!(r.command(1, Command::Enable).accepted, 1);
+    r.run_for(0.5);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Ready, "{name}");
+}
+
+/// After a fault ended motor mode, the drive's replies are still owed and
+/// counted: if it then falls silent, "no feedback" names it (before, the
+/// count stopped with motor mode). The heartbeat timeout is set long so
+/// that only the reply count can find it; both of the joint's drives
+/// fault (a joint is silent when either drive is).
+#[test]
+fn mit_a_faulted_drive_that_falls_silent_is_silent() {
+    let mut cfg = config(Family::Mit);
+    cfg.control.heartbeat_timeout = 10.0;
+    cfg.validate().expect("valid");
+    let mut r = swimming_with("limp-mit-silent-after-fault", &cfg);
+    for axis in [0, 1] {
+        step_with(
+            &mut r,
+            &mit_reply_of(&cfg, axis, mit::error_code::OVER_TEMPERATURE),
+        );
+    }
+    r.run_for(0.1);
+    assert_eq!(r.ctl.supervisor().mode(), Mode::Fault);
+    r.joints[JOINT].set_silent(true);
+    let periods = f64::from(cfg.control.feedback_timeout + 5);
+    r.run_for(periods * r.ctl.period_ns().as_nanos() as f64 * 1e-9);
+    let f = r.ctl.supervisor().faults();
+    assert!(f.contains(FaultKind::FeedbackLost), "{f}");
+    assert!(!f.contains(FaultKind::HeartbeatLost), "{f}");
+    assert_eq!(f.nodes, 1 << REPORT_ID, "{f}");
+}
+
+/// A reply with every field at the top of its range (all ones: an unread
+/// encoder, or a forger's) is counted and said once, naming the drive.
+#[test]
+fn mit_a_reply_at_the_top_of_every_range_is_counted_and_said() {
+    let cfg = config(Family::Mit);
+    let mut r = swimming("limp-mit-saturated", Family::Mit);
+    let node = cfg.axes()[JOINT][0].node;
+    let ones = Frame::new_standard(0, &[node, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 30, 0]).unwrap();
+    while r.ctl.take_drive_notice().is_some() {}
+    assert_eq!(r.ctl.drives().counters().saturated, 0);
+    step_with(&mut r, &ones);
+    step_with(&mut r, &ones);
+    r.step(); // the controller reads the second
+    assert_eq!(r.ctl.drives().counters().saturated, 2);
+    let n = r.ctl.take_drive_notice().expect("said");
+    assert_eq!(
+        n,
+        anguilla_daemon::drive::Notice::SaturatedReply {
+            joint: JOINT as u8,
+            axis: 0,
+            node
+        }
+    );
+    assert!(n.to_string().contains("top of its range"), "{n}");
+    assert_eq!(r.ctl.take_drive_notice(), None, "once per drive");
 }
 
 /// The false-positive check: every family swims 10 s, turning and

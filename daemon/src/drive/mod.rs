@@ -155,6 +155,18 @@ pub enum Notice {
         /// Why.
         why: cia402::ConfigFailure,
     },
+    /// A drive's reply had every field at the top of its range (MIT:
+    /// position, velocity and torque all ones): an unread encoder, or a
+    /// forger. Said once per drive; every one is counted
+    /// ([`RxCounters::saturated`]).
+    SaturatedReply {
+        /// Joint (0 = head end).
+        joint: u8,
+        /// 0 pitch, 1 yaw.
+        axis: u8,
+        /// Its node id.
+        node: u8,
+    },
 }
 
 impl std::fmt::Display for Notice {
@@ -180,6 +192,17 @@ impl std::fmt::Display for Notice {
             } => write!(
                 f,
                 "joint {} {} drive (node {node}): configuration step {step} failed: {why}",
+                joint + 1,
+                axis(a)
+            ),
+            Notice::SaturatedReply {
+                joint,
+                axis: a,
+                node,
+            } => write!(
+                f,
+                "joint {} {} drive (node {node}): a reply with every field at the top of its \
+                 range (an unread encoder, or not the drive); taken, counted, said once",
                 joint + 1,
                 axis(a)
             ),

@@ -26,6 +26,9 @@ pub struct RxCounters {
     pub foreign_commands: u64,
     /// E-stop frames seen on the bus.
     pub estops_seen: u64,
+    /// Replies with every field at the top of its range (MIT: position,
+    /// velocity and torque all ones), taken but suspect.
+    pub saturated: u64,
 }
 
 /// The nodes' (or drives') reports at one instant: what every family's
