@@ -16,8 +16,8 @@
 //!    │                                          (operator silent ──►)
 //!  Fault ◄── heartbeat lost, no feedback, duplicate node id, node fault,
 //!            bus-off, model diverged (any active mode); a node rebooted
-//!            or disabled (Ready, Swimming, Stopping: the nodes must be
-//!            enabled there)
+//!            or disabled, a tracking error, frozen feedback (Ready,
+//!            Swimming, Stopping: the nodes must be enabled and follow)
 //!  EStop ◄── E-stop from any client or from the bus, or a foreign drive
 //!            command on the bus (any mode); latched until reset
 //! ```
@@ -50,6 +50,12 @@ pub struct Observations {
     pub booting: NodeSet,
     /// Nodes that report Disabled (their joints are limp).
     pub disabled: NodeSet,
+    /// Joints whose measured angle stayed beyond the tracking band
+    /// ([`crate::tracking`]).
+    pub tracking_error: NodeSet,
+    /// Joints whose fresh feedback stayed the same while commanded to move
+    /// ([`crate::tracking`]).
+    pub feedback_frozen: NodeSet,
     /// Nodes that sent or report an E-stop (bit = node id); `bus_estop`
     /// covers E-stops whose sender is not a node.
     pub estop_nodes: NodeSet,
@@ -648,6 +654,14 @@ impl Supervisor {
         if must_be_enabled && !obs.disabled.is_empty() {
             self.fault(now, FaultKind::NodeDisabled, obs.disabled.bits());
         }
+        // The second line, which does not take the drives' word: the
+        // joints do not do what they are told.
+        if must_be_enabled && !obs.tracking_error.is_empty() {
+            self.fault(now, FaultKind::TrackingError, obs.tracking_error.bits());
+        }
+        if must_be_enabled && !obs.feedback_frozen.is_empty() {
+            self.fault(now, FaultKind::FeedbackFrozen, obs.feedback_frozen.bits());
+        }
         // Progress.
         match self.mode {
             Mode::Enabling if obs.all_enabled => self.enter(Mode::Ready, now, Cause::Progress),
@@ -1063,6 +1077,39 @@ mod tests {
             s.command(8 * MS, A, 5, Command::Reset).unwrap();
             s.tick(9 * MS, &obs);
             assert_eq!(s.mode(), Mode::Idle, "{text}");
+        }
+    }
+
+    /// A joint that does not follow (tracking error) or whose feedback is a
+    /// copy (frozen) faults the robot naming it, where the drives follow
+    /// setpoints; elsewhere the monitor does not judge, and neither does
+    /// the supervisor.
+    #[test]
+    fn a_joint_that_does_not_follow_or_a_frozen_one_faults_naming_it() {
+        let cases = [
+            (
+                Observations {
+                    tracking_error: nodes(&[2]),
+                    ..ok_obs()
+                },
+                "tracking error (node 2)",
+            ),
+            (
+                Observations {
+                    feedback_frozen: nodes(&[6]),
+                    ..ok_obs()
+                },
+                "feedback frozen (node 6)",
+            ),
+        ];
+        for (obs, text) in cases {
+            let mut s = swimming();
+            s.tick(4 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "{text}");
+            assert_eq!(s.faults().to_string(), text);
+            let mut s = Supervisor::new(SupervisorConfig::default());
+            s.tick(MS, &obs);
+            assert!(s.faults().is_empty(), "idle: {text}");
         }
     }
 

@@ -8,6 +8,11 @@
 //! - another sender's state-changing command to one of our drives (a
 //!   one-byte Disable, `083#02`; an NMT reset; Set axis state Idle; Set
 //!   zero, Enter motor mode): an E-stop from the bus, naming the joint;
+//! - MIT: a reply with an error code, a faulted drive falling silent, a
+//!   reply with every field at the top of its range;
+//! - the second line (`anguilla_daemon::tracking`): a copier replaying a
+//!   dead joint's last frames (frozen feedback) and a jammed joint
+//!   (tracking error), in every family;
 //! - the healthy swim beside them: no fault (the false-positive check).
 //!
 //! The same attacks against the daemon's real loop and the built-in robot
@@ -325,6 +330,127 @@ fn mit_a_reply_at_the_top_of_every_range_is_counted_and_said() {
     assert_eq!(r.ctl.take_drive_notice(), None, "once per drive");
 }
 
+/// The copier (issue 45): joint 3's drives die, and another sender on the
+/// bus replays their last frames byte for byte after every period, with
+/// heartbeats whose counter advances (a careful forger). Every liveness
+/// check passes (feedback arrives each period, heartbeats are flawless);
+/// the feedback does not move while the setpoints do: "feedback frozen",
+/// naming joint 3, and nothing else.
+#[test]
+fn a_copier_of_a_dead_joints_last_frames_is_frozen_feedback() {
+    for drive in Family::ALL {
+        let name = format!("limp-copier-{}", drive.name());
+        let mut r = swimming(&name, drive);
+        // The joint's frames of a few periods, the last one per id (MIT:
+        // per drive, every reply is on id 0).
+        r.capture = Some(JOINT);
+        let mut last: Vec<Frame> = Vec::new();
+        for _ in 0..10 {
+            r.command(1, Command::KeepAlive);
+            r.step();
+            for f in r.captured.clone() {
+                let same = |g: &Frame| g.id() == f.id() && g.data().first() == f.data().first();
+                last.retain(|g| !same(g));
+                last.push(f);
+            }
+        }
+        r.capture = None;
+        // Its heartbeat (the family's liveness message) is forged with a
+        // counter; everything else is replayed as it was.
+        let mut hb = Vec::new();
+        device(&r, JOINT).impostor_heartbeat(
+            anguilla_protocol::message::NodeState::Enabled,
+            0,
+            &mut |f| hb.push(f),
+        );
+        if drive != Family::Mit {
+            last.retain(|f| hb.iter().all(|h| h.id() != f.id()));
+        }
+        assert!(!last.is_empty(), "{name}: frames to copy");
+        match r.nodes.get_mut(JOINT) {
+            Some(n) => n.set_silent(true),
+            None => r.joints[JOINT].set_silent(true),
+        }
+        let period = r.ctl.period_ns().as_nanos() as f64 * 1e-9;
+        let mut counter = 0u8;
+        for k in 0..(1.0 / period) as usize {
+            if r.ctl.supervisor().mode() != Mode::Swimming {
+                break;
+            }
+            if k % 20 == 0 {
+                r.command(1, Command::KeepAlive);
+            }
+            r.ctl.run_period(r.now, &mut r.host);
+            for f in &last {
+                r.bus.inject(f);
+            }
+            if k % 5 == 0 && drive != Family::Mit {
+                counter = counter.wrapping_add(1);
+                let mut forged = Vec::new();
+                device(&r, JOINT).impostor_heartbeat(
+                    anguilla_protocol::message::NodeState::Enabled,
+                    counter,
+                    &mut |f| forged.push(f),
+                );
+                for f in &forged {
+                    r.bus.inject(f);
+                }
+            }
+            r.nodes_step();
+        }
+        let f = r.ctl.supervisor().faults();
+        assert_eq!(r.ctl.supervisor().mode(), Mode::Fault, "{name}: {f}");
+        assert!(f.contains(FaultKind::FeedbackFrozen), "{name}: {f}");
+        assert_eq!(f.nodes, 1 << REPORT_ID, "{name}: {f}");
+        eprintln!("{name}: {f}");
+    }
+}
+
+/// A joint jammed (its feedback still live) while the robot
+/// swims and turns hard: its measured yaw stays beyond the tracking band
+/// from its setpoint for the tracking time: "tracking error", naming it.
+#[test]
+fn a_jammed_joint_is_a_tracking_error() {
+    for drive in Family::ALL {
+        let name = format!("limp-jammed-{}", drive.name());
+        let mut r = swimming(&name, drive);
+        // The tail joint: the largest swing.
+        let tail = r.ctl.setpoints().len() - 1;
+        // Its encoder still reads, with a little noise (without, a jammed
+        // joint's feedback would be the same bit for bit: frozen).
+        let faults = match r.nodes.get_mut(tail) {
+            Some(n) => n.axis_faults_mut(1),
+            None => r.joints[tail].axis_faults_mut(1),
+        };
+        faults.stuck = true;
+        faults.extra_noise = 2e-3;
+        let turn = Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 0.5,
+            turn: 2.0,
+            pitch: 0.0,
+        });
+        assert_eq!(r.command(1, turn).accepted, 1);
+        let f = until_not_swimming(&mut r, 10.0);
+        assert!(f.contains(FaultKind::TrackingError), "{name}: {f}");
+        let id = if drive.drive_per_axis() {
+            tail as u64 + 1
+        } else {
+            u64::from(config(drive).node_ids()[tail])
+        };
+        assert_eq!(f.nodes, 1 << id, "{name}: {f}");
+        eprintln!("{name}: {f}");
+    }
+}
+
+/// Joint `j`'s simulated drives, whatever the family.
+fn device(r: &Rig, j: usize) -> &dyn anguilla_sim::device::JointDevice {
+    match r.nodes.get(j) {
+        Some(n) => n,
+        None => r.joints[j].as_ref(),
+    }
+}
+
 /// The false-positive check: every family swims 10 s, turning and
 /// pitching, then stops, with no fault.
 #[test]
@@ -347,5 +473,10 @@ fn a_healthy_swim_is_no_fault() {
         let f = r.ctl.supervisor().faults();
         assert!(f.is_empty(), "{name}: {f}");
         assert_eq!(r.ctl.supervisor().mode(), Mode::Ready, "{name}");
+        eprintln!(
+            "{name}: worst tracking error {:.3} rad (band {})",
+            r.ctl.worst_tracking_error(),
+            anguilla_daemon::tracking::TRACKING_BAND
+        );
     }
 }

@@ -577,11 +577,19 @@ pub enum FaultKind {
     /// controller mode; MIT: Enter motor mode, Set zero): taken as an
     /// E-stop from the bus.
     ForeignCommand = 1 << 12,
+    /// A joint's measured angle stayed beyond the tracking band from its
+    /// setpoint for the tracking time while the drives followed setpoints
+    /// (limp, jammed, or not the joint the feedback claims).
+    TrackingError = 1 << 13,
+    /// A joint's fresh feedback stayed the same, bit for bit, while its
+    /// setpoints moved it: a copier replaying a dead joint's frame, or a
+    /// half-dead node.
+    FeedbackFrozen = 1 << 14,
 }
 
 impl FaultKind {
     /// Every kind, in bit order.
-    pub const ALL: [FaultKind; 13] = [
+    pub const ALL: [FaultKind; 15] = [
         FaultKind::HeartbeatLost,
         FaultKind::NodeFault,
         FaultKind::BusOff,
@@ -595,6 +603,8 @@ impl FaultKind {
         FaultKind::NodeRebooted,
         FaultKind::NodeDisabled,
         FaultKind::ForeignCommand,
+        FaultKind::TrackingError,
+        FaultKind::FeedbackFrozen,
     ];
 
     /// Short name, as shown to operators.
@@ -613,6 +623,8 @@ impl FaultKind {
             FaultKind::NodeRebooted => "actuator rebooted",
             FaultKind::NodeDisabled => "actuator disabled",
             FaultKind::ForeignCommand => "foreign drive command",
+            FaultKind::TrackingError => "tracking error",
+            FaultKind::FeedbackFrozen => "feedback frozen",
         }
     }
 }

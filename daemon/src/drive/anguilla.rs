@@ -121,6 +121,8 @@ impl Drives for Nodes {
             errors: e.errors.0 as u32,
             last_heard: e.last_heartbeat,
             feedback: e.feedback.map(|f| f.axes),
+            // One Feedback frame carries both axes.
+            feedback_age: [e.syncs_since_feedback; 2],
         }
     }
 

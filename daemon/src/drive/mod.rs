@@ -126,6 +126,9 @@ pub struct JointReport {
     pub last_heard: Option<Nanos>,
     /// Measured position, velocity, torque at the joint, `[pitch, yaw]`.
     pub feedback: Option<[AxisFeedback; 2]>,
+    /// Periods (SYNCs) since each axis's feedback last arrived, `[pitch,
+    /// yaw]`: 0 when it came since the last period (or none is owed).
+    pub feedback_age: [u32; 2],
 }
 
 /// Something a drive did that the operator's log should say (a `Copy`
@@ -322,6 +325,10 @@ pub fn joint_report(pair: &[impl AxisView; 2]) -> JointReport {
             (Some(a), Some(b)) => Some([a, b]),
             _ => None,
         },
+        feedback_age: [
+            st[0].periods_without_feedback,
+            st[1].periods_without_feedback,
+        ],
     }
 }
 
