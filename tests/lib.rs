@@ -132,6 +132,24 @@ impl Robot {
         self.sim.as_ref().expect("running").inject(action);
     }
 
+    /// Another sender on the robot's bus (`cansend`): `frame` goes on the
+    /// wire now, heard by the daemon and the robot alike.
+    pub fn send_foreign(&self, frame: &anguilla_protocol::frame::Frame) {
+        self.sim.as_ref().expect("running").send_foreign(frame);
+    }
+
+    /// Stops the daemon (a smooth stop, as on SIGTERM) and the robot;
+    /// the daemon's run report.
+    pub fn stop(mut self) -> anguilla_daemon::run::RunReport {
+        let r = self.running.take().expect("running");
+        r.request_stop();
+        let report = r.join().expect("the daemon's loop ends cleanly");
+        if let Some(sim) = self.sim.take() {
+            sim.stop();
+        }
+        report
+    }
+
     /// The simulated robot's ground truth now.
     pub fn truth(&self) -> anguilla_sim::Truth {
         self.sim.as_ref().expect("running").truth()

@@ -44,7 +44,10 @@ use crate::sensors::Sensors;
 
 mod snapshot;
 use crate::session::Record;
-use crate::supervisor::{Directives, FaultPolicy, Observations, Supervisor, SupervisorConfig};
+use crate::supervisor::{
+    Directives, Drive, FaultPolicy, Observations, Supervisor, SupervisorConfig,
+};
+use crate::tracking::{JointSample, Tracking, TrackingReport};
 use anguilla_ipc::vocabulary::{ClientId, Command, Mode, Nanos, SwimParams};
 use anguilla_ipc::{
     CommandReply, CommandRequest, Envelope, Hold, LimitsSnapshot, MAX_JOINTS, SensorHealth,
@@ -155,6 +158,13 @@ pub struct Controller {
     autopilot: Option<Autopilot>,
     hold: Hold,
     hold_exit: Option<SensorHealth>,
+    /// The second line ([`crate::tracking`]).
+    tracking: Tracking,
+    /// The setpoints of the last period were sent and followed (Ready,
+    /// Swimming, Stopping): this period's feedback answers them.
+    setpoints_followed: bool,
+    /// The joints' report ids, in joint order.
+    report_ids: Vec<anguilla_protocol::message::NodeId>,
 }
 
 /// The control period (ns) for `cfg`: 1 / [`Config::control_rate`] (a
@@ -283,6 +293,18 @@ impl Controller {
             autopilot,
             hold: Hold::MANUAL,
             hold_exit: None,
+            tracking: Tracking::new(joints),
+            setpoints_followed: false,
+            report_ids: if cfg.robot.drive.drive_per_axis() {
+                (1..=joints)
+                    .filter_map(|j| anguilla_protocol::message::NodeId::new(j as u8).ok())
+                    .collect()
+            } else {
+                cfg.node_ids()
+                    .into_iter()
+                    .filter_map(|id| anguilla_protocol::message::NodeId::new(id).ok())
+                    .collect()
+            },
         })
     }
 
@@ -324,6 +346,12 @@ impl Controller {
     /// The drives' next notice for the log (configuration done or failed).
     pub fn take_drive_notice(&mut self) -> Option<crate::drive::Notice> {
         self.drives.take_notice()
+    }
+
+    /// The largest tracking error (rad) seen on fresh feedback while the
+    /// drives followed setpoints, since the start ([`crate::tracking`]).
+    pub fn worst_tracking_error(&self) -> f64 {
+        self.tracking.worst()
     }
 
     /// Counters.
@@ -534,6 +562,26 @@ impl Controller {
             }
         }
         let report = self.drives.observe(now, &self.liveness);
+        // The second line: the feedback of the period just answered against
+        // the setpoints sent in it, if setpoints were followed.
+        let tracked = if self.setpoints_followed {
+            let (drives, setpoints, ids) = (&self.drives, &self.setpoints, &self.report_ids);
+            self.tracking.judge(
+                now,
+                |j| {
+                    let jr = drives.joint(j);
+                    JointSample {
+                        commanded: setpoints[j],
+                        feedback: jr.feedback,
+                        feedback_age: jr.feedback_age,
+                    }
+                },
+                |j| ids.get(j).copied(),
+            )
+        } else {
+            self.tracking.rest();
+            TrackingReport::default()
+        };
         let configured = self.drives.report_ids();
         let obs = Observations {
             all_enabled: report.all_enabled,
@@ -543,13 +591,23 @@ impl Controller {
             all_lost: !configured.is_empty() && report.lost.covers(configured),
             node_fault: report.fault,
             estop_nodes: report.estop,
+            booting: report.booting,
+            disabled: report.disabled,
+            tracking_error: tracked.tracking,
+            feedback_frozen: tracked.frozen,
             bus_estop: self.drives.take_bus_estop(),
+            foreign_command: self.drives.take_foreign_command(),
             bus_off: period_state == BusState::BusOff,
             bus_gone: period_state == BusState::Gone,
             model_diverged: self.model_failed,
             gait_at_rest: self.at_rest(),
         };
         let d = self.sup.tick(now, &obs);
+        self.setpoints_followed = d.drive == Drive::Setpoints
+            && matches!(
+                self.sup.mode(),
+                Mode::Ready | Mode::Swimming | Mode::Stopping
+            );
         // In Fault, setpoints go to the nodes still answering only.
         self.setpoint_skip = if self.sup.mode() == Mode::Fault {
             report.lost.union(report.silent)

@@ -35,4 +35,5 @@ pub mod sensors;
 pub mod session;
 pub mod stats;
 pub mod supervisor;
+pub mod tracking;
 pub mod truth;

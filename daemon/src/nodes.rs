@@ -76,6 +76,8 @@ pub struct NodeTable {
     index: [u8; 64],
     counters: RxCounters,
     bus_estop: bool,
+    /// Nodes another sender commanded (Enable, Disable, ClearFaults).
+    foreign: NodeSet,
     started: Nanos,
 }
 
@@ -111,6 +113,7 @@ impl NodeTable {
             index,
             counters: RxCounters::default(),
             bus_estop: false,
+            foreign: NodeSet::empty(),
             started: now,
         }
     }
@@ -189,9 +192,19 @@ impl NodeTable {
                 | Message::HeadDepth(_)
                 | Message::HeadSample(_),
             ) => {}
+            // Another sender tells our nodes to enable, disable or clear
+            // their faults: they obey it behind the daemon's back (a one-byte
+            // Disable, `083#02`, left a joint limp mid-swim). Taken as the
+            // E-stop from the bus that it is.
+            Ok(Message::Command { target, .. }) => {
+                self.counters.foreign_commands += 1;
+                self.foreign = self.foreign.union(match target {
+                    Target::All => self.set,
+                    Target::Node(n) => NodeSet::empty().with(n),
+                });
+            }
             Ok(
                 Message::Sync { .. }
-                | Message::Command { .. }
                 | Message::Setpoint(_)
                 | Message::SetpointGroup(_)
                 | Message::ConfigWrite { .. }
@@ -207,6 +220,12 @@ impl NodeTable {
     /// Whether an E-stop was seen since the last call (then cleared).
     pub fn take_bus_estop(&mut self) -> bool {
         core::mem::take(&mut self.bus_estop)
+    }
+
+    /// The nodes another sender commanded (Enable, Disable, ClearFaults)
+    /// since the last call (then cleared).
+    pub fn take_foreign_command(&mut self) -> NodeSet {
+        core::mem::replace(&mut self.foreign, NodeSet::empty())
     }
 
     /// A SYNC went out: every node that has booted owes an answer. A
@@ -249,7 +268,15 @@ impl NodeTable {
                     r.estop = r.estop.with(e.id);
                     r.all_enabled = false;
                 }
-                _ => r.all_enabled = false,
+                Some(NodeState::Boot) => {
+                    r.booting = r.booting.with(e.id);
+                    r.all_enabled = false;
+                }
+                Some(NodeState::Disabled) => {
+                    r.disabled = r.disabled.with(e.id);
+                    r.all_enabled = false;
+                }
+                None => r.all_enabled = false,
             }
         }
         r

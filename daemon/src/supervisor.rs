@@ -15,8 +15,11 @@
 //!    │ reset                                     Swimming ─stop──► Stopping
 //!    │                                          (operator silent ──►)
 //!  Fault ◄── heartbeat lost, no feedback, duplicate node id, node fault,
-//!            bus-off, model diverged (any active mode)
-//!  EStop ◄── E-stop from any client or from the bus (any mode); latched until reset
+//!            bus-off, model diverged (any active mode); a node rebooted
+//!            or disabled, a tracking error, frozen feedback (Ready,
+//!            Swimming, Stopping: the nodes must be enabled and follow)
+//!  EStop ◄── E-stop from any client or from the bus, or a foreign drive
+//!            command on the bus (any mode); latched until reset
 //! ```
 
 use anguilla_protocol::NodeSet;
@@ -43,11 +46,25 @@ pub struct Observations {
     pub all_lost: bool,
     /// Nodes that report a fault.
     pub node_fault: NodeSet,
+    /// Nodes that report Boot (they rebooted: their joints are limp).
+    pub booting: NodeSet,
+    /// Nodes that report Disabled (their joints are limp).
+    pub disabled: NodeSet,
+    /// Joints whose measured angle stayed beyond the tracking band
+    /// ([`crate::tracking`]).
+    pub tracking_error: NodeSet,
+    /// Joints whose fresh feedback stayed the same while commanded to move
+    /// ([`crate::tracking`]).
+    pub feedback_frozen: NodeSet,
     /// Nodes that sent or report an E-stop (bit = node id); `bus_estop`
     /// covers E-stops whose sender is not a node.
     pub estop_nodes: NodeSet,
     /// An E-stop frame was seen on the bus.
     pub bus_estop: bool,
+    /// Nodes that another sender on the bus told to change state (enable,
+    /// disable, clear faults, re-zero, change mode): an E-stop from the
+    /// bus, whatever the mode.
+    pub foreign_command: NodeSet,
     /// The bus is bus-off.
     pub bus_off: bool,
     /// The bus adapter is gone (unplugged; the driver reconnects).
@@ -587,6 +604,13 @@ impl Supervisor {
             }
             None => false,
         };
+        // Where every node must be enabled: a node that reports anything
+        // else here went limp behind the supervisor's back (a reboot, a
+        // Disable from another sender, its own firmware). While enabling
+        // the nodes are on their way; in Idle, Fault and E-stop they may be
+        // anything. Judged on the mode the period starts in, so a fault
+        // found in the same period does not hide it.
+        let must_be_enabled = matches!(self.mode, Mode::Ready | Mode::Swimming | Mode::Stopping);
         // Safety reactions (DESIGN.md's table).
         // Nodes that report E-stop while the daemon is already E-stopped
         // obey it: a consequence, not another fault (an operator's E-stop
@@ -595,6 +619,13 @@ impl Supervisor {
         let obeying = self.mode == Mode::EStop && !obs.bus_estop;
         if !settling && !obeying && (obs.bus_estop || !obs.estop_nodes.is_empty()) {
             self.estop(now, FaultKind::BusEStop, obs.estop_nodes.bits());
+        }
+        // Another sender told our drives to change state: they obey it
+        // behind the supervisor's back (limp, enabled, faults cleared, a
+        // new zero), so the robot is no longer what it commands. The same
+        // answer as to its E-stop frame.
+        if !obs.foreign_command.is_empty() {
+            self.estop(now, FaultKind::ForeignCommand, obs.foreign_command.bits());
         }
         if obs.bus_off {
             self.fault(now, FaultKind::BusOff, 0);
@@ -616,6 +647,20 @@ impl Supervisor {
         }
         if obs.model_diverged {
             self.fault(now, FaultKind::ModelDiverged, 0);
+        }
+        if must_be_enabled && !obs.booting.is_empty() {
+            self.fault(now, FaultKind::NodeRebooted, obs.booting.bits());
+        }
+        if must_be_enabled && !obs.disabled.is_empty() {
+            self.fault(now, FaultKind::NodeDisabled, obs.disabled.bits());
+        }
+        // The second line, which does not take the drives' word: the
+        // joints do not do what they are told.
+        if must_be_enabled && !obs.tracking_error.is_empty() {
+            self.fault(now, FaultKind::TrackingError, obs.tracking_error.bits());
+        }
+        if must_be_enabled && !obs.feedback_frozen.is_empty() {
+            self.fault(now, FaultKind::FeedbackFrozen, obs.feedback_frozen.bits());
         }
         // Progress.
         match self.mode {
@@ -979,6 +1024,135 @@ mod tests {
         assert_eq!(s.mode(), Mode::Idle);
     }
 
+    /// A node that leaves Enabled where the nodes must be enabled (Ready,
+    /// Swimming, Stopping) faults the robot, naming the node and what it
+    /// reported: a reboot mid-swim, a Disable from another sender.
+    #[test]
+    fn a_node_that_goes_limp_while_enabled_faults_naming_it_and_what_it_said() {
+        let cases = [
+            (
+                Observations {
+                    booting: nodes(&[3]),
+                    all_enabled: false,
+                    ..ok_obs()
+                },
+                FaultKind::NodeRebooted,
+                "actuator rebooted (node 3)",
+            ),
+            (
+                Observations {
+                    disabled: nodes(&[5]),
+                    all_enabled: false,
+                    ..ok_obs()
+                },
+                FaultKind::NodeDisabled,
+                "actuator disabled (node 5)",
+            ),
+        ];
+        for (obs, kind, text) in cases {
+            // Swimming.
+            let mut s = swimming();
+            let d = s.tick(4 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "{text}");
+            assert_eq!(s.cause(), Cause::Fault);
+            assert!(s.faults().contains(kind));
+            assert_eq!(s.faults().to_string(), text);
+            assert_eq!(d.gait_target, SwimParams::REST, "the swim stops");
+            // Stopping.
+            let mut s = swimming();
+            s.command(4 * MS, A, 4, Command::Stop).unwrap();
+            s.tick(5 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "stopping: {text}");
+            // Ready.
+            let mut s = swimming();
+            s.command(4 * MS, A, 4, Command::Stop).unwrap();
+            s.tick(5 * MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::Ready);
+            s.tick(6 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "ready: {text}");
+            assert_eq!(s.faults().to_string(), text);
+            // Not a fault to reset past once the node is enabled again: the
+            // reset goes to Idle, where a limp node is what is asked for.
+            s.tick(7 * MS, &ok_obs());
+            s.command(8 * MS, A, 5, Command::Reset).unwrap();
+            s.tick(9 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Idle, "{text}");
+        }
+    }
+
+    /// A joint that does not follow (tracking error) or whose feedback is a
+    /// copy (frozen) faults the robot naming it, where the drives follow
+    /// setpoints; elsewhere the monitor does not judge, and neither does
+    /// the supervisor.
+    #[test]
+    fn a_joint_that_does_not_follow_or_a_frozen_one_faults_naming_it() {
+        let cases = [
+            (
+                Observations {
+                    tracking_error: nodes(&[2]),
+                    ..ok_obs()
+                },
+                "tracking error (node 2)",
+            ),
+            (
+                Observations {
+                    feedback_frozen: nodes(&[6]),
+                    ..ok_obs()
+                },
+                "feedback frozen (node 6)",
+            ),
+        ];
+        for (obs, text) in cases {
+            let mut s = swimming();
+            s.tick(4 * MS, &obs);
+            assert_eq!(s.mode(), Mode::Fault, "{text}");
+            assert_eq!(s.faults().to_string(), text);
+            let mut s = Supervisor::new(SupervisorConfig::default());
+            s.tick(MS, &obs);
+            assert!(s.faults().is_empty(), "idle: {text}");
+        }
+    }
+
+    /// Where a limp node is expected or already handled, its report is no
+    /// new fault: Idle, Enabling (on its way), Fault, E-stop.
+    #[test]
+    fn a_limp_node_is_no_fault_while_idle_enabling_in_fault_or_estopped() {
+        let limp = Observations {
+            booting: nodes(&[1]),
+            disabled: nodes(&[2]),
+            all_enabled: false,
+            ..ok_obs()
+        };
+        let mut s = Supervisor::new(SupervisorConfig::default());
+        s.tick(MS, &limp);
+        assert_eq!((s.mode(), s.faults()), (Mode::Idle, FaultSet::default()));
+        s.command(MS, A, 1, Command::TakeControl).unwrap();
+        s.command(MS, A, 2, Command::Enable).unwrap();
+        s.tick(2 * MS, &limp);
+        assert_eq!(s.mode(), Mode::Enabling);
+        assert!(s.faults().is_empty(), "{}", s.faults());
+        // Enabled now: Ready, and the first period there is judged on
+        // Enabling's terms; from the next on, a limp node is a fault.
+        s.tick(3 * MS, &ok_obs());
+        assert_eq!(s.mode(), Mode::Ready);
+        // In Fault (another cause) a node going limp adds nothing.
+        let mut s = swimming();
+        s.tick(
+            4 * MS,
+            &Observations {
+                node_fault: nodes(&[4]),
+                ..ok_obs()
+            },
+        );
+        s.tick(5 * MS, &limp);
+        assert_eq!(s.faults().to_string(), "actuator fault (node 4)");
+        // E-stopped: the nodes obey it.
+        let mut s = swimming();
+        s.command(4 * MS, A, 4, Command::EStop).unwrap();
+        s.tick(5 * MS, &limp);
+        assert_eq!(s.faults().to_string(), "operator e-stop");
+    }
+
     #[test]
     fn reset_clears_node_faults_and_ignores_their_stale_reports() {
         let mut s = swimming();
@@ -1143,6 +1317,34 @@ mod tests {
         );
         assert_eq!(s.mode(), Mode::EStop);
         assert!(s.faults().contains(FaultKind::BusEStop));
+    }
+
+    /// A foreign drive command (a one-byte Disable, `083#02`; a Set zero)
+    /// is an E-stop from the bus in every mode, naming the nodes it was
+    /// aimed at, latched until reset like any E-stop.
+    #[test]
+    fn a_foreign_drive_command_is_an_estop_naming_its_nodes() {
+        let foreign = Observations {
+            foreign_command: nodes(&[3]),
+            ..ok_obs()
+        };
+        let mut s = swimming();
+        let d = s.tick(4 * MS, &foreign);
+        assert_eq!(s.mode(), Mode::EStop);
+        assert_eq!(s.cause(), Cause::Fault);
+        assert!(d.send_estop, "every node told to stop at once");
+        assert_eq!(d.drive, Drive::Disabled);
+        assert_eq!(s.faults().to_string(), "foreign drive command (node 3)");
+        // Latched: gone from the bus, still E-stopped.
+        for i in 5..10 {
+            s.tick(i * MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::EStop);
+        }
+        s.command(10 * MS, A, 4, Command::Reset).unwrap();
+        assert_eq!(s.mode(), Mode::Idle);
+        // In Idle too: a foreign Enable would stiffen joints nobody drives.
+        s.tick(11 * MS, &foreign);
+        assert_eq!(s.mode(), Mode::EStop);
     }
 
     #[test]

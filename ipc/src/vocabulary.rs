@@ -564,11 +564,32 @@ pub enum FaultKind {
     /// A node's heartbeat counter did not advance by one, again and again:
     /// two senders use its id (a second node, or a forger on the bus).
     DuplicateNode = 1 << 9,
+    /// A node reported Boot while it should have been enabled (Ready,
+    /// Swimming, Stopping): it rebooted, and its joint went limp.
+    NodeRebooted = 1 << 10,
+    /// A node reported Disabled while it should have been enabled (Ready,
+    /// Swimming, Stopping): someone disabled it, or it did itself; its
+    /// joint went limp.
+    NodeDisabled = 1 << 11,
+    /// Another sender on the bus told one of our drives to change state
+    /// (anguilla: Enable, Disable, ClearFaults; CiA 402: an NMT command
+    /// other than Stop, an RPDO; ODrive: Set axis state, Clear errors, Set
+    /// controller mode; MIT: Enter motor mode, Set zero): taken as an
+    /// E-stop from the bus.
+    ForeignCommand = 1 << 12,
+    /// A joint's measured angle stayed beyond the tracking band from its
+    /// setpoint for the tracking time while the drives followed setpoints
+    /// (limp, jammed, or not the joint the feedback claims).
+    TrackingError = 1 << 13,
+    /// A joint's fresh feedback stayed the same, bit for bit, while its
+    /// setpoints moved it: a copier replaying a dead joint's frame, or a
+    /// half-dead node.
+    FeedbackFrozen = 1 << 14,
 }
 
 impl FaultKind {
     /// Every kind, in bit order.
-    pub const ALL: [FaultKind; 10] = [
+    pub const ALL: [FaultKind; 15] = [
         FaultKind::HeartbeatLost,
         FaultKind::NodeFault,
         FaultKind::BusOff,
@@ -579,6 +600,11 @@ impl FaultKind {
         FaultKind::AdapterGone,
         FaultKind::FeedbackLost,
         FaultKind::DuplicateNode,
+        FaultKind::NodeRebooted,
+        FaultKind::NodeDisabled,
+        FaultKind::ForeignCommand,
+        FaultKind::TrackingError,
+        FaultKind::FeedbackFrozen,
     ];
 
     /// Short name, as shown to operators.
@@ -594,6 +620,11 @@ impl FaultKind {
             FaultKind::AdapterGone => "adapter gone",
             FaultKind::FeedbackLost => "no feedback",
             FaultKind::DuplicateNode => "duplicate node id",
+            FaultKind::NodeRebooted => "actuator rebooted",
+            FaultKind::NodeDisabled => "actuator disabled",
+            FaultKind::ForeignCommand => "foreign drive command",
+            FaultKind::TrackingError => "tracking error",
+            FaultKind::FeedbackFrozen => "feedback frozen",
         }
     }
 }

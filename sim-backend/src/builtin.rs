@@ -111,6 +111,13 @@ impl Builtin {
         self.bus.force_state(self.host, state);
     }
 
+    /// Another sender on the bus: `frame` goes on the wire now, heard by
+    /// the controller and the robot alike (an attack: `cansend` on the
+    /// robot's bus).
+    pub fn send_foreign(&self, frame: &anguilla_protocol::frame::Frame) {
+        self.bus.inject(frame);
+    }
+
     /// Applies a scenario action at the robot's next tick.
     pub fn inject(&self, action: crate::scenario::Action) {
         self.running.inject(action);

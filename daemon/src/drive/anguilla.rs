@@ -106,6 +106,10 @@ impl Drives for Nodes {
         self.table.take_bus_estop()
     }
 
+    fn take_foreign_command(&mut self) -> NodeSet {
+        self.table.take_foreign_command()
+    }
+
     fn counters(&self) -> RxCounters {
         self.table.counters()
     }
@@ -117,6 +121,8 @@ impl Drives for Nodes {
             errors: e.errors.0 as u32,
             last_heard: e.last_heartbeat,
             feedback: e.feedback.map(|f| f.axes),
+            // One Feedback frame carries both axes.
+            feedback_age: [e.syncs_since_feedback; 2],
         }
     }
 

@@ -25,6 +25,9 @@ pub struct DriveSet<A> {
     pub counters: RxCounters,
     /// An E-stop seen on the bus and not yet taken by the supervisor.
     pub bus_estop: bool,
+    /// Joints another sender told to change state, not yet taken by the
+    /// supervisor.
+    pub foreign: NodeSet,
     /// When the master started: liveness counts from here.
     pub started: Nanos,
 }
@@ -48,6 +51,7 @@ impl<A: AxisView> DriveSet<A> {
             joints,
             counters: RxCounters::default(),
             bus_estop: false,
+            foreign: NodeSet::empty(),
             started: now,
         })
     }
@@ -62,6 +66,20 @@ impl<A: AxisView> DriveSet<A> {
         core::mem::take(&mut self.bus_estop)
     }
 
+    /// Notes a state-changing command from another sender to joint `j`'s
+    /// drives (counted with the foreign commands).
+    pub fn foreign_command(&mut self, j: usize) {
+        self.counters.foreign_commands += 1;
+        if let Ok(id) = anguilla_protocol::message::NodeId::new(j as u8 + 1) {
+            self.foreign = self.foreign.with(id);
+        }
+    }
+
+    /// The joints another sender told to change state since the last call.
+    pub fn take_foreign_command(&mut self) -> NodeSet {
+        core::mem::replace(&mut self.foreign, NodeSet::empty())
+    }
+
     /// Joint `j`'s report.
     pub fn joint(&self, j: usize) -> JointReport {
         joint_report(&self.joints[j])
@@ -70,7 +88,7 @@ impl<A: AxisView> DriveSet<A> {
 
 /// The [`Drives`](super::Drives) methods a master with a [`DriveSet`] in
 /// its field `$set` answers from it: `report_ids`, `observe`,
-/// `take_bus_estop`, `counters` and `joint`. Used inside the master's
+/// `take_bus_estop`, `take_foreign_command`, `counters` and `joint`. Used inside the master's
 /// `impl Drives`.
 macro_rules! drive_set_answers {
     ($set:ident) => {
@@ -88,6 +106,10 @@ macro_rules! drive_set_answers {
 
         fn take_bus_estop(&mut self) -> bool {
             self.$set.take_bus_estop()
+        }
+
+        fn take_foreign_command(&mut self) -> anguilla_protocol::message::NodeSet {
+            self.$set.take_foreign_command()
         }
 
         fn counters(&self) -> $crate::drive::RxCounters {

@@ -404,8 +404,17 @@ impl Drives for Master {
                 if command == NmtCommand::Stop && at_us {
                     self.set.counters.estops_seen += 1;
                     self.set.bus_estop = true;
+                } else if let Some(n) = node {
+                    match ours(n) {
+                        // Start, enter pre-operational, reset: our drive
+                        // obeys it behind the master's back.
+                        Some((j, _)) => self.set.foreign_command(j),
+                        None => self.set.counters.foreign_commands += 1,
+                    }
                 } else {
-                    self.set.counters.foreign_commands += 1;
+                    for j in 0..self.set.joints.len() {
+                        self.set.foreign_command(j);
+                    }
                 }
             }
             Message::Heartbeat { node, state } => {
@@ -440,7 +449,13 @@ impl Drives for Master {
                 }
             }
             Message::Tpdo { .. } => {}
-            Message::Sync { .. } | Message::Rpdo { .. } | Message::SdoRequest { .. } => {
+            // A controlword and target from another sender: our drive
+            // obeys it (disable voltage, fault reset, another position).
+            Message::Rpdo { node, .. } => match ours(node) {
+                Some((j, _)) => self.set.foreign_command(j),
+                None => self.set.counters.foreign_commands += 1,
+            },
+            Message::Sync { .. } | Message::SdoRequest { .. } => {
                 self.set.counters.foreign_commands += 1
             }
         }

@@ -9,8 +9,9 @@
 //! - **Liveness** is the last reply: disabled drives are asked every
 //!   [`POLL`] (an Exit motor mode, which changes nothing in a limp drive),
 //!   enabled ones answer the command of every period. A drive not heard for
-//!   the heartbeat timeout is lost; one in motor mode that answered no
-//!   command for the feedback periods is silent.
+//!   the heartbeat timeout is lost; one that left a frame of ours
+//!   unanswered for the feedback periods is silent, in motor mode or not
+//!   (counting does not stop when a fault ends motor mode).
 //! - **Enabled** is motor mode, asked with Enter motor mode and confirmed
 //!   by the reply that follows it. Entering, a drive holds where it is
 //!   (the last reply's position, the gains [`KP`] and [`KD`]) until the
@@ -24,8 +25,20 @@
 //!   reports them in EStop until the operator clears faults. An Exit from
 //!   another sender to one of our drives leaves it limp behind our back:
 //!   it is taken as an E-stop on the bus.
-//! - **Faults** are the reply's error code; clearing sends Exit (CubeMars
-//!   firmware clears a fault whose cause is gone when motor mode ends).
+//! - **Faults** are the reply's error code, latched: one reply carrying a
+//!   code ends motor mode and reports the drive in Fault (the supervisor
+//!   faults the robot) until the operator clears faults, whatever the
+//!   replies after it say. Clearing sends Exit (CubeMars firmware clears a
+//!   fault whose cause is gone when motor mode ends). Motor mode follows
+//!   the replies: it starts with the reply that confirms our Enter, ends
+//!   with a reply carrying an error code, and comes back only through
+//!   another Enter of ours.
+//! - **A reply with every field at the top of its range** (position,
+//!   velocity and torque all ones: what a drive sends with its encoder
+//!   unread, or a forger that knows no better) is counted
+//!   ([`RxCounters::saturated`](super::RxCounters::saturated)) and logged
+//!   once per drive ([`Notice::SaturatedReply`](super::Notice)); it still
+//!   counts as the drive answering.
 
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, NodeState};
@@ -57,12 +70,17 @@ struct Axis {
     motor_mode: bool,
     /// E-stopped by us, until faults are cleared.
     estopped: bool,
-    /// The last reply's error code.
+    /// The error code of the replies since faults were last cleared: the
+    /// first nonzero one, latched.
     error: u8,
+    /// A frame of ours not answered yet.
+    owed: bool,
+    /// Replies with every field at the top of its range.
+    saturated: u64,
     last_reply: Option<Nanos>,
     /// Position, velocity, torque of the last reply, at the actuator.
     reply: Option<(f32, f32, f32)>,
-    /// Periods in motor mode since the last reply.
+    /// Periods with a frame of ours unanswered since the last reply.
     periods_without_reply: u32,
 }
 
@@ -110,6 +128,8 @@ pub struct Master {
     set: DriveSet<Axis>,
     last_poll: Nanos,
     last_enter: Nanos,
+    /// The next notice for the log.
+    notice: Option<super::Notice>,
 }
 
 impl Master {
@@ -128,6 +148,8 @@ impl Master {
                 motor_mode: false,
                 estopped: false,
                 error: 0,
+                owed: false,
+                saturated: 0,
                 last_reply: None,
                 reply: None,
                 periods_without_reply: 0,
@@ -137,12 +159,17 @@ impl Master {
             set,
             last_poll: Nanos::ZERO,
             last_enter: Nanos::ZERO,
+            notice: None,
         })
     }
 
-    fn send(out: &mut Out<'_>, node: NodeId, body: Body) {
-        match (Message { node, body }).encode(&DEFAULT_RANGES) {
-            Ok(f) => out.send(&f),
+    /// Sends `body` to `a`'s drive, which owes a reply from then on.
+    fn send(out: &mut Out<'_>, a: &mut Axis, body: Body) {
+        match (Message { node: a.node, body }).encode(&DEFAULT_RANGES) {
+            Ok(f) => {
+                out.send(&f);
+                a.owed = true;
+            }
             Err(_) => out.encode_failed(),
         }
     }
@@ -150,13 +177,13 @@ impl Master {
     /// Exit motor mode to every drive: limp, and a reply from each.
     fn exit_all(&mut self, out: &mut Out<'_>) {
         for a in self.set.joints.iter_mut().flatten() {
-            Self::send(out, a.node, Body::ExitMotorMode);
+            Self::send(out, a, Body::ExitMotorMode);
             a.motor_mode = false;
             a.entering = false;
         }
     }
 
-    fn command(out: &mut Out<'_>, a: &Axis, position: f64, velocity: f64, torque: f64) {
+    fn command(out: &mut Out<'_>, a: &mut Axis, position: f64, velocity: f64, torque: f64) {
         let r = DEFAULT_RANGES;
         let body = Body::Command(Command {
             position: a.map.motor_angle(position) as f32,
@@ -165,8 +192,14 @@ impl Master {
             kd: KD,
             torque: (a.map.motor_torque(torque) as f32).clamp(-r.torque, r.torque),
         });
-        Self::send(out, a.node, body);
+        Self::send(out, a, body);
     }
+}
+
+/// Whether a reply has every field at the top of its range: position,
+/// velocity and torque all ones (bytes 1..=5 of the frame).
+fn saturated(frame: &Frame) -> bool {
+    frame.data().get(1..6) == Some(&[0xFF; 5][..])
 }
 
 impl Drives for Master {
@@ -194,8 +227,14 @@ impl Drives for Master {
             Body::Reply(r) => {
                 a.last_reply = Some(now);
                 a.reply = Some((r.position, r.velocity, r.torque));
-                a.error = r.status.map_or(0, |s| s.error);
                 a.periods_without_reply = 0;
+                a.owed = false;
+                let error = r.status.map_or(0, |s| s.error);
+                if a.error == 0 {
+                    // Latched until faults are cleared: one reply with a
+                    // code is a fault, whatever the next ones say.
+                    a.error = error;
+                }
                 if a.entering && a.error == 0 {
                     a.entering = false;
                     a.motor_mode = true;
@@ -205,6 +244,17 @@ impl Drives for Master {
                     a.motor_mode = false;
                     a.entering = false;
                 }
+                if saturated(frame) {
+                    a.saturated += 1;
+                    self.set.counters.saturated += 1;
+                    if a.saturated == 1 {
+                        self.notice = Some(super::Notice::SaturatedReply {
+                            joint: j as u8,
+                            axis: ax as u8,
+                            node: a.node.get(),
+                        });
+                    }
+                }
             }
             Body::ExitMotorMode => {
                 // Someone else made one of our drives limp.
@@ -212,9 +262,11 @@ impl Drives for Master {
                 self.set.counters.estops_seen += 1;
                 self.set.bus_estop = true;
             }
-            Body::EnterMotorMode | Body::SetZero | Body::Command(_) => {
-                self.set.counters.foreign_commands += 1
-            }
+            // Another sender puts our drive in motor mode (zero gains: limp
+            // until commanded) or moves its zero (every position after it
+            // off by where the joint stood): behind the master's back.
+            Body::EnterMotorMode | Body::SetZero => self.set.foreign_command(j),
+            Body::Command(_) => self.set.counters.foreign_commands += 1,
         }
     }
 
@@ -239,11 +291,10 @@ impl Drives for Master {
             return;
         }
         for a in self.set.joints.iter_mut().flatten() {
-            a.periods_without_reply = if a.motor_mode {
-                a.periods_without_reply.saturating_add(1)
-            } else {
-                0
-            };
+            // In motor mode or not: a faulted drive still owes replies.
+            if a.owed {
+                a.periods_without_reply = a.periods_without_reply.saturating_add(1);
+            }
         }
         let poll = p.now.saturating_sub(self.last_poll) >= POLL;
         if poll {
@@ -267,20 +318,20 @@ impl Drives for Master {
                             Self::command(out, a, fb.position.into(), 0.0, 0.0);
                         }
                     } else if a.error == 0 && !a.estopped && (retry || !a.entering) {
-                        Self::send(out, a.node, Body::EnterMotorMode);
+                        Self::send(out, a, Body::EnterMotorMode);
                         a.entering = true;
                     } else if poll && !a.entering {
                         // Faulted or E-stopped: still asked, to be heard.
-                        Self::send(out, a.node, Body::ExitMotorMode);
+                        Self::send(out, a, Body::ExitMotorMode);
                     }
                 }
             }
             Drive::Setpoints => {
-                for (j, (pair, sp)) in self.set.joints.iter().zip(p.setpoints).enumerate() {
+                for (j, (pair, sp)) in self.set.joints.iter_mut().zip(p.setpoints).enumerate() {
                     if p.skip.contains(j as u8 + 1) {
                         continue;
                     }
-                    for (a, s) in pair.iter().zip(sp) {
+                    for (a, s) in pair.iter_mut().zip(sp) {
                         Self::command(
                             out,
                             a,
@@ -296,5 +347,9 @@ impl Drives for Master {
 
     fn disable_all(&mut self, out: &mut Out<'_>) {
         self.exit_all(out);
+    }
+
+    fn take_notice(&mut self) -> Option<super::Notice> {
+        self.notice.take()
     }
 }

@@ -126,6 +126,9 @@ pub struct JointReport {
     pub last_heard: Option<Nanos>,
     /// Measured position, velocity, torque at the joint, `[pitch, yaw]`.
     pub feedback: Option<[AxisFeedback; 2]>,
+    /// Periods (SYNCs) since each axis's feedback last arrived, `[pitch,
+    /// yaw]`: 0 when it came since the last period (or none is owed).
+    pub feedback_age: [u32; 2],
 }
 
 /// Something a drive did that the operator's log should say (a `Copy`
@@ -155,6 +158,18 @@ pub enum Notice {
         /// Why.
         why: cia402::ConfigFailure,
     },
+    /// A drive's reply had every field at the top of its range (MIT:
+    /// position, velocity and torque all ones): an unread encoder, or a
+    /// forger. Said once per drive; every one is counted
+    /// ([`RxCounters::saturated`]).
+    SaturatedReply {
+        /// Joint (0 = head end).
+        joint: u8,
+        /// 0 pitch, 1 yaw.
+        axis: u8,
+        /// Its node id.
+        node: u8,
+    },
 }
 
 impl std::fmt::Display for Notice {
@@ -183,6 +198,17 @@ impl std::fmt::Display for Notice {
                 joint + 1,
                 axis(a)
             ),
+            Notice::SaturatedReply {
+                joint,
+                axis: a,
+                node,
+            } => write!(
+                f,
+                "joint {} {} drive (node {node}): a reply with every field at the top of its \
+                 range (an unread encoder, or not the drive); taken, counted, said once",
+                joint + 1,
+                axis(a)
+            ),
         }
     }
 }
@@ -205,6 +231,12 @@ pub trait Drives: Send {
     /// Whether an E-stop from another sender was seen since the last call
     /// (then cleared).
     fn take_bus_estop(&mut self) -> bool;
+    /// The joints (report ids) that another sender told to change state
+    /// since the last call (then cleared): the family's commands that
+    /// enable, disable, clear faults, re-zero or change mode, which the
+    /// drives obey behind the master's back (`docs/safety.md`). Frames
+    /// that change no state (SYNC, requests, setpoints) are only counted.
+    fn take_foreign_command(&mut self) -> NodeSet;
     /// Receive counters.
     fn counters(&self) -> RxCounters;
     /// Joint `j`'s report (`j` in 0..joints).
@@ -293,6 +325,10 @@ pub fn joint_report(pair: &[impl AxisView; 2]) -> JointReport {
             (Some(a), Some(b)) => Some([a, b]),
             _ => None,
         },
+        feedback_age: [
+            st[0].periods_without_feedback,
+            st[1].periods_without_feedback,
+        ],
     }
 }
 
@@ -377,7 +413,15 @@ pub fn observe_joints(
                 r.estop = r.estop.with(id);
                 r.all_enabled = false;
             }
-            _ => r.all_enabled = false,
+            Some(NodeState::Boot) => {
+                r.booting = r.booting.with(id);
+                r.all_enabled = false;
+            }
+            Some(NodeState::Disabled) => {
+                r.disabled = r.disabled.with(id);
+                r.all_enabled = false;
+            }
+            None => r.all_enabled = false,
         }
     }
     r

@@ -194,11 +194,12 @@ impl Drives for Axes {
                 self.set.counters.estops_seen += 1;
                 self.set.bus_estop = true;
             }
-            Body::SetAxisState(_)
-            | Body::SetControllerMode { .. }
-            | Body::SetInputPos(_)
-            | Body::ClearErrors { .. }
-            | Body::Request(_) => self.set.counters.foreign_commands += 1,
+            // Another sender changes our axis' state (idle: limp), its
+            // control mode or clears its errors, behind the master's back.
+            Body::SetAxisState(_) | Body::SetControllerMode { .. } | Body::ClearErrors { .. } => {
+                self.set.foreign_command(j)
+            }
+            Body::SetInputPos(_) | Body::Request(_) => self.set.counters.foreign_commands += 1,
         }
     }
 

@@ -26,6 +26,9 @@ pub struct RxCounters {
     pub foreign_commands: u64,
     /// E-stop frames seen on the bus.
     pub estops_seen: u64,
+    /// Replies with every field at the top of its range (MIT: position,
+    /// velocity and torque all ones), taken but suspect.
+    pub saturated: u64,
 }
 
 /// The nodes' (or drives') reports at one instant: what every family's
@@ -44,6 +47,10 @@ pub struct NodeReport {
     pub fault: NodeSet,
     /// Nodes in EStop.
     pub estop: NodeSet,
+    /// Nodes that report Boot (they rebooted, or never finished booting).
+    pub booting: NodeSet,
+    /// Nodes that report Disabled.
+    pub disabled: NodeSet,
 }
 
 impl Default for NodeReport {
@@ -55,6 +62,8 @@ impl Default for NodeReport {
             duplicate: NodeSet::empty(),
             fault: NodeSet::empty(),
             estop: NodeSet::empty(),
+            booting: NodeSet::empty(),
+            disabled: NodeSet::empty(),
         }
     }
 }

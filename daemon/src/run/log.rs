@@ -343,6 +343,9 @@ pub(super) fn logger(rx: Receiver<Event>, bus_spec: String) {
             Some(Event::Drive(n @ crate::drive::Notice::Configured { .. })) => {
                 tracing::info!("{n}")
             }
+            Some(Event::Drive(n @ crate::drive::Notice::SaturatedReply { .. })) => {
+                tracing::warn!("{n}")
+            }
             Some(Event::Drive(n)) => tracing::error!("{n}"),
         }
     }

@@ -120,6 +120,9 @@ pub struct RunReport {
     pub states_dropped: u64,
     /// The mode at the end.
     pub final_mode: Mode,
+    /// The largest tracking error (rad) the joints showed while following
+    /// setpoints ([`crate::tracking`]): set a band above it.
+    pub worst_tracking_error: f64,
 }
 
 /// A running daemon loop.
@@ -624,6 +627,7 @@ fn control_loop(
     drop(events);
     let records_dropped = ctl.tap_dropped();
     let final_mode = ctl.supervisor().mode();
+    let worst_tracking_error = ctl.worst_tracking_error();
     // Dropping the controller and the state sender ends the recording.
     drop(ctl);
     drop(states);
@@ -638,6 +642,7 @@ fn control_loop(
         compute: compute.summary(),
         events_dropped: dropped,
         final_mode,
+        worst_tracking_error,
     })
 }
 

@@ -71,6 +71,11 @@ pub struct Rig {
     /// A bought family's joints (empty for anguilla).
     pub joints: Vec<Box<dyn JointDevice>>,
     node_port: MemParticipant,
+    /// The joint (index) whose frames [`Rig::nodes_step`] keeps in
+    /// `captured`, if any.
+    pub capture: Option<usize>,
+    /// The frames the captured joint sent in the last [`Rig::nodes_step`].
+    pub captured: Vec<Frame>,
     pub now: Nanos,
     seqs: [u32; 8],
     out: Vec<Frame>,
@@ -124,6 +129,8 @@ impl Rig {
             nodes,
             joints,
             node_port,
+            capture: None,
+            captured: Vec::with_capacity(16),
             now: Nanos::ZERO,
             seqs: [0; 8],
             out: Vec::with_capacity(1024),
@@ -135,21 +142,28 @@ impl Rig {
     pub fn nodes_step(&mut self) {
         let now = self.now;
         let (nodes, joints) = (&mut self.nodes, &mut self.joints);
-        let out = &mut self.out;
-        let _ = self.node_port.drain(&mut |r| {
-            for n in nodes.iter_mut() {
-                n.receive(now, &r.frame, &mut |f| out.push(f));
+        let (out, capture, captured) = (&mut self.out, self.capture, &mut self.captured);
+        captured.clear();
+        let mut keep = |k: usize, f: Frame, out: &mut Vec<Frame>| {
+            if capture == Some(k) {
+                captured.push(f);
             }
-            for j in joints.iter_mut() {
-                j.receive(now, &r.frame, &mut |f| out.push(f));
+            out.push(f);
+        };
+        let _ = self.node_port.drain(&mut |r| {
+            for (k, n) in nodes.iter_mut().enumerate() {
+                n.receive(now, &r.frame, &mut |f| keep(k, f, out));
+            }
+            for (k, j) in joints.iter_mut().enumerate() {
+                j.receive(now, &r.frame, &mut |f| keep(k, f, out));
             }
         });
         self.now += self.ctl.period_ns();
-        for n in self.nodes.iter_mut() {
-            n.advance(self.now, &mut |f| out.push(f));
+        for (k, n) in self.nodes.iter_mut().enumerate() {
+            n.advance(self.now, &mut |f| keep(k, f, out));
         }
-        for j in self.joints.iter_mut() {
-            j.advance(self.now, &mut |f| out.push(f));
+        for (k, j) in self.joints.iter_mut().enumerate() {
+            j.advance(self.now, &mut |f| keep(k, f, out));
         }
         for f in self.out.drain(..) {
             let _ = self.node_port.send(&f);
