@@ -1277,6 +1277,110 @@ fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
     assert!(said.contains("truncated at line"), "{said}");
 }
 
+/// The `min-free` stop is an end, not a kill: the recorder writes why it
+/// stopped at the end of `session.log`, and replay says so (exit 0), not
+/// "truncated".
+#[test]
+fn a_recording_stopped_at_min_free_replays_as_stopped_with_its_reason() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-minfree-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mounted = Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=16m", "tmpfs"])
+        .arg(&dir)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        println!("min-free stop: skipped: cannot mount a small tmpfs here (needs root)");
+        return;
+    }
+    struct Unmount<'a>(&'a std::path::Path);
+    impl Drop for Unmount<'_> {
+        fn drop(&mut self) {
+            let _ = Command::new("umount").arg(self.0).status();
+            let _ = std::fs::remove_dir(self.0);
+        }
+    }
+    let _unmount = Unmount(&dir);
+    let cfg = dir.with_extension("toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/minfree-{}\"\n[recording]\ndir = {:?}\nmin-free = 4\n",
+            std::process::id(),
+            dir.display().to_string()
+        ),
+    )
+    .unwrap();
+    let mut child = anguilla()
+        .args(["run", "--quiet", "--duration", "600", "--config"])
+        .arg(&cfg)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let wait = |what: &str, f: &mut dyn FnMut() -> bool| {
+        let t0 = Instant::now();
+        while !f() {
+            // A watchdog, not a bound: it takes about a second.
+            assert!(t0.elapsed() < Duration::from_secs(120), "never: {what}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    let session = dir.join("session-");
+    let mut found = None;
+    wait("a session directory", &mut || {
+        found = std::fs::read_dir(&dir).ok().and_then(|mut it| {
+            it.find_map(|e| {
+                let p = e.ok()?.path();
+                (p.to_string_lossy().starts_with(&*session.to_string_lossy())
+                    && p.join("config.toml").exists())
+                .then_some(p)
+            })
+        });
+        found.is_some()
+    });
+    let session = found.unwrap();
+    // Fill the disk to 1 MB short of min-free's 4.
+    let free = {
+        let c = std::ffi::CString::new(dir.to_str().unwrap()).unwrap();
+        let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+        assert_eq!(unsafe { libc::statvfs(c.as_ptr(), &mut st) }, 0);
+        st.f_bavail * st.f_frsize
+    };
+    std::fs::write(dir.join("filler"), vec![0u8; (free - 3_000_000) as usize]).unwrap();
+    let log = session.join("session.log");
+    wait("the stopped line", &mut || {
+        std::fs::read_to_string(&log).is_ok_and(|t| t.contains("\nstopped "))
+    });
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(status.success(), "{err}");
+    assert!(err.contains("recording ended"), "{err}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let last = text.lines().last().unwrap();
+    assert!(
+        last.starts_with("stopped min-free: ")
+            && last.contains("below [recording] min-free (4 MB)"),
+        "{last}"
+    );
+    let o = anguilla().arg("replay").arg(&session).output().unwrap();
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{said} {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        said.contains("identical as far as it was recorded")
+            && said.contains("the recorder stopped there while the daemon went on: min-free:")
+            && !said.contains("truncated"),
+        "{said}"
+    );
+    let _ = std::fs::remove_file(&cfg);
+}
+
 fn corpus(name: &str) -> String {
     format!(
         "{}/protocol/tests/data/candump-corpus/{name}",

@@ -251,8 +251,9 @@ pub const REPLAY_TRUNCATED: i32 = 3;
 /// Arguments of `anguilla replay`.
 #[derive(clap::Args, Debug)]
 #[command(
-    after_help = "Exit status: 0 identical, 1 a difference (or an unreadable recording), \
-    3 a recording cut short (no end line) whose periods all match."
+    after_help = "Exit status: 0 identical (a recording the recorder stopped early and said \
+    why, at [recording] min-free, included: the output says so), 1 a difference (or an \
+    unreadable recording), 3 a recording cut short (no end line) whose periods all match."
 )]
 pub struct ReplayArgs {
     /// A session directory written by `anguilla run` with `recording.dir` set.
@@ -371,16 +372,13 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
     // The session directory's name holds the recorder's start (Unix s):
     // docs/data.md "Time".
     let name = args.dir.file_name().and_then(|n| n.to_str()).unwrap_or("");
-    let start_s: u64 = name
-        .strip_prefix("session-")
-        .and_then(|t| t.parse().ok())
-        .with_context(|| {
-            format!(
-                "{}: expected a session directory named session-<Unix time>, as `anguilla run` \
-                 writes (its name dates the recording)",
-                args.dir.display()
-            )
-        })?;
+    let (start_s, _) = anguilla_daemon::record::session_name(name).with_context(|| {
+        format!(
+            "{}: expected a session directory named session-<Unix time> (or \
+                 session-<Unix time>-<n>), as `anguilla run` writes (its name dates the recording)",
+            args.dir.display()
+        )
+    })?;
     let cfg = anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
         .with_context(|| format!("exporting {}", args.dir.display()))?;
     let l = &cfg.link;
@@ -459,6 +457,14 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     finish();
     let report = report.with_context(|| format!("replaying {}", args.dir.display()))?;
     match (&report.mismatch, report.truncated_at) {
+        (None, None) if report.stopped.is_some() => outln!(
+            "{}: identical as far as it was recorded: {} periods, {} frames replayed bit for bit; \
+             the recorder stopped there while the daemon went on: {}",
+            args.dir.display(),
+            report.periods,
+            report.frames,
+            report.stopped.as_deref().unwrap_or_default()
+        ),
         (None, None) => outln!(
             "{}: identical: {} periods, {} frames replayed bit for bit",
             args.dir.display(),

@@ -49,6 +49,10 @@ pub struct ReplayReport {
     /// filled): the line it stops at. Its last period may be incomplete,
     /// so it is not compared; every period before it was.
     pub truncated_at: Option<usize>,
+    /// When the recorder stopped before the daemon and said why (below
+    /// `[recording] min-free`): the reason. Its last period may be
+    /// incomplete, so it is not compared; every period before it was.
+    pub stopped: Option<String>,
 }
 
 impl ReplayReport {
@@ -145,6 +149,7 @@ pub fn replay_with(
         trailing,
         end,
         cut_at,
+        stopped,
         config_hash,
     } = session::parse(&dir.join("session.log"))?;
     // The configuration, not its spelling: comments and layout may differ.
@@ -155,8 +160,9 @@ pub fn replay_with(
             path: cfg_path.display().to_string(),
         });
     }
-    // A cut recording's last period may have lost frames: not compared.
-    if cut_at.is_some() {
+    // A cut or stopped recording's last period may have lost frames: not
+    // compared.
+    if cut_at.is_some() || stopped.is_some() {
         periods.pop();
     }
     let mut ctl = Controller::new(&cfg, start)?;
@@ -171,6 +177,7 @@ pub fn replay_with(
         frames: 0,
         mismatch: None,
         truncated_at: cut_at,
+        stopped,
     };
     let compare =
         |k: usize, expected: &[(Frame, bool)], got: &[(Frame, bool)], report: &mut ReplayReport| {

@@ -25,6 +25,10 @@
 //!                           interface gone down): not on the wire, so not
 //!                           in bus.log
 //! E                         shutdown: actuators disabled
+//! stopped <text>            the recorder stopped here and the daemon went
+//!                           on (the reason, e.g. below `[recording]
+//!                           min-free`): the recording ends cleanly, and its
+//!                           last period may be incomplete
 //! ```
 //!
 
@@ -94,6 +98,17 @@ pub const HEADER: &str = "anguilla-session 2";
 pub fn write_header(w: &mut impl Write, config_text: &str) -> std::io::Result<()> {
     writeln!(w, "{HEADER}")?;
     writeln!(w, "config {:016x}", fnv1a(config_text.as_bytes()))
+}
+
+/// Writes the `stopped` line: the recorder ends here, the daemon goes on;
+/// `reason` says why (one line: line breaks become spaces).
+pub fn write_stopped(w: &mut impl Write, reason: &str) -> std::io::Result<()> {
+    let reason: String = reason
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .take(MAX_LINE / 2)
+        .collect();
+    writeln!(w, "stopped {reason}")
 }
 
 /// Writes `r` as its `session.log` line.
@@ -166,8 +181,11 @@ pub struct Session {
     pub trailing: Vec<Record>,
     /// Frames sent at shutdown, if the session ended with `E`.
     pub end: Option<Vec<(Frame, bool)>>,
-    /// Without `E`: the number of the last line read (the recording was cut).
+    /// Without `E` or `stopped`: the number of the last line read (the
+    /// recording was cut: the daemon killed, the disk full).
     pub cut_at: Option<usize>,
+    /// The recorder stopped before the daemon (a `stopped` line): why.
+    pub stopped: Option<String>,
     /// The recorded configuration's hash (sessions since it was added).
     pub config_hash: Option<u64>,
 }
@@ -200,6 +218,7 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
     let mut periods: Vec<PeriodIn> = Vec::new();
     let mut pending: Vec<Record> = Vec::new();
     let mut end: Option<Vec<(Frame, bool)>> = None;
+    let mut stopped = None;
     let mut reader = std::io::BufReader::new(file);
     let mut buf = Vec::with_capacity(256);
     let mut n = 0;
@@ -336,18 +355,23 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
                 }
             }
             "E" => end = Some(Vec::new()),
+            // Nothing follows it.
+            "stopped" => {
+                stopped = Some(rest.to_string());
+                break;
+            }
             other => {
                 return Err(err(
                     n,
                     format!(
-                        "unknown line tag '{other}' (expected config, start, C, D, S, P, R, T, X or E)"
+                        "unknown line tag '{other}' (expected config, start, C, D, S, P, R, T, X, E or stopped)"
                     ),
                 ));
             }
         }
     }
     let start = start.ok_or_else(|| err(0, "no 'start' line".into()))?;
-    let cut_at = end.is_none().then_some(n);
+    let cut_at = (end.is_none() && stopped.is_none()).then_some(n);
     Ok(Session {
         start,
         periods,
@@ -355,6 +379,7 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
         trailing: pending,
         end,
         cut_at,
+        stopped,
         config_hash,
     })
 }
@@ -406,5 +431,27 @@ mod tests {
         );
         assert_eq!(session.config_hash, Some(fnv1a(b"x = 1\n")));
         assert!(session.end.is_some() && session.cut_at.is_none());
+    }
+
+    /// A `stopped` line ends the session with its reason: not cut (a
+    /// kill), not shut down (`E`); a line break in the reason stays on the
+    /// line.
+    #[test]
+    fn a_stopped_line_is_an_end_with_its_reason() {
+        let dir = std::env::temp_dir().join(format!("anguilla-stopped-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("session.log");
+        let mut text = Vec::new();
+        write_header(&mut text, "x = 1\n").unwrap();
+        write_line(&mut text, &Record::Start(Nanos::from_nanos(5))).unwrap();
+        write_stopped(&mut text, "min-free: 3 MB free\non /x").unwrap();
+        std::fs::write(&path, &text).unwrap();
+        let session = parse(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(
+            session.stopped.as_deref(),
+            Some("min-free: 3 MB free on /x")
+        );
+        assert!(session.cut_at.is_none() && session.end.is_none());
     }
 }

@@ -6,16 +6,44 @@
 //! - its directory (`[global] root-path`, `/tmp/iceoryx2/` by default),
 //!   which it reuses whoever made it: another user who makes it first
 //!   keeps the daemon from creating its services;
-//! - its node-id segment, `/dev/shm/<iceoryx2 prefix>…global_mgmt`, which
-//!   it makes mode 0666 whatever the configuration: a user who writes 16
-//!   bytes into it makes every new iceoryx2 node fail, and one who
-//!   truncates it makes new nodes hang.
+//! - its node-id segment, `/dev/shm/<iceoryx2 prefix><type hash>_node.0_10_0.global_mgmt`
+//!   (16 bytes: iceoryx2's version, then a node counter), which every new
+//!   node opens or creates: a user who writes 16 bytes into it makes every
+//!   new iceoryx2 node fail, and one who truncates it makes new nodes hang.
+//!
+//! How iceoryx2 0.10 makes that segment (`iceoryx2-cal`,
+//! `dynamic_storage/posix_shared_memory.rs`, built with
+//! `enable_global_access(true)` by `iceoryx2/src/node/global_management_segment.rs`):
+//! `shm_open(O_CREAT | O_EXCL)` with mode 0200 (its "not initialised yet"
+//! mark), the version written, then `fchmod` to 0666. The last mode is set
+//! explicitly, so no umask narrows it, and no configuration value chooses
+//! it; between that `fchmod` and any chmod of ours, another user's inotify
+//! watcher opened it read-write (and kept the descriptor) in 3 of 3 tries.
+//!
+//! So [`prepare`] makes the segment itself, before every iceoryx2 node
+//! this crate makes (the daemon's and every tool's, [`crate`]'s one
+//! `new_node`): `O_CREAT | O_EXCL | O_NOFOLLOW`, mode 0600 from its first
+//! instant, holding what iceoryx2 writes (its version, a zero counter).
+//! iceoryx2 then finds it made, sees it readable by its owner and
+//! initialised, and opens it as it is: it never creates it, so it never
+//! widens it. The alternatives were weaker: a directory only the service's
+//! user and group can enter does not exist for POSIX shared memory (the
+//! segment's directory is `/dev/shm`, every user's; iceoryx2's `root-path`
+//! does not move it), a umask does not reach an explicit `fchmod`, and a
+//! patched iceoryx2 is a fork to carry. The price: the segment's layout and
+//! name are iceoryx2 0.10's ([`ICEORYX2_VERSION`]); another version opens
+//! the segment only if they match, else refuses it as a version mismatch
+//! (an error, never a wider file), and `the_node_id_segment_cannot_be_raced_at_its_creation`
+//! (tests/tests/users.rs) fails on a layout that no longer fits.
 //!
 //! [`check`] runs before the daemon's first node: a directory or segment
 //! that another user owns is refused, naming its path, owner and mode, and
-//! the fix. [`restrict`] runs after it: the daemon's own segment becomes
-//! 0600 (its user's processes only: the daemon, the link, the tools run as
-//! its user), so nobody else can write or truncate it.
+//! the fix. [`restrict`] runs after it: a segment of the daemon's user that
+//! something else made wide (an older anguilla, another iceoryx2 program)
+//! becomes 0600 (its user's processes only: the daemon, the link, the tools
+//! run as its user); such a segment was open before, so remove it (as
+//! root, no anguilla program running) to be sure no descriptor of another
+//! user's is left on it.
 
 use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
 use std::path::{Path, PathBuf};
@@ -29,6 +57,71 @@ pub const SHM_DIR: &str = "/dev/shm";
 
 /// The end of the node-id segment's name (iceoryx2 0.10).
 const GLOBAL_MGMT: &str = ".global_mgmt";
+
+/// The iceoryx2 version whose node-id segment [`prepare`] makes (its name
+/// and layout: [`node_id_segment`]): its name carries it (`node.0_10_0`) and its first 8 bytes hold it
+/// (`major << 32 | minor << 16 | patch`, native order), as iceoryx2's
+/// `PackageVersion::to_u64` writes and checks it.
+pub const ICEORYX2_VERSION: (u16, u16, u16) = (0, 10, 0);
+
+/// The type hash in the node-id segment's name: iceoryx2 0.10 names each
+/// dynamic storage `<prefix><SHA-1 of its type's name>_<name><suffix>`,
+/// here the SHA-1 of `iceoryx2::node::global_management_segment::State`.
+const SEGMENT_TYPE_HASH: &str = "9204dd183d1c4d8e1ff592a30766ffa6765aa8b5";
+
+/// The node-id segment's size: iceoryx2's `Data<State>`, `#[repr(C)]`
+/// `{ version: AtomicU64, data: { node_counter: AtomicU32 } }`.
+const SEGMENT_SIZE: usize = 16;
+
+/// The node-id segment of this process's iceoryx2 configuration.
+pub fn node_id_segment() -> PathBuf {
+    let (major, minor, patch) = ICEORYX2_VERSION;
+    Path::new(SHM_DIR).join(format!(
+        "{}{SEGMENT_TYPE_HASH}_node.{major}_{minor}_{patch}{}",
+        prefix(),
+        config().global.node.global_mgmt_suffix
+    ))
+}
+
+/// Makes the node-id segment, mode 0600 from its creation and initialised
+/// as iceoryx2 would, unless it exists: iceoryx2 then opens it instead of
+/// making it 0666 (module doc). Returns the segment when it made it.
+pub fn prepare() -> Result<Option<PathBuf>, IpcError> {
+    use std::io::Write as _;
+    use std::os::unix::fs::OpenOptionsExt as _;
+    let path = node_id_segment();
+    let made = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .custom_flags(libc::O_NOFOLLOW)
+        .open(&path);
+    let fail = |e: std::io::Error| {
+        IpcError::Foreign(format!(
+            "making iceoryx2's node-id segment {} (mode 0600, before iceoryx2 would make it \
+             0666): {e}",
+            path.display()
+        ))
+    };
+    let mut f = match made {
+        Ok(f) => f,
+        // Made already: check() and restrict() judge it.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => return Ok(None),
+        Err(e) => return Err(fail(e)),
+    };
+    // The mode, whatever the umask took (it can only have narrowed it).
+    f.set_permissions(std::fs::Permissions::from_mode(0o600))
+        .map_err(fail)?;
+    let (major, minor, patch) = ICEORYX2_VERSION;
+    let version = (u64::from(major) << 32) | (u64::from(minor) << 16) | u64::from(patch);
+    let mut bytes = [0u8; SEGMENT_SIZE];
+    bytes[..8].copy_from_slice(&version.to_ne_bytes());
+    // One write: an iceoryx2 node opening it meanwhile sees it empty or
+    // its version 0, and waits for it (its own "not yet initialised").
+    f.write_all(&bytes).map_err(fail)?;
+    Ok(Some(path))
+}
 
 /// iceoryx2's configuration, read without its chatter: the first read
 /// logs "No config file was loaded" to stdout, which is data for a tool

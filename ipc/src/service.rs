@@ -437,6 +437,9 @@ pub(crate) fn new_node(name: &str) -> Result<Node<ipc::Service>, IpcError> {
     // loaded") out of tools whose stdout is data, unless asked for.
     set_log_level_from_env_or(LogLevel::Error);
     let name = NodeName::new(name).map_err(ice("node name"))?;
+    // The node-id segment private from its first instant (iceoryx2 would
+    // make it 0666): guard's module doc.
+    crate::guard::prepare()?;
     let node = crate::guard::bounded("making an iceoryx2 node", || {
         NodeBuilder::new()
             .name(&name)

@@ -394,3 +394,143 @@ fn a_foreign_iceoryx2_directory_is_refused_by_name() {
     drop(users);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The watcher of the race: as `user`, inotify on /dev/shm (through
+/// ctypes: no package needed), and on every event about a segment named
+/// `iox_prefix`…`.global_mgmt` it tries to open it read-write for 50 ms.
+/// Prints `watching` once the watch is set, `OPENED <name>` on success
+/// (and keeps the descriptor, as an attacker would), `never` when the
+/// file `stop` appears in `dir`.
+const WATCHER: &str = r#"
+import ctypes, os, select, struct, sys, time
+shm, prefix, stop = sys.argv[1], sys.argv[2], sys.argv[3]
+libc = ctypes.CDLL(None, use_errno=True)
+fd = libc.inotify_init1(os.O_NONBLOCK)
+IN_CREATE, IN_ATTRIB, IN_MODIFY = 0x100, 0x4, 0x2
+assert libc.inotify_add_watch(fd, shm.encode(), IN_CREATE | IN_ATTRIB | IN_MODIFY) >= 0
+print("watching", flush=True)
+kept = []
+def attempt(name):
+    end = time.monotonic() + 0.05
+    while time.monotonic() < end:
+        try:
+            kept.append(os.open(os.path.join(shm, name), os.O_RDWR))
+            print("OPENED", name, flush=True)
+            return True
+        except OSError:
+            pass
+    return False
+while not os.path.exists(stop):
+    r, _, _ = select.select([fd], [], [], 0.05)
+    if not r:
+        continue
+    buf = os.read(fd, 65536)
+    i = 0
+    while i < len(buf):
+        _, _, _, n = struct.unpack_from("iIII", buf, i)
+        name = buf[i + 16:i + 16 + n].rstrip(b"\0").decode(errors="replace")
+        i += 16 + n
+        if name.startswith(prefix) and name.endswith(".global_mgmt") and attempt(name):
+            sys.exit(0)
+print("never", flush=True)
+"#;
+
+/// The node-id segment is never open to another user, not even for the
+/// milliseconds between iceoryx2 making it (0666, whatever the umask) and
+/// the daemon's chmod: an outsider's inotify watcher tries to open it
+/// read-write at every event about it while the daemon starts, three
+/// times over (a new iceoryx2 prefix each time: a new segment).
+#[test]
+fn the_node_id_segment_cannot_be_raced_at_its_creation() {
+    let _dog = Watchdog::new("users-race", Duration::from_secs(240));
+    let tag = (std::process::id() + 3) % 100_000;
+    let Some(users) = users_for("users-race", tag) else {
+        return;
+    };
+    // The system's Python: one in root's home (pyenv) is not the outsider's.
+    let python = "/usr/bin/python3";
+    if Proc::new(python).arg("--version").output().is_err() {
+        println!("users-race: skipped: {python} (the watcher) is not installed");
+        return;
+    }
+    let (daemon_user, outsider) = (&users.users[0], &users.users[2]);
+    let iox_prefix = format!("ir{tag}_");
+    let (dir, bin, prefix) = sandbox("users-race", tag, &iox_prefix);
+    let stop = dir.join("stop");
+    let mut watcher = Killed(
+        Proc::new("setpriv")
+            .args([
+                "--reuid",
+                outsider,
+                "--regid",
+                outsider,
+                "--clear-groups",
+                "--",
+                python,
+                "-c",
+                WATCHER,
+                anguilla_ipc::guard::SHM_DIR,
+                &iox_prefix,
+            ])
+            .arg(&stop)
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut said = std::io::BufReader::new(watcher.0.stdout.take().unwrap());
+    let mut line = String::new();
+    std::io::BufRead::read_line(&mut said, &mut line).unwrap();
+    assert_eq!(line.trim(), "watching", "the watcher did not start");
+    for round in 0..3 {
+        // A new iceoryx2 prefix and directory each round: a new segment.
+        std::fs::write(
+            dir.join("config/iceoryx2.toml"),
+            format!(
+                "[global]\nroot-path = \"{}/iox2-{round}/\"\nprefix = \"{iox_prefix}{round}_\"\n",
+                dir.display()
+            ),
+        )
+        .unwrap();
+        let log = dir.join(format!("daemon-{round}.err"));
+        let mut daemon = Killed(
+            as_user(daemon_user, &bin, &dir)
+                .args(["run", "--quiet", "--config", "anguilla.toml"])
+                .stdout(Stdio::null())
+                .stderr(std::fs::File::create(&log).unwrap())
+                .spawn()
+                .unwrap(),
+        );
+        // A tool of the daemon's user beside it: it opens the segment too.
+        poll_until(
+            "the daemon answering its own user",
+            Duration::from_secs(30),
+            || {
+                if let Ok(Some(s)) = daemon.0.try_wait() {
+                    panic!(
+                        "round {round}: the daemon ended ({s}): {}",
+                        std::fs::read_to_string(&log).unwrap_or_default()
+                    );
+                }
+                ctl(daemon_user, &bin, &dir, &prefix, &["status"])
+                    .status
+                    .success()
+                    .then_some(())
+            },
+        );
+        unsafe { libc::kill(daemon.0.id() as i32, libc::SIGINT) };
+        let _ = daemon.0.wait();
+    }
+    std::fs::write(&stop, b"").unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut said, &mut rest).unwrap();
+    assert_eq!(
+        rest.trim(),
+        "never",
+        "another user opened the daemon's node-id segment read-write"
+    );
+    while let Some(seg) = node_id_segment(&iox_prefix) {
+        std::fs::remove_file(seg).unwrap();
+    }
+    drop(users);
+    let _ = std::fs::remove_dir_all(&dir);
+}

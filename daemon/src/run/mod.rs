@@ -256,8 +256,9 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             return Err(e.into());
         }
     }
-    // The node-id segment the daemon's nodes made or opened: its user's
-    // only from now on (iceoryx2 makes it 0666).
+    // The node-id segment the daemon's nodes opened: made 0600 by
+    // anguilla_ipc::guard::prepare before them; one that something else
+    // made wide (iceoryx2 makes it 0666) is its user's only from now on.
     match anguilla_ipc::guard::restrict() {
         Ok(changed) => {
             for s in changed {
