@@ -717,7 +717,9 @@ impl Controller {
     }
 
     /// Step 5: every joint's setpoint: the model's angle, rate and feedforward
-    /// plus the posture offset, clamped (and counted) to the limits.
+    /// plus the posture offset, clamped (and counted) to the limits; an
+    /// angle no further out than the posture offset is not clamped (a joint
+    /// enabled beyond its limit is brought back along the profile).
     fn limit_setpoints(&mut self, drop_feedforward: bool) {
         let lim = &self.cfg.limits;
         let pmax = lim.angle.min(message::POSITION_LIMIT);
@@ -749,8 +751,13 @@ impl Controller {
             let ang = [js.pitch + o[0].position, js.yaw + o[1].position];
             let vel = [js.pitch_rate + o[0].velocity, js.yaw_rate + o[1].velocity];
             for ax in 0..2 {
+                // A joint left limp beyond its limit is held where it was
+                // and brought back along its posture offset, never stepped
+                // to the limit: the bound widens to where the offset still
+                // is (it only moves towards straight; docs/safety.md).
+                let bound = pmax.max(o[ax].position.abs()).min(message::POSITION_LIMIT);
                 self.setpoints[j][ax] = AxisSetpoint {
-                    position: clamp(ang[ax], pmax) as f32,
+                    position: clamp(ang[ax], bound) as f32,
                     velocity: clamp(vel[ax], vmax) as f32,
                     torque: clamp(ff[ax], tmax) as f32,
                 };

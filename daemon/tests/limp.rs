@@ -480,3 +480,118 @@ fn a_healthy_swim_is_no_fault() {
         );
     }
 }
+
+/// A joint left limp beyond its limit (moved by hand, or by the water while
+/// disabled) is held where it is on enable and brought back along the
+/// posture profile, in every family (`docs/safety.md`: "straightened from
+/// wherever the limp joints were"; `docs/drives.md`: the MIT drive "holds
+/// where it is"). Before, the first setpoint in Ready was clamped to the
+/// limit: a 0.3 rad step that the MIT drive's stiff gains followed at once.
+#[test]
+fn a_limp_joint_beyond_its_limit_is_held_where_it_is_on_enable() {
+    for drive in Family::ALL {
+        let name = format!("limp-beyond-limit-{}", drive.name());
+        let cfg = config(drive);
+        let limit = cfg.limits.angle;
+        let dt = r_dt(&cfg);
+        // The posture profile's speed (a quarter of the velocity limit),
+        // plus 1 mrad a period for encoder noise.
+        let speed = cfg.limits.velocity * 0.25;
+        let step = speed * dt + 1e-3;
+        let mut r = Rig::new(&name, &cfg);
+        r.run_for(0.6);
+        let beyond = [limit + 0.3, -(limit + 0.3)];
+        if let Some(n) = r.nodes.get_mut(JOINT) {
+            anguilla_sim::device::JointDevice::set_pose(n, beyond);
+        } else {
+            r.joints[JOINT].set_pose(beyond);
+        }
+        r.run_for(0.1);
+        let at_rest = [
+            device(&r, JOINT).kinematics(0).0,
+            device(&r, JOINT).kinematics(1).0,
+        ];
+        for (a, b) in at_rest.iter().zip(beyond) {
+            assert!(
+                (a - b).abs() < 0.01,
+                "{name}: limp joint moved: {at_rest:?}"
+            );
+        }
+        assert_eq!(r.command(1, Command::TakeControl).accepted, 1);
+        assert_eq!(r.command(1, Command::Enable).accepted, 1);
+        let mut last: Option<[f32; 2]> = None;
+        let mut ready_for = 0.0;
+        let mut periods = 0;
+        let mut worst = 0.0f64;
+        while ready_for < 0.3 {
+            r.step();
+            periods += 1;
+            assert!(periods < 2000, "{name}: not Ready after {periods} periods");
+            let mode = r.ctl.supervisor().mode();
+            assert!(
+                matches!(mode, Mode::Enabling | Mode::Ready),
+                "{name}: {mode:?}, faults {}",
+                r.ctl.supervisor().faults()
+            );
+            let truth = [
+                device(&r, JOINT).kinematics(0).0,
+                device(&r, JOINT).kinematics(1).0,
+            ];
+            if mode == Mode::Enabling {
+                for (a, b) in truth.iter().zip(at_rest) {
+                    assert!(
+                        (a - b).abs() < 0.02,
+                        "{name}: joint {} moved while enabling: {truth:?} from {at_rest:?}",
+                        JOINT + 1
+                    );
+                }
+                continue;
+            }
+            ready_for += dt;
+            let sp = r.ctl.setpoints()[JOINT].map(|s| s.position);
+            // The joint follows a profile, not a step: no faster than
+            // twice the posture speed (a drive's own lag and overshoot).
+            for ax in 0..2 {
+                let v = device(&r, JOINT).kinematics(ax).1.abs();
+                worst = worst.max(v);
+                assert!(
+                    v <= 2.0 * speed,
+                    "{name}: joint {} axis {ax} at {} rad/s (posture speed {speed}), \
+                     at {} for a setpoint {}",
+                    JOINT + 1,
+                    v,
+                    truth[ax],
+                    sp[ax]
+                );
+            }
+            let from = last.unwrap_or([at_rest[0] as f32, at_rest[1] as f32]);
+            for ax in 0..2 {
+                let moved = (sp[ax] - from[ax]).abs() as f64;
+                assert!(
+                    moved <= step + if last.is_none() { 0.02 } else { 0.0 },
+                    "{name}: joint {} axis {ax}: setpoint {} after {}: a step of {moved:.3} rad \
+                     (the posture profile allows {step:.4} a period)",
+                    JOINT + 1,
+                    sp[ax],
+                    from[ax]
+                );
+            }
+            last = Some(sp);
+        }
+        // Brought back: on its way to straight, inside the held angle.
+        let sp = r.ctl.setpoints()[JOINT].map(|s| s.position.abs() as f64);
+        assert!(
+            sp.iter().all(|&p| p < limit + 0.3 - 0.1),
+            "{name}: setpoints {sp:?} after 0.3 s in Ready"
+        );
+        eprintln!(
+            "{name}: held at {at_rest:?}, after 0.3 s in Ready {sp:?}, \
+             fastest {worst:.2} rad/s"
+        );
+    }
+}
+
+/// The control period of `cfg`, in seconds.
+fn r_dt(cfg: &Config) -> f64 {
+    anguilla_daemon::control::period_ns(cfg).as_nanos() as f64 * 1e-9
+}

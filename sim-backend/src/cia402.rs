@@ -724,6 +724,12 @@ impl JointDevice for Cia402Joint {
         }
     }
 
+    fn set_pose(&mut self, angles: [f64; 2]) {
+        for (a, th) in self.axes.iter_mut().zip(angles) {
+            a.actuator.set_state(th, 0.0);
+        }
+    }
+
     fn state(&self) -> NodeState {
         worse(self.axes[0].node_state(), self.axes[1].node_state())
     }

@@ -31,6 +31,9 @@ pub trait JointDevice: Send + std::fmt::Debug {
     /// The body's load on each axis from now on
     /// ([`crate::actuator::Actuator::set_load`]).
     fn set_load(&mut self, load: [Load; 2]);
+    /// Places both axes at these joint angles (rad), at rest: a
+    /// simulation's initial pose, or a limp joint moved by hand.
+    fn set_pose(&mut self, angles: [f64; 2]);
     /// The joint's state in the anguilla vocabulary: for two drives, the
     /// worse of the two (EStop, then Fault, then Boot, then Disabled;
     /// Enabled only when both are).
@@ -70,6 +73,9 @@ impl JointDevice for crate::node::VertebraNode {
     }
     fn set_load(&mut self, load: [Load; 2]) {
         crate::node::VertebraNode::set_load(self, load)
+    }
+    fn set_pose(&mut self, angles: [f64; 2]) {
+        crate::node::VertebraNode::set_pose(self, angles)
     }
     fn state(&self) -> NodeState {
         crate::node::VertebraNode::state(self)

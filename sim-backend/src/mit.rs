@@ -331,6 +331,12 @@ impl JointDevice for MitJoint {
         }
     }
 
+    fn set_pose(&mut self, angles: [f64; 2]) {
+        for (d, th) in self.drives.iter_mut().zip(angles) {
+            d.actuator.set_state(th, 0.0);
+        }
+    }
+
     fn state(&self) -> NodeState {
         let [p, y] = [self.drives[0].node_state(), self.drives[1].node_state()];
         for worse in [NodeState::Fault, NodeState::Boot, NodeState::Disabled] {
