@@ -68,7 +68,7 @@ fn config_default_round_trips_through_check() {
     let (ok, out, err) = run(&["config", "check", path.to_str().unwrap()]);
     assert!(ok, "{err}");
     assert!(
-        out.contains("valid; 12 joints, control rate 176.8 Hz"),
+        out.contains("valid; 12 joints, control rate 160.8 Hz, bus built-in simulated robot (with its head sensor as node 13)"),
         "{out}"
     );
     std::fs::write(&path, "[limits]\ntorque = 9.0\n").unwrap();
@@ -79,6 +79,57 @@ fn config_default_round_trips_through_check() {
         "{err}"
     );
     let _ = std::fs::remove_file(&path);
+}
+
+/// `config check` prints the control rate the daemon runs (issue 46: it
+/// printed 176.8 Hz for the default file while the daemon ran 160.8 Hz, the
+/// built-in robot's head sensor taking bus time the check did not count):
+/// the rate in the check's line is the one in the daemon's "control loop
+/// at" line, for the defaults and for a file that sets the sensor itself.
+#[test]
+fn config_check_prints_the_rate_the_daemon_runs() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-rate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rate_in = |text: &str, before: &str| -> String {
+        let line = text
+            .lines()
+            .find(|l| l.contains(before))
+            .unwrap_or_else(|| panic!("no '{before}' in {text}"));
+        let rest = &line[line.find(before).unwrap() + before.len()..];
+        rest.split_whitespace().next().unwrap().to_owned()
+    };
+    for (tag, extra) in [
+        ("defaults", ""),
+        ("own-sensor", "[sensor]\nnode = 20\nrate-hz = 200\n"),
+    ] {
+        let path = dir.join(format!("{tag}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                "[ipc]\nprefix = \"cli-rate-{tag}-{}\"\n{extra}",
+                std::process::id()
+            ),
+        )
+        .unwrap();
+        let (ok, out, err) = run(&["config", "check", path.to_str().unwrap()]);
+        assert!(ok, "{err}");
+        let checked = rate_in(&out, "control rate ");
+        let (ok, _, err) = run_watched(&[
+            "run",
+            "--config",
+            path.to_str().unwrap(),
+            "--duration",
+            "0.5",
+        ]);
+        assert!(ok, "{tag}: {err}");
+        let ran = rate_in(&err, "control loop at ");
+        assert_eq!(
+            checked, ran,
+            "{tag}: check said {out}; the daemon logged {err}"
+        );
+        eprintln!("{tag}: {checked} Hz");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

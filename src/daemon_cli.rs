@@ -139,8 +139,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     anguilla_daemon::rt::prepare(&run::rt_request(&cfg));
     let stop = Arc::new(AtomicBool::new(false));
     let (bus, sim) = if cfg.bus.spec.is_empty() {
-        let sensor = cfg.fit_builtin_sensor();
-        let relaxed = cfg.relax_for_builtin();
+        let anguilla_daemon::config::BuiltinFit { sensor, relaxed } = cfg.fit_builtin();
         if !relaxed.is_empty() {
             tracing::info!(
                 "simulated robot: it shares this machine's CPU with the daemon, so the \

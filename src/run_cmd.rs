@@ -58,19 +58,35 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
                     .and_then(|ep| ep.listenable(cfg.link.insecure_loopback))
                     .map_err(|e| anyhow::anyhow!("{}: link.listen: {e}", file.display()))?;
             }
+            // The configuration the daemon would run: for the built-in
+            // robot, with its head sensor and relaxed timeouts (one
+            // computation, Config::fit_builtin, so the rate is the daemon's).
+            let mut cfg = cfg;
+            let builtin = cfg.bus.spec.is_empty() || cfg.bus.spec == BUS_BUILTIN;
+            let sensor = if builtin {
+                cfg.fit_builtin().sensor
+            } else {
+                None
+            };
             let period = anguilla_daemon::control::period_ns(&cfg);
             outln!(
                 "{}: valid; {} joints, control rate {:.1} Hz, bus {}",
                 file.display(),
                 cfg.robot.joints,
                 1e9 / period.as_nanos() as f64,
-                if cfg.bus.spec.is_empty() || cfg.bus.spec == BUS_BUILTIN {
-                    "built-in simulated robot"
+                if builtin {
+                    match sensor {
+                        Some(id) => {
+                            format!("built-in simulated robot (with its head sensor as node {id})")
+                        }
+                        None => "built-in simulated robot".to_owned(),
+                    }
                 } else if cfg.bus.spec == BUS_UNSET {
                     "NOT SET: the daemon refuses to start until [bus] spec names the robot's \
                      bus (`anguilla config set-bus SPEC`)"
+                        .to_owned()
                 } else {
-                    &cfg.bus.spec
+                    cfg.bus.spec.clone()
                 }
             )
         }

@@ -52,6 +52,7 @@ pub use realtime::RealtimeConfig;
 pub use recording::RecordingConfig;
 pub use robot::{AxisConfig, AxisDefaults, AxisMap, RobotConfig};
 pub use sensor::SensorConfig;
+pub use whole::BuiltinFit;
 
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
