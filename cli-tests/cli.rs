@@ -1115,7 +1115,7 @@ fn sim_speaks_the_chosen_drive_family_and_bad_drive_ids_are_named() {
         ),
         (
             &["sim", "--bus", "mem:x", "--axis-ids", "1:2"],
-            "--axis-ids: only with --drive cia402 or odrive",
+            "--axis-ids: only with --drive cia402, odrive, mit",
         ),
         (
             &[

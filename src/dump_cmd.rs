@@ -30,9 +30,8 @@ pub struct DumpArgs {
     /// Decode as CAN FD (default: classic CAN).
     #[arg(long)]
     fd: bool,
-    /// Decode with this family's protocol: anguilla, cia402 (CANopen) or
-    /// odrive (CANSimple).
-    #[arg(long, default_value = "anguilla", value_parser = parse_family)]
+    /// Decode with this family's protocol.
+    #[arg(long, default_value = "anguilla", value_name = "FAMILY", value_parser = anguilla::family_arg::FamilyParser)]
     drive: Family,
     /// Stop after this many frames.
     #[arg(long, value_name = "N")]
@@ -40,11 +39,6 @@ pub struct DumpArgs {
     /// Stop after this many seconds.
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
-}
-
-fn parse_family(s: &str) -> Result<Family, String> {
-    s.parse()
-        .map_err(|e: anguilla_protocol::family::UnknownFamily| e.to_string())
 }
 
 /// How `dump` decodes frames: the family, and for anguilla the variant.

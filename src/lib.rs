@@ -7,6 +7,7 @@
 
 pub mod builtin_sim;
 pub mod daemon_cli;
+pub mod family_arg;
 pub mod output;
 pub mod signals;
 pub mod user_file;

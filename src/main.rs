@@ -144,3 +144,98 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Link(_) => anyhow::bail!("anguilla link: {}", teleop_cmd::NOT_REMOTE),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every subcommand path of `cmd`'s tree (`["ctl", "swim"]`), hidden
+    /// ones and clap's `help` left out.
+    fn paths(cmd: &clap::Command, prefix: &[String], out: &mut Vec<Vec<String>>) {
+        for sub in cmd.get_subcommands() {
+            if sub.is_hide_set() || sub.get_name() == "help" {
+                continue;
+            }
+            let mut p = prefix.to_vec();
+            p.push(sub.get_name().to_owned());
+            out.push(p.clone());
+            paths(sub, &p, out);
+        }
+    }
+
+    /// Whether the first cell of a docs/cli.md table row names `path`: a
+    /// command in backticks starting with its first word, and each later
+    /// word a word of the cell (`ctl enable\|disable` names `ctl disable`).
+    fn names(cell: &str, path: &[String]) -> bool {
+        let words: Vec<&str> = cell
+            .split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
+            .filter(|w| !w.is_empty())
+            .collect();
+        let starts = cell.split('`').skip(1).step_by(2).any(|code| {
+            code.split_whitespace().next() == Some(&path[0])
+                || code.starts_with(&format!("anguilla {}", path[0]))
+        });
+        starts && path[1..].iter().all(|w| words.contains(&w.as_str()))
+    }
+
+    /// The CLI reference cannot drift from the code (issue 46: docs/cli.md
+    /// lacked `calibrate` and `ctl calibrate-swim`): every subcommand of
+    /// clap's tree is named in the first column of docs/cli.md's table.
+    #[test]
+    fn every_subcommand_is_in_docs_cli_md() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/cli.md");
+        let doc = std::fs::read_to_string(path).unwrap();
+        let cells: Vec<&str> = doc
+            .lines()
+            .filter(|l| l.starts_with("| `"))
+            .filter_map(|l| l.split(" | ").next())
+            .collect();
+        let mut all = Vec::new();
+        paths(&Cli::command(), &[], &mut all);
+        assert!(all.len() > 20, "{all:?}");
+        let missing: Vec<String> = all
+            .iter()
+            .filter(|p| !cells.iter().any(|c| names(c, p)))
+            .map(|p| p.join(" "))
+            .collect();
+        assert!(
+            missing.is_empty(),
+            "docs/cli.md's table names no `{}` (add a row, or the word to its command's row)",
+            missing.join("`, `")
+        );
+    }
+
+    /// Every `--drive` option lists every family of `Family::ALL` in its
+    /// help, from the one parser (issue 46: `sim --help` and `protocol dbc
+    /// --help` listed anguilla, cia402 and odrive, not mit).
+    #[test]
+    fn every_drive_option_lists_every_family() {
+        fn visit(cmd: &mut clap::Command, path: &str, seen: &mut Vec<String>) {
+            let here = format!("{path} {}", cmd.get_name());
+            if cmd.get_arguments().any(|a| a.get_long() == Some("drive")) {
+                let help = cmd.render_long_help().to_string();
+                for f in anguilla_protocol::Family::ALL {
+                    assert!(
+                        help.contains(&format!("- {}:", f.name())),
+                        "{here} --help does not list {}:\n{help}",
+                        f.name()
+                    );
+                }
+                seen.push(here.clone());
+            }
+            for sub in cmd.get_subcommands_mut() {
+                visit(sub, &here, seen);
+            }
+        }
+        let mut cmd = Cli::command();
+        cmd.build();
+        let mut seen = Vec::new();
+        visit(&mut cmd, "", &mut seen);
+        for want in ["sim", "dump", "protocol budget", "protocol dbc"] {
+            assert!(
+                seen.iter().any(|s| s.ends_with(&format!(" {want}"))),
+                "{want} has no --drive: {seen:?}"
+            );
+        }
+    }
+}

@@ -17,7 +17,7 @@ pub enum ProtocolCmd {
     /// heartbeats) for a robot, with bit stuffing.
     Budget(BudgetArgs),
     /// Print or write the DBC file generated from the message definitions
-    /// (anguilla nodes, or ODrive axes with `--drive odrive`).
+    /// (anguilla nodes, or the axes of a bought family with `--drive`).
     Dbc(DbcArgs),
     /// Print the Markdown layout tables of protocol/README.md.
     Layout {
@@ -35,9 +35,9 @@ pub struct BudgetArgs {
     /// Actuated joints (one node of two axes each), 1..=63.
     #[arg(long, default_value_t = 12)]
     joints: u32,
-    /// The drives' family: anguilla (one node per joint), cia402 or odrive
+    /// The drives' family: anguilla (one node per joint) or a bought family
     /// (one drive per axis; classic CAN only).
-    #[arg(long, default_value = "anguilla", value_parser = parse_family)]
+    #[arg(long, default_value = "anguilla", value_name = "FAMILY", value_parser = anguilla::family_arg::FamilyParser)]
     drive: anguilla_protocol::Family,
     /// The nodes' ids instead of 1..=joints, e.g. `1,7,13` (on CAN FD sparse
     /// ids take more setpoint-group frames).
@@ -71,19 +71,19 @@ pub struct BudgetArgs {
 /// Arguments of `anguilla protocol dbc`.
 #[derive(Args, Debug)]
 pub struct DbcArgs {
-    /// The drives' family: anguilla (the vertebra protocol) or odrive
-    /// (CANSimple axes). CiA 402 drives are described by EDS files, not DBC.
-    #[arg(long, default_value = "anguilla", value_parser = parse_family)]
+    /// The drives' family. CiA 402 drives are described by EDS files, not
+    /// DBC.
+    #[arg(long, default_value = "anguilla", value_name = "FAMILY", value_parser = anguilla::family_arg::FamilyParser)]
     drive: anguilla_protocol::Family,
     /// The CAN FD variant (default: classic CAN; anguilla only).
     #[arg(long)]
     fd: bool,
-    /// Nodes (anguilla) or axes (odrive) 1..=N to list (a DBC has no
-    /// wildcard ids), 1..=63 [default: 12 anguilla nodes; 24 ODrive axes,
-    /// the default ids of 12 joints].
+    /// Nodes (anguilla) or axes (a bought family) 1..=N to list (a DBC has no
+    /// wildcard ids), 1..=63 [default: 12 anguilla nodes; a bought family's
+    /// 24 axes, the default ids of 12 joints].
     #[arg(long)]
     nodes: Option<u8>,
-    /// The ODrive axes' node ids instead of 1..=N, e.g. `1,2,5` (0..=63).
+    /// A bought family's axes' node ids instead of 1..=N, e.g. `1,2,5`.
     #[arg(
         long,
         value_delimiter = ',',
@@ -94,11 +94,6 @@ pub struct DbcArgs {
     /// Write to this file instead of standard output.
     #[arg(long)]
     out: Option<PathBuf>,
-}
-
-fn parse_family(s: &str) -> Result<anguilla_protocol::Family, String> {
-    s.parse()
-        .map_err(|e: anguilla_protocol::family::UnknownFamily| e.to_string())
 }
 
 /// Runs a `protocol` subcommand.

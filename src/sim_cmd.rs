@@ -34,9 +34,10 @@ Examples:
 
 --drive chooses what the joints' drives speak (docs/drives.md): anguilla
 vertebra nodes (one node per joint, ids 1..=N), or one bought drive per axis
-(odrive: CANSimple axes, ids 0..=63; cia402: CANopen drives, ids 1..=127),
-by default pitch 2j+1 and yaw 2j+2 for joint j = 0 (head end), 1, ...;
-scenario lines 'node N' then name joint N.
+(odrive: CANSimple axes, ids 0..=63; cia402: CANopen drives, ids 1..=127;
+mit: MIT-mode actuators, ids 1..=127), by default pitch 2j+1 and yaw 2j+2
+for joint j = 0 (head end), 1, ...; scenario lines 'node N' then name
+joint N.
 
 The robot runs in real time until Ctrl-C, printing a status line every second.
 Scenario files (sim-backend/README.md) script faults with times, e.g.
@@ -70,11 +71,12 @@ pub struct SimArgs {
     /// drives only).
     #[arg(long)]
     fd: bool,
-    /// What the joints' drives speak: anguilla, cia402 or odrive.
-    #[arg(long, default_value = "anguilla", value_name = "FAMILY")]
+    /// What the joints' drives speak (docs/drives.md).
+    #[arg(long, default_value = "anguilla", value_name = "FAMILY", value_parser = anguilla::family_arg::FamilyParser)]
     drive: Family,
     /// The drives' node ids of every joint, head end first, as PITCH:YAW
-    /// pairs (e.g. 1:2,3:4); cia402 and odrive only. Default 2j+1:2j+2.
+    /// pairs (e.g. 1:2,3:4); the families with a drive per axis (all but
+    /// anguilla). Default 2j+1:2j+2.
     #[arg(long, value_name = "P:Y,...")]
     axis_ids: Option<String>,
     /// Seed of sensor noise and random faults.
@@ -201,8 +203,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let axis_ids = match &args.axis_ids {
         Some(text) => {
             if !args.drive.drive_per_axis() {
+                let per_axis: Vec<&str> = anguilla_protocol::Family::ALL
+                    .into_iter()
+                    .filter(|f| f.drive_per_axis())
+                    .map(|f| f.name())
+                    .collect();
                 bail!(
-                    "--axis-ids: only with --drive cia402 or odrive (anguilla nodes are 1..=--joints)"
+                    "--axis-ids: only with --drive {} (a drive per axis; anguilla nodes are 1..=--joints)",
+                    per_axis.join(", ")
                 );
             }
             let ids = parse_axis_ids(text)?;
