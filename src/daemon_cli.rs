@@ -134,6 +134,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         ),
         None => None,
     };
+    // Root on the packaged layout runs the daemon as the service's user
+    // (anguilla_ipc::service_user), before any thread starts.
+    if let Some(note) =
+        anguilla_ipc::service_user::adopt(anguilla_ipc::service_user::Keep::Realtime)?
+    {
+        tracing::info!("{note}");
+    }
     crate::signals::install();
     // Before any thread starts (the simulated robot's first).
     anguilla_daemon::rt::prepare(&run::rt_request(&cfg));

@@ -114,6 +114,22 @@ struct NotBuilt {
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
+    // A tool that talks to the daemon, run as root on the packaged layout,
+    // runs as the service's user: the daemon can open only that user's
+    // iceoryx2 files (anguilla_ipc::service_user). Before any thread starts.
+    if matches!(
+        cli.command,
+        Command::Ctl(_)
+            | Command::Teleop(_)
+            | Command::Joy(_)
+            | Command::Monitor(_)
+            | Command::Link(_)
+            | Command::Foxglove(_)
+    ) && let Some(note) =
+        anguilla_ipc::service_user::adopt(anguilla_ipc::service_user::Keep::Nothing)?
+    {
+        eprintln!("anguilla: {note}");
+    }
     match cli.command {
         Command::Run(args) => daemon_cli::run(args),
         Command::Config { cmd } => run_cmd::config(cmd),

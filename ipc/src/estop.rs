@@ -140,6 +140,15 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
     if !m.file_type().is_dir() {
         return Some(format!("{} is not a directory (a symlink?)", dir.display()));
     }
+    // The package's runtime directory (and what its service made below
+    // it) belong to the service's user: only that user runs a daemon there.
+    if let Some(svc) = crate::service_user::service_account()
+        && dir.starts_with(SYSTEM_ROOT)
+        && m.uid() == svc.uid
+        && m.uid() != uid
+    {
+        return Some(package_layout(dir, &svc.name, uid));
+    }
     if dir == root() {
         if m.uid() != 0 && m.uid() != uid {
             return Some(format!(
@@ -164,6 +173,19 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
         ));
     }
     None
+}
+
+/// Why a daemon of `uid` cannot use `dir`, part of the package's runtime
+/// directory (the service user `user`'s), and what to do instead.
+pub(crate) fn package_layout(dir: &Path, user: &str, uid: u32) -> String {
+    format!(
+        "{} belongs to user {user}, the installed service's (deploy/anguilla.tmpfiles.conf \
+         makes {SYSTEM_ROOT} at boot), not to this daemon's uid {uid}: on the packaged layout \
+         a daemon runs as that user, as the service does: `sudo -u {user} anguilla run ...` \
+         (root becomes that user by itself; stop the service first if it serves the same \
+         prefix: `sudo systemctl stop anguilla`)",
+        dir.display()
+    )
 }
 
 /// The prefix's runtime directory, `/tmp/anguilla/<prefix>`, made if

@@ -156,6 +156,19 @@ fn segments() -> Vec<PathBuf> {
 /// another user owns it.
 fn foreign(path: &Path, uid: u32, what: &str, fix: &str) -> Result<(), IpcError> {
     match std::fs::symlink_metadata(path) {
+        // The package's iceoryx2 directory is its service user's: never
+        // removed, only used as that user.
+        Ok(m)
+            if m.uid() != uid
+                && path.starts_with(crate::estop::SYSTEM_ROOT)
+                && crate::service_user::service_account().is_some_and(|a| a.uid == m.uid()) =>
+        {
+            let user = crate::service_user::service_account().map_or_else(String::new, |a| a.name);
+            Err(IpcError::Foreign(format!(
+                "{what}: {}",
+                crate::estop::package_layout(path, &user, uid)
+            )))
+        }
         Ok(m) if m.uid() != uid && m.uid() != 0 => Err(IpcError::Foreign(format!(
             "{what} {} belongs to uid {} with mode {:o}, not to this daemon's user (uid {uid}): \
              another user made it first. {fix}",
@@ -259,6 +272,18 @@ pub fn opening() -> bool {
 /// What to check when iceoryx2 does not answer: its directory and
 /// node-id segments, as this process's configuration names them.
 pub fn files_to_check() -> String {
+    let root = root_path();
+    if root.starts_with(crate::estop::SYSTEM_ROOT) {
+        // The package's directory is made at boot: it is not removed.
+        return format!(
+            "iceoryx2's directory {} (the package's: its service user's, mode 0750) and its \
+             node-id segment {SHM_DIR}/{}…{GLOBAL_MGMT} (owner, mode, 16 bytes): another user's \
+             or a damaged segment blocks every new iceoryx2 node; remove the segment as root \
+             while no anguilla program runs, and run the tools as the service's user",
+            root.display(),
+            prefix()
+        );
+    }
     format!(
         "iceoryx2's directory {} and its node-id segment {SHM_DIR}/{}…{GLOBAL_MGMT} (owner, \
          mode, 16 bytes): another user's or a damaged one blocks every new iceoryx2 node; \

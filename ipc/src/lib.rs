@@ -56,6 +56,7 @@ pub mod layout;
 pub mod payload;
 pub mod pose;
 pub mod service;
+pub mod service_user;
 pub mod vocabulary;
 
 pub use client::{Client, Session};

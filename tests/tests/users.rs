@@ -534,3 +534,129 @@ fn the_node_id_segment_cannot_be_raced_at_its_creation() {
     drop(users);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The packaged layout (issue 46, finding 9): `/run/anguilla` and its
+/// iceoryx2 directory made for the service's user, as
+/// deploy/anguilla.tmpfiles.conf makes them at boot, in a mount namespace
+/// of the test's own (a tmpfs on /run that no other process sees), and the
+/// service's daemon running as that user. Then:
+/// - root's `anguilla ctl status` reads its state (before: "no state
+///   within 2 s": root's iceoryx2 files were closed to the daemon) and
+///   says it ran as the service's user;
+/// - root's `anguilla run` runs (before: refused, "/run/anguilla belongs to
+///   uid N ...: remove it"), as the service's user;
+/// - another user's `anguilla run` is refused, naming the service's user
+///   and how to run as it, never advising to remove the directory.
+#[test]
+fn on_the_packaged_layout_root_reaches_and_runs_the_daemon_as_the_services_user() {
+    let _dog = Watchdog::new("users-package", Duration::from_secs(240));
+    let tag = (std::process::id() + 4) % 100_000;
+    let Some(users) = users_for("users-package", tag) else {
+        return;
+    };
+    let (svc, group, outsider) = (&users.users[0], &users.group, &users.users[2]);
+    let (dir, bin, prefix) = sandbox("users-package", tag, &format!("ip{tag}_"));
+    // iceoryx2 where the package puts it (deploy/iceoryx2.toml).
+    std::fs::write(
+        dir.join("config/iceoryx2.toml"),
+        format!("[global]\nroot-path = \"/run/anguilla/iceoryx2/\"\nprefix = \"ip{tag}_\"\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("other.toml"),
+        format!("[ipc]\nprefix = \"{prefix}-root\"\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("third.toml"),
+        format!("[ipc]\nprefix = \"{prefix}-third\"\n"),
+    )
+    .unwrap();
+    // Polls of 0.1 s, for at most 60 s times the patience.
+    let polls = (600.0 * anguilla_system_tests::process::patience()) as u32;
+    let script = format!(
+        r#"set -u
+mount -t tmpfs -o mode=0755 anguilla-test /run || exit 90
+install -d -m 0750 -o {svc} -g {group} /run/anguilla /run/anguilla/iceoryx2 || exit 91
+as_svc() {{ setpriv --reuid={svc} --regid={group} --init-groups -- "$@"; }}
+setpriv --reuid={svc} --regid={group} --init-groups -- {bin} run --quiet --config anguilla.toml >daemon.out 2>daemon.err &
+d=$!
+i=0
+until as_svc {bin} ctl --prefix {prefix} status >/dev/null 2>&1; do
+    i=$((i + 1))
+    if [ $i -gt {polls} ] || ! kill -0 $d 2>/dev/null; then
+        echo "the service's daemon never answered its user"; cat daemon.err; kill $d; exit 92
+    fi
+    sleep 0.1
+done
+{bin} ctl --prefix {prefix} status >root-status.out 2>root-status.err
+echo "root-status $?"
+{bin} run --config other.toml --duration 1 >root-run.out 2>root-run.err
+echo "root-run $?"
+setpriv --reuid={outsider} --regid={outsider} --clear-groups -- {bin} run --config third.toml --duration 1 >third-run.out 2>third-run.err
+echo "third-run $?"
+kill $d
+wait $d || true
+"#,
+        bin = bin.display(),
+    );
+    let o = Proc::new("unshare")
+        .args(["--mount", "--propagation", "private", "sh", "-c", &script])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&o.stdout).into_owned();
+    let file = |n: &str| std::fs::read_to_string(dir.join(n)).unwrap_or_default();
+    assert!(
+        o.status.success() && said.contains("third-run"),
+        "the namespace's script: {} {said} {}",
+        o.status,
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let exit = |what: &str| {
+        said.lines()
+            .find_map(|l| l.strip_prefix(&format!("{what} ")))
+            .unwrap_or_else(|| panic!("no {what} in {said}"))
+            .to_owned()
+    };
+    assert_eq!(
+        exit("root-status"),
+        "0",
+        "sudo anguilla ctl status: {} {}",
+        file("root-status.out"),
+        file("root-status.err")
+    );
+    assert!(
+        file("root-status.out").contains("mode"),
+        "{}",
+        file("root-status.out")
+    );
+    assert!(
+        file("root-status.err").contains(&format!("running as user {svc}")),
+        "{}",
+        file("root-status.err")
+    );
+    assert_eq!(
+        exit("root-run"),
+        "0",
+        "sudo anguilla run: {}",
+        file("root-run.err")
+    );
+    assert!(
+        file("root-run.err").contains(&format!("running as user {svc}")),
+        "{}",
+        file("root-run.err")
+    );
+    assert_ne!(exit("third-run"), "0", "{}", file("third-run.err"));
+    let third = file("third-run.err");
+    assert!(
+        third.contains(&format!("sudo -u {svc} anguilla run")) && !third.contains("remove it"),
+        "another user's refusal: {third}"
+    );
+    eprintln!(
+        "root's ctl: {}another user's run: {}",
+        file("root-status.err"),
+        third.lines().last().unwrap_or_default()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
