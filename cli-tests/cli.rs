@@ -3,7 +3,7 @@
 
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 fn anguilla() -> Command {
     Command::new(env!("CARGO_BIN_EXE_anguilla"))
@@ -22,9 +22,33 @@ fn run(args: &[&str]) -> (bool, String, String) {
     )
 }
 
+/// The exit status of `child`, waited for at most `secs` stretched by the
+/// patience (anguilla_testkit::poll_until); past it the child is killed and
+/// the test fails, naming `what`. A watchdog, not a speed bound.
+fn wait_exit(child: &mut std::process::Child, what: &str, secs: u64) -> std::process::ExitStatus {
+    let mut killer = KillOnDrop(Some(child));
+    let status = anguilla_testkit::poll_until(what, Duration::from_secs(secs), || {
+        killer.0.as_mut().and_then(|c| c.try_wait().unwrap())
+    });
+    killer.0 = None;
+    status
+}
+
+/// Kills and reaps the child it holds when dropped (a failed wait).
+struct KillOnDrop<'a>(Option<&'a mut std::process::Child>);
+
+impl Drop for KillOnDrop<'_> {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
 /// [`run`] for a command that could block for ever (a named pipe for a
-/// file): a watchdog kills it after 60 s and fails the test, naming it. Not
-/// a speed bound: a command that works ends at once.
+/// file): a watchdog kills it after 60 s (times the patience) and fails the
+/// test, naming it. Not a speed bound: a command that works ends at once.
 fn run_watched(args: &[&str]) -> (bool, String, String) {
     let mut child = anguilla()
         .args(args)
@@ -44,18 +68,7 @@ fn run_watched(args: &[&str]) -> (bool, String, String) {
     };
     let out = read(child.stdout.take().map(|s| Box::new(s) as _));
     let err = read(child.stderr.take().map(|s| Box::new(s) as _));
-    let end = Instant::now() + Duration::from_secs(60);
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if Instant::now() > end {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("anguilla {args:?} was still running after 60 s: blocked");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let status = wait_exit(&mut child, &format!("anguilla {args:?} (blocked?)"), 60);
     (status.success(), out.join().unwrap(), err.join().unwrap())
 }
 
@@ -620,9 +633,9 @@ fn sim_behind_a_pty(args: &[&str]) -> (std::process::Child, String) {
         .spawn()
         .expect("sim starts");
     let mut lines = BufReader::new(sim.stdout.take().unwrap()).lines();
-    let deadline = Instant::now() + Duration::from_secs(15);
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(15));
     let mut device = None;
-    while device.is_none() && Instant::now() < deadline {
+    while device.is_none() && !deadline.passed() {
         match lines.next() {
             Some(Ok(l)) => {
                 device = l
@@ -992,14 +1005,7 @@ fn sighup_stops_the_daemon_smoothly() {
     let first = lines.next().expect("a status line").unwrap();
     assert!(first.starts_with("t="), "{first}");
     unsafe { libc::kill(child.id() as i32, libc::SIGHUP) };
-    let end = Instant::now() + Duration::from_secs(20);
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        assert!(Instant::now() < end, "the daemon ignored SIGHUP");
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let status = wait_exit(&mut child, "the daemon stopping on SIGHUP", 20);
     let rest: Vec<String> = lines.map_while(Result::ok).collect();
     assert_eq!(status.code(), Some(0), "{rest:?}");
     assert!(
@@ -1369,13 +1375,9 @@ fn a_recording_stopped_at_min_free_replays_as_stopped_with_its_reason() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    // A watchdog, not a bound: each takes about a second.
     let wait = |what: &str, f: &mut dyn FnMut() -> bool| {
-        let t0 = Instant::now();
-        while !f() {
-            // A watchdog, not a bound: it takes about a second.
-            assert!(t0.elapsed() < Duration::from_secs(120), "never: {what}");
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        anguilla_testkit::wait_until(what, Duration::from_secs(120), f)
     };
     let session = dir.join("session-");
     let mut found = None;

@@ -23,8 +23,10 @@ pub struct Watchdog {
 }
 
 impl Watchdog {
-    /// Arms the watchdog for `limit`; `name` is printed if it fires.
+    /// Arms the watchdog for `limit` stretched by the patience
+    /// ([`anguilla_testkit::patient`]); `name` is printed if it fires.
     pub fn new(name: &str, limit: Duration) -> Self {
+        let limit = anguilla_testkit::patient(limit);
         let (tx, rx) = std::sync::mpsc::channel::<()>();
         let name = name.to_string();
         std::thread::spawn(move || {
@@ -292,20 +294,12 @@ pub mod process {
         best
     }
 
-    /// Polls `f` every 50 ms until it gives a value, for at most `timeout`;
-    /// panics naming `what` otherwise. For conditions no event announces
-    /// (a process starting, a file appearing); the state has `wait_for`.
-    pub fn poll_until<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<T>) -> T {
-        let timeout = timeout.mul_f64(patience());
-        let end = Instant::now() + timeout;
-        loop {
-            if let Some(v) = f() {
-                return v;
-            }
-            assert!(Instant::now() < end, "{what}: not within {timeout:?}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
+    /// Polls `f` until it gives a value, for at most `timeout` stretched
+    /// by the patience; panics naming `what` otherwise. For conditions no
+    /// event announces (a process starting, a file appearing); the state
+    /// has `wait_for`. The one helper of every crate:
+    /// [`anguilla_testkit::poll_until`].
+    pub use anguilla_testkit::poll_until;
 
     /// Raw CAN sockets that receive every frame on `ifname`, as the kernel
     /// lists them (`/proc/net/can/rcvlist_all`, one line per receiver:
@@ -389,17 +383,10 @@ pub mod process {
     /// it (a starved machine has taken over 5 s to answer).
     pub const REPLY: Duration = Duration::from_secs(30);
 
-    /// How much longer than on a quiet machine a condition may take:
-    /// `ANGUILLA_TEST_PATIENCE` (1 ..= 20, default 1; CI's run under
-    /// stress-ng sets 3). [`wait_for`] and [`poll_until`] scale their
-    /// deadlines by it; a test that passes waits no longer.
-    pub fn patience() -> f64 {
-        std::env::var("ANGUILLA_TEST_PATIENCE")
-            .ok()
-            .and_then(|v| v.parse::<f64>().ok())
-            .filter(|p| p.is_finite())
-            .map_or(1.0, |p| p.clamp(1.0, 20.0))
-    }
+    /// How much longer than on a quiet machine a condition may take
+    /// (`ANGUILLA_TEST_PATIENCE`): [`anguilla_testkit::patience`], which
+    /// every crate's test deadlines use.
+    pub use anguilla_testkit::patience;
 
     /// Takes control and enables, and waits for Ready.
     pub fn take_control_and_enable(client: &mut Client, timeout: f64) {

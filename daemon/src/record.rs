@@ -551,14 +551,11 @@ mod tests {
         root
     }
 
-    /// Polls `f` until it holds; the watchdog (a minute: far beyond the
-    /// milliseconds it takes) only stops a hung test.
-    fn wait_until(what: &str, mut f: impl FnMut() -> bool) {
-        let t0 = std::time::Instant::now();
-        while !f() {
-            assert!(t0.elapsed().as_secs() < 60, "never: {what}");
-            std::thread::sleep(std::time::Duration::from_millis(5));
-        }
+    /// Polls `f` until it holds; the watchdog (a minute times the
+    /// patience: far beyond the milliseconds it takes) only stops a hung
+    /// test.
+    fn wait_until(what: &str, f: impl FnMut() -> bool) {
+        anguilla_testkit::wait_until(what, std::time::Duration::from_secs(60), f);
     }
 
     /// A clock set back, or two daemons started in the same second: the

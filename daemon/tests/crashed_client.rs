@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anguilla_daemon::config::Config;
 use anguilla_daemon::run;
@@ -66,10 +66,10 @@ fn a_dead_holder_loses_control() {
     // a moment: a watcher starved by a busy machine could miss the short
     // hold in the published states, but not this.
     let mut watcher = Client::new(&prefix, "watcher").unwrap();
-    let deadline = Instant::now() + Duration::from_secs(30);
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(30));
     let mut released = false;
     let mut last = String::new();
-    while Instant::now() < deadline {
+    while !deadline.passed() {
         match watcher.request(Command::TakeControl, Duration::from_secs(5)) {
             Ok(r) if r.accepted == 1 => {
                 released = true;

@@ -13,16 +13,21 @@ use anguilla_drivers::slcan::{SlcanBus, SlcanConfig};
 use anguilla_drivers::{Bus, Frame, LinkError, LostReason, OpenError, open};
 use serialport::{SerialPort, TTYPort};
 
-const PATIENCE: Duration = Duration::from_secs(5);
+/// Generous bound for a condition on a loaded machine, stretched by
+/// `ANGUILLA_TEST_PATIENCE` (anguilla_testkit); never a speed claim.
+fn patience() -> Duration {
+    anguilla_testkit::patient(Duration::from_secs(5))
+}
 
-/// Runs `f` on a thread; fails if it takes more than 60 s.
+/// Runs `f` on a thread; fails if it takes more than 60 s (times the
+/// patience).
 fn watchdog<F: FnOnce() + Send + 'static>(f: F) {
     let (tx, rx) = std::sync::mpsc::channel();
     let t = std::thread::spawn(move || {
         f();
         let _ = tx.send(());
     });
-    match rx.recv_timeout(Duration::from_secs(60)) {
+    match rx.recv_timeout(anguilla_testkit::patient(Duration::from_secs(60))) {
         Ok(()) | Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
             if let Err(p) = t.join() {
                 std::panic::resume_unwind(p)
@@ -183,7 +188,7 @@ fn garbage_between_frames_is_counted_and_skipped() {
         let mut got = Vec::new();
         let t0 = Instant::now();
         while got.len() < 5 {
-            assert!(t0.elapsed() < PATIENCE, "got {got:?}");
+            assert!(t0.elapsed() < patience(), "got {got:?}");
             if let Some(r) = drv.recv(Duration::from_millis(50)).unwrap() {
                 got.push(r.frame.data()[0]);
             }
@@ -206,7 +211,7 @@ fn unplugged_adapter_is_reported_as_disconnected() {
         drop(emu.stop());
         let t0 = Instant::now();
         loop {
-            assert!(t0.elapsed() < PATIENCE, "no disconnection reported");
+            assert!(t0.elapsed() < patience(), "no disconnection reported");
             match drv.recv(Duration::from_millis(20)) {
                 Err(e @ LinkError::Disconnected(reason)) => {
                     // The error owns nothing: the caller names the bus
@@ -248,7 +253,7 @@ fn a_replugged_adapter_at_the_same_path_is_reconnected() {
         drop(bus1);
         let t0 = Instant::now();
         while drv.state() != anguilla_drivers::BusState::Gone {
-            assert!(t0.elapsed() < PATIENCE, "the unplug went unnoticed");
+            assert!(t0.elapsed() < patience(), "the unplug went unnoticed");
             let _ = drv.recv(Duration::from_millis(20));
         }
         let reopens = drv.counters().reopens;
@@ -260,7 +265,7 @@ fn a_replugged_adapter_at_the_same_path_is_reconnected() {
         std::os::unix::fs::symlink(emu2.path().unwrap(), &link).unwrap();
         let t0 = Instant::now();
         while drv.state() == anguilla_drivers::BusState::Gone {
-            assert!(t0.elapsed() < 2 * PATIENCE, "never reconnected");
+            assert!(t0.elapsed() < 2 * patience(), "never reconnected");
             let _ = drv.recv(Duration::from_millis(20));
         }
         assert_eq!(drv.state(), anguilla_drivers::BusState::ErrorActive);
@@ -270,7 +275,7 @@ fn a_replugged_adapter_at_the_same_path_is_reconnected() {
         let t0 = Instant::now();
         loop {
             assert!(
-                t0.elapsed() < PATIENCE,
+                t0.elapsed() < patience(),
                 "nothing reached the new adapter's bus"
             );
             if let Some(r) = peer.recv(Duration::from_millis(50)).unwrap() {
@@ -306,7 +311,7 @@ fn recovers_from_bus_off_by_itself_and_never_sends_stale_frames() {
         let _ = drv.send(&stale);
         let t0 = Instant::now();
         while drv.counters().bus_off_count == 0 || drv.counters().reopens == 0 {
-            assert!(t0.elapsed() < PATIENCE, "{:?}", drv.counters());
+            assert!(t0.elapsed() < patience(), "{:?}", drv.counters());
             let _ = drv.recv(Duration::from_millis(5));
         }
         assert_ne!(drv.state(), anguilla_drivers::BusState::BusOff);
@@ -314,7 +319,7 @@ fn recovers_from_bus_off_by_itself_and_never_sends_stale_frames() {
         drv.send(&fresh).unwrap();
         let t0 = Instant::now();
         let first = loop {
-            assert!(t0.elapsed() < PATIENCE, "fresh frame never arrived");
+            assert!(t0.elapsed() < patience(), "fresh frame never arrived");
             if let Some(r) = peer.recv(Duration::from_millis(50)).unwrap() {
                 break r.frame;
             }
@@ -334,7 +339,7 @@ fn stop_handle_ends_the_emulator_thread() {
         std::thread::spawn(move || h.stop()).join().unwrap();
         let t0 = Instant::now();
         while emu.is_running() {
-            assert!(t0.elapsed() < PATIENCE, "emulator thread did not stop");
+            assert!(t0.elapsed() < patience(), "emulator thread did not stop");
             std::thread::yield_now();
         }
         let _bus_back = emu.stop();

@@ -233,9 +233,9 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
     .unwrap();
     // Real time: wait (bounded, a watchdog against a hang, not a speed
     // requirement) for joint 2's yaw heartbeat.
-    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(20));
     let mut seen = false;
-    while !seen && std::time::Instant::now() < deadline {
+    while !seen && !deadline.passed() {
         if let Ok(Some(r)) = host.recv(Duration::from_millis(100)) {
             seen = matches!(odrive::decode(&r.frame),
                 Ok(Message { node, body: Body::Heartbeat(hb) })

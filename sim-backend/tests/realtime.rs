@@ -2,7 +2,7 @@
 //! pseudo-terminal (as `anguilla sim --slcan-pty` runs it), a host opens the
 //! device, enables the nodes and hears them answer.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
@@ -10,11 +10,16 @@ use anguilla_drivers::{Bus, open};
 use anguilla_protocol::message::{self, Command, Message, NodeSet, NodeState, Target, Variant};
 use anguilla_sim::{RobotConfig, SimRobot};
 
-/// Waits (real time, bounded: the watchdog of this test) until `f` holds.
+/// Waits (real time, bounded: the watchdog of this test, `limit` times the
+/// patience) until `f` holds; `f` waits on the bus itself.
 fn wait_for(what: &str, limit: Duration, mut f: impl FnMut() -> bool) {
-    let start = Instant::now();
+    let deadline = anguilla_testkit::Deadline::new(limit);
     while !f() {
-        assert!(start.elapsed() < limit, "timed out waiting for {what}");
+        assert!(
+            !deadline.passed(),
+            "timed out waiting for {what} ({:?})",
+            deadline.limit()
+        );
     }
 }
 

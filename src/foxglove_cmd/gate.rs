@@ -556,16 +556,10 @@ mod tests {
         c
     }
 
-    /// Waits until `cond` holds: a state, not a time.
+    /// Waits until `cond` holds: a state, not a time (a minute times the
+    /// patience, a watchdog).
     fn until(what: &str, cond: impl Fn() -> bool) {
-        let start = Instant::now();
-        while !cond() {
-            assert!(
-                start.elapsed() < Duration::from_secs(60),
-                "never happened: {what}"
-            );
-            std::thread::sleep(Duration::from_millis(2));
-        }
+        anguilla_testkit::wait_until(what, Duration::from_secs(60), cond);
     }
 
     #[test]

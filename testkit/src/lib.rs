@@ -18,6 +18,20 @@
 //! Allocations, reallocations and frees all count: each is an allocator call
 //! that may take a lock or a page fault in a real-time period.
 //!
+//! Every deadline a test sets on a condition is stretched by the
+//! machine's patience ([`patience`], `ANGUILLA_TEST_PATIENCE`): wait with
+//! [`poll_until`] or [`wait_until`], or bound a loop of your own with a
+//! [`Deadline`]; a test that passes waits no longer:
+//!
+//! ```
+//! use std::time::Duration;
+//! let mut n = 0;
+//! anguilla_testkit::wait_until("the counter at 3", Duration::from_secs(5), || {
+//!     n += 1;
+//!     n == 3
+//! });
+//! ```
+//!
 //! With the feature `lockstep`, the module `lockstep` is the daemon's
 //! controller and the simulated robot on one manual clock (the daemon's
 //! tests and benches).
@@ -29,6 +43,86 @@ pub mod lockstep;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicI32, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// How much longer than on a quiet machine a condition may take:
+/// `ANGUILLA_TEST_PATIENCE` (1 ..= 20, default 1; CI's run under
+/// stress-ng sets 3). Every test deadline of every crate is scaled by it
+/// ([`patient`], [`Deadline`], [`poll_until`], [`wait_until`]); a test
+/// that passes waits no longer.
+pub fn patience() -> f64 {
+    std::env::var("ANGUILLA_TEST_PATIENCE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|p| p.is_finite())
+        .map_or(1.0, |p| p.clamp(1.0, 20.0))
+}
+
+/// `limit` stretched by [`patience`]: the deadline of a condition that
+/// takes at most `limit` on a quiet machine.
+pub fn patient(limit: Duration) -> Duration {
+    limit.mul_f64(patience())
+}
+
+/// A deadline [`patient`]`(limit)` from its making, for a loop of one's
+/// own (a watchdog, a receive loop).
+#[derive(Debug, Clone, Copy)]
+pub struct Deadline {
+    end: Instant,
+    limit: Duration,
+}
+
+impl Deadline {
+    /// The deadline `patient(limit)` from now.
+    pub fn new(limit: Duration) -> Self {
+        let limit = patient(limit);
+        Self {
+            end: Instant::now() + limit,
+            limit,
+        }
+    }
+
+    /// Whether it has passed.
+    pub fn passed(&self) -> bool {
+        Instant::now() >= self.end
+    }
+
+    /// The time left (zero once passed).
+    pub fn remaining(&self) -> Duration {
+        self.end.saturating_duration_since(Instant::now())
+    }
+
+    /// The stretched limit (for messages).
+    pub fn limit(&self) -> Duration {
+        self.limit
+    }
+}
+
+/// Polls `f` until it gives a value, for at most [`patient`]`(timeout)`;
+/// panics naming `what` otherwise. The first polls come 1 ms apart, then
+/// twice as far each time up to 50 ms: a condition that holds at once
+/// costs nothing, one that takes seconds little CPU.
+pub fn poll_until<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<T>) -> T {
+    let deadline = Deadline::new(timeout);
+    let mut pause = Duration::from_millis(1);
+    loop {
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(
+            !deadline.passed(),
+            "{what}: not within {:?}",
+            deadline.limit()
+        );
+        std::thread::sleep(pause.min(deadline.remaining()));
+        pause = (pause * 2).min(Duration::from_millis(50));
+    }
+}
+
+/// [`poll_until`] for a condition without a value.
+pub fn wait_until(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
+    poll_until(what, timeout, || f().then_some(()))
+}
 
 thread_local! {
     static ARMED: Cell<bool> = const { Cell::new(false) };
@@ -187,5 +281,55 @@ mod tests {
         assert_eq!(t.join().unwrap(), 64);
         super::watch_thread(0);
         assert!(super::watched_calls() >= 2, "alloc and free of the vector");
+    }
+}
+
+#[cfg(test)]
+mod patience_tests {
+    use super::*;
+
+    /// The one place every crate's deadlines come from: the patience
+    /// stretches them, within 1 ..= 20, and a condition that holds ends
+    /// the wait at once. (The only test here that sets the variable.)
+    #[test]
+    fn the_patience_stretches_every_deadline() {
+        let limit = Duration::from_millis(100);
+        for (set, factor) in [
+            (None, 1.0),
+            (Some("3"), 3.0),
+            (Some("0.5"), 1.0),
+            (Some("99"), 20.0),
+            (Some("x"), 1.0),
+        ] {
+            // SAFETY: no other test of this crate reads or writes the
+            // environment.
+            unsafe {
+                match set {
+                    Some(v) => std::env::set_var("ANGUILLA_TEST_PATIENCE", v),
+                    None => std::env::remove_var("ANGUILLA_TEST_PATIENCE"),
+                }
+            }
+            assert_eq!(patience(), factor, "{set:?}");
+            assert_eq!(patient(limit), limit.mul_f64(factor), "{set:?}");
+            assert_eq!(Deadline::new(limit).limit(), limit.mul_f64(factor));
+        }
+        // With patience 20, a 100 ms wait lasts 2 s: the condition turns
+        // true after 0.5 s, past the unstretched limit.
+        // SAFETY: as above.
+        unsafe { std::env::set_var("ANGUILLA_TEST_PATIENCE", "20") };
+        let start = Instant::now();
+        wait_until("half a second gone", limit, || {
+            start.elapsed() >= Duration::from_millis(500)
+        });
+        let failed = std::panic::catch_unwind(|| {
+            // SAFETY: as above.
+            unsafe { std::env::set_var("ANGUILLA_TEST_PATIENCE", "1") };
+            wait_until("never", Duration::from_millis(20), || false)
+        });
+        let why = failed.expect_err("a condition that never holds fails");
+        let why = why.downcast_ref::<String>().cloned().unwrap_or_default();
+        assert!(why.contains("never: not within 20ms"), "{why}");
+        // SAFETY: as above.
+        unsafe { std::env::remove_var("ANGUILLA_TEST_PATIENCE") };
     }
 }

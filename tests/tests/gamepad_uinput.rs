@@ -275,9 +275,9 @@ impl Rig {
     /// Watches the state (sending nothing) until `f` holds; panics naming
     /// `what`, the last state and joy's output otherwise.
     fn until(&mut self, what: &str, mut f: impl FnMut(&StateSnapshot) -> bool) -> StateSnapshot {
-        let end = Instant::now() + T;
+        let end = anguilla_testkit::Deadline::new(T);
         let mut last = None;
-        while Instant::now() < end {
+        while !end.passed() {
             if let Some(s) = self.watch.wait_state(Duration::from_millis(100)).unwrap() {
                 if f(&s) {
                     return s;

@@ -5,7 +5,7 @@
 use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::rc::Rc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anguilla_ipc::StateSnapshot;
 use anguilla_ipc::{Cause, Mode};
@@ -84,7 +84,7 @@ fn wait_for(
     timeout: Duration,
     mut cond: impl FnMut(&StateSnapshot) -> bool,
 ) -> StateSnapshot {
-    let deadline = Instant::now() + timeout;
+    let deadline = anguilla_testkit::Deadline::new(timeout);
     loop {
         s.step(|n| notices.push(n)).expect("ipc");
         if let Some(st) = s.op.state()
@@ -93,7 +93,7 @@ fn wait_for(
             return *st;
         }
         assert!(
-            Instant::now() < deadline,
+            !deadline.passed(),
             "timed out after {timeout:?} waiting for {what}; mode {:?}, notices {notices:?}",
             s.op.state().map(|x| x.mode)
         );
@@ -130,8 +130,8 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
 
     // Plugged: found within its 1 s look-up period.
     pad.plug(true);
-    let deadline = Instant::now() + Duration::from_secs(15);
-    while !s.connected() && Instant::now() < deadline {
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(15));
+    while !s.connected() && !deadline.passed() {
         s.step(|n| notices.push(n)).unwrap();
     }
     assert!(s.connected(), "{notices:?}");
@@ -188,8 +188,8 @@ fn a_gamepad_drives_and_unplugging_it_stops_the_robot() {
     // Replugged: the old stick position is forgotten; the deadman again
     // keeps control alive without swimming.
     pad.plug(true);
-    let deadline = Instant::now() + Duration::from_secs(15);
-    while !s.connected() && Instant::now() < deadline {
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(15));
+    while !s.connected() && !deadline.passed() {
         s.step(|n| notices.push(n)).unwrap();
     }
     assert!(s.connected());

@@ -116,9 +116,9 @@ fn until(
     timeout: Duration,
     f: impl Fn(&StateSnapshot) -> bool,
 ) -> StateSnapshot {
-    let end = Instant::now() + timeout;
+    let end = anguilla_testkit::Deadline::new(timeout);
     let mut last = None;
-    while Instant::now() < end {
+    while !end.passed() {
         if let Ok(Some(st)) = s.wait_state(Duration::from_millis(50)) {
             if f(&st) {
                 return st;

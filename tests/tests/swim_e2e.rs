@@ -83,8 +83,8 @@ impl System {
     }
 
     fn wait_mode(&mut self, mode: Mode, timeout: f64) {
-        let end = Instant::now() + Duration::from_secs_f64(timeout);
-        while Instant::now() < end {
+        let end = anguilla_testkit::Deadline::new(Duration::from_secs_f64(timeout));
+        while !end.passed() {
             self.client.send(Command::KeepAlive).ok();
             if let Ok(Some(s)) = self.client.wait_state(Duration::from_millis(100))
                 && s.mode == mode as u8
@@ -113,7 +113,7 @@ impl Drop for System {
 fn the_robot_swims_turns_and_stops_under_the_daemon() {
     let mut sys = System::start("e2e-swim");
     // Every node has booted and reports Disabled (protocol state 1).
-    let end = Instant::now() + Duration::from_secs(10);
+    let end = anguilla_testkit::Deadline::new(Duration::from_secs(10));
     loop {
         let booted = sys
             .client
@@ -128,7 +128,7 @@ fn the_robot_swims_turns_and_stops_under_the_daemon() {
         if booted {
             break;
         }
-        assert!(Instant::now() < end, "the simulated nodes did not boot");
+        assert!(!end.passed(), "the simulated nodes did not boot");
     }
     sys.ok(Command::TakeControl);
     sys.ok(Command::Enable);

@@ -25,7 +25,7 @@ fn wait_for(
     window: Duration,
     mut cond: impl FnMut(&StateSnapshot, &[StateSnapshot]) -> bool,
 ) -> StateSnapshot {
-    let deadline = Instant::now() + timeout;
+    let deadline = anguilla_testkit::Deadline::new(timeout);
     let mut recent: Vec<(Instant, StateSnapshot)> = vec![];
     loop {
         driver.pump(Instant::now()).expect("ipc");
@@ -48,7 +48,7 @@ fn wait_for(
                 return s;
             }
         }
-        if Instant::now() > deadline {
+        if deadline.passed() {
             let last = recent.last().map(|(_, s)| s);
             panic!(
                 "timed out after {timeout:?} waiting for {what}; last mode {:?} (faults {:#x} at \
@@ -365,8 +365,8 @@ fn a_second_client_cannot_take_control_but_can_estop() {
         Some(Command::Swim(_))
     ));
     assert!(b.intent.swimming());
-    let deadline = Instant::now() + REPLY;
-    while b.intent.swimming() && Instant::now() < deadline {
+    let deadline = anguilla_testkit::Deadline::new(REPLY);
+    while b.intent.swimming() && !deadline.passed() {
         b.pump(Instant::now()).unwrap();
         b.op.wait_state(Duration::from_millis(10)).unwrap();
     }

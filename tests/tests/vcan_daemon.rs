@@ -18,7 +18,7 @@
 use std::io::{BufRead, BufReader};
 use std::process::{Command as Proc, Stdio};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anguilla_ipc::{Command, FaultKind, Mode, SwimParams};
 use anguilla_system_tests::process::{
@@ -275,9 +275,9 @@ fn daemon_and_simulator_processes_on_vcan_with_can_utils() {
     // Stop the daemon cleanly (SIGTERM), which ends its recording.
     // SAFETY: plain kill(2) on our own child.
     unsafe { libc::kill(daemon.0.id() as i32, libc::SIGTERM) };
-    let end = Instant::now() + Duration::from_secs(10);
+    let end = anguilla_testkit::Deadline::new(Duration::from_secs(10));
     while daemon.0.try_wait().unwrap().is_none() {
-        assert!(Instant::now() < end, "daemon did not stop on SIGTERM");
+        assert!(!end.passed(), "daemon did not stop on SIGTERM");
         std::thread::sleep(Duration::from_millis(50));
     }
     // SIGTERM lets candump finish its last line (SIGKILL would cut it).

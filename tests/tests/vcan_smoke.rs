@@ -338,9 +338,9 @@ fn open_pty() -> io::Result<(OwnedFd, String)> {
 /// Reads from the pty master until `want` appears or 3 s pass.
 fn read_until(master: &OwnedFd, want: &str) -> String {
     let mut seen = Vec::new();
-    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(3));
     while !String::from_utf8_lossy(&seen).contains(want) {
-        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        let left = deadline.remaining();
         if left.is_zero() {
             break;
         }
@@ -410,9 +410,9 @@ fn slcand_attaches_a_serial_adapter() {
     // slcand sends close, speed and open to the adapter, then attaches.
     let init = read_until(&master, "O\r");
     assert!(init.contains("S8\r") && init.contains("O\r"), "{init:?}");
-    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(3));
     while !std::path::Path::new(&format!("/sys/class/net/{ifname}")).exists() {
-        if std::time::Instant::now() > deadline {
+        if deadline.passed() {
             skip(&format!("slcand created no {ifname} (no slcan module?)"));
             return;
         }
@@ -421,7 +421,7 @@ fn slcand_attaches_a_serial_adapter() {
     // slcand creates slcanN and renames it: under a slow (emulated) CPU the
     // new name can show in sysfs a moment before `ip` finds the device
     // ("SIOCGIFFLAGS: No such device"), so retry for a while.
-    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(3));
     loop {
         let up = std::process::Command::new("ip")
             .args(["link", "set", ifname, "up"])
@@ -431,7 +431,7 @@ fn slcand_attaches_a_serial_adapter() {
             break;
         }
         assert!(
-            std::time::Instant::now() < deadline,
+            !deadline.passed(),
             "ip link set {ifname} up: {}: {}",
             up.status,
             String::from_utf8_lossy(&up.stderr)

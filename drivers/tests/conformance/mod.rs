@@ -12,10 +12,15 @@ use anguilla_drivers::{Bus, BusState, Frame, LinkError, Received, TimestampBase}
 use anguilla_protocol::frame::Id;
 
 /// Generous bound for a frame to cross any bus under test, on a loaded
-/// 2-core machine; only ever a failure bound, never a speed claim.
-pub const PATIENCE: Duration = Duration::from_secs(5);
-/// Watchdog for a whole test.
-pub const WATCHDOG: Duration = Duration::from_secs(60);
+/// 2-core machine, stretched by `ANGUILLA_TEST_PATIENCE`
+/// (anguilla_testkit); only ever a failure bound, never a speed claim.
+pub fn patience() -> Duration {
+    anguilla_testkit::patient(Duration::from_secs(5))
+}
+/// Watchdog for a whole test (times the patience too).
+pub fn watchdog_limit() -> Duration {
+    anguilla_testkit::patient(Duration::from_secs(60))
+}
 
 /// See [`Pair::force_state_a`].
 pub type ForceState = Box<dyn Fn(BusState)>;
@@ -45,14 +50,14 @@ pub trait BusFactory {
     fn pair(&self) -> Option<Pair>;
 }
 
-/// Runs `f` on a thread and fails if it takes longer than [`WATCHDOG`].
+/// Runs `f` on a thread and fails if it takes longer than [`watchdog_limit()`].
 pub fn watchdog<F: FnOnce() + Send + 'static>(name: &str, f: F) {
     let (tx, rx) = mpsc::channel();
     let t = std::thread::spawn(move || {
         f();
         let _ = tx.send(());
     });
-    match rx.recv_timeout(WATCHDOG) {
+    match rx.recv_timeout(watchdog_limit()) {
         Ok(()) => t.join().unwrap(),
         Err(mpsc::RecvTimeoutError::Disconnected) => {
             // The test panicked: re-raise its panic.
@@ -61,7 +66,7 @@ pub fn watchdog<F: FnOnce() + Send + 'static>(name: &str, f: F) {
             }
         }
         Err(mpsc::RecvTimeoutError::Timeout) => {
-            panic!("{name}: watchdog expired after {WATCHDOG:?}")
+            panic!("{name}: watchdog expired after {:?}", watchdog_limit())
         }
     }
 }
@@ -97,24 +102,24 @@ fn std_id(raw: u16) -> Id {
     Id::standard(raw).unwrap()
 }
 
-/// Polls `cond` until it holds, failing after [`PATIENCE`].
+/// Polls `cond` until it holds, failing after [`patience`].
 pub fn wait_until(what: &str, mut cond: impl FnMut() -> bool) {
     let t0 = Instant::now();
     while !cond() {
-        assert!(t0.elapsed() < PATIENCE, "condition never held: {what}");
+        assert!(t0.elapsed() < patience(), "condition never held: {what}");
         std::thread::yield_now();
     }
 }
 
-/// Receives one frame within [`PATIENCE`] or fails.
+/// Receives one frame within [`patience`] or fails.
 pub fn expect_frame(bus: &mut dyn Bus, what: &str) -> Received {
     let t0 = Instant::now();
-    while t0.elapsed() < PATIENCE {
+    while t0.elapsed() < patience() {
         if let Some(r) = bus.recv(Duration::from_millis(100)).unwrap() {
             return r;
         }
     }
-    panic!("{}: no frame within {PATIENCE:?} ({what})", bus.spec());
+    panic!("{}: no frame within {:?} ({what})", bus.spec(), patience());
 }
 
 fn check_timestamp(bus: &dyn Bus, r: &Received) {
@@ -259,7 +264,7 @@ pub fn bus_off_reported_and_recovered(mut p: Pair) {
     let t0 = Instant::now();
     while p.a.counters().bus_off_count == 0 {
         assert!(
-            t0.elapsed() < PATIENCE,
+            t0.elapsed() < patience(),
             "{}: bus-off not reported",
             p.a.spec()
         );
@@ -283,7 +288,7 @@ pub fn error_passive_reported(mut p: Pair) {
         let t0 = Instant::now();
         while p.a.state() != state {
             assert!(
-                t0.elapsed() < PATIENCE,
+                t0.elapsed() < patience(),
                 "{}: {state:?} not reported",
                 p.a.spec()
             );
