@@ -1270,6 +1270,7 @@ fn replay_tells_a_cut_recording_from_a_different_one() {
 }
 
 #[test]
+#[ignore = "needs root (mounts a small tmpfs): CI runs it as root (.ci/run, --ignored)"]
 fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
     let dir = std::env::temp_dir().join(format!("anguilla-cli-full-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -1279,10 +1280,9 @@ fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
         .arg(&dir)
         .status()
         .is_ok_and(|s| s.success());
-    if !mounted {
-        println!("full disk: skipped: cannot mount a small tmpfs here (needs root)");
-        return;
-    }
+    anguilla_testkit::require(mounted, || {
+        "full disk: cannot mount a small tmpfs here (needs root)".to_owned()
+    });
     struct Unmount<'a>(&'a std::path::Path);
     impl Drop for Unmount<'_> {
         fn drop(&mut self) {
@@ -1338,6 +1338,7 @@ fn a_full_disk_loses_the_recording_not_the_daemon_and_says_so() {
 /// stopped at the end of `session.log`, and replay says so (exit 0), not
 /// "truncated".
 #[test]
+#[ignore = "needs root (mounts a small tmpfs): CI runs it as root (.ci/run, --ignored)"]
 fn a_recording_stopped_at_min_free_replays_as_stopped_with_its_reason() {
     let dir = std::env::temp_dir().join(format!("anguilla-cli-minfree-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -1346,10 +1347,9 @@ fn a_recording_stopped_at_min_free_replays_as_stopped_with_its_reason() {
         .arg(&dir)
         .status()
         .is_ok_and(|s| s.success());
-    if !mounted {
-        println!("min-free stop: skipped: cannot mount a small tmpfs here (needs root)");
-        return;
-    }
+    anguilla_testkit::require(mounted, || {
+        "min-free stop: cannot mount a small tmpfs here (needs root)".to_owned()
+    });
     struct Unmount<'a>(&'a std::path::Path);
     impl Drop for Unmount<'_> {
         fn drop(&mut self) {
@@ -1608,13 +1608,11 @@ fn dump_file_reports_bad_lines_by_number_and_keeps_the_good_ones() {
 /// error frames, remote frames with a DLC, FD frames and direction markers;
 /// `dump --file` reads all of it.
 #[test]
+#[ignore = "needs asc2log (can-utils): CI installs it and runs this (.ci/run, --ignored)"]
 fn dump_file_reads_what_can_utils_asc2log_writes() {
-    let on_path = std::env::var_os("PATH")
-        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("asc2log").is_file()));
-    if !on_path {
-        eprintln!("skipping: asc2log (can-utils) is not installed; apt-get install can-utils");
-        return;
-    }
+    anguilla_testkit::require(anguilla_testkit::on_path("asc2log"), || {
+        "asc2log (can-utils) is not installed; apt-get install can-utils".to_owned()
+    });
     let dir = std::env::temp_dir().join(format!("anguilla-asc-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let asc = dir.join("in.asc");

@@ -198,6 +198,33 @@ pub fn watched_calls() -> u64 {
     WATCHED_CALLS.load(Ordering::SeqCst)
 }
 
+/// A test that needs what a machine may lack (root, a program, a device)
+/// is `#[ignore = "needs ...: who runs it"]`, so plain `cargo test` counts
+/// it as ignored with that reason; run anyway (`--ignored`, as CI does for
+/// the root tests, or `--include-ignored`), it runs or fails: `require`
+/// panics naming what is missing. Never an early `return` that reports
+/// `ok` for a test that did not run.
+pub fn require(present: bool, missing: impl FnOnce() -> String) {
+    assert!(present, "this test cannot run here: {}", missing());
+}
+
+/// Whether this process runs as root (effective uid 0).
+pub fn is_root() -> bool {
+    // SAFETY: geteuid has no preconditions.
+    unsafe { libc::geteuid() == 0 }
+}
+
+/// Whether `program` is an executable file in a directory of `PATH`.
+pub fn on_path(program: &str) -> bool {
+    use std::os::unix::fs::PermissionsExt as _;
+    std::env::var_os("PATH").is_some_and(|p| {
+        std::env::split_paths(&p).any(|d| {
+            std::fs::metadata(d.join(program))
+                .is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+        })
+    })
+}
+
 /// Keeps a generated part of a document current: the text of the file at
 /// `path` between `<!-- TAG:begin -->` (and its newline) and `<!--
 /// TAG:end -->` must be `generated`. With `ANGUILLA_BLESS` set it is

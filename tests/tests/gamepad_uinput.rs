@@ -15,10 +15,9 @@
 //! - without `--device`: joy scans again and finds the pad replugged on
 //!   another node.
 //!
-//! Where there is no `/dev/uinput` (this machine's kernel has no input
-//! devices at all), each test prints why and skips, unless
-//! `ANGUILLA_UINPUT_REQUIRED=1` (set by `scripts/vcan-vm`, which runs it in
-//! a VM whose kernel has uinput).
+//! The tests are ignored under plain `cargo test` (they need
+//! `/dev/uinput`); `scripts/vcan-vm` runs them in a VM whose kernel has
+//! uinput. Run where there is none, they fail naming why.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -44,22 +43,24 @@ const T: Duration = Duration::from_secs(60);
 /// `/dev/input` without `--device`) could pick up: one at a time.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
-/// Whether uinput is usable here; prints why not, or fails when it is
-/// required (`ANGUILLA_UINPUT_REQUIRED=1`).
+/// Whether uinput is usable here; the test fails naming why not
+/// (anguilla_testkit::require: an ignored test that is run runs).
 fn uinput_available() -> bool {
-    let why = match std::fs::OpenOptions::new()
+    let opened = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
-        .open("/dev/uinput")
-    {
-        Ok(_) => return true,
-        Err(e) => format!("/dev/uinput cannot be opened ({e})"),
-    };
-    if std::env::var("ANGUILLA_UINPUT_REQUIRED").is_ok_and(|v| v == "1") {
-        panic!("{why}, and ANGUILLA_UINPUT_REQUIRED=1");
-    }
-    eprintln!("skipping: {why} (scripts/vcan-vm runs this test for real)");
-    false
+        .open("/dev/uinput");
+    anguilla_testkit::require(opened.is_ok(), || {
+        format!(
+            "/dev/uinput cannot be opened ({}; scripts/vcan-vm runs this test for real)",
+            opened
+                .as_ref()
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        )
+    });
+    true
 }
 
 /// joy's default mapping, read back from `anguilla joy --print-mapping`.
@@ -527,11 +528,9 @@ fn joy_without_a_device_finds_the_pad_replugged_on_another_node() {
         .collect();
     if !others.is_empty() {
         // A real pad would be found first; the test needs to know which.
-        assert!(
-            !std::env::var("ANGUILLA_UINPUT_REQUIRED").is_ok_and(|v| v == "1"),
-            "gamepads already plugged in: {others:?}"
-        );
-        eprintln!("skipping: gamepads already plugged in ({others:?}) would be scanned first");
+        anguilla_testkit::require(false, || {
+            format!("gamepads already plugged in ({others:?}) would be scanned first")
+        });
         return;
     }
     let mut rig = Rig::start("scan");

@@ -1,7 +1,8 @@
 //! Least privilege across Unix users: the daemon runs as its own user; a
 //! member of its group can E-stop; a user outside the group can neither
-//! read the state, nor command, nor E-stop. Needs root (to create the users);
-//! without it the test says why and passes without running.
+//! read the state, nor command, nor E-stop. Needs root (to create the
+//! users): ignored under plain `cargo test`, with that reason; CI runs them
+//! as root (`.ci/run`: `--ignored`), where a missing requirement fails.
 //!
 //! iceoryx2 0.10 makes its files owner-only (0600/0400, whatever the
 //! umask; see docs/ipc.md "Users and permissions"), so the tools that read
@@ -71,23 +72,20 @@ impl Drop for Users {
 }
 
 /// The start every test here shares: root, setpriv and the test's Unix
-/// users (`None`, having said why, where they cannot be made).
-fn users_for(test: &str, tag: u32) -> Option<Users> {
-    if unsafe { libc::geteuid() } != 0 {
-        println!(
-            "{test}: skipped: creating Unix users needs root (run the tests as root, as CI does)"
-        );
-        return None;
-    }
-    if Proc::new("setpriv").arg("--version").output().is_err() {
-        println!("{test}: skipped: setpriv (util-linux) is not installed");
-        return None;
-    }
+/// users. The tests are ignored under plain `cargo test` (they need root);
+/// run (`--ignored`, as CI does), they fail naming what is missing.
+fn users_for(test: &str, tag: u32) -> Users {
+    anguilla_testkit::require(anguilla_testkit::is_root(), || {
+        format!("{test}: creating Unix users needs root (run the tests as root, as CI does)")
+    });
+    anguilla_testkit::require(anguilla_testkit::on_path("setpriv"), || {
+        format!("{test}: setpriv (util-linux) is not installed")
+    });
     let users = Users::create(tag);
-    if users.is_none() {
-        println!("{test}: skipped: useradd/groupadd failed (not permitted in this environment)");
-    }
-    users
+    anguilla_testkit::require(users.is_some(), || {
+        format!("{test}: useradd/groupadd failed (not permitted in this environment)")
+    });
+    users.unwrap()
 }
 
 /// A directory of the test's own, `/tmp/anguilla-<name>-<tag>` (mode 1777),
@@ -165,12 +163,11 @@ fn mode_of(out: &Output) -> Option<u64> {
 }
 
 #[test]
+#[ignore = "needs root (creates Unix users) and setpriv: CI runs it as root (.ci/run, --ignored)"]
 fn only_the_daemons_user_and_group_reach_it() {
     let _dog = Watchdog::new("users", Duration::from_secs(180));
     let tag = std::process::id() % 100_000;
-    let Some(users) = users_for("users", tag) else {
-        return;
-    };
+    let users = users_for("users", tag);
     let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
     let (dir, bin, prefix) = sandbox("users", tag, &format!("iu{tag}_"));
     let (_daemon, status) = daemon_as(daemon_user, &bin, &dir, &prefix);
@@ -255,12 +252,11 @@ fn only_the_daemons_user_and_group_reach_it() {
 /// nobody else; before, it listened on plain loopback TCP, where any local
 /// user enabled the robot and made it swim.
 #[test]
+#[ignore = "needs root (creates Unix users) and setpriv: CI runs it as root (.ci/run, --ignored)"]
 fn only_the_group_reaches_the_local_link() {
     let _dog = Watchdog::new("users-link", Duration::from_secs(180));
     let tag = (std::process::id() + 1) % 100_000;
-    let Some(users) = users_for("users-link", tag) else {
-        return;
-    };
+    let users = users_for("users-link", tag);
     let (daemon_user, operator, outsider) = (&users.users[0], &users.users[1], &users.users[2]);
     let (dir, bin, prefix) = sandbox("users-link", tag, &format!("il{tag}_"));
     let (_daemon, _) = daemon_as(daemon_user, &bin, &dir, &prefix);
@@ -344,12 +340,11 @@ fn only_the_group_reaches_the_local_link() {
 /// leaves the daemon failing in iceoryx2's words (or hanging): it refuses at
 /// once, naming the directory, its owner and mode, and the fix.
 #[test]
+#[ignore = "needs root (creates Unix users) and setpriv: CI runs it as root (.ci/run, --ignored)"]
 fn a_foreign_iceoryx2_directory_is_refused_by_name() {
     let _dog = Watchdog::new("users-squat", Duration::from_secs(120));
     let tag = (std::process::id() + 2) % 100_000;
-    let Some(users) = users_for("users-squat", tag) else {
-        return;
-    };
+    let users = users_for("users-squat", tag);
     let (daemon_user, outsider) = (&users.users[0], &users.users[2]);
     let (dir, bin, _) = sandbox("users-squat", tag, &format!("is{tag}_"));
     let iox = dir.join("iox2");
@@ -441,18 +436,16 @@ print("never", flush=True)
 /// read-write at every event about it while the daemon starts, three
 /// times over (a new iceoryx2 prefix each time: a new segment).
 #[test]
+#[ignore = "needs root (creates Unix users) and setpriv: CI runs it as root (.ci/run, --ignored)"]
 fn the_node_id_segment_cannot_be_raced_at_its_creation() {
     let _dog = Watchdog::new("users-race", Duration::from_secs(240));
     let tag = (std::process::id() + 3) % 100_000;
-    let Some(users) = users_for("users-race", tag) else {
-        return;
-    };
+    let users = users_for("users-race", tag);
     // The system's Python: one in root's home (pyenv) is not the outsider's.
     let python = "/usr/bin/python3";
-    if Proc::new(python).arg("--version").output().is_err() {
-        println!("users-race: skipped: {python} (the watcher) is not installed");
-        return;
-    }
+    anguilla_testkit::require(Proc::new(python).arg("--version").output().is_ok(), || {
+        format!("users-race: {python} (the watcher) is not installed")
+    });
     let (daemon_user, outsider) = (&users.users[0], &users.users[2]);
     let iox_prefix = format!("ir{tag}_");
     let (dir, bin, prefix) = sandbox("users-race", tag, &iox_prefix);
@@ -548,12 +541,11 @@ fn the_node_id_segment_cannot_be_raced_at_its_creation() {
 /// - another user's `anguilla run` is refused, naming the service's user
 ///   and how to run as it, never advising to remove the directory.
 #[test]
+#[ignore = "needs root (creates Unix users) and setpriv: CI runs it as root (.ci/run, --ignored)"]
 fn on_the_packaged_layout_root_reaches_and_runs_the_daemon_as_the_services_user() {
     let _dog = Watchdog::new("users-package", Duration::from_secs(240));
     let tag = (std::process::id() + 4) % 100_000;
-    let Some(users) = users_for("users-package", tag) else {
-        return;
-    };
+    let users = users_for("users-package", tag);
     let (svc, group, outsider) = (&users.users[0], &users.group, &users.users[2]);
     let (dir, bin, prefix) = sandbox("users-package", tag, &format!("ip{tag}_"));
     // iceoryx2 where the package puts it (deploy/iceoryx2.toml).

@@ -11,9 +11,9 @@
 //!   candump reader; the daemon's own recording replays with `canplayer`;
 //! - the simulator killed: the daemon reports the lost heartbeats.
 //!
-//! Where the kernel has no CAN (this machine), it prints why and skips,
-//! unless `ANGUILLA_VCAN_REQUIRED=1` (set by `scripts/vcan-vm`, which runs it
-//! in a VM with vcan).
+//! The tests are ignored under plain `cargo test` (needs vcan);
+//! `scripts/vcan-vm` runs them in a VM with vcan. Run where the kernel has
+//! no CAN, they fail naming why (never `ok` without running).
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command as Proc, Stdio};
@@ -38,14 +38,12 @@ impl Drop for LinkUp<'_> {
     }
 }
 
-/// `ip link set DEV up|down`, as root (the VM); elsewhere prints why the
-/// check is skipped and returns false.
+/// `ip link set DEV up|down`, as root (the VM); elsewhere the test fails
+/// naming why (anguilla_testkit::require).
 fn set_link(dev: &str, how: &str) -> bool {
-    // SAFETY: geteuid has no preconditions.
-    if unsafe { libc::geteuid() } != 0 {
-        eprintln!("skipping the interface down/up check: ip link set {dev} {how} needs root");
-        return false;
-    }
+    anguilla_testkit::require(anguilla_testkit::is_root(), || {
+        format!("the interface down/up check: ip link set {dev} {how} needs root")
+    });
     let out = Proc::new("ip")
         .args(["link", "set", dev, how])
         .output()
@@ -58,19 +56,22 @@ fn set_link(dev: &str, how: &str) -> bool {
     true
 }
 
-/// Whether SocketCAN and the interface are usable; prints why not.
+/// Whether SocketCAN and the interface are usable; the test fails naming
+/// why not (anguilla_testkit::require: an ignored test that is run runs).
 fn can_available() -> bool {
-    match anguilla_drivers::open(&format!("socketcan:{}", iface())) {
-        Ok(_) => true,
-        Err(e) => {
-            let why = format!("skipping: socketcan:{} cannot be opened ({e})", iface());
-            if std::env::var("ANGUILLA_VCAN_REQUIRED").is_ok_and(|v| v == "1") {
-                panic!("{why}, and ANGUILLA_VCAN_REQUIRED=1");
-            }
-            eprintln!("{why}");
-            false
-        }
-    }
+    let opened = anguilla_drivers::open(&format!("socketcan:{}", iface()));
+    anguilla_testkit::require(opened.is_ok(), || {
+        format!(
+            "socketcan:{} cannot be opened ({}; scripts/vcan-vm runs this test for real)",
+            iface(),
+            opened
+                .as_ref()
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        )
+    });
+    true
 }
 
 #[test]

@@ -4,10 +4,10 @@
 //! The interface comes from `ANGUILLA_VCAN` (default `vcan0`); give it
 //! `mtu 72` for the CAN FD test. `ANGUILLA_VCAN_CLASSIC` may name a second,
 //! classic-only vcan (MTU 16). The tests are `#[ignore]`d (run them with
-//! `-- --include-ignored`; scripts/vcan-vm does). Without kernel CAN or the
-//! interface each test prints why it skips and passes, unless
-//! `ANGUILLA_VCAN_REQUIRED=1` (set by `scripts/vcan-vm`), which turns a skip
-//! into a failure.
+//! `-- --include-ignored`; scripts/vcan-vm does). Run without kernel CAN,
+//! the interface or the tools it needs, a test fails naming what is missing
+//! (anguilla_testkit::require): an ignored test that is run never reports
+//! `ok` without running.
 
 use std::ffi::CString;
 use std::io;
@@ -69,14 +69,11 @@ fn interface() -> String {
     std::env::var("ANGUILLA_VCAN").unwrap_or_else(|_| "vcan0".to_owned())
 }
 
-fn required() -> bool {
-    std::env::var("ANGUILLA_VCAN_REQUIRED").is_ok_and(|v| v == "1")
-}
-
-/// Prints why the test skips, or fails it when vcan is required.
-fn skip(why: &str) {
-    assert!(!required(), "ANGUILLA_VCAN_REQUIRED=1 but {why}");
-    eprintln!("skipping: {why} (scripts/vcan-vm runs this test for real)");
+/// Fails the test: what it needs is missing here.
+fn cannot_run(why: &str) {
+    anguilla_testkit::require(false, || {
+        format!("{why} (scripts/vcan-vm runs this test for real)")
+    });
 }
 
 fn check(ret: libc::c_int) -> io::Result<()> {
@@ -93,7 +90,7 @@ struct RawCan {
 }
 
 impl RawCan {
-    /// Opens and binds a socket, or gives the reason to skip.
+    /// Opens and binds a socket, or gives the reason it cannot.
     fn open(ifname: &str, fd_frames: bool) -> Result<RawCan, String> {
         // SAFETY: plain socket(2) call; the descriptor is owned right away.
         let raw = unsafe { libc::socket(libc::PF_CAN, libc::SOCK_RAW, libc::CAN_RAW) };
@@ -201,13 +198,13 @@ fn mtu(ifname: &str) -> Option<usize> {
         .ok()
 }
 
-/// Two sockets on the interface, or `None` after printing why not.
+/// Two sockets on the interface (the test fails naming why not).
 fn pair(ifname: &str, fd_frames: bool) -> Option<(RawCan, RawCan)> {
     let open = || RawCan::open(ifname, fd_frames);
     match open().and_then(|a| Ok((a, open()?))) {
         Ok(p) => Some(p),
         Err(e) => {
-            skip(&e);
+            cannot_run(&e);
             None
         }
     }
@@ -262,7 +259,9 @@ fn fd_frames_cross_between_sockets() {
     };
     if let Some(m) = mtu(&ifname).filter(|&m| m != CANFD_MTU) {
         // An FD-incapable interface is a setup choice, not a missing kernel.
-        eprintln!("skipping: {ifname} has MTU {m}, not {CANFD_MTU} (no CAN FD)");
+        cannot_run(&format!(
+            "{ifname} has MTU {m}, not {CANFD_MTU} (no CAN FD)"
+        ));
         return;
     }
     let payload: Vec<u8> = (0..64).collect();
@@ -280,7 +279,7 @@ fn fd_frames_cross_between_sockets() {
 #[ignore = "needs a vcan interface (SocketCAN): scripts/vcan-vm runs it"]
 fn classic_only_interface_carries_no_fd_frames() {
     let Ok(ifname) = std::env::var("ANGUILLA_VCAN_CLASSIC") else {
-        eprintln!("skipping: ANGUILLA_VCAN_CLASSIC names no classic-only vcan");
+        cannot_run("ANGUILLA_VCAN_CLASSIC names no classic-only vcan");
         return;
     };
     let Some((a, b)) = pair(&ifname, true) else {
@@ -382,7 +381,7 @@ impl Drop for Child {
 fn slcand_attaches_a_serial_adapter() {
     // SAFETY: getuid has no preconditions.
     if unsafe { libc::getuid() } != 0 {
-        eprintln!("skipping: slcand needs root");
+        cannot_run("slcand needs root");
         return;
     }
     if std::process::Command::new("slcand")
@@ -390,14 +389,14 @@ fn slcand_attaches_a_serial_adapter() {
         .output()
         .is_err()
     {
-        eprintln!("skipping: slcand (can-utils) is not installed");
+        cannot_run("slcand (can-utils) is not installed");
         return;
     }
     // Kernel CAN at all? (Binding to `lo` fails later, but socket() first.)
     if let Err(e) = RawCan::open("lo", false)
         && e.contains("EAFNOSUPPORT")
     {
-        skip(&e);
+        cannot_run(&e);
         return;
     }
     let (master, slave) = open_pty().expect("pseudo-terminal");
@@ -413,7 +412,7 @@ fn slcand_attaches_a_serial_adapter() {
     let deadline = anguilla_testkit::Deadline::new(Duration::from_secs(3));
     while !std::path::Path::new(&format!("/sys/class/net/{ifname}")).exists() {
         if deadline.passed() {
-            skip(&format!("slcand created no {ifname} (no slcan module?)"));
+            cannot_run(&format!("slcand created no {ifname} (no slcan module?)"));
             return;
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -477,7 +476,7 @@ fn candump_log_replays_with_canplayer_and_reads_in_anguilla() {
     use anguilla_protocol::frame::{Id, Kind};
     let ifname = interface();
     if !on_path("candump") || !on_path("canplayer") {
-        eprintln!("skipping: candump/canplayer (can-utils) are not installed");
+        cannot_run("candump/canplayer (can-utils) are not installed");
         return;
     }
     let Some((tx, rx)) = pair(&ifname, false) else {
