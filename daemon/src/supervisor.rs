@@ -513,9 +513,10 @@ impl Supervisor {
         }
     }
 
-    /// The daemon itself stops a swim smoothly (shutdown).
+    /// The daemon itself stops a swim smoothly (shutdown: a signal, not an
+    /// operator's command).
     pub fn stop_swimming(&mut self, now: Nanos) {
-        self.stop_if_swimming(now, Cause::Command);
+        self.stop_if_swimming(now, Cause::Shutdown);
     }
 
     /// Releases `client`'s control if it holds it (its process died), and

@@ -701,17 +701,22 @@ pub enum Cause {
     /// implausible: the swim stopped smoothly (`NavSnapshot::hold_exit`
     /// says why).
     SensorLost,
+    /// The daemon is shutting down (SIGINT, SIGTERM or SIGHUP; `anguilla
+    /// run --duration`): a swim stops smoothly, then every actuator is
+    /// disabled. No operator asked.
+    Shutdown,
 }
 
 impl Cause {
     /// Every cause, in the order of their codes.
-    pub const ALL: [Cause; 6] = [
+    pub const ALL: [Cause; 7] = [
         Cause::None,
         Cause::Command,
         Cause::OperatorSilent,
         Cause::Fault,
         Cause::Progress,
         Cause::SensorLost,
+        Cause::Shutdown,
     ];
 
     /// Its code in a snapshot (`StateSnapshot::cause`).
@@ -734,6 +739,7 @@ impl Cause {
             Cause::Fault => "by a fault",
             Cause::Progress => "step done",
             Cause::SensorLost => "the head sensor was lost",
+            Cause::Shutdown => "the daemon is shutting down",
         }
     }
 
@@ -746,6 +752,7 @@ impl Cause {
             Cause::Fault => "fault",
             Cause::Progress => "progress",
             Cause::SensorLost => "head sensor lost",
+            Cause::Shutdown => "shutdown",
         }
     }
 }
