@@ -607,6 +607,23 @@ impl FaultKind {
         FaultKind::FeedbackFrozen,
     ];
 
+    /// The cause (`StateSnapshot.cause`) the daemon shows when this kind
+    /// takes it to E-stop or fault: an operator's E-stop is a command,
+    /// everything else a fault. The daemon's supervisor takes it from
+    /// here, and docs/ipc.md's E-stop sentence is generated from it.
+    pub fn cause(self) -> Cause {
+        if self == FaultKind::OperatorEStop {
+            Cause::Command
+        } else {
+            Cause::Fault
+        }
+    }
+
+    /// Its bit's value in `StateSnapshot.fault_kinds`.
+    pub fn bit(self) -> u32 {
+        self as u32
+    }
+
     /// Short name, as shown to operators.
     pub fn name(self) -> &'static str {
         match self {
