@@ -121,6 +121,8 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
         max_clients: cfg.foxglove.max_clients as usize,
         subscribe_timeout: (cfg.foxglove.subscribe_timeout > 0.0)
             .then(|| Duration::from_secs_f64(cfg.foxglove.subscribe_timeout)),
+        read_timeout: (cfg.foxglove.read_timeout > 0.0)
+            .then(|| Duration::from_secs_f64(cfg.foxglove.read_timeout)),
     };
     let inner = SocketAddr::from(([127, 0, 0, 1], server.port()));
     let gate =

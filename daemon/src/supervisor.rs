@@ -513,9 +513,10 @@ impl Supervisor {
         }
     }
 
-    /// The daemon itself stops a swim smoothly (shutdown).
+    /// The daemon itself stops a swim smoothly (shutdown: a signal, not an
+    /// operator's command).
     pub fn stop_swimming(&mut self, now: Nanos) {
-        self.stop_if_swimming(now, Cause::Command);
+        self.stop_if_swimming(now, Cause::Shutdown);
     }
 
     /// Releases `client`'s control if it holds it (its process died), and
@@ -546,12 +547,7 @@ impl Supervisor {
         if self.mode != Mode::EStop {
             self.estop_pending = true;
             // An operator's E-stop is a command, not a fault.
-            let cause = if kind == FaultKind::OperatorEStop {
-                Cause::Command
-            } else {
-                Cause::Fault
-            };
-            self.enter(Mode::EStop, now, cause);
+            self.enter(Mode::EStop, now, kind.cause());
         }
     }
 
@@ -1303,6 +1299,11 @@ mod tests {
         assert!(s.faults().contains(FaultKind::OperatorEStop));
         assert!(!s.faults().contains(FaultKind::BusEStop), "{}", s.faults());
         assert_eq!(s.faults().nodes, 0);
+        // What docs/ipc.md says (anguilla_ipc::layout::estop_markdown):
+        // the operator E-stop's cause and its bit alone.
+        assert_eq!(s.cause(), FaultKind::OperatorEStop.cause());
+        assert_eq!(s.faults().kinds, FaultKind::OperatorEStop.bit());
+        assert_eq!(s.mode(), Mode::EStop);
     }
 
     #[test]

@@ -181,6 +181,31 @@ pub fn layout_markdown() -> String {
     out
 }
 
+/// docs/ipc.md's sentence on what an E-stop shows, from the code's own
+/// tables: the cause and fault bit of an operator's E-stop and of one
+/// from the bus ([`FaultKind::cause`]); the daemon's supervisor tests
+/// that it shows them (`nodes_obeying_an_operator_estop_are_no_fault`).
+///
+/// [`FaultKind::cause`]: crate::vocabulary::FaultKind::cause
+pub fn estop_markdown() -> String {
+    use crate::vocabulary::FaultKind;
+    let (op, bus) = (FaultKind::OperatorEStop, FaultKind::BusEStop);
+    format!(
+        "An operator E-stop shows as cause {} ({}) with fault bits {:#x} ({}) alone: the\n\
+         nodes that obey it are not a fault of theirs. An E-stop from the bus (a node's, or\n\
+         another sender's frame) shows as cause {} ({}) with {:#x} ({}) and the nodes in\n\
+         `fault_nodes`.\n",
+        op.cause().code(),
+        op.cause().name(),
+        op.bit(),
+        op.name(),
+        bus.cause().code(),
+        bus.cause().name(),
+        bus.bit(),
+        bus.name(),
+    )
+}
+
 /// The numeric codes of the payloads' enumerations (command codes, modes,
 /// causes, fault bits) as Markdown tables: the source of `docs/ipc.md`'s
 /// codes section.

@@ -245,6 +245,11 @@ fn docs_match_the_generated_layout() {
 }
 
 #[test]
+fn docs_match_the_generated_estop() {
+    docs_section_is("estop", &layout::estop_markdown());
+}
+
+#[test]
 fn docs_match_the_generated_codes() {
     docs_section_is("codes", &layout::codes_markdown());
 }

@@ -607,6 +607,23 @@ impl FaultKind {
         FaultKind::FeedbackFrozen,
     ];
 
+    /// The cause (`StateSnapshot.cause`) the daemon shows when this kind
+    /// takes it to E-stop or fault: an operator's E-stop is a command,
+    /// everything else a fault. The daemon's supervisor takes it from
+    /// here, and docs/ipc.md's E-stop sentence is generated from it.
+    pub fn cause(self) -> Cause {
+        if self == FaultKind::OperatorEStop {
+            Cause::Command
+        } else {
+            Cause::Fault
+        }
+    }
+
+    /// Its bit's value in `StateSnapshot.fault_kinds`.
+    pub fn bit(self) -> u32 {
+        self as u32
+    }
+
     /// Short name, as shown to operators.
     pub fn name(self) -> &'static str {
         match self {
@@ -701,17 +718,22 @@ pub enum Cause {
     /// implausible: the swim stopped smoothly (`NavSnapshot::hold_exit`
     /// says why).
     SensorLost,
+    /// The daemon is shutting down (SIGINT, SIGTERM or SIGHUP; `anguilla
+    /// run --duration`): a swim stops smoothly, then every actuator is
+    /// disabled. No operator asked.
+    Shutdown,
 }
 
 impl Cause {
     /// Every cause, in the order of their codes.
-    pub const ALL: [Cause; 6] = [
+    pub const ALL: [Cause; 7] = [
         Cause::None,
         Cause::Command,
         Cause::OperatorSilent,
         Cause::Fault,
         Cause::Progress,
         Cause::SensorLost,
+        Cause::Shutdown,
     ];
 
     /// Its code in a snapshot (`StateSnapshot::cause`).
@@ -734,6 +756,7 @@ impl Cause {
             Cause::Fault => "by a fault",
             Cause::Progress => "step done",
             Cause::SensorLost => "the head sensor was lost",
+            Cause::Shutdown => "the daemon is shutting down",
         }
     }
 
@@ -746,6 +769,7 @@ impl Cause {
             Cause::Fault => "fault",
             Cause::Progress => "progress",
             Cause::SensorLost => "head sensor lost",
+            Cause::Shutdown => "shutdown",
         }
     }
 }

@@ -44,13 +44,13 @@ use crate::ros2::node::{CMD_VEL, LATCHED, Ros2Node, Ros2Settings, SERVICES, TOPI
 use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
-/// Queries waiting for the bridge's loop; beyond, a query is answered
-/// "busy" at once.
 /// How far ahead of the link's clock a command's stamp may be (ms): a
 /// tool's estimate lags the clock, so this only absorbs the two clocks'
 /// rates over a hello's 2 s.
 pub const MAX_STAMP_AHEAD_MS: i64 = 250;
 
+/// Queries waiting for the bridge's loop; beyond, a query is answered
+/// "busy" at once.
 const QUERY_QUEUE: usize = 256;
 /// Replies one session may await: as many as its iceoryx2 client keeps
 /// (beyond, the oldest is answered "outcome unknown").
@@ -170,10 +170,17 @@ fn access_control(s: &LinkSettings) -> String {
     }
     if let Some(r) = &s.ros2 {
         // The ROS 2 graph: rmw_zenoh's nodes ask for and watch the
-        // liveliness tokens of the domain, and declare their own; they
-        // subscribe to this node's topics, by their data keys; they drive
-        // through cmd_vel and the services when the allowlist lets them.
-        // Nothing else.
+        // liveliness tokens of the domain; they subscribe to this node's
+        // topics, by their data keys; they drive through cmd_vel and the
+        // services when the allowlist lets them. Nothing else.
+        //
+        // The tokens they declare themselves do not enter: the router
+        // would keep every one for as long as the client stays (an
+        // admitted client declared 10,000: +49 MB, graph queries timed
+        // out), and nobody here needs them: this node reads no graph, and
+        // the list lets no ROS 2 traffic pass from one client to another.
+        // So a client's graph costs the link nothing: docs/ros2.md,
+        // "Security".
         let graph = format!("@ros2_lv/{}/**", r.domain);
         for (id, msg, flow) in [
             ("ros2-graph-query", "liveliness_query", "ingress"),
@@ -182,7 +189,6 @@ fn access_control(s: &LinkSettings) -> String {
                 "declare_liveliness_subscriber",
                 "ingress",
             ),
-            ("ros2-graph-tokens-in", "liveliness_token", "ingress"),
             ("ros2-graph-tokens-out", "liveliness_token", "egress"),
             ("ros2-graph-reply", "reply", "egress"),
         ] {
@@ -233,8 +239,9 @@ fn access_control(s: &LinkSettings) -> String {
                 ("heartbeat-subscribe", "declare_subscriber", "ingress"),
                 ("detect-query", "liveliness_query", "ingress"),
                 ("detect-watch", "declare_liveliness_subscriber", "ingress"),
+                // (a late subscriber's detection token, `@adv/sub/`, is
+                // for publishers that watch them: this one does not)
                 ("detect-token-out", "liveliness_token", "egress"),
-                ("detect-token-in", "liveliness_token", "ingress"),
             ] {
                 rule(&format!("ros2-{name}-{id}"), msg, flow, adv.clone());
             }
@@ -852,6 +859,12 @@ mod tests {
                 .any(|k| k.contains("take_control") || k.contains("enable"))
         );
         assert!(keys(&acl, "put", "ingress").is_empty(), "no cmd_vel: {acl}");
+        // A client's own tokens stay out; the robot's go out.
+        assert!(
+            keys(&acl, "liveliness_token", "ingress").is_empty(),
+            "tokens from clients: {acl}"
+        );
+        assert!(!keys(&acl, "liveliness_token", "egress").is_empty());
         for k in keys(&acl, "liveliness_query", "ingress") {
             assert!(k.starts_with("@ros2_lv/7/") || k.contains("/@adv/"), "{k}");
         }

@@ -11,9 +11,15 @@
 //!   within [`Limits::subscribe_timeout`] is closed. The gate reads the
 //!   client's side of the WebSocket (after the HTTP upgrade, masked frames,
 //!   RFC 6455 §5.2) just far enough to see a text frame with `"op":
-//!   "subscribe"` or `"op": "advertise"`, then only copies.
+//!   "subscribe"` or `"op": "advertise"`, then only copies;
+//! - a connection that takes no byte of what the server sends it for
+//!   [`Limits::read_timeout`] is closed, and that is logged (a viewer that
+//!   subscribes and never reads would otherwise hold its place for ever:
+//!   16 such held every place, issue 45). The gate keeps the viewer's send
+//!   buffer small ([`SEND_BUFFER`]), so what waits for a stalled viewer is
+//!   bounded and the clock starts soon after it stops reading.
 //!
-//! Each connection costs two threads, so both limits bound the view's
+//! Each connection costs two threads, so the limits bound the view's
 //! threads and memory whatever the clients do.
 
 use std::io::{self, Read, Write};
@@ -32,10 +38,18 @@ pub struct Limits {
     /// A connection that has not subscribed this long after it opened is
     /// closed; `None`: never.
     pub subscribe_timeout: Option<Duration>,
+    /// A connection that takes no byte of what the server sends it for
+    /// this long, while there is some to send, is closed; `None`: never.
+    pub read_timeout: Option<Duration>,
 }
 
 /// Refusals and idle closes are logged at most this often, with a count.
 pub const LOG_EVERY: Duration = Duration::from_secs(5);
+
+/// The kernel's send buffer asked for each viewer's socket (it doubles
+/// it): what the server sent and a viewer has not read waits there, and
+/// in the viewer's own receive buffer, before the gate's write blocks.
+pub const SEND_BUFFER: libc::c_int = 128 * 1024;
 
 /// How long the gate waits for the server behind it to accept.
 const INNER_CONNECT: Duration = Duration::from_secs(2);
@@ -55,6 +69,8 @@ pub struct Counts {
     pub refused: AtomicU64,
     /// Connections closed for not subscribing in time.
     pub idle_closed: AtomicU64,
+    /// Connections closed for reading nothing of what was sent to them.
+    pub stalled_closed: AtomicU64,
 }
 
 /// The running gate; [`Gate::stop`] (or drop) ends it and its connections.
@@ -160,6 +176,7 @@ fn since(unsaid: u64) -> String {
 }
 
 static IDLE_LOG: Mutex<Throttled> = Mutex::new(Throttled::new());
+static STALLED_LOG: Mutex<Throttled> = Mutex::new(Throttled::new());
 
 fn accept_loop(
     listener: &TcpListener,
@@ -235,15 +252,17 @@ fn serve(client: TcpStream, peer: SocketAddr, inner: SocketAddr, limits: Limits,
     };
     let _ = client.set_nodelay(true);
     let _ = server.set_nodelay(true);
-    let (Ok(mut to_client), Ok(mut from_server)) = (client.try_clone(), server.try_clone()) else {
+    small_send_buffer(&client);
+    let (Ok(to_client), Ok(from_server)) = (client.try_clone(), server.try_clone()) else {
         return;
     };
     let down = std::thread::Builder::new()
         .name("foxglove-viewer-down".into())
         .spawn(move || {
-            let _ = io::copy(&mut from_server, &mut to_client);
+            let stalled = down(&from_server, &to_client, limits.read_timeout) == Down::Stalled;
             let _ = to_client.shutdown(Shutdown::Both);
             let _ = from_server.shutdown(Shutdown::Both);
+            stalled
         });
     if up(&client, &server, limits) == Up::Idle {
         counts.idle_closed.fetch_add(1, Ordering::SeqCst);
@@ -260,8 +279,82 @@ fn serve(client: TcpStream, peer: SocketAddr, inner: SocketAddr, limits: Limits,
     }
     let _ = client.shutdown(Shutdown::Both);
     let _ = server.shutdown(Shutdown::Both);
-    if let Ok(h) = down {
-        let _ = h.join();
+    if let Ok(h) = down
+        && h.join().unwrap_or(false)
+    {
+        counts.stalled_closed.fetch_add(1, Ordering::SeqCst);
+        if let Ok(mut log) = STALLED_LOG.lock() {
+            log.say(|n| {
+                format!(
+                    "closed a viewer from {peer}: it read nothing of what was sent to it for {:?} \
+                     ([foxglove] read-timeout){}",
+                    limits.read_timeout.unwrap_or_default(),
+                    since(n)
+                )
+            });
+        }
+    }
+}
+
+/// Asks for a small kernel send buffer on a viewer's socket
+/// ([`SEND_BUFFER`]); on failure the default stays (only slower to see a
+/// stalled viewer).
+fn small_send_buffer(s: &TcpStream) {
+    use std::os::fd::AsRawFd as _;
+    let size = SEND_BUFFER;
+    // SAFETY: a valid socket descriptor, and a c_int option of its size.
+    let _ = unsafe {
+        libc::setsockopt(
+            s.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_SNDBUF,
+            (&raw const size).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+}
+
+#[derive(Debug, PartialEq, Eq)]
+enum Down {
+    /// Either side closed or failed.
+    Ended,
+    /// The viewer took no byte for the read timeout.
+    Stalled,
+}
+
+/// Server to client, until either ends or the client stops reading: a
+/// write that moves no byte within `read_timeout` (the socket's send
+/// timeout: a write returns what it moved, or times out having moved
+/// nothing).
+fn down(mut server: &TcpStream, mut client: &TcpStream, read_timeout: Option<Duration>) -> Down {
+    if client.set_write_timeout(read_timeout).is_err() {
+        return Down::Ended;
+    }
+    let mut buf = vec![0u8; 64 * 1024];
+    loop {
+        let n = match server.read(&mut buf) {
+            Ok(0) => return Down::Ended,
+            Ok(n) => n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(_) => return Down::Ended,
+        };
+        let mut rest = &buf[..n];
+        while !rest.is_empty() {
+            match client.write(rest) {
+                Ok(0) => return Down::Ended,
+                Ok(k) => rest = &rest[k..],
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    return Down::Stalled;
+                }
+                Err(_) => return Down::Ended,
+            }
+        }
     }
 }
 
@@ -567,6 +660,7 @@ mod tests {
         let limits = Limits {
             max_clients: 16,
             subscribe_timeout: None,
+            read_timeout: None,
         };
         let gate = Gate::start("127.0.0.1:0".parse().unwrap(), echo_server(), limits).unwrap();
         let at = gate.local_addr();
@@ -610,6 +704,7 @@ mod tests {
         let limits = Limits {
             max_clients: 4,
             subscribe_timeout: Some(Duration::from_millis(300)),
+            read_timeout: None,
         };
         let gate = Gate::start("127.0.0.1:0".parse().unwrap(), echo_server(), limits).unwrap();
         let at = gate.local_addr();
@@ -633,6 +728,84 @@ mod tests {
         until("the idle ones' threads ended", || {
             gate.counts().open.load(Ordering::SeqCst) == 1
         });
+        gate.stop();
+    }
+    /// A server that sends without end, as the Foxglove server sends
+    /// states every period, and takes whatever it is sent.
+    fn streaming_server() -> SocketAddr {
+        let l = TcpListener::bind("127.0.0.1:0").unwrap();
+        let a = l.local_addr().unwrap();
+        std::thread::spawn(move || {
+            for c in l.incoming().flatten() {
+                let mut r = c.try_clone().unwrap();
+                std::thread::spawn(move || {
+                    let _ = io::copy(&mut r, &mut io::sink());
+                });
+                std::thread::spawn(move || {
+                    let mut w = c;
+                    let chunk = [0x5Au8; 16 * 1024];
+                    while w.write_all(&chunk).is_ok() {}
+                });
+            }
+        });
+        a
+    }
+
+    /// A viewer that upgrades and subscribes; what it reads is its own
+    /// business.
+    fn subscriber(gate: SocketAddr) -> TcpStream {
+        let mut c = TcpStream::connect(gate).unwrap();
+        let mut hello = UPGRADE.to_vec();
+        hello.extend(frame(1, SUBSCRIBE, [1, 1, 2, 3]));
+        c.write_all(&hello).unwrap();
+        c
+    }
+
+    /// The attack of issue 45: viewers that subscribe and never read held
+    /// every place for ever (the server's bytes piled up in the gate's
+    /// sockets). The gate closes a viewer that takes nothing for
+    /// `read_timeout`, so a new one gets in, and one that reads stays.
+    #[test]
+    fn viewers_that_do_not_read_are_closed_and_free_their_places() {
+        let limits = Limits {
+            max_clients: 3,
+            subscribe_timeout: None,
+            read_timeout: Some(Duration::from_millis(300)),
+        };
+        let gate = Gate::start("127.0.0.1:0".parse().unwrap(), streaming_server(), limits).unwrap();
+        let at = gate.local_addr();
+        // One reads all along, counting what it gets.
+        let got = Arc::new(AtomicU64::new(0));
+        let mut reading = subscriber(at);
+        let g = got.clone();
+        let reader = std::thread::spawn(move || {
+            let mut b = [0u8; 64 * 1024];
+            while let Ok(n) = reading.read(&mut b) {
+                if n == 0 {
+                    return;
+                }
+                g.fetch_add(n as u64, Ordering::SeqCst);
+            }
+        });
+        // Two subscribe and never read: every place is taken.
+        let stalled: Vec<_> = (0..2).map(|_| subscriber(at)).collect();
+        until("three viewers in", || {
+            gate.counts().open.load(Ordering::SeqCst) == 3
+        });
+        // The gate closes both; a new viewer gets in and is served.
+        until("a new viewer admitted and served", || {
+            let mut c = subscriber(at);
+            let mut b = [0u8; 16];
+            c.read_exact(&mut b).is_ok() && b == [0x5A; 16]
+        });
+        assert!(gate.counts().stalled_closed.load(Ordering::SeqCst) >= 2);
+        // The reader was never closed: it still gets bytes.
+        let before = got.load(Ordering::SeqCst);
+        until("the reader still served", || {
+            got.load(Ordering::SeqCst) > before
+        });
+        assert!(!reader.is_finished(), "the reading viewer was closed");
+        drop(stalled);
         gate.stop();
     }
 }

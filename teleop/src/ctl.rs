@@ -486,6 +486,9 @@ pub fn swim_ended(s: &StateSnapshot) -> String {
                 c.name()
             )
         }
+        Some(Cause::Shutdown) => {
+            format!("the swim ended: the daemon went to {m} (it is shutting down)")
+        }
         _ => format!("the swim ended: the daemon went to {m} ({faults})"),
     }
 }

@@ -23,6 +23,12 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         kinds: s.fault_kinds,
         nodes: s.fault_nodes,
     };
+    let lm = &s.limits;
+    let limits = json!({
+        "max_frequency": lm.max_frequency, "max_turn": lm.max_turn,
+        "max_pitch": lm.max_pitch, "command_timeout_ms": lm.command_timeout_ms,
+        "control_release_ms": lm.control_release_ms, "daemon_pid": lm.daemon_pid,
+    });
     let nav = &s.nav;
     let estimate = |v: f32| has_estimate(nav).then_some(v);
     let hold = held(nav);
@@ -61,22 +67,10 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "records_lost": s.records_lost,
         "operator_silent_stops": s.operator_silent_stops,
         "joint_count": s.joint_count,
-        "joints": s.joints[..n].iter().map(|j| json!({
-            "commanded_pitch": j.commanded_pitch, "commanded_yaw": j.commanded_yaw,
-            "measured_pitch": j.measured_pitch, "measured_yaw": j.measured_yaw,
-            "commanded_pitch_velocity": j.commanded_pitch_velocity,
-            "commanded_yaw_velocity": j.commanded_yaw_velocity,
-            "measured_pitch_velocity": j.measured_pitch_velocity,
-            "measured_yaw_velocity": j.measured_yaw_velocity,
-            "predicted_pitch_torque": j.predicted_pitch_torque,
-            "predicted_yaw_torque": j.predicted_yaw_torque,
-            "measured_pitch_torque": j.measured_pitch_torque,
-            "measured_yaw_torque": j.measured_yaw_torque,
-            "node_state": j.node_state, "node_alive": j.node_alive != 0,
-            "node_errors": j.node_errors,
-        })).collect::<Vec<_>>(),
+        "joints": s.joints[..n].iter().map(joint_json).collect::<Vec<_>>(),
     });
     let extra = json!({
+        "limits": limits,
         "sensor": sensor_name(nav.sensor),
         "autopilot": autopilot_name(nav),
         "hold_exit": (nav.hold_exit != 0).then(|| sensor_name(nav.hold_exit)),
@@ -112,6 +106,34 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         },
     });
     if let (Value::Object(all), Value::Object(more)) = (&mut v, extra) {
+        all.extend(more);
+    }
+    v
+}
+
+/// One joint's fields (a function of its own: one `json!` of them all
+/// goes past the macro's recursion limit).
+fn joint_json(j: &anguilla_ipc::JointSnapshot) -> Value {
+    let mut v = json!({
+        "commanded_pitch": j.commanded_pitch, "commanded_yaw": j.commanded_yaw,
+        "measured_pitch": j.measured_pitch, "measured_yaw": j.measured_yaw,
+        "commanded_pitch_velocity": j.commanded_pitch_velocity,
+        "commanded_yaw_velocity": j.commanded_yaw_velocity,
+        "measured_pitch_velocity": j.measured_pitch_velocity,
+        "measured_yaw_velocity": j.measured_yaw_velocity,
+        "predicted_pitch_torque": j.predicted_pitch_torque,
+        "predicted_yaw_torque": j.predicted_yaw_torque,
+        "measured_pitch_torque": j.measured_pitch_torque,
+        "measured_yaw_torque": j.measured_yaw_torque,
+    });
+    let more = json!({
+        "node_state": j.node_state, "node_alive": j.node_alive != 0,
+        "node_errors": j.node_errors,
+        "residual_alarm": j.residual_alarm,
+        "pitch_torque_residual": j.pitch_torque_residual,
+        "yaw_torque_residual": j.yaw_torque_residual,
+    });
+    if let (Value::Object(all), Value::Object(more)) = (&mut v, more) {
         all.extend(more);
     }
     v
@@ -160,6 +182,55 @@ mod tests {
         }
         assert_eq!(back["heading_target_deg"], Value::Null);
         assert_eq!(back["nav"]["samples"], 0);
+    }
+
+    /// Every field of the state's layout (anguilla_ipc::layout_table, the
+    /// same table that generates docs/ipc.md) is in the JSON, nested types
+    /// as objects under their field's name (arrays: each element), except
+    /// the reserved bytes and the holder's two halves, spelled out as one
+    /// `holder`. A field added to the layout and not here fails this (layout
+    /// 8's torque residuals, residual alarms and limits were missing).
+    #[test]
+    fn every_field_of_the_layout_is_in_the_json() {
+        use anguilla_ipc::layout::{LayoutRow, layout_table};
+        let table = layout_table();
+        fn check(table: &[LayoutRow], ty: &str, v: &Value, path: &str, missing: &mut Vec<String>) {
+            for r in table.iter().filter(|r| r.ty == ty) {
+                if r.field.starts_with("reserved") {
+                    continue;
+                }
+                let key = match r.field {
+                    "holder_lo" | "holder_hi" => "holder",
+                    f => f,
+                };
+                let Some(x) = v.get(key) else {
+                    missing.push(format!("{path}{}", r.field));
+                    continue;
+                };
+                // A nested payload type: its fields too.
+                let inner = r.c_type.split('[').next().unwrap_or(r.c_type);
+                if table.iter().any(|t| t.ty == inner) {
+                    let items: Vec<&Value> = match x {
+                        Value::Array(a) => a.iter().collect(),
+                        other => vec![other],
+                    };
+                    assert!(!items.is_empty(), "{path}{key}: nothing to check");
+                    for it in items {
+                        check(table, inner, it, &format!("{path}{key}."), missing);
+                    }
+                }
+            }
+        }
+        let mut s = StateSnapshot {
+            joint_count: 2,
+            ..Default::default()
+        };
+        s.sensors[0].kind = 1;
+        let v = snapshot_json(&s);
+        let mut missing = Vec::new();
+        check(&table, "StateSnapshot", &v, "", &mut missing);
+        missing.dedup();
+        assert!(missing.is_empty(), "monitor --json lacks {missing:?}");
     }
 
     #[test]

@@ -1005,3 +1005,127 @@ fn a_remote_tool_names_the_link_when_the_link_stopped() {
             .is_some()
     );
 }
+
+/// The keys of the ROS 2 graph (`@ros2_lv/0/**`) that a graph query on the
+/// link answers, as rmw_zenoh's graph cache asks at start.
+fn graph_keys(z: &zenoh::Session) -> Vec<String> {
+    use zenoh::Wait as _;
+    let replies = z
+        .liveliness()
+        .get("@ros2_lv/0/**")
+        .timeout(Duration::from_secs(10))
+        .wait()
+        .unwrap();
+    let mut keys = Vec::new();
+    while let Ok(r) = replies.recv() {
+        if let Ok(s) = r.result() {
+            keys.push(s.key_expr().to_string());
+        }
+    }
+    keys
+}
+
+/// The resident memory of process `pid` (kB), for the record only: the
+/// refused tokens' messages leave the allocator's arenas bigger (6,000:
+/// +14 MB) until it trims them (malloc_trim brought that link back to
+/// +0.7 MB), so it proves nothing either way.
+fn rss_kb(pid: u32) -> u64 {
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
+        })
+        .unwrap_or(0)
+}
+
+/// The attack of issue 45: an admitted client declares thousands of ROS 2
+/// graph tokens (10,000 made the link 49 MB bigger, kept after the client
+/// left, and graph queries timed out). The link keeps none of a client's
+/// tokens (docs/ros2.md, "Security"): the graph it answers holds the
+/// robot's node only, during the flood and after, and a well-behaved ROS 2
+/// client still finds the node and calls its services.
+#[test]
+fn a_client_cannot_fill_the_links_ros2_graph_with_tokens() {
+    use zenoh::Wait as _;
+    let _dog = Watchdog::new("link-tokens", Duration::from_secs(180));
+    let (_prefix, ep, _d, l) = rig("tokens", "[link]\nros2 = true\n");
+    let observer = raw_client(&ep);
+    let own = poll_until("the node's graph", Duration::from_secs(20), || {
+        let k = graph_keys(&observer);
+        k.iter().any(|k| k.contains("/anguilla")).then_some(k)
+    });
+    let before = rss_kb(l.0.id());
+    let attacker = raw_client(&ep);
+    const FLOOD: usize = 3000;
+    let tokens: Vec<_> = (0..FLOOD)
+        .map(|i| {
+            let key = if i % 2 == 0 {
+                format!("@ros2_lv/0/deadbeef/0/{i}/MP/%/%/flood/%chatter{i}")
+            } else {
+                // the transient-local topics' detection keys too
+                let id = anguilla_link::ros2::graph::NodeId {
+                    domain: 0,
+                    session: String::new(),
+                    node: 0,
+                    namespace: "/".into(),
+                    name: "anguilla".into(),
+                    humble: false,
+                };
+                let (name, ty) = &anguilla_link::ros2::node::LATCHED[0];
+                format!(
+                    "{}/@adv/sub/flood/{i}",
+                    id.data_key(&format!("/{name}"), ty)
+                )
+            };
+            attacker.liveliness().declare_token(key).wait().unwrap()
+        })
+        .collect();
+    // A query from the attacker's session goes after its declarations on
+    // the same transport: once answered, the link has handled them all.
+    let r = attacker
+        .get(anguilla_link::INFO_KEY)
+        .timeout(Duration::from_secs(10))
+        .wait()
+        .unwrap();
+    assert!(r.recv().is_ok(), "the link answers the attacker's query");
+    let during = graph_keys(&observer);
+    let flood: Vec<_> = during.iter().filter(|k| k.contains("flood")).collect();
+    eprintln!(
+        "{FLOOD} tokens declared: the graph holds {} keys ({} of them the attacker's; \
+         {} before), the link {} kB -> {} kB",
+        during.len(),
+        flood.len(),
+        own.len(),
+        before,
+        rss_kb(l.0.id())
+    );
+    assert!(
+        flood.is_empty(),
+        "the link keeps {} of a client's tokens: {:?}",
+        flood.len(),
+        &flood[..flood.len().min(3)]
+    );
+    assert_eq!(during.len(), own.len(), "{during:?}");
+    // The detection keys of the transient-local topics hold none either.
+    let adv_replies = observer
+        .liveliness()
+        .get("**/@adv/sub/**")
+        .timeout(Duration::from_secs(10))
+        .wait()
+        .unwrap();
+    let mut adv = 0;
+    while let Ok(r) = adv_replies.recv() {
+        adv += usize::from(r.result().is_ok());
+    }
+    assert_eq!(adv, 0, "subscriber-detection tokens kept");
+    // The attacker leaves: nothing of it stays.
+    drop(tokens);
+    attacker.close().wait().unwrap();
+    assert_eq!(graph_keys(&observer).len(), own.len());
+    // A well-behaved ROS 2 client still works: it finds the node and its
+    // services answer.
+    let (ok, msg) = trigger(&observer, "take_control", 1);
+    assert!(ok, "~/take_control: {msg}");
+}

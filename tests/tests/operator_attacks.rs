@@ -671,3 +671,52 @@ fn a_damaged_node_id_segment_hangs_no_tool() {
     let _ = std::fs::remove_file(&seg);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 45: a signal's stop was logged as an operator's command ("mode
+/// swimming -> stopping: by an operator's command", cause 1). It has its
+/// own cause, shutdown, in the state (and so in the recording's states)
+/// and in the log.
+#[test]
+fn a_signals_stop_is_the_daemons_shutdown_not_an_operators_command() {
+    let _dog = Watchdog::new("signal's stop", Duration::from_secs(120));
+    let (prefix, config) = setup("signal-stop");
+    let log = log_path("signal-stop");
+    let mut d = daemon(&config, Some(&log));
+    let mut a = connect(&prefix, "operator");
+    enabled(&mut a);
+    ok(
+        &mut a,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            ..SWIM
+        }),
+    );
+    // Well into the swim: its ramp-down then takes a while.
+    wait_for(&mut a, "swimming hard", 10.0, |s| {
+        s.mode == Mode::Swimming as u8 && s.gait_actual.amplitude > 0.5
+    });
+    unsafe { libc::kill(d.0.id() as i32, libc::SIGTERM) };
+    let s = wait_for(&mut a, "the shutdown's smooth stop", 5.0, |s| {
+        s.mode == Mode::Stopping as u8
+    });
+    assert_eq!(
+        anguilla_ipc::Cause::from_code(s.cause),
+        Some(anguilla_ipc::Cause::Shutdown),
+        "cause {}",
+        s.cause
+    );
+    let _ = d.0.wait();
+    let mut text = String::new();
+    std::fs::File::open(&log)
+        .unwrap()
+        .read_to_string(&mut text)
+        .unwrap();
+    assert!(
+        text.contains("mode swimming -> stopping: the daemon is shutting down"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("-> stopping: by an operator's command"),
+        "{text}"
+    );
+}

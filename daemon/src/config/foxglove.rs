@@ -23,6 +23,10 @@ pub struct FoxgloveConfig {
     /// A viewer that subscribes to no channel (and advertises none) this
     /// long after connecting is closed (s); 0: never.
     pub subscribe_timeout: f64,
+    /// A viewer that takes no byte of what is sent to it this long (once
+    /// its socket's buffers are full) is closed, freeing its place (s);
+    /// 0: never.
+    pub read_timeout: f64,
 }
 
 impl Default for FoxgloveConfig {
@@ -32,6 +36,7 @@ impl Default for FoxgloveConfig {
             insecure_commands: false,
             max_clients: 16,
             subscribe_timeout: 30.0,
+            read_timeout: 10.0,
         }
     }
 }
@@ -50,6 +55,15 @@ impl FoxgloveConfig {
             range(
                 "foxglove.subscribe-timeout",
                 self.subscribe_timeout,
+                1.0,
+                3600.0,
+                "0 (never) or 1 ..= 3600 s",
+            )?;
+        }
+        if self.read_timeout != 0.0 {
+            range(
+                "foxglove.read-timeout",
+                self.read_timeout,
                 1.0,
                 3600.0,
                 "0 (never) or 1 ..= 3600 s",
@@ -77,5 +91,8 @@ pub(super) fn write_default(d: &FoxgloveConfig, w: &mut dyn FnMut(String)) {
         "subscribe-timeout = {}",
         fmt_f(d.subscribe_timeout)
     ));
+    w("# A viewer that reads nothing of what is sent to it this long (once its".into());
+    w("# socket's buffers are full) is closed, freeing its place (s); 0: never.".into());
+    w(format!("read-timeout = {}", fmt_f(d.read_timeout)));
     w(String::new());
 }

@@ -122,6 +122,8 @@ fn out_of_range_values_name_the_key_and_the_range() {
             "subscribe-timeout = -1",
             "'foxglove.subscribe-timeout' = -1",
         ),
+        ("read-timeout = 0.5", "'foxglove.read-timeout' = 0.5"),
+        ("read-timeout = 7200", "'foxglove.read-timeout' = 7200"),
     ] {
         let e = Config::from_toml(&format!("[foxglove]\n{toml}\n"), "t").unwrap_err();
         assert!(e.to_string().contains(key), "{e}");
