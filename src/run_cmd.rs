@@ -400,6 +400,7 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
     let cfg = anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
         .with_context(|| format!("exporting {}", args.dir.display()))?;
     let l = &cfg.link;
+    let (out, replacement) = new_output(&args, "session.ros2")?;
     let settings = bag::BagSettings {
         namespace: l.ros2_namespace.clone(),
         rates: TOPICS.map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
@@ -408,8 +409,12 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
             segments: anguilla_daemon::mcap_log::segments(&cfg),
             limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
         },
+        humble: l.ros2_distro == "humble",
+        file_name: out
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
     };
-    let (out, replacement) = new_output(&args, "session.ros2")?;
     let mut bag = bag::Bag::from_file(replacement.try_clone_file()?, settings)
         .with_context(|| format!("creating {}", out.display()))?;
     let (_, n, partial) =
