@@ -429,19 +429,24 @@ fn dump_log_never_replaces_a_file() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 45: `export` (MCAP, rosbag2) and `export --repair` replace their
-/// output through a new file renamed over it: its mode, owner and group
-/// kept, nothing left beside it, and a repair in place never a half file.
+/// Issue 46 (finding 6): no command rewrites or deletes a recording's
+/// files. Every command that writes into a session directory (`export`,
+/// `--ros2`, `--repair`, `calibrate --write`, `config set-bus`, `dump
+/// --log`) is run against a recorded session, with its default output and
+/// aimed at the recording's own files (directly and through a symlink):
+/// afterwards every file that was there is byte for byte and mode for
+/// mode what it was, the exports are new files beside them, and each
+/// refusal names the file and how to choose another.
 #[test]
-fn export_and_repair_replace_their_output_keeping_its_owner_and_mode() {
-    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
+fn no_command_rewrites_a_recordings_files() {
+    use std::os::unix::fs::MetadataExt as _;
     let base = std::env::temp_dir().join(format!("anguilla-cli-export-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&base);
     let cfg = base.with_extension("toml");
     std::fs::write(
         &cfg,
         format!(
-            "[ipc]\nprefix = \"anguilla-cli/export-{}\"\n[recording]\ndir = {:?}\ncompression = \"none\"\n",
+            "[ipc]\nprefix = \"anguilla-cli/export-{}\"\n[recording]\ndir = {:?}\n",
             std::process::id(),
             base.display().to_string()
         ),
@@ -462,59 +467,184 @@ fn export_and_repair_replace_their_output_keeping_its_owner_and_mode() {
         .unwrap()
         .unwrap()
         .path();
-    let s = session.to_str().unwrap();
-    // SAFETY: geteuid cannot fail.
-    let root = (unsafe { libc::geteuid() }) == 0;
-    let names = || {
-        let mut v: Vec<_> = std::fs::read_dir(&session)
+    let s = session.to_str().unwrap().to_string();
+    let at = |f: &str| session.join(f).display().to_string();
+    // What was recorded: every file's bytes and mode.
+    let snapshot = || {
+        let mut v: Vec<(String, Vec<u8>, u32)> = std::fs::read_dir(&session)
             .unwrap()
-            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .map(|e| {
+                let e = e.unwrap();
+                let m = std::fs::symlink_metadata(e.path()).unwrap();
+                let bytes = if m.file_type().is_symlink() {
+                    std::fs::read_link(e.path())
+                        .unwrap()
+                        .into_os_string()
+                        .into_encoded_bytes()
+                } else {
+                    std::fs::read(e.path()).unwrap()
+                };
+                (
+                    e.file_name().into_string().unwrap(),
+                    bytes,
+                    m.mode() & 0o7777,
+                )
+            })
             .collect();
         v.sort();
         v
     };
-    let before = names();
-    for (args, file) in [
-        (vec!["export", s, "--mcap", "out.mcap"], "out.mcap"),
-        (
-            vec!["export", s, "--ros2", "--mcap", "out.ros2.mcap"],
-            "out.ros2.mcap",
-        ),
-        (vec!["export", s, "--repair"], "session.mcap"),
+    let recorded = snapshot();
+    let names: Vec<&str> = recorded.iter().map(|(n, _, _)| n.as_str()).collect();
+    for f in [
+        "config.toml",
+        "session.mcap",
+        "state.bin",
+        "session.log",
+        "bus.log",
     ] {
-        let out = session.join(file);
-        let args: Vec<String> = args
-            .iter()
-            .map(|a| {
-                if *a == file {
-                    out.display().to_string()
-                } else {
-                    a.to_string()
-                }
-            })
-            .collect();
+        assert!(names.contains(&f), "{f} recorded: {names:?}");
+    }
+    // a symlink beside the recording to its session.mcap, as a user might make
+    std::os::unix::fs::symlink("session.mcap", session.join("latest.mcap")).unwrap();
+    let recorded = snapshot();
+    let mut made = Vec::new();
+    // (arguments, Ok(the new file it writes) or Err(its refusal names this))
+    let cases: Vec<(Vec<String>, Result<&str, &str>)> = vec![
+        (vec!["export".into(), s.clone()], Ok("export.mcap")),
+        (vec!["export".into(), s.clone()], Ok("export-2.mcap")),
+        (
+            vec![
+                "export".into(),
+                s.clone(),
+                "--mcap".into(),
+                at("session.mcap"),
+            ],
+            Err("session.mcap: already exists"),
+        ),
+        (
+            vec![
+                "export".into(),
+                s.clone(),
+                "--mcap".into(),
+                at("latest.mcap"),
+            ],
+            Err("latest.mcap: already exists"),
+        ),
+        (
+            vec!["export".into(), s.clone(), "--mcap".into(), at("state.bin")],
+            Err("state.bin: already exists"),
+        ),
+        (
+            vec!["export".into(), s.clone(), "--ros2".into()],
+            Ok("session.ros2.mcap"),
+        ),
+        (
+            vec!["export".into(), s.clone(), "--ros2".into()],
+            Ok("session.ros2-2.mcap"),
+        ),
+        (
+            vec![
+                "export".into(),
+                s.clone(),
+                "--ros2".into(),
+                "--mcap".into(),
+                at("config.toml"),
+            ],
+            Err("config.toml: already exists"),
+        ),
+        (
+            vec!["export".into(), s.clone(), "--repair".into()],
+            Ok("session.repaired.mcap"),
+        ),
+        (
+            vec!["export".into(), s.clone(), "--repair".into()],
+            Ok("session.repaired-2.mcap"),
+        ),
+        (
+            vec![
+                "export".into(),
+                s.clone(),
+                "--repair".into(),
+                "--mcap".into(),
+                at("session.mcap"),
+            ],
+            Err("session.mcap: already exists"),
+        ),
+        (
+            vec![
+                "calibrate".into(),
+                s.clone(),
+                "--write".into(),
+                at("config.toml"),
+            ],
+            Err(""),
+        ),
+        (
+            vec![
+                "config".into(),
+                "set-bus".into(),
+                "builtin".into(),
+                "--file".into(),
+                at("config.toml"),
+            ],
+            Err("config.toml: a file of the recording"),
+        ),
+        (
+            vec![
+                "dump".into(),
+                "--bus".into(),
+                format!("mem:cli-export-{}", std::process::id()),
+                "--log".into(),
+                at("bus.log"),
+                "--count".into(),
+                "1".into(),
+            ],
+            Err("bus.log: already exists"),
+        ),
+    ];
+    for (args, want) in &cases {
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        // once to make it, once to replace it
-        for _ in 0..2 {
-            let (ok, o, err) = run(&args);
-            assert!(ok, "{args:?}: {o}{err}");
-            std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o640)).unwrap();
-            if root {
-                std::os::unix::fs::chown(&out, Some(1234), Some(1234)).unwrap();
+        let (ok, out, err) = run_watched(&args);
+        match want {
+            Ok(file) => {
+                assert!(ok, "{args:?}: {out}{err}");
+                assert!(out.contains(&at(file)), "{args:?} names its output: {out}");
+                assert!(std::fs::metadata(session.join(file)).unwrap().len() > 0);
+                made.push(file.to_string());
+            }
+            // calibrate may stop before writing (a session with no swim):
+            // what matters is below, that the recording is unchanged
+            Err(_) if args[0] == "calibrate" => {}
+            Err(text) => {
+                assert!(!ok, "{args:?} refused: {out}{err}");
+                assert!(err.contains(text), "{args:?}: {err}");
+                assert!(!err.contains("panicked"), "{args:?}: {err}");
             }
         }
-        let (ok, o, err) = run(&args);
-        assert!(ok, "{args:?}: {o}{err}");
-        let m = std::fs::metadata(&out).unwrap();
-        assert_eq!(m.mode() & 0o7777, 0o640, "{file}");
-        if root {
-            assert_eq!((m.uid(), m.gid()), (1234, 1234), "{file}");
+        if args[0] == "export" && !ok {
+            assert!(
+                err.contains("never replaces one") && err.contains("--mcap FILE"),
+                "{args:?} says how to choose an output: {err}"
+            );
         }
+        let now = snapshot();
+        for (name, bytes, mode) in &recorded {
+            let same = now.iter().find(|(n, _, _)| n == name);
+            assert!(same.is_some(), "{args:?} deleted {name}");
+            let (_, b, m) = same.unwrap();
+            assert!(b == bytes, "{args:?} rewrote {name}");
+            assert_eq!(m, mode, "{args:?} changed {name}'s mode");
+        }
+        let mut want_names: Vec<String> = recorded.iter().map(|(n, _, _)| n.clone()).collect();
+        want_names.extend(made.iter().cloned());
+        want_names.sort();
+        let now_names: Vec<String> = now.iter().map(|(n, _, _)| n.clone()).collect();
+        assert_eq!(
+            now_names, want_names,
+            "{args:?}: nothing else left in the session"
+        );
     }
-    let mut want = before.clone();
-    want.extend(["out.mcap".to_string(), "out.ros2.mcap".to_string()]);
-    want.sort();
-    assert_eq!(names(), want, "nothing else left in the session");
     let _ = std::fs::remove_dir_all(&base);
     let _ = std::fs::remove_file(&cfg);
 }

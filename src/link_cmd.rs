@@ -157,6 +157,15 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             "--duration {d} is invalid (expected seconds > 0)"
         );
     }
+    // cmd_vel's speeds become amplitudes through the model's steady speed
+    // at the frequency it swims (once, here; nothing to compute per twist)
+    let speeds = if l.ros2 {
+        anguilla_daemon::speed::steady_speeds(&cfg, l.ros2_frequency).with_context(|| {
+            "the model's steady speeds, for ROS 2 cmd_vel ([model] and [gait] of the configuration)"
+        })?
+    } else {
+        [0.0; anguilla_daemon::speed::N]
+    };
     let settings = LinkSettings {
         prefix: prefix.clone(),
         listen,
@@ -180,8 +189,9 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             },
             allow_command: l.inbound.iter().any(|n| n == "command"),
             allow_estop: l.inbound.iter().any(|n| n == "estop"),
+            speeds: anguilla_link::ros2::node::SpeedTable::new(speeds),
             max_speed: l.ros2_max_speed,
-            frequency: l.ros2_frequency,
+            frequency: l.ros2_frequency.min(cfg.gait.max_frequency),
         }),
     };
     crate::signals::install();
@@ -211,11 +221,23 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     if let Some(n) = bridge.ros2() {
         let id = n.id();
         eprintln!(
-            "anguilla link: ROS 2 node {}/{} on domain {} ({}; rmw_zenoh's wire; docs/ros2.md)",
+            "anguilla link: ROS 2 node {}/{} on domain {} ({}; rmw_zenoh's wire; docs/ros2.md); \
+             cmd_vel swims its linear.x through the model's steady speed at {} Hz, up to {:.3} m/s \
+             (full amplitude{})",
             id.namespace.trim_end_matches('/'),
             id.name,
             id.domain,
-            l.ros2_distro
+            l.ros2_distro,
+            n.settings().frequency,
+            n.settings().speeds.max_speed().min(l.ros2_max_speed),
+            if l.ros2_max_speed < n.settings().speeds.max_speed() {
+                format!(
+                    " swims {:.3} m/s; [link] ros2-max-speed caps it",
+                    n.settings().speeds.max_speed()
+                )
+            } else {
+                String::new()
+            }
         );
     }
     bridge.run(&|| !running())?;
@@ -234,12 +256,14 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     if let Some(n) = bridge.ros2() {
         eprintln!(
             "anguilla link: ROS 2: {} messages published, {} twists sent as swims, {} superseded \
-             by a newer one (latest wins, one swim per control period), {} dropped, {} not CDR",
+             by a newer one (latest wins, one swim per control period), {} dropped, {} not CDR, \
+             {} beyond reach (clamped)",
             n.published,
             n.twists,
             n.superseded(),
             n.dropped,
             n.undecodable(),
+            n.clamped,
         );
     }
     Ok(())

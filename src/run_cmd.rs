@@ -281,20 +281,23 @@ pub struct ReplayArgs {
 pub struct ExportArgs {
     /// A session directory written by `anguilla run` with `recording.dir` set.
     dir: PathBuf,
-    /// Write the MCAP file here (default: DIR/session.mcap; an existing
-    /// file is replaced).
+    /// Write the new MCAP file here: a file that does not exist (export
+    /// never replaces a file). Default: a new name in DIR, export.mcap
+    /// (export-2.mcap, ... if taken); the recording's own files are kept.
     #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
     mcap: Option<PathBuf>,
-    /// Instead of writing the MCAP file from state.bin, make DIR's own
-    /// session.mcap complete: a daemon killed mid-recording leaves it
-    /// without summary and index, which indexed readers refuse. Every
-    /// message readable before the cut is kept, on every channel.
+    /// Instead of writing the MCAP file from state.bin, copy DIR's own
+    /// session.mcap into a complete new file (DIR/session.repaired.mcap,
+    /// or --mcap FILE): a daemon killed mid-recording leaves it without
+    /// summary and index, which indexed readers refuse. Every message
+    /// readable before the cut is kept, on every channel; session.mcap is
+    /// left as it was.
     #[arg(long)]
     repair: bool,
-    /// Write a rosbag2 MCAP for ROS 2 tools instead (DIR/session.ros2.mcap,
-    /// or --mcap FILE): the topics of `anguilla link`'s ROS 2 node
-    /// (`[link] ros2-*` of the session's configuration: namespace, rates),
-    /// from state.bin (docs/ros2.md).
+    /// Write a rosbag2 MCAP for ROS 2 tools instead (a new
+    /// DIR/session.ros2.mcap, or --mcap FILE): the topics of `anguilla
+    /// link`'s ROS 2 node (`[link] ros2-*` of the session's configuration:
+    /// namespace, rates), from state.bin (docs/ros2.md).
     #[arg(long, conflicts_with = "repair")]
     ros2: bool,
 }
@@ -338,6 +341,29 @@ fn progress(what: &'static str) -> (impl FnMut(u64, u64), impl FnOnce()) {
     (report, finish)
 }
 
+/// The new file an export writes: `--mcap FILE`, or the first free name
+/// `STEM.mcap`, `STEM-2.mcap`... in the session directory; made with
+/// [`anguilla::user_file::Replacement::create`], so that nothing that
+/// exists (the recording's files, an earlier export) is ever replaced.
+fn new_output(
+    args: &ExportArgs,
+    stem: &str,
+) -> anyhow::Result<(PathBuf, anguilla::user_file::Replacement)> {
+    let out = match &args.mcap {
+        Some(p) if !p.as_os_str().is_empty() => p.clone(),
+        _ => anguilla::user_file::free_name(&args.dir, stem, "mcap")?,
+    };
+    let file = anguilla::user_file::Replacement::create(&out).with_context(|| {
+        format!(
+            "export writes a new file and never replaces one (a recording's, or an earlier \
+             export): choose another with --mcap FILE, or leave --mcap out for a new name in \
+             {} ({stem}.mcap, {stem}-2.mcap, ...)",
+            args.dir.display()
+        )
+    })?;
+    Ok((out, file))
+}
+
 pub fn export(args: ExportArgs) -> anyhow::Result<()> {
     if args.repair {
         return repair(args);
@@ -345,15 +371,11 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
     if args.ros2 {
         return export_ros2(args);
     }
-    let out = match &args.mcap {
-        Some(p) if !p.as_os_str().is_empty() => p.clone(),
-        _ => args.dir.join("session.mcap"),
-    };
     // the session's own errors before any file is made
     anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
         .with_context(|| format!("exporting {}", args.dir.display()))?;
+    let (out, replacement) = new_output(&args, "export")?;
     let (mut report, finish) = progress("exporting");
-    let replacement = anguilla::user_file::Replacement::new(&out)?;
     let done = anguilla_daemon::mcap_log::export_into(
         &args.dir,
         replacement.try_clone_file()?,
@@ -381,10 +403,6 @@ pub fn export(args: ExportArgs) -> anyhow::Result<()> {
 /// `export --ros2`: a rosbag2 MCAP of the ROS 2 node's topics.
 fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
     use anguilla_link::ros2::{LATCHED, TOPICS, bag};
-    let out = match &args.mcap {
-        Some(p) if !p.as_os_str().is_empty() => p.clone(),
-        _ => args.dir.join("session.ros2.mcap"),
-    };
     // The session directory's name holds the recorder's start (Unix s):
     // docs/data.md "Time".
     let name = args.dir.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -398,6 +416,7 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
     let cfg = anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
         .with_context(|| format!("exporting {}", args.dir.display()))?;
     let l = &cfg.link;
+    let (out, replacement) = new_output(&args, "session.ros2")?;
     let settings = bag::BagSettings {
         namespace: l.ros2_namespace.clone(),
         rates: TOPICS.map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
@@ -406,8 +425,12 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
             segments: anguilla_daemon::mcap_log::segments(&cfg),
             limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
         },
+        humble: l.ros2_distro == "humble",
+        file_name: out
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
     };
-    let replacement = anguilla::user_file::Replacement::new(&out)?;
     let mut bag = bag::Bag::from_file(replacement.try_clone_file()?, settings)
         .with_context(|| format!("creating {}", out.display()))?;
     let (_, n, partial) =
@@ -438,18 +461,12 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `export --repair`: DIR/session.mcap made complete, in place (through a
-/// new file beside it renamed over it, [`anguilla::user_file`]), or written
-/// to `--mcap FILE` (replaced the same way).
+/// `export --repair`: DIR/session.mcap copied complete into a new file
+/// (DIR/session.repaired.mcap, or `--mcap FILE`); the recording's own file
+/// is left as it was.
 fn repair(args: ExportArgs) -> anyhow::Result<()> {
     let input = args.dir.join("session.mcap");
-    // in place: a new file beside it (a random name, made exclusively),
-    // renamed over it once complete
-    let out = match &args.mcap {
-        Some(p) if !p.as_os_str().is_empty() => p.clone(),
-        _ => input.clone(),
-    };
-    let replacement = anguilla::user_file::Replacement::new(&out)?;
+    let (out, replacement) = new_output(&args, "session.repaired")?;
     let done = anguilla_daemon::mcap_log::repair_into(&input, replacement.try_clone_file()?)
         .with_context(|| format!("repairing {}", input.display()))?;
     replacement.commit()?;
@@ -491,7 +508,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
             outln!(
                 "{}: truncated at line {line} (period {}): the {} periods before it match bit \
                  for bit ({} frames); the recording has no end (the daemon was killed, or the \
-                 disk filled; `anguilla export DIR --repair` makes its session.mcap whole)",
+                 disk filled; `anguilla export DIR --repair` writes a whole copy of its session.mcap)",
                 args.dir.display(),
                 report.periods + 1,
                 report.periods,

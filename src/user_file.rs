@@ -23,6 +23,13 @@
 //! The new file is a new inode: hard links to the old one keep the old
 //! contents, and extended attributes and ACLs are not copied.
 //!
+//! A recording's files are never replaced (issue 46): a file in a session
+//! directory that `anguilla run` recorded ([`recording_of`]) is refused by
+//! name. Tools that write beside a recording (`anguilla export`) make a
+//! new file with [`Replacement::create`] (the same temporary file, renamed
+//! only where no file is: `RENAME_NOREPLACE`), at a name [`free_name`]
+//! picks or the user gives.
+//!
 //! ```no_run
 //! anguilla::user_file::replace(std::path::Path::new("anguilla.toml"), b"[bus]\n")?;
 //! # Ok::<(), anyhow::Error>(())
@@ -40,6 +47,46 @@ use anyhow::{Context as _, bail};
 
 /// At most this many symlinks are followed (Linux's own limit).
 const MAX_HOPS: usize = 40;
+
+/// The files only `anguilla run`'s recorder writes: a directory holding
+/// one of them is a recording (docs/data.md "The session directory").
+const RECORDING_MARKS: [&str; 2] = ["state.bin", "session.log"];
+
+/// The recording (session directory) `path` is a file of, if it is one:
+/// its directory holds what only the recorder writes (`state.bin` or
+/// `session.log`). Every file there is the recording's or was written
+/// beside it, and no tool replaces it.
+pub fn recording_of(path: &Path) -> Option<PathBuf> {
+    let dir = parent(path);
+    RECORDING_MARKS
+        .iter()
+        .any(|m| std::fs::symlink_metadata(dir.join(m)).is_ok())
+        .then(|| dir.to_path_buf())
+}
+
+/// The first name in `dir` that nothing has: `STEM.EXT`, else `STEM-2.EXT`,
+/// `STEM-3.EXT`... (as the recorder names its sessions). Another process
+/// could take it before it is written: [`Replacement::create`] then fails
+/// and names it, and never replaces it.
+pub fn free_name(dir: &Path, stem: &str, ext: &str) -> anyhow::Result<PathBuf> {
+    for n in 1..=9999u32 {
+        let name = if n == 1 {
+            format!("{stem}.{ext}")
+        } else {
+            format!("{stem}-{n}.{ext}")
+        };
+        let p = dir.join(name);
+        match std::fs::symlink_metadata(&p) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(p),
+            Err(e) => return Err(e).with_context(|| format!("reading {}", p.display())),
+            Ok(_) => {}
+        }
+    }
+    bail!(
+        "{}: {stem}.{ext} to {stem}-9999.{ext} all exist (name the output yourself)",
+        dir.display()
+    )
+}
 
 /// What is kept of the file being replaced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -158,13 +205,50 @@ pub struct Replacement {
     target: PathBuf,
     /// The path as the user gave it, for messages.
     shown: PathBuf,
+    /// Made by [`Replacement::create`]: committed only where no file is.
+    exclusive: bool,
 }
 
 impl Replacement {
     /// Starts replacing (or creating) `path`: resolves it ([`resolve`]) and
     /// creates the temporary file beside the file it names.
+    ///
+    /// A file of a recording ([`recording_of`]) is refused, naming it.
     pub fn new(path: &Path) -> anyhow::Result<Self> {
         let (target, meta) = resolve(path)?;
+        if meta.is_some()
+            && let Some(rec) = recording_of(&target)
+        {
+            bail!(
+                "{}: a file of the recording {}, which no tool rewrites (write to a new file \
+                 instead, or to a copy of the file outside the recording)",
+                path.display(),
+                rec.display()
+            );
+        }
+        Self::start(path, target, meta, false)
+    }
+
+    /// Starts writing the new file `path`, which must not exist: fails,
+    /// naming it, if anything (a file, a symlink, a directory) is there, and
+    /// [`commit`](Self::commit) fails, leaving it alone, if anything is
+    /// there by then (a rename that never replaces: `RENAME_NOREPLACE`).
+    /// A reader never sees half of it.
+    pub fn create(path: &Path) -> anyhow::Result<Self> {
+        match std::fs::symlink_metadata(path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+            Ok(_) => bail!("{}: already exists (never replaced)", path.display()),
+        }
+        Self::start(path, path.to_path_buf(), None, true)
+    }
+
+    fn start(
+        path: &Path,
+        target: PathBuf,
+        meta: Option<std::fs::Metadata>,
+        exclusive: bool,
+    ) -> anyhow::Result<Self> {
         let shown = path.display();
         let keep = match &meta {
             Some(m) => Keep {
@@ -226,6 +310,7 @@ impl Replacement {
                 keep,
                 target: target.clone(),
                 shown: path.to_path_buf(),
+                exclusive,
             });
         }
         Err(last.unwrap_or_else(|| std::io::Error::other("no free name")))
@@ -270,18 +355,23 @@ impl Replacement {
                 .context("giving the new file the mode of the old one")?;
             file.sync_all().context("syncing the new file")?;
             drop(file);
-            // SAFETY: both names are NUL-terminated, relative to the open
-            // directory.
-            let r = unsafe {
-                libc::renameat(
-                    self.dir.as_raw_fd(),
-                    self.tmp.as_ptr(),
-                    self.dir.as_raw_fd(),
-                    self.name.as_ptr(),
-                )
-            };
-            if r != 0 {
-                return Err(std::io::Error::last_os_error()).context("renaming it over the old");
+            if self.exclusive {
+                self.rename_noreplace()?;
+            } else {
+                // SAFETY: both names are NUL-terminated, relative to the
+                // open directory.
+                let r = unsafe {
+                    libc::renameat(
+                        self.dir.as_raw_fd(),
+                        self.tmp.as_ptr(),
+                        self.dir.as_raw_fd(),
+                        self.name.as_ptr(),
+                    )
+                };
+                if r != 0 {
+                    return Err(std::io::Error::last_os_error())
+                        .context("renaming it over the old");
+                }
             }
             // renamed: nothing to remove on drop
             self.tmp = CString::default();
@@ -290,6 +380,54 @@ impl Replacement {
         })();
         done.with_context(|| format!("writing {shown}"))?;
         Ok(self.target.clone())
+    }
+}
+
+impl Replacement {
+    /// Renames the temporary file to the target's name where no file is
+    /// (`renameat2(RENAME_NOREPLACE)`; on a file system without it, a hard
+    /// link, which also never replaces, and the temporary name removed).
+    fn rename_noreplace(&self) -> anyhow::Result<()> {
+        let d = self.dir.as_raw_fd();
+        let taken = || {
+            anyhow::anyhow!(
+                "{} appeared meanwhile: it is not replaced (choose another name)",
+                self.shown.display()
+            )
+        };
+        // SAFETY: both names are NUL-terminated, relative to the open
+        // directory `d`; the syscall reads them and nothing else.
+        let r = unsafe {
+            libc::syscall(
+                libc::SYS_renameat2,
+                d,
+                self.tmp.as_ptr(),
+                d,
+                self.name.as_ptr(),
+                libc::RENAME_NOREPLACE,
+            )
+        };
+        if r == 0 {
+            return Ok(());
+        }
+        let e = std::io::Error::last_os_error();
+        match e.raw_os_error() {
+            Some(libc::EEXIST) => return Err(taken()),
+            Some(libc::EINVAL) | Some(libc::ENOSYS) => {}
+            _ => return Err(e).context("renaming it to its name"),
+        }
+        // SAFETY: as above; linkat follows no symlink (flags 0).
+        let r = unsafe { libc::linkat(d, self.tmp.as_ptr(), d, self.name.as_ptr(), 0) };
+        if r != 0 {
+            let e = std::io::Error::last_os_error();
+            if e.raw_os_error() == Some(libc::EEXIST) {
+                return Err(taken());
+            }
+            return Err(e).context("linking it to its name");
+        }
+        // SAFETY: our own temporary name, relative to `d`.
+        unsafe { libc::unlinkat(d, self.tmp.as_ptr(), 0) };
+        Ok(())
     }
 }
 

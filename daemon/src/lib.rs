@@ -33,6 +33,7 @@ pub mod rt;
 pub mod run;
 pub mod sensors;
 pub mod session;
+pub mod speed;
 pub mod stats;
 pub mod supervisor;
 pub mod tracking;

@@ -6,7 +6,11 @@ and the live node's QoS, and every message deserialises. The counts and values m
 session's: state.bin (read here with the ctypes twins of docs/ipc.md) is
 thinned at each topic's rate on the recorded clock, as the export says it
 does, and each joint state must hold its snapshot's measured joints, each
-stamped with the recording's start plus the snapshot's time.
+stamped with the recording's start plus the snapshot's time. The bag's
+rosbag2 metadata (the MCAP metadata record `rosbag2`, `serialized_metadata`,
+as rosbag2's MCAP plugin writes it) is read as rosbag2 reads it: version 9,
+each topic's QoS profiles by name (Jazzy's form), counts and times the
+bag's own; with --humble, Humble's form instead (integers, `ROS_DISTRO`).
 
     ros2_bag_check.py SESSION_DIR BAG.mcap [--rate HZ] [--rates TOPIC=HZ ...]
 
@@ -41,7 +45,10 @@ def main(argv=None):
     ap.add_argument("--rate", type=float, default=20.0)
     ap.add_argument("--rates", nargs="*", default=["diagnostics=1.0"])
     ap.add_argument("--namespace", default="")
+    ap.add_argument("--humble", action="store_true",
+                    help="the session's [link] ros2-distro is humble")
     a = ap.parse_args(argv)
+    check_rosbag2_metadata(a.bag, a.humble)
     rates = {t: a.rate for t in TOPICS}
     rates.update({k: float(v) for k, v in (r.split("=") for r in a.rates)})
     ts = get_typestore(Stores.ROS2_JAZZY)
@@ -116,6 +123,75 @@ def main(argv=None):
     print(f"ros2 bag check: OK ({len(states)} snapshots; "
           + ", ".join(f"{t} {got[t]}" for t in TOPICS) + "; robot_description and tf_static once"
           + "; every message deserialised by rosbags' rosbag2 reader, joint states = snapshots)")
+
+
+# rosbag2's names of the policies (rmw_qos_*_policy_to_str) and their
+# integers (rmw_qos_*_policy_e), which Humble writes and reads.
+POLICIES = {
+    "history": {"system_default": 0, "keep_last": 1, "keep_all": 2},
+    "reliability": {"system_default": 0, "reliable": 1, "best_effort": 2},
+    "durability": {"system_default": 0, "transient_local": 1, "volatile": 2},
+    "liveliness": {"system_default": 0, "automatic": 1},
+}
+
+
+def check_rosbag2_metadata(bag, humble):
+    """The MCAP's `rosbag2` metadata record and the channels' QoS, as
+    rosbag2's MCAP plugin (rosbag2_storage_mcap, read_metadata) reads them."""
+    from mcap.reader import make_reader
+    from rosbags.rosbag2.metadata import parse_qos
+    from ruamel.yaml import YAML
+
+    with open(bag, "rb") as f:
+        r = make_reader(f)
+        summary = r.get_summary()
+        records = [m for m in r.iter_metadata() if m.name == "rosbag2"]
+    if len(records) != 1:
+        fail(f"{len(records)} metadata records named rosbag2, expected 1")
+    rec = records[0].metadata
+    for c in summary.channels.values():
+        q = YAML(typ="safe").load(c.metadata["offered_qos_profiles"])
+        for k, names in POLICIES.items():
+            v = q[0][k]
+            if humble and not isinstance(v, int) or not humble and v not in names:
+                fail(f"{c.topic}: QoS {k} {v!r} is not in {'Humble' if humble else 'Jazzy'}'s form")
+        p = parse_qos(c.metadata["offered_qos_profiles"])[0]
+        latched = c.topic.rsplit("/", 1)[1] in LATCHED
+        if p.durability.name != ("TRANSIENT_LOCAL" if latched else "VOLATILE"):
+            fail(f"{c.topic}: durability {p.durability.name}")
+    if humble:
+        if rec != {"ROS_DISTRO": "humble"}:
+            fail(f"rosbag2 record {rec}, expected Humble's ROS_DISTRO alone")
+        return
+    meta = YAML(typ="safe").load(rec["serialized_metadata"])
+    stats = summary.statistics
+    want = {
+        "version": 9,
+        "storage_identifier": "mcap",
+        "message_count": stats.message_count,
+        "duration": {"nanoseconds": stats.message_end_time - stats.message_start_time},
+        "starting_time": {"nanoseconds_since_epoch": stats.message_start_time},
+        "relative_file_paths": [os.path.basename(bag)],
+        "ros_distro": "jazzy",
+    }
+    for k, v in want.items():
+        if meta.get(k) != v:
+            fail(f"rosbag2 metadata {k}: {meta.get(k)!r}, expected {v!r}")
+    by_topic = {c.topic: (c, stats.channel_message_counts.get(i, 0))
+                for i, c in summary.channels.items()}
+    for t in meta["topics_with_message_count"]:
+        tm = t["topic_metadata"]
+        c, n = by_topic[tm["name"]]
+        if t["message_count"] != n:
+            fail(f"rosbag2 metadata {tm['name']}: {t['message_count']} messages, the bag has {n}")
+        if tm["offered_qos_profiles"] != YAML(typ="safe").load(c.metadata["offered_qos_profiles"]):
+            fail(f"rosbag2 metadata {tm['name']}: QoS differs from its channel's")
+        if tm["type_description_hash"] != c.metadata["topic_type_hash"]:
+            fail(f"rosbag2 metadata {tm['name']}: type hash differs from its channel's")
+    if len(meta["topics_with_message_count"]) != len(summary.channels):
+        fail("rosbag2 metadata does not list every channel")
+    print(f"ros2 bag check: rosbag2 metadata version 9, {len(summary.channels)} topics, "
+          f"{stats.message_count} messages, QoS by name")
 
 
 if __name__ == "__main__":

@@ -204,10 +204,13 @@ def main(argv=None):
         time.sleep(0.1)
     s = wait_for("swimming", lambda s: MODES[s.mode] == "swimming", 5)
     g = s.gait_target
-    want_amp = x / a.max_speed
-    print(f"  swimming: gait asked amplitude {g.amplitude:.3f} (want {want_amp:.3f}), frequency "
+    # The amplitude is the one whose steady speed the link's model gives as
+    # x (a table made at its start; checked against the simulation's ground
+    # truth by tests/tests/cmd_vel_speed.rs): here, within reach, strictly
+    # between 0 and full amplitude.
+    print(f"  swimming: gait asked amplitude {g.amplitude:.3f} for {x} m/s, frequency "
           f"{g.frequency:.2f} Hz, turn {g.turn:.3f} /m (want {min(wz / x, s.limits.max_turn):.3f})")
-    if not math.isclose(g.amplitude, want_amp, abs_tol=1e-3) or \
+    if not 0.0 < g.amplitude < 1.0 or x > a.max_speed or \
             not math.isclose(g.turn, min(wz / x, s.limits.max_turn), abs_tol=1e-3):
         fail("the gait is not the twist's")
     t0 = time.monotonic()

@@ -833,6 +833,7 @@ mod tests {
             },
             allow_command: false,
             allow_estop: true,
+            speeds: crate::ros2::node::SpeedTable::linear(0.4),
             max_speed: 0.4,
             frequency: 1.0,
         };

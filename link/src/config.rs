@@ -52,8 +52,10 @@ pub struct LinkConfig {
     pub ros2_rate: f64,
     /// Most messages a second of the topics it names (Hz).
     pub ros2_rates: BTreeMap<String, f64>,
-    /// The forward speed a ROS 2 `cmd_vel` asks for at full amplitude
-    /// (m/s).
+    /// The fastest forward speed a ROS 2 `cmd_vel` may ask for (m/s):
+    /// `linear.x` becomes the amplitude whose steady speed it is (the
+    /// model's); faster than this, or than full amplitude swims, is
+    /// clamped and reported.
     pub ros2_max_speed: f64,
     /// The undulation frequency a ROS 2 `cmd_vel` swims at (Hz).
     pub ros2_frequency: f64,

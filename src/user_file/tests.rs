@@ -215,3 +215,68 @@ fn create_new_refuses_an_existing_file_or_symlink() {
     create_new(&d.join("fresh")).unwrap();
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// Issue 46: a recording's files are never replaced, whoever asks.
+#[test]
+fn a_recordings_files_are_never_replaced() {
+    let d = scratch("recording");
+    std::fs::write(d.join("state.bin"), b"snapshots").unwrap();
+    let cfg = d.join("config.toml");
+    std::fs::write(&cfg, "[bus]\n").unwrap();
+    assert_eq!(recording_of(&cfg), Some(d.clone()));
+    let e = format!("{:#}", replace(&cfg, b"[bus]\nspec = \"x\"\n").unwrap_err());
+    assert!(
+        e.contains("config.toml: a file of the recording") && e.contains("no tool rewrites"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&cfg).unwrap(), "[bus]\n");
+    // a new file beside them is allowed
+    replace(&d.join("notes.txt"), b"new\n").unwrap();
+    assert_eq!(names(&d), ["config.toml", "notes.txt", "state.bin"]);
+    let elsewhere = scratch("not-a-recording");
+    assert_eq!(recording_of(&elsewhere.join("config.toml")), None);
+    std::fs::remove_dir_all(&d).unwrap();
+    std::fs::remove_dir_all(&elsewhere).unwrap();
+}
+
+/// [`Replacement::create`] makes a new file or nothing: an existing name
+/// (a file, a symlink) is refused at once, and one that appears while the
+/// new file is written is not replaced at the commit.
+#[test]
+fn create_never_replaces_even_a_file_that_appears_meanwhile() {
+    let d = scratch("create");
+    let old = d.join("old.mcap");
+    std::fs::write(&old, "recorded\n").unwrap();
+    let link = d.join("link.mcap");
+    symlink(&old, &link).unwrap();
+    for p in [&old, &link] {
+        let e = format!("{:#}", Replacement::create(p).err().unwrap());
+        assert!(e.contains("already exists (never replaced)"), "{e}");
+    }
+    let late = d.join("late.mcap");
+    let mut r = Replacement::create(&late).unwrap();
+    r.write_all(b"export").unwrap();
+    std::fs::write(&late, "someone else's\n").unwrap();
+    let e = format!("{:#}", r.commit().unwrap_err());
+    assert!(e.contains("appeared meanwhile: it is not replaced"), "{e}");
+    assert_eq!(std::fs::read_to_string(&late).unwrap(), "someone else's\n");
+    assert_eq!(names(&d), ["late.mcap", "link.mcap", "old.mcap"]);
+    let fresh = d.join("fresh.mcap");
+    let mut r = Replacement::create(&fresh).unwrap();
+    r.write_all(b"export").unwrap();
+    r.commit().unwrap();
+    assert_eq!(std::fs::read(&fresh).unwrap(), b"export");
+    assert_eq!(
+        std::fs::metadata(&fresh).unwrap().mode() & 0o777,
+        0o666 & !umask()
+    );
+    assert_eq!(
+        free_name(&d, "fresh", "mcap").unwrap(),
+        d.join("fresh-2.mcap")
+    );
+    assert_eq!(
+        free_name(&d, "other", "mcap").unwrap(),
+        d.join("other.mcap")
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}

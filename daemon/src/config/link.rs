@@ -70,7 +70,8 @@ pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
             .join(", ")
     ));
     w("# Driving from ROS 2 (cmd_vel, ~/take_control, ~/enable, ~/estop...; the".into());
-    w("# inbound allowlist applies): the speed asked for at full amplitude (m/s)".into());
+    w("# inbound allowlist applies): the fastest cmd_vel may ask for (m/s; linear.x".into());
+    w("# swims through the model's steady speed: faster is clamped and reported)".into());
     w("# and the undulation frequency (Hz).".into());
     w(format!("ros2-max-speed = {}", fmt_f(d.ros2_max_speed)));
     w(format!("ros2-frequency = {}", fmt_f(d.ros2_frequency)));

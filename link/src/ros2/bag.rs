@@ -40,13 +40,117 @@ pub fn msgdef(ty: &MsgType) -> &'static str {
     }
 }
 
-/// The QoS the live node offers (reliable, volatile, keep last 10), as
-/// rosbag2 writes a profile list.
-const QOS: &str = "- history: 1\n  depth: 10\n  reliability: 1\n  durability: 2\n  deadline:\n    sec: 9223372036\n    nsec: 854775807\n  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n  avoid_ros_namespace_conventions: false\n";
+/// A QoS profile list as rosbag2 serializes one (its
+/// `rosbag2_storage::serialize_rclcpp_qos_vector`, `YAML::Dump` of a
+/// sequence: no newline at the end), for a profile of `depth`, reliable,
+/// `transient_local` or volatile durability, automatic liveliness, and
+/// infinite deadline, lifespan and lease (`RMW_DURATION_INFINITE`).
+///
+/// Jazzy's rosbag2 (metadata version 9) writes the policies by name
+/// (`keep_last`, `reliable`, `transient_local`: `rmw_qos_*_policy_to_str`);
+/// Humble's writes them as integers and reads only integers (its
+/// `convert<Rosbag2QoS>::decode` takes `as<int>()`: a name is a bad
+/// conversion), so a `humble` export keeps integers
+/// (`rmw_qos_history_policy_e` etc.: keep last 1, reliable 1, transient
+/// local 1, volatile 2, automatic 1).
+pub fn qos_profiles(depth: u32, transient_local: bool, humble: bool) -> String {
+    let [history, reliability, durability, liveliness] = match (humble, transient_local) {
+        (false, true) => ["keep_last", "reliable", "transient_local", "automatic"],
+        (false, false) => ["keep_last", "reliable", "volatile", "automatic"],
+        (true, true) => ["1", "1", "1", "1"],
+        (true, false) => ["1", "1", "2", "1"],
+    };
+    let inf = "\n    sec: 9223372036\n    nsec: 854775807";
+    format!(
+        "- history: {history}\n  depth: {depth}\n  reliability: {reliability}\n  \
+         durability: {durability}\n  deadline:{inf}\n  lifespan:{inf}\n  \
+         liveliness: {liveliness}\n  liveliness_lease_duration:{inf}\n  \
+         avoid_ros_namespace_conventions: false"
+    )
+}
 
-/// The QoS of `robot_description` and `tf_static`: reliable, transient
-/// local, keep last 1.
-const QOS_LATCHED: &str = "- history: 1\n  depth: 1\n  reliability: 1\n  durability: 1\n  deadline:\n    sec: 9223372036\n    nsec: 854775807\n  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n  avoid_ros_namespace_conventions: false\n";
+/// rosbag2's metadata version this export writes (Jazzy's: `BagMetadata`'s
+/// `version = 9`, QoS policies by name).
+pub const METADATA_VERSION: u32 = 9;
+
+/// `s` as a YAML scalar: plain where it is safe, otherwise double-quoted
+/// (JSON's escapes are YAML's).
+fn yaml_scalar(s: &str) -> String {
+    let plain = !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._/-".contains(c))
+        && !s.starts_with(['-', '.']);
+    if plain {
+        return s.to_string();
+    }
+    let mut q = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => q.push_str("\\\""),
+            '\\' => q.push_str("\\\\"),
+            c if (c as u32) < 0x20 || c == '\u{7f}' => q.push_str(&format!("\\u{:04x}", c as u32)),
+            c => q.push(c),
+        }
+    }
+    q.push('"');
+    q
+}
+
+/// One topic of the bag's metadata.
+struct TopicInfo<'a> {
+    name: String,
+    ty: &'a str,
+    hash: &'a str,
+    qos: String,
+    count: u64,
+}
+
+/// The bag's metadata as rosbag2 (version 9, Jazzy) serializes it
+/// (`YAML::convert<BagMetadata>::encode`, the keys in its order, in
+/// yaml-cpp's block style) into the MCAP metadata record `rosbag2`, key
+/// `serialized_metadata` (`MCAPStorage::update_metadata`), where its MCAP
+/// reader looks for the version (`MCAPStorage::read_metadata`).
+fn serialized_metadata(
+    topics: &[TopicInfo],
+    file: &str,
+    start_ns: u64,
+    duration_ns: u64,
+) -> String {
+    use std::fmt::Write as _;
+    let total: u64 = topics.iter().map(|t| t.count).sum();
+    let file = yaml_scalar(file);
+    let mut o = format!(
+        "version: {METADATA_VERSION}\nstorage_identifier: mcap\nduration:\n  nanoseconds: \
+         {duration_ns}\nstarting_time:\n  nanoseconds_since_epoch: {start_ns}\n\
+         message_count: {total}\ntopics_with_message_count:\n"
+    );
+    for t in topics {
+        let _ = write!(
+            o,
+            "  - topic_metadata:\n      name: {}\n      type: {}\n      \
+             serialization_format: cdr\n      offered_qos_profiles:\n",
+            yaml_scalar(&t.name),
+            t.ty
+        );
+        // the profile list, a YAML sequence here (version 9), indented
+        for line in t.qos.lines() {
+            let _ = writeln!(o, "        {line}");
+        }
+        let _ = write!(
+            o,
+            "      type_description_hash: {}\n    message_count: {}\n",
+            t.hash, t.count
+        );
+    }
+    let _ = write!(
+        o,
+        "compression_format: \"\"\ncompression_mode: \"\"\nrelative_file_paths:\n  - {file}\n\
+         files:\n  - path: {file}\n    starting_time:\n      nanoseconds_since_epoch: \
+         {start_ns}\n    duration:\n      nanoseconds: {duration_ns}\n    message_count: \
+         {total}\ncustom_data: ~\nros_distro: jazzy"
+    );
+    o
+}
 
 /// How the bag is written.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,6 +165,15 @@ pub struct BagSettings {
     /// The recording's start in ns since the epoch: a snapshot's time is
     /// this plus its `time_ns`.
     pub start_ns: u64,
+    /// Written as Humble's rosbag2 writes a bag (`[link] ros2-distro =
+    /// "humble"`): QoS policies as integers, which Humble's reader needs,
+    /// and a `rosbag2` metadata record holding `ROS_DISTRO` only (Humble's
+    /// MCAP plugin); otherwise as Jazzy's ([`qos_profiles`],
+    /// [`METADATA_VERSION`]), which Jazzy and later read.
+    pub humble: bool,
+    /// The bag file's name, as the metadata lists it
+    /// (`relative_file_paths`, `files`).
+    pub file_name: String,
 }
 
 /// A bag being written.
@@ -73,6 +186,10 @@ pub struct Bag {
     settings: BagSettings,
     /// Messages written per topic ([`TOPICS`], then [`LATCHED`]).
     pub counts: [u64; 9],
+    /// Each topic's name (qualified), type, hash and QoS, for the metadata.
+    topics: Vec<TopicInfo<'static>>,
+    /// The first and last log times written (ns since the epoch).
+    span: Option<(u64, u64)>,
 }
 
 fn err(e: mcap::McapError) -> io::Error {
@@ -95,24 +212,38 @@ impl Bag {
             .library("anguilla export --ros2")
             .create(file)
             .map_err(err)?;
-        let mut channel = |name: &str, ty: &MsgType, qos: &str| -> io::Result<u16> {
+        let mut topics = Vec::with_capacity(TOPICS.len() + LATCHED.len());
+        let mut channel = |name: &str, ty: &MsgType, latched: bool| -> io::Result<u16> {
             let schema = w
                 .add_schema(ty.name, "ros2msg", msgdef(ty).as_bytes())
                 .map_err(err)?;
+            // the live node: reliable, keep last 10, volatile; the latched
+            // topics keep their last 1, transient local
+            let qos = qos_profiles(if latched { 1 } else { 10 }, latched, settings.humble);
             let metadata = BTreeMap::from([
-                ("offered_qos_profiles".to_string(), qos.to_string()),
+                ("offered_qos_profiles".to_string(), qos.clone()),
                 ("topic_type_hash".to_string(), ty.hash.to_string()),
             ]);
             let topic = super::graph::qualified(&settings.namespace, name);
-            w.add_channel(schema, &topic, "cdr", &metadata).map_err(err)
+            let id = w
+                .add_channel(schema, &topic, "cdr", &metadata)
+                .map_err(err)?;
+            topics.push(TopicInfo {
+                name: topic,
+                ty: ty.name,
+                hash: ty.hash,
+                qos,
+                count: 0,
+            });
+            Ok(id)
         };
         let mut channels = [0u16; 7];
         for (i, (name, ty)) in TOPICS.iter().enumerate() {
-            channels[i] = channel(name, ty, QOS)?;
+            channels[i] = channel(name, ty, false)?;
         }
         let mut latched = [0u16; 2];
         for (i, (name, ty)) in LATCHED.iter().enumerate() {
-            latched[i] = channel(name, ty, QOS_LATCHED)?;
+            latched[i] = channel(name, ty, true)?;
         }
         Ok(Self {
             w,
@@ -122,11 +253,17 @@ impl Bag {
             conv: state::RosState::new(settings.geometry.clone()),
             settings,
             counts: [0; 9],
+            topics,
+            span: None,
         })
     }
 
     fn put(&mut self, channel: u16, count: usize, ns: u64, payload: &[u8]) -> io::Result<()> {
         self.counts[count] += 1;
+        self.span = Some(match self.span {
+            Some((a, b)) => (a.min(ns), b.max(ns)),
+            None => (ns, ns),
+        });
         self.w
             .write_to_known_channel(
                 &MessageHeader {
@@ -169,12 +306,230 @@ impl Bag {
         Ok(())
     }
 
-    /// Writes the summary and index and closes the file.
+    /// Writes rosbag2's metadata record (as rosbag2 does when it closes a
+    /// bag), the summary and the index, and closes the file.
     pub fn finish(mut self) -> io::Result<[u64; 9]> {
+        let metadata = if self.settings.humble {
+            BTreeMap::from([("ROS_DISTRO".to_string(), "humble".to_string())])
+        } else {
+            for (t, c) in self.topics.iter_mut().zip(self.counts) {
+                t.count = c;
+            }
+            let (first, last) = self
+                .span
+                .unwrap_or((self.settings.start_ns, self.settings.start_ns));
+            BTreeMap::from([(
+                "serialized_metadata".to_string(),
+                serialized_metadata(&self.topics, &self.settings.file_name, first, last - first),
+            )])
+        };
+        self.w
+            .write_metadata(&mcap::records::Metadata {
+                name: "rosbag2".into(),
+                metadata,
+            })
+            .map_err(err)?;
         self.w.finish().map_err(err)?;
         let counts = self.counts;
         // the buffer's last bytes, whose error a drop would lose
         io::Write::flush(&mut self.w.into_inner())?;
         Ok(counts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// rosbag2's reading of one policy of a version-9 profile
+    /// (`rmw_qos_*_policy_from_str`), or of an integer (its auto-detection
+    /// for older bags, Jazzy's `convert<rclcpp::QoS>::decode`); `None`
+    /// where it would take the policy as unknown.
+    fn policy(profile: &str, key: &str) -> Option<String> {
+        let v = profile.lines().find_map(|l| {
+            l.trim_start_matches("- ")
+                .trim()
+                .strip_prefix(&format!("{key}: "))
+        })?;
+        let names: &[(&str, &str)] = match key {
+            "history" => &[
+                ("system_default", "0"),
+                ("keep_last", "1"),
+                ("keep_all", "2"),
+            ],
+            "reliability" => &[
+                ("system_default", "0"),
+                ("reliable", "1"),
+                ("best_effort", "2"),
+            ],
+            "durability" => &[
+                ("system_default", "0"),
+                ("transient_local", "1"),
+                ("volatile", "2"),
+            ],
+            "liveliness" => &[("system_default", "0"), ("automatic", "1")],
+            _ => return Some(v.to_string()),
+        };
+        names
+            .iter()
+            .find(|(n, i)| v == *n || v == *i)
+            .map(|(n, _)| n.to_string())
+    }
+
+    /// The profiles are written as rosbag2 writes them: Jazzy's (version
+    /// 9) by name, in the form of rosbag2's own tests
+    /// (`rosbag2_storage/test/rosbag2_storage/test_qos.cpp`,
+    /// `translates_bad_infinity_values`; `rosbag2_transport/test/
+    /// rosbag2_transport/test_record.cpp`), Humble's as integers, in the
+    /// form of rosbag2's fixture `rosbag2_tests/resources/mcap/
+    /// bag_with_topics_and_service_events/metadata.yaml`; and rosbag2's
+    /// reading keeps the latched topics transient local.
+    #[test]
+    fn qos_profiles_are_written_as_rosbag2_writes_them() {
+        // test_qos.cpp's version-9 profile (there history system_default,
+        // depth 10, volatile, its own durations)
+        let rosbag2_v9 = "- history: keep_last\n  depth: 10\n  reliability: reliable\n  \
+            durability: volatile\n  deadline:\n    sec: 9223372036\n    nsec: 854775807\n  \
+            lifespan:\n    sec: 9223372036\n    nsec: 854775807\n  liveliness: automatic\n  \
+            liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n  \
+            avoid_ros_namespace_conventions: false";
+        assert_eq!(qos_profiles(10, false, false), rosbag2_v9);
+        // test_record.cpp: "reliability: reliable\n", "durability: volatile\n",
+        // "deadline:\n    sec: .+\n    nsec: .+\n"
+        let v9 = qos_profiles(10, false, false);
+        for want in [
+            "reliability: reliable\n",
+            "durability: volatile\n",
+            "deadline:\n    sec: ",
+        ] {
+            assert!(v9.contains(want), "{v9}");
+        }
+        // the fixture's string, history 3 depth 0 there
+        let fixture = "- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n  deadline:\n    sec: 9223372036\n    nsec: 854775807\n  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n  avoid_ros_namespace_conventions: false";
+        assert_eq!(
+            qos_profiles(10, false, true),
+            fixture.replace("history: 3\n  depth: 0", "history: 1\n  depth: 10")
+        );
+        for humble in [false, true] {
+            let latched = qos_profiles(1, true, humble);
+            assert_eq!(
+                policy(&latched, "durability").as_deref(),
+                Some("transient_local")
+            );
+            assert_eq!(policy(&latched, "reliability").as_deref(), Some("reliable"));
+            assert_eq!(policy(&latched, "history").as_deref(), Some("keep_last"));
+            assert_eq!(policy(&latched, "depth").as_deref(), Some("1"));
+            assert_eq!(policy(&latched, "liveliness").as_deref(), Some("automatic"));
+            let live = qos_profiles(10, false, humble);
+            assert_eq!(policy(&live, "durability").as_deref(), Some("volatile"));
+        }
+        // Humble reads integers only (`as<int>()`): no name in its profile
+        assert!(!qos_profiles(1, true, true).contains("transient_local"));
+    }
+
+    fn bag(humble: bool) -> (Vec<u8>, [u64; 9]) {
+        let path =
+            std::env::temp_dir().join(format!("anguilla-bag-{}-{humble}.mcap", std::process::id()));
+        let settings = BagSettings {
+            namespace: "/eel".into(),
+            rates: [10.0; 7],
+            geometry: state::Geometry {
+                segments: vec![(0.1, 0.05, 0.02); 3],
+                limits: [1.0, 8.0, 4.0],
+            },
+            start_ns: 1_796_000_000_000_000_000,
+            humble,
+            file_name: "session.ros2.mcap".into(),
+        };
+        let mut b = Bag::create(&path, settings).unwrap();
+        for k in 0..20u64 {
+            let s = StateSnapshot {
+                time_ns: k * 50_000_000,
+                ..StateSnapshot::default()
+            };
+            b.write(&s).unwrap();
+        }
+        let counts = b.finish().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        (bytes, counts)
+    }
+
+    /// The bag carries rosbag2's metadata record `rosbag2` as rosbag2's
+    /// MCAP plugin writes it on closing a bag: Jazzy's
+    /// `serialized_metadata`, version 9, whose counts, times and QoS are
+    /// the bag's own; Humble's `ROS_DISTRO` alone. Read back with the
+    /// `mcap` crate's reader (summary, metadata index).
+    #[test]
+    fn the_bag_carries_rosbag2s_metadata_record() {
+        let (bytes, counts) = bag(false);
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        assert_eq!(summary.metadata_indexes.len(), 1);
+        let idx = &summary.metadata_indexes[0];
+        assert_eq!(idx.name, "rosbag2");
+        let m = mcap::read::metadata(&bytes, idx).unwrap();
+        let text = &m.metadata["serialized_metadata"];
+        let total: u64 = counts.iter().sum();
+        // 20 snapshots 50 ms apart, the topics at 10 Hz: 0 to 900 ms
+        assert_eq!(total, summary.stats.as_ref().unwrap().message_count);
+        assert!(text.starts_with("version: 9\nstorage_identifier: mcap\nduration:\n  nanoseconds: 900000000\nstarting_time:\n  nanoseconds_since_epoch: 1796000000000000000\n"), "{text}");
+        assert!(
+            text.contains(&format!("\nmessage_count: {total}\n")),
+            "{text}"
+        );
+        assert!(
+            text.ends_with("custom_data: ~\nros_distro: jazzy"),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "relative_file_paths:\n  - session.ros2.mcap\nfiles:\n  - path: session.ros2.mcap\n"
+            ),
+            "{text}"
+        );
+        // each topic: its name, type, a profile list (a YAML sequence in
+        // version 9), its hash and count
+        let tf_static = "  - topic_metadata:\n      name: /eel/tf_static\n      type: tf2_msgs/msg/TFMessage\n      serialization_format: cdr\n      offered_qos_profiles:\n        - history: keep_last\n          depth: 1\n          reliability: reliable\n          durability: transient_local\n";
+        assert!(text.contains(tf_static), "{text}");
+        assert!(
+            text.contains(&format!(
+                "      type_description_hash: {}\n    message_count: 1\n",
+                msgs::TF_MESSAGE.hash
+            )),
+            "{text}"
+        );
+        for (i, (name, _)) in TOPICS.iter().enumerate() {
+            let at = text.find(&format!("name: /eel/{name}\n")).unwrap();
+            let count = text[at..].split("    message_count: ").nth(1).unwrap();
+            assert!(
+                count.starts_with(&format!("{}\n", counts[i])),
+                "{name}: {text}"
+            );
+        }
+        // the channels' profiles are version-9 strings
+        for c in summary.channels.values() {
+            let q = &c.metadata["offered_qos_profiles"];
+            assert!(q.starts_with("- history: keep_last\n"), "{}: {q}", c.topic);
+        }
+
+        let (bytes, _) = bag(true);
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let m = mcap::read::metadata(&bytes, &summary.metadata_indexes[0]).unwrap();
+        assert_eq!(m.name, "rosbag2");
+        assert_eq!(
+            m.metadata,
+            BTreeMap::from([("ROS_DISTRO".to_string(), "humble".to_string())])
+        );
+        for c in summary.channels.values() {
+            assert!(c.metadata["offered_qos_profiles"].starts_with("- history: 1\n"));
+        }
+    }
+
+    #[test]
+    fn yaml_scalars_are_plain_only_where_safe() {
+        assert_eq!(yaml_scalar("session.ros2-2.mcap"), "session.ros2-2.mcap");
+        assert_eq!(yaml_scalar("a: b.mcap"), "\"a: b.mcap\"");
+        assert_eq!(yaml_scalar("-x"), "\"-x\"");
+        assert_eq!(yaml_scalar("q\"\\\n"), "\"q\\\"\\\\\\u000a\"");
     }
 }
