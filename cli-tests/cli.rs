@@ -1040,6 +1040,14 @@ fn numbers_a_user_types_are_bounded_and_named() {
             ],
             "--sim-body is for the built-in simulated robot; a bus was named",
         ),
+        (
+            &["run", "--scenario", "/nonexistent-scenario.txt"],
+            "--scenario /nonexistent-scenario.txt: cannot read",
+        ),
+        (
+            &["run", "--bus", "mem:x", "--scenario", "/dev/null"],
+            "--scenario is for the built-in simulated robot; a bus was named",
+        ),
     ] {
         let (ok, _, err) = run(args);
         assert!(!ok, "{args:?} accepted");
@@ -1780,4 +1788,52 @@ fn man_writes_a_page_per_subcommand() {
         "{top}"
     );
     let _ = std::fs::remove_dir_all(dir.parent().unwrap());
+}
+
+/// `run --scenario`: a line the built-in robot cannot play is refused
+/// before the daemon starts, naming the file, the line and what was
+/// expected.
+#[test]
+fn a_scenario_the_built_in_robot_cannot_play_is_named() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-scenario-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("faults.txt");
+    let cfg = dir.join("anguilla.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/scenario-{}\"\n",
+            std::process::id()
+        ),
+    )
+    .unwrap();
+    for (text, want) in [
+        (
+            "1.0 joint 4 yaw snag 0.5\n2.0 joint 13 yaw snag 0.5\n",
+            "scenario line 2: joint 13",
+        ),
+        (
+            "1.0 joint 4 yaw snag 500\n",
+            "scenario line 1: snag 500 out of range -100..=100 N·m",
+        ),
+    ] {
+        std::fs::write(&file, text).unwrap();
+        let (ok, _, err) = run_watched(&[
+            "run",
+            "--quiet",
+            "--duration",
+            "1",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--scenario",
+            file.to_str().unwrap(),
+        ]);
+        assert!(!ok, "{text:?} accepted");
+        assert!(
+            err.contains(&format!("--scenario {}: ", file.display())) && err.contains(want),
+            "{text:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

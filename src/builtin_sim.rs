@@ -5,9 +5,9 @@
 
 use anguilla_daemon::config::Config;
 use anguilla_drivers::Bus;
+use anguilla_sim::SimError;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
 use anguilla_sim::sensor::SensorConfig;
-use anyhow::Context;
 
 /// The running built-in robot.
 pub struct BuiltinSim {
@@ -73,17 +73,44 @@ fn head_sensor(cfg: &Config, id: u8) -> Option<SensorConfig> {
     (id != 0).then(|| SensorConfig::typical_in(id, s.rate_hz, s.water_density, s.surface_pressure))
 }
 
+/// A fault scenario file (`anguilla run --scenario`) and its text.
+#[derive(Debug, Clone)]
+pub struct ScenarioFile {
+    /// Where it was read from (named in its errors).
+    pub path: std::path::PathBuf,
+    /// Its text.
+    pub text: String,
+}
+
 /// Creates the in-process bus and the robot (on `body`, else the body
-/// `[model]` describes); returns the daemon's end of the bus.
+/// `[model]` describes), playing `scenario` from its start; returns the
+/// daemon's end of the bus. A scenario the robot cannot play (a line that
+/// does not parse, a joint it does not have, a sensor fault without the
+/// sensor) is an error naming the file and the line.
 pub fn start_builtin(
     cfg: &Config,
     body: Option<anguilla_model::Body>,
+    scenario: Option<&ScenarioFile>,
 ) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)> {
     let mut bc = builtin_config(cfg, &format!("anguilla-builtin-{}", std::process::id()));
     if let Some(body) = body {
         bc.body = body;
     }
-    let (host, running) = Builtin::start(&bc).context("building the simulated robot")?;
+    if let Some(s) = scenario {
+        bc.scenario = s.text.clone();
+    }
+    let (host, running) = Builtin::start(&bc).map_err(|e| match (&e, scenario) {
+        (
+            SimError::Scenario(_)
+            | SimError::Config {
+                field: "scenario", ..
+            },
+            Some(s),
+        ) => {
+            anyhow::anyhow!("--scenario {}: {e}", s.path.display())
+        }
+        _ => anyhow::Error::new(e).context("building the simulated robot"),
+    })?;
     if let (Some(p), Some(e)) = (bc.fifo_priority, &running.priority_refused) {
         tracing::warn!("simulated robot thread: SCHED_FIFO priority {p} refused ({e})");
     }
