@@ -632,6 +632,18 @@ fn sim_adapters_share_one_bus_and_bad_counts_are_named() {
             &["sim", "--slcan-pty", "--joints", "0", "--scenario", "x"],
             "--scenario: needs a robot",
         ),
+        (
+            &["sim", "--slcan-pty", "--data-bitrate", "2000000"],
+            "--data-bitrate 2000000: only with --fd",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--fd", "--data-bitrate", "2000000"],
+            "--data-bitrate 2000000: the simulated wire's, behind --slcan-pty",
+        ),
+        (
+            &["sim", "--slcan-pty", "--fd", "--data-bitrate", "500000"],
+            "--data-bitrate 500000: data bit rate 500000",
+        ),
     ] {
         let (ok, _, err) = run(args);
         assert!(!ok, "{args:?}");

@@ -30,6 +30,9 @@ Examples:
                                            # tools on either end talk to each other
   anguilla sim --bus socketcan:vcan0 --scenario faults.txt
   anguilla sim --bus socketcan:can0 --fd --joints 6
+  anguilla sim --slcan-pty --fd --data-bitrate 5000000
+                                           # CAN FD behind the adapter: open it with
+                                           # slcan:/dev/pts/5@1000000?fd=1, [bus] fd = true
   anguilla sim --bus socketcan:vcan0 --drive odrive --joints 4 --axis-ids 1:2,3:4,5:6,7:8
 
 --drive chooses what the joints' drives speak (docs/drives.md): anguilla
@@ -59,6 +62,12 @@ pub struct SimArgs {
     /// Bit rate of the simulated wire behind the emulated adapter (bit/s).
     #[arg(long, default_value_t = 1_000_000, value_name = "BPS")]
     bitrate: u32,
+    /// CAN FD data-phase bit rate of the simulated wire behind the
+    /// emulated adapters (bit/s; with --fd and --slcan-pty): set it to the
+    /// daemon's `[bus] data-bitrate` [default: the daemon's default,
+    /// 5000000]. On --bus SPEC the interface has its own.
+    #[arg(long, value_name = "BPS")]
+    data_bitrate: Option<u32>,
     /// Fault scenario file (timed faults, see sim-backend/README.md).
     #[arg(long, value_name = "FILE")]
     scenario: Option<PathBuf>,
@@ -157,12 +166,29 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             anguilla_daemon::config::fmt_number(d)
         );
     }
+    if let Some(d) = args.data_bitrate {
+        if !args.fd {
+            bail!("--data-bitrate {d}: only with --fd (classic CAN has one bit rate, --bitrate)");
+        }
+        if !args.slcan_pty {
+            bail!(
+                "--data-bitrate {d}: the simulated wire's, behind --slcan-pty; on --bus SPEC the \
+                 interface has its own (e.g. `ip link set can0 type can bitrate 1000000 dbitrate \
+                 {d} fd on`)"
+            );
+        }
+    }
     anguilla_protocol::budget::Bitrates {
         nominal: args.bitrate,
-        data: args.fd.then_some(5_000_000.max(args.bitrate)),
+        data: data_bitrate(args),
     }
     .validate()
-    .map_err(|e| anyhow::anyhow!("--bitrate: {e}"))?;
+    .map_err(|e| match (e, args.data_bitrate) {
+        (anguilla_protocol::budget::BudgetError::DataRate { .. }, Some(d)) => {
+            anyhow::anyhow!("--data-bitrate {d}: {e}")
+        }
+        _ => anyhow::anyhow!("--bitrate: {e}"),
+    })?;
     if args.bus.is_none() && !args.slcan_pty {
         bail!("give --bus SPEC (e.g. socketcan:vcan0) or --slcan-pty");
     }
@@ -305,9 +331,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
 
     let mut _emulators = Vec::new();
     let (mut robot, clock): (SimRobot, Arc<dyn Clock>) = if args.slcan_pty {
-        let bus = MemBus::builder("anguilla-sim-slcan")
-            .bitrate(args.bitrate)
-            .build();
+        let bus = wire(args).build();
         _emulators = start_adapters(&bus, adapters, args, &mut out)?;
         let clock = bus.clock();
         let robot = SimRobot::on_mem(cfg, bus.participant(), clock.now())
@@ -389,6 +413,30 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The data-phase bit rate of the simulated wire: `--data-bitrate`, by
+/// default the daemon's default `[bus] data-bitrate` (at least the nominal
+/// rate); none for classic CAN.
+fn data_bitrate(args: &SimArgs) -> Option<u32> {
+    args.fd.then(|| {
+        args.data_bitrate.unwrap_or_else(|| {
+            anguilla_daemon::config::BusConfig::default()
+                .data_bitrate
+                .max(args.bitrate)
+        })
+    })
+}
+
+/// The simulated wire behind the emulated adapters: the nominal bit rate,
+/// and the data phase's for CAN FD (at the nominal rate, a CAN FD robot's
+/// traffic overloads it).
+fn wire(args: &SimArgs) -> anguilla_drivers::mem::MemBusBuilder {
+    let b = MemBus::builder("anguilla-sim-slcan").bitrate(args.bitrate);
+    match data_bitrate(args) {
+        Some(d) => b.data_bitrate(d),
+        None => b,
+    }
+}
+
 /// The most emulated adapters `--adapters` starts on one bus.
 const ADAPTERS_RANGE: std::ops::RangeInclusive<usize> = 1..=8;
 
@@ -411,10 +459,16 @@ fn start_adapters(
             )
             .with_context(|| format!("creating the SLCAN pseudo-terminal of adapter {}", k + 1))?;
             let path = emu.path().unwrap_or("?").to_owned();
-            out.line(format_args!(
-                "slcan device: {path} (open it with slcan:{path}@{})",
-                args.bitrate
-            ));
+            match data_bitrate(args) {
+                Some(d) => out.line(format_args!(
+                    "slcan device: {path} (open it with slcan:{path}@{}?fd=1; CAN FD, data phase at {d} bit/s)",
+                    args.bitrate
+                )),
+                None => out.line(format_args!(
+                    "slcan device: {path} (open it with slcan:{path}@{})",
+                    args.bitrate
+                )),
+            }
             Ok(emu)
         })
         .collect()
@@ -443,9 +497,7 @@ fn each_second_until_stopped(duration: Option<f64>, mut each_second: impl FnMut(
 fn run_bus_alone(args: &SimArgs, adapters: usize) -> anyhow::Result<()> {
     crate::signals::install();
     let mut out = crate::output::Status::default();
-    let bus = MemBus::builder("anguilla-sim-slcan")
-        .bitrate(args.bitrate)
-        .build();
+    let bus = wire(args).build();
     let emulators = start_adapters(&bus, adapters, args, &mut out)?;
     out.line(format_args!(
         "no robot: {adapters} adapter(s) on one simulated {} CAN bus at {} bit/s; Ctrl-C stops",
