@@ -28,21 +28,25 @@ impl BuiltinSim {
 
     /// The simulation's ground truth, for the recording.
     pub fn ground_truth(&self) -> anguilla_daemon::truth::GroundTruth {
-        let t = self.running.truth();
-        anguilla_daemon::truth::GroundTruth {
-            sim_time: t.time.as_secs_f64(),
-            position: t.position,
-            orientation: t.orientation,
-            velocity: t.velocity,
-            speed: t.forward_speed,
-            heading: t.heading,
-            depth: t.depth,
-        }
+        ground_truth(&self.running.truth())
     }
 
     /// Stops the robot's thread.
     pub fn stop(self) {
         self.running.stop();
+    }
+}
+
+/// A simulated robot's truth as the recording's `/sim/truth` holds it.
+pub fn ground_truth(t: &anguilla_sim::Truth) -> anguilla_daemon::truth::GroundTruth {
+    anguilla_daemon::truth::GroundTruth {
+        sim_time: t.time.as_secs_f64(),
+        position: t.position,
+        orientation: t.orientation,
+        velocity: t.velocity,
+        speed: t.forward_speed,
+        heading: t.heading,
+        depth: t.depth,
     }
 }
 

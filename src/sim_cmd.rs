@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_drivers::mem::MemBus;
@@ -30,6 +30,8 @@ Examples:
                                            # tools on either end talk to each other
   anguilla sim --bus socketcan:vcan0 --scenario faults.txt
   anguilla sim --bus socketcan:can0 --fd --joints 6
+  anguilla sim --slcan-pty --truth truth.mcap
+                                           # records the ground truth (/sim/truth)
   anguilla sim --slcan-pty --fd --data-bitrate 5000000
                                            # CAN FD behind the adapter: open it with
                                            # slcan:/dev/pts/5@1000000?fd=1, [bus] fd = true
@@ -133,6 +135,14 @@ pub struct SimArgs {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
+    /// Record the simulation's ground truth into FILE, a new MCAP file
+    /// (an existing one is refused): the channel /sim/truth that a session
+    /// recorded against `anguilla run`'s built-in robot holds (pose,
+    /// velocity, speed, heading, depth), 20 times a second, stamped with
+    /// this machine's monotonic clock, the daemon's: it lines up with a
+    /// session the daemon records here.
+    #[arg(long, value_name = "FILE")]
+    truth: Option<PathBuf>,
 }
 
 /// Runs `anguilla sim`.
@@ -221,6 +231,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         }
         if args.current.is_some() {
             bail!("--current: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
+        if args.truth.is_some() {
+            bail!("--truth: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
         return run_bus_alone(args, adapters);
     }
@@ -325,6 +338,15 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         None => None,
     };
 
+    // Made before the robot starts: a file that is there is refused.
+    let truth_file = match &args.truth {
+        Some(p) => Some(
+            anguilla_daemon::truth::TruthFile::from_file(anguilla::user_file::create_new(p)?)
+                .with_context(|| format!("--truth {}", p.display()))?,
+        ),
+        None => None,
+    };
+
     crate::signals::install();
     // Status lines: a failing stdout ends them, never the simulation.
     let mut out = crate::output::Status::default();
@@ -379,10 +401,13 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let running = robot
         .spawn(clock)
         .context("starting the simulation thread")?;
-    each_second_until_stopped(args.duration, |_| {
-        let t = running.truth();
-        let s = running.status();
-        out.line(format_args!(
+    let stop_truth = AtomicBool::new(false);
+    let truth_report = std::thread::scope(|scope| {
+        let recorder = truth_file.map(|f| scope.spawn(|| record_truth(f, &running, &stop_truth)));
+        each_second_until_stopped(args.duration, |_| {
+            let t = running.truth();
+            let s = running.status();
+            out.line(format_args!(
             "t {:7.1} s  speed {:+.3} m/s  heading {:5.1} deg  depth {:.2} m  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
             t.time.as_secs_f64(),
             t.forward_speed + 0.0, // no "-0.000" at rest
@@ -394,7 +419,25 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             s.stats.send_errors,
             s.stats.slipped.as_secs_f64(),
         ));
+        });
+        stop_truth.store(true, Ordering::Release);
+        recorder.map(|r| {
+            r.join()
+                .unwrap_or_else(|_| (0, Some("the recorder panicked".into())))
+        })
     });
+    if let (Some(path), Some((n, failed))) = (&args.truth, truth_report) {
+        match failed {
+            None => out.line(format_args!(
+                "ground truth: {n} samples of /sim/truth in {}",
+                path.display()
+            )),
+            Some(e) => out.line(format_args!(
+                "ground truth LOST after {n} samples in {}: {e}",
+                path.display()
+            )),
+        }
+    }
     let robot = running
         .stop()
         .context("the simulation thread stopped unexpectedly")?;
@@ -435,6 +478,37 @@ fn wire(args: &SimArgs) -> anguilla_drivers::mem::MemBusBuilder {
         Some(d) => b.data_bitrate(d),
         None => b,
     }
+}
+
+/// How often `--truth` records the ground truth (ns): the daemon's rate.
+const TRUTH_PERIOD_NS: u64 = 50_000_000;
+
+/// Writes `running`'s ground truth into `file` every [`TRUTH_PERIOD_NS`]
+/// (stamped with CLOCK_MONOTONIC, flushed once a second) until `stop`;
+/// returns the samples written and the error that ended the recording, if
+/// one did (the simulation goes on without it).
+fn record_truth(
+    mut file: anguilla_daemon::truth::TruthFile,
+    running: &anguilla_sim::robot::RunningSim,
+    stop: &AtomicBool,
+) -> (u64, Option<String>) {
+    use anguilla_daemon::rt::monotonic_ns;
+    let mut n = 0u64;
+    let mut next = monotonic_ns();
+    let result = (|| -> std::io::Result<()> {
+        while !stop.load(Ordering::Acquire) {
+            let t = anguilla::builtin_sim::ground_truth(&running.truth());
+            file.write(monotonic_ns(), &t)?;
+            n += 1;
+            if n % 20 == 0 {
+                file.flush()?;
+            }
+            next += TRUTH_PERIOD_NS;
+            std::thread::sleep(Duration::from_nanos(next.saturating_sub(monotonic_ns())));
+        }
+        file.finish()
+    })();
+    (n, result.err().map(|e| e.to_string()))
 }
 
 /// The most emulated adapters `--adapters` starts on one bus.
