@@ -500,7 +500,7 @@ fn record_truth(
             let t = anguilla::builtin_sim::ground_truth(&running.truth());
             file.write(monotonic_ns(), &t)?;
             n += 1;
-            if n % 20 == 0 {
+            if n.is_multiple_of(20) {
                 file.flush()?;
             }
             next += TRUTH_PERIOD_NS;
