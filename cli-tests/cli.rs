@@ -826,6 +826,18 @@ fn sim_adapters_share_one_bus_and_bad_counts_are_named() {
             &["sim", "--slcan-pty", "--joints", "0", "--scenario", "x"],
             "--scenario: needs a robot",
         ),
+        (
+            &["sim", "--slcan-pty", "--data-bitrate", "2000000"],
+            "--data-bitrate 2000000: only with --fd",
+        ),
+        (
+            &["sim", "--bus", "mem:x", "--fd", "--data-bitrate", "2000000"],
+            "--data-bitrate 2000000: the simulated wire's, behind --slcan-pty",
+        ),
+        (
+            &["sim", "--slcan-pty", "--fd", "--data-bitrate", "500000"],
+            "--data-bitrate 500000: data bit rate 500000",
+        ),
     ] {
         let (ok, _, err) = run(args);
         assert!(!ok, "{args:?}");
@@ -1226,6 +1238,14 @@ fn numbers_a_user_types_are_bounded_and_named() {
                 "/nonexistent-body.toml",
             ],
             "--sim-body is for the built-in simulated robot; a bus was named",
+        ),
+        (
+            &["run", "--scenario", "/nonexistent-scenario.txt"],
+            "--scenario /nonexistent-scenario.txt: cannot read",
+        ),
+        (
+            &["run", "--bus", "mem:x", "--scenario", "/dev/null"],
+            "--scenario is for the built-in simulated robot; a bus was named",
         ),
     ] {
         let (ok, _, err) = run(args);
@@ -1961,4 +1981,134 @@ fn man_writes_a_page_per_subcommand() {
         "{top}"
     );
     let _ = std::fs::remove_dir_all(dir.parent().unwrap());
+}
+
+/// `run --scenario`: a line the built-in robot cannot play is refused
+/// before the daemon starts, naming the file, the line and what was
+/// expected.
+#[test]
+fn a_scenario_the_built_in_robot_cannot_play_is_named() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-scenario-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("faults.txt");
+    let cfg = dir.join("anguilla.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[ipc]\nprefix = \"anguilla-cli/scenario-{}\"\n",
+            std::process::id()
+        ),
+    )
+    .unwrap();
+    for (text, want) in [
+        (
+            "1.0 joint 4 yaw snag 0.5\n2.0 joint 13 yaw snag 0.5\n",
+            "scenario line 2: joint 13",
+        ),
+        (
+            "1.0 joint 4 yaw snag 500\n",
+            "scenario line 1: snag 500 out of range -100..=100 N·m",
+        ),
+    ] {
+        std::fs::write(&file, text).unwrap();
+        let (ok, _, err) = run_watched(&[
+            "run",
+            "--quiet",
+            "--duration",
+            "1",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--scenario",
+            file.to_str().unwrap(),
+        ]);
+        assert!(!ok, "{text:?} accepted");
+        assert!(
+            err.contains(&format!("--scenario {}: ", file.display())) && err.contains(want),
+            "{text:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: ts is a valid out-pointer.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// `anguilla sim --truth FILE` records the ground truth as a session's
+/// `/sim/truth` (issue 46, finding 7: `anguilla sim` recorded none): an
+/// MCAP file whose one channel is `/sim/truth`, schema anguilla.SimTruth,
+/// messages with the session's fields, the simulation's time increasing,
+/// stamped with CLOCK_MONOTONIC (the daemon's clock) within the command's
+/// run. A file that is there is refused and left as it was.
+#[test]
+fn sim_records_its_ground_truth() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-truth-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("truth.mcap");
+    let before = monotonic_ns();
+    let (ok, out, err) = run_watched(&[
+        "sim",
+        "--slcan-pty",
+        "--duration",
+        "1.5",
+        "--truth",
+        file.to_str().unwrap(),
+    ]);
+    let after = monotonic_ns();
+    assert!(ok, "{out} {err}");
+    assert!(
+        out.contains("ground truth: ") && out.contains("samples of /sim/truth"),
+        "{out}"
+    );
+    let bytes = std::fs::read(&file).unwrap();
+    let mut last_sim_time = -1.0;
+    let mut n = 0;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        assert_eq!(m.channel.topic, "/sim/truth");
+        let schema = m.channel.schema.as_ref().unwrap();
+        assert_eq!(schema.name, "anguilla.SimTruth");
+        assert!(
+            (before..=after).contains(&m.log_time),
+            "log time {} outside the run {before}..={after}",
+            m.log_time
+        );
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        for key in [
+            "sim_time",
+            "position",
+            "orientation",
+            "velocity",
+            "speed",
+            "heading_deg",
+            "depth",
+        ] {
+            assert!(v.get(key).is_some(), "{key} missing: {v}");
+        }
+        // At rest in the water, 1 m deep, heading 180°.
+        assert!((v["depth"].as_f64().unwrap() - 1.0).abs() < 0.05, "{v}");
+        let t = v["sim_time"].as_f64().unwrap();
+        assert!(t > last_sim_time, "{t} after {last_sim_time}");
+        last_sim_time = t;
+        n += 1;
+    }
+    assert!(n >= 2, "{n} messages");
+    assert!(out.contains(&format!("ground truth: {n} samples")), "{out}");
+    // Never replaced.
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--truth", file.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("already exists"), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--joints", "0", "--truth", "x.mcap"]);
+    assert!(!ok);
+    assert!(err.contains("--truth: needs a robot"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -5,9 +5,9 @@
 
 use anguilla_daemon::config::Config;
 use anguilla_drivers::Bus;
+use anguilla_sim::SimError;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
 use anguilla_sim::sensor::SensorConfig;
-use anyhow::Context;
 
 /// The running built-in robot.
 pub struct BuiltinSim {
@@ -28,21 +28,25 @@ impl BuiltinSim {
 
     /// The simulation's ground truth, for the recording.
     pub fn ground_truth(&self) -> anguilla_daemon::truth::GroundTruth {
-        let t = self.running.truth();
-        anguilla_daemon::truth::GroundTruth {
-            sim_time: t.time.as_secs_f64(),
-            position: t.position,
-            orientation: t.orientation,
-            velocity: t.velocity,
-            speed: t.forward_speed,
-            heading: t.heading,
-            depth: t.depth,
-        }
+        ground_truth(&self.running.truth())
     }
 
     /// Stops the robot's thread.
     pub fn stop(self) {
         self.running.stop();
+    }
+}
+
+/// A simulated robot's truth as the recording's `/sim/truth` holds it.
+pub fn ground_truth(t: &anguilla_sim::Truth) -> anguilla_daemon::truth::GroundTruth {
+    anguilla_daemon::truth::GroundTruth {
+        sim_time: t.time.as_secs_f64(),
+        position: t.position,
+        orientation: t.orientation,
+        velocity: t.velocity,
+        speed: t.forward_speed,
+        heading: t.heading,
+        depth: t.depth,
     }
 }
 
@@ -73,17 +77,44 @@ fn head_sensor(cfg: &Config, id: u8) -> Option<SensorConfig> {
     (id != 0).then(|| SensorConfig::typical_in(id, s.rate_hz, s.water_density, s.surface_pressure))
 }
 
+/// A fault scenario file (`anguilla run --scenario`) and its text.
+#[derive(Debug, Clone)]
+pub struct ScenarioFile {
+    /// Where it was read from (named in its errors).
+    pub path: std::path::PathBuf,
+    /// Its text.
+    pub text: String,
+}
+
 /// Creates the in-process bus and the robot (on `body`, else the body
-/// `[model]` describes); returns the daemon's end of the bus.
+/// `[model]` describes), playing `scenario` from its start; returns the
+/// daemon's end of the bus. A scenario the robot cannot play (a line that
+/// does not parse, a joint it does not have, a sensor fault without the
+/// sensor) is an error naming the file and the line.
 pub fn start_builtin(
     cfg: &Config,
     body: Option<anguilla_model::Body>,
+    scenario: Option<&ScenarioFile>,
 ) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)> {
     let mut bc = builtin_config(cfg, &format!("anguilla-builtin-{}", std::process::id()));
     if let Some(body) = body {
         bc.body = body;
     }
-    let (host, running) = Builtin::start(&bc).context("building the simulated robot")?;
+    if let Some(s) = scenario {
+        bc.scenario = s.text.clone();
+    }
+    let (host, running) = Builtin::start(&bc).map_err(|e| match (&e, scenario) {
+        (
+            SimError::Scenario(_)
+            | SimError::Config {
+                field: "scenario", ..
+            },
+            Some(s),
+        ) => {
+            anyhow::anyhow!("--scenario {}: {e}", s.path.display())
+        }
+        _ => anyhow::Error::new(e).context("building the simulated robot"),
+    })?;
     if let (Some(p), Some(e)) = (bc.fifo_priority, &running.priority_refused) {
         tracing::warn!("simulated robot thread: SCHED_FIFO priority {p} refused ({e})");
     }

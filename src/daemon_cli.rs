@@ -43,6 +43,13 @@ pub struct RunArgs {
     /// `[model]` describes: a robot that is not the model.
     #[arg(long, value_name = "FILE")]
     sim_body: Option<PathBuf>,
+    /// A fault scenario for the built-in simulated robot (a file of timed
+    /// faults, seconds from the robot's start: node silences and reboots,
+    /// joint snags and jams, bus faults, the water's current;
+    /// sim-backend/README.md), e.g. `20 joint 7 yaw snag 0.5`. The
+    /// recording's `/sim/truth` holds what the robot did.
+    #[arg(long, value_name = "FILE")]
+    scenario: Option<PathBuf>,
 }
 
 pub fn init_logging() {
@@ -134,6 +141,18 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         ),
         None => None,
     };
+    let scenario = match &args.scenario {
+        Some(_) if !cfg.bus.spec.is_empty() => anyhow::bail!(
+            "--scenario is for the built-in simulated robot; a bus was named (a simulated robot \
+             on a bus plays its own: `anguilla sim --bus SPEC --scenario FILE`)"
+        ),
+        Some(path) => Some(crate::builtin_sim::ScenarioFile {
+            text: std::fs::read_to_string(path)
+                .with_context(|| format!("--scenario {}: cannot read", path.display()))?,
+            path: path.clone(),
+        }),
+        None => None,
+    };
     // Root on the packaged layout runs the daemon as the service's user
     // (anguilla_ipc::service_user), before any thread starts.
     if let Some(note) =
@@ -154,7 +173,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 relaxed.join(", ")
             );
         }
-        let (bus, sim) = crate::builtin_sim::start_builtin(&cfg, sim_body)?;
+        let (bus, sim) = crate::builtin_sim::start_builtin(&cfg, sim_body, scenario.as_ref())?;
         tracing::info!("no bus named: running against the built-in simulated robot");
         match (sensor, cfg.sensor.node) {
             (Some(id), _) => tracing::info!(

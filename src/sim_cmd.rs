@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anguilla_drivers::mem::MemBus;
@@ -30,6 +30,11 @@ Examples:
                                            # tools on either end talk to each other
   anguilla sim --bus socketcan:vcan0 --scenario faults.txt
   anguilla sim --bus socketcan:can0 --fd --joints 6
+  anguilla sim --slcan-pty --truth truth.mcap
+                                           # records the ground truth (/sim/truth)
+  anguilla sim --slcan-pty --fd --data-bitrate 5000000
+                                           # CAN FD behind the adapter: open it with
+                                           # slcan:/dev/pts/5@1000000?fd=1, [bus] fd = true
   anguilla sim --bus socketcan:vcan0 --drive odrive --joints 4 --axis-ids 1:2,3:4,5:6,7:8
 
 --drive chooses what the joints' drives speak (docs/drives.md): anguilla
@@ -60,6 +65,12 @@ pub struct SimArgs {
     /// Bit rate of the simulated wire behind the emulated adapter (bit/s).
     #[arg(long, default_value_t = 1_000_000, value_name = "BPS")]
     bitrate: u32,
+    /// CAN FD data-phase bit rate of the simulated wire behind the
+    /// emulated adapters (bit/s; with --fd and --slcan-pty): set it to the
+    /// daemon's `[bus] data-bitrate` [default: the daemon's default,
+    /// 5000000]. On --bus SPEC the interface has its own.
+    #[arg(long, value_name = "BPS")]
+    data_bitrate: Option<u32>,
     /// Fault scenario file (timed faults, see sim-backend/README.md).
     #[arg(long, value_name = "FILE")]
     scenario: Option<PathBuf>,
@@ -126,6 +137,14 @@ pub struct SimArgs {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
+    /// Record the simulation's ground truth into FILE, a new MCAP file
+    /// (an existing one is refused): the channel /sim/truth that a session
+    /// recorded against `anguilla run`'s built-in robot holds (pose,
+    /// velocity, speed, heading, depth), 20 times a second, stamped with
+    /// this machine's monotonic clock, the daemon's: it lines up with a
+    /// session the daemon records here.
+    #[arg(long, value_name = "FILE")]
+    truth: Option<PathBuf>,
 }
 
 /// Runs `anguilla sim`.
@@ -159,12 +178,29 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             anguilla_daemon::config::fmt_number(d)
         );
     }
+    if let Some(d) = args.data_bitrate {
+        if !args.fd {
+            bail!("--data-bitrate {d}: only with --fd (classic CAN has one bit rate, --bitrate)");
+        }
+        if !args.slcan_pty {
+            bail!(
+                "--data-bitrate {d}: the simulated wire's, behind --slcan-pty; on --bus SPEC the \
+                 interface has its own (e.g. `ip link set can0 type can bitrate 1000000 dbitrate \
+                 {d} fd on`)"
+            );
+        }
+    }
     anguilla_protocol::budget::Bitrates {
         nominal: args.bitrate,
-        data: args.fd.then_some(5_000_000.max(args.bitrate)),
+        data: data_bitrate(args),
     }
     .validate()
-    .map_err(|e| anyhow::anyhow!("--bitrate: {e}"))?;
+    .map_err(|e| match (e, args.data_bitrate) {
+        (anguilla_protocol::budget::BudgetError::DataRate { .. }, Some(d)) => {
+            anyhow::anyhow!("--data-bitrate {d}: {e}")
+        }
+        _ => anyhow::anyhow!("--bitrate: {e}"),
+    })?;
     if args.bus.is_none() && !args.slcan_pty {
         bail!("give --bus SPEC (e.g. socketcan:vcan0) or --slcan-pty");
     }
@@ -197,6 +233,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         }
         if args.current.is_some() {
             bail!("--current: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
+        if args.truth.is_some() {
+            bail!("--truth: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
         return run_bus_alone(args, adapters);
     }
@@ -307,15 +346,22 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         None => None,
     };
 
+    // Made before the robot starts: a file that is there is refused.
+    let truth_file = match &args.truth {
+        Some(p) => Some(
+            anguilla_daemon::truth::TruthFile::from_file(anguilla::user_file::create_new(p)?)
+                .with_context(|| format!("--truth {}", p.display()))?,
+        ),
+        None => None,
+    };
+
     crate::signals::install();
     // Status lines: a failing stdout ends them, never the simulation.
     let mut out = crate::output::Status::default();
 
     let mut _emulators = Vec::new();
     let (mut robot, clock): (SimRobot, Arc<dyn Clock>) = if args.slcan_pty {
-        let bus = MemBus::builder("anguilla-sim-slcan")
-            .bitrate(args.bitrate)
-            .build();
+        let bus = wire(args).build();
         _emulators = start_adapters(&bus, adapters, args, &mut out)?;
         let clock = bus.clock();
         let robot = SimRobot::on_mem(cfg, bus.participant(), clock.now())
@@ -363,10 +409,13 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let running = robot
         .spawn(clock)
         .context("starting the simulation thread")?;
-    each_second_until_stopped(args.duration, |_| {
-        let t = running.truth();
-        let s = running.status();
-        out.line(format_args!(
+    let stop_truth = AtomicBool::new(false);
+    let truth_report = std::thread::scope(|scope| {
+        let recorder = truth_file.map(|f| scope.spawn(|| record_truth(f, &running, &stop_truth)));
+        each_second_until_stopped(args.duration, |_| {
+            let t = running.truth();
+            let s = running.status();
+            out.line(format_args!(
             "t {:7.1} s  speed {:+.3} m/s  heading {:5.1} deg  depth {:.2} m  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
             t.time.as_secs_f64(),
             t.forward_speed + 0.0, // no "-0.000" at rest
@@ -378,7 +427,25 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             s.stats.send_errors,
             s.stats.slipped.as_secs_f64(),
         ));
+        });
+        stop_truth.store(true, Ordering::Release);
+        recorder.map(|r| {
+            r.join()
+                .unwrap_or_else(|_| (0, Some("the recorder panicked".into())))
+        })
     });
+    if let (Some(path), Some((n, failed))) = (&args.truth, truth_report) {
+        match failed {
+            None => out.line(format_args!(
+                "ground truth: {n} samples of /sim/truth in {}",
+                path.display()
+            )),
+            Some(e) => out.line(format_args!(
+                "ground truth LOST after {n} samples in {}: {e}",
+                path.display()
+            )),
+        }
+    }
     let robot = running
         .stop()
         .context("the simulation thread stopped unexpectedly")?;
@@ -395,6 +462,61 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.slipped.as_secs_f64()
     ));
     Ok(())
+}
+
+/// The data-phase bit rate of the simulated wire: `--data-bitrate`, by
+/// default the daemon's default `[bus] data-bitrate` (at least the nominal
+/// rate); none for classic CAN.
+fn data_bitrate(args: &SimArgs) -> Option<u32> {
+    args.fd.then(|| {
+        args.data_bitrate.unwrap_or_else(|| {
+            anguilla_daemon::config::BusConfig::default()
+                .data_bitrate
+                .max(args.bitrate)
+        })
+    })
+}
+
+/// The simulated wire behind the emulated adapters: the nominal bit rate,
+/// and the data phase's for CAN FD (at the nominal rate, a CAN FD robot's
+/// traffic overloads it).
+fn wire(args: &SimArgs) -> anguilla_drivers::mem::MemBusBuilder {
+    let b = MemBus::builder("anguilla-sim-slcan").bitrate(args.bitrate);
+    match data_bitrate(args) {
+        Some(d) => b.data_bitrate(d),
+        None => b,
+    }
+}
+
+/// How often `--truth` records the ground truth (ns): the daemon's rate.
+const TRUTH_PERIOD_NS: u64 = 50_000_000;
+
+/// Writes `running`'s ground truth into `file` every [`TRUTH_PERIOD_NS`]
+/// (stamped with CLOCK_MONOTONIC, flushed once a second) until `stop`;
+/// returns the samples written and the error that ended the recording, if
+/// one did (the simulation goes on without it).
+fn record_truth(
+    mut file: anguilla_daemon::truth::TruthFile,
+    running: &anguilla_sim::robot::RunningSim,
+    stop: &AtomicBool,
+) -> (u64, Option<String>) {
+    use anguilla_daemon::rt::monotonic_ns;
+    let mut n = 0u64;
+    let mut next = monotonic_ns();
+    let result = (|| -> std::io::Result<()> {
+        while !stop.load(Ordering::Acquire) {
+            let t = anguilla::builtin_sim::ground_truth(&running.truth());
+            file.write(monotonic_ns(), &t)?;
+            n += 1;
+            if n.is_multiple_of(20) {
+                file.flush()?;
+            }
+            next += TRUTH_PERIOD_NS;
+            std::thread::sleep(Duration::from_nanos(next.saturating_sub(monotonic_ns())));
+        }
+        file.finish()
+    })();
+    (n, result.err().map(|e| e.to_string()))
 }
 
 /// The most emulated adapters `--adapters` starts on one bus.
@@ -419,10 +541,16 @@ fn start_adapters(
             )
             .with_context(|| format!("creating the SLCAN pseudo-terminal of adapter {}", k + 1))?;
             let path = emu.path().unwrap_or("?").to_owned();
-            out.line(format_args!(
-                "slcan device: {path} (open it with slcan:{path}@{})",
-                args.bitrate
-            ));
+            match data_bitrate(args) {
+                Some(d) => out.line(format_args!(
+                    "slcan device: {path} (open it with slcan:{path}@{}?fd=1; CAN FD, data phase at {d} bit/s)",
+                    args.bitrate
+                )),
+                None => out.line(format_args!(
+                    "slcan device: {path} (open it with slcan:{path}@{})",
+                    args.bitrate
+                )),
+            }
             Ok(emu)
         })
         .collect()
@@ -451,9 +579,7 @@ fn each_second_until_stopped(duration: Option<f64>, mut each_second: impl FnMut(
 fn run_bus_alone(args: &SimArgs, adapters: usize) -> anyhow::Result<()> {
     crate::signals::install();
     let mut out = crate::output::Status::default();
-    let bus = MemBus::builder("anguilla-sim-slcan")
-        .bitrate(args.bitrate)
-        .build();
+    let bus = wire(args).build();
     let emulators = start_adapters(&bus, adapters, args, &mut out)?;
     out.line(format_args!(
         "no robot: {adapters} adapter(s) on one simulated {} CAN bus at {} bit/s; Ctrl-C stops",

@@ -98,7 +98,9 @@ pub struct AxisFaults {
     /// One reading offset by this much (rad), then cleared.
     pub spike: f64,
     /// An external torque on the joint (N·m), added to the body's load: a
-    /// snag.
+    /// snag. The drive supplies it; what it takes of the motor's torque
+    /// does not reach the body (the robot passes it to the body's coupling
+    /// with the friction).
     pub snag: f64,
 }
 

@@ -148,17 +148,62 @@ fn bought_drive_families_over_an_slcan_pty() {
     }
 }
 
+/// CAN FD over the pty (issue 46, finding 7): `anguilla sim --slcan-pty
+/// --fd` and the daemon with `[bus] fd = true` on `slcan:...?fd=1`. The
+/// simulated wire's data phase runs at the daemon's `data-bitrate`
+/// (`anguilla sim`'s `--data-bitrate`, by default the daemon's default
+/// 5 Mbit/s), not at the nominal 1 Mbit/s, which overloaded it and faulted
+/// the robot. The robot enables, swims with its tail following, and stops
+/// with no fault.
+#[test]
+fn can_fd_over_an_slcan_pty() {
+    let bin = anguilla_bin();
+    assert!(bin.exists(), "{} not built", bin.display());
+    let (sim, device) = sim_on_pty_with(&bin, &["--fd"]);
+    let prefix = format!("anguilla-test/slcan-fd-{}", std::process::id());
+    let config =
+        std::env::temp_dir().join(format!("anguilla-slcan-fd-{}.toml", std::process::id()));
+    std::fs::write(
+        &config,
+        format!("[bus]\nfd = true\n\n[ipc]\nprefix = \"{prefix}\"\n\n{SHARED_CPU}"),
+    )
+    .unwrap();
+    let _daemon = run_on_pty_spec(&bin, &format!("slcan:{device}@1000000?fd=1"), &config);
+    let mut c = connect(&prefix, "slcan-fd-operator");
+    wait_for(&mut c, "the daemon's first state", 15.0, |_| true);
+    ok(&mut c, Command::TakeControl);
+    ok(&mut c, Command::Enable);
+    wait_for(&mut c, "ready over CAN FD", 10.0, |s| {
+        s.mode == Mode::Ready as u8
+    });
+    ok(&mut c, F1);
+    wait_for(&mut c, "the tail swinging over CAN FD", 10.0, |s| {
+        s.mode == Mode::Swimming as u8 && s.joints[11].commanded_yaw.abs() > 0.15
+    });
+    let (err, lag, n) = tracking(&mut c, 11, 2.0, F1);
+    assert!(
+        err < 0.08,
+        "tail yaw tracking error {err} rad (median) at its best lag {lag} ms ({n} states)"
+    );
+    ok(&mut c, Command::Stop);
+    let s = wait_for(&mut c, "ready after the stop", 20.0, |s| {
+        s.mode == Mode::Ready as u8
+    });
+    assert_eq!(s.fault_kinds, 0, "faults {:#x}", s.fault_kinds);
+    let _ = std::fs::remove_file(&config);
+    drop(sim);
+}
+
 /// `anguilla run --config CONFIG` on the emulated adapter at `device`.
 fn run_on_pty(bin: &std::path::Path, device: &str, config: &std::path::Path) -> Killed {
+    run_on_pty_spec(bin, &format!("slcan:{device}@1000000"), config)
+}
+
+/// `anguilla run --config CONFIG --bus SPEC`.
+fn run_on_pty_spec(bin: &std::path::Path, spec: &str, config: &std::path::Path) -> Killed {
     Killed(
         Proc::new(bin)
-            .args([
-                "run",
-                "--quiet",
-                "--bus",
-                &format!("slcan:{device}@1000000"),
-                "--config",
-            ])
+            .args(["run", "--quiet", "--bus", spec, "--config"])
             .arg(config)
             .stdout(Stdio::null())
             .stderr(Stdio::null())

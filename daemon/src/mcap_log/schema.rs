@@ -728,7 +728,7 @@ pub fn markdown() -> String {
     }
     let _ = writeln!(
         out,
-        "### `{}` ({}, the built-in simulated robot only)\n",
+        "### `{}` ({}, a simulated robot only)\n",
         crate::truth::TOPIC,
         crate::truth::SCHEMA_NAME
     );

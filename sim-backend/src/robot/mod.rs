@@ -550,10 +550,19 @@ impl SimRobot {
         }
         // Ideal servos report the full load; servos with dynamics get the
         // load coupled implicitly to their torques (`Plant::coupled_loads`).
+        // What a snag takes of the motor's torque never reaches the body:
+        // it is lost with the friction (the body's reaction to the rest
+        // only; without it the snag's share would drive the body and load
+        // every other joint through the coupling).
         let b = self.cfg.actuator.damping;
-        for ((node, tau), fr) in self.nodes.iter().zip(&mut self.tau).zip(&mut self.friction) {
+        for ((node, tau), fr) in self
+            .nodes
+            .iter_mut()
+            .zip(&mut self.tau)
+            .zip(&mut self.friction)
+        {
             *tau = [node.motor_torque(0), node.motor_torque(1)];
-            *fr = [b * node.kinematics(0).1, b * node.kinematics(1).1];
+            *fr = [0, 1].map(|a| b * node.kinematics(a).1 + node.axis_faults_mut(a).snag);
         }
         self.plant
             .coupled_loads(&self.tau, &self.friction, &mut self.node_loads);
