@@ -212,6 +212,39 @@ fn every_sensor_fault_ends_the_hold_in_the_safe_state() {
     }
 }
 
+/// Issue 46, finding 11: CI's `check-heading` failed with "head sensor
+/// lost" while fuzzing loaded the machine: the built-in robot's thread (the
+/// sensor and the vertebrae alike) went without the CPU for longer than
+/// the sensor's 0.1 s timeout, and the daemon, counting silence on its own
+/// clock, took a stalled simulation for a silent sensor. A robot that
+/// says nothing at all is the drives' liveness watch's to judge
+/// (heartbeat-timeout, 0.35 s); the sensor is silent when the bus carries
+/// the others' frames and not its own.
+#[test]
+fn a_stalled_robot_is_not_a_silent_sensor() {
+    let mut rig = Rig::new(&config(), 12, [0.0; 3]);
+    let h0 = swimming(&mut rig);
+    hold_heading(&mut rig, h0 + 30.0);
+    rig.run(1.0, |_| {});
+    // 0.2 s: twice the sensor's timeout, within the heartbeats'.
+    rig.starve_robot(0.2);
+    let mut worst = SensorHealth::Ok;
+    rig.run(3.0, |r| {
+        let h = SensorHealth::from_code(r.state().nav.sensor).expect("a health");
+        if h != SensorHealth::Ok {
+            worst = h;
+        }
+    });
+    let s = rig.state();
+    assert_eq!(s.nav.hold_exit, 0, "the hold was let go: {worst:?}");
+    assert_eq!(s.nav.hold, 1, "heading still held");
+    assert_eq!(s.mode, Mode::Swimming as u8);
+    // The sensor alone silent while the vertebrae talk is still silence.
+    rig.scenario_from_now("0.1 sensor silent");
+    assert!(rig.run_until(2.0, |r| r.state().nav.hold_exit
+        == SensorHealth::Silent as u8));
+}
+
 #[test]
 fn holds_need_a_sensor_and_control() {
     // No sensor configured.
