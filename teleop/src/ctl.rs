@@ -488,7 +488,8 @@ pub fn hold_missed(s: &StateSnapshot, hold: &Hold) -> Option<String> {
     if let Some(h) = hold.heading {
         let now = s.nav.heading_deg as f64;
         let off = (now - h + 540.0).rem_euclid(360.0) - 180.0;
-        if !(off.abs() <= HEADING_REACHED) {
+        let reached = off.abs() <= HEADING_REACHED;
+        if !reached {
             missed.push(format!(
                 "heading {now:.1} deg for {:.1} deg",
                 h.rem_euclid(360.0)
@@ -497,7 +498,8 @@ pub fn hold_missed(s: &StateSnapshot, hold: &Hold) -> Option<String> {
     }
     if let Some(d) = hold.depth {
         let now = s.nav.depth_m as f64;
-        if !((now - d).abs() <= DEPTH_REACHED) {
+        let reached = (now - d).abs() <= DEPTH_REACHED;
+        if !reached {
             missed.push(format!("depth {now:.2} m for {d:.2} m"));
         }
     }

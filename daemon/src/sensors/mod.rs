@@ -125,7 +125,7 @@ impl Sensors {
     /// it if a frame came in it.
     pub fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
         if self.heard {
-            self.bus = self.bus + now.saturating_sub(self.stepped);
+            self.bus += now.saturating_sub(self.stepped);
         }
         self.heard = false;
         self.stepped = now;
