@@ -345,3 +345,41 @@ fn depth_hold_holds_at_low_amplitude() {
         trace.join(" ")
     );
 }
+
+/// The operating grid (docs/autopilot.md, "Measured"): amplitude ×
+/// frequency × current (none, or 0.1 m/s across the path), a 0.2 m depth
+/// step held with the heading, 30 s. Prints one JSON line per point: the
+/// settle time (the last time beyond ±5 cm; 30 = never settled), the
+/// steady error (the worst over the last 10 s) and the heading's. Long
+/// (24 closed loops): run by hand,
+/// `cargo test --workspace --all-features --test autopilot -- --ignored depth_hold_grid --nocapture`.
+#[test]
+#[ignore = "long (24 closed loops of 34 s): the figures of docs/autopilot.md, by hand"]
+fn depth_hold_grid() {
+    let mut points = Vec::new();
+    for current in [0.0, 0.1] {
+        for amplitude in [0.2, 0.3, 0.6, 1.0] {
+            for frequency in [0.5, 1.0, 1.5] {
+                points.push((amplitude, frequency, current));
+            }
+        }
+    }
+    let lines: Vec<_> = points
+        .into_iter()
+        .map(|(a, f, c)| {
+            std::thread::spawn(move || {
+                let mut rig = Rig::new(&config(), 2, [0.0, c, 0.0]);
+                rig.swim_at(a, f);
+                rig.run(4.0, |_| {});
+                let m = depth_step(&mut rig, 0.2, 30.0, 20.0);
+                format!(
+                    "{{\"amplitude\":{a},\"frequency_hz\":{f},\"current_mps\":{c},\"settle_5cm_s\":{:.1},\"steady_error_m\":{:.3},\"overshoot_m\":{:.3},\"heading_error_deg\":{:.1},\"max_roll_deg\":{:.0}}}",
+                    m.last_outside, m.late, m.overshoot, m.heading, m.roll
+                )
+            })
+        })
+        .collect();
+    for l in lines {
+        println!("{}", l.join().expect("a grid point"));
+    }
+}
