@@ -383,3 +383,29 @@ fn depth_hold_grid() {
         println!("{}", l.join().expect("a grid point"));
     }
 }
+
+/// Issue 46: the simulated body swam on above the water (a held 1.2 m
+/// became −1.6 m). Climbing hard from 1 m (full amplitude, the pitch
+/// curvature climbing at 0.26 m/s), the nose reaches the surface and
+/// stays on it; the sensor's depth says so too.
+#[test]
+fn the_simulated_body_cannot_swim_above_the_surface() {
+    let mut rig = Rig::new(&config(), 13, [0.0; 3]);
+    rig.swim(1.0);
+    rig.run(3.0, |_| {});
+    rig.ok(Command::Swim(anguilla_ipc::vocabulary::SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.0,
+        pitch: -0.5,
+    }));
+    let (mut shallowest, mut estimated) = (f64::INFINITY, f64::INFINITY);
+    rig.run(12.0, |r| {
+        shallowest = shallowest.min(true_depth(&r.truth()));
+        estimated = estimated.min(r.state().nav.depth_m as f64);
+    });
+    assert!(shallowest >= 0.0, "the nose at {shallowest:.3} m");
+    assert!(rig.robot.stats().surfaced > 0, "never reached the surface");
+    // Pressure noise 20 Pa is 2 mm of water; the filter follows within cm.
+    assert!(estimated > -0.05, "estimated {estimated:.3} m");
+}
