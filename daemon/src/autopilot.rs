@@ -29,6 +29,11 @@ use crate::nav::{Estimate, Prediction};
 /// The speed below which the feed-forward stops growing (m/s): a body
 /// barely swimming cannot turn, and asking for more curvature is useless.
 pub const MIN_SPEED: f64 = 0.05;
+/// The largest pitch curvature the ballasted body's depth law asks for
+/// (1/m, within `gait.max-pitch`): beyond about this, the body's answer is
+/// no longer the table's (at full amplitude and 1 Hz, 1/m dives slower
+/// than 0.5 and rolls the head by 60°).
+pub const DIVE_LAW_CURVATURE: f64 = 0.5;
 /// The curvature of the calibration runs (1/m).
 pub const CALIBRATION_CURVATURE: f64 = 0.5;
 /// Time constant of the speed's low-pass (s).
@@ -49,6 +54,68 @@ pub struct Gains {
     pub pitch_angle: Option<f64>,
     /// The calibration's forward speed (m/s).
     pub speed: f64,
+    /// A ballasted body only: how fast it dives per pitch curvature over
+    /// the gaits it swims ([`DiveTable`]).
+    pub dive: Option<DiveTable>,
+}
+
+/// Amplitudes of the dive table's rows.
+pub const DIVE_AMPLITUDES: [f64; 5] = [0.2, 0.4, 0.6, 0.8, 1.0];
+/// Frequencies (Hz) of the dive table's columns, those up to
+/// `gait.max-frequency` measured (the others repeat the last).
+pub const DIVE_FREQUENCIES: [f64; 4] = [0.5, 1.0, 1.5, 2.0];
+/// The pitch curvature of the dive table's runs (1/m): small, where the
+/// answer is still about linear.
+pub const DIVE_CURVATURE: f64 = 0.2;
+
+/// The pitch authority of a ballasted body: its steady dive rate (m/s,
+/// positive down) per pitch curvature (1/m, positive diving), measured by
+/// running the model on a grid of amplitudes and frequencies.
+///
+/// It is not one number times the speed: the body's weight rights it
+/// against the curvature's pitching moment, which grows with the square of
+/// the beat's speed, so a fast gait dives by pitching nose down while a
+/// slow one barely pitches, and its bent body's thrust then drives it the
+/// other way (the built-in robot at 1 Hz: +0.47 m/s per 1/m at full
+/// amplitude, −0.04 at 0.6, −0.03 at 0.3; at 0.5 Hz negative at every
+/// amplitude). A law with one fixed sign climbed through the surface at
+/// amplitude 0.3 (issue 46).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiveTable {
+    /// `rate[amplitude][frequency]` (m/s per 1/m) at [`DIVE_AMPLITUDES`]
+    /// and [`DIVE_FREQUENCIES`].
+    pub rate: [[f64; DIVE_FREQUENCIES.len()]; DIVE_AMPLITUDES.len()],
+}
+
+impl DiveTable {
+    /// The dive rate per pitch curvature (m/s per 1/m) at `amplitude`
+    /// (0–1) and `frequency` (Hz): bilinear between the grid's points,
+    /// falling linearly to 0 below the lowest amplitude, the nearest
+    /// column beyond the frequencies.
+    pub fn at(&self, amplitude: f64, frequency: f64) -> f64 {
+        let (a, fa) = bracket(&DIVE_AMPLITUDES, amplitude);
+        let (f, ff) = bracket(&DIVE_FREQUENCIES, frequency);
+        let row = |i: usize| self.rate[i][f] * (1.0 - ff) + self.rate[i][f + 1] * ff;
+        let r = row(a) * (1.0 - fa) + row(a + 1) * fa;
+        if amplitude < DIVE_AMPLITUDES[0] {
+            row(0) * (amplitude / DIVE_AMPLITUDES[0]).max(0.0)
+        } else {
+            r
+        }
+    }
+}
+
+/// The interval of sorted `grid` holding `x` and the fraction into it
+/// (clamped to the ends).
+fn bracket(grid: &[f64], x: f64) -> (usize, f64) {
+    let n = grid.len();
+    let i = grid[..n - 1]
+        .iter()
+        .rposition(|&g| g <= x)
+        .unwrap_or(0)
+        .min(n - 2);
+    let t = ((x - grid[i]) / (grid[i + 1] - grid[i])).clamp(0.0, 1.0);
+    (i, t)
 }
 
 /// The curvature of the ballasted body's static pitch calibration (1/m):
@@ -64,19 +131,27 @@ pub const PITCH_ANGLE_CURVATURE: f64 = 0.25;
 /// one about the body's axes, whatever its roll.
 pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
     let f = cfg.gait.max_frequency.min(1.0);
-    let period = 1.0 / f;
     let k = CALIBRATION_CURVATURE;
-    // Mean body rates, forward speed and body elevation (nose up) over
-    // `measure` periods after `settle` periods of the curvatures.
-    let run = |kc3: f64,
-               kc2: f64,
-               settle: usize,
-               measure: usize|
-     -> Result<(Vector3<f64>, f64, f64), ModelError> {
+    // Mean body rates, forward speed, body elevation (nose up) and dive
+    // rate over `measure` periods after `settle` periods of the
+    // curvatures, at `amplitude` and `frequency`.
+    let run_at = |amplitude: f64,
+                  frequency: f64,
+                  kc3: f64,
+                  kc2: f64,
+                  settle: usize,
+                  measure: usize|
+     -> Result<(Vector3<f64>, f64, f64, f64), ModelError> {
+        let period = 1.0 / frequency;
+        let poly = cfg.gait.amplitude_polynomial;
         let mut params = GaitParams {
             wavelength: cfg.gait.wavelength,
             period,
-            amplitude: cfg.gait.amplitude_polynomial,
+            amplitude: [
+                poly[0] * amplitude,
+                poly[1] * amplitude,
+                poly[2] * amplitude,
+            ],
             phase: 0.0,
             kc3: 0.0,
             kc2: 0.0,
@@ -96,6 +171,7 @@ pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
         }
         let (mut rates, mut speed, mut elevation) = (Vector3::zeros(), 0.0, 0.0);
         let n = measure * per;
+        let (z0, t0) = (head.position.z, head.t);
         for _ in 0..n {
             let r = step(model, &mut ws, &mut gait, &mut head)?;
             let p = Prediction::of(&head, ws.shape());
@@ -104,19 +180,49 @@ pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
             let f = head.orientation * anguilla_model::forward_axes(p.forward);
             elevation += f.z.atan2(f.x.hypot(f.y));
         }
+        let dive = -(head.position.z - z0) / (head.t - t0).max(model.dt());
         let n = n as f64;
-        Ok((rates / n, speed / n, elevation / n))
+        Ok((rates / n, speed / n, elevation / n, dive))
+    };
+    let run = |kc3: f64, kc2: f64, settle: usize, measure: usize| {
+        run_at(1.0, f, kc3, kc2, settle, measure)
     };
     // The operator's turn is positive left; the gait's K_c3 is its
     // opposite (control.rs). Sensor axes: z up (a left turn is +z), y left
     // (nose down is +y).
-    let (turn, u_turn, _) = run(-k, 0.0, 1, 1)?;
-    let (pitch, u_pitch, _) = run(0.0, k, 1, 1)?;
+    let (turn, u_turn, _, _) = run(-k, 0.0, 1, 1)?;
+    let (pitch, u_pitch, _, _) = run(0.0, k, 1, 1)?;
     let floor = |g: f64| if g.abs() < 1e-3 { 1e-3 } else { g };
     let pitch_angle = if cfg.model.ballast > 0.0 {
         let k = PITCH_ANGLE_CURVATURE;
-        let (_, _, elevation) = run(0.0, k, 4, 2)?;
+        let (_, _, elevation, _) = run(0.0, k, 4, 2)?;
         Some(floor(-elevation / k))
+    } else {
+        None
+    };
+    // The dive table: straight to speed, then the pitch curvature, its
+    // dive rate over the third period of it.
+    let dive = if cfg.model.ballast > 0.0 {
+        let mut rate = [[0.0; DIVE_FREQUENCIES.len()]; DIVE_AMPLITUDES.len()];
+        let top = DIVE_FREQUENCIES
+            .iter()
+            .rposition(|&f| f <= cfg.gait.max_frequency)
+            .unwrap_or(0);
+        for (i, &a) in DIVE_AMPLITUDES.iter().enumerate() {
+            for (j, &f) in DIVE_FREQUENCIES.iter().enumerate() {
+                rate[i][j] = if j <= top {
+                    // At least 4 s to settle, 2 s measured (whole
+                    // periods): the ballasted pitch's swing is slower
+                    // than a fast gait's periods.
+                    let periods = |secs: f64| (secs * f).ceil() as usize;
+                    run_at(a, f, 0.0, DIVE_CURVATURE, periods(4.0), periods(2.0))?.3
+                        / DIVE_CURVATURE
+                } else {
+                    rate[i][top]
+                };
+            }
+        }
+        Some(DiveTable { rate })
     } else {
         None
     };
@@ -125,6 +231,7 @@ pub fn calibrate(cfg: &Config, model: &Model) -> Result<Gains, ModelError> {
         pitch: floor(pitch.y / (k * u_pitch.max(MIN_SPEED))),
         pitch_angle,
         speed: u_turn,
+        dive,
     })
 }
 
@@ -156,6 +263,7 @@ pub struct Autopilot {
     speed: f64,
     heading_sum: f64,
     depth_sum: f64,
+    authority: f64,
 }
 
 impl Autopilot {
@@ -178,6 +286,7 @@ impl Autopilot {
             speed: 0.0,
             heading_sum: 0.0,
             depth_sum: 0.0,
+            authority: 0.0,
         }
     }
 
@@ -211,6 +320,10 @@ impl Autopilot {
     /// `ω_z = r cos φ − q sin φ`; a free axis keeps the operator's
     /// curvature.
     ///
+    /// `gait` is the amplitude (0–1) and frequency (Hz) swum now: the
+    /// ballasted body's depth law divides by the model's dive rate per
+    /// curvature there ([`DiveTable`]).
+    ///
     /// `turning` is the turn curvature the gait executes now: ramping it
     /// back to zero along its trapezoid still turns the body by
     /// `gain · U · ∫κ dt`, which the heading law counts as already done
@@ -224,6 +337,7 @@ impl Autopilot {
         predicted_speed: f64,
         manual: [f64; 2],
         turning: f64,
+        gait: [f64; 2],
     ) -> [f64; 2] {
         self.speed += (predicted_speed - self.speed) * (1.0 - (-dt / SPEED_TAU).exp());
         if !hold.is_active() {
@@ -242,7 +356,11 @@ impl Autopilot {
                 let e =
                     wrap(target.to_radians() - est.heading - g.turn * u * self.stopping(turning));
                 let raw = self.heading_gain * e + self.heading_integral * self.heading_sum;
-                let r = raw.clamp(-self.max_rate, self.max_rate);
+                // At most the rate the largest turn curvature gives at
+                // this speed: beyond, the curvature saturates and the
+                // integral would wind up unseen.
+                let max_rate = self.max_rate.min(g.turn.abs() * u * self.max_turn);
+                let r = raw.clamp(-max_rate, max_rate);
                 if raw == r {
                     self.heading_sum += e * dt;
                 }
@@ -256,6 +374,28 @@ impl Autopilot {
             }
             Some(target) => {
                 let e = target - est.depth;
+                if let Some(table) = g.dive {
+                    // A ballasted body: the dive rate wanted, from the
+                    // model's authority at the gait swum now (its sign
+                    // too), the integral frozen while either the rate or
+                    // the curvature is at its limit.
+                    let a = table.at(gait[0], gait[1]);
+                    let k_max = self.max_pitch.min(DIVE_LAW_CURVATURE);
+                    let w_max = (a.abs() * k_max).min(u * self.max_dive.sin());
+                    let raw = self.depth_gain * e + self.depth_integral * self.depth_sum;
+                    let w = raw.clamp(-w_max, w_max);
+                    let k_raw = if a.abs() > f64::EPSILON { w / a } else { 0.0 };
+                    let k = k_raw.clamp(-k_max, k_max);
+                    if raw == w && k == k_raw {
+                        self.depth_sum += e * dt;
+                    }
+                    let kc2 = k;
+                    self.authority = w_max;
+                    let turn = r.map_or(manual[0], |r| {
+                        (r / (g.turn * u)).clamp(-self.max_turn, self.max_turn)
+                    });
+                    return [turn, kc2];
+                }
                 let w_max = u * self.max_dive.sin();
                 let raw = self.depth_gain * e + self.depth_integral * self.depth_sum;
                 let w = raw.clamp(-w_max, w_max);
@@ -265,17 +405,6 @@ impl Autopilot {
                 // Nose down to descend: the pitch wanted (nose up) is
                 // −asin(w / U).
                 let theta = -(w / u).clamp(-1.0, 1.0).asin();
-                if let Some(angle) = g.pitch_angle {
-                    // A ballasted body settles at an angle per curvature:
-                    // the model's curvature for the angle, plus the error's
-                    // share (pitch-gain, dimensionless here).
-                    let down = -theta + self.pitch_gain * (est.pitch - theta);
-                    let kc2 = (down / angle).clamp(-self.max_pitch, self.max_pitch);
-                    let turn = r.map_or(manual[0], |r| {
-                        (r / (g.turn * u)).clamp(-self.max_turn, self.max_turn)
-                    });
-                    return [turn, kc2];
-                }
                 // Unballasted: reached at a nose-down rate.
                 Some((self.pitch_gain * (est.pitch - theta)).clamp(-self.max_rate, self.max_rate))
             }
@@ -321,6 +450,9 @@ mod tests {
             pitch: 1.0,
             pitch_angle,
             speed: 0.5,
+            dive: pitch_angle.map(|_| DiveTable {
+                rate: [[0.3; DIVE_FREQUENCIES.len()]; DIVE_AMPLITUDES.len()],
+            }),
         };
         let mut a = Autopilot::new(&Config::default(), gains);
         a.speed = 0.5;
@@ -344,6 +476,7 @@ mod tests {
             0.5,
             [0.7, -0.3],
             0.2,
+            [1.0, 1.0],
         );
         assert_eq!(out, [0.7, -0.3]);
     }
@@ -356,12 +489,28 @@ mod tests {
             depth: None,
         };
         // 90° to the left: the largest rate, 30°/s, at 0.5 m/s and gain 1.
-        let [turn, pitch] = a.steer(0.01, &hold, &estimate(0.0, 1.0), 0.5, [0.0, 0.4], 0.0);
+        let [turn, pitch] = a.steer(
+            0.01,
+            &hold,
+            &estimate(0.0, 1.0),
+            0.5,
+            [0.0, 0.4],
+            0.0,
+            [1.0, 1.0],
+        );
         let want = 30f64.to_radians() / 0.5;
         assert!((turn - want).abs() < 1e-3, "{turn} vs {want}");
         assert_eq!(pitch, 0.4, "the free axis stays the operator's");
         for _ in 0..1000 {
-            a.steer(0.01, &hold, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+            a.steer(
+                0.01,
+                &hold,
+                &estimate(0.0, 1.0),
+                0.5,
+                [0.0; 2],
+                0.0,
+                [1.0, 1.0],
+            );
         }
         assert_eq!(a.heading_sum, 0.0, "saturated: no integration");
         // To the right, the other way.
@@ -369,7 +518,15 @@ mod tests {
             heading: Some(350.0),
             depth: None,
         };
-        let [turn, _] = a.steer(0.01, &right, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+        let [turn, _] = a.steer(
+            0.01,
+            &right,
+            &estimate(0.0, 1.0),
+            0.5,
+            [0.0; 2],
+            0.0,
+            [1.0, 1.0],
+        );
         assert!(turn < 0.0);
         // Already turning left hard: the stopping distance covers a small
         // remaining error, so the law eases off (turns right) early.
@@ -377,8 +534,85 @@ mod tests {
             heading: Some(5.0),
             depth: None,
         };
-        let [turn, _] = a.steer(0.01, &near, &estimate(0.0, 1.0), 0.5, [0.0; 2], 1.0);
+        let [turn, _] = a.steer(
+            0.01,
+            &near,
+            &estimate(0.0, 1.0),
+            0.5,
+            [0.0; 2],
+            1.0,
+            [1.0, 1.0],
+        );
         assert!(turn < 0.0, "eases off: {turn}");
+    }
+
+    /// A slow gait's body climbs under a diving curvature (its authority
+    /// is negative): the law asks for the opposite curvature to dive, and
+    /// an unreachable target does not wind the integral up.
+    #[test]
+    fn a_reversed_authority_reverses_the_curvature() {
+        let mut a = autopilot(Some(0.6));
+        let mut table = a.gains.dive.expect("a table");
+        for row in &mut table.rate {
+            row[0] = -0.1;
+        }
+        a.gains.dive = Some(table);
+        let down = Hold {
+            heading: None,
+            depth: Some(2.0),
+        };
+        let [_, slow] = a.steer(
+            0.01,
+            &down,
+            &estimate(0.0, 1.0),
+            0.5,
+            [0.0; 2],
+            0.0,
+            [0.5, 0.5],
+        );
+        assert!(slow < 0.0, "climbing curvature to dive: {slow}");
+        let [_, fast] = a.steer(
+            0.01,
+            &down,
+            &estimate(0.0, 1.0),
+            0.5,
+            [0.0; 2],
+            0.0,
+            [1.0, 1.0],
+        );
+        assert!(fast > 0.0, "{fast}");
+        for _ in 0..1000 {
+            a.steer(
+                0.01,
+                &down,
+                &estimate(0.0, 1.0),
+                0.5,
+                [0.0; 2],
+                0.0,
+                [0.5, 0.5],
+            );
+        }
+        assert_eq!(a.depth_sum, 0.0, "saturated: no integration");
+    }
+
+    #[test]
+    fn the_dive_table_interpolates_and_falls_to_nothing_at_rest() {
+        let mut rate = [[0.0; DIVE_FREQUENCIES.len()]; DIVE_AMPLITUDES.len()];
+        for (i, row) in rate.iter_mut().enumerate() {
+            for (j, r) in row.iter_mut().enumerate() {
+                *r = i as f64 + 10.0 * j as f64;
+            }
+        }
+        let t = DiveTable { rate };
+        assert!((t.at(0.4, 1.0) - 11.0).abs() < 1e-12);
+        assert!((t.at(0.5, 1.25) - 16.5).abs() < 1e-12);
+        assert!(
+            (t.at(1.0, 3.0) - 34.0).abs() < 1e-12,
+            "the last column beyond"
+        );
+        assert!((t.at(0.1, 0.5) - 0.0).abs() < 1e-12);
+        assert!((t.at(0.1, 1.0) - 5.0).abs() < 1e-12, "half the lowest row");
+        assert_eq!(t.at(0.0, 1.0), 0.0);
     }
 
     #[test]
@@ -389,13 +623,29 @@ mod tests {
                 heading: None,
                 depth: Some(2.0),
             };
-            let [_, pitch] = a.steer(0.01, &down, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+            let [_, pitch] = a.steer(
+                0.01,
+                &down,
+                &estimate(0.0, 1.0),
+                0.5,
+                [0.0; 2],
+                0.0,
+                [1.0, 1.0],
+            );
             assert!(pitch > 0.0, "{gains:?}: dives, {pitch}");
             let up = Hold {
                 heading: None,
                 depth: Some(0.2),
             };
-            let [_, pitch] = a.steer(0.01, &up, &estimate(0.0, 1.0), 0.5, [0.0; 2], 0.0);
+            let [_, pitch] = a.steer(
+                0.01,
+                &up,
+                &estimate(0.0, 1.0),
+                0.5,
+                [0.0; 2],
+                0.0,
+                [1.0, 1.0],
+            );
             assert!(pitch < 0.0, "{gains:?}: climbs, {pitch}");
         }
     }

@@ -639,6 +639,10 @@ impl Controller {
                 self.report.forward_speed,
                 [target.turn, target.pitch],
                 self.turn.state().position,
+                [
+                    self.amplitude.state().position,
+                    self.frequency.state().position,
+                ],
             );
         }
         self.hold = d.hold;

@@ -196,8 +196,17 @@ impl Nav {
 
     /// One control period of `dt` seconds at `now`: propagates the
     /// estimate with the model's `pred`, takes the newest sample, and
-    /// judges the sensor's health.
+    /// judges the sensor's health ([`Nav::step_on_bus`], the bus's clock
+    /// the loop's: a bus heard in every period).
     pub fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
+        self.step_on_bus(now, now, dt, pred);
+    }
+
+    /// [`Nav::step`] with the bus's clock `bus` (the time of the periods
+    /// in which the bus carried a frame, anyone's): the sensor is silent
+    /// when the bus carried frames for `[sensor] timeout` and none of its
+    /// samples ([`crate::sensors::frames::SampleReader::silence`]).
+    pub fn step_on_bus(&mut self, now: Nanos, bus: Nanos, dt: f64, pred: &Prediction) {
         self.forward = pred.forward;
         if self.initialised {
             let w = pred.rates + self.rate_bias;
@@ -215,7 +224,7 @@ impl Nav {
             self.corrected_at = Some(at);
             self.correct(&s, pred, ts);
         }
-        self.health = self.judge(now);
+        self.health = self.judge(now, bus);
     }
 
     fn correct(&mut self, s: &HeadSample, pred: &Prediction, ts: f64) {
@@ -298,10 +307,10 @@ impl Nav {
         };
     }
 
-    fn judge(&self, now: Nanos) -> SensorHealth {
+    fn judge(&mut self, now: Nanos, bus: Nanos) -> SensorHealth {
         // Booting (silent once the timeout has passed five times over), or
         // silent.
-        if let Some(h) = self.reader.silence(now, self.started, self.timeout) {
+        if let Some(h) = self.reader.silence(now, bus, self.started, self.timeout) {
             h
         } else if self
             .errors
@@ -548,5 +557,48 @@ mod tests {
         assert_eq!(n.health(), SensorHealth::Error);
         n.step(MS * 1300, 0.01, &Prediction::still());
         assert_eq!(n.health(), SensorHealth::Silent, "0.1 s timeout");
+    }
+
+    /// Silence is counted on the bus (issue 46, finding 11): nothing from
+    /// anyone for twice the timeout (a stalled robot) is not the sensor's
+    /// silence; the bus carrying frames for the timeout without a sample
+    /// is, and so are five timeouts without one on any clock.
+    #[test]
+    fn silence_is_counted_on_the_bus() {
+        let mut n = nav(true);
+        let (mut now, mut bus) = (MS * 1000, MS * 1000);
+        for f in frames(true, &sample(0, 0.0)) {
+            n.ingest(now, &f);
+        }
+        n.step_on_bus(now, bus, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Ok);
+        // The whole bus quiet for 0.2 s (timeout 0.1 s): its clock stands.
+        now += MS * 200;
+        n.step_on_bus(now, bus, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Ok, "a quiet bus");
+        // The vertebrae talk again, the sensor does not: silent once they
+        // have talked for the timeout.
+        for _ in 0..10 {
+            (now, bus) = (now + MS * 10, bus + MS * 10);
+            n.step_on_bus(now, bus, 0.01, &Prediction::still());
+            assert_eq!(n.health(), SensorHealth::Ok, "{bus:?}");
+        }
+        (now, bus) = (now + MS * 10, bus + MS * 10);
+        n.step_on_bus(now, bus, 0.01, &Prediction::still());
+        assert_eq!(
+            n.health(),
+            SensorHealth::Silent,
+            "others heard, not the sensor"
+        );
+        // Nothing from anyone for five timeouts: silent.
+        let mut n = nav(true);
+        for f in frames(true, &sample(0, 0.0)) {
+            n.ingest(MS * 1000, &f);
+        }
+        n.step_on_bus(MS * 1000, MS * 1000, 0.01, &Prediction::still());
+        n.step_on_bus(MS * 1490, MS * 1000, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Ok);
+        n.step_on_bus(MS * 1510, MS * 1000, 0.01, &Prediction::still());
+        assert_eq!(n.health(), SensorHealth::Silent, "a bus silent for 0.5 s");
     }
 }

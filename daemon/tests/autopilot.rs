@@ -212,6 +212,39 @@ fn every_sensor_fault_ends_the_hold_in_the_safe_state() {
     }
 }
 
+/// Issue 46, finding 11: CI's `check-heading` failed with "head sensor
+/// lost" while fuzzing loaded the machine: the built-in robot's thread (the
+/// sensor and the vertebrae alike) went without the CPU for longer than
+/// the sensor's 0.1 s timeout, and the daemon, counting silence on its own
+/// clock, took a stalled simulation for a silent sensor. A robot that
+/// says nothing at all is the drives' liveness watch's to judge
+/// (heartbeat-timeout, 0.35 s); the sensor is silent when the bus carries
+/// the others' frames and not its own.
+#[test]
+fn a_stalled_robot_is_not_a_silent_sensor() {
+    let mut rig = Rig::new(&config(), 12, [0.0; 3]);
+    let h0 = swimming(&mut rig);
+    hold_heading(&mut rig, h0 + 30.0);
+    rig.run(1.0, |_| {});
+    // 0.2 s: twice the sensor's timeout, within the heartbeats'.
+    rig.starve_robot(0.2);
+    let mut worst = SensorHealth::Ok;
+    rig.run(3.0, |r| {
+        let h = SensorHealth::from_code(r.state().nav.sensor).expect("a health");
+        if h != SensorHealth::Ok {
+            worst = h;
+        }
+    });
+    let s = rig.state();
+    assert_eq!(s.nav.hold_exit, 0, "the hold was let go: {worst:?}");
+    assert_eq!(s.nav.hold, 1, "heading still held");
+    assert_eq!(s.mode, Mode::Swimming as u8);
+    // The sensor alone silent while the vertebrae talk is still silence.
+    rig.scenario_from_now("0.1 sensor silent");
+    assert!(rig.run_until(2.0, |r| r.state().nav.hold_exit
+        == SensorHealth::Silent as u8));
+}
+
 #[test]
 fn holds_need_a_sensor_and_control() {
     // No sensor configured.
@@ -270,4 +303,109 @@ fn depth_hold_reaches_and_keeps_its_target() {
     let s = rig.state();
     assert_eq!(s.mode, Mode::Swimming as u8);
     assert_eq!(s.nav.hold, 3, "heading and depth held");
+}
+
+/// Issue 46, finding 1: at amplitude 0.3 a depth hold 0.2 m below the
+/// start climbed through the surface (−0.46 m after 30 s here, the
+/// curvature at its diving limit all along): so slow a body climbs under a
+/// diving curvature, and the law now takes the sign and size of that from
+/// the model's dive table.
+///
+/// Bound: within 15 cm over the last 10 s of 30. Measured 11.7 cm (a slow
+/// swing about the target: the body's authority there is 0.03 m/s per
+/// 1/m, and its pitch answers a curvature change first in the other
+/// sense); the old law ended 1.66 m off.
+#[test]
+fn depth_hold_holds_at_low_amplitude() {
+    let mut rig = Rig::new(&config(), 11, [0.0; 3]);
+    rig.swim_at(0.3, 1.0);
+    rig.run(4.0, |_| {});
+    let target = ORIGIN_DEPTH + 0.2;
+    rig.ok(Command::Hold(Hold {
+        heading: None,
+        depth: Some(target),
+    }));
+    let mut trace = Vec::new();
+    let start = rig.time();
+    let mut late = 0.0f64;
+    rig.run(30.0, |r| {
+        let d = true_depth(&r.truth());
+        let t = r.time() - start;
+        if trace.len() < (t / 2.0) as usize {
+            trace.push(format!("{d:.2}"));
+        }
+        if t > 20.0 {
+            late = late.max((d - target).abs());
+        }
+    });
+    eprintln!("amplitude 0.3, depth {target} m: {}", trace.join(" "));
+    assert!(
+        late < 0.1,
+        "{late:.3} m off the target after 20 s: {}",
+        trace.join(" ")
+    );
+}
+
+/// The operating grid (docs/autopilot.md, "Measured"): amplitude ×
+/// frequency × current (none, or 0.1 m/s across the path), a 0.2 m depth
+/// step held with the heading, 30 s. Prints one JSON line per point: the
+/// settle time (the last time beyond ±5 cm; 30 = never settled), the
+/// steady error (the worst over the last 10 s) and the heading's. Long
+/// (24 closed loops): run by hand,
+/// `cargo test --workspace --all-features --test autopilot -- --ignored depth_hold_grid --nocapture`.
+#[test]
+#[ignore = "long (24 closed loops of 34 s): the figures of docs/autopilot.md, by hand"]
+fn depth_hold_grid() {
+    let mut points = Vec::new();
+    for current in [0.0, 0.1] {
+        for amplitude in [0.2, 0.3, 0.6, 1.0] {
+            for frequency in [0.5, 1.0, 1.5] {
+                points.push((amplitude, frequency, current));
+            }
+        }
+    }
+    let lines: Vec<_> = points
+        .into_iter()
+        .map(|(a, f, c)| {
+            std::thread::spawn(move || {
+                let mut rig = Rig::new(&config(), 2, [0.0, c, 0.0]);
+                rig.swim_at(a, f);
+                rig.run(4.0, |_| {});
+                let m = depth_step(&mut rig, 0.2, 30.0, 20.0);
+                format!(
+                    "{{\"amplitude\":{a},\"frequency_hz\":{f},\"current_mps\":{c},\"settle_5cm_s\":{:.1},\"steady_error_m\":{:.3},\"overshoot_m\":{:.3},\"heading_error_deg\":{:.1},\"max_roll_deg\":{:.0}}}",
+                    m.last_outside, m.late, m.overshoot, m.heading, m.roll
+                )
+            })
+        })
+        .collect();
+    for l in lines {
+        println!("{}", l.join().expect("a grid point"));
+    }
+}
+
+/// Issue 46: the simulated body swam on above the water (a held 1.2 m
+/// became −1.6 m). Climbing hard from 1 m (full amplitude, the pitch
+/// curvature climbing at 0.26 m/s), the nose reaches the surface and
+/// stays on it; the sensor's depth says so too.
+#[test]
+fn the_simulated_body_cannot_swim_above_the_surface() {
+    let mut rig = Rig::new(&config(), 13, [0.0; 3]);
+    rig.swim(1.0);
+    rig.run(3.0, |_| {});
+    rig.ok(Command::Swim(anguilla_ipc::vocabulary::SwimParams {
+        amplitude: 1.0,
+        frequency: 1.0,
+        turn: 0.0,
+        pitch: -0.5,
+    }));
+    let (mut shallowest, mut estimated) = (f64::INFINITY, f64::INFINITY);
+    rig.run(12.0, |r| {
+        shallowest = shallowest.min(true_depth(&r.truth()));
+        estimated = estimated.min(r.state().nav.depth_m as f64);
+    });
+    assert!(shallowest >= 0.0, "the nose at {shallowest:.3} m");
+    assert!(rig.robot.stats().surfaced > 0, "never reached the surface");
+    // Pressure noise 20 Pa is 2 mm of water; the filter follows within cm.
+    assert!(estimated > -0.05, "estimated {estimated:.3} m");
 }

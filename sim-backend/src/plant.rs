@@ -417,6 +417,23 @@ impl Plant {
         }
     }
 
+    /// The water's surface, `z_surface` (m, the model's z, up) above the
+    /// origin: a nose above it is put back on it and stops rising (its
+    /// upward velocity dropped), the rest of the body following the head's
+    /// frame as always. Deliberately simple: no change of buoyancy or drag
+    /// for the part of the body out of the water, no waves; enough that
+    /// the simulated robot cannot swim on above the water (issue 46: it
+    /// did, to a depth of −1.6 m). Returns whether the nose is at the
+    /// surface.
+    pub fn surface(&mut self, z_surface: f64) -> bool {
+        if self.head.position.z < z_surface {
+            return false;
+        }
+        self.head.position.z = z_surface;
+        self.head.velocity.z = self.head.velocity.z.min(0.0);
+        true
+    }
+
     /// Puts the head back at the origin with the given state (a test's
     /// initial condition); the joints keep their motion.
     pub fn reset_head(&mut self, head: HeadState) {

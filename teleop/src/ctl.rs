@@ -451,7 +451,15 @@ impl Ctl {
         }
         let mut last_send = Instant::now();
         loop {
-            if duration.is_some_and(|d| start.elapsed() >= d) || interrupted() {
+            if duration.is_some_and(|d| start.elapsed() >= d) {
+                // The swim's time is the hold's settle time: a target not
+                // reached by then is a failure, named (issue 46).
+                return match hold_missed(&self.state, &hold) {
+                    Some(missed) => Err(CtlError::Refused(missed)),
+                    None => Ok(()),
+                };
+            }
+            if interrupted() {
                 return Ok(());
             }
             if last_send.elapsed() >= self.keep_period() {
@@ -465,6 +473,42 @@ impl Ctl {
             }
         }
     }
+}
+
+/// How far off a hold may end and count as reached: the depth (m).
+pub const DEPTH_REACHED: f64 = 0.2;
+/// How far off a hold may end and count as reached: the heading (deg).
+pub const HEADING_REACHED: f64 = 10.0;
+
+/// What `hold` missed at the end of a swim, from the daemon's estimate in
+/// `s` ("not converging: depth 2.50 m for 1.20 m"), or `None` if every
+/// held target is within [`DEPTH_REACHED`] and [`HEADING_REACHED`].
+pub fn hold_missed(s: &StateSnapshot, hold: &Hold) -> Option<String> {
+    let mut missed = Vec::new();
+    if let Some(h) = hold.heading {
+        let now = s.nav.heading_deg as f64;
+        let off = (now - h + 540.0).rem_euclid(360.0) - 180.0;
+        let reached = off.abs() <= HEADING_REACHED;
+        if !reached {
+            missed.push(format!(
+                "heading {now:.1} deg for {:.1} deg",
+                h.rem_euclid(360.0)
+            ));
+        }
+    }
+    if let Some(d) = hold.depth {
+        let now = s.nav.depth_m as f64;
+        let reached = (now - d).abs() <= DEPTH_REACHED;
+        if !reached {
+            missed.push(format!("depth {now:.2} m for {d:.2} m"));
+        }
+    }
+    (!missed.is_empty()).then(|| {
+        format!(
+            "not converging: {} at the end of the swim (within {DEPTH_REACHED} m and {HEADING_REACHED} deg counts as reached)",
+            missed.join(", ")
+        )
+    })
 }
 
 /// Why a swim ended, from the daemon's state: its mode, the cause, and
@@ -496,6 +540,45 @@ pub fn swim_ended(s: &StateSnapshot) -> String {
 impl Drop for Ctl {
     fn drop(&mut self) {
         self.release();
+    }
+}
+
+#[cfg(test)]
+mod hold_tests {
+    use super::*;
+
+    /// Issue 46: `ctl swim --depth 1.2 --for 30` that ended at 2.5 m
+    /// printed "done: ready" and exited 0.
+    #[test]
+    fn a_hold_that_missed_its_target_is_named() {
+        let mut s = StateSnapshot::default();
+        s.nav.depth_m = 2.5;
+        s.nav.heading_deg = 355.0;
+        let depth = Hold {
+            heading: None,
+            depth: Some(1.2),
+        };
+        let m = hold_missed(&s, &depth).expect("missed");
+        assert!(m.contains("not converging: depth 2.50 m for 1.20 m"), "{m}");
+        s.nav.depth_m = 1.3;
+        assert_eq!(hold_missed(&s, &depth), None);
+        // Across north: 355 for 5 is 10 degrees off, reached.
+        let heading = Hold {
+            heading: Some(5.0),
+            depth: None,
+        };
+        assert_eq!(hold_missed(&s, &heading), None);
+        let heading = Hold {
+            heading: Some(60.0),
+            depth: None,
+        };
+        let m = hold_missed(&s, &heading).expect("missed");
+        assert!(m.contains("heading 355.0 deg for 60.0 deg"), "{m}");
+        s.nav.depth_m = f32::NAN;
+        assert!(
+            hold_missed(&s, &depth).is_some(),
+            "no estimate is no arrival"
+        );
     }
 }
 

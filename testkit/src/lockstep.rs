@@ -174,6 +174,19 @@ impl Rig {
         Nanos::from_nanos(t.as_nanos() as u64)
     }
 
+    /// The robot's thread starved of the CPU for `seconds` (a loaded
+    /// machine: CI's fuzzing beside the built-in robot): the controller's
+    /// periods go on, the robot sends nothing, and catches up on the next
+    /// [`Rig::period`] with a burst of everything it owes.
+    pub fn starve_robot(&mut self, seconds: f64) {
+        let end = self.time() + seconds;
+        while self.time() < end {
+            self.clock.advance(self.period);
+            let now = Nanos::from_nanos(self.clock.now().as_nanos() as u64);
+            self.control(now);
+        }
+    }
+
     /// The daemon's half: a keep-alive every 0.2 s, and the period.
     pub fn control(&mut self, now: Nanos) {
         let t = Duration::from_nanos(now.as_nanos());
@@ -221,6 +234,12 @@ impl Rig {
 
     /// Takes control, enables, and swims at full amplitude at `frequency`.
     pub fn swim(&mut self, frequency: f64) {
+        self.swim_at(1.0, frequency);
+    }
+
+    /// Takes control, enables, and swims at `amplitude` (0–1) and
+    /// `frequency` (Hz), straight.
+    pub fn swim_at(&mut self, amplitude: f64, frequency: f64) {
         self.ok(Command::TakeControl);
         self.ok(Command::Enable);
         assert!(
@@ -228,7 +247,7 @@ impl Rig {
             "ready"
         );
         self.ok(Command::Swim(SwimParams {
-            amplitude: 1.0,
+            amplitude,
             frequency,
             turn: 0.0,
             pitch: 0.0,

@@ -13,7 +13,9 @@ pub struct SensorConfig {
     pub node: u8,
     /// Its sample rate (Hz), for the bus budget: 100..=200.
     pub rate_hz: u16,
-    /// A sensor silent this long is lost (s).
+    /// A sensor silent this long is lost (s), counted on the bus's clock:
+    /// periods in which no frame at all arrived do not count
+    /// (docs/autopilot.md, "Health and the safe state").
     pub timeout: f64,
     /// Water density (kg/m³): depth = (pressure − surface-pressure) / (ρ g).
     pub water_density: f64,

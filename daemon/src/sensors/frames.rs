@@ -14,6 +14,10 @@ use anguilla_protocol::message::{
 };
 use anguilla_protocol::time::Nanos;
 
+/// With nothing at all on the bus, a sensor is silent after this many
+/// timeouts (the drives' liveness watch normally ends the swim first).
+pub const SILENT_BUS_FACTOR: u64 = 5;
+
 #[derive(Debug, Clone, Copy, Default)]
 struct Partial {
     sample: Option<u8>,
@@ -31,6 +35,8 @@ pub struct SampleReader {
     last: Option<HeadSample>,
     counter: Option<u8>,
     last_at: Option<Nanos>,
+    /// The bus's clock at the last sample ([`SampleReader::silence`]).
+    last_bus: Nanos,
     same: u32,
     samples: u64,
     lost: u64,
@@ -47,6 +53,7 @@ impl SampleReader {
             last: None,
             counter: None,
             last_at: None,
+            last_bus: Nanos::ZERO,
             same: 0,
             samples: 0,
             lost: 0,
@@ -156,13 +163,36 @@ impl SampleReader {
     }
 
     /// Waiting (booting: no sample yet, for five timeouts from `started`)
-    /// or Silent (no sample for `timeout`), or `None` while samples are
-    /// current: the first rule of every IMU's health.
-    pub fn silence(&self, now: Nanos, started: Nanos, timeout: Nanos) -> Option<SensorHealth> {
+    /// or Silent, or `None` while samples are current: the first rule of
+    /// every IMU's health. Called once a period, after the period's frames.
+    ///
+    /// Silence is counted on the bus's clock (`bus`: the time of the
+    /// periods in which the bus carried a frame, anyone's), not on the
+    /// loop's: silent when the bus carried frames for `timeout` since this
+    /// sensor's last sample, or when [`SILENT_BUS_FACTOR`] timeouts passed
+    /// without one on any clock. A bus on which nobody talks (a robot
+    /// stalled as a whole: the built-in robot's thread starved of the CPU)
+    /// is the drives' liveness watch's to judge
+    /// (`control.heartbeat-timeout`); it is not this sensor's silence.
+    pub fn silence(
+        &mut self,
+        now: Nanos,
+        bus: Nanos,
+        started: Nanos,
+        timeout: Nanos,
+    ) -> Option<SensorHealth> {
+        if self.last_at == Some(now) {
+            self.last_bus = bus;
+        }
         match self.last_at {
             None if now.saturating_sub(started) > timeout * 5 => Some(SensorHealth::Silent),
             None => Some(SensorHealth::Waiting),
-            Some(at) if now.saturating_sub(at) > timeout => Some(SensorHealth::Silent),
+            Some(at)
+                if bus.saturating_sub(self.last_bus) > timeout
+                    || now.saturating_sub(at) > timeout * SILENT_BUS_FACTOR =>
+            {
+                Some(SensorHealth::Silent)
+            }
             Some(_) => None,
         }
     }

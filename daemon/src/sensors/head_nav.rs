@@ -22,8 +22,8 @@ impl Sensor for Nav {
         Nav::ingest(self, now, frame)
     }
 
-    fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
-        Nav::step(self, now, dt, pred)
+    fn step(&mut self, now: Nanos, bus: Nanos, dt: f64, pred: &Prediction) {
+        Nav::step_on_bus(self, now, bus, dt, pred)
     }
 
     fn health(&self) -> SensorHealth {

@@ -40,8 +40,10 @@ pub trait Sensor: Send {
     /// frame is not one of its kind's (it then goes to the drives).
     fn ingest(&mut self, now: Nanos, frame: &Frame) -> bool;
     /// One control period of `dt` s at `now`, with what the model predicts
-    /// of the head.
-    fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction);
+    /// of the head; `bus` is the bus's clock, which moves on only in
+    /// periods in which the bus carried a frame, anyone's (silence is
+    /// counted on it: [`frames::SampleReader::silence`]).
+    fn step(&mut self, now: Nanos, bus: Nanos, dt: f64, pred: &Prediction);
     /// Its health after the last step.
     fn health(&self) -> SensorHealth;
     /// Its entry of the snapshot (kind, id and health are filled by the
@@ -61,6 +63,13 @@ pub struct Sensors {
     list: Vec<Box<dyn Sensor>>,
     /// Node id (0..=63) → index in `list`.
     by_id: [u8; 64],
+    /// The bus's clock: the time of the periods in which the bus carried
+    /// a frame, anyone's.
+    bus: Nanos,
+    /// Whether a frame came since the last step.
+    heard: bool,
+    /// The last step's time.
+    stepped: Nanos,
 }
 
 impl Sensors {
@@ -81,12 +90,20 @@ impl Sensors {
                 *slot = i as u8;
             }
         }
-        Self { list, by_id }
+        Self {
+            list,
+            by_id,
+            bus: now,
+            heard: false,
+            stepped: now,
+        }
     }
 
     /// Gives `frame` to the sensor whose id it carries; `false` if no
-    /// sensor takes it.
+    /// sensor takes it. Every frame of the bus comes here first (the
+    /// bus was heard in this period).
     pub fn ingest(&mut self, now: Nanos, frame: &Frame) -> bool {
+        self.heard = true;
         let Some(raw) = frame.id().as_standard() else {
             return false;
         };
@@ -104,10 +121,16 @@ impl Sensors {
         self.list.is_empty()
     }
 
-    /// Moves every sensor on by one period.
+    /// Moves every sensor on by one period; the bus's clock moves on by
+    /// it if a frame came in it.
     pub fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
+        if self.heard {
+            self.bus += now.saturating_sub(self.stepped);
+        }
+        self.heard = false;
+        self.stepped = now;
         for s in &mut self.list {
-            s.step(now, dt, pred);
+            s.step(now, self.bus, dt, pred);
         }
     }
 

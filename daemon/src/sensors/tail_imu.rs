@@ -43,8 +43,8 @@ impl TailImu {
         })
     }
 
-    fn judge(&self, now: Nanos) -> SensorHealth {
-        if let Some(h) = self.reader.silence(now, self.started, self.timeout) {
+    fn judge(&mut self, now: Nanos, bus: Nanos) -> SensorHealth {
+        if let Some(h) = self.reader.silence(now, bus, self.started, self.timeout) {
             return h;
         }
         let Some(s) = self.reader.last() else {
@@ -75,8 +75,8 @@ impl Sensor for TailImu {
         self.reader.ingest(now, frame).is_some()
     }
 
-    fn step(&mut self, now: Nanos, _dt: f64, _pred: &Prediction) {
-        self.health = self.judge(now);
+    fn step(&mut self, now: Nanos, bus: Nanos, _dt: f64, _pred: &Prediction) {
+        self.health = self.judge(now, bus);
     }
 
     fn health(&self) -> SensorHealth {
@@ -152,7 +152,7 @@ mod tests {
     fn samples_become_attitude_and_rates_and_silence_is_seen() {
         let mut t = imu();
         let pred = Prediction::still();
-        t.step(10 * MS, 0.01, &pred);
+        t.step(10 * MS, 10 * MS, 0.01, &pred);
         assert_eq!(t.health(), SensorHealth::Waiting);
         // Another node's frames are not its own.
         for f in sample(20, 0, 0.0) {
@@ -163,7 +163,7 @@ mod tests {
                 assert!(t.ingest(20 * MS + u64::from(i) * 10 * MS, &f));
             }
         }
-        t.step(45 * MS, 0.01, &pred);
+        t.step(45 * MS, 45 * MS, 0.01, &pred);
         assert_eq!(t.health(), SensorHealth::Ok);
         let mut e = SensorEntry::default();
         t.fill(&mut e);
@@ -177,7 +177,12 @@ mod tests {
         assert_eq!(e.values[3..5], [0.1, -0.2]);
         assert_eq!(e.values[6], 12.5);
         // Past the timeout: silent.
-        t.step(45 * MS + Nanos::from_secs_f64(0.2), 0.01, &pred);
+        t.step(
+            45 * MS + Nanos::from_secs_f64(0.2),
+            45 * MS + Nanos::from_secs_f64(0.2),
+            0.01,
+            &pred,
+        );
         assert_eq!(t.health(), SensorHealth::Silent);
     }
 
@@ -210,8 +215,8 @@ mod tests {
                 t2.ingest(u64::from(i) * 10 * MS, &f);
             }
         }
-        t.step(75 * MS, 0.01, &Prediction::still());
-        t2.step(75 * MS, 0.01, &Prediction::still());
+        t.step(75 * MS, 75 * MS, 0.01, &Prediction::still());
+        t2.step(75 * MS, 75 * MS, 0.01, &Prediction::still());
         assert_eq!(t.health(), SensorHealth::Ok);
         assert_eq!(t2.health(), SensorHealth::Stuck);
     }

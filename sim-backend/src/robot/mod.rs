@@ -92,6 +92,9 @@ pub struct SimStats {
     pub flood_frames: u64,
     /// Scenario events applied.
     pub events: u64,
+    /// Physics steps that ended with the nose at the water's surface
+    /// (put back on it: [`crate::plant::Plant::surface`]).
+    pub surfaced: u64,
     /// Real time the simulation gave up to keep pace
     /// ([`SimRobot::run_realtime`] catches up at most
     /// [`MAX_CATCH_UP`] at once): non-zero when the machine is too slow
@@ -530,6 +533,16 @@ impl SimRobot {
         match self.plant.step(&self.inputs) {
             Ok(_) => {}
             Err(_) => self.stats.model_errors += 1,
+        }
+        // The water's surface: the nose's depth never below 0.
+        let origin_depth = self
+            .sensor
+            .as_ref()
+            .map_or(crate::sensor::DEFAULT_ORIGIN_DEPTH, |s| {
+                s.config().origin_depth
+            });
+        if self.plant.surface(origin_depth) {
+            self.stats.surfaced += 1;
         }
         if let Some(sensor) = &mut self.sensor {
             let h: &HeadState = self.plant.head();
