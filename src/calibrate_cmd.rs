@@ -8,7 +8,7 @@ use std::time::Instant;
 use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::swim::{self, ReadSwim};
 use anguilla_model::identify::{
-    self, Coefficient, Evaluation, FitOptions, IDENTIFIED_WITHIN, MAX_CORRELATION,
+    self, Coefficient, Evaluation, FitOptions, IDENTIFIED_WITHIN, MAX_CORRELATION, check,
 };
 use anyhow::{Context, bail};
 use clap::Args;
@@ -53,6 +53,12 @@ pub struct CalibrateArgs {
     /// through to its target).
     #[arg(long, value_name = "FILE")]
     write: Option<PathBuf>,
+    /// Fit even when a check of the recordings before the fit failed (a
+    /// session too short, a gap, a saturated or outlying torque): for a
+    /// look at what the fit makes of them. `--write` is refused all the
+    /// same.
+    #[arg(long)]
+    ignore_checks: bool,
     /// The largest session (or tracking) file read, in MiB: a bigger one
     /// is refused by name. Sessions are streamed, not read whole.
     #[arg(long, value_name = "MIB", default_value_t = swim::MAX_SESSION_BYTES >> 20)]
@@ -157,6 +163,45 @@ fn errors(o: &mut String, label: &str, ev: &Evaluation) {
     }
 }
 
+/// Checks session `r` before the fit ([`check::check`]), writing what was
+/// found; a session with no swim (fitted or held out) is an error. Returns
+/// its seconds of swimming and how many checks refuse the fit (a held-out
+/// session's findings are warnings: it is scored all the same).
+fn check_session(
+    o: &mut String,
+    limit: f64,
+    r: &ReadSwim,
+    fitted: bool,
+) -> anyhow::Result<(f64, usize)> {
+    let (moving, found) = check::check(&r.swim, limit)
+        .map_err(|e| anyhow::anyhow!("{}{e}", if fitted { "" } else { "--holdout " }))?;
+    let _ = writeln!(
+        o,
+        "  checked: {moving:.1} s of swimming{}",
+        if found.is_empty() {
+            "; no gap, no saturated or outlying torque"
+        } else {
+            ""
+        }
+    );
+    let mut refused = 0;
+    for f in &found {
+        let tag = match (f.refuse, fitted) {
+            (true, true) => {
+                refused += 1;
+                "refused"
+            }
+            (true, false) => {
+                "warning (held out: scored all the same, and its errors below are \
+                              partly this)"
+            }
+            (false, _) => "warning",
+        };
+        let _ = writeln!(o, "  {tag}: {f}");
+    }
+    Ok((moving, refused))
+}
+
 /// Runs `anguilla calibrate`.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let fit = identify::parse_coefficients(&args.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
@@ -173,7 +218,12 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let read = read_all(&args.sessions, &args.tracking, max)?;
     let holdout = read_all(&args.holdout, &[], max)?;
     let mut o = String::new();
-    for r in read.iter().chain(&holdout) {
+    let limit = cfg
+        .limits
+        .torque
+        .min(anguilla_protocol::message::TORQUE_LIMIT);
+    let (mut swum, mut failed) = (0.0, 0usize);
+    for (i, r) in read.iter().chain(&holdout).enumerate() {
         let _ = writeln!(
             o,
             "{}: {:.1} s, {} joint samples; track from {}, heading and depth from {}{}",
@@ -201,10 +251,44 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                  of percent. Record calibration swims with [bus] fd = true (docs/calibration.md)"
             );
         }
+        let fitted = i < read.len();
+        match check_session(&mut o, limit, r, fitted) {
+            Ok((moving, refused)) => {
+                if fitted {
+                    swum += moving;
+                }
+                failed += refused;
+            }
+            Err(e) => {
+                // what was read so far, then why not
+                crate::output::out!("{o}")?;
+                return Err(e);
+            }
+        }
     }
-    // what was read, before the fit (which takes minutes)
+    if swum < check::MIN_SWIMMING {
+        failed += 1;
+        let _ = writeln!(
+            o,
+            "refused: the fitted sessions swim {swum:.1} s (the joints moving), fewer than the \
+             {} s a fit needs (`anguilla ctl calibrate-swim` swims 50 s of its 59; on 10 s the \
+             nose's drag came out ±250 %)",
+            check::MIN_SWIMMING
+        );
+    }
+    // what was read and checked, before the fit (which takes minutes)
     crate::output::out!("{o}")?;
     o.clear();
+    if failed > 0 && !args.ignore_checks {
+        bail!(
+            "refused to fit: {failed} check(s) of the recordings failed (above, 'refused'); \
+             their coefficients would be the recording's faults, not the water's \
+             (--ignore-checks fits them all the same, without --write)"
+        );
+    }
+    if failed > 0 && args.write.is_some() {
+        bail!("--write refused: {failed} check(s) of the recordings failed (above)");
+    }
     let swims: Vec<_> = read.into_iter().map(|r| r.swim).collect();
     let opts = FitOptions {
         fit,

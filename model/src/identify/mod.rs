@@ -47,6 +47,7 @@
 //! Nothing here reads a file: the daemon's `mcap_log::swim` turns a
 //! recorded session into a [`Swim`].
 
+pub mod check;
 mod lm;
 pub mod replay;
 mod smooth;
