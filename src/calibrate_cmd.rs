@@ -304,12 +304,10 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     );
     let _ = writeln!(o, "coefficient    prior   estimate ± 1σ        kept");
     for e in &result.estimates {
-        let c = e.coefficient;
-        let scale = e.estimate.abs().max(c.floor());
         let _ = writeln!(
             o,
             "{:<10} {:>8.4} {:>10.4} ± {:<8.4} {:>8.4}  {}",
-            c.name(),
+            e.coefficient.name(),
             e.prior,
             e.estimate,
             e.std_error,
@@ -317,32 +315,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             if e.identified {
                 "identified".to_string()
             } else {
-                let with = e
-                    .correlated
-                    .map(|(o, r)| format!("; correlated {r:+.2} with {}", o.name()))
-                    .unwrap_or_default();
-                format!(
-                    "NOT identified (95 % interval ±{:.0} % of {:.3}, more than {:.0} %){with}; {}: {}",
-                    200.0 * e.std_error / scale,
-                    scale,
-                    100.0 * IDENTIFIED_WITHIN,
-                    match (e.fitted, e.confounded) {
-                        (true, _) => "fitted all the same, standing in for the coefficients \
-                                      left at the prior"
-                            .to_string(),
-                        (false, Some((o, r))) => format!(
-                            "left at the prior, the swims telling only its combination with {} \
-                             (correlated {r:+.2}, beyond {MAX_CORRELATION}; the prior knowing it \
-                             better)",
-                            o.name()
-                        ),
-                        (false, None) => {
-                            "left at the prior, the swims knowing less of it than the prior"
-                                .to_string()
-                        }
-                    },
-                    c.needs()
-                )
+                format!("NOT {}", not_identified(e))
             }
         );
     }
@@ -359,6 +332,25 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     errors(&mut o, "prior coefficients:", &result.before);
     errors(&mut o, "fitted coefficients:", &result.after);
     errors(&mut o, "every estimate:", &result.estimated);
+    // what --write writes: the identified coefficients, the others kept
+    // at the present configuration's values, each with its reason
+    let written: Vec<(Coefficient, f64)> = result
+        .estimates
+        .iter()
+        .filter(|e| e.identified)
+        .map(|e| (e.coefficient, e.value))
+        .collect();
+    let notes: Vec<(Coefficient, String)> = result
+        .estimates
+        .iter()
+        .filter(|e| !e.identified)
+        .map(|e| (e.coefficient, not_identified(e)))
+        .collect();
+    let mut written_body = prior.clone();
+    for &(c, v) in &written {
+        c.set(&mut written_body, v);
+    }
+    let mut verdict = Ok(());
     if !holdout.is_empty() {
         let hs: Vec<_> = holdout.into_iter().map(|r| r.swim).collect();
         // each model with the drives' inertia, friction and lag it was fitted
@@ -374,47 +366,138 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         };
         let b = judge(&prior, &result.before)?;
         let a = judge(&result.body, &result.after)?;
+        let w = judge(&written_body, &result.after)?;
         let _ = writeln!(o, "\nheld-out sessions (not fitted):");
         errors(&mut o, "prior coefficients:", &b);
         errors(&mut o, "fitted coefficients:", &a);
+        errors(&mut o, "what --write writes:", &w);
+        verdict = held_out_verdict(&b, &w);
     }
-    let kept: Vec<_> = result.estimates.iter().filter(|e| e.fitted).collect();
-    let _ = writeln!(o, "\n# [model] fragment (the fitted coefficients):");
+    let _ = writeln!(
+        o,
+        "\n# [model] fragment (the identified coefficients; the others keep their values):"
+    );
     let _ = writeln!(o, "[model]");
-    if kept.is_empty() {
-        let _ = writeln!(o, "# none fitted: keep the current values");
+    let _ = write!(o, "{}", notes_block(&written, &notes));
+    for (c, v) in &written {
+        let _ = writeln!(o, "{} = {v:.5}", c.key());
     }
-    for e in &kept {
+    if let Some(path) = &args.write {
+        crate::output::out!("{o}")?;
+        o.clear();
+        if written.is_empty() {
+            bail!(
+                "--write refused: no coefficient identified (above), nothing to write; {} is \
+                 untouched",
+                path.display()
+            );
+        }
+        if let Err(why) = verdict {
+            bail!("--write refused: {why}; {} is untouched", path.display());
+        }
+        let shown = write_model(path, &written, &notes)?;
         let _ = writeln!(
             o,
-            "{} = {:.5}{}",
-            e.coefficient.key(),
-            e.value,
-            if e.identified {
-                ""
+            "\nwrote {} identified coefficient(s) into {shown}{}",
+            written.len(),
+            if args.holdout.is_empty() {
+                " (no --holdout: not checked on a session it was not fitted to)"
             } else {
-                "  # not identified: stands in for the coefficients left at the prior"
+                ", which predicts the held-out sessions no worse than the present one"
             }
         );
     }
-    if let Some(path) = &args.write {
-        let written = write_model(
-            path,
-            &kept
-                .iter()
-                .map(|e| (e.coefficient, e.value))
-                .collect::<Vec<_>>(),
-        )?;
-        let _ = writeln!(o, "\nwrote {} coefficient(s) into {written}", kept.len());
-    }
     crate::output::out!("{o}")
+}
+
+/// Why `e` was not identified, and what became of it.
+fn not_identified(e: &identify::Estimate) -> String {
+    let c = e.coefficient;
+    let scale = e.estimate.abs().max(c.floor());
+    let with = e
+        .correlated
+        .map(|(o, r)| format!("; correlated {r:+.2} with {}", o.name()))
+        .unwrap_or_default();
+    format!(
+        "identified (95 % interval ±{:.0} % of {:.3}, more than {:.0} %){with}; {}: {}",
+        200.0 * e.std_error / scale,
+        scale,
+        100.0 * IDENTIFIED_WITHIN,
+        match (e.fitted, e.confounded) {
+            (true, _) => "fitted all the same, standing in for the coefficients left at the \
+                          prior, so not written"
+                .to_string(),
+            (false, Some((o, r))) => format!(
+                "left at the prior, the swims telling only its combination with {} \
+                 (correlated {r:+.2}, beyond {MAX_CORRELATION}; the prior knowing it better)",
+                o.name()
+            ),
+            (false, None) => {
+                "left at the prior, the swims knowing less of it than the prior".to_string()
+            }
+        },
+        c.needs()
+    )
+}
+
+/// The comment `--write` puts under `[model]`: what it wrote, and every
+/// coefficient it did not write with its reason. Each line starts `# `.
+fn notes_block(written: &[(Coefficient, f64)], notes: &[(Coefficient, String)]) -> String {
+    let mut b = format!(
+        "{NOTE_MARK} wrote {}",
+        if written.is_empty() {
+            "nothing".to_string()
+        } else {
+            written
+                .iter()
+                .map(|(c, _)| c.key())
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    );
+    if notes.is_empty() {
+        b.push('\n');
+    } else {
+        b.push_str("; not written (their values here kept):\n");
+        for (c, why) in notes {
+            let _ = writeln!(b, "#   {}: not {why}", c.key());
+        }
+    }
+    b
+}
+
+/// The first words of the comment `--write` leaves (a later write
+/// replaces it).
+const NOTE_MARK: &str = "# anguilla calibrate:";
+
+/// Whether the configuration `--write` would write (`written`) predicts
+/// the held-out sessions no worse than the present one (`present`): its
+/// weighted cost (the fit's objective) and its speed error no larger.
+fn held_out_verdict(present: &Evaluation, written: &Evaluation) -> Result<(), String> {
+    let worse_speed = written.rms[0] > present.rms[0] * (1.0 + 1e-9);
+    if written.cost > present.cost * (1.0 + 1e-9) || worse_speed {
+        return Err(format!(
+            "on the held-out sessions the configuration it would write predicts worse than the \
+             present one (cost {:.4} against {:.4}; speed error {:.4} against {:.4} m/s RMS): \
+             the swims fitted do not carry to those held out (too short, too few gaits, or a \
+             robot that changed between them)",
+            written.cost, present.cost, written.rms[0], present.rms[0]
+        ));
+    }
+    Ok(())
 }
 
 /// Sets `values` in `path`'s `[model]` (a new file if missing), every
 /// other byte kept, checking the whole result before it replaces the file
 /// ([`anguilla::user_file`]: mode, owner and group kept; a symlink written
 /// through). Returns what was written, for the report.
-fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<String> {
+/// Above `[model]` goes [`notes_block`]: what was written and why the
+/// others were not (an earlier such comment replaced).
+fn write_model(
+    path: &Path,
+    values: &[(Coefficient, f64)],
+    notes: &[(Coefficient, String)],
+) -> anyhow::Result<String> {
     let shown = path.display();
     let (target, meta) = anguilla::user_file::resolve(path).context("--write")?;
     let text = match meta {
@@ -428,6 +511,8 @@ fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<Str
         .collect();
     let out = anguilla::user_file::set_toml(&text, "model", &entries)
         .with_context(|| format!("--write {shown}"))?;
+    let out = with_notes(&out, &notes_block(values, notes))
+        .with_context(|| format!("--write {shown}"))?;
     Config::from_toml(&out, &shown.to_string()).with_context(|| {
         format!("--write {shown}: the result would not be a valid configuration")
     })?;
@@ -437,6 +522,39 @@ fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<Str
     } else {
         format!("{shown} (the symlink's target {})", written.display())
     })
+}
+
+/// `text` (a TOML file with a `[model]` table) with `block` just above
+/// `[model]`, an earlier [`NOTE_MARK`] block there removed.
+fn with_notes(text: &str, block: &str) -> anyhow::Result<String> {
+    let mut doc: toml_edit::DocumentMut = text
+        .parse()
+        .map_err(|e| anyhow::anyhow!("not a TOML file: {e}"))?;
+    let Some(t) = doc.get_mut("model").and_then(toml_edit::Item::as_table_mut) else {
+        bail!("no [model] table to note what was written");
+    };
+    let before = t
+        .decor()
+        .prefix()
+        .and_then(|p| p.as_str())
+        .unwrap_or("")
+        .to_string();
+    // the user's lines kept, ours (the mark and its indented lines) replaced
+    let mut kept = String::new();
+    let mut ours = false;
+    for line in before.split_inclusive('\n') {
+        if line.starts_with(NOTE_MARK) {
+            ours = true;
+            continue;
+        }
+        if ours && line.starts_with("#   ") {
+            continue;
+        }
+        ours = false;
+        kept.push_str(line);
+    }
+    t.decor_mut().set_prefix(format!("{kept}{block}"));
+    Ok(doc.to_string())
 }
 
 #[cfg(test)]
@@ -471,7 +589,12 @@ mod tests {
         for planted in [".eel.toml.tmp", "eel.toml.tmp", ".eel.toml.write"] {
             symlink(&victim, d.join("robots").join(planted)).unwrap();
         }
-        let shown = write_model(&link, &[(Coefficient::C2, 2.5), (Coefficient::C3, 0.4)]).unwrap();
+        let shown = write_model(
+            &link,
+            &[(Coefficient::C2, 2.5), (Coefficient::C3, 0.4)],
+            &[],
+        )
+        .unwrap();
         assert!(shown.contains("the symlink's target"), "{shown}");
         assert_eq!(std::fs::read_to_string(&victim).unwrap(), "secret\n");
         assert!(
@@ -482,7 +605,7 @@ mod tests {
         );
         assert_eq!(
             std::fs::read_to_string(&real).unwrap(),
-            "# the eel's\n[model]\n# fitted 2026-11\nc2 = 2.5 # from the tank\nc3 = 0.4\n"
+            "# the eel's\n# anguilla calibrate: wrote c2, c3\n[model]\n# fitted 2026-11\nc2 = 2.5 # from the tank\nc3 = 0.4\n"
         );
         let m = std::fs::metadata(&real).unwrap();
         assert_eq!((m.mode() & 0o7777, (m.uid(), m.gid())), (0o640, owner));
@@ -490,7 +613,7 @@ mod tests {
         std::fs::write(&real, "[model]\nc2 = 1.0\nbogus = 1\n").unwrap();
         let e = format!(
             "{:#}",
-            write_model(&link, &[(Coefficient::C2, 2.5)]).unwrap_err()
+            write_model(&link, &[(Coefficient::C2, 2.5)], &[]).unwrap_err()
         );
         assert!(e.contains("would not be a valid configuration"), "{e}");
         assert_eq!(
@@ -498,5 +621,53 @@ mod tests {
             "[model]\nc2 = 1.0\nbogus = 1\n"
         );
         std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Issue 46, finding 3: `--write` wrote coefficients it called "not
+    /// identified" as bare numbers. Now only the identified ones are
+    /// written; every other is a comment with its reason, and a later
+    /// write replaces that comment (the user's own kept).
+    #[test]
+    fn write_writes_the_identified_and_comments_the_others_with_their_reason() {
+        let d = std::env::temp_dir().join(format!("anguilla-cal-notes-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        let f = d.join("anguilla.toml");
+        std::fs::write(&f, "# mine\n[model]\nc-p = 0.036\n").unwrap();
+        let notes = [(
+            Coefficient::CP,
+            "identified (95 % interval ±250 %)".to_string(),
+        )];
+        write_model(&f, &[(Coefficient::C2, 2.5)], &notes).unwrap();
+        let text = std::fs::read_to_string(&f).unwrap();
+        assert_eq!(
+            text,
+            "# mine\n# anguilla calibrate: wrote c2; not written (their values here kept):\n\
+             #   c-p: not identified (95 % interval ±250 %)\n[model]\nc-p = 0.036\nc2 = 2.5\n"
+        );
+        write_model(&f, &[(Coefficient::C3, 0.4)], &[]).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&f).unwrap(),
+            "# mine\n# anguilla calibrate: wrote c3\n[model]\nc-p = 0.036\nc2 = 2.5\nc3 = 0.4\n"
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Issue 46, finding 3: a configuration whose held-out lines predict
+    /// worse than the present one's is refused, by its cost or its speed.
+    #[test]
+    fn a_configuration_that_predicts_the_held_out_worse_is_refused() {
+        let ev = |cost: f64, speed: f64| Evaluation {
+            cost,
+            rms: [speed, 0.0, 0.0, 0.0, 0.0],
+            ..Evaluation::default()
+        };
+        assert!(held_out_verdict(&ev(1.0, 0.02), &ev(0.5, 0.01)).is_ok());
+        let e = held_out_verdict(&ev(1.0, 0.02), &ev(1.3, 0.01)).unwrap_err();
+        assert!(
+            e.contains("predicts worse than the present one (cost 1.3000 against 1.0000"),
+            "{e}"
+        );
+        assert!(held_out_verdict(&ev(1.0, 0.02), &ev(0.9, 0.03)).is_err());
     }
 }
