@@ -332,6 +332,16 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     errors(&mut o, "prior coefficients:", &result.before);
     errors(&mut o, "fitted coefficients:", &result.after);
     errors(&mut o, "every estimate:", &result.estimated);
+    // what the fit cannot stand behind: a torque it does not explain, a
+    // drive's term below zero
+    let mut refusals: Vec<String> = check::unexplained_torque(&result.after)
+        .into_iter()
+        .map(|(name, f)| format!("{name}: {f}"))
+        .collect();
+    refusals.extend(check::impossible_drive(result.after.actuator));
+    for r in &refusals {
+        let _ = writeln!(o, "refused: {r}");
+    }
     // what --write writes: the identified coefficients, the others kept
     // at the present configuration's values, each with its reason
     let written: Vec<(Coefficient, f64)> = result
@@ -371,6 +381,13 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         errors(&mut o, "prior coefficients:", &b);
         errors(&mut o, "fitted coefficients:", &a);
         errors(&mut o, "what --write writes:", &w);
+        for (name, f) in check::unexplained_torque(&w) {
+            let _ = writeln!(
+                o,
+                "  warning (held out: scored all the same, and its errors above are partly \
+                 this): {name}: {f}"
+            );
+        }
         verdict = held_out_verdict(&b, &w);
     }
     let _ = writeln!(
@@ -381,6 +398,18 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let _ = write!(o, "{}", notes_block(&written, &notes));
     for (c, v) in &written {
         let _ = writeln!(o, "{} = {v:.5}", c.key());
+    }
+    if !refusals.is_empty() {
+        crate::output::out!("{o}")?;
+        bail!(
+            "the fit is refused ({} finding(s) above, 'refused'): its coefficients would carry \
+             what the model lacks{}",
+            refusals.len(),
+            args.write
+                .as_ref()
+                .map(|p| format!("; {} is untouched", p.display()))
+                .unwrap_or_default()
+        );
     }
     if let Some(path) = &args.write {
         crate::output::out!("{o}")?;

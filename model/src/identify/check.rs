@@ -253,6 +253,70 @@ pub fn torques(swim: &Swim, torque_limit: f64) -> Vec<Finding> {
     found
 }
 
+/// The mean torque error over a window (N·m) beyond which, and beyond
+/// [`UNEXPLAINED_FACTOR`] times the swim's typical window, one axis's
+/// torque is not the water's: after a fit the simulated robot's windows
+/// are within about 0.002 N·m; a snag of 0.5 N·m (`joint 7 yaw snag 0.5`)
+/// stands out hundreds of times.
+pub const UNEXPLAINED_FLOOR: f64 = 0.02;
+
+/// See [`UNEXPLAINED_FLOOR`].
+pub const UNEXPLAINED_FACTOR: f64 = 8.0;
+
+/// After a fit (or on held-out sessions), each swim's axis whose torque
+/// error, averaged over [`super::replay::BIAS_WINDOW`], stays beyond
+/// [`UNEXPLAINED_FLOOR`] and [`UNEXPLAINED_FACTOR`] times the typical: a
+/// torque the fitted model does not explain (a snag, a tether, a failing
+/// drive), which pulls the coefficients. Each with its swim's name.
+pub fn unexplained_torque(ev: &super::Evaluation) -> Vec<(String, Finding)> {
+    ev.swims
+        .iter()
+        .filter_map(|s| {
+            let b = s.worst_bias?;
+            (b.mean.abs() > UNEXPLAINED_FLOOR.max(UNEXPLAINED_FACTOR * b.typical)).then(|| {
+                (
+                    s.name.clone(),
+                    Finding {
+                        from: b.from,
+                        until: b.until,
+                        what: format!(
+                            "{}: a torque the fitted model does not explain, {:+.3} N·m on \
+                             average over {} s (the swim's typical {:.4} N·m): a snag, a \
+                             tether, a failing drive? It pulls the coefficients",
+                            axis_name(b.joint, b.axis),
+                            b.mean,
+                            super::replay::BIAS_WINDOW,
+                            b.typical
+                        ),
+                        refuse: true,
+                    },
+                )
+            })
+        })
+        .collect()
+}
+
+/// Why the drives' terms a fit found (`[inertia, friction, lag]`) are
+/// not physical, if they are not: a negative inertia or friction (a drive
+/// that pushes with its motion) is something in the swims the model
+/// lacks, not the drive.
+pub fn impossible_drive(actuator: [f64; super::replay::DRIVE]) -> Option<String> {
+    let [j, b, lag] = actuator;
+    let bad = [
+        (j < 0.0).then(|| format!("an inertia of {j:.5} kg·m²")),
+        (b < 0.0).then(|| format!("a friction of {b:.5} N·m·s/rad")),
+        (lag < 0.0).then(|| format!("a torque lag of {:.2} ms", 1e3 * lag)),
+    ];
+    let bad: Vec<String> = bad.into_iter().flatten().collect();
+    (!bad.is_empty()).then(|| {
+        format!(
+            "the drives' own terms came out as {}: below zero no drive is, so the torques hold \
+             something the model lacks (a snag, a tether, a torque sensor's offset)",
+            bad.join(" and ")
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -279,6 +343,16 @@ mod tests {
             samples,
             ..Swim::default()
         }
+    }
+
+    #[test]
+    fn a_negative_friction_is_impossible() {
+        assert_eq!(impossible_drive([0.02, 0.05, 0.001]), None);
+        let e = impossible_drive([0.02, -0.01, 0.0]).unwrap();
+        assert!(
+            e.contains("a friction of -0.01000 N·m·s/rad: below zero"),
+            "{e}"
+        );
     }
 
     #[test]
