@@ -360,25 +360,49 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     for &(c, v) in &written {
         c.set(&mut written_body, v);
     }
+    // the drives' terms the daemon's feed-forward takes ([model] drive-*):
+    // the present file's, and the fit's (written when physical)
+    let m = &cfg.model;
+    let present_drive = [m.drive_inertia, m.drive_friction, m.drive_lag];
+    let drive = result.after.actuator;
+    let written_drive = if check::impossible_drive(drive).is_none() {
+        drive
+    } else {
+        present_drive
+    };
+    // each model with the drives' inertia, friction and lag it is given,
+    // not refitted to the sessions it is judged on
+    let judge = |body: &anguilla_model::Body, actuator: [f64; 3], on: &[identify::Swim]| {
+        let opts = FitOptions {
+            actuator: Some(actuator),
+            ..opts.clone()
+        };
+        identify::compare(&[body], on, &opts)
+            .map_err(|e| anyhow::anyhow!("{e}"))
+            .map(|mut v| v.remove(0))
+    };
+    // what the daemon predicts, its feed-forward the model's torque plus
+    // the drives' terms: with the present file and with the written one
+    let now = judge(&prior, present_drive, &swims)?;
+    let then = judge(&written_body, written_drive, &swims)?;
+    let _ = writeln!(
+        o,
+        "\nthe daemon's predictions on the fitted sessions (its feed-forward: the model's torque \
+         and the drives' {:.4} kg·m², {:.4} N·m·s/rad, {:.1} ms):",
+        written_drive[0],
+        written_drive[1],
+        1e3 * written_drive[2]
+    );
+    errors(&mut o, "with the present [model]:", &now);
+    errors(&mut o, "with what --write writes:", &then);
     let mut verdict = Ok(());
     if !holdout.is_empty() {
         let hs: Vec<_> = holdout.into_iter().map(|r| r.swim).collect();
-        // each model with the drives' inertia, friction and lag it was fitted
-        // with, not refitted to the held-out sessions
-        let judge = |body: &anguilla_model::Body, fitted: &Evaluation| {
-            let opts = FitOptions {
-                actuator: Some(fitted.actuator),
-                ..opts.clone()
-            };
-            identify::compare(&[body], &hs, &opts)
-                .map_err(|e| anyhow::anyhow!("{e}"))
-                .map(|mut v| v.remove(0))
-        };
-        let b = judge(&prior, &result.before)?;
-        let a = judge(&result.body, &result.after)?;
-        let w = judge(&written_body, &result.after)?;
+        let b = judge(&prior, present_drive, &hs)?;
+        let a = judge(&result.body, result.after.actuator, &hs)?;
+        let w = judge(&written_body, written_drive, &hs)?;
         let _ = writeln!(o, "\nheld-out sessions (not fitted):");
-        errors(&mut o, "prior coefficients:", &b);
+        errors(&mut o, "the present [model]:", &b);
         errors(&mut o, "fitted coefficients:", &a);
         errors(&mut o, "what --write writes:", &w);
         for (name, f) in check::unexplained_torque(&w) {
@@ -398,6 +422,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let _ = write!(o, "{}", notes_block(&written, &notes));
     for (c, v) in &written {
         let _ = writeln!(o, "{} = {v:.5}", c.key());
+    }
+    for (k, v) in DRIVE_KEYS.iter().zip(written_drive) {
+        let _ = writeln!(o, "{k} = {v:.5}");
     }
     if !refusals.is_empty() {
         crate::output::out!("{o}")?;
@@ -424,7 +451,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         if let Err(why) = verdict {
             bail!("--write refused: {why}; {} is untouched", path.display());
         }
-        let shown = write_model(path, &written, &notes)?;
+        let shown = write_model(path, &written, Some(written_drive), &notes)?;
         let _ = writeln!(
             o,
             "\nwrote {} identified coefficient(s) into {shown}{}",
@@ -495,6 +522,10 @@ fn notes_block(written: &[(Coefficient, f64)], notes: &[(Coefficient, String)]) 
     b
 }
 
+/// `[model]`'s keys of the drives' inertia, friction and torque lag, in
+/// [`Evaluation::actuator`]'s order.
+const DRIVE_KEYS: [&str; 3] = ["drive-inertia", "drive-friction", "drive-lag"];
+
 /// The first words of the comment `--write` leaves (a later write
 /// replaces it).
 const NOTE_MARK: &str = "# anguilla calibrate:";
@@ -525,6 +556,7 @@ fn held_out_verdict(present: &Evaluation, written: &Evaluation) -> Result<(), St
 fn write_model(
     path: &Path,
     values: &[(Coefficient, f64)],
+    drive: Option<[f64; 3]>,
     notes: &[(Coefficient, String)],
 ) -> anyhow::Result<String> {
     let shown = path.display();
@@ -537,6 +569,12 @@ fn write_model(
     let entries: Vec<_> = values
         .iter()
         .map(|(c, v)| (c.key(), toml_edit::Value::from(*v)))
+        .chain(drive.into_iter().flat_map(|d| {
+            DRIVE_KEYS
+                .into_iter()
+                .zip(d)
+                .map(|(k, v)| (k, toml_edit::Value::from(v)))
+        }))
         .collect();
     let out = anguilla::user_file::set_toml(&text, "model", &entries)
         .with_context(|| format!("--write {shown}"))?;
@@ -621,6 +659,7 @@ mod tests {
         let shown = write_model(
             &link,
             &[(Coefficient::C2, 2.5), (Coefficient::C3, 0.4)],
+            None,
             &[],
         )
         .unwrap();
@@ -642,7 +681,7 @@ mod tests {
         std::fs::write(&real, "[model]\nc2 = 1.0\nbogus = 1\n").unwrap();
         let e = format!(
             "{:#}",
-            write_model(&link, &[(Coefficient::C2, 2.5)], &[]).unwrap_err()
+            write_model(&link, &[(Coefficient::C2, 2.5)], None, &[]).unwrap_err()
         );
         assert!(e.contains("would not be a valid configuration"), "{e}");
         assert_eq!(
@@ -667,17 +706,24 @@ mod tests {
             Coefficient::CP,
             "identified (95 % interval ±250 %)".to_string(),
         )];
-        write_model(&f, &[(Coefficient::C2, 2.5)], &notes).unwrap();
+        write_model(&f, &[(Coefficient::C2, 2.5)], None, &notes).unwrap();
         let text = std::fs::read_to_string(&f).unwrap();
         assert_eq!(
             text,
             "# mine\n# anguilla calibrate: wrote c2; not written (their values here kept):\n\
              #   c-p: not identified (95 % interval ±250 %)\n[model]\nc-p = 0.036\nc2 = 2.5\n"
         );
-        write_model(&f, &[(Coefficient::C3, 0.4)], &[]).unwrap();
+        write_model(
+            &f,
+            &[(Coefficient::C3, 0.4)],
+            Some([0.02, 0.05, 0.001]),
+            &[],
+        )
+        .unwrap();
         assert_eq!(
             std::fs::read_to_string(&f).unwrap(),
-            "# mine\n# anguilla calibrate: wrote c3\n[model]\nc-p = 0.036\nc2 = 2.5\nc3 = 0.4\n"
+            "# mine\n# anguilla calibrate: wrote c3\n[model]\nc-p = 0.036\nc2 = 2.5\nc3 = 0.4\n\
+             drive-inertia = 0.02\ndrive-friction = 0.05\ndrive-lag = 0.001\n"
         );
         std::fs::remove_dir_all(&d).unwrap();
     }
