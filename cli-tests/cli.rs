@@ -398,6 +398,85 @@ fn calibrate_refuses_a_named_pipe_and_counts_what_it_drops() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A session.mcap of `seconds` of 2 joints sampled at 50 Hz, holding
+/// still (`amplitude` 0: the daemon enabled but never swimming) or
+/// swimming at 1 Hz.
+fn joints_session(path: &std::path::Path, seconds: f64, amplitude: f64) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .create(file)
+        .unwrap();
+    let ch = w
+        .add_channel(0, "/anguilla/joints", "json", &Default::default())
+        .unwrap();
+    for i in 0..(seconds * 50.0) as u64 {
+        let t = i as f64 * 0.02;
+        let ph = std::f64::consts::TAU * t;
+        let data = format!(
+            "{{\"measured_pitch\": [0.0, 0.001], \"measured_yaw\": [{}, {}], \
+             \"measured_pitch_velocity\": [0.0, 0.0], \"measured_yaw_velocity\": [{}, {}], \
+             \"measured_pitch_torque\": [0.0, 0.0], \"measured_yaw_torque\": [0.01, 0.02]}}",
+            amplitude * ph.sin(),
+            amplitude * (ph - 1.0).sin(),
+            amplitude * ph.cos(),
+            amplitude * (ph - 1.0).cos(),
+        );
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: 1_000_000_000 + i * 20_000_000,
+            publish_time: 1_000_000_000 + i * 20_000_000,
+        };
+        w.write_to_known_channel(&header, data.as_bytes()).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+/// Issue 46, finding 3: `calibrate` on a session with no swim (the
+/// README's recipe when `ctl enable` lost the race: the daemon recorded,
+/// the joints never moved) printed "none fitted" and exited 0. Now it is
+/// an error naming the session and what to do; a short swim is refused
+/// before the fit, by its length.
+#[test]
+fn calibrate_refuses_a_session_with_no_swim_and_a_short_one() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-idle-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let idle = dir.join("idle.mcap");
+    joints_session(&idle, 20.0, 0.0);
+    let (ok, out, err) = run(&["calibrate", idle.to_str().unwrap()]);
+    assert!(!ok, "{out}");
+    assert!(
+        err.contains("idle.mcap: no swim in it: over its 20.0 s the joints never moved 0.05 rad")
+            && err.contains("anguilla ctl calibrate-swim"),
+        "{err}"
+    );
+    // held out, the same
+    let short = dir.join("short.mcap");
+    joints_session(&short, 10.0, 0.3);
+    let (ok, _, err) = run(&[
+        "calibrate",
+        short.to_str().unwrap(),
+        "--holdout",
+        idle.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && err.contains("--holdout") && err.contains("no swim in it"),
+        "{err}"
+    );
+    let (ok, out, err) = run(&["calibrate", short.to_str().unwrap()]);
+    assert!(!ok, "{out}");
+    assert!(
+        out.contains(
+            "refused: the fitted sessions swim 10.0 s (the joints moving), fewer than the 30 s"
+        ),
+        "{out}"
+    );
+    assert!(err.contains("refused to fit: 1 check(s)"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Issue 45: `dump --log` never replaces a file (a recording, or anything
 /// a symlink planted at that name points to).
 #[test]

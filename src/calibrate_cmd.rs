@@ -8,7 +8,7 @@ use std::time::Instant;
 use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::swim::{self, ReadSwim};
 use anguilla_model::identify::{
-    self, Coefficient, Evaluation, FitOptions, IDENTIFIED_WITHIN, MAX_CORRELATION,
+    self, Coefficient, Evaluation, FitOptions, IDENTIFIED_WITHIN, MAX_CORRELATION, check,
 };
 use anyhow::{Context, bail};
 use clap::Args;
@@ -53,6 +53,12 @@ pub struct CalibrateArgs {
     /// through to its target).
     #[arg(long, value_name = "FILE")]
     write: Option<PathBuf>,
+    /// Fit even when a check of the recordings before the fit failed (a
+    /// session too short, a gap, a saturated or outlying torque): for a
+    /// look at what the fit makes of them. `--write` is refused all the
+    /// same.
+    #[arg(long)]
+    ignore_checks: bool,
     /// The largest session (or tracking) file read, in MiB: a bigger one
     /// is refused by name. Sessions are streamed, not read whole.
     #[arg(long, value_name = "MIB", default_value_t = swim::MAX_SESSION_BYTES >> 20)]
@@ -157,6 +163,45 @@ fn errors(o: &mut String, label: &str, ev: &Evaluation) {
     }
 }
 
+/// Checks session `r` before the fit ([`check::check`]), writing what was
+/// found; a session with no swim (fitted or held out) is an error. Returns
+/// its seconds of swimming and how many checks refuse the fit (a held-out
+/// session's findings are warnings: it is scored all the same).
+fn check_session(
+    o: &mut String,
+    limit: f64,
+    r: &ReadSwim,
+    fitted: bool,
+) -> anyhow::Result<(f64, usize)> {
+    let (moving, found) = check::check(&r.swim, limit)
+        .map_err(|e| anyhow::anyhow!("{}{e}", if fitted { "" } else { "--holdout " }))?;
+    let _ = writeln!(
+        o,
+        "  checked: {moving:.1} s of swimming{}",
+        if found.is_empty() {
+            "; no gap, no saturated or outlying torque"
+        } else {
+            ""
+        }
+    );
+    let mut refused = 0;
+    for f in &found {
+        let tag = match (f.refuse, fitted) {
+            (true, true) => {
+                refused += 1;
+                "refused"
+            }
+            (true, false) => {
+                "warning (held out: scored all the same, and its errors below are \
+                              partly this)"
+            }
+            (false, _) => "warning",
+        };
+        let _ = writeln!(o, "  {tag}: {f}");
+    }
+    Ok((moving, refused))
+}
+
 /// Runs `anguilla calibrate`.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let fit = identify::parse_coefficients(&args.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
@@ -173,7 +218,12 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let read = read_all(&args.sessions, &args.tracking, max)?;
     let holdout = read_all(&args.holdout, &[], max)?;
     let mut o = String::new();
-    for r in read.iter().chain(&holdout) {
+    let limit = cfg
+        .limits
+        .torque
+        .min(anguilla_protocol::message::TORQUE_LIMIT);
+    let (mut swum, mut failed) = (0.0, 0usize);
+    for (i, r) in read.iter().chain(&holdout).enumerate() {
         let _ = writeln!(
             o,
             "{}: {:.1} s, {} joint samples; track from {}, heading and depth from {}{}",
@@ -201,10 +251,44 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
                  of percent. Record calibration swims with [bus] fd = true (docs/calibration.md)"
             );
         }
+        let fitted = i < read.len();
+        match check_session(&mut o, limit, r, fitted) {
+            Ok((moving, refused)) => {
+                if fitted {
+                    swum += moving;
+                }
+                failed += refused;
+            }
+            Err(e) => {
+                // what was read so far, then why not
+                crate::output::out!("{o}")?;
+                return Err(e);
+            }
+        }
     }
-    // what was read, before the fit (which takes minutes)
+    if swum < check::MIN_SWIMMING {
+        failed += 1;
+        let _ = writeln!(
+            o,
+            "refused: the fitted sessions swim {swum:.1} s (the joints moving), fewer than the \
+             {} s a fit needs (`anguilla ctl calibrate-swim` swims 50 s of its 59; on 10 s the \
+             nose's drag came out ±250 %)",
+            check::MIN_SWIMMING
+        );
+    }
+    // what was read and checked, before the fit (which takes minutes)
     crate::output::out!("{o}")?;
     o.clear();
+    if failed > 0 && !args.ignore_checks {
+        bail!(
+            "refused to fit: {failed} check(s) of the recordings failed (above, 'refused'); \
+             their coefficients would be the recording's faults, not the water's \
+             (--ignore-checks fits them all the same, without --write)"
+        );
+    }
+    if failed > 0 && args.write.is_some() {
+        bail!("--write refused: {failed} check(s) of the recordings failed (above)");
+    }
     let swims: Vec<_> = read.into_iter().map(|r| r.swim).collect();
     let opts = FitOptions {
         fit,
@@ -220,12 +304,10 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     );
     let _ = writeln!(o, "coefficient    prior   estimate ± 1σ        kept");
     for e in &result.estimates {
-        let c = e.coefficient;
-        let scale = e.estimate.abs().max(c.floor());
         let _ = writeln!(
             o,
             "{:<10} {:>8.4} {:>10.4} ± {:<8.4} {:>8.4}  {}",
-            c.name(),
+            e.coefficient.name(),
             e.prior,
             e.estimate,
             e.std_error,
@@ -233,32 +315,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             if e.identified {
                 "identified".to_string()
             } else {
-                let with = e
-                    .correlated
-                    .map(|(o, r)| format!("; correlated {r:+.2} with {}", o.name()))
-                    .unwrap_or_default();
-                format!(
-                    "NOT identified (95 % interval ±{:.0} % of {:.3}, more than {:.0} %){with}; {}: {}",
-                    200.0 * e.std_error / scale,
-                    scale,
-                    100.0 * IDENTIFIED_WITHIN,
-                    match (e.fitted, e.confounded) {
-                        (true, _) => "fitted all the same, standing in for the coefficients \
-                                      left at the prior"
-                            .to_string(),
-                        (false, Some((o, r))) => format!(
-                            "left at the prior, the swims telling only its combination with {} \
-                             (correlated {r:+.2}, beyond {MAX_CORRELATION}; the prior knowing it \
-                             better)",
-                            o.name()
-                        ),
-                        (false, None) => {
-                            "left at the prior, the swims knowing less of it than the prior"
-                                .to_string()
-                        }
-                    },
-                    c.needs()
-                )
+                format!("NOT {}", not_identified(e))
             }
         );
     }
@@ -275,62 +332,233 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     errors(&mut o, "prior coefficients:", &result.before);
     errors(&mut o, "fitted coefficients:", &result.after);
     errors(&mut o, "every estimate:", &result.estimated);
+    // what the fit cannot stand behind: a torque it does not explain, a
+    // drive's term below zero
+    let mut refusals: Vec<String> = check::unexplained_torque(&result.after)
+        .into_iter()
+        .map(|(name, f)| format!("{name}: {f}"))
+        .collect();
+    refusals.extend(check::impossible_drive(result.after.actuator));
+    for r in &refusals {
+        let _ = writeln!(o, "refused: {r}");
+    }
+    // what --write writes: the identified coefficients, the others kept
+    // at the present configuration's values, each with its reason
+    let written: Vec<(Coefficient, f64)> = result
+        .estimates
+        .iter()
+        .filter(|e| e.identified)
+        .map(|e| (e.coefficient, e.value))
+        .collect();
+    let notes: Vec<(Coefficient, String)> = result
+        .estimates
+        .iter()
+        .filter(|e| !e.identified)
+        .map(|e| (e.coefficient, not_identified(e)))
+        .collect();
+    let mut written_body = prior.clone();
+    for &(c, v) in &written {
+        c.set(&mut written_body, v);
+    }
+    // the drives' terms the daemon's feed-forward takes ([model] drive-*):
+    // the present file's, and the fit's (written when physical)
+    let m = &cfg.model;
+    let present_drive = [m.drive_inertia, m.drive_friction, m.drive_lag];
+    let drive = result.after.actuator;
+    let written_drive = if check::impossible_drive(drive).is_none() {
+        drive
+    } else {
+        present_drive
+    };
+    // each model with the drives' inertia, friction and lag it is given,
+    // not refitted to the sessions it is judged on
+    let judge = |body: &anguilla_model::Body, actuator: [f64; 3], on: &[identify::Swim]| {
+        let opts = FitOptions {
+            actuator: Some(actuator),
+            ..opts.clone()
+        };
+        identify::compare(&[body], on, &opts)
+            .map_err(|e| anyhow::anyhow!("{e}"))
+            .map(|mut v| v.remove(0))
+    };
+    // what the daemon predicts, its feed-forward the model's torque plus
+    // the drives' terms: with the present file and with the written one
+    let now = judge(&prior, present_drive, &swims)?;
+    let then = judge(&written_body, written_drive, &swims)?;
+    let _ = writeln!(
+        o,
+        "\nthe daemon's predictions on the fitted sessions (its feed-forward: the model's torque \
+         and the drives' {:.4} kg·m², {:.4} N·m·s/rad, {:.1} ms):",
+        written_drive[0],
+        written_drive[1],
+        1e3 * written_drive[2]
+    );
+    errors(&mut o, "with the present [model]:", &now);
+    errors(&mut o, "with what --write writes:", &then);
+    let mut verdict = Ok(());
     if !holdout.is_empty() {
         let hs: Vec<_> = holdout.into_iter().map(|r| r.swim).collect();
-        // each model with the drives' inertia, friction and lag it was fitted
-        // with, not refitted to the held-out sessions
-        let judge = |body: &anguilla_model::Body, fitted: &Evaluation| {
-            let opts = FitOptions {
-                actuator: Some(fitted.actuator),
-                ..opts.clone()
-            };
-            identify::compare(&[body], &hs, &opts)
-                .map_err(|e| anyhow::anyhow!("{e}"))
-                .map(|mut v| v.remove(0))
-        };
-        let b = judge(&prior, &result.before)?;
-        let a = judge(&result.body, &result.after)?;
+        let b = judge(&prior, present_drive, &hs)?;
+        let a = judge(&result.body, result.after.actuator, &hs)?;
+        let w = judge(&written_body, written_drive, &hs)?;
         let _ = writeln!(o, "\nheld-out sessions (not fitted):");
-        errors(&mut o, "prior coefficients:", &b);
+        errors(&mut o, "the present [model]:", &b);
         errors(&mut o, "fitted coefficients:", &a);
+        errors(&mut o, "what --write writes:", &w);
+        for (name, f) in check::unexplained_torque(&w) {
+            let _ = writeln!(
+                o,
+                "  warning (held out: scored all the same, and its errors above are partly \
+                 this): {name}: {f}"
+            );
+        }
+        verdict = held_out_verdict(&b, &w);
     }
-    let kept: Vec<_> = result.estimates.iter().filter(|e| e.fitted).collect();
-    let _ = writeln!(o, "\n# [model] fragment (the fitted coefficients):");
+    let _ = writeln!(
+        o,
+        "\n# [model] fragment (the identified coefficients; the others keep their values):"
+    );
     let _ = writeln!(o, "[model]");
-    if kept.is_empty() {
-        let _ = writeln!(o, "# none fitted: keep the current values");
+    let _ = write!(o, "{}", notes_block(&written, &notes));
+    for (c, v) in &written {
+        let _ = writeln!(o, "{} = {v:.5}", c.key());
     }
-    for e in &kept {
-        let _ = writeln!(
-            o,
-            "{} = {:.5}{}",
-            e.coefficient.key(),
-            e.value,
-            if e.identified {
-                ""
-            } else {
-                "  # not identified: stands in for the coefficients left at the prior"
-            }
+    for (k, v) in DRIVE_KEYS.iter().zip(written_drive) {
+        let _ = writeln!(o, "{k} = {v:.5}");
+    }
+    if !refusals.is_empty() {
+        crate::output::out!("{o}")?;
+        bail!(
+            "the fit is refused ({} finding(s) above, 'refused'): its coefficients would carry \
+             what the model lacks{}",
+            refusals.len(),
+            args.write
+                .as_ref()
+                .map(|p| format!("; {} is untouched", p.display()))
+                .unwrap_or_default()
         );
     }
     if let Some(path) = &args.write {
-        let written = write_model(
-            path,
-            &kept
-                .iter()
-                .map(|e| (e.coefficient, e.value))
-                .collect::<Vec<_>>(),
-        )?;
-        let _ = writeln!(o, "\nwrote {} coefficient(s) into {written}", kept.len());
+        crate::output::out!("{o}")?;
+        o.clear();
+        if written.is_empty() {
+            bail!(
+                "--write refused: no coefficient identified (above), nothing to write; {} is \
+                 untouched",
+                path.display()
+            );
+        }
+        if let Err(why) = verdict {
+            bail!("--write refused: {why}; {} is untouched", path.display());
+        }
+        let shown = write_model(path, &written, Some(written_drive), &notes)?;
+        let _ = writeln!(
+            o,
+            "\nwrote {} identified coefficient(s) into {shown}{}",
+            written.len(),
+            if args.holdout.is_empty() {
+                " (no --holdout: not checked on a session it was not fitted to)"
+            } else {
+                ", which predicts the held-out sessions no worse than the present one"
+            }
+        );
     }
     crate::output::out!("{o}")
+}
+
+/// Why `e` was not identified, and what became of it.
+fn not_identified(e: &identify::Estimate) -> String {
+    let c = e.coefficient;
+    let scale = e.estimate.abs().max(c.floor());
+    let with = e
+        .correlated
+        .map(|(o, r)| format!("; correlated {r:+.2} with {}", o.name()))
+        .unwrap_or_default();
+    format!(
+        "identified (95 % interval ±{:.0} % of {:.3}, more than {:.0} %){with}; {}: {}",
+        200.0 * e.std_error / scale,
+        scale,
+        100.0 * IDENTIFIED_WITHIN,
+        match (e.fitted, e.confounded) {
+            (true, _) => "fitted all the same, standing in for the coefficients left at the \
+                          prior, so not written"
+                .to_string(),
+            (false, Some((o, r))) => format!(
+                "left at the prior, the swims telling only its combination with {} \
+                 (correlated {r:+.2}, beyond {MAX_CORRELATION}; the prior knowing it better)",
+                o.name()
+            ),
+            (false, None) => {
+                "left at the prior, the swims knowing less of it than the prior".to_string()
+            }
+        },
+        c.needs()
+    )
+}
+
+/// The comment `--write` puts under `[model]`: what it wrote, and every
+/// coefficient it did not write with its reason. Each line starts `# `.
+fn notes_block(written: &[(Coefficient, f64)], notes: &[(Coefficient, String)]) -> String {
+    let mut b = format!(
+        "{NOTE_MARK} wrote {}",
+        if written.is_empty() {
+            "nothing".to_string()
+        } else {
+            written
+                .iter()
+                .map(|(c, _)| c.key())
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    );
+    if notes.is_empty() {
+        b.push('\n');
+    } else {
+        b.push_str("; not written (their values here kept):\n");
+        for (c, why) in notes {
+            let _ = writeln!(b, "#   {}: not {why}", c.key());
+        }
+    }
+    b
+}
+
+/// `[model]`'s keys of the drives' inertia, friction and torque lag, in
+/// [`Evaluation::actuator`]'s order.
+const DRIVE_KEYS: [&str; 3] = ["drive-inertia", "drive-friction", "drive-lag"];
+
+/// The first words of the comment `--write` leaves (a later write
+/// replaces it).
+const NOTE_MARK: &str = "# anguilla calibrate:";
+
+/// Whether the configuration `--write` would write (`written`) predicts
+/// the held-out sessions no worse than the present one (`present`): its
+/// weighted cost (the fit's objective) and its speed error no larger.
+fn held_out_verdict(present: &Evaluation, written: &Evaluation) -> Result<(), String> {
+    let worse_speed = written.rms[0] > present.rms[0] * (1.0 + 1e-9);
+    if written.cost > present.cost * (1.0 + 1e-9) || worse_speed {
+        return Err(format!(
+            "on the held-out sessions the configuration it would write predicts worse than the \
+             present one (cost {:.4} against {:.4}; speed error {:.4} against {:.4} m/s RMS): \
+             the swims fitted do not carry to those held out (too short, too few gaits, or a \
+             robot that changed between them)",
+            written.cost, present.cost, written.rms[0], present.rms[0]
+        ));
+    }
+    Ok(())
 }
 
 /// Sets `values` in `path`'s `[model]` (a new file if missing), every
 /// other byte kept, checking the whole result before it replaces the file
 /// ([`anguilla::user_file`]: mode, owner and group kept; a symlink written
 /// through). Returns what was written, for the report.
-fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<String> {
+/// Above `[model]` goes [`notes_block`]: what was written and why the
+/// others were not (an earlier such comment replaced).
+fn write_model(
+    path: &Path,
+    values: &[(Coefficient, f64)],
+    drive: Option<[f64; 3]>,
+    notes: &[(Coefficient, String)],
+) -> anyhow::Result<String> {
     let shown = path.display();
     let (target, meta) = anguilla::user_file::resolve(path).context("--write")?;
     let text = match meta {
@@ -341,8 +569,16 @@ fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<Str
     let entries: Vec<_> = values
         .iter()
         .map(|(c, v)| (c.key(), toml_edit::Value::from(*v)))
+        .chain(drive.into_iter().flat_map(|d| {
+            DRIVE_KEYS
+                .into_iter()
+                .zip(d)
+                .map(|(k, v)| (k, toml_edit::Value::from(v)))
+        }))
         .collect();
     let out = anguilla::user_file::set_toml(&text, "model", &entries)
+        .with_context(|| format!("--write {shown}"))?;
+    let out = with_notes(&out, &notes_block(values, notes))
         .with_context(|| format!("--write {shown}"))?;
     Config::from_toml(&out, &shown.to_string()).with_context(|| {
         format!("--write {shown}: the result would not be a valid configuration")
@@ -353,6 +589,39 @@ fn write_model(path: &Path, values: &[(Coefficient, f64)]) -> anyhow::Result<Str
     } else {
         format!("{shown} (the symlink's target {})", written.display())
     })
+}
+
+/// `text` (a TOML file with a `[model]` table) with `block` just above
+/// `[model]`, an earlier [`NOTE_MARK`] block there removed.
+fn with_notes(text: &str, block: &str) -> anyhow::Result<String> {
+    let mut doc: toml_edit::DocumentMut = text
+        .parse()
+        .map_err(|e| anyhow::anyhow!("not a TOML file: {e}"))?;
+    let Some(t) = doc.get_mut("model").and_then(toml_edit::Item::as_table_mut) else {
+        bail!("no [model] table to note what was written");
+    };
+    let before = t
+        .decor()
+        .prefix()
+        .and_then(|p| p.as_str())
+        .unwrap_or("")
+        .to_string();
+    // the user's lines kept, ours (the mark and its indented lines) replaced
+    let mut kept = String::new();
+    let mut ours = false;
+    for line in before.split_inclusive('\n') {
+        if line.starts_with(NOTE_MARK) {
+            ours = true;
+            continue;
+        }
+        if ours && line.starts_with("#   ") {
+            continue;
+        }
+        ours = false;
+        kept.push_str(line);
+    }
+    t.decor_mut().set_prefix(format!("{kept}{block}"));
+    Ok(doc.to_string())
 }
 
 #[cfg(test)]
@@ -387,7 +656,13 @@ mod tests {
         for planted in [".eel.toml.tmp", "eel.toml.tmp", ".eel.toml.write"] {
             symlink(&victim, d.join("robots").join(planted)).unwrap();
         }
-        let shown = write_model(&link, &[(Coefficient::C2, 2.5), (Coefficient::C3, 0.4)]).unwrap();
+        let shown = write_model(
+            &link,
+            &[(Coefficient::C2, 2.5), (Coefficient::C3, 0.4)],
+            None,
+            &[],
+        )
+        .unwrap();
         assert!(shown.contains("the symlink's target"), "{shown}");
         assert_eq!(std::fs::read_to_string(&victim).unwrap(), "secret\n");
         assert!(
@@ -398,7 +673,7 @@ mod tests {
         );
         assert_eq!(
             std::fs::read_to_string(&real).unwrap(),
-            "# the eel's\n[model]\n# fitted 2026-11\nc2 = 2.5 # from the tank\nc3 = 0.4\n"
+            "# the eel's\n# anguilla calibrate: wrote c2, c3\n[model]\n# fitted 2026-11\nc2 = 2.5 # from the tank\nc3 = 0.4\n"
         );
         let m = std::fs::metadata(&real).unwrap();
         assert_eq!((m.mode() & 0o7777, (m.uid(), m.gid())), (0o640, owner));
@@ -406,7 +681,7 @@ mod tests {
         std::fs::write(&real, "[model]\nc2 = 1.0\nbogus = 1\n").unwrap();
         let e = format!(
             "{:#}",
-            write_model(&link, &[(Coefficient::C2, 2.5)]).unwrap_err()
+            write_model(&link, &[(Coefficient::C2, 2.5)], None, &[]).unwrap_err()
         );
         assert!(e.contains("would not be a valid configuration"), "{e}");
         assert_eq!(
@@ -414,5 +689,60 @@ mod tests {
             "[model]\nc2 = 1.0\nbogus = 1\n"
         );
         std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Issue 46, finding 3: `--write` wrote coefficients it called "not
+    /// identified" as bare numbers. Now only the identified ones are
+    /// written; every other is a comment with its reason, and a later
+    /// write replaces that comment (the user's own kept).
+    #[test]
+    fn write_writes_the_identified_and_comments_the_others_with_their_reason() {
+        let d = std::env::temp_dir().join(format!("anguilla-cal-notes-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        let f = d.join("anguilla.toml");
+        std::fs::write(&f, "# mine\n[model]\nc-p = 0.036\n").unwrap();
+        let notes = [(
+            Coefficient::CP,
+            "identified (95 % interval ±250 %)".to_string(),
+        )];
+        write_model(&f, &[(Coefficient::C2, 2.5)], None, &notes).unwrap();
+        let text = std::fs::read_to_string(&f).unwrap();
+        assert_eq!(
+            text,
+            "# mine\n# anguilla calibrate: wrote c2; not written (their values here kept):\n\
+             #   c-p: not identified (95 % interval ±250 %)\n[model]\nc-p = 0.036\nc2 = 2.5\n"
+        );
+        write_model(
+            &f,
+            &[(Coefficient::C3, 0.4)],
+            Some([0.02, 0.05, 0.001]),
+            &[],
+        )
+        .unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&f).unwrap(),
+            "# mine\n# anguilla calibrate: wrote c3\n[model]\nc-p = 0.036\nc2 = 2.5\nc3 = 0.4\n\
+             drive-inertia = 0.02\ndrive-friction = 0.05\ndrive-lag = 0.001\n"
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Issue 46, finding 3: a configuration whose held-out lines predict
+    /// worse than the present one's is refused, by its cost or its speed.
+    #[test]
+    fn a_configuration_that_predicts_the_held_out_worse_is_refused() {
+        let ev = |cost: f64, speed: f64| Evaluation {
+            cost,
+            rms: [speed, 0.0, 0.0, 0.0, 0.0],
+            ..Evaluation::default()
+        };
+        assert!(held_out_verdict(&ev(1.0, 0.02), &ev(0.5, 0.01)).is_ok());
+        let e = held_out_verdict(&ev(1.0, 0.02), &ev(1.3, 0.01)).unwrap_err();
+        assert!(
+            e.contains("predicts worse than the present one (cost 1.3000 against 1.0000"),
+            "{e}"
+        );
+        assert!(held_out_verdict(&ev(1.0, 0.02), &ev(0.9, 0.03)).is_err());
     }
 }

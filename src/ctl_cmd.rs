@@ -29,6 +29,14 @@ pub struct CtlArgs {
 /// What `anguilla ctl` does.
 #[derive(clap::Subcommand, Debug)]
 pub enum CtlCmd {
+    /// Wait until the daemon is up (its state read), at most --timeout
+    /// seconds: for scripts that start `anguilla run` in the background
+    /// and then command it. Exits 2 if it is not up by then.
+    Wait {
+        /// Seconds to wait at most (0 < S <= 3600).
+        #[arg(long, value_name = "S", default_value_t = 60.0)]
+        timeout: f64,
+    },
     /// Print one state snapshot (--json: exactly `monitor --json`'s line).
     Status {
         /// One JSON line instead of the summary.
@@ -162,6 +170,36 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         }
     }
     crate::signals::install();
+    if let CtlCmd::Wait { timeout } = args.cmd {
+        if !(timeout.is_finite() && timeout > 0.0 && timeout <= 3600.0) {
+            return Err(CtlError::Refused(format!(
+                "--timeout {timeout} is invalid (expected seconds, 0 < S <= 3600)"
+            )));
+        }
+        let end = std::time::Instant::now() + std::time::Duration::from_secs_f64(timeout);
+        // each try waits for a state (ctl's reply timeout) once open
+        loop {
+            let tried = args
+                .daemon
+                .open(&prefix, "anguilla-ctl", true)
+                .map_err(|e| CtlError::NoDaemon(crate::output::error_text(&e)))
+                .and_then(Ctl::over);
+            match tried {
+                Ok(c) => {
+                    return out(&format!(
+                        "the daemon is up: {}\n",
+                        mode_name(c.state().mode)
+                    ));
+                }
+                Err(e) if std::time::Instant::now() >= end => {
+                    return Err(CtlError::NoDaemon(format!(
+                        "not up within {timeout} s (ctl wait --timeout): {e}"
+                    )));
+                }
+                Err(_) => std::thread::sleep(std::time::Duration::from_millis(200)),
+            }
+        }
+    }
     let session = args
         .daemon
         .open(&prefix, "anguilla-ctl", true)
@@ -175,7 +213,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
             return out(&format!("{}\n", json::snapshot_json(c.state())));
         }
         CtlCmd::Status { json: false } => return out(&summary(c.state(), c.holder_text())),
-        CtlCmd::Estop => unreachable!("handled above"),
+        CtlCmd::Estop | CtlCmd::Wait { .. } => unreachable!("handled above"),
         CtlCmd::Enable => c.enable()?,
         CtlCmd::Disable => c.disable()?,
         CtlCmd::Reset => c.reset()?,

@@ -136,6 +136,11 @@ pub struct Controller {
     offsets: Vec<[Follower; 2]>,
     setpoints: Vec<[AxisSetpoint; 2]>,
     torque_ff: Vec<[f64; 2]>,
+    /// Per joint, last period's model rates and torques `[pitch rate, yaw
+    /// rate, pitch torque, yaw torque]` (the drives' terms of the
+    /// feed-forward differentiate them), and whether they are set.
+    ff_prev: Vec<[f64; 4]>,
+    ff_primed: bool,
     counter: u16,
     mode_before: Mode,
     /// Joints that get no setpoint this period (lost or silent, in Fault).
@@ -270,6 +275,8 @@ impl Controller {
             offsets: vec![[Follower::new(0.0, posture_l); 2]; n],
             setpoints: vec![[AxisSetpoint::default(); 2]; n],
             torque_ff: vec![[0.0; 2]; n],
+            ff_prev: vec![[0.0; 4]; n],
+            ff_primed: false,
             counter: 0,
             mode_before: Mode::Idle,
             setpoint_skip: NodeSet::empty(),
@@ -726,6 +733,7 @@ impl Controller {
     /// enabled beyond its limit is brought back along the profile).
     fn limit_setpoints(&mut self, drop_feedforward: bool) {
         let lim = &self.cfg.limits;
+        let m = &self.cfg.model;
         let pmax = lim.angle.min(message::POSITION_LIMIT);
         let vmax = lim.velocity.min(message::VELOCITY_LIMIT);
         let tmax = lim.torque.min(message::TORQUE_LIMIT);
@@ -746,11 +754,25 @@ impl Controller {
         {
             let off = &mut self.offsets[j];
             let o = [off[0].advance(self.dt), off[1].advance(self.dt)];
-            let ff = if drop_feedforward {
-                [0.0, 0.0]
-            } else {
-                js.actuator_torque()
-            };
+            // the model's torque and the drives' own terms ([model]
+            // drive-*, as `anguilla calibrate` fits them): J θ̈ + b θ̇, and
+            // the torque as measured `lag` late, τ(t − lag) ≈ τ − lag τ̇
+            let tq = js.actuator_torque();
+            let rate = [js.pitch_rate, js.yaw_rate];
+            let prev = &mut self.ff_prev[j];
+            let mut ff = tq;
+            if self.ff_primed {
+                for ax in 0..2 {
+                    let acc = (rate[ax] - prev[ax]) / self.dt;
+                    let tq_rate = (tq[ax] - prev[2 + ax]) / self.dt;
+                    ff[ax] +=
+                        m.drive_inertia * acc + m.drive_friction * rate[ax] - m.drive_lag * tq_rate;
+                }
+            }
+            *prev = [rate[0], rate[1], tq[0], tq[1]];
+            if drop_feedforward || !ff.iter().all(|v| v.is_finite()) {
+                ff = [0.0, 0.0];
+            }
             self.torque_ff[j] = ff;
             let ang = [js.pitch + o[0].position, js.yaw + o[1].position];
             let vel = [js.pitch_rate + o[0].velocity, js.yaw_rate + o[1].velocity];
@@ -768,6 +790,7 @@ impl Controller {
             }
         }
         self.counters.clamped += clamped;
+        self.ff_primed = true;
     }
 
     /// Shutdown, first half: stop a swim smoothly (idempotent).

@@ -336,3 +336,39 @@ fn every_window_of_the_recording_is_compared() {
     eprintln!("cost {:.3e}, rms {:?}", ev.cost, ev.rms);
     assert!(ev.cost < 0.2, "{}", ev.cost);
 }
+
+/// Issue 46, finding 3: a joint snagged halfway (0.3 N·m more on joint 7's
+/// yaw from 12 s of 24) is a torque the model does not explain: named, its
+/// axis and its time, where the same swim without it has none.
+#[test]
+fn a_snag_is_a_torque_the_model_does_not_explain() {
+    let body = Body::paper();
+    let samples = joint_motion(
+        &[(12.0, 1.0, 0.4, 0.0, 0.0), (12.0, 1.4, 0.3, 0.2, 0.1)],
+        17.7,
+    );
+    let clean = swim_of(&body, samples);
+    let mut snagged = clean.clone();
+    for s in &mut snagged.samples {
+        if s.t >= 12.0 {
+            s.torque[6][1] += 0.3;
+        }
+    }
+    let opts = FitOptions::default();
+    let ev = identify::compare(&[&body], &[clean, snagged], &opts)
+        .unwrap()
+        .remove(0);
+    let found = identify::check::unexplained_torque(&ev);
+    eprintln!(
+        "{:?}\n{found:?}",
+        ev.swims.iter().map(|s| s.worst_bias).collect::<Vec<_>>()
+    );
+    assert_eq!(found.len(), 1, "{found:?}");
+    let f = &found[0].1;
+    assert!(
+        f.what
+            .starts_with("joint 7 yaw: a torque the fitted model does not explain"),
+        "{f}"
+    );
+    assert!((10.0..=12.0).contains(&f.from) && f.until > 22.0, "{f}");
+}

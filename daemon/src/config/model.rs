@@ -31,6 +31,17 @@ pub struct ModelConfig {
     pub c3: f64,
     /// The factor on the skin-friction law (41) (1: the paper's).
     pub friction: f64,
+    /// The drives' own reflected inertia at the joint (kg·m²), added to
+    /// the feed-forward as `J θ̈` (0: none; `anguilla calibrate --write`
+    /// writes the one it fits).
+    pub drive_inertia: f64,
+    /// The drives' own viscous friction (N·m·s/rad), added to the
+    /// feed-forward as `b θ̇`.
+    pub drive_friction: f64,
+    /// How late the drives' measured torque follows the one they act
+    /// (s): the torque predicted against the measured one is the model's
+    /// `lag` earlier.
+    pub drive_lag: f64,
 }
 
 impl Default for ModelConfig {
@@ -45,6 +56,9 @@ impl Default for ModelConfig {
             c2: p.c2,
             c3: p.c3,
             friction: 1.0,
+            drive_inertia: 0.0,
+            drive_friction: 0.0,
+            drive_lag: 0.0,
         }
     }
 }
@@ -67,6 +81,21 @@ impl ModelConfig {
         ] {
             range(key, v, 0.0, COEFFICIENT_MAX, "0 ..= 100")?;
         }
+        range(
+            "model.drive-inertia",
+            self.drive_inertia,
+            0.0,
+            1.0,
+            "0 ..= 1 kg·m²",
+        )?;
+        range(
+            "model.drive-friction",
+            self.drive_friction,
+            0.0,
+            10.0,
+            "0 ..= 10 N·m·s/rad",
+        )?;
+        range("model.drive-lag", self.drive_lag, 0.0, 0.1, "0 ..= 0.1 s")?;
         Ok(())
     }
 
@@ -107,5 +136,11 @@ pub(super) fn write_default(d: &ModelConfig, w: &mut dyn FnMut(String)) {
     w(format!("c2 = {}", fmt_f(d.c2)));
     w(format!("c3 = {}", fmt_f(d.c3)));
     w(format!("friction = {}", fmt_f(d.friction)));
+    w("# The drives' own reflected inertia (kg·m², 0..=1) and viscous friction".into());
+    w("# (N·m·s/rad, 0..=10), added to the torque feed-forward as J·θ̈ + b·θ̇, and how".into());
+    w("# late their measured torque follows (s, 0..=0.1). `anguilla calibrate` fits them.".into());
+    w(format!("drive-inertia = {}", fmt_f(d.drive_inertia)));
+    w(format!("drive-friction = {}", fmt_f(d.drive_friction)));
+    w(format!("drive-lag = {}", fmt_f(d.drive_lag)));
     w(String::new());
 }

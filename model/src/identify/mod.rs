@@ -47,6 +47,7 @@
 //! Nothing here reads a file: the daemon's `mcap_log::swim` turns a
 //! recorded session into a [`Swim`].
 
+pub mod check;
 mod lm;
 pub mod replay;
 mod smooth;
@@ -68,7 +69,9 @@ pub enum FitError {
     #[error(transparent)]
     Model(#[from] ModelError),
 }
-pub use replay::{Channels, Evaluation, Measured, SwimError, Trace, evaluate, simulate};
+pub use replay::{
+    Channels, Evaluation, Measured, SwimError, TorqueBias, Trace, evaluate, simulate,
+};
 
 /// A coefficient the fit can adjust.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -492,6 +492,78 @@ pub struct SwimError {
     pub model_speed: f64,
     /// Its torque RMS error (N·m).
     pub torque_rms: f64,
+    /// The largest mean torque error of one axis over a
+    /// [`BIAS_WINDOW`] (what the model and the drive's terms leave: a
+    /// swim's own error oscillates and averages out, a snag does not).
+    pub worst_bias: Option<TorqueBias>,
+}
+
+/// The window (s) over which [`TorqueBias`] averages one axis's torque
+/// error.
+pub const BIAS_WINDOW: f64 = 2.0;
+
+/// One axis's torque error averaged over windows: the worst window's.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TorqueBias {
+    /// The axis: joint (from 0, head first) and 0 pitch, 1 yaw.
+    pub joint: usize,
+    /// 0 pitch, 1 yaw.
+    pub axis: usize,
+    /// From the first to the last window (s from the swim's first
+    /// sample) whose mean is beyond half the worst.
+    pub from: f64,
+    /// Until (s).
+    pub until: f64,
+    /// The worst window's mean error (N·m; measured less the model).
+    pub mean: f64,
+    /// The median |mean| over every axis and window (N·m).
+    pub typical: f64,
+}
+
+/// The worst [`TorqueBias`] of one swim's torque errors `(sample, axis
+/// index j·2+ax, error)`.
+fn worst_bias(s: &Swim, errors: &[(usize, usize, f64)]) -> Option<TorqueBias> {
+    let t0 = s.samples.first()?.t;
+    let windows = (s.duration() / BIAS_WINDOW).floor() as usize + 1;
+    let axes = 2 * s.joints();
+    let mut sum = vec![(0.0f64, 0usize); windows * axes];
+    for &(k, a, e) in errors {
+        let w = (((s.samples[k].t - t0) / BIAS_WINDOW) as usize).min(windows - 1);
+        let c = &mut sum[w * axes + a];
+        c.0 += e;
+        c.1 += 1;
+    }
+    let means: Vec<f64> = sum
+        .iter()
+        .map(|&(e, n)| if n > 0 { e / n as f64 } else { f64::NAN })
+        .collect();
+    let mut abs: Vec<f64> = means
+        .iter()
+        .filter(|m| m.is_finite())
+        .map(|m| m.abs())
+        .collect();
+    if abs.is_empty() {
+        return None;
+    }
+    abs.sort_by(f64::total_cmp);
+    let typical = abs[abs.len() / 2];
+    let (i, &mean) = means
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.is_finite())
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    let a = i % axes;
+    let beyond: Vec<usize> = (0..windows)
+        .filter(|w| means[w * axes + a].abs() > 0.5 * mean.abs())
+        .collect();
+    Some(TorqueBias {
+        joint: a / 2,
+        axis: a % 2,
+        from: BIAS_WINDOW * beyond[0] as f64,
+        until: (BIAS_WINDOW * (beyond[beyond.len() - 1] + 1) as f64).min(s.duration()),
+        mean,
+        typical,
+    })
 }
 
 impl SwimError {
@@ -523,7 +595,7 @@ pub(super) fn residuals(
     // what the drive's own J, b and lag act on: the axis's acceleration
     // and rate, and the model's torque's rate of change (a torque measured
     // `lag` late is the model's less `lag` times its rate)
-    let torques: Vec<Vec<(f64, [f64; DRIVE])>> = traces
+    let torques: Vec<Vec<(f64, [f64; DRIVE], (usize, usize))>> = traces
         .iter()
         .zip(swims)
         .zip(&m.accel)
@@ -546,7 +618,11 @@ pub(super) fn residuals(
                             } else {
                                 0.0
                             };
-                            v.push((meas - model, [acc[k][j][ax], smp.rate[j][ax], -rate]));
+                            v.push((
+                                meas - model,
+                                [acc[k][j][ax], smp.rate[j][ax], -rate],
+                                (k, 2 * j + ax),
+                            ));
                         }
                     }
                 }
@@ -561,7 +637,7 @@ pub(super) fn residuals(
     } else {
         let mut ata = nalgebra::Matrix3::<f64>::zeros();
         let mut atb = nalgebra::Vector3::<f64>::zeros();
-        for &(e, x) in torques.iter().flatten() {
+        for &(e, x, _) in torques.iter().flatten() {
             let x = nalgebra::Vector3::from(x);
             ata += x * x.transpose();
             atb += x * e;
@@ -607,11 +683,14 @@ pub(super) fn residuals(
         .zip(m.channels.iter().zip(&chans))
     {
         let (mut se, mut cnt) = (0.0, 0usize);
-        for &(e_model, x) in tq {
+        let mut errors = Vec::with_capacity(tq.len());
+        for &(e_model, x, (k, a)) in tq {
             let e = jb[0] * x[0] + jb[1] * x[1] + jb[2] * x[2] - e_model;
             se += e * e;
             cnt += 1;
             push(TORQUE, e, out);
+            // measured less the model and the drive's terms
+            errors.push((k, a, -e));
         }
         // the means over the grid points the recording has
         let (mut sm, mut sp, mut cn) = (0.0, 0.0, 0usize);
@@ -636,6 +715,7 @@ pub(super) fn residuals(
             } else {
                 f64::NAN
             },
+            worst_bias: worst_bias(s, &errors),
         });
         for r in &tr.roll_rate {
             roll.0 += r * r;
