@@ -67,7 +67,18 @@ impl Rig {
     /// [`Rig::new`] on a simulated body of its own (`body`), not the one
     /// the daemon's `[model]` describes.
     pub fn with_body(cfg: &Config, seed: u64, body: anguilla_model::Body) -> Self {
-        Self::with_robot(cfg, seed, [0.0; 3], |_| {}, |r| r.body = body)
+        Self::with_robot(
+            cfg,
+            seed,
+            [0.0; 3],
+            |_| {},
+            |r| {
+                r.body = body;
+                // open water: the calibration's gaits climb more than the
+                // start's depth, and the model knows no surface
+                r.surface = false;
+            },
+        )
     }
 
     /// [`Rig::with_sensor`] with the simulated robot's configuration then

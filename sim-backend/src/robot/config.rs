@@ -64,6 +64,12 @@ pub struct RobotConfig {
     /// An IMU in the tail section (the head sensor's protocol; anguilla
     /// family only), or none. Its pressure is the tail's depth.
     pub tail_sensor: Option<SensorConfig>,
+    /// Whether the water has a surface: a nose that would rise above depth
+    /// 0 is put back on it ([`crate::plant::Plant::surface`]). On by
+    /// default; off, the body swims in open water without bound, as the
+    /// swimming model knows it (tests of the model against its own body
+    /// whose gaits climb more than the start's depth).
+    pub surface: bool,
 }
 
 impl Default for RobotConfig {
@@ -99,6 +105,7 @@ impl RobotConfig {
             },
             head_sensor: None,
             tail_sensor: None,
+            surface: true,
         }
     }
 

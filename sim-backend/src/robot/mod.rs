@@ -541,7 +541,7 @@ impl SimRobot {
             .map_or(crate::sensor::DEFAULT_ORIGIN_DEPTH, |s| {
                 s.config().origin_depth
             });
-        if self.plant.surface(origin_depth) {
+        if self.cfg.surface && self.plant.surface(origin_depth) {
             self.stats.surfaced += 1;
         }
         if let Some(sensor) = &mut self.sensor {
