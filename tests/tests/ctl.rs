@@ -251,7 +251,7 @@ fn the_readmes_calibration_recipe_works_as_written() {
     let readme =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
     let at = readme
-        .find("On the built-in simulated robot, word for word:")
+        .find("the_readmes_calibration_recipe_works_as_written")
         .expect("the recipe's heading");
     let block = &readme[at..];
     let start = block.find("```sh\n").unwrap() + 6;

@@ -595,7 +595,9 @@ pub(super) fn residuals(
     // what the drive's own J, b and lag act on: the axis's acceleration
     // and rate, and the model's torque's rate of change (a torque measured
     // `lag` late is the model's less `lag` times its rate)
-    let torques: Vec<Vec<(f64, [f64; DRIVE], (usize, usize))>> = traces
+    // (the torque less the model's, the drive's regressors, its axis)
+    type Sample = (f64, [f64; DRIVE], (usize, usize));
+    let torques: Vec<Vec<Sample>> = traces
         .iter()
         .zip(swims)
         .zip(&m.accel)
