@@ -940,15 +940,25 @@ fn ros2_estop_under_a_cmd_vel_flood_answers_that_the_robot_stopped() {
     }
     .encode();
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    // Twists sent so far by all three: the E-stop is called once the flood
+    // is a flood (on a loaded machine the threads start slowly).
+    let count = std::sync::Arc::new(std::sync::atomic::AtomicI64::new(0));
     let floods: Vec<_> = (0..3)
         .map(|t| {
-            let (z, key, twist, stop) = (z.clone(), key.clone(), twist.clone(), stop.clone());
+            let (z, key, twist, stop, count) = (
+                z.clone(),
+                key.clone(),
+                twist.clone(),
+                stop.clone(),
+                count.clone(),
+            );
             std::thread::spawn(move || {
                 let p = z.declare_publisher(key).wait().unwrap();
                 let gid = [t as u8; 16];
                 let mut n = 0i64;
                 while !stop.load(std::sync::atomic::Ordering::Relaxed) {
                     n += 1;
+                    count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     let _ = p
                         .put(twist.clone())
                         .attachment(graph::attachment(n, 0, &gid).to_vec())
@@ -961,6 +971,9 @@ fn ros2_estop_under_a_cmd_vel_flood_answers_that_the_robot_stopped() {
     // The twists drive the robot: it swims under the flood.
     until(&mut observer, "swimming", Duration::from_secs(10), |s| {
         s.mode == Mode::Swimming as u8
+    });
+    poll_until("1000 twists sent", Duration::from_secs(30), || {
+        (count.load(std::sync::atomic::Ordering::Relaxed) >= 1000).then_some(())
     });
     let (ok, msg) = trigger(&z, "estop", 3);
     let s = until(&mut observer, "e-stop", Duration::from_secs(2), |s| {

@@ -220,6 +220,8 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     );
     let prefix = cfg.ipc.prefix.clone();
     let cmd_estops = estops.clone();
+    let loop_up = Arc::new(AtomicBool::new(false));
+    let cmd_loop_up = loop_up.clone();
     // Ten periods, and a second to spare for a loop that overruns: past
     // that the loop is stalled and the clients' own timeouts report it.
     let reply_wait = Duration::from_secs(1) + 10 * Duration::from(crate::control::period_ns(&cfg));
@@ -233,6 +235,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
                         to_loop: req_tx,
                         from_loop: reply_rx,
                         estops: cmd_estops,
+                        loop_up: cmd_loop_up,
                     },
                     reply_wait,
                     ipc_ready_tx,
@@ -336,13 +339,16 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
         .map_err(|e| RunError::Thread("control loop", e))?;
     // Setup errors (IPC, model) surface here rather than in a log line.
     match ready_rx.recv() {
-        Ok(()) => Ok(Running {
+        Ok(()) => {
+            loop_up.store(true, Ordering::Release);
+            Ok(Running {
             stop,
             helpers_stop,
             loop_thread,
             helpers,
             ground_truth,
-        }),
+            })
+        }
         Err(_) => {
             stop.store(true, Ordering::SeqCst);
             helpers_stop.store(true, Ordering::SeqCst);
