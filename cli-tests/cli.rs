@@ -1622,6 +1622,12 @@ fn a_recording_stopped_at_min_free_replays_as_stopped_with_its_reason() {
         found.is_some()
     });
     let session = found.unwrap();
+    // The loop's first record on disk (it starts after the recorder: a
+    // disk filled before it would stop a recording of nothing).
+    let log = session.join("session.log");
+    wait("the session's start line", &mut || {
+        std::fs::read_to_string(&log).is_ok_and(|t| t.contains("\nstart "))
+    });
     // Fill the disk to 1 MB short of min-free's 4.
     let free = {
         let c = std::ffi::CString::new(dir.to_str().unwrap()).unwrap();
@@ -1630,7 +1636,6 @@ fn a_recording_stopped_at_min_free_replays_as_stopped_with_its_reason() {
         st.f_bavail * st.f_frsize
     };
     std::fs::write(dir.join("filler"), vec![0u8; (free - 3_000_000) as usize]).unwrap();
-    let log = session.join("session.log");
     wait("the stopped line", &mut || {
         std::fs::read_to_string(&log).is_ok_and(|t| t.contains("\nstopped "))
     });

@@ -370,7 +370,17 @@ pub fn parse(path: &Path) -> Result<Session, SessionError> {
             }
         }
     }
-    let start = start.ok_or_else(|| err(0, "no 'start' line".into()))?;
+    let start = start.ok_or_else(|| match &stopped {
+        // Recording began with the daemon; its loop had not started yet.
+        Some(why) => err(
+            0,
+            format!(
+                "the recorder stopped before the control loop's first period ({why}): \
+                 nothing was recorded to replay"
+            ),
+        ),
+        None => err(0, "no 'start' line".into()),
+    })?;
     let cut_at = (end.is_none() && stopped.is_none()).then_some(n);
     Ok(Session {
         start,
@@ -453,5 +463,29 @@ mod tests {
             Some("min-free: 3 MB free on /x")
         );
         assert!(session.cut_at.is_none() && session.end.is_none());
+    }
+
+    /// A recorder stopped before the loop's first record (min-free reached
+    /// during the daemon's start-up) says so, with its reason, instead of
+    /// "no 'start' line".
+    #[test]
+    fn a_session_stopped_before_its_start_says_why() {
+        let dir = std::env::temp_dir().join(format!("anguilla-prestart-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("session.log");
+        let mut text = Vec::new();
+        write_header(&mut text, "x = 1\n").unwrap();
+        write_stopped(&mut text, "min-free: 2 MB free").unwrap();
+        std::fs::write(&path, &text).unwrap();
+        let e = match parse(&path) {
+            Ok(_) => panic!("a session without periods parsed"),
+            Err(e) => e.to_string(),
+        };
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(
+            e.contains("stopped before the control loop's first period")
+                && e.contains("min-free: 2 MB free"),
+            "{e}"
+        );
     }
 }

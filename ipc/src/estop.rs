@@ -215,6 +215,22 @@ pub fn runtime_dir(prefix: &str) -> Result<PathBuf, IpcError> {
             Ok(()) => std::fs::set_permissions(d, std::fs::Permissions::from_mode(mode))
                 .map_err(|e| io_err("setting the mode of", d, e))?,
             Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {}
+            Err(e)
+                if e.kind() == io::ErrorKind::PermissionDenied
+                    && d.parent() == Some(root())
+                    && root() == Path::new(ROOT) =>
+            {
+                use std::os::unix::fs::MetadataExt as _;
+                let (owner, mode) = std::fs::metadata(root())
+                    .map(|m| (m.uid(), m.mode() & 0o7777))
+                    .unwrap_or((0, 0));
+                return Err(IpcError::EStopSocket(format!(
+                    "creating {}: {e}: {ROOT} (uid {owner}, mode {mode:o}) is shared by every \
+                     user's daemons like /tmp and must be mode 1777; its owner can fix it: \
+                     `chmod 1777 {ROOT}`",
+                    d.display()
+                )));
+            }
             Err(e) => return Err(io_err("creating", d, e)),
         }
         if let Some(why) = untrusted(d, uid) {
@@ -333,7 +349,10 @@ mod tests {
         // A dead daemon's socket file: nobody receives, so it is replaced.
         let p2 = format!("{prefix}-stale");
         let path2 = socket_path(&p2).unwrap();
-        std::fs::create_dir_all(path2.parent().unwrap()).unwrap();
+        // Its directories as a daemon makes them (a plain create_dir_all
+        // made /tmp/anguilla 0755 on a clean machine, closing it to every
+        // other user's daemon).
+        runtime_dir(&p2).unwrap();
         drop(UnixDatagram::bind(&path2).unwrap()); // the file stays behind
         assert!(path2.exists());
         let l2 = EStopListener::bind(&p2).unwrap();
@@ -352,7 +371,13 @@ mod tests {
             .unwrap()
             .to_path_buf();
         let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        // Its parents as a daemon makes them (/tmp/anguilla shared, 1777).
+        runtime_dir(&format!(
+            "anguilla-test/estop-parent-{}",
+            std::process::id()
+        ))
+        .unwrap();
+        std::fs::create_dir(&dir).unwrap();
         std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777)).unwrap();
         let e = EStopListener::bind(&prefix).unwrap_err().to_string();
         assert!(
