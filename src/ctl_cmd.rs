@@ -292,7 +292,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
         format!("sensor {}, no sample yet", sensor_name(n.sensor))
     } else {
         format!(
-            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down); sensor {}",
+            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}; sensor {}",
             n.heading_deg,
             n.pitch_deg,
             n.roll_deg,
@@ -303,6 +303,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
             },
             n.depth_m,
             n.depth_rate,
+            if n.surfaced != 0 { " SURFACED" } else { "" },
             sensor_name(n.sensor)
         )
     };

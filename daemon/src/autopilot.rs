@@ -19,7 +19,7 @@
 //!   curvature then goes through the same trapezoidal profile as an
 //!   operator's, within `gait.max-turn` and `gait.max-pitch`.
 
-use anguilla_ipc::Hold;
+use anguilla_ipc::{HOLD_DEPTH_TOLERANCE, HOLD_HEADING_TOLERANCE, Hold, HoldState, SURFACE_DEPTH};
 use anguilla_model::{GaitParams, HeadState, Model, ModelError, ParametricGait, Workspace, step};
 use nalgebra::Vector3;
 
@@ -116,6 +116,28 @@ fn bracket(grid: &[f64], x: f64) -> (usize, f64) {
         .min(n - 2);
     let t = ((x - grid[i]) / (grid[i + 1] - grid[i])).clamp(0.0, 1.0);
     (i, t)
+}
+
+/// How far about the gait swum [`authority_uncertain`] looks: amplitude
+/// (fraction) and frequency (Hz).
+pub const AUTHORITY_NEIGHBOURHOOD: [f64; 2] = [0.1, 0.25];
+
+/// Whether the dive table's authority changes sign within
+/// [`AUTHORITY_NEIGHBOURHOOD`] of `amplitude` and `frequency`: there the
+/// table cannot say which way a curvature drives the body (the built-in
+/// robot at amplitude 0.6, 1 Hz: −0.030 m/s per 1/m, +0.032 at 0.8), and
+/// a body that swims a little otherwise than the model goes the wrong way.
+pub fn authority_uncertain(table: &DiveTable, amplitude: f64, frequency: f64) -> bool {
+    let [da, df] = AUTHORITY_NEIGHBOURHOOD;
+    let a = table.at(amplitude, frequency);
+    [
+        (amplitude - da, frequency),
+        (amplitude + da, frequency),
+        (amplitude, frequency - df),
+        (amplitude, frequency + df),
+    ]
+    .into_iter()
+    .any(|(x, f)| table.at(x.clamp(0.0, 1.0), f.max(0.0)) * a <= 0.0)
 }
 
 /// The curvature of the ballasted body's static pitch calibration (1/m):
@@ -245,6 +267,107 @@ pub fn wrap(a: f64) -> f64 {
     }
 }
 
+/// A hold's settle time (s): beyond its tolerance, an error that has not
+/// shrunk by [`HEADING_PROGRESS`] / [`DEPTH_PROGRESS`] for this long is
+/// not converging. The heading's: a 180° turn at the autopilot's 30°/s
+/// is 6 s, at a slow gait's smaller rate longer.
+pub const HEADING_SETTLE: f64 = 10.0;
+/// The depth hold's settle time (s): the slow gaits' dive authority is
+/// 0.02–0.06 m/s per 1/m, a few cm/s at the law's curvature limit.
+pub const DEPTH_SETTLE: f64 = 15.0;
+/// Progress that counts as converging (deg) within [`HEADING_SETTLE`].
+pub const HEADING_PROGRESS: f64 = 2.0;
+/// Progress that counts as converging (m) within [`DEPTH_SETTLE`].
+pub const DEPTH_PROGRESS: f64 = 0.05;
+/// The smallest dive rate (m/s) the depth law's curvature limit must give
+/// at the gait swum for its authority to count.
+pub const MIN_DIVE_RATE: f64 = 0.005;
+
+/// The judge of one held quantity: its state ([`HoldState`]) from the
+/// error's magnitude over time.
+#[derive(Debug, Clone, Copy)]
+struct Judge {
+    state: HoldState,
+    /// The target judged (a new one starts over).
+    target: f64,
+    /// The smallest error beyond the tolerance since the last progress.
+    best: f64,
+    /// Time since the error last shrank by the progress margin (s).
+    since: f64,
+    /// Time at the command's limit since then (s).
+    saturated: f64,
+}
+
+impl Judge {
+    const NEW: Judge = Judge {
+        state: HoldState::Off,
+        target: f64::NAN,
+        best: f64::INFINITY,
+        since: 0.0,
+        saturated: 0.0,
+    };
+
+    /// One period of `dt` s: `held` the target (none: off), `err` the
+    /// error's magnitude, within `tol` holding; `progress` in `settle` s
+    /// converging; `why` the reason a stalled hold cannot (none: not
+    /// converging), `saturated` whether the command is at its limit.
+    #[allow(clippy::too_many_arguments)] // two call sites, one per axis
+    fn update(
+        &mut self,
+        dt: f64,
+        held: Option<f64>,
+        swimming: bool,
+        err: f64,
+        tol: f64,
+        progress: f64,
+        settle: f64,
+        saturated: bool,
+        why: impl Fn(bool) -> Option<HoldState>,
+    ) -> HoldState {
+        let Some(target) = held else {
+            *self = Self::NEW;
+            return self.state;
+        };
+        if target != self.target || !swimming {
+            *self = Self {
+                target,
+                ..Self::NEW
+            };
+        }
+        if !swimming {
+            self.state = HoldState::Waiting;
+            return self.state;
+        }
+        if err <= tol {
+            self.best = tol;
+            self.since = 0.0;
+            self.saturated = 0.0;
+            self.state = HoldState::Holding;
+            return self.state;
+        }
+        if err < self.best - progress {
+            self.best = err;
+            self.since = 0.0;
+            self.saturated = 0.0;
+        } else {
+            self.since += dt;
+            if saturated {
+                self.saturated += dt;
+            }
+        }
+        let stalled = self.since >= settle;
+        // Most of the settle time at the limit: the limit is why.
+        let at_limit = self.saturated >= 0.8 * settle;
+        self.state = match why(stalled) {
+            Some(cannot) => cannot,
+            None if stalled && at_limit => HoldState::Limit,
+            None if stalled => HoldState::NotConverging,
+            None => HoldState::Converging,
+        };
+        self.state
+    }
+}
+
 /// The autopilot's state: its integrators and the speed it believes.
 #[derive(Debug, Clone)]
 pub struct Autopilot {
@@ -264,6 +387,15 @@ pub struct Autopilot {
     heading_sum: f64,
     depth_sum: f64,
     authority: f64,
+    /// This period's commands were at their limit: heading, depth.
+    saturated: [bool; 2],
+    /// The depth law wanted to climb (a negative dive rate) this period.
+    climbing: bool,
+    /// The dive table's authority at the gait swum is too small or of an
+    /// uncertain sign.
+    no_authority: bool,
+    /// The judges of the heading and the depth hold.
+    judges: [Judge; 2],
 }
 
 impl Autopilot {
@@ -287,7 +419,67 @@ impl Autopilot {
             heading_sum: 0.0,
             depth_sum: 0.0,
             authority: 0.0,
+            saturated: [false; 2],
+            climbing: false,
+            no_authority: false,
+            judges: [Judge::NEW; 2],
         }
+    }
+
+    /// The hold states of heading and depth, as last judged.
+    pub fn states(&self) -> [HoldState; 2] {
+        [self.judges[0].state, self.judges[1].state]
+    }
+
+    /// One period of `dt` s after [`Autopilot::steer`]: how each held
+    /// quantity is doing ([`HoldState`]), from the estimate `est` and what
+    /// the law did this period; `swimming` whether the swim is on (a hold
+    /// set at rest waits for it).
+    pub fn judge(
+        &mut self,
+        dt: f64,
+        hold: &Hold,
+        est: &Estimate,
+        swimming: bool,
+    ) -> [HoldState; 2] {
+        let heading_err = hold.heading.map_or(0.0, |t| {
+            wrap(t.to_radians() - est.heading).abs().to_degrees()
+        });
+        let [sat_heading, sat_depth] = self.saturated;
+        self.judges[0].update(
+            dt,
+            hold.heading,
+            swimming,
+            heading_err,
+            HOLD_HEADING_TOLERANCE,
+            HEADING_PROGRESS,
+            HEADING_SETTLE,
+            sat_heading,
+            |_| None,
+        );
+        let depth_err = hold.depth.map_or(0.0, |t| (t - est.depth).abs());
+        let surfaced = est.depth < SURFACE_DEPTH;
+        let (climbing, no_authority) = (self.climbing, self.no_authority);
+        self.judges[1].update(
+            dt,
+            hold.depth,
+            swimming,
+            depth_err,
+            HOLD_DEPTH_TOLERANCE,
+            DEPTH_PROGRESS,
+            DEPTH_SETTLE,
+            sat_depth,
+            |stalled| {
+                if surfaced && (climbing || stalled) {
+                    Some(HoldState::Surface)
+                } else if stalled && no_authority {
+                    Some(HoldState::Authority)
+                } else {
+                    None
+                }
+            },
+        );
+        self.states()
     }
 
     /// `∫κ dt` (m⁻¹ s) while the curvature `k` ramps to zero along the
@@ -364,6 +556,7 @@ impl Autopilot {
                 if raw == r {
                     self.heading_sum += e * dt;
                 }
+                self.saturated[0] = raw != r;
                 Some(r)
             }
         };
@@ -389,6 +582,10 @@ impl Autopilot {
                     if raw == w && k == k_raw {
                         self.depth_sum += e * dt;
                     }
+                    self.saturated[1] = raw != w || k != k_raw;
+                    self.climbing = w < 0.0;
+                    self.no_authority =
+                        w_max < MIN_DIVE_RATE || authority_uncertain(&table, gait[0], gait[1]);
                     let kc2 = k;
                     self.authority = w_max;
                     let turn = r.map_or(manual[0], |r| {
@@ -402,6 +599,9 @@ impl Autopilot {
                 if raw == w {
                     self.depth_sum += e * dt;
                 }
+                self.saturated[1] = raw != w;
+                self.climbing = w < 0.0;
+                self.no_authority = false;
                 // Nose down to descend: the pitch wanted (nose up) is
                 // −asin(w / U).
                 let theta = -(w / u).clamp(-1.0, 1.0).asin();
@@ -648,5 +848,118 @@ mod tests {
             );
             assert!(pitch < 0.0, "{gains:?}: climbs, {pitch}");
         }
+    }
+
+    /// Runs `a` for `secs` at 100 Hz with the estimate `at(t)`: steer,
+    /// then judge; returns the states seen, repeats dropped.
+    fn judged(
+        a: &mut Autopilot,
+        hold: &Hold,
+        secs: f64,
+        swimming: bool,
+        at: impl Fn(f64) -> Estimate,
+    ) -> Vec<[HoldState; 2]> {
+        let dt = 0.01;
+        let mut seen: Vec<[HoldState; 2]> = Vec::new();
+        for i in 0..(secs / dt).round() as usize {
+            let e = at(i as f64 * dt);
+            a.steer(dt, hold, &e, 0.5, [0.0; 2], 0.0, [1.0, 1.0]);
+            let s = a.judge(dt, hold, &e, swimming);
+            if seen.last() != Some(&s) {
+                seen.push(s);
+            }
+        }
+        seen
+    }
+
+    /// Issue 46: the daemon names how a hold is doing. An error that
+    /// shrinks converges and then holds; one that stays put is not
+    /// converging after the settle time (and, its command at the limit
+    /// all along, cannot: limit); at rest a hold waits; off when not held.
+    #[test]
+    fn each_hold_is_judged_converging_holding_or_not() {
+        use HoldState::*;
+        let heading = Hold {
+            heading: Some(90.0),
+            depth: None,
+        };
+        let mut a = autopilot(None);
+        // 0 -> 90 deg at 10 deg/s: converging, then holding at 8 s.
+        let seen = judged(&mut a, &heading, 12.0, true, |t| {
+            estimate((t * 10.0).min(90.0), 1.0)
+        });
+        assert_eq!(seen, vec![[Converging, Off], [Holding, Off]]);
+        // Stuck 120 deg off, the rate asked (0.8/s x 2.09 rad) beyond the
+        // 30 deg/s limit all along: cannot (limit) after HEADING_SETTLE.
+        let mut a = autopilot(None);
+        let seen = judged(&mut a, &heading, HEADING_SETTLE + 1.0, true, |_| {
+            estimate(-30.0, 1.0)
+        });
+        assert_eq!(seen, vec![[Converging, Off], [Limit, Off]]);
+        // Stuck 15 deg off with the rate unsaturated: not converging.
+        let mut a = autopilot(None);
+        let seen = judged(&mut a, &heading, HEADING_SETTLE + 1.0, true, |_| {
+            estimate(75.0, 1.0)
+        });
+        assert_eq!(seen, vec![[Converging, Off], [NotConverging, Off]]);
+        // A new target starts over.
+        let other = Hold {
+            heading: Some(80.0),
+            depth: None,
+        };
+        let seen = judged(&mut a, &other, 1.0, true, |_| estimate(75.0, 1.0));
+        assert_eq!(seen, vec![[Holding, Off]]);
+        // At rest the hold waits; released, it is off.
+        assert_eq!(
+            judged(&mut a, &heading, 1.0, false, |_| estimate(0.0, 1.0)),
+            vec![[Waiting, Off]]
+        );
+        assert_eq!(
+            judged(&mut a, &Hold::MANUAL, 1.0, true, |_| estimate(0.0, 1.0)),
+            vec![[Off, Off]]
+        );
+    }
+
+    /// A depth hold stalled at the surface cannot (at the surface); one
+    /// stalled where the dive table's authority changes sign cannot
+    /// (authority).
+    #[test]
+    fn a_stalled_depth_hold_names_why_it_cannot() {
+        use HoldState::*;
+        let depth = Hold {
+            heading: None,
+            depth: Some(1.2),
+        };
+        let mut a = autopilot(Some(0.6));
+        let seen = judged(&mut a, &depth, DEPTH_SETTLE + 1.0, true, |_| {
+            estimate(0.0, 0.01)
+        });
+        assert_eq!(seen, vec![[Off, Converging], [Off, Surface]]);
+        // The table's authority changes sign between amplitude 0.8 and 1.
+        let mut a = autopilot(Some(0.6));
+        a.gains.dive.as_mut().expect("a table").rate[4] = [-0.3; DIVE_FREQUENCIES.len()];
+        let seen = judged(&mut a, &depth, DEPTH_SETTLE + 1.0, true, |_| {
+            estimate(0.0, 0.8)
+        });
+        assert_eq!(seen, vec![[Off, Converging], [Off, Authority]]);
+        // The same error shrinking 5 cm every 10 s converges.
+        let mut a = autopilot(Some(0.6));
+        let seen = judged(&mut a, &depth, 3.0 * DEPTH_SETTLE, true, |t| {
+            estimate(0.0, 0.3 + 0.006 * t)
+        });
+        assert_eq!(seen, vec![[Off, Converging]]);
+    }
+
+    #[test]
+    fn the_authority_is_uncertain_where_the_table_changes_sign() {
+        let mut t = DiveTable {
+            rate: [[0.3; DIVE_FREQUENCIES.len()]; DIVE_AMPLITUDES.len()],
+        };
+        assert!(!authority_uncertain(&t, 0.6, 1.0));
+        t.rate[3][1] = -0.1; // amplitude 0.8, 1 Hz
+        assert!(authority_uncertain(&t, 0.7, 1.0));
+        assert!(!authority_uncertain(&t, 0.4, 1.0));
+        // Nothing at rest.
+        assert!(authority_uncertain(&t, 0.0, 1.0));
     }
 }

@@ -163,6 +163,8 @@ pub struct Controller {
     autopilot: Option<Autopilot>,
     hold: Hold,
     hold_exit: Option<SensorHealth>,
+    /// How the heading and depth holds are doing, judged each period.
+    hold_states: [anguilla_ipc::HoldState; 2],
     /// The second line ([`crate::tracking`]).
     tracking: Tracking,
     /// The setpoints of the last period were sent and followed (Ready,
@@ -300,6 +302,7 @@ impl Controller {
             autopilot,
             hold: Hold::MANUAL,
             hold_exit: None,
+            hold_states: [anguilla_ipc::HoldState::Off; 2],
             tracking: Tracking::new(joints),
             setpoints_followed: false,
             report_ids: if cfg.robot.drive.drive_per_axis() {
@@ -651,6 +654,14 @@ impl Controller {
                     self.frequency.state().position,
                 ],
             );
+            self.hold_states = ap.judge(
+                self.dt,
+                &d.hold,
+                &nav.estimate(),
+                mode == Mode::Swimming && nav.has_estimate(),
+            );
+        } else {
+            self.hold_states = [anguilla_ipc::HoldState::Off; 2];
         }
         self.hold = d.hold;
         let _ = self.amplitude.set_target(target.amplitude);

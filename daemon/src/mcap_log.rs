@@ -30,7 +30,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use serde_json::{Value, json};
 
 use crate::config::Config;
-use anguilla_ipc::{Cause, FaultSet, Mode, Raw as _, SensorHealth, StateSnapshot};
+use anguilla_ipc::{Cause, FaultSet, HoldState, Mode, Raw as _, SensorHealth, StateSnapshot};
 
 pub mod schema;
 pub mod swim;
@@ -681,6 +681,25 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
         let why = SensorHealth::from_code(s.nav.hold_exit).map_or("unknown", SensorHealth::name);
         out.push((3, format!("the autopilot let go: head sensor {why}")));
     }
+    // A hold that stops converging (or cannot), or converges again; the
+    // robot at the surface, or back under.
+    if let Some(l) = last {
+        for (now, was, words) in [
+            (
+                s.nav.heading_hold,
+                l.nav.heading_hold,
+                s.nav.heading_words(),
+            ),
+            (s.nav.depth_hold, l.nav.depth_hold, s.nav.depth_words()),
+        ] {
+            if let Some(line) = hold_line(now, was, words) {
+                out.push(line);
+            }
+        }
+        if s.nav.surfaced != l.nav.surfaced {
+            out.push(surface_line(s.nav.surfaced != 0, s.nav.depth_m));
+        }
+    }
     // A joint whose torque-residual alarm rose or cleared, named with its
     // axis and sign.
     if let Some(l) = last {
@@ -751,6 +770,31 @@ fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String
     out
 }
 
+/// The log line (level, text) for a hold state that went from `was` to
+/// `now`, `words` its state in words: a hold that stops converging (a
+/// warning) or converges again; none for other changes.
+pub fn hold_line(now: u8, was: u8, words: Option<String>) -> Option<(u8, String)> {
+    let failed = |c: u8| HoldState::from_code(c).is_some_and(HoldState::failed);
+    let words = words?;
+    if failed(now) && now != was {
+        Some((3, format!("hold {words}")))
+    } else if failed(was) && !failed(now) && now != HoldState::Off as u8 {
+        Some((2, format!("hold {words}")))
+    } else {
+        None
+    }
+}
+
+/// The log line (level, text) for the robot reaching the surface (by the
+/// daemon's estimate, a warning) or leaving it.
+pub fn surface_line(surfaced: bool, depth: f32) -> (u8, String) {
+    if surfaced {
+        (3, format!("surfaced: the depth estimate is {depth:.2} m"))
+    } else {
+        (2, format!("back under the surface: depth {depth:.2} m"))
+    }
+}
+
 /// `/anguilla/state`'s message; its schema is [`schema::state`].
 fn state_json(s: &StateSnapshot) -> Value {
     let gait = |g: &anguilla_ipc::GaitSnapshot| json!({ "amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch });
@@ -779,7 +823,11 @@ fn state_json(s: &StateSnapshot) -> Value {
         "refused_commands": s.refused_commands,
         "records_lost": s.records_lost,
         "nav": { "sensor": SensorHealth::from_code(n.sensor).map_or(schema::UNKNOWN, SensorHealth::name),
-                 "hold": n.hold, "heading_deg": n.heading_deg, "pitch_deg": n.pitch_deg,
+                 "hold": n.hold,
+                 "heading_hold": HoldState::from_code(n.heading_hold).map_or(schema::UNKNOWN, HoldState::name),
+                 "depth_hold": HoldState::from_code(n.depth_hold).map_or(schema::UNKNOWN, HoldState::name),
+                 "surfaced": n.surfaced != 0,
+                 "heading_deg": n.heading_deg, "pitch_deg": n.pitch_deg,
                  "roll_deg": n.roll_deg, "depth_m": n.depth_m, "depth_rate": n.depth_rate,
                  "heading_target_deg": n.heading_target_deg, "depth_target_m": n.depth_target_m,
                  "rate_innovation": n.rate_innovation, "depth_innovation": n.depth_innovation,
@@ -864,6 +912,54 @@ mod log_tests {
         assert_eq!(
             log_lines(Some(&b), &a),
             [(2, "sensor tail-imu (node 40): ok".to_string())]
+        );
+    }
+
+    /// Issue 46: a hold that stops converging is a warning naming its
+    /// values; converging and holding are not news, converging again is;
+    /// the robot at the surface is a warning, back under a note.
+    #[test]
+    fn a_hold_that_stops_converging_and_surfacing_are_logged() {
+        let mut a = StateSnapshot::default();
+        a.nav.depth_hold = HoldState::Converging as u8;
+        a.nav.depth_m = 2.5;
+        a.nav.depth_target_m = 1.2;
+        let mut b = a;
+        b.nav.depth_hold = HoldState::Holding as u8;
+        assert!(log_lines(Some(&a), &b).is_empty());
+        b.nav.depth_hold = HoldState::NotConverging as u8;
+        assert_eq!(
+            log_lines(Some(&a), &b),
+            [(
+                3,
+                "hold not converging: depth 2.50 m for 1.20 m".to_string()
+            )]
+        );
+        assert_eq!(
+            log_lines(Some(&b), &a),
+            [(2, "hold converging: depth 2.50 m for 1.20 m".to_string())]
+        );
+        let mut c = b;
+        c.nav.depth_hold = HoldState::Surface as u8;
+        c.nav.surfaced = 1;
+        c.nav.depth_m = 0.01;
+        assert_eq!(
+            log_lines(Some(&b), &c),
+            [
+                (
+                    3,
+                    "hold cannot: at the surface: depth 0.01 m for 1.20 m".to_string()
+                ),
+                (3, "surfaced: the depth estimate is 0.01 m".to_string())
+            ]
+        );
+        // Released: no line for the hold.
+        let mut d = c;
+        d.nav.depth_hold = 0;
+        d.nav.surfaced = 0;
+        assert_eq!(
+            log_lines(Some(&c), &d),
+            [(2, "back under the surface: depth 0.01 m".to_string())]
         );
     }
 }

@@ -386,6 +386,9 @@ impl Nav {
             s.rate_innovation = self.innovation.norm() as f32;
             s.depth_innovation = self.depth_innovation as f32;
         }
+        // At the surface: the daemon's own judgement, from its estimate.
+        s.surfaced =
+            (self.initialised && self.estimate().depth < anguilla_ipc::SURFACE_DEPTH) as u8;
         s.samples = self.reader.samples();
         s.lost_samples = self.reader.lost();
     }

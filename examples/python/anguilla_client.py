@@ -19,7 +19,7 @@ try:
 except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
-LAYOUT_VERSION = 8
+LAYOUT_VERSION = 9
 ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD = range(
     1, 11)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
@@ -76,7 +76,8 @@ class NavSnapshot(_Payload):
         (n, f32) for n in (
             "heading_deg", "pitch_deg", "roll_deg", "depth_m", "depth_rate", "temperature",
             "heading_target_deg", "depth_target_m", "rate_innovation", "depth_innovation")] + [
-        ("reserved", u32), ("samples", u64), ("lost_samples", u64)]
+        ("heading_hold", u8), ("depth_hold", u8), ("surfaced", u8), ("reserved", u8),
+        ("samples", u64), ("lost_samples", u64)]
 
 
 class SensorEntry(_Payload):

@@ -88,7 +88,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
         heading_deg: "float", pitch_deg: "float", roll_deg: "float", depth_m: "float",
         depth_rate: "float", temperature: "float", heading_target_deg: "float",
         depth_target_m: "float", rate_innovation: "float", depth_innovation: "float",
-        reserved: "uint32_t", samples: "uint64_t", lost_samples: "uint64_t",
+        heading_hold: "uint8_t", depth_hold: "uint8_t", surfaced: "uint8_t", reserved: "uint8_t",
+        samples: "uint64_t", lost_samples: "uint64_t",
     ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
         layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", body: "uint32_t[7]",
@@ -276,6 +277,17 @@ pub fn codes_markdown() -> String {
     let _ = writeln!(out, "| code | health |");
     let _ = writeln!(out, "|---:|---|");
     for h in SensorHealth::ALL {
+        let _ = writeln!(out, "| {} | {} |", h as u8, h.name());
+    }
+    let _ = writeln!(
+        out,
+        "\n`NavSnapshot.heading_hold` and `NavSnapshot.depth_hold` (how a held \
+         quantity is doing, judged by the daemon every period; 4 and up: the \
+         target is not reached):\n"
+    );
+    let _ = writeln!(out, "| code | hold state |");
+    let _ = writeln!(out, "|---:|---|");
+    for h in crate::HoldState::ALL {
         let _ = writeln!(out, "| {} | {} |", h as u8, h.name());
     }
     let _ = writeln!(

@@ -8,7 +8,7 @@ use crate::vocabulary::SwimParams;
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 8;
+pub const LAYOUT_VERSION: u32 = 9;
 /// Most sensors a snapshot carries.
 pub const MAX_SENSORS: usize = 4;
 /// Values a [`SensorEntry`] carries.
@@ -242,12 +242,86 @@ pub struct NavSnapshot {
     /// Model health: the measured depth less the predicted one (m), at the
     /// last sample.
     pub depth_innovation: f32,
+    /// How the heading hold is doing (`HoldState`: 0 off, 1 waiting,
+    /// 2 converging, 3 holding, 4 not converging, 5 cannot: surface,
+    /// 6 cannot: limit, 7 cannot: authority).
+    pub heading_hold: u8,
+    /// How the depth hold is doing (`HoldState`, as `heading_hold`).
+    pub depth_hold: u8,
+    /// 1 while the depth estimate is at the surface (shallower than
+    /// `SURFACE_DEPTH`, 0.05 m).
+    pub surfaced: u8,
     /// Padding, always 0.
-    pub reserved: u32,
+    pub reserved: u8,
     /// Head-sensor samples received since start.
     pub samples: u64,
     /// Samples the sample counter says were lost since start.
     pub lost_samples: u64,
+}
+
+/// A hold state code's name ("hold state N" for an unknown one).
+fn hold_state_name(code: u8) -> std::borrow::Cow<'static, str> {
+    crate::HoldState::from_code(code).map_or_else(
+        || std::borrow::Cow::Owned(format!("hold state {code}")),
+        |h| std::borrow::Cow::Borrowed(h.name()),
+    )
+}
+
+impl NavSnapshot {
+    /// The heading hold's state (`None`: an unknown code).
+    pub fn heading_state(&self) -> Option<crate::HoldState> {
+        crate::HoldState::from_code(self.heading_hold)
+    }
+
+    /// The depth hold's state (`None`: an unknown code).
+    pub fn depth_state(&self) -> Option<crate::HoldState> {
+        crate::HoldState::from_code(self.depth_hold)
+    }
+
+    /// The heading hold's state in words with its value and target, as
+    /// the daemon judges it ("converging: heading 40.0 deg for 60.0 deg");
+    /// `None` when the heading is not held.
+    pub fn heading_words(&self) -> Option<String> {
+        (self.heading_hold != 0).then(|| {
+            format!(
+                "{}: heading {:.1} deg for {:.1} deg",
+                hold_state_name(self.heading_hold),
+                self.heading_deg,
+                self.heading_target_deg
+            )
+        })
+    }
+
+    /// The depth hold's state in words ("not converging: depth 2.50 m for
+    /// 1.20 m"); `None` when the depth is not held.
+    pub fn depth_words(&self) -> Option<String> {
+        (self.depth_hold != 0).then(|| {
+            format!(
+                "{}: depth {:.2} m for {:.2} m",
+                hold_state_name(self.depth_hold),
+                self.depth_m,
+                self.depth_target_m
+            )
+        })
+    }
+
+    /// Each held quantity's state in words with its value and target
+    /// ([`NavSnapshot::heading_words`], [`NavSnapshot::depth_words`]);
+    /// empty when nothing is held.
+    pub fn hold_words(&self) -> Vec<String> {
+        self.heading_words()
+            .into_iter()
+            .chain(self.depth_words())
+            .collect()
+    }
+
+    /// Whether a held quantity is judged not to reach its target (not
+    /// converging or cannot; an unknown code counts).
+    pub fn hold_failed(&self) -> bool {
+        [self.heading_hold, self.depth_hold]
+            .into_iter()
+            .any(|c| c != 0 && crate::HoldState::from_code(c).is_none_or(crate::HoldState::failed))
+    }
 }
 
 /// One sensor in a [`StateSnapshot`]'s list: what it is, its bus id, its

@@ -475,37 +475,36 @@ impl Ctl {
     }
 }
 
-/// How far off a hold may end and count as reached: the depth (m).
-pub const DEPTH_REACHED: f64 = 0.2;
+/// How far off a hold may end and count as reached: the depth (m), the
+/// daemon's tolerance for "holding".
+pub const DEPTH_REACHED: f64 = anguilla_ipc::HOLD_DEPTH_TOLERANCE;
 /// How far off a hold may end and count as reached: the heading (deg).
-pub const HEADING_REACHED: f64 = 10.0;
+pub const HEADING_REACHED: f64 = anguilla_ipc::HOLD_HEADING_TOLERANCE;
 
-/// What `hold` missed at the end of a swim, from the daemon's estimate in
-/// `s` ("not converging: depth 2.50 m for 1.20 m"), or `None` if every
-/// held target is within [`DEPTH_REACHED`] and [`HEADING_REACHED`].
+/// What `hold` missed at the end of a swim, as the daemon judges it in
+/// `s` (its hold states, `NavSnapshot::heading_hold` and `depth_hold`:
+/// "not converging: depth 2.50 m for 1.20 m"), or `None` if every held
+/// quantity is holding (within [`DEPTH_REACHED`] and [`HEADING_REACHED`]).
 pub fn hold_missed(s: &StateSnapshot, hold: &Hold) -> Option<String> {
+    let n = &s.nav;
+    let holding = anguilla_ipc::HoldState::Holding as u8;
     let mut missed = Vec::new();
-    if let Some(h) = hold.heading {
-        let now = s.nav.heading_deg as f64;
-        let off = (now - h + 540.0).rem_euclid(360.0) - 180.0;
-        let reached = off.abs() <= HEADING_REACHED;
-        if !reached {
-            missed.push(format!(
-                "heading {now:.1} deg for {:.1} deg",
-                h.rem_euclid(360.0)
-            ));
-        }
-    }
-    if let Some(d) = hold.depth {
-        let now = s.nav.depth_m as f64;
-        let reached = (now - d).abs() <= DEPTH_REACHED;
-        if !reached {
-            missed.push(format!("depth {now:.2} m for {d:.2} m"));
+    for (asked, code, words, what) in [
+        (
+            hold.heading.is_some(),
+            n.heading_hold,
+            n.heading_words(),
+            "heading",
+        ),
+        (hold.depth.is_some(), n.depth_hold, n.depth_words(), "depth"),
+    ] {
+        if asked && code != holding {
+            missed.push(words.unwrap_or_else(|| format!("the daemon does not hold the {what}")));
         }
     }
     (!missed.is_empty()).then(|| {
         format!(
-            "not converging: {} at the end of the swim (within {DEPTH_REACHED} m and {HEADING_REACHED} deg counts as reached)",
+            "{} at the end of the swim (the daemon's hold state; within {DEPTH_REACHED} m and {HEADING_REACHED} deg holds)",
             missed.join(", ")
         )
     })
@@ -551,34 +550,49 @@ mod hold_tests {
     /// printed "done: ready" and exited 0.
     #[test]
     fn a_hold_that_missed_its_target_is_named() {
+        use anguilla_ipc::HoldState;
         let mut s = StateSnapshot::default();
         s.nav.depth_m = 2.5;
+        s.nav.depth_target_m = 1.2;
+        s.nav.depth_hold = HoldState::NotConverging as u8;
         s.nav.heading_deg = 355.0;
         let depth = Hold {
             heading: None,
             depth: Some(1.2),
         };
         let m = hold_missed(&s, &depth).expect("missed");
-        assert!(m.contains("not converging: depth 2.50 m for 1.20 m"), "{m}");
+        assert!(
+            m.contains("not converging: depth 2.50 m for 1.20 m at the end"),
+            "{m}"
+        );
+        // The daemon's judgement, not the tool's: holding is reached.
         s.nav.depth_m = 1.3;
+        s.nav.depth_hold = HoldState::Holding as u8;
         assert_eq!(hold_missed(&s, &depth), None);
-        // Across north: 355 for 5 is 10 degrees off, reached.
-        let heading = Hold {
-            heading: Some(5.0),
-            depth: None,
-        };
-        assert_eq!(hold_missed(&s, &heading), None);
+        // Still converging at the end is not reached either.
+        s.nav.depth_hold = HoldState::Converging as u8;
+        let m = hold_missed(&s, &depth).expect("missed");
+        assert!(m.starts_with("converging: depth 1.30 m for 1.20 m"), "{m}");
+        s.nav.depth_hold = HoldState::Surface as u8;
+        let m = hold_missed(&s, &depth).expect("missed");
+        assert!(m.starts_with("cannot: at the surface: depth"), "{m}");
         let heading = Hold {
             heading: Some(60.0),
             depth: None,
         };
+        s.nav.heading_target_deg = 60.0;
+        s.nav.heading_hold = HoldState::Limit as u8;
         let m = hold_missed(&s, &heading).expect("missed");
-        assert!(m.contains("heading 355.0 deg for 60.0 deg"), "{m}");
-        s.nav.depth_m = f32::NAN;
         assert!(
-            hold_missed(&s, &depth).is_some(),
-            "no estimate is no arrival"
+            m.starts_with("cannot: its command at its limit: heading 355.0 deg for 60.0 deg"),
+            "{m}"
         );
+        s.nav.heading_hold = HoldState::Holding as u8;
+        assert_eq!(hold_missed(&s, &heading), None);
+        // A hold asked that the daemon does not hold is no arrival.
+        s.nav.heading_hold = HoldState::Off as u8;
+        let m = hold_missed(&s, &heading).expect("missed");
+        assert!(m.contains("the daemon does not hold the heading"), "{m}");
     }
 }
 

@@ -7,11 +7,22 @@ use serde_json::{Value, json};
 use crate::hold::{has_estimate, held};
 use crate::view::{autopilot_name, cause_name, mode_name, sensor_name};
 
+/// A hold state's name (`null` when not held).
+fn hold_state_name(code: u8) -> Option<&'static str> {
+    match anguilla_ipc::HoldState::from_code(code) {
+        Some(anguilla_ipc::HoldState::Off) => None,
+        Some(h) => Some(h.name()),
+        None => Some("unknown"),
+    }
+}
+
 /// The snapshot's fields as JSON, with the mode, cause and faults also
 /// spelled out (`mode_name`, `cause_name`, `faults`) and only the joints in use.
 ///
 /// The head sensor and the autopilot (`nav`) come twice: spelled out at the
-/// top level (`sensor` and `hold_exit` by name, `autopilot` the hold's name;
+/// top level (`sensor` and `hold_exit` by name, `autopilot` the hold's name,
+/// `heading_hold` and `depth_hold` the daemon's hold states by name, `null`
+/// when not held, `hold_words` them with their values, `surfaced`;
 /// the estimate `null` without a sensor or before its first sample; a
 /// target `null` unless held) and raw in `nav`.
 pub fn snapshot_json(s: &StateSnapshot) -> Value {
@@ -74,6 +85,11 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "sensor": sensor_name(nav.sensor),
         "autopilot": autopilot_name(nav),
         "hold_exit": (nav.hold_exit != 0).then(|| sensor_name(nav.hold_exit)),
+        "heading_hold": hold_state_name(nav.heading_hold),
+        "depth_hold": hold_state_name(nav.depth_hold),
+        "hold_failed": nav.hold_failed(),
+        "hold_words": nav.hold_words(),
+        "surfaced": nav.surfaced != 0,
         "roll_alarm": nav.roll_alarm != 0,
         "heading_deg": estimate(nav.heading_deg),
         "pitch_deg": estimate(nav.pitch_deg),
@@ -102,6 +118,8 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
             "depth_target_m": nav.depth_target_m,
             "rate_innovation": nav.rate_innovation,
             "depth_innovation": nav.depth_innovation,
+            "heading_hold": nav.heading_hold, "depth_hold": nav.depth_hold,
+            "surfaced": nav.surfaced,
             "samples": nav.samples, "lost_samples": nav.lost_samples,
         },
     });
@@ -277,6 +295,22 @@ mod tests {
         assert_eq!(v["autopilot"], "heading+depth");
         assert_eq!(v["depth_target_m"], 3.0);
         assert_eq!(v["sensor"], "implausible");
+        // The daemon's hold states (issue 46): by name, null when off.
+        assert_eq!(v["heading_hold"], Value::Null);
+        assert_eq!(v["hold_failed"], false);
+        s.nav.heading_hold = anguilla_ipc::HoldState::Holding as u8;
+        s.nav.depth_hold = anguilla_ipc::HoldState::NotConverging as u8;
+        s.nav.surfaced = 1;
+        let v = snapshot_json(&s);
+        assert_eq!(v["heading_hold"], "holding");
+        assert_eq!(v["depth_hold"], "not converging");
+        assert_eq!(v["hold_failed"], true);
+        assert_eq!(v["surfaced"], true);
+        assert_eq!(v["nav"]["depth_hold"], 4, "raw");
+        assert_eq!(
+            v["hold_words"][1],
+            "not converging: depth 1.25 m for 3.00 m"
+        );
     }
 }
 

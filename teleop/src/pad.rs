@@ -245,7 +245,9 @@ pub enum JoyNotice {
 /// targets, or manual and why it last let go.
 pub fn autopilot_text(nav: &anguilla_ipc::NavSnapshot) -> String {
     let h = crate::hold::held(nav);
+    let words = nav.hold_words();
     match crate::view::hold_text(&h) {
+        Some(t) if !words.is_empty() => format!("{t} ({})", words.join("; ")),
         Some(t) => t,
         None if nav.hold_exit != 0 => format!(
             "manual (let go: {})",
@@ -270,7 +272,7 @@ pub struct JoySession<P: PadSource> {
     next_look: Instant,
     next_tick: Instant,
     mode: Option<u8>,
-    autopilot: Option<(u8, u8)>,
+    autopilot: Option<(u8, u8, u8, u8)>,
     refused: Option<Refused>,
     inputs: Vec<JoyInput>,
 }
@@ -393,9 +395,14 @@ impl<P: PadSource> JoySession<P> {
                 self.mode = Some(s.mode);
                 notice(JoyNotice::Mode(s.mode));
             }
-            let ap = (s.nav.hold, s.nav.hold_exit);
+            let ap = (
+                s.nav.hold,
+                s.nav.hold_exit,
+                s.nav.heading_hold,
+                s.nav.depth_hold,
+            );
             if self.autopilot.is_some_and(|was| was != ap)
-                || (self.autopilot.is_none() && ap != (0, 0))
+                || (self.autopilot.is_none() && ap != (0, 0, 0, 0))
             {
                 notice(JoyNotice::Autopilot(autopilot_text(&s.nav)));
             }

@@ -1,7 +1,7 @@
 //! The state view shared by `anguilla teleop` and `anguilla monitor`,
 //! drawn with ratatui on any backend (a terminal, or `TestBackend` in tests).
 
-use anguilla_ipc::{Cause, FaultSet, Hold, Mode, NavSnapshot, SensorHealth};
+use anguilla_ipc::{Cause, FaultSet, Hold, HoldState, Mode, NavSnapshot, SensorHealth};
 use anguilla_ipc::{GaitSnapshot, StateSnapshot};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -139,6 +139,18 @@ pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
             bad,
         ));
     }
+    // How each held quantity is doing, as the daemon judges it: a failure
+    // (not converging, cannot) in red.
+    for (code, what) in [(nav.heading_hold, "hdg"), (nav.depth_hold, "depth")] {
+        match HoldState::from_code(code) {
+            Some(HoldState::Off) => {}
+            Some(h) => autopilot.push(Span::styled(
+                format!(" {what} {}", h.name()),
+                if h.failed() { bad } else { dim },
+            )),
+            None => autopilot.push(Span::styled(format!(" {what} hold state {code}"), bad)),
+        }
+    }
     if nav.sensor == 0 {
         return vec![Line::from(Span::styled(
             "no head sensor (heading and depth hold unavailable)",
@@ -201,6 +213,9 @@ pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
             .map(|s| s.content.chars().count())
             .sum::<usize>();
     let mut line2 = vec![Span::raw(d)];
+    if nav.surfaced != 0 {
+        line2.push(Span::styled(" SURFACED", bad));
+    }
     let room = width.saturating_sub(used + 2);
     if room >= 14 {
         line2.push(Span::styled(
@@ -917,6 +932,19 @@ mod tests {
             text.contains("autopilot heading+depth  sensor ok"),
             "{text}"
         );
+        // The daemon's hold states (issue 46): a failure in words, and
+        // the surface.
+        let mut h = s;
+        h.nav.depth_hold = anguilla_ipc::HoldState::Surface as u8;
+        h.nav.heading_hold = anguilla_ipc::HoldState::Holding as u8;
+        h.nav.surfaced = 1;
+        let text = draw(140, 30, &teleop_view(Some(&h), &i, None));
+        for want in [
+            "autopilot heading+depth hdg holding depth cannot: at the surface",
+            "SURFACED",
+        ] {
+            assert!(text.contains(want), "missing {want:?} in\n{text}");
+        }
         // The autopilot let go: manual, and why.
         s.nav.hold = 0;
         s.nav.hold_exit = SensorHealth::Silent as u8;

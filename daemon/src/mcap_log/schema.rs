@@ -47,7 +47,7 @@ pub use check::check;
 pub use table::table;
 
 use anguilla_ipc::{
-    Cause, FaultKind, Hold, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, SensorKind,
+    Cause, FaultKind, Hold, HoldState, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, SensorKind,
     bus_state_name, hold_bits,
 };
 
@@ -63,6 +63,14 @@ pub fn mode_names() -> impl Iterator<Item = &'static str> {
 /// The causes' names.
 pub fn cause_names() -> impl Iterator<Item = &'static str> {
     Cause::ALL.into_iter().map(Cause::name).chain([UNKNOWN])
+}
+
+/// `nav.heading_hold` and `nav.depth_hold`'s names.
+pub fn hold_state_names() -> impl Iterator<Item = &'static str> {
+    HoldState::ALL
+        .into_iter()
+        .map(HoldState::name)
+        .chain([UNKNOWN])
 }
 
 /// The head sensor's health names.
@@ -290,6 +298,26 @@ pub fn state() -> Value {
                             codes(
                                 "What the autopilot holds (bit 0 heading, bit 1 depth)",
                                 &hold_codes(),
+                            ),
+                        ),
+                        (
+                            "heading_hold",
+                            names(
+                                "How the heading hold is doing, as the daemon judges it (off: not held; not converging and cannot: the target is not reached)",
+                                hold_state_names(),
+                            ),
+                        ),
+                        (
+                            "depth_hold",
+                            names(
+                                "How the depth hold is doing, as the daemon judges it",
+                                hold_state_names(),
+                            ),
+                        ),
+                        (
+                            "surfaced",
+                            boolean(
+                                "True while the depth estimate is at the surface (shallower than 0.05 m)",
                             ),
                         ),
                         (
@@ -809,6 +837,9 @@ mod tests {
                 n.sensor = (i % (SensorHealth::ALL.len() as u64 + 1)) as u8;
                 n.hold = (i % 4) as u8;
                 n.hold_exit = (i / 5 % 7) as u8;
+                n.heading_hold = (i % (HoldState::ALL.len() as u64 + 1)) as u8;
+                n.depth_hold = (i / 3 % (HoldState::ALL.len() as u64 + 1)) as u8;
+                n.surfaced = (i % 2) as u8;
                 n.samples = i / 2;
                 n.heading_deg = (i * 7 % 360) as f32;
                 n.pitch_deg = -10.0;

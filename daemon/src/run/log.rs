@@ -51,6 +51,14 @@ pub enum Event {
         /// Periods skipped this time.
         skipped: u64,
     },
+    /// A hold state or the surfacing changed (`NavSnapshot::heading_hold`,
+    /// `depth_hold`, `surfaced`): `was` the three before, `nav` now.
+    Nav {
+        /// Heading hold, depth hold and surfaced codes before.
+        was: [u8; 3],
+        /// The snapshot's nav now.
+        nav: anguilla_ipc::NavSnapshot,
+    },
     /// Joints' drives report errors they did not report before (one event
     /// per code: twelve joints latching the same E-stop are one line).
     NodeErrors {
@@ -347,6 +355,26 @@ pub(super) fn logger(rx: Receiver<Event>, bus_spec: String) {
                 tracing::warn!("{n}")
             }
             Some(Event::Drive(n)) => tracing::error!("{n}"),
+            Some(Event::Nav { was, nav }) => {
+                let holds = [
+                    (nav.heading_hold, was[0], nav.heading_words()),
+                    (nav.depth_hold, was[1], nav.depth_words()),
+                ];
+                let lines = holds
+                    .into_iter()
+                    .filter_map(|(now, was, words)| crate::mcap_log::hold_line(now, was, words))
+                    .chain(
+                        (nav.surfaced != was[2])
+                            .then(|| crate::mcap_log::surface_line(nav.surfaced != 0, nav.depth_m)),
+                    );
+                for (level, line) in lines {
+                    if level >= 3 {
+                        tracing::warn!("{line}")
+                    } else {
+                        tracing::info!("{line}")
+                    }
+                }
+            }
         }
     }
     refusals.flush(std::time::Instant::now());

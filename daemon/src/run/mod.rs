@@ -485,6 +485,7 @@ fn control_loop(
     let mut bus_state = 0u8;
     let mut node_errors = [0u32; anguilla_ipc::MAX_JOINTS];
     let mut stopping_since: Option<Nanos> = None;
+    let mut nav_seen = [0u8; 3];
     loop {
         rt::sleep_until_ns(deadline);
         let wake = rt::monotonic_ns();
@@ -586,6 +587,12 @@ fn control_loop(
         if now_bus != bus_state {
             emit(Event::Bus { state: now_bus }, &mut dropped);
             bus_state = now_bus;
+        }
+        let nav = ctl.snapshot().nav;
+        let nav_now = [nav.heading_hold, nav.depth_hold, nav.surfaced];
+        if nav_now != nav_seen {
+            emit(Event::Nav { was: nav_seen, nav }, &mut dropped);
+            nav_seen = nav_now;
         }
         let new_mode = ctl.supervisor().mode();
         if new_mode != mode {
