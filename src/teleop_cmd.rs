@@ -92,7 +92,12 @@ impl DaemonArgs {
             return Ok(p.clone());
         }
         let configured = self.at.prefix()?;
-        // `local` is the configured prefix's socket: nothing to ask.
+        // `local` is the configured prefix's socket: nothing to ask (nor
+        // to fail on while no link listens yet: `ctl --connect local
+        // wait` waits for it).
+        if self.connect.as_deref() == Some("local") {
+            return Ok(configured);
+        }
         let Some((endpoint, tls)) = self.remote()?.filter(|(e, _)| e.text != "local") else {
             return Ok(configured);
         };
