@@ -290,7 +290,7 @@ fn record(sandbox: &Sandbox) -> PathBuf {
         anguilla_testkit::patient(Duration::from_secs(60)),
     );
     assert_eq!(code, Some(0), "recording a session: {out}");
-    let session = std::fs::read_dir(&rec)
+    std::fs::read_dir(&rec)
         .unwrap()
         .flatten()
         .map(|e| e.path())
@@ -300,8 +300,7 @@ fn record(sandbox: &Sandbox) -> PathBuf {
                 .to_string_lossy()
                 .starts_with("session-")
         })
-        .unwrap_or_else(|| panic!("no session in {}: {out}", rec.display()));
-    session
+        .unwrap_or_else(|| panic!("no session in {}: {out}", rec.display()))
 }
 
 /// The block as run: the substitutions of the module's documentation.
