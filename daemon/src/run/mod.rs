@@ -342,11 +342,11 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
         Ok(()) => {
             loop_up.store(true, Ordering::Release);
             Ok(Running {
-            stop,
-            helpers_stop,
-            loop_thread,
-            helpers,
-            ground_truth,
+                stop,
+                helpers_stop,
+                loop_thread,
+                helpers,
+                ground_truth,
             })
         }
         Err(_) => {
