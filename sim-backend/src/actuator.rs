@@ -4,8 +4,11 @@
 //! `τ_cmd = kp (θ* − θ) + kd (ω* − ω) + τ_ff`, saturated in torque and
 //! slowed near the speed limit; the motor's torque follows `τ_cmd` through a
 //! first-order lag (the current loop); the joint obeys
-//! `J θ̈ = τ − τ_load − b ω`, where `τ_load` is the torque the swimming body
-//! demands at this joint. The encoder quantizes and may add noise. An
+//! `J θ̈ = τ + τ_stop − τ_load − b ω`, where `τ_load` is the torque the
+//! swimming body demands at this joint and `τ_stop` the joint's mechanical
+//! end stops' (a stiff spring and damper beyond `±travel`, pushing back
+//! only: a limp joint under a steady load comes to rest there instead of
+//! folding the body through itself). The encoder quantizes and may add noise. An
 //! *ideal* axis follows its setpoint exactly (used to check the plant
 //! against the model with perfect servos).
 
@@ -34,6 +37,32 @@ pub struct ActuatorParams {
     pub encoder_noise: f64,
     /// Follow setpoints exactly, with no dynamics.
     pub ideal: bool,
+    /// The joint's mechanical end stops, at `±travel` (rad; infinite:
+    /// none). Beyond the daemon's largest angle limit (`limits.angle`,
+    /// 1.5 rad at most), so that only a joint nobody servos reaches them.
+    pub travel: f64,
+    /// Stiffness of an end stop (N·m/rad).
+    pub stop_stiffness: f64,
+    /// Damping of an end stop (N·m·s/rad), while in contact.
+    pub stop_damping: f64,
+}
+
+impl ActuatorParams {
+    /// The torque the end stops put on the joint at angle `theta` (rad)
+    /// and velocity `omega` (rad/s): zero within `±travel`; beyond, the
+    /// stop's spring and damper, pushing the joint back only (a stop does
+    /// not pull a joint leaving it).
+    pub fn stop_torque(&self, theta: f64, omega: f64) -> f64 {
+        let over = if theta > self.travel {
+            theta - self.travel
+        } else if theta < -self.travel {
+            theta + self.travel
+        } else {
+            return 0.0;
+        };
+        let t = -self.stop_stiffness * over - self.stop_damping * omega;
+        if over > 0.0 { t.min(0.0) } else { t.max(0.0) }
+    }
 }
 
 impl Default for ActuatorParams {
@@ -49,6 +78,13 @@ impl Default for ActuatorParams {
             encoder_resolution: 2.0 * core::f64::consts::PI / 4096.0,
             encoder_noise: 0.0,
             ideal: false,
+            // a quarter turn either way; stiff against the servo (five
+            // times its kp: a 0.5 N·m load sinks 2.5 mrad into it) and
+            // damped critically for the reflected inertia alone, more
+            // softly with the body's
+            travel: core::f64::consts::FRAC_PI_2,
+            stop_stiffness: 200.0,
+            stop_damping: 4.0,
         }
     }
 }
@@ -201,7 +237,8 @@ impl Actuator {
             gain: finite(load.gain).clamp(0.0, 1.0),
             rate: finite(load.rate),
         };
-        self.load_ref = self.tau - self.params.damping * self.omega;
+        self.load_ref = self.tau + self.params.stop_torque(self.theta, self.omega)
+            - self.params.damping * self.omega;
         self.load_age = 0.0;
     }
 
@@ -281,7 +318,7 @@ impl Actuator {
             1.0
         };
         self.tau += k * (sat - self.tau);
-        let net = self.tau - p.damping * self.omega;
+        let net = self.tau + p.stop_torque(self.theta, self.omega) - p.damping * self.omega;
         let load = load + self.load.gain * (net - self.load_ref);
         let acc = (net - load) / p.inertia;
         // Semi-implicit Euler.
@@ -442,6 +479,35 @@ mod tests {
         a.set_load(Load::default());
         a.step(t / 8.0, Drive::Limp);
         assert!((a.kinematics().1 - got).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_limp_joint_under_a_load_rests_on_its_end_stop() {
+        // a steady 0.5 N·m on a limp axis (a snag on a disabled joint):
+        // without end stops it turned on without bound (-6.33 rad after
+        // 1 s, at -9.18 rad/s towards the friction's terminal 10 rad/s);
+        // it rests on the stop, sunk load / stiffness into it
+        let p = ActuatorParams::default();
+        let mut a = Actuator::new(p);
+        run(&mut a, Drive::Limp, 0.5, 1.0);
+        let (th, om, _) = a.kinematics();
+        let rest = -p.travel - 0.5 / p.stop_stiffness;
+        assert!((th - rest).abs() < 1e-3, "{th} (rest {rest})");
+        assert!(om.abs() < 1e-3, "{om}");
+        // the servo brings it back from there, the stop letting go
+        let back = Drive::Servo {
+            position: 0.0,
+            velocity: 0.0,
+            torque: 0.0,
+        };
+        run(&mut a, back, 0.0, 1.0);
+        assert!(a.kinematics().0.abs() < 1e-3, "{:?}", a.kinematics());
+        // a stop pushes back only: none within the travel, none pulling a
+        // joint that leaves it
+        assert_eq!(p.stop_torque(p.travel - 0.1, 5.0), 0.0);
+        assert_eq!(p.stop_torque(p.travel + 1e-4, -5.0), 0.0);
+        assert!(p.stop_torque(p.travel + 0.01, 0.0) < 0.0);
+        assert!(p.stop_torque(-p.travel - 0.01, 0.0) > 0.0);
     }
 
     #[test]

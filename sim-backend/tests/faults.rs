@@ -431,3 +431,49 @@ fn a_snag_loads_its_own_joint_and_no_other() {
         }
     }
 }
+
+/// A snag on a joint nobody servos (the robot idle, its drives limp)
+/// pulls the joint to its end stop, where it rests; the body stays whole
+/// and the joint comes back once servoed. With a 0.5 N·m snag on joint
+/// 5's yaw from the start, the 12-joint robot's joint turned on without
+/// bound before the actuators had end stops (-4.91 rad after 1 s, the
+/// body folded through itself), the body model failed at every step from
+/// 1.05 s on (973 failed steps by 3 s) and the limp joints spun to
+/// thousands of radians: the daemon that enabled it saw frozen feedback
+/// and every torque at its limit.
+#[test]
+fn a_snag_on_a_limp_joint_pulls_it_to_its_stop_and_no_further() {
+    let mut h = Host::new(RobotConfig::with_joints(12));
+    h.robot.load_scenario("0 joint 5 yaw snag 0.5").unwrap();
+    h.run(secs(3.0));
+    assert_eq!(h.robot.state_counts()[1], 12, "every node disabled");
+    let travel = ActuatorParams::default().travel;
+    let angle = |h: &Host, j: u8, a: usize| h.robot.node(j).unwrap().kinematics(a).0;
+    assert_eq!(h.robot.stats().model_errors, 0, "the body model failed");
+    let yaw5 = angle(&h, 5, 1);
+    assert!(
+        (yaw5 + travel).abs() < 0.01,
+        "joint 5 yaw at {yaw5} rad, its stop at -{travel}"
+    );
+    for j in 1..=12u8 {
+        for a in 0..2 {
+            let q = angle(&h, j, a);
+            if (j, a) != (5, 1) {
+                assert!(q.abs() < travel, "joint {j} axis {a} at {q} rad");
+            }
+        }
+    }
+    // enabled and held straight: back within the servo's error, the drive
+    // supplying the snag
+    h.enable_all();
+    h.hold(0.0, secs(2.0));
+    assert_eq!(h.robot.stats().model_errors, 0, "the body model failed");
+    for j in 1..=12u8 {
+        for a in 0..2 {
+            let q = angle(&h, j, a);
+            assert!(q.abs() < 0.05, "joint {j} axis {a} at {q} rad");
+        }
+    }
+    let t5 = h.robot.node(5).unwrap().motor_torque(1);
+    assert!((t5 - 0.5).abs() < 0.05, "joint 5 yaw supplies {t5} N·m");
+}

@@ -566,8 +566,11 @@ impl SimRobot {
         // What a snag takes of the motor's torque never reaches the body:
         // it is lost with the friction (the body's reaction to the rest
         // only; without it the snag's share would drive the body and load
-        // every other joint through the coupling).
-        let b = self.cfg.actuator.damping;
+        // every other joint through the coupling). An end stop's torque
+        // drives the body as the motor's does (a joint resting on its stop
+        // under a snag passes the body nothing of it: the stop takes it).
+        let p = self.cfg.actuator;
+        let b = p.damping;
         for ((node, tau), fr) in self
             .nodes
             .iter_mut()
@@ -575,7 +578,10 @@ impl SimRobot {
             .zip(&mut self.friction)
         {
             *tau = [node.motor_torque(0), node.motor_torque(1)];
-            *fr = [0, 1].map(|a| b * node.kinematics(a).1 + node.axis_faults_mut(a).snag);
+            *fr = [0, 1].map(|a| {
+                let (theta, omega, _) = node.kinematics(a);
+                b * omega + node.axis_faults_mut(a).snag - p.stop_torque(theta, omega)
+            });
         }
         self.plant
             .coupled_loads(&self.tau, &self.friction, &mut self.node_loads);
