@@ -504,12 +504,18 @@ fn record_truth(
     let mut n = 0u64;
     let mut next = monotonic_ns();
     let result = (|| -> std::io::Result<()> {
+        let mut last_sim_time = f64::NEG_INFINITY;
         while !stop.load(Ordering::Acquire) {
             let t = anguilla::builtin_sim::ground_truth(&running.truth());
-            file.write(monotonic_ns(), &t)?;
-            n += 1;
-            if n.is_multiple_of(20) {
-                file.flush()?;
+            // A simulation starved of the CPU may not have stepped since the
+            // last sample: the same state again would say nothing new.
+            if t.sim_time > last_sim_time {
+                last_sim_time = t.sim_time;
+                file.write(monotonic_ns(), &t)?;
+                n += 1;
+                if n.is_multiple_of(20) {
+                    file.flush()?;
+                }
             }
             next += TRUTH_PERIOD_NS;
             std::thread::sleep(Duration::from_nanos(next.saturating_sub(monotonic_ns())));
