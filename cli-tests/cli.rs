@@ -1951,6 +1951,7 @@ fn the_builtin_robot_has_a_head_sensor_and_relaxed_timeouts() {
         "control.heartbeat-timeout = 2",
         "control.node-watchdog = 1",
         "control.feedback-timeout = ",
+        "sensor.timeout = 2",
         "a real bus keeps the strict defaults",
     ] {
         assert!(err.contains(key), "{key}: {err}");

@@ -3,7 +3,7 @@
 //! exit status 0 done, 1 refused, 2 no daemon.
 
 use std::process::{Command as Proc, Output, Stdio};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anguilla_system_tests::Watchdog;
 use anguilla_system_tests::process::{
@@ -219,8 +219,18 @@ fn ctl_swims_holding_a_heading_and_a_depth() {
     // About 15 s on a quiet machine; a starved one runs the simulated
     // robot slower than the clock, so the swim lasts until the hold is
     // reached (at most 100 s), then Ctrl-C ends it as an operator would.
+    // The state every 5 s, shown if the hold is never reached.
+    let mut shown = Instant::now();
     let reached = poll_until("heading and depth held", Duration::from_secs(100), || {
         let s = status(&prefix)?;
+        if shown.elapsed() >= Duration::from_secs(5) {
+            shown = Instant::now();
+            eprintln!("{s}");
+        }
+        assert_ne!(
+            s["cause_name"], "head sensor lost",
+            "the autopilot let go: {s}"
+        );
         let h = s["heading_deg"].as_f64()?;
         let d = s["depth_m"].as_f64()?;
         let dh = ((h - heading + 540.0).rem_euclid(360.0) - 180.0).abs();

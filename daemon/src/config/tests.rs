@@ -33,7 +33,8 @@ fn the_builtin_robot_relaxes_only_default_timeouts() {
         c.control.feedback_timeout,
         (BUILTIN_TIMEOUT * rate).ceil() as u32
     );
-    assert_eq!(changed.len(), 3, "{changed:?}");
+    assert_eq!(c.sensor.timeout, BUILTIN_TIMEOUT);
+    assert_eq!(changed.len(), 4, "{changed:?}");
     assert!(!changed.iter().any(|k| k.contains("command-timeout")));
     c.validate().unwrap();
 }

@@ -222,9 +222,9 @@ impl Config {
     /// `key = value` (for the log).
     pub fn relax_for_builtin(&mut self) -> Vec<String> {
         let d = ControlConfig::default();
-        let c = &mut self.control;
         let mut changed = Vec::new();
         let secs = BUILTIN_TIMEOUT;
+        let c = &mut self.control;
         if c.command_timeout == d.command_timeout {
             c.command_timeout = secs;
             changed.push(format!("control.command-timeout = {secs}"));
@@ -236,6 +236,12 @@ impl Config {
         if c.node_watchdog == d.node_watchdog {
             c.node_watchdog = 1.0;
             changed.push("control.node-watchdog = 1".to_string());
+        }
+        // The head sensor's samples share the starved CPU too: 0.1 s of
+        // silence made the autopilot let go of a hold under CI's load.
+        if self.sensor.timeout == super::SensorConfig::default().timeout {
+            self.sensor.timeout = secs;
+            changed.push(format!("sensor.timeout = {secs}"));
         }
         if c.feedback_timeout == d.feedback_timeout
             && let Ok(rate) = self.control_rate()
