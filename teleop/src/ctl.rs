@@ -275,6 +275,14 @@ impl Ctl {
 
     /// Waits until `done` holds of the mode (keeping control alive), or a
     /// fault or E-stop ends the wait, or [`OUTCOME_TIMEOUT`] passes.
+    ///
+    /// States can arrive late (through the link, on a loaded machine), so
+    /// one that shows the fault or E-stop the daemon was in before the
+    /// command may predate it: such a state ends the wait only once a state
+    /// has shown another mode (the command's effect, or a later change);
+    /// until then the wait goes on, and the mode still shown at its
+    /// deadline is the error. (A reset after `ctl estop` through a lagging
+    /// link was judged by the E-stop state published before it.)
     fn wait_mode(&mut self, what: &str, done: impl Fn(Mode) -> bool) -> Result<Outcome, CtlError> {
         let deadline = Instant::now() + OUTCOME_TIMEOUT;
         let mut last_keep = Instant::now();
@@ -282,8 +290,11 @@ impl Ctl {
         // published two periods after the reply.
         self.refresh(Duration::ZERO)?;
         let fresh_from = self.state.sequence + 2;
+        let before = self.mode();
+        let mut moved = false;
         loop {
             let m = self.mode();
+            moved |= m != before;
             if self.state.sequence < fresh_from {
                 self.refresh(Duration::from_millis(50))?;
                 if Instant::now() >= deadline {
@@ -296,16 +307,22 @@ impl Ctl {
             if done(m) {
                 return Ok(Outcome { mode: m });
             }
-            if matches!(m, Mode::Fault | Mode::EStop) {
+            let ended = matches!(m, Mode::Fault | Mode::EStop);
+            if ended && moved {
                 return Err(CtlError::Refused(format!(
                     "{what}: the daemon went to {m} ({})",
                     self.faults()
                 )));
             }
             if Instant::now() >= deadline {
-                return Err(CtlError::Refused(format!(
-                    "{what}: still {m} after {OUTCOME_TIMEOUT:?}"
-                )));
+                return Err(CtlError::Refused(if ended {
+                    format!(
+                        "{what}: the daemon is still in {m} after {OUTCOME_TIMEOUT:?} ({})",
+                        self.faults()
+                    )
+                } else {
+                    format!("{what}: still {m} after {OUTCOME_TIMEOUT:?}")
+                }));
             }
             if self.holding && last_keep.elapsed() >= self.keep_period() {
                 self.request(Command::KeepAlive)?;
@@ -599,6 +616,7 @@ mod hold_tests {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use anguilla_ipc::CommandRequest;
 
     #[test]
     fn hold_arguments_are_checked_and_named() {
@@ -629,6 +647,88 @@ mod tests {
             assert!(e.to_string().contains(want), "{e}");
             assert_eq!(e.exit_code(), 1);
         }
+    }
+
+    /// A session whose states lag its replies, as a link's can on a
+    /// loaded machine: it hands out `states` one per wait, whatever was
+    /// asked, and accepts every request.
+    struct Lagging {
+        states: std::collections::VecDeque<StateSnapshot>,
+        replies: Vec<CommandReply>,
+        sequence: u32,
+    }
+
+    impl Session for Lagging {
+        fn id(&self) -> u128 {
+            7
+        }
+        fn describe(&self) -> String {
+            "a lagging link".into()
+        }
+        fn provenance_problem(&self) -> Option<String> {
+            None
+        }
+        fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError> {
+            self.replies.push(CommandReply::accepted(&req, 0));
+            Ok(req.sequence)
+        }
+        fn replies(&mut self, f: &mut dyn FnMut(&CommandReply)) -> Result<(), IpcError> {
+            self.replies.drain(..).for_each(|r| f(&r));
+            Ok(())
+        }
+        fn awaiting(&self) -> usize {
+            self.replies.len()
+        }
+        fn wait_any(&mut self, _: Duration) -> Result<(), IpcError> {
+            Ok(())
+        }
+        fn latest(&mut self) -> Result<Option<StateSnapshot>, IpcError> {
+            Ok(self.states.pop_front())
+        }
+        fn wait_state(&mut self, _: Duration) -> Result<Option<StateSnapshot>, IpcError> {
+            Ok(self.states.pop_front())
+        }
+        fn estop_out_of_band(&mut self) -> Result<(), IpcError> {
+            Ok(())
+        }
+        fn next_sequence(&mut self) -> u32 {
+            self.sequence += 1;
+            self.sequence
+        }
+    }
+
+    fn lagging(modes: &[Mode]) -> Ctl {
+        let states = modes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| StateSnapshot {
+                sequence: i as u64,
+                mode: *m as u8,
+                fault_kinds: if *m == Mode::EStop { 1 << 5 } else { 0 },
+                ..Default::default()
+            })
+            .collect();
+        Ctl::over(Box::new(Lagging {
+            states,
+            replies: Vec::new(),
+            sequence: 0,
+        }))
+        .unwrap()
+    }
+
+    /// Seen in CI through the link: `ctl reset` after `ctl estop` was
+    /// judged by E-stop states published before the reset, which a
+    /// loaded link delivered after its reply ("reset: the daemon went to
+    /// e-stop"). Those now wait for the command's effect; an E-stop after
+    /// another mode is still the error at once.
+    #[test]
+    fn a_late_state_from_before_the_command_is_not_its_outcome() {
+        use Mode::*;
+        let mut c = lagging(&[EStop, EStop, EStop, EStop, EStop, EStop, EStop, Idle]);
+        assert_eq!(c.reset().unwrap().mode, Idle);
+        let mut c = lagging(&[Idle, Idle, Idle, Idle, Enabling, EStop, EStop]);
+        let e = c.enable().unwrap_err().to_string();
+        assert!(e.contains("enable: the daemon went to e-stop"), "{e}");
     }
 
     #[test]

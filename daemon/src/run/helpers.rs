@@ -133,11 +133,12 @@ pub(super) struct CommandLinks {
     pub(super) to_loop: Sender<Envelope>,
     pub(super) from_loop: Receiver<(u128, CommandReply)>,
     pub(super) estops: Arc<AtomicU64>,
-    /// Set once the loop runs: requests are taken from then on. Taken
-    /// before, they waited for the loop's setup (the model's, over a second
-    /// in a debug build): the reply wait ran out, the loop then carried
-    /// them out, and their clients never heard.
-    pub(super) loop_up: Arc<AtomicBool>,
+    /// Sends once the loop runs (dropped unsent if its setup failed):
+    /// requests are taken from then on. Taken before, they waited for the
+    /// loop's setup (the model's, over a second in a debug build): the
+    /// reply wait ran out, the loop then carried them out, and their
+    /// clients never heard.
+    pub(super) loop_up: Receiver<()>,
 }
 
 /// Takes operator requests from iceoryx2, hands them to the loop and sends
@@ -175,6 +176,11 @@ pub(super) fn command_thread(
     let mut failing = ErrorLog::default();
     let mut last_round = std::time::Instant::now();
     let mut last_round_empty = false;
+    // Requests wait in iceoryx2 (their clients' timeouts run) until the
+    // loop can answer them; a loop that never came up has nothing to serve.
+    if loop_up.recv().is_err() {
+        return;
+    }
     loop {
         // Serve until the loop has gone (it still answers while it stops a
         // swim at shutdown). Nothing is awaited here, so replies found are
@@ -196,12 +202,6 @@ pub(super) fn command_thread(
         let since = last_round.elapsed();
         if last_round_empty && since < COMMAND_ROUND_MIN {
             std::thread::sleep(COMMAND_ROUND_MIN - since);
-        }
-        if !loop_up.load(Ordering::Acquire) {
-            // Requests wait in iceoryx2 (their clients' timeouts run)
-            // until the loop can answer them.
-            std::thread::sleep(COMMAND_POLL);
-            continue;
         }
         let notified = server.wait(COMMAND_POLL).unwrap_or(true);
         last_round = std::time::Instant::now();

@@ -220,8 +220,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     );
     let prefix = cfg.ipc.prefix.clone();
     let cmd_estops = estops.clone();
-    let loop_up = Arc::new(AtomicBool::new(false));
-    let cmd_loop_up = loop_up.clone();
+    let (loop_up, cmd_loop_up) = crossbeam_channel::bounded(1);
     // Ten periods, and a second to spare for a loop that overruns: past
     // that the loop is stalled and the clients' own timeouts report it.
     let reply_wait = Duration::from_secs(1) + 10 * Duration::from(crate::control::period_ns(&cfg));
@@ -252,7 +251,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
         if let Err(e) = r {
             stop.store(true, Ordering::SeqCst);
             // The helpers end when the loop's ends of their channels go.
-            drop((state_tx, state_rx_loop, req_rx, reply_tx));
+            drop((state_tx, state_rx_loop, req_rx, reply_tx, loop_up));
             for h in helpers {
                 let _ = h.join();
             }
@@ -340,7 +339,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
     // Setup errors (IPC, model) surface here rather than in a log line.
     match ready_rx.recv() {
         Ok(()) => {
-            loop_up.store(true, Ordering::Release);
+            let _ = loop_up.send(());
             Ok(Running {
                 stop,
                 helpers_stop,
@@ -350,6 +349,7 @@ pub fn spawn(cfg: Config, bus: Box<dyn Bus>, stop: Arc<AtomicBool>) -> Result<Ru
             })
         }
         Err(_) => {
+            drop(loop_up);
             stop.store(true, Ordering::SeqCst);
             helpers_stop.store(true, Ordering::SeqCst);
             let r = loop_thread
