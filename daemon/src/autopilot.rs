@@ -20,7 +20,9 @@
 //!   operator's, within `gait.max-turn` and `gait.max-pitch`.
 
 use anguilla_ipc::{HOLD_DEPTH_TOLERANCE, HOLD_HEADING_TOLERANCE, Hold, HoldState, SURFACE_DEPTH};
-use anguilla_model::{GaitParams, HeadState, Model, ModelError, ParametricGait, Workspace, step};
+use anguilla_model::{
+    GaitParams, HeadState, Model, ModelError, ParametricGait, Workspace, step_dyn as step,
+};
 use nalgebra::Vector3;
 
 use crate::config::Config;

@@ -698,17 +698,18 @@ impl Controller {
     /// Step 4: the model's forward + inverse dynamics step; a failed or
     /// implausible one leaves the gait's angles without dynamics.
     fn step_model(&mut self) {
-        let step = anguilla_model::step(&self.model, &mut self.ws, &mut self.gait, &mut self.head)
-            .and_then(|r| {
-                if plausible(&r) {
-                    Ok(r)
-                } else {
-                    Err(ModelError::Diverged {
-                        quantity: "predicted head motion (beyond plausibility limits)",
-                        time: r.t,
-                    })
-                }
-            });
+        let step =
+            anguilla_model::step_dyn(&self.model, &mut self.ws, &mut self.gait, &mut self.head)
+                .and_then(|r| {
+                    if plausible(&r) {
+                        Ok(r)
+                    } else {
+                        Err(ModelError::Diverged {
+                            quantity: "predicted head motion (beyond plausibility limits)",
+                            time: r.t,
+                        })
+                    }
+                });
         match step {
             Ok(r) => self.report = r,
             Err(e) => {

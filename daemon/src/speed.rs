@@ -19,7 +19,7 @@
 
 use anguilla_model::{
     GaitParams, HeadState, Integrator, Model, ModelConfig, ModelError, ParametricGait, Workspace,
-    step,
+    step_dyn as step,
 };
 
 use crate::config::Config;

@@ -57,7 +57,7 @@ pub use current::{Current, MAX_CURRENT};
 pub use dynamics::{
     DEFAULT_DT, DEFAULT_NODES, Diagnostics, HeadState, Integrator, JointState, MAX_DT, Model,
     ModelConfig, StepReport, Workspace, body_axis, evaluate, forward_axes, forward_turn,
-    inverse_with, posture, step,
+    inverse_with, posture, step, step_dyn,
 };
 pub use error::{ModelError, Result};
 pub use gait::{

@@ -72,6 +72,20 @@ fn evaluate_held<S: CurvatureSource + ?Sized>(
     })
 }
 
+/// [`step`] with the source behind `dyn`: one instance, compiled in this
+/// crate with its optimisation. A caller built without optimisation (the
+/// daemon in a debug build: its feed-forward every period, its start-up
+/// tables) that called [`step`] got its own unoptimised copy of the
+/// integrator, as generic code is compiled where it is used.
+pub fn step_dyn(
+    model: &Model,
+    ws: &mut Workspace,
+    src: &mut dyn CurvatureSource,
+    head: &mut HeadState,
+) -> Result<StepReport> {
+    step(model, ws, src, head)
+}
+
 /// One time step: forward + inverse dynamics at `head.t` (reported, and
 /// written to the workspace: joints, torques), then RK4 integration of the
 /// head state over `model.dt()` (orientation renormalized on SO(3)) and

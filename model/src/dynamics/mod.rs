@@ -89,7 +89,7 @@ mod state;
 mod workspace;
 
 pub use diagnostics::Diagnostics;
-pub use integrate::{evaluate, step};
+pub use integrate::{evaluate, step, step_dyn};
 pub use inverse::inverse_with;
 pub use kinematics::posture;
 pub use model::{DEFAULT_DT, DEFAULT_NODES, Integrator, MAX_DT, Model, ModelConfig, NODES_RANGE};
