@@ -32,10 +32,10 @@ pub const N: usize = 21;
 /// default body at 1 Hz, 16 is within 1.6 % of full speed of 20 at every
 /// rung and 0.002 m/s at 0.3 m/s (6 was up to 7.8 % short at the low
 /// amplitudes, where the body takes longest to reach its speed).
-const SETTLE_PERIODS: usize = 16;
+pub const SETTLE_PERIODS: usize = 16;
 /// Gait periods averaged at each amplitude (whole periods: the speed
 /// oscillates twice a period).
-const MEASURE_PERIODS: usize = 2;
+pub const MEASURE_PERIODS: usize = 2;
 
 /// The model's steady forward speed (m/s) at amplitudes `i / (N - 1)`
 /// (index `i`), straight ahead at `frequency` (Hz, limited to `[gait]
