@@ -18,6 +18,14 @@ use anguilla_ipc::vocabulary::{Mode, Nanos};
 
 const MS: Nanos = Nanos::from_millis(1);
 
+/// Sends `m`, encoded for `variant` (a failure is counted).
+fn send(variant: Variant, out: &mut Out<'_>, m: Message) {
+    match m.encode(variant) {
+        Ok(f) => out.send(&f),
+        Err(_) => out.encode_failed(),
+    }
+}
+
 /// The vertebra nodes.
 pub struct Nodes {
     variant: Variant,
@@ -26,6 +34,9 @@ pub struct Nodes {
     table: NodeTable,
     watchdog: Nanos,
     last_command_sent: Nanos,
+    /// Each node's heartbeats heard (its [`NodeTable`] entry's count) when
+    /// Enable was last sent to it: see [`Nodes::period`]'s re-sending.
+    enable_sent_at: Vec<u64>,
 }
 
 impl Nodes {
@@ -56,6 +67,7 @@ impl Nodes {
             variant,
             set: NodeSet::of(ids.iter().copied()),
             table: NodeTable::new(variant, &ids, now),
+            enable_sent_at: vec![0; ids.len()],
             ids,
             watchdog,
             last_command_sent: Nanos::ZERO,
@@ -68,10 +80,7 @@ impl Nodes {
     }
 
     fn send(&self, out: &mut Out<'_>, m: Message) {
-        match m.encode(self.variant) {
-            Ok(f) => out.send(&f),
-            Err(_) => out.encode_failed(),
-        }
+        send(self.variant, out, m);
     }
 
     fn command_all(&self, out: &mut Out<'_>, command: NodeCommand) {
@@ -165,12 +174,25 @@ impl Drives for Nodes {
                         );
                     }
                     self.command_all(out, NodeCommand::Enable);
+                    for (sent, e) in self.enable_sent_at.iter_mut().zip(self.table.entries()) {
+                        *sent = e.heartbeats;
+                    }
                 } else if every {
-                    // Nodes that missed it (or were still booting).
+                    // Nodes that missed it (or were still booting): those
+                    // that said Disabled in two heartbeats since it was
+                    // sent. The first may have left before the node read
+                    // the Enable (a loaded node, a queue on the bus); an
+                    // Enable sent again to a node that has just enabled
+                    // is refused with BAD_FRAME (protocol/README.md), a
+                    // false "undecodable frame" warning on every joint
+                    // of a loaded robot.
                     self.last_command_sent = p.now;
-                    for e in self.table.entries() {
-                        if e.state == Some(NodeState::Disabled) {
-                            self.send(
+                    let variant = self.variant;
+                    for (sent, e) in self.enable_sent_at.iter_mut().zip(self.table.entries()) {
+                        if e.state == Some(NodeState::Disabled) && e.heartbeats >= *sent + 2 {
+                            *sent = e.heartbeats;
+                            send(
+                                variant,
                                 out,
                                 Message::Command {
                                     target: Target::Node(e.id),

@@ -981,3 +981,79 @@ fn the_cia402_master_drives_the_simulated_cia402_drive() {
     assert_eq!(rig.drives.joint(0).state, Some(NodeState::Disabled));
     assert_eq!(rig.drives.joint(0).errors, 0);
 }
+
+/// An anguilla node's heartbeat, classic CAN.
+fn anguilla_hb(node: u8, state: NodeState, counter: u8) -> Frame {
+    use anguilla_protocol::message::{ErrorBits, Heartbeat, Message, NodeId, Variant};
+    Message::Heartbeat(Heartbeat {
+        node: NodeId::new(node).unwrap(),
+        state,
+        errors: ErrorBits::default(),
+        counter,
+        missed_syncs: 0,
+        temperature: 20,
+    })
+    .encode(Variant::Classic)
+    .unwrap()
+}
+
+/// The nodes each Enable command in `frames` reaches.
+fn enables(frames: &[Frame]) -> Vec<u8> {
+    use anguilla_protocol::message::{Command as NodeCommand, Message, Target, Variant, decode};
+    frames
+        .iter()
+        .filter_map(|f| match decode(f, Variant::Classic, NodeSet::all()) {
+            Ok(Message::Command {
+                target,
+                command: NodeCommand::Enable,
+            }) => Some(match target {
+                Target::Node(n) => n.get(),
+                Target::All => 0,
+            }),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A loaded node sends the heartbeat it had queued (Disabled) after the
+/// Enable left the host; Enable is sent again only to a node that says
+/// Disabled in a second heartbeat since, never to one that has just
+/// enabled (which would refuse it with BAD_FRAME: a false "undecodable
+/// frame" warning on every joint of a loaded robot, seen in the VM).
+#[test]
+fn enable_is_sent_again_only_to_a_node_that_stays_disabled() {
+    let mut rig = Rig::new(&cfg(Family::Anguilla, 2));
+    let sent = rig.period(Nanos::ZERO, Drive::Enable, Mode::Enabling, true);
+    assert_eq!(enables(&sent), vec![0], "one Enable to every node");
+    // Both nodes' heartbeats, sent before they read it: Disabled.
+    feed(
+        &mut rig,
+        50 * MS,
+        &[
+            anguilla_hb(1, NodeState::Disabled, 1),
+            anguilla_hb(2, NodeState::Disabled, 1),
+        ],
+    );
+    let sent = rig.period(110 * MS, Drive::Enable, Mode::Enabling, false);
+    assert_eq!(enables(&sent), Vec::<u8>::new(), "one late heartbeat each");
+    // Node 1 enabled; node 2 missed the Enable and says Disabled again.
+    feed(
+        &mut rig,
+        150 * MS,
+        &[
+            anguilla_hb(1, NodeState::Enabled, 2),
+            anguilla_hb(2, NodeState::Disabled, 2),
+        ],
+    );
+    let sent = rig.period(220 * MS, Drive::Enable, Mode::Enabling, false);
+    assert_eq!(enables(&sent), vec![2], "node 2 only");
+    // Node 2's next heartbeat (still the one before it read the new
+    // Enable): not sent again yet.
+    feed(
+        &mut rig,
+        250 * MS,
+        &[anguilla_hb(2, NodeState::Disabled, 3)],
+    );
+    let sent = rig.period(330 * MS, Drive::Enable, Mode::Enabling, false);
+    assert_eq!(enables(&sent), Vec::<u8>::new());
+}
