@@ -256,7 +256,7 @@ fn ctl_swims_holding_a_heading_and_a_depth() {
 /// session with exit 0; now every command of it succeeds, and `calibrate`
 /// fits a swim.
 #[test]
-#[ignore = "needs a quiet machine: the recipe's debug daemon at CAN FD's 512 Hz, recording, misses hundreds of periods a second beside other builds and faults on a tracking error; run it with --ignored"]
+#[ignore = "needs the release binary the recipe names on a quiet machine (a debug daemon at CAN FD's 512 Hz, recording, misses hundreds of periods a second beside other builds and faults on a tracking error): CI runs it after the load with ANGUILLA_BIN=target/release/anguilla (.ci/run)"]
 fn the_readmes_calibration_recipe_works_as_written() {
     let _dog = Watchdog::new("readme-calibration", Duration::from_secs(900));
     let readme =

@@ -387,7 +387,10 @@ fn cia402_and_odrive_robots_on_vcan() {
                     "--model-nodes",
                     "26",
                 ])
-                .stdout(Stdio::null())
+                // Its status line once a second (frames, send errors, time
+                // slipped behind real time) in the log: what the emulated
+                // CPU did to the simulator when a check here fails.
+                .stdout(Stdio::inherit())
                 .spawn()
                 .expect("anguilla sim starts"),
         );
