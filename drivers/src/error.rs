@@ -19,13 +19,29 @@ pub type Result<T, E = LinkError> = std::result::Result<T, E>;
 /// The result of opening or reopening a bus.
 pub type OpenResult<T> = std::result::Result<T, OpenError>;
 
+/// The accepted bus spec forms ([`BusSpec`](crate::BusSpec)), for error
+/// messages.
+pub const ACCEPTED_FORMS: &str = "socketcan:IFACE[?fd=0|1&timestamps=0|1], \
+slcan:PATH@BITRATE[?baud=N&timestamps=0|1&listen=0|1&fd=0|1&recover=0|1&status_ms=N], \
+mem:NAME[?bitrate=N&echo=0|1&capacity=N]";
+
+/// A bus spec string that did not parse.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("bad bus spec '{spec}': {reason} (accepted: {ACCEPTED_FORMS})")]
+pub struct SpecError {
+    /// The spec as given.
+    pub spec: String,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
 /// What went wrong opening (or reopening) a bus. Every variant names the
 /// spec.
 #[derive(Debug, thiserror::Error)]
 pub enum OpenError {
     /// The bus spec string did not parse.
     #[error(transparent)]
-    Spec(#[from] crate::SpecError),
+    Spec(#[from] SpecError),
     /// The device went away while it was being set up.
     #[error("{spec}: disconnected ({reason})")]
     Disconnected {

@@ -44,8 +44,10 @@ mod spec;
 pub use anguilla_protocol::Frame;
 pub use bus::{Bus, BusCounters, BusState, Capabilities, Received, TimestampBase};
 pub use clock::{Clock, ManualClock, MonotonicClock};
-pub use error::{IoCause, LinkError, LostReason, OpenError, OpenResult, Result, Unsendable};
-pub use spec::{BusSpec, SpecError};
+pub use error::{
+    IoCause, LinkError, LostReason, OpenError, OpenResult, Result, SpecError, Unsendable,
+};
+pub use spec::BusSpec;
 
 /// Opens a bus from a spec string (see [`BusSpec`] for the accepted forms).
 ///

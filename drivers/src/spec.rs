@@ -2,22 +2,8 @@
 
 use std::time::Duration;
 
+use crate::error::SpecError;
 use crate::{Bus, Result};
-
-/// The accepted forms, for error messages.
-pub const ACCEPTED_FORMS: &str = "socketcan:IFACE[?fd=0|1&timestamps=0|1], \
-slcan:PATH@BITRATE[?baud=N&timestamps=0|1&listen=0|1&fd=0|1&recover=0|1&status_ms=N], \
-mem:NAME[?bitrate=N&echo=0|1&capacity=N]";
-
-/// A bus spec string that did not parse.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("bad bus spec '{spec}': {reason} (accepted: {ACCEPTED_FORMS})")]
-pub struct SpecError {
-    /// The spec as given.
-    pub spec: String,
-    /// What is wrong with it.
-    pub reason: String,
-}
 
 /// A parsed bus spec.
 ///

@@ -29,11 +29,9 @@ use crate::service::{IpcError, valid_prefix};
 /// Where the E-stop sockets live unless [`SYSTEM_ROOT`] exists.
 pub const ROOT: &str = "/tmp/anguilla";
 
-/// The runtime root an installation makes at boot (deploy/anguilla.tmpfiles:
-/// owned by the daemon's user and group, in `/run`, where no other user can
-/// make anything first). Used when it exists, by the daemon and the tools
-/// alike.
-pub const SYSTEM_ROOT: &str = "/run/anguilla";
+/// The runtime root an installation makes at boot: defined with the
+/// packaged layout's other facts ([`crate::service_user`]).
+pub use crate::service_user::SYSTEM_ROOT;
 
 /// The runtime root: [`SYSTEM_ROOT`] if it is a directory, else [`ROOT`]
 /// (shared like /tmp, where another user could take a prefix's directory
@@ -147,7 +145,7 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
         && m.uid() == svc.uid
         && m.uid() != uid
     {
-        return Some(package_layout(dir, &svc.name, uid));
+        return Some(crate::service_user::package_layout(dir, &svc.name, uid));
     }
     if dir == root() {
         if m.uid() != 0 && m.uid() != uid {
@@ -173,19 +171,6 @@ fn untrusted(dir: &Path, uid: u32) -> Option<String> {
         ));
     }
     None
-}
-
-/// Why a daemon of `uid` cannot use `dir`, part of the package's runtime
-/// directory (the service user `user`'s), and what to do instead.
-pub(crate) fn package_layout(dir: &Path, user: &str, uid: u32) -> String {
-    format!(
-        "{} belongs to user {user}, the installed service's (deploy/anguilla.tmpfiles.conf \
-         makes {SYSTEM_ROOT} at boot), not to this daemon's uid {uid}: on the packaged layout \
-         a daemon runs as that user, as the service does: `sudo -u {user} anguilla run ...` \
-         (root becomes that user by itself; stop the service first if it serves the same \
-         prefix: `sudo systemctl stop anguilla`)",
-        dir.display()
-    )
 }
 
 /// The prefix's runtime directory, `/tmp/anguilla/<prefix>`, made if

@@ -50,7 +50,7 @@ use std::path::{Path, PathBuf};
 
 use iceoryx2::prelude::*;
 
-use crate::service::IpcError;
+use crate::error::IpcError;
 
 /// Where POSIX shared memory lives on Linux.
 pub const SHM_DIR: &str = "/dev/shm";
@@ -160,13 +160,13 @@ fn foreign(path: &Path, uid: u32, what: &str, fix: &str) -> Result<(), IpcError>
         // removed, only used as that user.
         Ok(m)
             if m.uid() != uid
-                && path.starts_with(crate::estop::SYSTEM_ROOT)
+                && path.starts_with(crate::service_user::SYSTEM_ROOT)
                 && crate::service_user::service_account().is_some_and(|a| a.uid == m.uid()) =>
         {
             let user = crate::service_user::service_account().map_or_else(String::new, |a| a.name);
             Err(IpcError::Foreign(format!(
                 "{what}: {}",
-                crate::estop::package_layout(path, &user, uid)
+                crate::service_user::package_layout(path, &user, uid)
             )))
         }
         Ok(m) if m.uid() != uid && m.uid() != 0 => Err(IpcError::Foreign(format!(
@@ -273,7 +273,7 @@ pub fn opening() -> bool {
 /// node-id segments, as this process's configuration names them.
 pub fn files_to_check() -> String {
     let root = root_path();
-    if root.starts_with(crate::estop::SYSTEM_ROOT) {
+    if root.starts_with(crate::service_user::SYSTEM_ROOT) {
         // The package's directory is made at boot: it is not removed.
         return format!(
             "iceoryx2's directory {} (the package's: its service user's, mode 0750) and its \

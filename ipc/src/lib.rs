@@ -50,6 +50,7 @@
 
 pub mod client;
 pub mod command;
+pub mod error;
 pub mod estop;
 pub mod guard;
 pub mod layout;

@@ -17,7 +17,11 @@
 use std::ffi::{CStr, CString};
 use std::os::unix::fs::MetadataExt as _;
 
-use crate::estop::SYSTEM_ROOT;
+/// The runtime root an installation makes at boot (deploy/anguilla.tmpfiles:
+/// owned by the daemon's user and group, in `/run`, where no other user can
+/// make anything first). Used when it exists, by the daemon and the tools
+/// alike.
+pub const SYSTEM_ROOT: &str = "/run/anguilla";
 
 /// A user account: its name, uid and primary gid.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -193,4 +197,17 @@ fn keep_realtime() -> std::io::Result<()> {
     // SAFETY: plain prctl.
     unsafe { libc::prctl(libc::PR_SET_KEEPCAPS, 0, 0, 0, 0) };
     Ok(())
+}
+
+/// Why a daemon of `uid` cannot use `dir`, part of the package's runtime
+/// directory (the service user `user`'s), and what to do instead.
+pub(crate) fn package_layout(dir: &std::path::Path, user: &str, uid: u32) -> String {
+    format!(
+        "{} belongs to user {user}, the installed service's (deploy/anguilla.tmpfiles.conf \
+         makes {SYSTEM_ROOT} at boot), not to this daemon's uid {uid}: on the packaged layout \
+         a daemon runs as that user, as the service does: `sudo -u {user} anguilla run ...` \
+         (root becomes that user by itself; stop the service first if it serves the same \
+         prefix: `sudo systemctl stop anguilla`)",
+        dir.display()
+    )
 }

@@ -26,20 +26,10 @@
 use core::fmt::{self, Write};
 
 use super::{AxisState, Body, Cmd, ControlMode, FF_SCALE, InputMode, NodeId, arbitration_id};
-use crate::family::Family;
 
 /// Joints of the robot the committed `protocol/odrive.dbc` describes (the
 /// default robot, as [`crate::dbc::DEFAULT_NODES`]).
 pub const DEFAULT_JOINTS: usize = crate::dbc::DEFAULT_NODES as usize;
-
-/// The axes of the committed `protocol/odrive.dbc`: the default drive ids
-/// of [`DEFAULT_JOINTS`] joints ([`Family::default_ids`]: 1..=24).
-pub fn default_nodes() -> Vec<NodeId> {
-    (0..DEFAULT_JOINTS)
-        .flat_map(|j| Family::Odrive.default_ids(j))
-        .map(|id| NodeId::new(id).expect("default ids are 6-bit"))
-        .collect()
-}
 
 /// How a field's bits are read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -464,6 +454,16 @@ pub fn write_dbc(out: &mut impl Write, nodes: &[NodeId]) -> fmt::Result {
 mod tests {
     use super::super::{EncoderEstimates, Heartbeat, InputPos, Message, decode, ff_value};
     use super::*;
+    use crate::family::Family;
+
+    /// The axes of the committed `protocol/odrive.dbc`: the default drive ids
+    /// of [`DEFAULT_JOINTS`] joints (`Family::default_ids`: 1..=24).
+    fn default_nodes() -> Vec<NodeId> {
+        (0..DEFAULT_JOINTS)
+            .flat_map(|j| Family::Odrive.default_ids(j))
+            .map(|id| NodeId::new(id).expect("default ids are 6-bit"))
+            .collect()
+    }
 
     /// One message of every command, with distinctive values (negative
     /// feedforwards, high error bits, the last enum values).
