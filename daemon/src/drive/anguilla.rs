@@ -79,12 +79,9 @@ impl Nodes {
         &self.table
     }
 
-    fn send(&self, out: &mut Out<'_>, m: Message) {
-        send(self.variant, out, m);
-    }
-
     fn command_all(&self, out: &mut Out<'_>, command: NodeCommand) {
-        self.send(
+        send(
+            self.variant,
             out,
             Message::Command {
                 target: Target::All,
@@ -138,7 +135,7 @@ impl Drives for Nodes {
     fn estop(&mut self, out: &mut Out<'_>) {
         // Nothing queued before the E-stop may follow it.
         out.flush();
-        self.send(out, Message::EStop(Target::All));
+        send(self.variant, out, Message::EStop(Target::All));
     }
 
     fn clear_faults(&mut self, out: &mut Out<'_>) {
@@ -165,7 +162,8 @@ impl Drives for Nodes {
                         message::WATCHDOG_RANGE_MS.1 as u64,
                     ) as u16;
                     for &node in &self.ids {
-                        self.send(
+                        send(
+                            self.variant,
                             out,
                             Message::ConfigWrite {
                                 node,
@@ -221,7 +219,7 @@ impl Drives for Nodes {
         }
         if !p.bus_off {
             self.table.sync_sent();
-            self.send(out, Message::Sync { counter: p.counter });
+            send(self.variant, out, Message::Sync { counter: p.counter });
         }
     }
 
