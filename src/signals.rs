@@ -19,6 +19,7 @@ extern "C" fn on_signal(sig: libc::c_int) {
         // SAFETY: _exit is async-signal-safe.
         unsafe { libc::_exit(128 + sig) };
     }
+    anguilla_ipc::guard::stop_requested(sig);
     SIGNAL.store(sig, Ordering::SeqCst);
     REQUESTED.store(true, Ordering::SeqCst);
 }

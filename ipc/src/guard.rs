@@ -261,6 +261,17 @@ pub fn closed_to_this_user() -> Option<String> {
 pub const OPEN_LIMIT: std::time::Duration = std::time::Duration::from_secs(10);
 
 static OPENING: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+/// The stop signal a handler saw while no call was under [`bounded`] (0:
+/// none): a call that starts after it ends the process at once.
+static STOPPED_BY: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
+
+/// Called by a stop signal's handler that found no call under [`bounded`]
+/// ([`opening`] false): a call that starts later ends the process at once
+/// (exit code 128 + `sig`), so a signal that came just before a blocking
+/// call is not lost in it. Async-signal-safe (one atomic store).
+pub fn stop_requested(sig: i32) {
+    STOPPED_BY.store(sig, std::sync::atomic::Ordering::SeqCst);
+}
 
 /// Whether a call under [`bounded`] is running: a stop signal's handler
 /// that sees it ends the process at once (`libc::_exit`; the call cannot
@@ -300,6 +311,17 @@ pub fn files_to_check() -> String {
 /// it runs, [`opening`] is true, so a stop signal ends the process too.
 pub fn bounded<T>(what: &str, f: impl FnOnce() -> T) -> T {
     use std::sync::atomic::Ordering::SeqCst;
+    // Counted before the watchdog thread exists, so a signal that finds
+    // the thread (as a test does) finds the call under way; and a signal
+    // whose handler found none is seen here (one of the two sees the
+    // other: both sequentially consistent).
+    OPENING.fetch_add(1, SeqCst);
+    let sig = STOPPED_BY.load(SeqCst);
+    if sig != 0 {
+        // SAFETY: _exit ends the process at once, as the signal's handler
+        // would have had the call been under way.
+        unsafe { libc::_exit(128 + sig) };
+    }
     let done = std::sync::Arc::new((std::sync::Mutex::new(false), std::sync::Condvar::new()));
     let (d, msg) = (
         done.clone(),
@@ -329,7 +351,6 @@ pub fn bounded<T>(what: &str, f: impl FnOnce() -> T) -> T {
                 unsafe { libc::_exit(2) };
             }
         });
-    OPENING.fetch_add(1, SeqCst);
     let r = f();
     OPENING.fetch_sub(1, SeqCst);
     let (m, cv) = &*done;
@@ -366,5 +387,32 @@ mod tests {
             }
         }
         let _again = crate::service::new_node("guard-test-2").unwrap();
+    }
+
+    /// A stop signal that came just before a blocking call is not lost in
+    /// it (the CI failure of stop 55: SIGTERM between the watchdog's start
+    /// and the call's count waited out the 10 s limit): the call ends the
+    /// process at once, with the signal's exit code.
+    #[test]
+    fn a_stop_signal_before_a_blocking_call_ends_the_process_at_once() {
+        // SAFETY: the child only stores and loads atomics and calls _exit
+        // (no allocation, no lock: safe after fork in a threaded process).
+        let pid = unsafe { libc::fork() };
+        assert!(pid >= 0, "fork failed");
+        if pid == 0 {
+            stop_requested(libc::SIGTERM);
+            bounded("a call that never returns", || {
+                loop {
+                    std::hint::spin_loop()
+                }
+            });
+            // SAFETY: as above; not reached when bounded ends the process.
+            unsafe { libc::_exit(0) };
+        }
+        let mut status = 0;
+        // SAFETY: pid is our child.
+        assert_eq!(unsafe { libc::waitpid(pid, &mut status, 0) }, pid);
+        assert!(libc::WIFEXITED(status), "status {status:#x}");
+        assert_eq!(libc::WEXITSTATUS(status), 128 + libc::SIGTERM);
     }
 }
