@@ -327,6 +327,7 @@ impl Body {
             k4: res * self.c1 * PI * d * d,
             buoyancy: (rb - rf) * area,
             displaced: rf * area,
+            semi_axes: [a, b],
             ballast_moment: rb * area * self.ballast,
         }
     }
@@ -372,6 +373,9 @@ pub(crate) struct Section {
     /// Displaced fluid mass rho_f A (kg/m): the Froude–Krylov force of an
     /// accelerating current is `rho_f A u_dot`.
     pub displaced: f64,
+    /// Semi-axes `(a, b)` along t2 and t3 (m): how far the section reaches
+    /// above and below its axis (the water's surface, `forward.rs`).
+    pub semi_axes: [f64; 2],
     /// rho_b A h (kg): the section's weight acts `h` below its axis.
     pub ballast_moment: f64,
 }

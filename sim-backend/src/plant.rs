@@ -449,6 +449,18 @@ impl Plant {
         self.coupled_primed = false;
     }
 
+    /// The water's surface at height `z_surface` (m, the model's z, up)
+    /// from the next step on, or none: a section partly or wholly above it
+    /// loses that part of its buoyancy and of its drag
+    /// (`anguilla_model::Workspace::set_surface`), so a nose lifted out of
+    /// the water is heavy and falls back. Allocates nothing.
+    pub fn set_water_surface(&mut self, z_surface: Option<f64>) {
+        if self.ws.surface() != z_surface {
+            self.ws.set_surface(z_surface);
+            self.coupled_primed = false;
+        }
+    }
+
     /// The water's current.
     pub fn current(&self) -> Current {
         self.ws.current()

@@ -4,6 +4,7 @@
 use super::kinematics::shape;
 use super::model::Model;
 use super::workspace::Workspace;
+use crate::body::Section;
 use crate::current::Current;
 use crate::error::{ModelError, Result};
 use crate::gait::CurvatureSource;
@@ -20,11 +21,22 @@ pub(super) struct Flow {
     /// terms computed (so still water is bit-for-bit the model without a
     /// current).
     pub(super) accelerating: bool,
+    /// The water's surface, if any: the head's depth below it (m) and the
+    /// earth's up in the head frame.
+    pub(super) surface: Option<(f64, Vector3<f64>)>,
 }
 
 impl Flow {
-    /// `current` at time `t`, rotated into the head frame by `rt = R_o^T`.
-    pub(super) fn at(current: &Current, t: f64, rt: &Matrix3<f64>) -> Self {
+    /// `current` at time `t`, rotated into the head frame by `rt = R_o^T`;
+    /// the surface at height `surface` above a head at height `z` (earth
+    /// frame, up).
+    pub(super) fn at(
+        current: &Current,
+        t: f64,
+        rt: &Matrix3<f64>,
+        z: f64,
+        surface: Option<f64>,
+    ) -> Self {
         let still = *current == Current::ZERO;
         let accelerating = !current.is_steady();
         Flow {
@@ -39,8 +51,30 @@ impl Flow {
                 Vector3::zeros()
             },
             accelerating,
+            surface: surface.map(|s| (s - z, rt * Vector3::z())),
         }
     }
+}
+
+/// The part of section `s` (its centre `p` in the head frame, its local
+/// frame `qt = Q^T` of the head frame) below the surface: 1 under water,
+/// 0 wholly above, linear in between over the section's vertical reach.
+fn wetted(
+    surface: Option<(f64, Vector3<f64>)>,
+    s: &Section,
+    p: &Vector3<f64>,
+    qt: &Matrix3<f64>,
+) -> f64 {
+    let Some((depth, up)) = surface else {
+        return 1.0;
+    };
+    let d = depth - p.dot(&up);
+    let u = qt * up;
+    let reach = ((s.semi_axes[0] * u.y).powi(2) + (s.semi_axes[1] * u.z).powi(2)).sqrt();
+    if reach <= 0.0 {
+        return if d >= 0.0 { 1.0 } else { 0.0 };
+    }
+    (0.5 + 0.5 * d / reach).clamp(0.0, 1.0)
 }
 
 /// Forward dynamics `G_ext` (29)–(31) at one instant, head frame, in the
@@ -89,7 +123,7 @@ pub(super) fn forward_head(
         let mf = Vector3::from(s.mf);
         // resistive wrench (24) and buoyancy (25), local frame
         let k1_v = model.friction[i].k1_speed(vl.x);
-        let nbar = -0.5
+        let mut nbar = -0.5
             * rho
             * Vector3::new(
                 k1_v * vl.x,
@@ -101,7 +135,20 @@ pub(super) fn forward_head(
             } else {
                 Vector3::zeros()
             };
-        let cbar_x = -0.5 * rho * s.k4 * om.x * om.x.abs();
+        let mut cbar_x = -0.5 * rho * s.k4 * om.x * om.x.abs();
+        if flow.surface.is_some() {
+            // Above the surface: no drag, and no buoyancy (the weight stays).
+            let w = wetted(flow.surface, s, &p, &qt);
+            if w < 1.0 {
+                let buoyant = if s.buoyancy != 0.0 {
+                    s.buoyancy * (qt * grav_h)
+                } else {
+                    Vector3::zeros()
+                };
+                nbar = (nbar - buoyant) * w + buoyant + (1.0 - w) * s.displaced * (qt * grav_h);
+                cbar_x *= w;
+            }
+        }
         let mfv = mf.component_mul(&vl);
         let mut bf = mm.component_mul(&(qt * ac_full)) + om.cross(&mfv)
             - mf.component_mul(&om.cross(&vl))
@@ -226,11 +273,12 @@ pub(super) fn forward_earth<S: CurvatureSource + ?Sized>(
     rot: &Matrix3<f64>,
     omega: Vector3<f64>,
     vel: Vector3<f64>,
+    z: f64,
     t: f64,
 ) -> Result<(Vector3<f64>, Vector3<f64>)> {
     shape(model, ws, src, tau);
     let rt = rot.transpose();
-    let flow = Flow::at(&ws.current, t, &rt);
+    let flow = Flow::at(&ws.current, t, &rt, z, ws.surface);
     let (wd, vd) = forward_head(
         model,
         ws,

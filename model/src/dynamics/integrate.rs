@@ -35,7 +35,7 @@ fn evaluate_held<S: CurvatureSource + ?Sized>(
     let rot = head.orientation.to_rotation_matrix().into_inner();
     let rt = rot.transpose();
     shape(model, ws, src, 0.0);
-    let flow = Flow::at(&ws.current, head.t, &rt);
+    let flow = Flow::at(&ws.current, head.t, &rt, head.position.z, ws.surface);
     let (wd, vd) = forward_head(
         model,
         ws,
@@ -122,7 +122,8 @@ pub fn step<S: CurvatureSource + ?Sized>(
         let omega = head.omega + prev.1 * h;
         let vel = head.velocity + prev.2 * h;
         let rot = q.to_rotation_matrix().into_inner();
-        let (wd, vd) = forward_earth(model, ws, src, h, &rot, omega, vel, t + h)?;
+        let z = head.position.z + prev.0.z * h;
+        let (wd, vd) = forward_earth(model, ws, src, h, &rot, omega, vel, z, t + h)?;
         Ok::<_, ModelError>((vel, wd, vd, qdot(q.quaternion(), &omega)))
     };
     let (pos, omega, vel, q) = match model.integrator {

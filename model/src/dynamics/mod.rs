@@ -73,6 +73,21 @@
 //! ([`HeadState::v1`], [`StepReport::forward_speed`]) are ground speeds;
 //! [`Diagnostics`]' energy and tail flux are in the water's frame.
 //!
+//! # The water's surface
+//!
+//! With [`Workspace::set_surface`] (the simulated robot sets it; the
+//! daemon's feed-forward does not), each section's wetted part `w` is 1
+//! when it is wholly below the surface, 0 wholly above, and linear in its
+//! centre's depth between (over the section's vertical reach, from its
+//! semi-axes and its roll). The section's drag (`n̄`'s resistive part and
+//! the roll drag) is multiplied by `w`, and its buoyancy `ρ_f A g` by `w`
+//! too, so the part out of the water keeps its weight alone: a nose
+//! lifted out is heavy and falls back, a body thrown clear falls
+//! (`tests/surface.rs`). Kept as under water, a simplification: the added
+//! mass, the nose's pressure drag and the tail terms; no waves. With no
+//! surface set, or a body wholly under it, the operations are those of
+//! the model without one (bit for bit, tested).
+//!
 //! `state.rs` holds what the passes share: the head state, a joint, the
 //! step report; this file the frames the daemon and the simulator read
 //! them in.

@@ -42,6 +42,8 @@ pub struct Workspace {
     /// `u_dot . t1(0)` at the last forward pass (nose added mass).
     pub(super) head_u_dot1: f64,
     pub(super) current: Current,
+    /// The water's surface, its z (m, up) in the earth frame, if any.
+    pub(super) surface: Option<f64>,
 }
 
 impl Workspace {
@@ -76,6 +78,7 @@ impl Workspace {
             head_v1: 0.0,
             head_u_dot1: 0.0,
             current: Current::ZERO,
+            surface: None,
         }
     }
 
@@ -88,6 +91,19 @@ impl Workspace {
     /// The water's current the dynamics use.
     pub fn current(&self) -> Current {
         self.current
+    }
+    /// Sets the water's surface for the following [`evaluate`](super::evaluate)
+    /// and [`step`](super::step) calls: its height `z` (m, the earth
+    /// frame's z, up), or `None` (the default: water everywhere, the
+    /// model bit for bit as without). A section partly or wholly above it
+    /// loses that part of its buoyancy and of its drag (the module docs,
+    /// "The water's surface"). Allocates nothing.
+    pub fn set_surface(&mut self, z: Option<f64>) {
+        self.surface = z;
+    }
+    /// The water's surface the dynamics use ([`Workspace::set_surface`]).
+    pub fn surface(&self) -> Option<f64> {
+        self.surface
     }
     /// Joints of the discrete robot at the last evaluated instant.
     pub fn joints(&self) -> &[JointState] {

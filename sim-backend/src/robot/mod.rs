@@ -530,17 +530,20 @@ impl SimRobot {
                 rate: [pr, yr],
             };
         }
-        match self.plant.step(&self.inputs) {
-            Ok(_) => {}
-            Err(_) => self.stats.model_errors += 1,
-        }
-        // The water's surface: the nose's depth never below 0.
+        // The water's surface: the part of the body above it is neither
+        // buoyed nor dragged, and the nose's depth is never below 0.
         let origin_depth = self
             .sensor
             .as_ref()
             .map_or(crate::sensor::DEFAULT_ORIGIN_DEPTH, |s| {
                 s.config().origin_depth
             });
+        self.plant
+            .set_water_surface(self.cfg.surface.then_some(origin_depth));
+        match self.plant.step(&self.inputs) {
+            Ok(_) => {}
+            Err(_) => self.stats.model_errors += 1,
+        }
         if self.cfg.surface && self.plant.surface(origin_depth) {
             self.stats.surfaced += 1;
         }
