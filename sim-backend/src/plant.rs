@@ -420,11 +420,11 @@ impl Plant {
     /// The water's surface, `z_surface` (m, the model's z, up) above the
     /// origin: a nose above it is put back on it and stops rising (its
     /// upward velocity dropped), the rest of the body following the head's
-    /// frame as always. Deliberately simple: no change of buoyancy or drag
-    /// for the part of the body out of the water, no waves; enough that
-    /// the simulated robot cannot swim on above the water (issue 46: it
-    /// did, to a depth of −1.6 m). Returns whether the nose is at the
-    /// surface.
+    /// frame as always. With [`Plant::set_water_surface`] the part of the
+    /// body out of the water also loses its buoyancy and its drag; no
+    /// waves. The simulated robot cannot swim on above the water (issue
+    /// 46: it did, to a depth of −1.6 m). Returns whether the nose is at
+    /// the surface.
     pub fn surface(&mut self, z_surface: f64) -> bool {
         if self.head.position.z < z_surface {
             return false;
