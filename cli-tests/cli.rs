@@ -1319,6 +1319,24 @@ fn numbers_a_user_types_are_bounded_and_named() {
             "--sim-body is for the built-in simulated robot; a bus was named",
         ),
         (
+            &["run", "--sim-depth", "-1"],
+            "--sim-depth -1 is invalid (expected metres below the surface, > 0 and at most [autopilot] max-depth 10)",
+        ),
+        (&["run", "--sim-depth", "0"], "--sim-depth 0 is invalid"),
+        (&["run", "--sim-depth", "NaN"], "--sim-depth NaN is invalid"),
+        (
+            &["run", "--sim-depth", "10.5"],
+            "--sim-depth 10.5 is invalid",
+        ),
+        (
+            &["run", "--bus", "mem:x", "--sim-depth", "3"],
+            "--sim-depth is for the built-in simulated robot; a bus was named",
+        ),
+        (
+            &["ctl", "calibrate-swim", "--min-depth", "-0.5"],
+            "--min-depth -0.5 is invalid (expected metres below the surface, >= 0)",
+        ),
+        (
             &["run", "--scenario", "/nonexistent-scenario.txt"],
             "--scenario /nonexistent-scenario.txt: cannot read",
         ),

@@ -87,18 +87,35 @@ pub struct ScenarioFile {
 }
 
 /// Creates the in-process bus and the robot (on `body`, else the body
-/// `[model]` describes), playing `scenario` from its start; returns the
+/// `[model]` describes; its nose `depth` m below the surface, else
+/// [`anguilla_sim::sensor::DEFAULT_ORIGIN_DEPTH`]), playing `scenario` from its start; returns the
 /// daemon's end of the bus. A scenario the robot cannot play (a line that
 /// does not parse, a joint it does not have, a sensor fault without the
 /// sensor) is an error naming the file and the line.
 pub fn start_builtin(
     cfg: &Config,
     body: Option<anguilla_model::Body>,
+    depth: Option<f64>,
     scenario: Option<&ScenarioFile>,
 ) -> anyhow::Result<(Box<dyn Bus>, BuiltinSim)> {
     let mut bc = builtin_config(cfg, &format!("anguilla-builtin-{}", std::process::id()));
     if let Some(body) = body {
         bc.body = body;
+    }
+    if let Some(d) = depth {
+        // Where the water's surface is, for the body and both sensors; a
+        // robot with no sensor has no depth to start at.
+        let Some(head) = &mut bc.head_sensor else {
+            anyhow::bail!(
+                "--sim-depth: this simulated robot has no head sensor ({} drives), so no depth \
+                 to start at (anguilla drives have one: [sensor] node)",
+                cfg.robot.drive
+            )
+        };
+        head.origin_depth = d;
+        if let Some(tail) = &mut bc.tail_sensor {
+            tail.origin_depth = d;
+        }
     }
     if let Some(s) = scenario {
         bc.scenario = s.text.clone();

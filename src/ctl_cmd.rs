@@ -89,8 +89,14 @@ pub enum CtlCmd {
     /// a minute of forward gaits at three frequencies, glides, turns both
     /// ways, a dive and a climb, which `anguilla calibrate` fits the
     /// model's coefficients to (record it: `[recording] dir`); then stop,
-    /// wait for ready and release. Prints each leg as it starts.
-    CalibrateSwim,
+    /// wait for ready and release. Prints each leg as it starts. The swim
+    /// climbs up to about 3 m above its start: it is refused where the head
+    /// sensor reads less than --min-depth.
+    CalibrateSwim {
+        /// The shallowest start (metres below the surface; 0: no check).
+        #[arg(long, value_name = "M", allow_negative_numbers = true, default_value_t = anguilla_daemon::calibration::MIN_START_DEPTH)]
+        min_depth: f64,
+    },
 }
 
 /// `anguilla ctl`: exits with the documented status.
@@ -169,6 +175,13 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
             )));
         }
     }
+    if let CtlCmd::CalibrateSwim { min_depth } = args.cmd
+        && !(min_depth.is_finite() && min_depth >= 0.0)
+    {
+        return Err(CtlError::Refused(format!(
+            "--min-depth {min_depth} is invalid (expected metres below the surface, >= 0)"
+        )));
+    }
     crate::signals::install();
     if let CtlCmd::Wait { timeout } = args.cmd {
         if !(timeout.is_finite() && timeout > 0.0 && timeout <= 3600.0) {
@@ -218,8 +231,37 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         CtlCmd::Disable => c.disable()?,
         CtlCmd::Reset => c.reset()?,
         CtlCmd::Stop => c.stop()?,
-        CtlCmd::CalibrateSwim => {
-            use anguilla_daemon::calibration::{LEGS, duration};
+        CtlCmd::CalibrateSwim { min_depth } => {
+            use anguilla_daemon::calibration::{CLIMB, LEGS, duration};
+            use anguilla_ipc::vocabulary::SensorHealth;
+            let nav = c.state().nav;
+            let health = SensorHealth::from_code(nav.sensor);
+            let depth = f64::from(nav.depth_m);
+            if min_depth == 0.0 {
+                // told not to check
+            } else if health == Some(SensorHealth::None) {
+                let _ = out(&format!(
+                    "calibration swim: no head sensor, no depth reading: the swim climbs about \
+                     {CLIMB} m above its start; make sure there is more water than that above the robot\n"
+                ));
+            } else if health != Some(SensorHealth::Ok) {
+                return Err(CtlError::Refused(format!(
+                    "calibration swim: no depth reading (head sensor: {}) and the swim climbs \
+                     about {CLIMB} m above its start (docs/calibration.md): wait for the sensor, \
+                     or --min-depth 0 swims anyway",
+                    sensor_name(nav.sensor)
+                )));
+            } else if depth < min_depth {
+                return Err(CtlError::Refused(format!(
+                    "calibration swim: the robot is {depth:.2} m deep and the swim climbs about \
+                     {CLIMB} m above its start (docs/calibration.md): start it at least \
+                     {min_depth} m deep (--min-depth 0 swims anyway)"
+                )));
+            } else {
+                let _ = out(&format!(
+                    "calibration swim: starting {depth:.2} m deep (it climbs about {CLIMB} m)\n"
+                ));
+            }
             let legs: Vec<(SwimParams, Duration)> = LEGS
                 .iter()
                 .map(|l| (l.gait, Duration::from_secs_f64(l.seconds)))

@@ -43,6 +43,12 @@ pub struct RunArgs {
     /// `[model]` describes: a robot that is not the model.
     #[arg(long, value_name = "FILE")]
     sim_body: Option<PathBuf>,
+    /// How deep the built-in simulated robot's nose starts (metres below
+    /// the water's surface, > 0, at most `[autopilot] max-depth`; default
+    /// 1). The calibration swim climbs up to about 3 m: start it 3.5 m deep or
+    /// more (`ctl calibrate-swim`).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    sim_depth: Option<f64>,
     /// A fault scenario for the built-in simulated robot (a file of timed
     /// faults, seconds from the robot's start: node silences and reboots,
     /// joint snags and jams, bus faults, the water's current;
@@ -141,6 +147,17 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         ),
         None => None,
     };
+    let sim_depth = match args.sim_depth {
+        Some(_) if !cfg.bus.spec.is_empty() => {
+            anyhow::bail!("--sim-depth is for the built-in simulated robot; a bus was named")
+        }
+        Some(d) if !(d.is_finite() && d > 0.0 && d <= cfg.autopilot.max_depth) => anyhow::bail!(
+            "--sim-depth {d} is invalid (expected metres below the surface, > 0 and at most \
+             [autopilot] max-depth {})",
+            cfg.autopilot.max_depth
+        ),
+        d => d,
+    };
     let scenario = match &args.scenario {
         Some(_) if !cfg.bus.spec.is_empty() => anyhow::bail!(
             "--scenario is for the built-in simulated robot; a bus was named (a simulated robot \
@@ -173,7 +190,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                 relaxed.join(", ")
             );
         }
-        let (bus, sim) = crate::builtin_sim::start_builtin(&cfg, sim_body, scenario.as_ref())?;
+        let (bus, sim) =
+            crate::builtin_sim::start_builtin(&cfg, sim_body, sim_depth, scenario.as_ref())?;
         tracing::info!("no bus named: running against the built-in simulated robot");
         match (sensor, cfg.sensor.node) {
             (Some(id), _) => tracing::info!(

@@ -54,6 +54,20 @@ pub const LEGS: [Leg; 10] = [
     leg("glide", 5.0, 0.0, 1.5, 0.0, 0.0),
 ];
 
+/// How far the swim climbs above its start (m): after the climb the
+/// straightened body swims on upwards through the 1.5 Hz leg. Open water,
+/// no hold: 2.44 m on the paper's body, 2.93 m on one with 30 % more
+/// lateral and 30 % less vertical drag (`tests/calibrate.rs`,
+/// `the_swim_climbs_less_than_its_documented_climb`).
+pub const CLIMB: f64 = 3.0;
+
+/// The shallowest start `ctl calibrate-swim` begins the swim at unless told
+/// otherwise (m below the surface): [`CLIMB`] and half a metre. A shallower
+/// start surfaces the body mid-swim, whose out-of-water motion the fit does
+/// not model (it refuses the torques that come with it).
+pub const MIN_START_DEPTH: f64 = 3.5;
+const _: () = assert!(MIN_START_DEPTH > CLIMB);
+
 /// The whole swim's duration (s).
 pub fn duration() -> f64 {
     LEGS.iter().map(|l| l.seconds).sum()

@@ -3,10 +3,10 @@
 //! on a body whose coefficients are not the model's, read back and
 //! fitted. The figures are printed (docs/calibration.md quotes them).
 
-use anguilla_daemon::calibration::{LEGS, Leg};
+use anguilla_daemon::calibration::{CLIMB, LEGS, Leg};
 use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::swim::{self, Source};
-use anguilla_ipc::vocabulary::{Mode, SwimParams};
+use anguilla_ipc::vocabulary::{Command, Mode, SwimParams};
 use anguilla_model::identify::{self, Coefficient, FitOptions};
 use anguilla_model::{AxialDrag, Body};
 use anguilla_testkit::lockstep::{self, Rig};
@@ -178,6 +178,40 @@ fn predicted_speed_error(cfg: &Config, body: &Body, amplitude: f64, frequency: f
         "no swim: {truth} m/s over {n} periods"
     );
     predicted / truth - 1.0
+}
+
+/// How far the calibration swim climbs above its start and dives below
+/// it, open water, on the paper's body and on the draggier one:
+/// `calibration::CLIMB`, which `ctl calibrate-swim`'s shallowest start
+/// (`MIN_START_DEPTH`) is made of, is above both, and less than half a
+/// metre above the higher (a README recipe that started at 1 m surfaced
+/// mid-swim, and its fit refused the torques).
+#[test]
+fn the_swim_climbs_less_than_its_documented_climb() {
+    let (cfg, prior, draggier) = draggier();
+    let mut most = 0.0f64;
+    for (name, body) in [("the paper's", prior), ("the draggier", draggier)] {
+        let mut rig = Rig::with_body(&cfg, 5, body);
+        rig.ok(Command::TakeControl);
+        rig.ok(Command::Enable);
+        assert!(rig.run_until(5.0, |r| r.state().mode == Mode::Ready as u8));
+        let start = rig.ground_truth().depth;
+        let (mut lo, mut hi) = (start, start);
+        for leg in &LEGS {
+            rig.ok(Command::Swim(leg.gait));
+            rig.run(leg.seconds, |r| {
+                let d = r.ground_truth().depth;
+                lo = lo.min(d);
+                hi = hi.max(d);
+            });
+        }
+        let (climb, dive) = (start - lo, hi - start);
+        eprintln!("{name} body: climbs {climb:.2} m, dives {dive:.2} m from {start:.2} m");
+        assert!(climb < CLIMB, "{name}: climbs {climb}");
+        assert!(dive < CLIMB, "{name}: dives {dive}");
+        most = most.max(climb);
+    }
+    assert!(most > CLIMB - 0.5, "the most either climbs: {most}");
 }
 
 /// The simulated robot's joint torques are the model's inverse dynamics of
