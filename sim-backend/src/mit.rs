@@ -25,13 +25,13 @@
 //!   frames are ignored; a frame on its id that does not decode (a wrong
 //!   length, CAN FD) is counted in [`NodeCounters::bad_frames`] and not
 //!   answered. `applied` counts the commands applied.
-//! - **Fault injection** ([`JointDevice`]): a silent joint neither sends
+//! - **Fault injection** ([`JointDevice`](crate::device::JointDevice)): a silent joint neither sends
 //!   nor hears; a reboot ends motor mode and the zero, and boots again; an
 //!   injected anguilla fault becomes an error code on both drives
 //!   ([`injected_error`]), which ends motor mode and refuses Enter until
-//!   [`JointDevice::clear_injected_fault`]; Exit motor mode then clears it.
+//!   [`JointDevice::clear_injected_fault`](crate::device::JointDevice::clear_injected_fault); Exit motor mode then clears it.
 //!
-//! In the anguilla vocabulary ([`JointDevice::state`]) a drive is Boot
+//! In the anguilla vocabulary ([`JointDevice::state`](crate::device::JointDevice::state)) a drive is Boot
 //! until booted, Fault with an error, Enabled in motor mode, Disabled
 //! otherwise; the joint is the worse of its two drives. Receiving and
 //! advancing allocate nothing.
@@ -42,10 +42,10 @@ use anguilla_protocol::mit::{
     self, Body, Command, DEFAULT_RANGES, Message, NodeId, Reply, Status, error_code,
 };
 
-use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive, Load};
-use crate::device::JointDevice;
+use crate::actuator::{Actuator, ActuatorParams, Drive};
+use crate::device::{BoughtAxis, BoughtJoint, Firmware};
 use crate::error::SimError;
-use crate::node::{Nanos, NodeCounters, SERVO_DT, SERVO_DT_NS};
+use crate::node::Nanos;
 use crate::rng::Rng;
 
 /// The CAN timeout the simulated drives are set to (docs/drives.md): longer
@@ -88,7 +88,7 @@ pub struct MitJointConfig {
 
 /// One drive: its mode, command, zero and actuator.
 #[derive(Debug, Clone)]
-struct MitDrive {
+pub struct MitDrive {
     id: NodeId,
     booted: bool,
     motor_mode: bool,
@@ -176,20 +176,18 @@ impl MitDrive {
     }
 }
 
-/// A joint of two simulated MIT-mode drives (pitch, yaw).
+/// The MIT-mode firmware of a joint's two drives: their configuration and
+/// an injected fault's error code.
 #[derive(Debug, Clone)]
-pub struct MitJoint {
+pub struct Mit {
     cfg: MitJointConfig,
-    drives: [MitDrive; 2],
-    time: Nanos,
-    boot_done: Nanos,
-    rng: Rng,
-    silent: bool,
     injected: u8,
-    counters: NodeCounters,
 }
 
-impl MitJoint {
+/// A joint of two simulated MIT-mode drives (pitch, yaw).
+pub type MitJoint = BoughtJoint<Mit>;
+
+impl BoughtJoint<Mit> {
     /// A joint powered on at `now`. Fails, naming the field, if an id is
     /// outside 1..=127, the two ids are equal, or the timeout is zero.
     pub fn new(cfg: MitJointConfig, now: Nanos) -> crate::Result<Self> {
@@ -212,36 +210,73 @@ impl MitJoint {
                 reason: "a timeout above zero".into(),
             });
         }
-        Ok(Self {
-            cfg,
-            drives: [
+        Ok(Self::powered_on(
+            Mit { cfg, injected: 0 },
+            [
                 MitDrive::new(ids[0], cfg.axes[0]),
                 MitDrive::new(ids[1], cfg.axes[1]),
             ],
-            time: now,
-            boot_done: now + cfg.boot_time,
-            rng: Rng::new(cfg.seed),
-            silent: false,
-            injected: 0,
-            counters: NodeCounters::default(),
-        })
+            now,
+            cfg.boot_time,
+            cfg.seed,
+        ))
     }
 
     /// Whether drive `axis` (0 pitch, 1 yaw) is in motor mode.
     pub fn motor_mode(&self, axis: usize) -> bool {
-        self.drives[axis].motor_mode
+        self.axes[axis].motor_mode
     }
 
     /// The error code of drive `axis`.
     pub fn error(&self, axis: usize) -> u8 {
-        self.drives[axis].error
+        self.axes[axis].error
+    }
+}
+
+impl BoughtAxis for MitDrive {
+    fn actuator(&self) -> &Actuator {
+        &self.actuator
     }
 
-    fn on_message(&mut self, now: Nanos, k: usize, body: Body, tx: &mut dyn FnMut(Frame)) {
-        let d = &mut self.drives[k];
-        match body {
+    fn actuator_mut(&mut self) -> &mut Actuator {
+        &mut self.actuator
+    }
+
+    fn booted(&self) -> bool {
+        self.booted
+    }
+
+    fn drive(&self) -> Drive {
+        MitDrive::drive(self)
+    }
+
+    fn node_state(&self) -> NodeState {
+        MitDrive::node_state(self)
+    }
+}
+
+impl Firmware for Mit {
+    type Axis = MitDrive;
+
+    fn addressed(joint: &MitJoint, frame: &Frame) -> Option<usize> {
+        let raw = frame.id().as_standard()?;
+        joint.axes.iter().position(|d| u16::from(d.id.get()) == raw)
+    }
+
+    fn on_frame(
+        joint: &mut MitJoint,
+        now: Nanos,
+        k: usize,
+        frame: &Frame,
+        tx: &mut dyn FnMut(Frame),
+    ) -> bool {
+        let Ok(m) = mit::decode(frame, &DEFAULT_RANGES) else {
+            return false;
+        };
+        let d = &mut joint.axes[k];
+        match m.body {
             // The master's id carries replies; ours come from here.
-            Body::Reply(_) => return,
+            Body::Reply(_) => return true,
             Body::EnterMotorMode => {
                 if d.error == 0 && !d.motor_mode {
                     d.motor_mode = true;
@@ -251,135 +286,47 @@ impl MitJoint {
             }
             Body::ExitMotorMode => {
                 d.motor_mode = false;
-                d.error = self.injected;
+                d.error = joint.firmware.injected;
             }
             Body::SetZero => d.zero = d.actuator.kinematics().0,
             Body::Command(c) => {
                 if d.motor_mode {
                     d.command = c;
                     d.last_command = now;
-                    self.counters.applied += 1;
+                    joint.counters.applied += 1;
                 }
             }
         }
-        self.drives[k].reply(&mut self.rng, tx);
+        joint.axes[k].reply(&mut joint.rng, tx);
+        true
     }
-}
 
-impl JointDevice for MitJoint {
-    fn receive(&mut self, now: Nanos, frame: &Frame, tx: &mut dyn FnMut(Frame)) {
-        self.advance(now, tx);
-        if self.silent || !self.drives[0].booted {
-            return;
-        }
-        let Some(raw) = frame.id().as_standard() else {
-            return;
-        };
-        let Some(k) = self
-            .drives
-            .iter()
-            .position(|d| u16::from(d.id.get()) == raw)
-        else {
-            return;
-        };
-        match mit::decode(frame, &DEFAULT_RANGES) {
-            Ok(m) => self.on_message(now, k, m.body, tx),
-            Err(_) => self.counters.bad_frames += 1,
+    fn boot(joint: &mut MitJoint, _t: Nanos) {
+        for d in &mut joint.axes {
+            d.booted = true;
+            d.error = joint.firmware.injected;
         }
     }
 
-    fn advance(&mut self, now: Nanos, _tx: &mut dyn FnMut(Frame)) {
-        while self.time + SERVO_DT_NS <= now {
-            self.time += SERVO_DT_NS;
-            let t = self.time;
-            for d in &mut self.drives {
-                let drive = d.drive();
-                d.actuator.step(SERVO_DT, drive);
-            }
-            if self.silent {
-                continue;
-            }
-            if !self.drives[0].booted {
-                if t < self.boot_done {
-                    continue;
-                }
-                for d in &mut self.drives {
-                    d.booted = true;
-                    d.error = self.injected;
-                }
-            }
-            for d in &mut self.drives {
-                if d.motor_mode && t.saturating_sub(d.last_command) > self.cfg.timeout {
-                    self.counters.watchdog_expiries += 1;
-                    d.motor_mode = false;
-                }
+    fn tick(joint: &mut MitJoint, t: Nanos, _tx: &mut dyn FnMut(Frame)) {
+        for d in &mut joint.axes {
+            if d.motor_mode && t.saturating_sub(d.last_command) > joint.firmware.cfg.timeout {
+                joint.counters.watchdog_expiries += 1;
+                d.motor_mode = false;
             }
         }
     }
 
-    fn kinematics(&self, axis: usize) -> (f64, f64, f64) {
-        self.drives[axis].actuator.kinematics()
+    fn powered_on(&self, k: usize, before: &MitDrive) -> MitDrive {
+        // Motor mode, the command and the zero are lost.
+        MitDrive::new(before.id, self.cfg.axes[k])
     }
 
-    fn motor_torque(&self, axis: usize) -> f64 {
-        self.drives[axis].actuator.torque()
-    }
-
-    fn set_load(&mut self, load: [Load; 2]) {
-        for (d, l) in self.drives.iter_mut().zip(load) {
-            d.actuator.set_load(l);
-        }
-    }
-
-    fn set_pose(&mut self, angles: [f64; 2]) {
-        for (d, th) in self.drives.iter_mut().zip(angles) {
-            d.actuator.set_state(th, 0.0);
-        }
-    }
-
-    fn state(&self) -> NodeState {
-        let [p, y] = [self.drives[0].node_state(), self.drives[1].node_state()];
-        for worse in [NodeState::Fault, NodeState::Boot, NodeState::Disabled] {
-            if p == worse || y == worse {
-                return worse;
-            }
-        }
-        NodeState::Enabled
-    }
-
-    fn counters(&self) -> NodeCounters {
-        self.counters
-    }
-
-    fn set_silent(&mut self, silent: bool) {
-        self.silent = silent;
-    }
-
-    fn reboot(&mut self, now: Nanos) {
-        // Motor mode, the command and the zero are lost; the joints keep
-        // their motion and an injected fault its cause.
-        for d in &mut self.drives {
-            let fresh = MitDrive {
-                actuator: d.actuator.clone(),
-                ..MitDrive::new(d.id, ActuatorParams::default())
-            };
-            *d = fresh;
-        }
-        self.time = now;
-        self.boot_done = now + self.cfg.boot_time;
-        self.silent = false;
-    }
-
-    fn axis_faults_mut(&mut self, axis: usize) -> &mut AxisFaults {
-        self.drives[axis].actuator.faults_mut()
-    }
-
-    fn inject_fault(&mut self, bits: u16, now: Nanos, tx: &mut dyn FnMut(Frame)) {
-        self.advance(now, tx);
-        self.injected = injected_error(bits);
-        for d in &mut self.drives {
+    fn inject_fault(joint: &mut MitJoint, bits: u16, _tx: &mut dyn FnMut(Frame)) {
+        joint.firmware.injected = injected_error(bits);
+        for d in &mut joint.axes {
             if d.booted {
-                d.error = self.injected;
+                d.error = joint.firmware.injected;
                 d.motor_mode = false;
             }
         }
@@ -389,11 +336,16 @@ impl JointDevice for MitJoint {
         self.injected = 0;
     }
 
-    fn impostor_heartbeat(&self, _state: NodeState, _counter: u8, tx: &mut dyn FnMut(Frame)) {
+    fn impostor_heartbeat(
+        joint: &MitJoint,
+        _state: NodeState,
+        _counter: u8,
+        tx: &mut dyn FnMut(Frame),
+    ) {
         // The only sign of life this protocol has: a reply, on the master's
         // id, naming our drive.
-        let mut rng = self.rng.clone();
-        for d in &self.drives {
+        let mut rng = joint.rng.clone();
+        for d in &joint.axes {
             let mut forged = d.clone();
             forged.error = 0;
             forged.reply(&mut rng, tx);

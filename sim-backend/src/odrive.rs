@@ -36,7 +36,7 @@
 //!   [`axis_error::WATCHDOG_TIMER_EXPIRED`] and disarms.
 //! - **Estop** sets [`axis_error::ESTOP_REQUESTED`] and disarms;
 //!   **Clear_Errors** clears the errors (not the state: the axis stays IDLE),
-//!   except an injected fault's until [`JointDevice::clear_injected_fault`].
+//!   except an injected fault's until [`JointDevice::clear_injected_fault`](crate::device::JointDevice::clear_injected_fault).
 //!   Any error disarms (IDLE, `procedure_result` DISARMED).
 //! - Frames for other node ids, extended ids and drive-to-host messages are
 //!   ignored; a frame on an own id that does not decode (wrong length,
@@ -44,14 +44,14 @@
 //!   frame) is counted in [`NodeCounters::bad_frames`] and otherwise
 //!   ignored. `applied` counts the Set_Input_Pos applied, and
 //!   `watchdog_expiries` each axis's expiry.
-//! - **Fault injection** ([`JointDevice`]): a silent joint neither sends nor
+//! - **Fault injection** ([`JointDevice`](crate::device::JointDevice)): a silent joint neither sends nor
 //!   hears (its servos hold what they were doing, as a silent vertebra
 //!   node's do); a reboot loses the volatile state (mode, errors, closed
 //!   loop) and boots again; an injected anguilla fault becomes an axis
 //!   error on both axes ([`injected_error`]), present again after a reboot
-//!   while its cause is (until [`JointDevice::clear_injected_fault`]).
+//!   while its cause is (until [`JointDevice::clear_injected_fault`](crate::device::JointDevice::clear_injected_fault)).
 //!
-//! In the anguilla vocabulary ([`JointDevice::state`]) an axis is Boot until
+//! In the anguilla vocabulary ([`JointDevice::state`](crate::device::JointDevice::state)) an axis is Boot until
 //! booted, EStop with `ESTOP_REQUESTED` alone, Fault with any other error,
 //! Enabled in closed loop, Disabled otherwise; the joint is the worse of its
 //! two axes. Receiving and advancing allocate nothing.
@@ -63,10 +63,10 @@ use anguilla_protocol::odrive::{
     NodeId,
 };
 
-use crate::actuator::{Actuator, ActuatorParams, AxisFaults, Drive, Load};
-use crate::device::JointDevice;
+use crate::actuator::{Actuator, ActuatorParams, Drive};
+use crate::device::{BoughtAxis, BoughtJoint, Firmware};
 use crate::error::SimError;
-use crate::node::{Nanos, NodeCounters, SERVO_DT, SERVO_DT_NS};
+use crate::node::Nanos;
 use crate::rng::Rng;
 
 /// Period of the cyclic `Heartbeat` (`axis.config.can.heartbeat_msg_rate_ms`
@@ -146,7 +146,7 @@ struct Input {
 
 /// One ODrive axis: its CANSimple state and its actuator.
 #[derive(Debug, Clone)]
-struct OdriveAxis {
+pub struct OdriveAxis {
     id: NodeId,
     state: AxisState,
     error: u32,
@@ -179,10 +179,6 @@ impl OdriveAxis {
             next_estimate: Nanos::ZERO,
             actuator: Actuator::new(params),
         }
-    }
-
-    fn booted(&self) -> bool {
-        self.state != AxisState::Undefined
     }
 
     fn node_state(&self) -> NodeState {
@@ -297,20 +293,18 @@ impl OdriveAxis {
     }
 }
 
-/// A joint of two simulated ODrive axes (pitch, yaw) on CANSimple.
+/// The CANSimple firmware of a joint's two ODrive axes: their
+/// configuration and an injected fault's error bits.
 #[derive(Debug, Clone)]
-pub struct OdriveJoint {
+pub struct Odrive {
     cfg: OdriveJointConfig,
-    axes: [OdriveAxis; 2],
-    time: Nanos,
-    boot_done: Nanos,
-    rng: Rng,
-    silent: bool,
     injected: u32,
-    counters: NodeCounters,
 }
 
-impl OdriveJoint {
+/// A joint of two simulated ODrive axes (pitch, yaw) on CANSimple.
+pub type OdriveJoint = BoughtJoint<Odrive>;
+
+impl BoughtJoint<Odrive> {
     /// A joint powered on at `now`. Fails, naming the field, if an id is
     /// beyond 63, the two ids are equal, or the watchdog is zero.
     pub fn new(cfg: OdriveJointConfig, now: Nanos) -> crate::Result<Self> {
@@ -333,24 +327,21 @@ impl OdriveJoint {
                 reason: "a timeout above zero".into(),
             });
         }
-        Ok(Self {
-            cfg,
-            axes: [
+        Ok(Self::powered_on(
+            Odrive { cfg, injected: 0 },
+            [
                 OdriveAxis::new(ids[0], cfg.axes[0]),
                 OdriveAxis::new(ids[1], cfg.axes[1]),
             ],
-            time: now,
-            boot_done: now + cfg.boot_time,
-            rng: Rng::new(cfg.seed),
-            silent: false,
-            injected: 0,
-            counters: NodeCounters::default(),
-        })
+            now,
+            cfg.boot_time,
+            cfg.seed,
+        ))
     }
 
     /// The configuration.
     pub fn config(&self) -> &OdriveJointConfig {
-        &self.cfg
+        &self.firmware.cfg
     }
 
     /// The CANSimple state of an axis (0 pitch, 1 yaw; `Undefined` while
@@ -368,30 +359,54 @@ impl OdriveJoint {
     pub fn procedure_result(&self, axis: usize) -> u8 {
         self.axes[axis].procedure_result
     }
+}
 
-    /// The axis (0 pitch, 1 yaw) with CANSimple node id `node`, if ours.
-    fn axis_of(&self, node: u8) -> Option<usize> {
-        self.axes.iter().position(|a| a.id.get() == node)
+impl BoughtAxis for OdriveAxis {
+    fn actuator(&self) -> &Actuator {
+        &self.actuator
     }
 
-    /// Boot done at `t`: IDLE, the first cyclic messages due at once.
-    fn boot(&mut self, t: Nanos) {
-        for a in &mut self.axes {
-            a.state = AxisState::Idle;
-            a.error = self.injected;
-            a.procedure_result = procedure_result::SUCCESS;
-            a.next_heartbeat = t;
-            a.next_estimate = t;
-        }
+    fn actuator_mut(&mut self) -> &mut Actuator {
+        &mut self.actuator
     }
 
-    fn on_message(&mut self, now: Nanos, k: usize, body: Body, tx: &mut dyn FnMut(Frame)) {
-        let a = &mut self.axes[k];
-        match body {
+    fn booted(&self) -> bool {
+        self.state != AxisState::Undefined
+    }
+
+    fn drive(&self) -> Drive {
+        OdriveAxis::drive(self)
+    }
+
+    fn node_state(&self) -> NodeState {
+        OdriveAxis::node_state(self)
+    }
+}
+
+impl Firmware for Odrive {
+    type Axis = OdriveAxis;
+
+    fn addressed(joint: &OdriveJoint, frame: &Frame) -> Option<usize> {
+        let (node, _) = odrive::split_id(frame.id().as_standard()?);
+        joint.axes.iter().position(|a| a.id.get() == node)
+    }
+
+    fn on_frame(
+        joint: &mut OdriveJoint,
+        now: Nanos,
+        k: usize,
+        frame: &Frame,
+        tx: &mut dyn FnMut(Frame),
+    ) -> bool {
+        let Ok(m) = odrive::decode(frame) else {
+            return false;
+        };
+        let a = &mut joint.axes[k];
+        match m.body {
             // Another device's (or our own echoed) drive-to-host messages.
-            Body::Heartbeat(_) | Body::EncoderEstimates(_) => return,
+            Body::Heartbeat(_) | Body::EncoderEstimates(_) => return true,
             Body::Request(odrive::Cmd::Heartbeat) => a.heartbeat(tx),
-            Body::Request(odrive::Cmd::GetEncoderEstimates) => a.estimates(&mut self.rng, tx),
+            Body::Request(odrive::Cmd::GetEncoderEstimates) => a.estimates(&mut joint.rng, tx),
             // The codec decodes requests only for requestable commands.
             Body::Request(_) => {}
             Body::Estop => a.raise(axis_error::ESTOP_REQUESTED, tx),
@@ -411,12 +426,12 @@ impl OdriveJoint {
                         velocity: f64::from(vel_ff) * TURN,
                         torque: f64::from(torque_ff),
                     };
-                    self.counters.applied += 1;
+                    joint.counters.applied += 1;
                 }
             }
             Body::ClearErrors { .. } => {
                 let before = a.error;
-                a.error = self.injected;
+                a.error = joint.firmware.injected;
                 if a.error == 0 {
                     a.procedure_result = procedure_result::SUCCESS;
                 }
@@ -428,142 +443,52 @@ impl OdriveJoint {
         // The firmware's CAN handler feeds the watchdog on every message
         // for the axis.
         a.last_fed = now;
+        true
     }
-}
 
-impl JointDevice for OdriveJoint {
-    fn receive(&mut self, now: Nanos, frame: &Frame, tx: &mut dyn FnMut(Frame)) {
-        self.advance(now, tx);
-        if self.silent || !self.axes[0].booted() {
-            return;
-        }
-        let Some(raw) = frame.id().as_standard() else {
-            return;
-        };
-        let (node, _) = odrive::split_id(raw);
-        let Some(k) = self.axis_of(node) else {
-            return;
-        };
-        match odrive::decode(frame) {
-            Ok(m) => self.on_message(now, k, m.body, tx),
-            Err(_) => self.counters.bad_frames += 1,
+    /// IDLE, the first cyclic messages due at once.
+    fn boot(joint: &mut OdriveJoint, t: Nanos) {
+        for a in &mut joint.axes {
+            a.state = AxisState::Idle;
+            a.error = joint.firmware.injected;
+            a.procedure_result = procedure_result::SUCCESS;
+            a.next_heartbeat = t;
+            a.next_estimate = t;
         }
     }
 
-    fn advance(&mut self, now: Nanos, tx: &mut dyn FnMut(Frame)) {
-        while self.time + SERVO_DT_NS <= now {
-            self.time += SERVO_DT_NS;
-            let t = self.time;
-            for a in &mut self.axes {
-                let drive = a.drive();
-                a.actuator.step(SERVO_DT, drive);
+    fn tick(joint: &mut OdriveJoint, t: Nanos, tx: &mut dyn FnMut(Frame)) {
+        for a in &mut joint.axes {
+            if a.state == AxisState::ClosedLoopControl
+                && t.saturating_sub(a.last_fed) > joint.firmware.cfg.watchdog
+            {
+                joint.counters.watchdog_expiries += 1;
+                a.raise(axis_error::WATCHDOG_TIMER_EXPIRED, tx);
             }
-            if self.silent {
-                continue;
+            if t >= a.next_heartbeat {
+                a.heartbeat(tx);
+                a.next_heartbeat = t + HEARTBEAT_PERIOD;
             }
-            if !self.axes[0].booted() {
-                if t < self.boot_done {
-                    continue;
-                }
-                self.boot(t);
-            }
-            for a in &mut self.axes {
-                if a.state == AxisState::ClosedLoopControl
-                    && t.saturating_sub(a.last_fed) > self.cfg.watchdog
-                {
-                    self.counters.watchdog_expiries += 1;
-                    a.raise(axis_error::WATCHDOG_TIMER_EXPIRED, tx);
-                }
-                if t >= a.next_heartbeat {
-                    a.heartbeat(tx);
-                    a.next_heartbeat = t + HEARTBEAT_PERIOD;
-                }
-                if t >= a.next_estimate {
-                    a.estimates(&mut self.rng, tx);
-                    a.next_estimate = t + ENCODER_PERIOD;
-                }
+            if t >= a.next_estimate {
+                a.estimates(&mut joint.rng, tx);
+                a.next_estimate = t + ENCODER_PERIOD;
             }
         }
     }
 
-    fn kinematics(&self, axis: usize) -> (f64, f64, f64) {
-        self.axes[axis].actuator.kinematics()
+    fn powered_on(&self, k: usize, before: &OdriveAxis) -> OdriveAxis {
+        // Mode, errors and closed loop are volatile; an injected fault is
+        // back as soon as the axes boot.
+        OdriveAxis::new(before.id, self.cfg.axes[k])
     }
 
-    fn motor_torque(&self, axis: usize) -> f64 {
-        self.axes[axis].actuator.torque()
-    }
-
-    fn set_load(&mut self, load: [Load; 2]) {
-        for (a, l) in self.axes.iter_mut().zip(load) {
-            a.actuator.set_load(l);
-        }
-    }
-
-    fn set_pose(&mut self, angles: [f64; 2]) {
-        for (a, th) in self.axes.iter_mut().zip(angles) {
-            a.actuator.set_state(th, 0.0);
-        }
-    }
-
-    fn state(&self) -> NodeState {
-        let [p, y] = [self.axes[0].node_state(), self.axes[1].node_state()];
-        for worse in [
-            NodeState::EStop,
-            NodeState::Fault,
-            NodeState::Boot,
-            NodeState::Disabled,
-        ] {
-            if p == worse || y == worse {
-                return worse;
-            }
-        }
-        NodeState::Enabled
-    }
-
-    fn counters(&self) -> NodeCounters {
-        self.counters
-    }
-
-    fn set_silent(&mut self, silent: bool) {
-        self.silent = silent;
-    }
-
-    fn reboot(&mut self, now: Nanos) {
-        // Volatile state (mode, errors, closed loop, silence) is lost; the
-        // joints keep their motion, the encoders their noise sequence, and
-        // an injected fault its cause (it is back as soon as the axes boot).
-        let mut fresh = Self {
-            axes: [
-                OdriveAxis::new(self.axes[0].id, self.cfg.axes[0]),
-                OdriveAxis::new(self.axes[1].id, self.cfg.axes[1]),
-            ],
-            time: now,
-            boot_done: now + self.cfg.boot_time,
-            rng: self.rng.clone(),
-            silent: false,
-            injected: self.injected,
-            counters: self.counters,
-            cfg: self.cfg,
-        };
-        for (f, a) in fresh.axes.iter_mut().zip(&self.axes) {
-            f.actuator = a.actuator.clone();
-        }
-        *self = fresh;
-    }
-
-    fn axis_faults_mut(&mut self, axis: usize) -> &mut AxisFaults {
-        self.axes[axis].actuator.faults_mut()
-    }
-
-    fn inject_fault(&mut self, bits: u16, now: Nanos, tx: &mut dyn FnMut(Frame)) {
-        self.advance(now, tx);
+    fn inject_fault(joint: &mut OdriveJoint, bits: u16, tx: &mut dyn FnMut(Frame)) {
         let e = injected_error(bits);
-        self.injected |= e;
+        joint.firmware.injected |= e;
         // A silent drive faults all the same; it just says nothing.
         let mut quiet = |_: Frame| {};
-        let out: &mut dyn FnMut(Frame) = if self.silent { &mut quiet } else { tx };
-        for a in &mut self.axes {
+        let out: &mut dyn FnMut(Frame) = if joint.silent { &mut quiet } else { tx };
+        for a in &mut joint.axes {
             if a.booted() {
                 a.raise(e, out);
             }
@@ -574,13 +499,18 @@ impl JointDevice for OdriveJoint {
         self.injected = 0;
     }
 
-    fn impostor_heartbeat(&self, state: NodeState, _counter: u8, tx: &mut dyn FnMut(Frame)) {
+    fn impostor_heartbeat(
+        joint: &OdriveJoint,
+        state: NodeState,
+        _counter: u8,
+        tx: &mut dyn FnMut(Frame),
+    ) {
         let axis_state = if state == NodeState::Enabled {
             AxisState::ClosedLoopControl
         } else {
             AxisState::Idle
         };
-        for a in &self.axes {
+        for a in &joint.axes {
             a.send(
                 Body::Heartbeat(Heartbeat {
                     axis_error: 0,

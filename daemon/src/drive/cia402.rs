@@ -39,7 +39,7 @@ use anguilla_protocol::canopen::{
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, NodeState};
 
-use super::bought::DriveSet;
+use super::bought::{DriveSet, node_id};
 use super::{AxisStatus, DriveError, Drives, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::supervisor::Drive;
@@ -274,16 +274,18 @@ impl Master {
     /// The drives of `cfg` (`robot.axes`), unheard-of at `now`, for the
     /// control period `period`.
     pub fn new(cfg: &Config, now: Nanos, period: Nanos) -> Result<Self, DriveError> {
-        let bad = |id| DriveError::NodeId {
-            family: anguilla_protocol::Family::Cia402,
-            id,
-            min: 1,
-            max: canopen::MAX_NODE_ID,
+        let id = |raw| {
+            node_id(
+                anguilla_protocol::Family::Cia402,
+                raw,
+                (1, canopen::MAX_NODE_ID),
+                NodeId::new,
+            )
         };
         let set = DriveSet::new(cfg, now, |map: AxisMap| {
             Ok(Axis {
                 map,
-                node: NodeId::new(map.node).map_err(|_| bad(map.node))?,
+                node: id(map.node)?,
                 nmt: None,
                 last_heard: None,
                 syncs_since_tpdo: 0,
@@ -302,7 +304,7 @@ impl Master {
         let master = cfg.robot.master_node_id;
         Ok(Self {
             set,
-            master: NodeId::new(master).map_err(|_| bad(master))?,
+            master: id(master)?,
             period,
             consumer_ms: (cfg.control.heartbeat_timeout * 1e3)
                 .round()

@@ -44,7 +44,7 @@ use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{AxisFeedback, NodeState};
 use anguilla_protocol::mit::{self, Body, Command, DEFAULT_RANGES, Message, NodeId};
 
-use super::bought::DriveSet;
+use super::bought::{DriveSet, Every, node_id};
 use super::{AxisStatus, AxisView, DriveError, Drives, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::supervisor::Drive;
@@ -54,7 +54,7 @@ use anguilla_ipc::vocabulary::Nanos;
 pub const POLL: Nanos = Nanos::from_millis(20);
 /// How often Enter motor mode is asked again while a drive has not
 /// confirmed it.
-const RETRY: Nanos = Nanos::from_millis(100);
+pub const RETRY: Nanos = Nanos::from_millis(100);
 /// The position gain sent with every command, N·m/rad at the actuator.
 pub const KP: f32 = 40.0;
 /// The velocity gain sent with every command, N·m·s/rad at the actuator.
@@ -126,8 +126,10 @@ impl AxisView for Axis {
 /// The MIT-mode drives of a robot, two per joint.
 pub struct Master {
     set: DriveSet<Axis>,
-    last_poll: Nanos,
-    last_enter: Nanos,
+    /// Asks the drives out of motor mode for a reply ([`POLL`]).
+    poll: Every,
+    /// Asks for motor mode again ([`RETRY`]).
+    enter: Every,
     /// The next notice for the log.
     notice: Option<super::Notice>,
 }
@@ -138,12 +140,12 @@ impl Master {
         let set = DriveSet::new(cfg, now, |map: AxisMap| {
             Ok(Axis {
                 map,
-                node: NodeId::new(map.node).map_err(|_| DriveError::NodeId {
-                    family: anguilla_protocol::Family::Mit,
-                    id: map.node,
-                    min: 1,
-                    max: mit::MAX_NODE_ID,
-                })?,
+                node: node_id(
+                    anguilla_protocol::Family::Mit,
+                    map.node,
+                    (1, mit::MAX_NODE_ID),
+                    NodeId::new,
+                )?,
                 entering: false,
                 motor_mode: false,
                 estopped: false,
@@ -157,8 +159,8 @@ impl Master {
         })?;
         Ok(Self {
             set,
-            last_poll: Nanos::ZERO,
-            last_enter: Nanos::ZERO,
+            poll: Every::new(POLL),
+            enter: Every::new(RETRY),
             notice: None,
         })
     }
@@ -210,16 +212,10 @@ impl Drives for Master {
     }
 
     fn ingest(&mut self, now: Nanos, frame: &Frame) {
-        let m = match mit::decode(frame, &DEFAULT_RANGES) {
-            Ok(m) => m,
-            Err(_) => {
-                self.set.counters.malformed += 1;
-                return;
-            }
-        };
-        let Some((j, ax)) = self.set.index.get(m.node.get()) else {
-            // Another device on the bus.
-            self.set.counters.malformed += 1;
+        let Some((m, j, ax)) = self
+            .set
+            .addressed(mit::decode(frame, &DEFAULT_RANGES), |m| m.node.get())
+        else {
             return;
         };
         let a = &mut self.set.joints[j][ax];
@@ -296,10 +292,7 @@ impl Drives for Master {
                 a.periods_without_reply = a.periods_without_reply.saturating_add(1);
             }
         }
-        let poll = p.now.saturating_sub(self.last_poll) >= POLL;
-        if poll {
-            self.last_poll = p.now;
-        }
+        let poll = self.poll.due(p.now, false);
         match p.drive {
             Drive::Disabled => {
                 if p.entering || poll {
@@ -307,10 +300,7 @@ impl Drives for Master {
                 }
             }
             Drive::Enable => {
-                let retry = p.entering || p.now.saturating_sub(self.last_enter) >= RETRY;
-                if retry {
-                    self.last_enter = p.now;
-                }
+                let retry = self.enter.due(p.now, p.entering);
                 for a in self.set.joints.iter_mut().flatten() {
                     if a.motor_mode {
                         // Hold where it is until the first setpoint.
@@ -327,19 +317,14 @@ impl Drives for Master {
                 }
             }
             Drive::Setpoints => {
-                for (j, (pair, sp)) in self.set.joints.iter_mut().zip(p.setpoints).enumerate() {
-                    if p.skip.contains(j as u8 + 1) {
-                        continue;
-                    }
-                    for (a, s) in pair.iter_mut().zip(sp) {
-                        Self::command(
-                            out,
-                            a,
-                            s.position as f64,
-                            s.velocity as f64,
-                            s.torque as f64,
-                        );
-                    }
+                for (a, s) in self.set.setpoints(p) {
+                    Self::command(
+                        out,
+                        a,
+                        s.position.into(),
+                        s.velocity.into(),
+                        s.torque.into(),
+                    );
                 }
             }
         }

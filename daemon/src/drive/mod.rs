@@ -25,10 +25,14 @@
 //! A further family (moteus, say) is, as MIT mode was: its codec, budget
 //! traffic and DBC in a `protocol` module, and the arms of the protocol's
 //! `Family` (no catch-all arm: the compiler lists them); its master here,
-//! implementing [`Drives`], and an arm in [`build`]; its simulated joint
-//! in `sim-backend` (a `JointDevice`) and an arm in the simulator's
-//! `joint_device`; two lines declaring the new modules; two tests in
-//! `tests/tests/families.rs` (a test fails without them). The `==
+//! implementing [`Drives`] around a [`bought::DriveSet`], and an arm in
+//! [`build`]; its simulated drive in `sim-backend` (a `Firmware` in the
+//! shared two-axis `BoughtJoint`) and an arm in the simulator's
+//! `joint_device`; two lines declaring the new modules; in
+//! `tests/tests/families.rs` two tests and its entry in `owed`: a property
+//! test of its codec, a fuzz target CI runs, a simulator no-allocation
+//! test (a test fails without any of them; the match there does not
+//! compile without the entry). The `==
 //! Family::…` tests that remain are one family's own settings (CiA 402's
 //! configuration and reserved ids, ODrive's watchdog, the simulator's
 //! anguilla-only twin node), which a new family need not touch.

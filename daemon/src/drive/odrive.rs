@@ -16,13 +16,15 @@ use anguilla_protocol::odrive::{
     self, AxisState, Body, ControlMode, InputMode, InputPos, Message, NodeId,
 };
 
-use super::bought::DriveSet;
+use super::bought::{DriveSet, Every, node_id};
 use super::{AxisStatus, AxisView, DriveError, Drives, Out, Period};
 use crate::config::{AxisMap, Config};
 use crate::supervisor::Drive;
 use anguilla_ipc::vocabulary::{Mode, Nanos};
 
-const MS: Nanos = Nanos::from_millis(1);
+/// How often the enable sequence (while enabling) or the idle request
+/// (while disabled) is sent again.
+pub const RESEND: Nanos = Nanos::from_millis(100);
 
 /// `ESTOP_REQUESTED` in the axis error: the axis was E-stopped.
 pub const ESTOP_REQUESTED: u32 = 0x0200_0000;
@@ -85,7 +87,8 @@ impl super::AxisView for Axis {
 /// The ODrive axes of a robot, two per joint.
 pub struct Axes {
     set: DriveSet<Axis>,
-    last_command_sent: Nanos,
+    /// Sends the state requests again ([`RESEND`]).
+    resend: Every,
 }
 
 impl Axes {
@@ -94,12 +97,12 @@ impl Axes {
         let set = DriveSet::new(cfg, now, |map: AxisMap| {
             Ok(Axis {
                 map,
-                node: NodeId::new(map.node).map_err(|_| DriveError::NodeId {
-                    family: anguilla_protocol::Family::Odrive,
-                    id: map.node,
-                    min: 0,
-                    max: odrive::MAX_NODE_ID,
-                })?,
+                node: node_id(
+                    anguilla_protocol::Family::Odrive,
+                    map.node,
+                    (0, odrive::MAX_NODE_ID),
+                    NodeId::new,
+                )?,
                 state: None,
                 error: 0,
                 last_heartbeat: None,
@@ -109,7 +112,7 @@ impl Axes {
         })?;
         Ok(Self {
             set,
-            last_command_sent: Nanos::ZERO,
+            resend: Every::new(RESEND),
         })
     }
 
@@ -166,16 +169,7 @@ impl Drives for Axes {
     }
 
     fn ingest(&mut self, now: Nanos, frame: &Frame) {
-        let m = match odrive::decode(frame) {
-            Ok(m) => m,
-            Err(_) => {
-                self.set.counters.malformed += 1;
-                return;
-            }
-        };
-        let Some((j, ax)) = self.set.index.get(m.node.get()) else {
-            // Another device on the bus.
-            self.set.counters.malformed += 1;
+        let Some((m, j, ax)) = self.set.addressed(odrive::decode(frame), |m| m.node.get()) else {
             return;
         };
         let a = &mut self.set.joints[j][ax];
@@ -228,19 +222,14 @@ impl Drives for Axes {
                 0
             };
         }
-        let every = p.now.saturating_sub(self.last_command_sent) >= 100 * MS;
         match p.drive {
             Drive::Disabled => {
-                if (p.entering || every) && p.mode != Mode::EStop {
-                    self.last_command_sent = p.now;
+                if p.mode != Mode::EStop && self.resend.due(p.now, p.entering) {
                     self.all(out, Body::SetAxisState(AxisState::Idle));
                 }
             }
             Drive::Enable => {
-                let resend = p.entering || every;
-                if resend {
-                    self.last_command_sent = p.now;
-                }
+                let resend = self.resend.due(p.now, p.entering);
                 for a in self.set.joints.iter().flatten() {
                     match (a.state, a.error) {
                         // In closed loop: hold where it is, feeding the
@@ -256,19 +245,14 @@ impl Drives for Axes {
                 }
             }
             Drive::Setpoints => {
-                for (j, (pair, sp)) in self.set.joints.iter().zip(p.setpoints).enumerate() {
-                    if p.skip.contains(j as u8 + 1) {
-                        continue;
-                    }
-                    for (a, s) in pair.iter().zip(sp) {
-                        Self::input_pos(
-                            out,
-                            a,
-                            s.position as f64,
-                            s.velocity as f64,
-                            s.torque as f64,
-                        );
-                    }
+                for (a, s) in self.set.setpoints(p) {
+                    Self::input_pos(
+                        out,
+                        a,
+                        s.position.into(),
+                        s.velocity.into(),
+                        s.torque.into(),
+                    );
                 }
             }
         }

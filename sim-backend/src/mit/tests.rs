@@ -1,4 +1,5 @@
 use super::*;
+use crate::device::JointDevice;
 
 const MS: Nanos = Nanos::from_millis(1);
 

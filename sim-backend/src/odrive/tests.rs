@@ -5,6 +5,7 @@ use anguilla_protocol::frame::Id;
 use anguilla_protocol::odrive::{Cmd, arbitration_id, decode};
 
 use super::*;
+use crate::device::JointDevice;
 
 const MS: Nanos = Nanos::from_millis(1);
 /// Pitch and yaw node ids of the joint under test (joint 2's defaults).
