@@ -3,11 +3,14 @@
 #![no_main]
 
 use anguilla_protocol::canopen::{cia402::DriveState, decode};
-use anguilla_protocol::frame::{Frame, Id};
 use libfuzzer_sys::fuzz_target;
 
+#[path = "classic_frame.rs"]
+mod classic_frame;
+use classic_frame::classic_frame;
+
 fuzz_target!(|input: &[u8]| {
-    let [a, b, ctl, rest @ ..] = input else {
+    let [a, b, ..] = input else {
         return;
     };
     // The statusword parser sees the same bytes.
@@ -16,15 +19,9 @@ fuzz_target!(|input: &[u8]| {
         let (mask, value) = state.pattern();
         assert_eq!(word & mask, value);
     }
-    let Ok(id) = Id::standard(word & 0x7FF) else {
+    let Some(frame) = classic_frame(input) else {
         return;
     };
-    let frame = if ctl & 1 == 0 {
-        Frame::new(id, &rest[..rest.len().min(8)])
-    } else {
-        Frame::new_remote(id, (ctl >> 1) % 9)
-    };
-    let Ok(frame) = frame else { return };
     if let Ok(m) = decode(&frame) {
         let again = m.encode();
         assert_eq!(decode(&again).expect("its encoding decodes"), m);

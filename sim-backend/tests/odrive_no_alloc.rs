@@ -2,17 +2,18 @@
 //! ODrive emulation's receive and advance (and the robot around them) are
 //! as allocation-free as the vertebra node's.
 
-use std::sync::Arc;
+mod common;
+
 use std::time::Duration;
 
-use anguilla_drivers::mem::{MemBus, MemParticipant};
-use anguilla_drivers::{Bus, Clock, ManualClock};
+use anguilla_drivers::{Bus, Clock};
 use anguilla_protocol::Family;
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::odrive::{
     AxisState, Body, Cmd, ControlMode, InputMode, InputPos, Message, NodeId, arbitration_id,
 };
-use anguilla_sim::{RobotConfig, SimRobot};
+use anguilla_sim::RobotConfig;
+use common::Host;
 
 #[global_allocator]
 static GLOBAL: anguilla_testkit::CountingAlloc = anguilla_testkit::CountingAlloc;
@@ -30,18 +31,20 @@ fn frame(node: u8, body: Body) -> Frame {
 
 #[test]
 fn an_odrive_robot_allocates_nothing_in_steady_state() {
-    let clock = ManualClock::new();
-    let bus = MemBus::builder("sim-odrive-no-alloc")
-        .clock(Arc::new(clock.clone()))
-        .build();
-    let mut host = bus.participant();
     let cfg = RobotConfig {
         drive: Family::Odrive,
         ..RobotConfig::with_joints(JOINTS)
     };
     let ids: Vec<u8> = (0..JOINTS).flat_map(|j| cfg.drive_ids(j)).collect();
-    let mut robot = SimRobot::on_mem(cfg, bus.participant(), Duration::ZERO).unwrap();
-    let period = |k: u32, robot: &mut SimRobot, host: &mut MemParticipant| {
+    let Host {
+        clock,
+        mut host,
+        mut robot,
+        ..
+    } = Host::new(cfg);
+    let period = |k: u32,
+                  robot: &mut anguilla_sim::SimRobot,
+                  host: &mut anguilla_drivers::mem::MemParticipant| {
         for (i, &id) in ids.iter().enumerate() {
             let angle = 0.03 * ((k as f32) * 0.02 + i as f32).sin();
             let input = InputPos {

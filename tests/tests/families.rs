@@ -197,3 +197,103 @@ fn every_family_is_tested() {
         }
     }
 }
+
+/// What a drive family owes the tests beyond the two above, by file (from
+/// the workspace's root): a property test of its codec, a fuzz target of
+/// its decoder (built and run by CI), and a test that a simulated robot of
+/// its joints allocates nothing in steady state. The match is exhaustive:
+/// a new family does not compile until it names its own, and
+/// `every_family_owes_a_proptest_a_fuzz_target_and_a_no_allocation_test`
+/// checks that they are there and what they claim.
+struct Owed {
+    /// The file with the codec's `proptest!`.
+    codec_proptest: &'static str,
+    /// The fuzz target's name (`fuzz/fuzz_targets/<name>.rs`).
+    fuzz_target: &'static str,
+    /// The simulator's counting-allocator test.
+    sim_no_alloc: &'static str,
+    /// What that test counts: a robot of the family's joints, or one joint.
+    sim_subject: &'static str,
+}
+
+fn owed(f: Family) -> Owed {
+    match f {
+        Family::Anguilla => Owed {
+            codec_proptest: "protocol/tests/codec.rs",
+            fuzz_target: "decode",
+            sim_no_alloc: "sim-backend/tests/no_alloc.rs",
+            sim_subject: "SimRobot::on_mem",
+        },
+        Family::Cia402 => Owed {
+            codec_proptest: "protocol/src/canopen/tests.rs",
+            fuzz_target: "canopen",
+            sim_no_alloc: "sim-backend/tests/cia402_no_alloc.rs",
+            sim_subject: "Cia402Joint::new",
+        },
+        Family::Odrive => Owed {
+            codec_proptest: "protocol/src/odrive/tests.rs",
+            fuzz_target: "odrive",
+            sim_no_alloc: "sim-backend/tests/odrive_no_alloc.rs",
+            sim_subject: "Family::Odrive",
+        },
+        Family::Mit => Owed {
+            codec_proptest: "protocol/src/mit/tests.rs",
+            fuzz_target: "mit",
+            sim_no_alloc: "sim-backend/tests/mit_no_alloc.rs",
+            sim_subject: "Family::Mit",
+        },
+    }
+}
+
+#[test]
+fn every_family_owes_a_proptest_a_fuzz_target_and_a_no_allocation_test() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let read = |path: &str| {
+        std::fs::read_to_string(root.join(path)).unwrap_or_else(|e| panic!("{path}: {e}"))
+    };
+    let fuzz_manifest = read("fuzz/Cargo.toml");
+    let ci = read(".ci/run");
+    let ci_targets = ci
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("for target in "))
+        .expect(".ci/run lists the fuzz targets it runs (`for target in …`)");
+    for f in Family::ALL {
+        let o = owed(f);
+        let proptest = read(o.codec_proptest);
+        assert!(
+            proptest.contains("proptest!") && proptest.contains("decode("),
+            "{f}: {} has no proptest! of its decoder",
+            o.codec_proptest
+        );
+        let target = format!("fuzz/fuzz_targets/{}.rs", o.fuzz_target);
+        assert!(
+            read(&target).contains("fuzz_target!"),
+            "{f}: {target} is no fuzz target"
+        );
+        assert!(
+            fuzz_manifest.contains(&format!("name = \"{}\"", o.fuzz_target)),
+            "{f}: fuzz/Cargo.toml has no [[bin]] {}",
+            o.fuzz_target
+        );
+        assert!(
+            ci_targets.split_whitespace().any(|t| t == o.fuzz_target),
+            "{f}: .ci/run does not fuzz {} ({ci_targets})",
+            o.fuzz_target
+        );
+        let seeds = root.join("fuzz/seeds").join(o.fuzz_target);
+        assert!(
+            std::fs::read_dir(&seeds).is_ok_and(|mut d| d.next().is_some()),
+            "{f}: no seed in {}",
+            seeds.display()
+        );
+        let no_alloc = read(o.sim_no_alloc);
+        assert!(
+            no_alloc.contains("anguilla_testkit::count(")
+                && no_alloc.contains("CountingAlloc")
+                && no_alloc.contains(o.sim_subject),
+            "{f}: {} counts no allocations of {}",
+            o.sim_no_alloc,
+            o.sim_subject
+        );
+    }
+}

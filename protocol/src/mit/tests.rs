@@ -271,3 +271,64 @@ fn committed_dbc_is_the_generated_one() {
          `anguilla protocol dbc --drive mit --out protocol/mit.dbc`"
     );
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+
+    /// Any command with every field in its range round-trips within half a
+    /// count of each field (and the f32 rounding) (or is refused as a special command's bytes,
+    /// which only the fields' maxima pack to), on any drive id.
+    #[test]
+    fn every_command_in_range_round_trips(
+        n in 1u8..=MAX_NODE_ID,
+        p in -12.5f32..=12.5, v in -65.0f32..=65.0, kp in 0.0f32..=500.0,
+        kd in 0.0f32..=5.0, t in -18.0f32..=18.0,
+    ) {
+        let r = DEFAULT_RANGES;
+        let m = Message { node: node(n), body: command(p, v, kp, kd, t) };
+        let f = match m.encode(&r) {
+            Ok(f) => f,
+            Err(EncodeError::Reserved) => return Ok(()),
+            Err(e) => panic!("{m:?}: {e}"),
+        };
+        proptest::prop_assert_eq!(f.id().as_standard(), Some(u16::from(n)));
+        let Body::Command(c) = decode(&f, &r).unwrap().body else {
+            panic!("{m:?} did not decode as a command")
+        };
+        for (field, sent, got) in [
+            (Field::Position, p, c.position),
+            (Field::Velocity, v, c.velocity),
+            (Field::Kp, kp, c.kp),
+            (Field::Kd, kd, c.kd),
+            (Field::Torque, t, c.torque),
+        ] {
+            // Half a count, plus the f32 arithmetic's rounding over the
+            // field's span (a few ulps: 2e-5 rad of a position's 25).
+            let (min, max) = field.range(&r);
+            let slack = 8.0 * f32::EPSILON * (max - min);
+            proptest::prop_assert!(
+                (sent - got).abs() <= half_count(field) + slack,
+                "{} {} -> {}", field.name(), sent, got
+            );
+        }
+    }
+
+    /// Decoding outside bytes never panics, and what decodes re-encodes to
+    /// a frame that decodes to the same message.
+    #[test]
+    fn any_frame_decodes_or_errs(
+        id in 0u16..=0x7FF,
+        d in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..=8),
+        rtr in proptest::prelude::any::<bool>(),
+    ) {
+        let r = DEFAULT_RANGES;
+        let f = if rtr {
+            Frame::new_remote(crate::frame::Id::standard(id).unwrap(), d.len() as u8).unwrap()
+        } else {
+            Frame::new_standard(id, &d).unwrap()
+        };
+        if let Ok(m) = decode(&f, &r) {
+            proptest::prop_assert_eq!(decode(&m.encode(&r).unwrap(), &r).unwrap(), m);
+        }
+    }
+}
