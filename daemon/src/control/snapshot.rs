@@ -1,4 +1,4 @@
-//! The controller's snapshot, filled once a period (step 5 of
+//! The controller's snapshot, filled once a period (step 7 of
 //! [`Controller::run_period`](super::Controller::run_period)): mode,
 //! faults, gait, bus, the sensors, and per joint the setpoints, the
 //! drives' reports and the torque residual.

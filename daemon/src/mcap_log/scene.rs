@@ -1,0 +1,157 @@
+//! The [`Scene`]: snapshots turned into the channels' messages, and the
+//! body's links posed from the measured joint angles.
+
+use anguilla_ipc::StateSnapshot;
+use anguilla_ipc::pose::{HeadTrack, Pose};
+use anguilla_model::Body;
+use nalgebra::{UnitQuaternion, Vector3};
+use serde_json::{Value, json};
+
+use super::changes::log_lines;
+use super::json::{finite, joints_json, sensors_json, stamp, state_json};
+use crate::config::Config;
+
+fn quat(q: &UnitQuaternion<f64>) -> Value {
+    json!({ "x": q.i, "y": q.j, "z": q.k, "w": q.w })
+}
+
+fn vec3(v: &Vector3<f64>) -> Value {
+    json!({ "x": v.x, "y": v.y, "z": v.z })
+}
+
+/// One link of the body, posed in the head frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Link {
+    /// Its centre (m).
+    pub centre: Vector3<f64>,
+    /// Its axes: x along the link towards the tail.
+    pub orientation: UnitQuaternion<f64>,
+    /// Its length (m).
+    pub length: f64,
+    /// Its semi-axes across: (left, up) (m).
+    pub semi_axes: (f64, f64),
+}
+
+/// The body's links as the robot configured by `cfg` has them, head
+/// first: the body cut into `joints + 1` equal parts, each one's length
+/// and its semi-axes (width, height) at its middle (m). The recording's
+/// `/body` and the ROS 2 node's URDF draw these.
+pub fn segments(cfg: &Config) -> Vec<(f64, f64, f64)> {
+    let body = Body::paper();
+    let n = cfg.robot.joints + 1;
+    let l = body.length / n as f64;
+    (0..n)
+        .map(|k| {
+            let (a, b) = body.semi_axes((k as f64 + 0.5) / n as f64);
+            (l, a, b)
+        })
+        .collect()
+}
+
+/// Turns snapshots into the channels' messages (the MCAP file's and the
+/// live server's): keeps what needs the snapshot before (the predicted
+/// head's dead reckoning, the changes logged).
+#[derive(Debug, Clone)]
+pub struct Scene {
+    last: Option<StateSnapshot>,
+    /// The head's track (the predicted head dead-reckoned in the plane).
+    track: HeadTrack,
+    /// Each link's length and its semi-axes (m), head first.
+    links: Vec<(f64, f64, f64)>,
+}
+
+impl Scene {
+    /// The scene of a robot configured by `cfg`.
+    pub fn new(cfg: &Config) -> Self {
+        Self {
+            last: None,
+            track: HeadTrack::default(),
+            links: segments(cfg),
+        }
+    }
+
+    /// The messages of one snapshot: (index in
+    /// [`TOPICS`](super::TOPICS), JSON), one on every channel but `/log`,
+    /// which gets one per change.
+    pub fn messages(&mut self, s: &StateSnapshot) -> Vec<(usize, Value)> {
+        let ns = s.time_ns;
+        let mut out = vec![(0, state_json(s)), (1, joints_json(s))];
+        for (level, message) in log_lines(self.last.as_ref(), s) {
+            let v = json!({ "timestamp": stamp(ns), "level": level, "message": message,
+                            "name": "anguilla", "file": "", "line": 0 });
+            out.push((2, v));
+        }
+        // The head: measured with a head sensor, else predicted; the
+        // predicted one integrated in the plane (ipc::pose, as ROS 2's tf).
+        let (head, predicted) = self.track.update(s);
+        let tf = |child: &str, p: &Pose| {
+            let [x, y, z] = p.translation;
+            let [qx, qy, qz, qw] = p.rotation;
+            json!({ "timestamp": stamp(ns), "parent_frame_id": "world", "child_frame_id": child,
+                    "translation": { "x": x, "y": y, "z": z },
+                    "rotation": { "x": qx, "y": qy, "z": qz, "w": qw } })
+        };
+        out.push((
+            3,
+            json!({ "transforms": [tf("head", &head), tf("head_predicted", &predicted)] }),
+        ));
+        out.push((4, self.scene_json(s, ns)));
+        out.push((5, sensors_json(s)));
+        self.last = Some(*s);
+        out
+    }
+
+    /// The links, head first, in the head frame (x forward, y left, z
+    /// up): centre, orientation, length and semi-axes, chained from the
+    /// nose through the measured joint angles (each joint pitches about y,
+    /// then yaws about the pitched z).
+    pub fn links(&self, s: &StateSnapshot) -> Vec<Link> {
+        // In the model's head frame the body runs along +x (towards the
+        // tail); the head frame is the forward one.
+        let flip = anguilla_model::forward_turn();
+        let mut r = UnitQuaternion::identity();
+        let mut p = Vector3::zeros();
+        let joints = (s.joint_count as usize).min(s.joints.len());
+        let mut out = Vec::with_capacity(self.links.len());
+        for (k, &(l, a, b)) in self.links.iter().enumerate() {
+            if k > 0 && k - 1 < joints {
+                let j = &s.joints[k - 1];
+                r = r
+                    * UnitQuaternion::from_euler_angles(0.0, finite(j.measured_pitch), 0.0)
+                    * UnitQuaternion::from_euler_angles(0.0, 0.0, finite(j.measured_yaw));
+            }
+            let centre = p + r * Vector3::new(l / 2.0, 0.0, 0.0);
+            p += r * Vector3::new(l, 0.0, 0.0);
+            out.push(Link {
+                centre: flip * centre,
+                orientation: flip * r,
+                length: l,
+                semi_axes: (a, b),
+            });
+        }
+        out
+    }
+
+    fn scene_json(&self, s: &StateSnapshot, ns: u64) -> Value {
+        let links = self.links(s);
+        let n = links.len();
+        let spheres: Vec<Value> = links
+            .iter()
+            .enumerate()
+            .map(|(k, l)| {
+                let shade = 0.35 + 0.5 * k as f64 / n as f64;
+                json!({
+                    "pose": { "position": vec3(&l.centre), "orientation": quat(&l.orientation) },
+                    "size": { "x": l.length, "y": 2.0 * l.semi_axes.0, "z": 2.0 * l.semi_axes.1 },
+                    "color": { "r": 0.1, "g": shade, "b": 0.6, "a": 1.0 }
+                })
+            })
+            .collect();
+        json!({ "deletions": [], "entities": [{
+            "timestamp": stamp(ns), "frame_id": "head", "id": "body",
+            "lifetime": { "sec": 0, "nsec": 0 }, "frame_locked": true, "metadata": [],
+            "arrows": [], "cubes": [], "spheres": spheres, "cylinders": [], "lines": [],
+            "triangles": [], "texts": [], "models": []
+        }]})
+    }
+}

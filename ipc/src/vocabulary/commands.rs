@@ -1,0 +1,161 @@
+//! The commands an operator tool sends: [`Command`], and its
+//! [`CommandKind`] (code and name) without its parameters.
+
+use core::fmt;
+
+use super::swim::{Hold, SwimParams};
+
+/// What a [`Command`] is, without its parameters: one table for its
+/// request code ([`CommandRequest::code`](crate::CommandRequest::code)),
+/// its name for operators and JSON clients, and what a refusal names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum CommandKind {
+    /// [`Command::Enable`].
+    Enable = 1,
+    /// [`Command::Disable`].
+    Disable = 2,
+    /// [`Command::Swim`].
+    Swim = 3,
+    /// [`Command::Stop`].
+    Stop = 4,
+    /// [`Command::EStop`].
+    EStop = 5,
+    /// [`Command::Reset`].
+    Reset = 6,
+    /// [`Command::TakeControl`].
+    TakeControl = 7,
+    /// [`Command::ReleaseControl`].
+    ReleaseControl = 8,
+    /// [`Command::KeepAlive`].
+    KeepAlive = 9,
+    /// [`Command::Hold`].
+    Hold = 10,
+}
+
+impl CommandKind {
+    /// Every kind, in the order of their codes (1, 2, ...).
+    pub const ALL: [CommandKind; 10] = [
+        CommandKind::Enable,
+        CommandKind::Disable,
+        CommandKind::Swim,
+        CommandKind::Stop,
+        CommandKind::EStop,
+        CommandKind::Reset,
+        CommandKind::TakeControl,
+        CommandKind::ReleaseControl,
+        CommandKind::KeepAlive,
+        CommandKind::Hold,
+    ];
+
+    /// Its request code.
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    /// The kind of request code `code`, if any.
+    pub const fn from_code(code: u32) -> Option<Self> {
+        if code >= 1 && code as usize <= Self::ALL.len() {
+            Some(Self::ALL[code as usize - 1])
+        } else {
+            None
+        }
+    }
+
+    /// Lower-case name, as shown to operators and read from JSON.
+    pub const fn name(self) -> &'static str {
+        match self {
+            CommandKind::Enable => "enable",
+            CommandKind::Disable => "disable",
+            CommandKind::Swim => "swim",
+            CommandKind::Stop => "stop",
+            CommandKind::EStop => "e-stop",
+            CommandKind::Reset => "reset",
+            CommandKind::TakeControl => "take-control",
+            CommandKind::ReleaseControl => "release-control",
+            CommandKind::KeepAlive => "keep-alive",
+            CommandKind::Hold => "hold",
+        }
+    }
+
+    /// The kind named `name` ([`CommandKind::name`]), if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Whether the command carries parameters (a swim's gait, a hold's
+    /// targets).
+    pub const fn has_parameters(self) -> bool {
+        matches!(self, CommandKind::Swim | CommandKind::Hold)
+    }
+}
+
+impl fmt::Display for CommandKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The commands an operator tool can send.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Enable the actuators (Idle → Enabling → Ready).
+    Enable,
+    /// Disable the actuators (Ready or Fault → Idle).
+    Disable,
+    /// Swim, or change the gait while swimming.
+    Swim(SwimParams),
+    /// Stop swimming smoothly and hold straight.
+    Stop,
+    /// Emergency stop: accepted from any client, in any mode.
+    EStop,
+    /// Clear a fault or a latched E-stop (→ Idle).
+    Reset,
+    /// Ask for control authority.
+    TakeControl,
+    /// Give control authority up.
+    ReleaseControl,
+    /// Nothing but "I am still here" (keeps control and the swim alive).
+    KeepAlive,
+    /// Set what the autopilot holds while swimming: a heading, a depth,
+    /// both, or neither (manual). Needs a healthy head sensor.
+    Hold(Hold),
+}
+
+impl Command {
+    /// Every command, once each (in the order of their request codes),
+    /// those with parameters at rest: the table of their names.
+    pub const ALL: [Command; 10] = [
+        Command::Enable,
+        Command::Disable,
+        Command::Swim(SwimParams::REST),
+        Command::Stop,
+        Command::EStop,
+        Command::Reset,
+        Command::TakeControl,
+        Command::ReleaseControl,
+        Command::KeepAlive,
+        Command::Hold(Hold::MANUAL),
+    ];
+
+    /// What it is, without its parameters.
+    pub const fn kind(&self) -> CommandKind {
+        match self {
+            Command::Enable => CommandKind::Enable,
+            Command::Disable => CommandKind::Disable,
+            Command::Swim(_) => CommandKind::Swim,
+            Command::Stop => CommandKind::Stop,
+            Command::EStop => CommandKind::EStop,
+            Command::Reset => CommandKind::Reset,
+            Command::TakeControl => CommandKind::TakeControl,
+            Command::ReleaseControl => CommandKind::ReleaseControl,
+            Command::KeepAlive => CommandKind::KeepAlive,
+            Command::Hold(_) => CommandKind::Hold,
+        }
+    }
+
+    /// Lower-case name, as shown to operators ([`CommandKind::name`]).
+    pub fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+}

@@ -1,0 +1,124 @@
+//! The sensors: a head sensor's [`SensorHealth`], and what each
+//! [`SensorKind`] of the snapshot's list measures.
+
+use core::fmt;
+
+/// The head sensor's health as the daemon judges it (`NavSnapshot::sensor`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum SensorHealth {
+    /// No head sensor is configured (`[sensor] node = 0`).
+    None = 0,
+    /// Samples arrive, plausible.
+    Ok = 1,
+    /// Configured, no sample yet (booting).
+    Waiting = 2,
+    /// No sample within the sensor timeout.
+    Silent = 3,
+    /// Samples arrive with their measured values frozen.
+    Stuck = 4,
+    /// The sensor reports an IMU or pressure fault in its error byte.
+    Error = 5,
+    /// The measurements disagree with the model's prediction beyond the
+    /// configured bound (a gyro bias jump, a wrong estimate).
+    Implausible = 6,
+}
+
+impl SensorHealth {
+    /// Every value, in the order of their codes.
+    pub const ALL: [SensorHealth; 7] = [
+        SensorHealth::None,
+        SensorHealth::Ok,
+        SensorHealth::Waiting,
+        SensorHealth::Silent,
+        SensorHealth::Stuck,
+        SensorHealth::Error,
+        SensorHealth::Implausible,
+    ];
+
+    /// The health of a snapshot's code.
+    pub fn from_code(code: u8) -> Option<SensorHealth> {
+        Self::ALL.get(code as usize).copied()
+    }
+
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorHealth::None => "no sensor",
+            SensorHealth::Ok => "ok",
+            SensorHealth::Waiting => "waiting",
+            SensorHealth::Silent => "silent",
+            SensorHealth::Stuck => "stuck",
+            SensorHealth::Error => "sensor error",
+            SensorHealth::Implausible => "implausible",
+        }
+    }
+}
+
+impl fmt::Display for SensorHealth {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What a sensor of the snapshot's list is ([`SensorEntry::kind`](crate::SensorEntry::kind)),
+/// and what its values mean: a tool shows any sensor from this table alone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum SensorKind {
+    /// The head's IMU and pressure sensor and the navigation estimate
+    /// built on it (`[sensor]`; the autopilot's). Its values are the
+    /// estimate's, as `NavSnapshot`'s.
+    HeadNav = 1,
+    /// An IMU in the tail section (`[tail-imu]`): its attitude and rates
+    /// as measured, no estimate.
+    TailImu = 2,
+}
+
+impl SensorKind {
+    /// Every kind, in the order of their codes.
+    pub const ALL: [SensorKind; 2] = [SensorKind::HeadNav, SensorKind::TailImu];
+
+    /// The kind of a snapshot's code (0: an empty entry).
+    pub fn from_code(code: u8) -> Option<SensorKind> {
+        Self::ALL.into_iter().find(|k| *k as u8 == code)
+    }
+
+    /// Lower-case name, as shown to operators and in recordings.
+    pub const fn name(self) -> &'static str {
+        match self {
+            SensorKind::HeadNav => "head-nav",
+            SensorKind::TailImu => "tail-imu",
+        }
+    }
+
+    /// The meaning of [`SensorEntry::values`](crate::SensorEntry::values),
+    /// in order: `(name, unit)`. Values past these are 0.
+    pub const fn values(self) -> &'static [(&'static str, &'static str)] {
+        match self {
+            SensorKind::HeadNav => &[
+                ("heading", "deg"),
+                ("pitch", "deg"),
+                ("roll", "deg"),
+                ("depth", "m"),
+                ("depth_rate", "m/s"),
+                ("temperature", "degC"),
+            ],
+            SensorKind::TailImu => &[
+                ("heading", "deg"),
+                ("pitch", "deg"),
+                ("roll", "deg"),
+                ("rate_x", "rad/s"),
+                ("rate_y", "rad/s"),
+                ("rate_z", "rad/s"),
+                ("temperature", "degC"),
+            ],
+        }
+    }
+}
+
+impl fmt::Display for SensorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
