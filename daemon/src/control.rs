@@ -1,7 +1,8 @@
 //! One control period, from bus to bus.
 //!
 //! [`Controller::run_period`] is everything the loop thread does in a period, in
-//! this order (DESIGN.md's data flow):
+//! this order (`docs/architecture.md`, "The control loop and its
+//! threads"):
 //!
 //! 1. drain the bus into the joints' [`Drives`] (the family's master);
 //! 2. the head sensor's [`Nav`] estimate moves on with the model's

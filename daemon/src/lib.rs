@@ -8,7 +8,7 @@
 //! Layers, each using only those below it: [`config`]; [`supervisor`]
 //! (modes, authority, faults) and [`nodes`] (what the nodes report);
 //! [`drive`] (the joints' drives between the controller and the bus: one
-//! master per family — anguilla nodes, CiA 402, ODrive);
+//! master per family — anguilla nodes, CiA 402, ODrive, MIT mode);
 //! [`session`] (the recorded events and the `session.log` format);
 //! [`control`] (one period: the [`control::Controller`]); [`record`] (the
 //! recorder thread) and [`replay`] (a recording replayed bit for bit

@@ -1,5 +1,6 @@
 //! The safety supervisor: operating modes, control authority, command
-//! validation and the reactions of DESIGN.md's safety table.
+//! validation and the reactions of `docs/safety.md`'s table ("Safety
+//! behaviour").
 //!
 //! It is pure logic: the control loop feeds it operator commands and, once a
 //! period, what it observed of the robot ([`Observations`]); the supervisor
@@ -607,7 +608,7 @@ impl Supervisor {
         // anything. Judged on the mode the period starts in, so a fault
         // found in the same period does not hide it.
         let must_be_enabled = matches!(self.mode, Mode::Ready | Mode::Swimming | Mode::Stopping);
-        // Safety reactions (DESIGN.md's table).
+        // Safety reactions (docs/safety.md's table).
         // Nodes that report E-stop while the daemon is already E-stopped
         // obey it: a consequence, not another fault (an operator's E-stop
         // was listed as "e-stop on the bus" of every node). An E-stop frame

@@ -16,8 +16,8 @@ use crate::supervisor::{Directives, Drive, Observations};
 use crate::tracking::{JointSample, TrackingReport};
 
 /// Plausibility limits of the model's predictions for a 1 m robot: beyond
-/// them the model is taken as diverged (DESIGN.md: "NaN, non-finite,
-/// limits"). The fastest anguilliform swimmers manage about 2 body lengths
+/// them the model is taken as diverged (`docs/safety.md`: "model
+/// diverged" faults the robot). The fastest anguilliform swimmers manage about 2 body lengths
 /// per second; 5 m/s, 20 rad/s and 1000 m/s² / rad/s² are far outside any
 /// gait the configuration allows.
 const MAX_PLAUSIBLE_SPEED: f64 = 5.0;
