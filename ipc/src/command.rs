@@ -156,7 +156,16 @@ impl CommandRequest {
                 depth: h.depth.unwrap_or(0.0) as f32,
             }
             .to_words(),
-            _ => [0; BODY_WORDS],
+            // No parameters: an empty body. Every command is named here, so
+            // a new one with parameters is not sent without them.
+            Command::Enable
+            | Command::Disable
+            | Command::Stop
+            | Command::EStop
+            | Command::Reset
+            | Command::TakeControl
+            | Command::ReleaseControl
+            | Command::KeepAlive => [0; BODY_WORDS],
         };
         Self {
             layout_version: LAYOUT_VERSION,
@@ -189,7 +198,19 @@ impl CommandRequest {
         match CommandKind::from_code(old.code) {
             Some(CommandKind::Swim) => body[..4].copy_from_slice(&words[3..7]),
             Some(CommandKind::Hold) => body[..3].copy_from_slice(&words[7..10]),
-            _ => {}
+            // Layout 5's other requests carried no parameters; an unknown
+            // code is refused when read, as it was then.
+            Some(
+                CommandKind::Enable
+                | CommandKind::Disable
+                | CommandKind::Stop
+                | CommandKind::EStop
+                | CommandKind::Reset
+                | CommandKind::TakeControl
+                | CommandKind::ReleaseControl
+                | CommandKind::KeepAlive,
+            )
+            | None => {}
         }
         Self {
             layout_version: LAYOUT_VERSION,

@@ -42,6 +42,30 @@ fn the_command_table_has_every_command_once_in_code_order() {
         assert_eq!(CommandKind::from_name(k.name()), Some(*k));
         assert_eq!(Command::ALL[i].kind(), *k);
         assert_eq!(CommandRequest::new(Command::ALL[i], 1).code, k.code());
+        // A kind without parameters is its one command; one with
+        // parameters has none that stands for it.
+        if let Some(bare) = k.bare() {
+            assert_eq!(bare, Command::ALL[i], "{k:?}");
+        }
+    }
+    // The commands with parameters: their body is on the wire, read back
+    // as sent (not the empty body of the bare ones).
+    for cmd in [
+        Command::Swim(SwimParams {
+            amplitude: 0.5,
+            frequency: 1.25,
+            turn: -0.25,
+            pitch: 0.125,
+        }),
+        Command::Hold(Hold {
+            heading: Some(1.5),
+            depth: Some(2.0),
+        }),
+    ] {
+        assert_eq!(cmd.kind().bare(), None, "{cmd:?}");
+        let req = CommandRequest::new(cmd, 1);
+        assert_ne!(req.body, [0; BODY_WORDS], "{cmd:?}");
+        assert_eq!(req.command(), Ok(cmd));
     }
     assert_eq!(Command::ALL.len(), CommandKind::ALL.len());
     assert_eq!(CommandKind::from_code(0), None);

@@ -347,11 +347,6 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             names.join(", ")
         ));
     };
-    if !kind.has_parameters()
-        && let Some(c) = Command::ALL.iter().find(|c| c.kind() == kind)
-    {
-        return Ok(*c);
-    }
     match kind {
         CommandKind::Swim => Ok(Command::Swim(SwimParams {
             amplitude: num("amplitude", true)?.unwrap_or_default(),
@@ -363,8 +358,16 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             heading: num("heading", false)?.map(crate::hold::wrap_heading),
             depth: num("depth", false)?,
         })),
-        // Every kind without parameters is in Command::ALL.
-        other => Err(format!("\"{other}\" cannot be read from JSON")),
+        CommandKind::Enable
+        | CommandKind::Disable
+        | CommandKind::Stop
+        | CommandKind::EStop
+        | CommandKind::Reset
+        | CommandKind::TakeControl
+        | CommandKind::ReleaseControl
+        | CommandKind::KeepAlive => kind
+            .bare()
+            .ok_or_else(|| format!("\"{kind}\" has parameters this reader does not know")),
     }
 }
 

@@ -83,10 +83,20 @@ impl CommandKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
-    /// Whether the command carries parameters (a swim's gait, a hold's
-    /// targets).
-    pub const fn has_parameters(self) -> bool {
-        matches!(self, CommandKind::Swim | CommandKind::Hold)
+    /// The command of this kind when it has no parameters; `None` for
+    /// those that carry some (a swim's gait, a hold's targets).
+    pub const fn bare(self) -> Option<Command> {
+        match self {
+            CommandKind::Enable => Some(Command::Enable),
+            CommandKind::Disable => Some(Command::Disable),
+            CommandKind::Stop => Some(Command::Stop),
+            CommandKind::EStop => Some(Command::EStop),
+            CommandKind::Reset => Some(Command::Reset),
+            CommandKind::TakeControl => Some(Command::TakeControl),
+            CommandKind::ReleaseControl => Some(Command::ReleaseControl),
+            CommandKind::KeepAlive => Some(Command::KeepAlive),
+            CommandKind::Swim | CommandKind::Hold => None,
+        }
     }
 }
 
