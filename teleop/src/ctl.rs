@@ -398,11 +398,13 @@ impl Ctl {
     }
 
     /// [`Ctl::swim`] with the autopilot holding `hold` (a heading, a
-    /// depth, or both; see [`hold_from_args`]): once the daemon swims, the
-    /// hold is sent, and a refusal (no head sensor, an unhealthy one, a
-    /// depth beyond `max-depth`) stops the swim and is the error. The
-    /// daemon keeps the hold for the swim; if it lets go (the sensor
-    /// lost), it stops the swim, and the error says why.
+    /// depth, or both; see [`hold_from_args`]): the hold is sent before
+    /// the swim (the daemon takes it in Ready and keeps it as the swim
+    /// starts), so the robot never swims unheld in between; a refusal (no
+    /// head sensor, an unhealthy one, a depth beyond `max-depth`) is the
+    /// error, and the robot does not swim. The daemon keeps the hold for
+    /// the swim; if it lets go (the sensor lost), it stops the swim, and
+    /// the error says why.
     pub fn swim_holding(
         &mut self,
         p: SwimParams,
@@ -461,11 +463,11 @@ impl Ctl {
         interrupted: &dyn Fn() -> bool,
     ) -> Result<(), CtlError> {
         let start = Instant::now();
-        self.request(Command::Swim(p))?;
-        self.wait_mode("swim", |m| m == Mode::Swimming)?;
         if hold.is_active() {
             self.request(Command::Hold(hold))?;
         }
+        self.request(Command::Swim(p))?;
+        self.wait_mode("swim", |m| m == Mode::Swimming)?;
         let mut last_send = Instant::now();
         loop {
             if duration.is_some_and(|d| start.elapsed() >= d) {
@@ -656,6 +658,8 @@ mod tests {
         states: std::collections::VecDeque<StateSnapshot>,
         replies: Vec<CommandReply>,
         sequence: u32,
+        /// Every request's command kind, in the order sent.
+        sent: std::sync::Arc<std::sync::Mutex<Vec<anguilla_ipc::CommandKind>>>,
     }
 
     impl Session for Lagging {
@@ -669,6 +673,9 @@ mod tests {
             None
         }
         fn send_request(&mut self, req: CommandRequest) -> Result<u32, IpcError> {
+            if let Ok(c) = req.command() {
+                self.sent.lock().unwrap().push(c.kind());
+            }
             self.replies.push(CommandReply::accepted(&req, 0));
             Ok(req.sequence)
         }
@@ -698,6 +705,17 @@ mod tests {
     }
 
     fn lagging(modes: &[Mode]) -> Ctl {
+        lagging_recorded(modes).0
+    }
+
+    /// [`lagging`], with the kinds of the requests it will have been sent.
+    fn lagging_recorded(
+        modes: &[Mode],
+    ) -> (
+        Ctl,
+        std::sync::Arc<std::sync::Mutex<Vec<anguilla_ipc::CommandKind>>>,
+    ) {
+        let sent = std::sync::Arc::default();
         let states = modes
             .iter()
             .enumerate()
@@ -708,12 +726,45 @@ mod tests {
                 ..Default::default()
             })
             .collect();
-        Ctl::over(Box::new(Lagging {
+        let ctl = Ctl::over(Box::new(Lagging {
             states,
             replies: Vec::new(),
             sequence: 0,
+            sent: std::sync::Arc::clone(&sent),
         }))
-        .unwrap()
+        .unwrap();
+        (ctl, sent)
+    }
+
+    /// `ctl swim --heading`: the hold goes before the swim, so the robot
+    /// never swims unheld between them (issue 47: two requests with a
+    /// manual swim between them).
+    #[test]
+    fn a_held_swim_sends_its_hold_before_it_swims() {
+        use Mode::*;
+        let (mut c, sent) = lagging_recorded(&[
+            Ready, Ready, Ready, Swimming, Swimming, Swimming, Swimming, Ready, Ready, Ready, Ready,
+        ]);
+        let hold = Hold {
+            heading: Some(1.0),
+            depth: None,
+        };
+        let p = SwimParams {
+            amplitude: 0.5,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        };
+        // A swim of no time: the hold is judged at once (and not reached:
+        // these states hold nothing); what matters here is the order.
+        let _ = c.swim_holding(p, hold, Some(Duration::ZERO), &|| false);
+        let kinds = sent.lock().unwrap().clone();
+        use anguilla_ipc::CommandKind as K;
+        let at = |k: K| kinds.iter().position(|x| *x == k);
+        assert!(
+            at(K::Hold).is_some() && at(K::Hold) < at(K::Swim),
+            "{kinds:?}"
+        );
     }
 
     /// Seen in CI through the link: `ctl reset` after `ctl estop` was
