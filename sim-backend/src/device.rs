@@ -3,7 +3,7 @@
 //! A joint has a pitch (0) and a yaw (1) axis. Its drives — one anguilla
 //! vertebra node ([`crate::node::VertebraNode`]) carrying both axes, or two
 //! bought drives (a CiA 402 drive or an ODrive axis each) — hear the bus,
-//! talk on it, and servo the joint's two [`Actuator`](crate::actuator::Actuator)s
+//! talk on it, and servo the joint's two [`Actuator`]s
 //! against the load the swimming body puts on them. The robot
 //! ([`crate::SimRobot`]) sees only this trait, so a further drive family is
 //! one new module implementing it.

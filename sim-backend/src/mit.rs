@@ -23,7 +23,7 @@
 //!   master must keep sending), counted in `watchdog_expiries`.
 //! - Frames for other ids, the master's replies, extended ids and remote
 //!   frames are ignored; a frame on its id that does not decode (a wrong
-//!   length, CAN FD) is counted in [`NodeCounters::bad_frames`] and not
+//!   length, CAN FD) is counted in [`NodeCounters::bad_frames`](crate::node::NodeCounters::bad_frames) and not
 //!   answered. `applied` counts the commands applied.
 //! - **Fault injection** ([`JointDevice`](crate::device::JointDevice)): a silent joint neither sends
 //!   nor hears; a reboot ends motor mode and the zero, and boots again; an

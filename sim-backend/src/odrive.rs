@@ -41,7 +41,7 @@
 //! - Frames for other node ids, extended ids and drive-to-host messages are
 //!   ignored; a frame on an own id that does not decode (wrong length,
 //!   unknown value, a command this emulation does not implement, a CAN FD
-//!   frame) is counted in [`NodeCounters::bad_frames`] and otherwise
+//!   frame) is counted in [`NodeCounters::bad_frames`](crate::node::NodeCounters::bad_frames) and otherwise
 //!   ignored. `applied` counts the Set_Input_Pos applied, and
 //!   `watchdog_expiries` each axis's expiry.
 //! - **Fault injection** ([`JointDevice`](crate::device::JointDevice)): a silent joint neither sends nor
