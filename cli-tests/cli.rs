@@ -94,6 +94,62 @@ fn config_default_round_trips_through_check() {
     let _ = std::fs::remove_file(&path);
 }
 
+/// `[link]` and `[foxglove]` belong to `anguilla link` and `anguilla
+/// foxglove`: `config check` reads them and names a bad key; the daemon
+/// starts on a file that has them, reading neither, and still refuses a
+/// section nobody reads.
+#[test]
+fn config_check_reads_the_other_processes_sections_and_the_daemon_passes_them_over() {
+    let dir = std::env::temp_dir().join(format!("anguilla-cli-others-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("anguilla.toml");
+    let file = path.to_str().unwrap();
+    for (text, want) in [
+        (
+            "[link]\nstate-rate = 0.0\n",
+            "'link.state-rate' = 0 is out of range",
+        ),
+        (
+            "[foxglove]\nmax-clients = 0\n",
+            "'foxglove.max-clients' = 0 is out of range",
+        ),
+        ("[link]\nlisten-on = []\n", "unknown field `listen-on`"),
+        ("[nonsense]\n", "unknown field `nonsense`"),
+    ] {
+        std::fs::write(&path, text).unwrap();
+        let (ok, _, err) = run(&["config", "check", file]);
+        assert!(!ok, "{text}");
+        assert!(err.contains(want), "{text}: {err}");
+    }
+    std::fs::write(
+        &path,
+        format!(
+            "[ipc]\nprefix = \"cli-others-{}\"\n[link]\nros2 = true\nstate-rate = 25.0\n\
+             [foxglove]\nmax-clients = 4\n",
+            std::process::id()
+        ),
+    )
+    .unwrap();
+    let (ok, _, err) = run(&["config", "check", file]);
+    assert!(ok, "{err}");
+    let o = anguillad()
+        .args(["--config", file, "--duration", "0.5"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("control loop at "), "{err}");
+    std::fs::write(&path, "[nonsense]\n").unwrap();
+    let o = anguillad()
+        .args(["--config", file, "--duration", "0.5"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(78), "{err}");
+    assert!(err.contains("unknown field `nonsense`"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `config check` prints the control rate the daemon runs (issue 46: it
 /// printed 176.8 Hz for the default file while the daemon ran 160.8 Hz, the
 /// built-in robot's head sensor taking bus time the check did not count):

@@ -80,10 +80,11 @@ fn read_text(path: &Path, max: u64, what: &str) -> anyhow::Result<String> {
     Ok(text)
 }
 
-/// The configuration `path` (a regular file).
+/// The daemon's part of the configuration `path` (a regular file; the
+/// whole file checked).
 fn load_config(path: &Path) -> anyhow::Result<Config> {
     let text = read_text(path, MAX_CONFIG_BYTES, "a configuration file")?;
-    Ok(Config::from_toml(&text, &path.display().to_string())?)
+    Ok(anguilla::config::Config::from_toml(&text, &path.display().to_string())?.daemon)
 }
 
 fn read_all(paths: &[PathBuf], tracking: &[PathBuf], max: u64) -> anyhow::Result<Vec<ReadSwim>> {
@@ -580,7 +581,7 @@ fn write_model(
         .with_context(|| format!("--write {shown}"))?;
     let out = with_notes(&out, &notes_block(values, notes))
         .with_context(|| format!("--write {shown}"))?;
-    Config::from_toml(&out, &shown.to_string()).with_context(|| {
+    anguilla::config::Config::from_toml(&out, &shown.to_string()).with_context(|| {
         format!("--write {shown}: the result would not be a valid configuration")
     })?;
     let written = anguilla::user_file::replace(path, out.as_bytes()).context("--write")?;

@@ -171,7 +171,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
         gone,
         open: &|| args.daemon.open(&prefix, "anguilla-foxglove-client", true),
     };
-    let mut scene = Scene::new(&cfg);
+    let mut scene = Scene::new(&cfg.daemon);
     let every = Duration::from_secs_f64(1.0 / args.rate);
     let mut last = None::<Instant>;
     // With commands, a short wait: a command waits at most this long.

@@ -3,9 +3,11 @@
 //! of a copy of it ([`builtin_sim`], the simulated robot the daemon drives
 //! when no bus is named), and the two binaries share it: `anguilla` (every
 //! command) and `anguillad` (the daemon alone, the robot's service:
-//! [`daemon_cli`]).
+//! [`daemon_cli`]). [`config`] is the whole configuration file: the
+//! daemon's sections and the other processes' (`[link]`, `[foxglove]`).
 
 pub mod builtin_sim;
+pub mod config;
 pub mod daemon_cli;
 pub mod family_arg;
 pub mod output;

@@ -90,9 +90,9 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     // client) and the connections Zenoh refused; before, nothing installed
     // a logger here and they went nowhere.
     init_link_logging();
-    let cfg = args.at.config()?;
+    let whole = args.at.config()?;
     let prefix = args.at.prefix()?;
-    let l = &cfg.link;
+    let (cfg, l) = (&whole.daemon, &whole.link);
     let pick = |flag: &Option<PathBuf>, key: &str| {
         flag.clone()
             .or_else(|| (!key.is_empty()).then(|| PathBuf::from(key)))
@@ -160,7 +160,7 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     // cmd_vel's speeds become amplitudes through the model's steady speed
     // at the frequency it swims (once, here; nothing to compute per twist)
     let speeds = if l.ros2 {
-        anguilla_daemon::speed::steady_speeds(&cfg, l.ros2_frequency).with_context(|| {
+        anguilla_daemon::speed::steady_speeds(cfg, l.ros2_frequency).with_context(|| {
             "the model's steady speeds, for ROS 2 cmd_vel ([model] and [gait] of the configuration)"
         })?
     } else {
@@ -184,7 +184,7 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
                 .map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
             humble: l.ros2_distro == "humble",
             geometry: anguilla_link::ros2::state::Geometry {
-                segments: anguilla_daemon::mcap_log::segments(&cfg),
+                segments: anguilla_daemon::mcap_log::segments(cfg),
                 limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
             },
             allow_command: l.inbound.iter().any(|n| n == "command"),

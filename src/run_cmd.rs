@@ -4,7 +4,8 @@
 use crate::output::{out, outln};
 use std::path::PathBuf;
 
-use anguilla_daemon::config::{BUS_BUILTIN, BUS_UNSET, Config, default_toml};
+use anguilla::config::{Config, default_toml, robot_toml};
+use anguilla_daemon::config::{BUS_BUILTIN, BUS_UNSET};
 use anyhow::Context;
 
 /// `anguilla config ...`.
@@ -42,7 +43,7 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
             out!("{}", default_toml())
         }
         ConfigCmd::Default { robot: true } => {
-            out!("{}", anguilla_daemon::config::robot_toml())
+            out!("{}", robot_toml())
         }
         ConfigCmd::SetBus { spec, file } => set_bus(&file, &spec),
         ConfigCmd::Check { file } => {
@@ -61,7 +62,7 @@ pub fn config(cmd: ConfigCmd) -> anyhow::Result<()> {
             // The configuration the daemon would run: for the built-in
             // robot, with its head sensor and relaxed timeouts (one
             // computation, Config::fit_builtin, so the rate is the daemon's).
-            let mut cfg = cfg;
+            let mut cfg = cfg.daemon;
             let builtin = cfg.bus.spec.is_empty() || cfg.bus.spec == BUS_BUILTIN;
             let sensor = if builtin {
                 cfg.fit_builtin().sensor
@@ -142,12 +143,14 @@ mod tests {
 
     #[test]
     fn set_bus_changes_the_spec_line_and_nothing_else() {
-        let robot = anguilla_daemon::config::robot_toml();
+        let robot = robot_toml();
         let new = with_bus_spec(&robot, "socketcan:can0").unwrap();
-        let cfg = Config::from_toml(&new, "t").unwrap();
-        assert_eq!(cfg.bus.spec, "socketcan:can0");
-        let mut want = anguilla_daemon::config::robot_config();
-        want.bus.spec = "socketcan:can0".into();
+        let mut cfg = Config::from_toml(&new, "t").unwrap();
+        assert_eq!(cfg.daemon.bus.spec, "socketcan:can0");
+        let mut want = anguilla::config::robot_config();
+        want.daemon.bus.spec = "socketcan:can0".into();
+        // (the daemon keeps `[link]` and `[foxglove]` unread beside its own)
+        cfg.daemon.other_sections.clear();
         assert_eq!(cfg, want);
         // Only one line differs, and the comments stay.
         let diff: Vec<_> = robot
@@ -160,7 +163,7 @@ mod tests {
         // A quote or a backslash in a path stays a string.
         let odd = with_bus_spec(&robot, "slcan:/dev/a\"b\\c@1000000").unwrap();
         assert_eq!(
-            Config::from_toml(&odd, "t").unwrap().bus.spec,
+            Config::from_toml(&odd, "t").unwrap().daemon.bus.spec,
             "slcan:/dev/a\"b\\c@1000000"
         );
     }
@@ -168,12 +171,15 @@ mod tests {
     #[test]
     fn set_bus_adds_a_missing_spec_or_table() {
         let no_table = "[realtime]\nlock-memory = true\n";
-        let c =
-            Config::from_toml(&with_bus_spec(no_table, "socketcan:can1").unwrap(), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(no_table, "socketcan:can1").unwrap(), "t")
+            .unwrap()
+            .daemon;
         assert_eq!(c.bus.spec, "socketcan:can1");
         assert!(c.realtime.lock_memory);
         let no_spec = "[bus]\nfd = true\n[realtime]\ncpu = 1\n";
-        let c = Config::from_toml(&with_bus_spec(no_spec, "socketcan:can1").unwrap(), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(no_spec, "socketcan:can1").unwrap(), "t")
+            .unwrap()
+            .daemon;
         assert_eq!(
             (c.bus.spec.as_str(), c.bus.fd, c.realtime.cpu),
             ("socketcan:can1", true, 1)
@@ -186,11 +192,15 @@ mod tests {
             "{new}"
         );
         let last = "[bus]\nfd = true\n";
-        let c = Config::from_toml(&with_bus_spec(last, "socketcan:can1").unwrap(), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(last, "socketcan:can1").unwrap(), "t")
+            .unwrap()
+            .daemon;
         assert_eq!(c.bus.spec, "socketcan:can1");
         // `spec` of another table is not the bus's.
         let other = "[link]\n\n[bus]\nspec = \"mem:x\"\n";
-        let c = Config::from_toml(&with_bus_spec(other, "socketcan:can1").unwrap(), "t").unwrap();
+        let c = Config::from_toml(&with_bus_spec(other, "socketcan:can1").unwrap(), "t")
+            .unwrap()
+            .daemon;
         assert_eq!(c.bus.spec, "socketcan:can1");
     }
 
@@ -413,9 +423,13 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
             args.dir.display()
         )
     })?;
-    let cfg = anguilla_daemon::config::Config::load(&args.dir.join("config.toml"))
+    // The whole file: the session's config.toml keeps `[link]` as the
+    // robot's file had it.
+    let Config {
+        daemon: cfg, link, ..
+    } = Config::load(&args.dir.join("config.toml"))
         .with_context(|| format!("exporting {}", args.dir.display()))?;
-    let l = &cfg.link;
+    let l = &link;
     let (out, replacement) = new_output(&args, "session.ros2")?;
     let settings = bag::BagSettings {
         namespace: l.ros2_namespace.clone(),

@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anguilla_daemon::config::Config;
+use anguilla::config::Config;
 use anguilla_ipc::{Client, Session};
 use anguilla_link::{Endpoint, Tls};
 use anguilla_teleop::app::{Action, Intent, Limits};
@@ -32,7 +32,8 @@ pub struct PrefixArgs {
 }
 
 impl PrefixArgs {
-    /// The configuration: --config's file, else the default.
+    /// The configuration: --config's file (the whole file, so a tool that
+    /// reads `[link]` or `[foxglove]` has them checked), else the default.
     pub fn config(&self) -> anyhow::Result<Config> {
         Ok(match &self.config {
             Some(p) => Config::load(p)?,
@@ -49,7 +50,7 @@ impl PrefixArgs {
             );
             return Ok(p.clone());
         }
-        Ok(self.config()?.ipc.prefix)
+        Ok(self.config()?.daemon.ipc.prefix)
     }
 }
 

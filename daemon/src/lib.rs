@@ -2,7 +2,8 @@
 //!
 //! It owns the control loop, the safety supervisor, the gait generator and
 //! its trapezoidal [`profile`]s, the operator interface (iceoryx2), recording
-//! and configuration. It holds no model maths (see `anguilla-model`) and no
+//! and its configuration (its sections of the file: `[link]` and
+//! `[foxglove]` belong to other processes, [`config::OTHER_SECTIONS`]). It holds no model maths (see `anguilla-model`) and no
 //! frame layouts (see `anguilla-protocol`).
 //!
 //! Layers, each using only those below it: [`config`]; [`supervisor`]

@@ -3,8 +3,8 @@
 //! command an amplitude (issue 46): [`steady_speeds`] swims the daemon's
 //! own model (the same body, control period and gait law as
 //! [`crate::control`]) straight ahead at one frequency through a ladder of
-//! amplitudes, once at start; the link inverts the table
-//! (`anguilla_link::ros2::node::SpeedTable`).
+//! amplitudes, once at start; `anguilla link` inverts the table (its ROS 2
+//! node's `SpeedTable`).
 //!
 //! The speed of an undulating swimmer is far from linear in its amplitude
 //! (the built-in robot at 1 Hz: 0.03 m/s at amplitude 0.1, 0.33 at 0.4,

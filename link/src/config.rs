@@ -1,7 +1,8 @@
 //! `[link]` of anguilla's configuration file, owned by the crate that uses
-//! it: its keys, defaults and checks. The daemon's configuration reads it
-//! as one of its sections (so `anguilla config check` checks it too) and
-//! writes its commented defaults; the daemon itself ignores it.
+//! it: its keys, defaults and checks. The whole file's configuration
+//! (`anguilla::config`, in the root package) reads it beside the daemon's
+//! sections (so `anguilla config check` checks it too) and writes its
+//! commented defaults; the daemon accepts it unread.
 
 use std::collections::BTreeMap;
 

@@ -47,8 +47,9 @@ fn cmd_vel_swims_the_speed_it_asks_for() {
     let mut cfg = Config::default();
     cfg.ipc.prefix = format!("anguilla-systest/cmdvel-{}", std::process::id());
     cfg.relax_for_builtin();
-    let l = cfg.link.clone();
-    // what `anguilla link` builds at start (src/link_cmd.rs)
+    // `[link]` at its defaults; what `anguilla link` builds at start
+    // (src/link_cmd.rs)
+    let l = anguilla_link::config::LinkConfig::default();
     let speeds = SpeedTable::new(
         anguilla_daemon::speed::steady_speeds(&cfg, l.ros2_frequency).expect("the model swims"),
     );

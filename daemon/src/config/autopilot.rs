@@ -111,7 +111,7 @@ impl AutopilotConfig {
     }
 }
 
-/// `[autopilot]` in the commented default file ([`super::default_toml`]).
+/// `[autopilot]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &AutopilotConfig, w: &mut dyn FnMut(String)) {
     w("[autopilot]".into());
     w("# Heading hold: turn rate = heading-gain · error (+ integral), at most".into());

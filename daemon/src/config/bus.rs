@@ -76,7 +76,7 @@ impl BusConfig {
     }
 }
 
-/// `[bus]` in the commented default file ([`super::default_toml`]).
+/// `[bus]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &BusConfig, w: &mut dyn FnMut(String)) {
     w("[bus]".into());
     if d.spec == BUS_UNSET {

@@ -119,7 +119,7 @@ impl ControlConfig {
     }
 }
 
-/// `[control]` in the commented default file ([`super::default_toml`]).
+/// `[control]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &ControlConfig, w: &mut dyn FnMut(String)) {
     w("[control]".into());
     w("# Control rate (Hz). 0: the highest rate the bus carries within bus.max-load.".into());

@@ -38,7 +38,11 @@ pub enum ConfigError {
     Derived(String),
 }
 
-pub(super) fn range(
+/// `Ok` when `value` is finite and in `min ..= max`; else
+/// [`ConfigError::Range`] naming `key` and what was `expected`. Every
+/// section checks its numbers with it, the other processes' sections too
+/// (`anguilla::config`).
+pub fn range(
     key: &'static str,
     value: f64,
     min: f64,
@@ -77,7 +81,10 @@ pub fn fmt_number(v: f64) -> String {
     }
 }
 
-pub(super) fn fmt_f(v: f64) -> String {
+/// `v` as a TOML float, for the commented default file: always with a
+/// decimal point or an exponent (`1.0`, not `1`, which TOML reads as an
+/// integer).
+pub fn fmt_f(v: f64) -> String {
     // TOML floats need a decimal point or exponent.
     let s = format!("{v}");
     if s.contains(['.', 'e', 'E']) || s.contains("inf") || s.contains("nan") {

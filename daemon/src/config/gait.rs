@@ -88,7 +88,7 @@ impl GaitConfig {
     }
 }
 
-/// `[gait]` in the commented default file ([`super::default_toml`]).
+/// `[gait]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &GaitConfig, w: &mut dyn FnMut(String)) {
     w("[gait]".into());
     w("# Body wave length (m); amplitude polynomial a0 + a1·X + a2·X² (1/m) at full".into());

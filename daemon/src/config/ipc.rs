@@ -37,7 +37,7 @@ impl IpcConfig {
     }
 }
 
-/// `[ipc]` in the commented default file ([`super::default_toml`]).
+/// `[ipc]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &IpcConfig, w: &mut dyn FnMut(String)) {
     w("[ipc]".into());
     w("# Prefix of the iceoryx2 services (<prefix>/state, /state-ready, /command,".into());

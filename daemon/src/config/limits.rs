@@ -44,7 +44,7 @@ impl LimitsConfig {
     }
 }
 
-/// `[limits]` in the commented default file ([`super::default_toml`]).
+/// `[limits]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &LimitsConfig, w: &mut dyn FnMut(String)) {
     w("[limits]".into());
     w("# Per-axis limits applied to every setpoint (clamped and counted).".into());

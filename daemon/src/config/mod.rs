@@ -2,15 +2,18 @@
 //!
 //! A missing key takes the paper robot's default; an unknown key, a value of
 //! the wrong type or one out of range is an error that names the key and the
-//! accepted range. [`default_toml`] prints the whole default file with a
-//! comment on every key (`anguilla config default`); a test checks that it
-//! parses back to [`Config::default`], so the printed file cannot drift from
-//! the defaults in the code.
+//! accepted range. [`sections_toml`] writes the daemon's sections with a
+//! comment on every key (the bulk of `anguilla config default`); a test
+//! checks that they parse back to [`Config::default`], so the printed file
+//! cannot drift from the defaults in the code.
 //!
 //! Each section lives in a file of its own, with its struct, its defaults,
 //! its checks and its part of the commented default file; [`Config`]
 //! gathers them and checks what they ask for together (the control rate
-//! against the bus and the model).
+//! against the bus and the model). The same file holds sections that other
+//! processes read ([`OTHER_SECTIONS`]: `[link]`, `[foxglove]`): the daemon
+//! accepts them unread, and the root package's `anguilla::config` reads
+//! the whole file (what `anguilla config check` checks).
 
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -21,28 +24,25 @@ mod body;
 mod bus;
 mod control;
 mod error;
-mod foxglove;
 mod gait;
 mod ipc;
 mod limits;
-mod link;
 mod model;
 mod monitor;
 mod realtime;
 mod recording;
 mod robot;
+mod sections;
 mod sensor;
 #[cfg(test)]
 mod tests;
 mod whole;
 
-use anguilla_link::config::LinkConfig;
 pub use autopilot::AutopilotConfig;
 pub use body::{BodyFile, DragLaw};
 pub use bus::{BUS_BUILTIN, BUS_UNSET, BusConfig};
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
-pub use error::{ConfigError, fmt_number};
-pub use foxglove::FoxgloveConfig;
+pub use error::{ConfigError, fmt_f, fmt_number, range};
 pub use gait::GaitConfig;
 pub use ipc::IpcConfig;
 pub use limits::LimitsConfig;
@@ -51,10 +51,11 @@ pub use monitor::MonitorConfig;
 pub use realtime::RealtimeConfig;
 pub use recording::RecordingConfig;
 pub use robot::{AxisConfig, AxisDefaults, AxisMap, RobotConfig};
+pub use sections::OTHER_SECTIONS;
 pub use sensor::SensorConfig;
 pub use whole::BuiltinFit;
 
-/// The whole configuration.
+/// The daemon's configuration: its sections of the file.
 #[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct Config {
@@ -82,10 +83,12 @@ pub struct Config {
     pub autopilot: AutopilotConfig,
     /// `[monitor]`.
     pub monitor: MonitorConfig,
-    /// `[foxglove]`.
-    pub foxglove: FoxgloveConfig,
+    /// The file's [`OTHER_SECTIONS`] as written, unread: the daemon has no
+    /// use for them, but a recording's `config.toml` ([`Config::to_toml`])
+    /// keeps them, so that `anguilla export --ros2` reads the session's
     /// `[link]`.
-    pub link: LinkConfig,
+    #[serde(skip)]
+    pub other_sections: toml::Table,
 }
 
 impl Config {
@@ -170,19 +173,37 @@ impl Config {
         }
     }
 
-    /// Parses and validates TOML text; `origin` names it in errors.
+    /// Parses and validates TOML text; `origin` names it in errors. The
+    /// sections of [`OTHER_SECTIONS`] are taken out unread (into
+    /// [`Config::other_sections`]); any other unknown section is an error
+    /// naming it.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        let parse_error = |e: toml::de::Error| ConfigError::Parse {
             origin: origin.to_string(),
             message: e.to_string(),
-        })?;
+        };
+        let mut other_sections = toml::Table::new();
+        let document = toml::Deserializer::parse(text).map_err(parse_error)?;
+        let mut cfg = Config::deserialize(sections::WithoutOthers {
+            inner: document,
+            kept: &mut other_sections,
+        })
+        .map_err(parse_error)?;
+        cfg.other_sections = other_sections;
         cfg.validate()?;
         Ok(cfg)
     }
 
-    /// The configuration as TOML (every key written; used by recordings).
+    /// The configuration as TOML (every key of the daemon's sections
+    /// written, then the other sections as the file had them; used by
+    /// recordings).
     pub fn to_toml(&self) -> String {
-        toml::to_string(self).unwrap_or_default()
+        let mut text = toml::to_string(self).unwrap_or_default();
+        if !self.other_sections.is_empty() {
+            text.push('\n');
+            text.push_str(&toml::to_string(&self.other_sections).unwrap_or_default());
+        }
+        text
     }
 
     /// Reads, parses and validates a file.
@@ -201,8 +222,6 @@ impl Config {
         self.validate_sensor()?;
         self.autopilot.validate()?;
         self.monitor.validate()?;
-        self.foxglove.validate()?;
-        self.link.validate()?;
         self.control.validate()?;
         self.gait.validate()?;
         self.limits.validate()?;
@@ -216,17 +235,6 @@ impl Config {
         self.control_rate()?;
         Ok(())
     }
-}
-
-/// The whole default configuration as a commented TOML file.
-pub fn default_toml() -> String {
-    write_toml(
-        &Config::default(),
-        &[
-            "# anguilla daemon configuration. Every key is optional; these are the defaults.",
-            "# Keys are kebab-case; an unknown key or an out-of-range value is an error.",
-        ],
-    )
 }
 
 /// Where the robot's configuration lives on a tether computer (the
@@ -255,34 +263,15 @@ pub fn robot_config() -> Config {
     c
 }
 
-/// [`robot_config`] as a commented TOML file: the Debian package's
-/// `/etc/anguilla/anguilla.toml` (`anguilla config default --robot`).
-pub fn robot_toml() -> String {
-    write_toml(
-        &robot_config(),
-        &[
-            "# anguilla daemon configuration for this robot (/etc/anguilla/anguilla.toml).",
-            "# Set [bus] spec below: the daemon (`systemctl start anguilla`) refuses to start",
-            "# until it names the robot's bus. Every other key is optional: these are the",
-            "# defaults of `anguilla config default`, but for [realtime] (SCHED_FIFO 80,",
-            "# memory locked) and [recording] (sessions in /var/lib/anguilla/recordings, at",
-            "# most 16 GB of them, 90 days, 2 GB always left free: a 32 GB card).",
-            "# Keys are kebab-case; an unknown key or an out-of-range value is an error.",
-            "# `anguilla config check /etc/anguilla/anguilla.toml` checks an edit.",
-        ],
-    )
-}
-
-/// `d` as a commented TOML file, under `header`'s lines.
-fn write_toml(d: &Config, header: &[&str]) -> String {
+/// The daemon's sections of `d` as commented TOML, each ending with a
+/// blank line: the whole file (`anguilla config default`, with its header
+/// and the other processes' sections) is the root package's
+/// `anguilla::config::default_toml`.
+pub fn sections_toml(d: &Config) -> String {
     let mut o = String::new();
     let mut w = |s: String| {
         let _ = writeln!(o, "{s}");
     };
-    for line in header {
-        w((*line).into());
-    }
-    w(String::new());
     robot::write_default(&d.robot, &mut w);
     control::write_default(&d.control, &mut w);
     gait::write_default(&d.gait, &mut w);
@@ -295,7 +284,5 @@ fn write_toml(d: &Config, header: &[&str]) -> String {
     sensor::write_default(&d.sensor, &mut w);
     autopilot::write_default(&d.autopilot, &mut w);
     monitor::write_default(&d.monitor, &mut w);
-    foxglove::write_default(&d.foxglove, &mut w);
-    link::write_default(&d.link, &mut w);
     o
 }

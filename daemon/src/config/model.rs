@@ -117,7 +117,7 @@ impl ModelConfig {
     }
 }
 
-/// `[model]` in the commented default file ([`super::default_toml`]).
+/// `[model]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &ModelConfig, w: &mut dyn FnMut(String)) {
     w("[model]".into());
     w("# Space nodes of the feedforward model along the body. 5..=2000".into());

@@ -69,7 +69,7 @@ impl MonitorConfig {
     }
 }
 
-/// `[monitor]` in the commented default file ([`super::default_toml`]).
+/// `[monitor]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &MonitorConfig, w: &mut dyn FnMut(String)) {
     w("[monitor]".into());
     w("# The torque residual, per joint and axis: measured minus predicted torque,".into());

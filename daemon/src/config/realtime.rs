@@ -48,7 +48,7 @@ impl RealtimeConfig {
     }
 }
 
-/// `[realtime]` in the commented default file ([`super::default_toml`]).
+/// `[realtime]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &RealtimeConfig, w: &mut dyn FnMut(String)) {
     w("[realtime]".into());
     w("# SCHED_FIFO priority of the loop thread (0: normal scheduler), its CPU (-1: any),".into());

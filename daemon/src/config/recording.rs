@@ -81,7 +81,7 @@ impl RecordingConfig {
     }
 }
 
-/// `[recording]` in the commented default file ([`super::default_toml`]).
+/// `[recording]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &RecordingConfig, w: &mut dyn FnMut(String)) {
     w("[recording]".into());
     w("# Directory for the session recording (candump log + state records); empty: none.".into());

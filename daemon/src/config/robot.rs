@@ -133,7 +133,7 @@ pub struct AxisMap {
     pub rated_torque: f64,
 }
 
-/// `[robot]` and `[robot.axis]` in the commented default file ([`super::default_toml`]).
+/// `[robot]` and `[robot.axis]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &RobotConfig, w: &mut dyn FnMut(String)) {
     w("[robot]".into());
     w("# Actuated joints, head to tail (each: a pitch and a yaw axis on one node). 1..=32".into());

@@ -48,7 +48,7 @@ impl Default for SensorConfig {
     }
 }
 
-/// `[sensor]` in the commented default file ([`super::default_toml`]).
+/// `[sensor]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &SensorConfig, w: &mut dyn FnMut(String)) {
     w("[sensor]".into());
     w("# The head sensor's node id (IMU + pressure, protocol/README.md): 1..=63, none of".into());

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::error::{ConfigError, fmt_f, range};
+use anguilla_daemon::config::{ConfigError, fmt_f, range};
 
 /// `[foxglove]`: the live view (`anguilla foxglove`, its own process; the
 /// daemon ignores this section).

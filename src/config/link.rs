@@ -1,26 +1,25 @@
 //! `[link]`: remote operation over Zenoh (`anguilla link`, its own
 //! process). The section is the link crate's ([`anguilla_link::config`]);
-//! here is its part of the commented default file.
+//! here are its errors as the configuration's and its part of the
+//! commented default file.
 
+use anguilla_daemon::config::{ConfigError, fmt_f};
 use anguilla_link::config::LinkConfig;
 
-use super::error::{ConfigError, fmt_f};
-
-impl From<anguilla_link::config::ConfigError> for ConfigError {
-    fn from(e: anguilla_link::config::ConfigError) -> Self {
-        use anguilla_link::config::ConfigError as L;
-        match e {
-            L::Range {
-                key,
-                value,
-                expected,
-            } => ConfigError::Range {
-                key,
-                value,
-                expected,
-            },
-            L::Derived(text) => ConfigError::Derived(text),
-        }
+/// The link's error as the configuration's, its key and range kept.
+pub(super) fn error(e: anguilla_link::config::ConfigError) -> ConfigError {
+    use anguilla_link::config::ConfigError as L;
+    match e {
+        L::Range {
+            key,
+            value,
+            expected,
+        } => ConfigError::Range {
+            key,
+            value,
+            expected,
+        },
+        L::Derived(text) => ConfigError::Derived(text),
     }
 }
 
