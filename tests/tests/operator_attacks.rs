@@ -558,13 +558,18 @@ fn a_holder_that_leaves_without_releasing_is_not_called_dead() {
         }
         assert!(!end.passed(), "control never released");
     }
+    // The log's line may follow the state that shows control released
+    // (the logger writes on its own thread): wait for it, not for time
+    // (CI, 2026-12-06: SIGTERM sent at once found the log without it).
+    let read = || std::fs::read_to_string(&log).unwrap_or_default();
+    poll_until(
+        "the log says the holder left without releasing",
+        Duration::from_secs(20),
+        || read().contains("left without releasing it").then_some(()),
+    );
     unsafe { libc::kill(d.0.id() as i32, libc::SIGTERM) };
     let _ = d.0.wait();
-    let mut text = String::new();
-    std::fs::File::open(&log)
-        .unwrap()
-        .read_to_string(&mut text)
-        .unwrap();
+    let text = read();
     assert!(text.contains("left without releasing it"), "{text}");
     assert!(!text.contains("died"), "{text}");
 }
