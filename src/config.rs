@@ -17,7 +17,7 @@
 
 use std::path::Path;
 
-use anguilla_daemon::config::{self as daemon, ConfigError};
+use anguilla_daemon::config::{self as daemon, ConfigError, read_file};
 pub use anguilla_link::config::LinkConfig;
 use serde::Deserialize;
 
@@ -71,11 +71,8 @@ impl Config {
 
     /// Reads, parses and validates a file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+        let (text, origin) = read_file(path)?;
+        Self::from_toml(&text, &origin)
     }
 
     /// Checks every section; the error names the first key out of range.

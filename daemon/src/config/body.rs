@@ -24,7 +24,7 @@ use anguilla_model::{AxialDrag, Body};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use super::error::{ConfigError, range};
+use super::error::{ConfigError, range, read_file};
 use super::model::{COEFFICIENT_MAX, ModelConfig};
 
 /// The axial drag law of a simulated body.
@@ -97,11 +97,8 @@ impl BodyFile {
 
     /// Reads, parses and checks a body file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+        let (text, origin) = read_file(path)?;
+        Self::from_toml(&text, &origin)
     }
 
     /// Checks every key's range.

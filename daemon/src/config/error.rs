@@ -93,3 +93,17 @@ pub fn fmt_f(v: f64) -> String {
         format!("{s}.0")
     }
 }
+
+/// A configuration file's text and its name for errors (`origin`), or the
+/// error that names the file it could not read: what every `load` of a
+/// TOML file here starts with.
+pub fn read_file(path: &std::path::Path) -> Result<(String, String), ConfigError> {
+    let origin = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((text, origin)),
+        Err(source) => Err(ConfigError::Read {
+            path: origin,
+            source,
+        }),
+    }
+}

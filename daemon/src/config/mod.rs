@@ -42,7 +42,7 @@ pub use autopilot::AutopilotConfig;
 pub use body::{BodyFile, DragLaw};
 pub use bus::{BUS_BUILTIN, BUS_UNSET, BusConfig};
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
-pub use error::{ConfigError, fmt_f, fmt_number, range};
+pub use error::{ConfigError, fmt_f, fmt_number, range, read_file};
 pub use gait::GaitConfig;
 pub use ipc::IpcConfig;
 pub use limits::LimitsConfig;
@@ -208,11 +208,8 @@ impl Config {
 
     /// Reads, parses and validates a file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+        let (text, origin) = read_file(path)?;
+        Self::from_toml(&text, &origin)
     }
 
     /// Checks every section, then what they ask for together; the error
