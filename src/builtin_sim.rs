@@ -8,6 +8,7 @@ use anguilla_drivers::Bus;
 use anguilla_sim::SimError;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
 use anguilla_sim::sensor::SensorConfig;
+use anguilla_sim::usbl::UsblSimConfig;
 
 /// The running built-in robot.
 pub struct BuiltinSim {
@@ -66,7 +67,28 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         head_sensor: head_sensor(cfg, cfg.sensor.node),
         tail_sensor: head_sensor(cfg, cfg.sensor.tail_imu),
         body: cfg.model.body(),
+        usbl: usbl(cfg),
     }
+}
+
+/// The simulated USBL for `cfg`'s `[sensor.usbl]` with a `udp:` source:
+/// typical fixes ([`UsblSimConfig::typical`]) sent to that address (the
+/// machine's own if it is unspecified) with the configured latency. None
+/// for a serial source: a serial USBL is a real one.
+fn usbl(cfg: &Config) -> Option<UsblSimConfig> {
+    use anguilla_daemon::sensors::usbl::Source;
+    let u = cfg.sensor.usbl.as_ref()?;
+    let Ok(Source::Udp(mut addr)) = Source::parse(&u.source) else {
+        return None;
+    };
+    if addr.ip().is_unspecified() {
+        addr.set_ip(if addr.is_ipv4() {
+            std::net::Ipv4Addr::LOCALHOST.into()
+        } else {
+            std::net::Ipv6Addr::LOCALHOST.into()
+        });
+    }
+    Some(UsblSimConfig::typical(addr, u.latency))
 }
 
 /// The simulated IMU at node `id` of `cfg`'s `[sensor]` (the head sensor

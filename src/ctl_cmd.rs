@@ -334,7 +334,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
         format!("sensor {}, no sample yet", sensor_name(n.sensor))
     } else {
         format!(
-            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}; sensor {}",
+            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}, x {:.2} m, y {:.2} m (+/- {:.2} m, {} fixes); sensor {}",
             n.heading_deg,
             n.pitch_deg,
             n.roll_deg,
@@ -346,6 +346,10 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
             n.depth_m,
             n.depth_rate,
             if n.surfaced != 0 { " SURFACED" } else { "" },
+            n.x_m,
+            n.y_m,
+            n.position_sigma_m,
+            n.position_fixes,
             sensor_name(n.sensor)
         )
     };

@@ -90,6 +90,9 @@ pub enum SetupError {
     /// A gait limit is invalid.
     #[error("gait profile limits: {0}")]
     Profile(#[from] crate::profile::ProfileError),
+    /// A sensor off the bus cannot open its source.
+    #[error(transparent)]
+    Sensor(#[from] crate::sensors::SensorError),
 }
 
 /// Counters of what the controller did to setpoints and frames.
@@ -193,7 +196,7 @@ impl Controller {
             _ => Some(Autopilot::new(cfg, autopilot::calibrate(cfg, &model)?)),
         };
         // After the calibration: the sensors' boot time counts from here.
-        let sensors = Sensors::new(cfg, now);
+        let sensors = Sensors::new(cfg, now)?;
         let g = &cfg.gait;
         let lim = |v, a| Limits::new(v, a);
         let amp_l = lim(g.amplitude_rate, g.amplitude_accel)?;

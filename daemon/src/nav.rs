@@ -32,7 +32,14 @@
 //! pressure jump beyond [`MAX_DEPTH_INNOVATION`], which is left out of the
 //! estimate). A roll beyond `roll-alarm` is an alarm in the
 //! snapshot, not a health: the autopilot steers through it.
+//! - the nose's **position** x, y ([`position::Plane`]) is propagated
+//!   with the same world velocity and corrected by the position fixes
+//!   other sensors observe ([`Observation::PositionFix`], handed over by
+//!   [`Nav::observe`]).
+//!
 //! Nothing here allocates after [`Nav::new`].
+
+pub mod position;
 
 use anguilla_ipc::{NavSnapshot, SensorHealth};
 use anguilla_model::{HeadState, body_axis, depth_at_pressure, forward_axes};
@@ -43,6 +50,8 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::config::Config;
 use crate::sensors::frames::SampleReader;
+use crate::sensors::observation::Observation;
+use position::Plane;
 
 /// Time constant of the pull towards a fusion IMU's attitude (s).
 pub const ATT_TAU: f64 = 0.05;
@@ -143,6 +152,7 @@ pub struct Nav {
     errors: SensorErrors,
     status: SensorStatus,
     health: SensorHealth,
+    plane: Plane,
 }
 
 impl Nav {
@@ -177,6 +187,7 @@ impl Nav {
             errors: SensorErrors::default(),
             status: SensorStatus::default(),
             health: SensorHealth::Waiting,
+            plane: Plane::new(),
         })
     }
 
@@ -214,6 +225,7 @@ impl Nav {
             let v = self.attitude * pred.velocity;
             self.depth_rate = -v.z + self.depth_bias;
             self.depth += self.depth_rate * dt;
+            self.plane.propagate(now, v.x, v.y, dt);
         }
         if let Some((at, s)) = self.pending.take() {
             // The time since the last correction: the loop may take one
@@ -330,6 +342,22 @@ impl Nav {
         }
     }
 
+    /// Takes another sensor's observation into the estimate (after this
+    /// period's [`Nav::step`]); `false` if it was left out (an outlying
+    /// fix, or one before the estimate began).
+    pub fn observe(&mut self, obs: &Observation) -> bool {
+        match *obs {
+            Observation::PositionFix { at, x, y, sigma } => {
+                self.initialised && self.plane.fix(at, x, y, sigma)
+            }
+        }
+    }
+
+    /// The position estimate.
+    pub fn plane(&self) -> &Plane {
+        &self.plane
+    }
+
     /// The sensor's health after the last [`Nav::step`].
     pub fn health(&self) -> SensorHealth {
         self.health
@@ -391,6 +419,11 @@ impl Nav {
             (self.initialised && self.estimate().depth < anguilla_ipc::SURFACE_DEPTH) as u8;
         s.samples = self.reader.samples();
         s.lost_samples = self.reader.lost();
+        let (x, y) = self.plane.position();
+        s.x_m = x as f32;
+        s.y_m = y as f32;
+        s.position_sigma_m = self.plane.sigma() as f32;
+        s.position_fixes = self.plane.fixes();
     }
 }
 

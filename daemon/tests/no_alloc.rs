@@ -99,15 +99,32 @@ fn a_control_period_allocates_nothing() {
     }
 }
 
-/// The head sensor's frames, the estimate and the autopilot, and a tail
-/// IMU's frames beside them: a period with a heading and a depth held
-/// allocates nothing, nor does a sensor falling silent and ending the hold.
+/// The head sensor's frames, the estimate and the autopilot, a tail IMU's
+/// frames beside them, and a USBL's fixes off the bus (its reader thread
+/// is not the period's): a period with a heading and a depth held and
+/// fixes taken allocates nothing, nor does a sensor falling silent and
+/// ending the hold.
 #[test]
 fn a_period_with_the_autopilot_allocates_nothing() {
     use anguilla_ipc::Hold;
+    use anguilla_protocol::position_fix::Fix;
     let mut cfg = lockstep::config();
     cfg.sensor.tail_imu = 40;
+    let probe = std::net::UdpSocket::bind("127.0.0.1:0").expect("a port");
+    let usbl = probe.local_addr().expect("its address");
+    drop(probe);
+    cfg.sensor.usbl = Some(anguilla_daemon::sensors::usbl::UsblConfig {
+        source: format!("udp:{usbl}"),
+        ..Default::default()
+    });
     cfg.validate().expect("valid");
+    let sender = std::net::UdpSocket::bind("127.0.0.1:0").expect("a sender");
+    let fix = Fix {
+        x: 0.1,
+        y: 0.0,
+        sigma: 0.5,
+    }
+    .sentence();
     let mut rig = lockstep::Rig::new(&cfg, 9, [0.0; 3]);
     rig.swim(1.0);
     rig.run(3.0, |_| {});
@@ -123,7 +140,12 @@ fn a_period_with_the_autopilot_allocates_nothing() {
         if phase == 1 {
             rig.scenario_from_now("0 sensor silent");
         }
-        for _ in 0..300 {
+        for k in 0..300 {
+            if k % 50 == 0 {
+                sender.send_to(fix.as_bytes(), usbl).expect("a fix sent");
+                // Wall time for the reader thread: the rig's is simulated.
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
             let now = rig.advance();
             counted(|| rig.control(now));
             periods += 1;
@@ -134,6 +156,10 @@ fn a_period_with_the_autopilot_allocates_nothing() {
     // The tail IMU was read all along (its samples counted, in the list).
     assert_eq!(s.sensors[1].kind, anguilla_ipc::SensorKind::TailImu as u8);
     assert!(s.sensors[1].samples > 500, "{}", s.sensors[1].samples);
+    // The USBL's fixes were taken in counted periods (a busy machine may
+    // deliver some late: most, not all).
+    assert_eq!(s.sensors[2].kind, anguilla_ipc::SensorKind::Usbl as u8);
+    assert!(s.sensors[2].samples >= 6, "{} fixes", s.sensors[2].samples);
     assert_eq!(s.cause, anguilla_ipc::vocabulary::Cause::SensorLost.code());
     // A refused hold (the sensor is silent) formats its reason in place.
     let r = counted(|| rig.command(hold));

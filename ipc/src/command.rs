@@ -179,10 +179,10 @@ impl CommandRequest {
     /// sessions recorded then still replay: layout 5 (before the body:
     /// SWIM's four floats in words 3..7, HOLD's bits and floats in words
     /// 7..10, a 40-byte request too) is moved into the body; layout 6
-    /// to 8 (whose requests are this layout's; 7, 8 and 9 changed the
+    /// to 9 (whose requests are this layout's; 7 to 10 changed the
     /// state snapshot only) are relabelled; any other request unchanged.
     pub fn from_older_layout(old: Self) -> Self {
-        if (6..=8).contains(&old.layout_version) {
+        if (6..=9).contains(&old.layout_version) {
             return Self {
                 layout_version: LAYOUT_VERSION,
                 ..old

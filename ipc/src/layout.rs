@@ -90,6 +90,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
         depth_target_m: "float", rate_innovation: "float", depth_innovation: "float",
         heading_hold: "uint8_t", depth_hold: "uint8_t", surfaced: "uint8_t", reserved: "uint8_t",
         samples: "uint64_t", lost_samples: "uint64_t",
+        x_m: "float", y_m: "float", position_sigma_m: "float", position_fixes: "uint32_t",
     ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
         layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", body: "uint32_t[7]",

@@ -8,7 +8,7 @@ use crate::vocabulary::SwimParams;
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 9;
+pub const LAYOUT_VERSION: u32 = 10;
 /// Most sensors a snapshot carries.
 pub const MAX_SENSORS: usize = 4;
 /// Values a [`SensorEntry`] carries.
@@ -257,6 +257,18 @@ pub struct NavSnapshot {
     pub samples: u64,
     /// Samples the sample counter says were lost since start.
     pub lost_samples: u64,
+    /// The nose's estimated position (m), in the estimate's local frame: x
+    /// and y level, the origin where the estimate started. The model's
+    /// predicted motion turned by the estimated attitude, corrected by
+    /// position fixes (docs/autopilot.md, "Position").
+    pub x_m: f32,
+    /// y (m), as `x_m`.
+    pub y_m: f32,
+    /// The position's standard deviation (m, horizontal): 0 at the start,
+    /// growing while dead-reckoned, shrinking with each fix.
+    pub position_sigma_m: f32,
+    /// Position fixes taken into the estimate since start.
+    pub position_fixes: u32,
 }
 
 /// A hold state code's name ("hold state N" for an unknown one).

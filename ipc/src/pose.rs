@@ -1,7 +1,10 @@
 //! The head's pose in the world from a stream of state snapshots: what the
 //! recording's `/tf` and the ROS 2 node's `tf` both say (one computation
 //! for both). The world frame has x and y level and z up (REP 103); its
-//! origin is where the head was at the first snapshot.
+//! origin is where the estimate started. With a head sensor the pose is
+//! the daemon's estimate as the snapshot carries it (`nav`: x, y, depth and
+//! attitude), so `ctl status`, the recording, Foxglove and ROS 2 show one
+//! position; without one, the model's prediction integrated here.
 
 use crate::StateSnapshot;
 
@@ -33,7 +36,7 @@ fn finite(v: f32) -> f64 {
 }
 
 /// The head's track: the model's predicted speed and turn rate integrated
-/// in the plane (dead reckoning: the robot has no position sensor).
+/// in the plane (the predicted pose), beside the daemon's estimate.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct HeadTrack {
     last_ns: Option<u64>,
@@ -43,10 +46,10 @@ pub struct HeadTrack {
 }
 
 impl HeadTrack {
-    /// Advances to `s`; returns the head's pose as measured (with a head
-    /// sensor that has samples: its heading, pitch, roll and depth, x and
-    /// y dead-reckoned) or else as predicted, and the predicted pose (the
-    /// plane, the integrated turn). Values that are not finite count as 0.
+    /// Advances to `s`; returns the head's pose as estimated (with a head
+    /// sensor that has samples: the snapshot's heading, pitch, roll, depth
+    /// and x, y) or else as predicted, and the predicted pose (the plane,
+    /// the integrated turn). Values that are not finite count as 0.
     pub fn update(&mut self, s: &StateSnapshot) -> (Pose, Pose) {
         let dt = self
             .last_ns
@@ -60,13 +63,24 @@ impl HeadTrack {
             rotation: quaternion_rpy(0.0, 0.0, self.yaw),
         };
         let nav = &s.nav;
-        let measured = [nav.roll_deg, nav.pitch_deg, nav.heading_deg, nav.depth_m];
+        let measured = [
+            nav.roll_deg,
+            nav.pitch_deg,
+            nav.heading_deg,
+            nav.depth_m,
+            nav.x_m,
+            nav.y_m,
+        ];
         let head = if nav.samples > 0 && measured.iter().all(|v| v.is_finite()) {
             // REP 103: pitch about y is nose-down positive (the daemon's
             // is nose-up); roll right side down and the heading
             // anticlockwise, as the daemon's.
             Pose {
-                translation: [self.x, self.y, -f64::from(nav.depth_m)],
+                translation: [
+                    f64::from(nav.x_m),
+                    f64::from(nav.y_m),
+                    -f64::from(nav.depth_m),
+                ],
                 rotation: quaternion_rpy(
                     f64::from(nav.roll_deg).to_radians(),
                     -f64::from(nav.pitch_deg).to_radians(),
@@ -109,9 +123,15 @@ mod tests {
         s.nav.samples = 1;
         s.nav.heading_deg = 90.0;
         s.nav.depth_m = 2.0;
+        s.nav.x_m = 3.5;
+        s.nav.y_m = -1.25;
         s.time_ns += 1_000_000;
         let (head, _) = t.update(&s);
-        assert!((head.translation[2] + 2.0).abs() < 1e-12);
+        assert_eq!(
+            head.translation,
+            [3.5, -1.25, -2.0],
+            "the daemon's estimate"
+        );
         assert!((head.rotation[2] - half.sin()).abs() < 1e-9);
         s.nav.roll_deg = f32::NAN;
         s.time_ns += 1_000_000;

@@ -16,7 +16,8 @@
 //! nanosecond type of the daemon's clock, the simulated firmware's clock,
 //! watchdog timeouts and heartbeat periods); and the wire codec of a bought
 //! drive families, ODrive's CANSimple ([`odrive`]), CANopen CiA
-//! 301/402 ([`canopen`]) and MIT-mode actuators ([`mit`]), and which of them a robot uses ([`Family`]). `protocol/README.md` is the contract a node's
+//! 301/402 ([`canopen`]) and MIT-mode actuators ([`mit`]), and which of them a robot uses ([`Family`]); and the sentence by which a
+//! position sensor off the bus hands the daemon a fix ([`position_fix`]). `protocol/README.md` is the contract a node's
 //! firmware implements.
 //!
 //! ```
@@ -45,6 +46,7 @@ pub mod frame;
 pub mod message;
 pub mod mit;
 pub mod odrive;
+pub mod position_fix;
 pub mod signal;
 pub mod time;
 

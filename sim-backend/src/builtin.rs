@@ -45,6 +45,9 @@ pub struct BuiltinConfig {
     pub tail_sensor: Option<crate::sensor::SensorConfig>,
     /// The simulated body (its own, not necessarily the daemon's model).
     pub body: anguilla_model::Body,
+    /// A USBL off the bus, sending fixes of the nose's true position, or
+    /// none.
+    pub usbl: Option<crate::usbl::UsblSimConfig>,
 }
 
 /// The in-process robot, running.
@@ -52,6 +55,7 @@ pub struct Builtin {
     running: RunningSim,
     bus: MemBus,
     host: anguilla_drivers::mem::ParticipantId,
+    usbl: Option<crate::usbl::SimUsbl>,
     /// A priority the system refused (the robot runs without it).
     pub priority_refused: Option<std::io::Error>,
 }
@@ -94,12 +98,30 @@ impl Builtin {
         let priority_refused = cfg
             .fifo_priority
             .and_then(|p| running.set_fifo_priority(p).err());
+        let usbl = match &cfg.usbl {
+            Some(u) => {
+                let truth = running.truth_reader();
+                let usbl = crate::usbl::SimUsbl::spawn(u.clone(), move || {
+                    let p = truth().position;
+                    [p[0], p[1]]
+                });
+                match usbl {
+                    Ok(u) => Some(u),
+                    Err(e) => {
+                        let _ = running.stop();
+                        return Err(SimError::Thread(e));
+                    }
+                }
+            }
+            None => None,
+        };
         Ok((
             host,
             Builtin {
                 running,
                 bus,
                 host: host_id,
+                usbl,
                 priority_refused,
             },
         ))
@@ -128,8 +150,14 @@ impl Builtin {
         self.running.truth()
     }
 
-    /// Stops the robot's thread.
+    /// Fixes the simulated USBL has sent (0 without one).
+    pub fn usbl_fixes(&self) -> u64 {
+        self.usbl.as_ref().map_or(0, crate::usbl::SimUsbl::sent)
+    }
+
+    /// Stops the robot's thread (and its USBL's).
     pub fn stop(self) {
+        drop(self.usbl);
         let _ = self.running.stop();
     }
 }

@@ -22,6 +22,8 @@
 //!   system tests drive too), on an in-process bus in real time;
 //! - [`sensor`]: the optional head sensor (IMU and pressure) beside the
 //!   joints, sampled from the body's true head state;
+//! - [`usbl`]: a USBL off the bus, sending noisy fixes of the true position
+//!   over UDP;
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 //!
@@ -69,6 +71,7 @@ pub mod rng;
 pub mod robot;
 pub mod scenario;
 pub mod sensor;
+pub mod usbl;
 
 pub use robot::{
     MAX_CATCH_UP, Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status,

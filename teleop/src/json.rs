@@ -96,6 +96,9 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "roll_deg": estimate(nav.roll_deg),
         "depth_m": estimate(nav.depth_m),
         "depth_rate": estimate(nav.depth_rate),
+        "x_m": estimate(nav.x_m),
+        "y_m": estimate(nav.y_m),
+        "position_sigma_m": estimate(nav.position_sigma_m),
         "heading_target_deg": hold.heading.map(|_| nav.heading_target_deg),
         "depth_target_m": hold.depth.map(|_| nav.depth_target_m),
         "torque_residual_alarms": s.residual_alarms().map(|(joint, axis, r)| json!({
@@ -121,6 +124,8 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
             "heading_hold": nav.heading_hold, "depth_hold": nav.depth_hold,
             "surfaced": nav.surfaced,
             "samples": nav.samples, "lost_samples": nav.lost_samples,
+            "x_m": nav.x_m, "y_m": nav.y_m, "position_sigma_m": nav.position_sigma_m,
+            "position_fixes": nav.position_fixes,
         },
     });
     if let (Value::Object(all), Value::Object(more)) = (&mut v, extra) {

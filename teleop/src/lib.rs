@@ -28,6 +28,9 @@
 //! assert_eq!(intent.steady(), Command::KeepAlive);
 //! ```
 #![warn(missing_docs)]
+// serde_json's json! macro recurses once per key: the status object has more keys than
+// its default limit of 128 allows.
+#![recursion_limit = "256"]
 
 pub mod app;
 pub mod ctl;

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::fmt_f;
+use crate::sensors::usbl::UsblConfig;
 
 /// `[sensor]`: the head sensor (IMU and pressure; protocol/README.md
 /// "The head sensor") and how its samples become an estimate.
@@ -31,6 +32,9 @@ pub struct SensorConfig {
     /// sensor's; 0: none. Shown to the operator and recorded; the estimate
     /// and the autopilot use the head sensor alone.
     pub tail_imu: u8,
+    /// A USBL or another position sensor off the bus (`[sensor.usbl]`,
+    /// its module's section); none if absent.
+    pub usbl: Option<UsblConfig>,
 }
 
 impl Default for SensorConfig {
@@ -44,6 +48,7 @@ impl Default for SensorConfig {
             max_rate_innovation: 1.0,
             roll_alarm: 60.0,
             tail_imu: 0,
+            usbl: None,
         }
     }
 }
@@ -73,5 +78,7 @@ pub(super) fn write_default(d: &SensorConfig, w: &mut dyn FnMut(String)) {
     w("# none of the joints' nor node; shown and recorded, not used by the autopilot.".into());
     w("# 0: none.".into());
     w(format!("tail-imu = {}", d.tail_imu));
+    w(String::new());
+    d.usbl.clone().unwrap_or_default().write_default(w);
     w(String::new());
 }

@@ -279,6 +279,17 @@ impl Config {
     /// the joints' ids).
     pub(super) fn validate_sensor(&self) -> Result<(), ConfigError> {
         let s = &self.sensor;
+        if let Some(u) = &s.usbl {
+            u.validate()?;
+            if s.node == 0 {
+                return Err(ConfigError::Derived(
+                    "[sensor.usbl] needs the head sensor (sensor.node): a fix corrects the \
+                     position the estimate dead-reckons with its heading; set sensor.node or \
+                     remove [sensor.usbl]"
+                        .into(),
+                ));
+            }
+        }
         if s.tail_imu != 0 {
             range(
                 "sensor.tail-imu",

@@ -51,7 +51,9 @@ pub(super) fn state_json(s: &StateSnapshot) -> Value {
                  "roll_deg": n.roll_deg, "depth_m": n.depth_m, "depth_rate": n.depth_rate,
                  "heading_target_deg": n.heading_target_deg, "depth_target_m": n.depth_target_m,
                  "rate_innovation": n.rate_innovation, "depth_innovation": n.depth_innovation,
-                 "samples": n.samples, "lost_samples": n.lost_samples },
+                 "samples": n.samples, "lost_samples": n.lost_samples,
+                 "x_m": n.x_m, "y_m": n.y_m, "position_sigma_m": n.position_sigma_m,
+                 "position_fixes": n.position_fixes },
     })
 }
 

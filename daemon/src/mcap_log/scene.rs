@@ -54,7 +54,8 @@ pub fn segments(cfg: &Config) -> Vec<(f64, f64, f64)> {
 #[derive(Debug, Clone)]
 pub struct Scene {
     last: Option<StateSnapshot>,
-    /// The head's track (the predicted head dead-reckoned in the plane).
+    /// The head's track (the daemon's estimate, or the predicted head
+    /// integrated in the plane without a head sensor).
     track: HeadTrack,
     /// Each link's length and its semi-axes (m), head first.
     links: Vec<(f64, f64, f64)>,

@@ -8,8 +8,11 @@
 //! Every object the writer makes is closed: all its properties are
 //! written every time (`required` lists them, in the writer's order) and
 //! no other (`additionalProperties: false`). Enumerations come from the
-//! code's own tables ([`Mode::ALL`], [`Cause::ALL`], [`SensorHealth::ALL`],
-//! [`BusState::ALL`], [`behaviour::STATES`], [`FaultKind::ALL`]), so a new
+//! code's own tables (`codes.rs`: [`anguilla_ipc::Mode::ALL`],
+//! [`anguilla_ipc::Cause::ALL`], [`anguilla_ipc::SensorHealth::ALL`],
+//! [`anguilla_drivers::BusState::ALL`],
+//! [`anguilla_protocol::behaviour::STATES`],
+//! [`anguilla_ipc::FaultKind::ALL`]), so a new
 //! mode or cause is in the schema the moment it exists.
 //!
 //! The builders ([`message`], [`object`], [`real`], …) are public for the
@@ -31,12 +34,11 @@
 
 use core::fmt::Write as _;
 
-use anguilla_drivers::BusState;
-use anguilla_protocol::behaviour;
 use serde_json::{Value, json};
 
 mod build;
 mod check;
+mod codes;
 mod table;
 
 pub use build::{
@@ -44,101 +46,13 @@ pub use build::{
     object, real, string, typed_object,
 };
 pub use check::check;
+pub use codes::{
+    LOG_LEVELS, UNKNOWN, bus_state_codes, cause_names, fault_bits, hold_codes, hold_state_names,
+    mode_names, node_state_codes, sensor_names,
+};
 pub use table::table;
 
-use anguilla_ipc::{
-    Cause, FaultKind, Hold, HoldState, JointSnapshot, MAX_JOINTS, Mode, SensorHealth, SensorKind,
-    bus_state_name, hold_bits,
-};
-
-/// What the writer puts for a name or a code this anguilla does not know
-/// (a snapshot from another version, exported).
-pub const UNKNOWN: &str = "unknown";
-
-/// The modes' names, as `/anguilla/state` writes them.
-pub fn mode_names() -> impl Iterator<Item = &'static str> {
-    Mode::ALL.into_iter().map(Mode::name).chain([UNKNOWN])
-}
-
-/// The causes' names.
-pub fn cause_names() -> impl Iterator<Item = &'static str> {
-    Cause::ALL.into_iter().map(Cause::name).chain([UNKNOWN])
-}
-
-/// `nav.heading_hold` and `nav.depth_hold`'s names.
-pub fn hold_state_names() -> impl Iterator<Item = &'static str> {
-    HoldState::ALL
-        .into_iter()
-        .map(HoldState::name)
-        .chain([UNKNOWN])
-}
-
-/// The head sensor's health names.
-pub fn sensor_names() -> impl Iterator<Item = &'static str> {
-    SensorHealth::ALL
-        .into_iter()
-        .map(SensorHealth::name)
-        .chain([UNKNOWN])
-}
-
-/// `bus.state`'s codes and names.
-pub fn bus_state_codes() -> Vec<(u64, String)> {
-    BusState::ALL
-        .into_iter()
-        .map(|s| (u64::from(s.code()), bus_state_name(s.code()).to_string()))
-        .collect()
-}
-
-/// `node_state`'s codes and names: the heartbeat's states, and the code
-/// of a node that has reported none yet.
-pub fn node_state_codes() -> Vec<(u64, String)> {
-    behaviour::STATES
-        .into_iter()
-        .map(|s| (s as u64, behaviour::state_name(s).to_string()))
-        .chain([(
-            u64::from(JointSnapshot::NO_NODE_STATE),
-            "none reported yet".to_string(),
-        )])
-        .collect()
-}
-
-/// `nav.hold`'s values: every combination of [`hold_bits`], named as
-/// [`Hold::name`] names it.
-pub fn hold_codes() -> Vec<(u64, String)> {
-    let all = hold_bits::HEADING | hold_bits::DEPTH;
-    (0..=all)
-        .map(|b| {
-            let h = Hold {
-                heading: (b & hold_bits::HEADING != 0).then_some(0.0),
-                depth: (b & hold_bits::DEPTH != 0).then_some(0.0),
-            };
-            debug_assert_eq!(h.bits(), b);
-            (u64::from(b), h.name().to_string())
-        })
-        .collect()
-}
-
-/// `fault_kinds`' bits: (bit number, name).
-pub fn fault_bits() -> Vec<(u32, &'static str)> {
-    FaultKind::ALL
-        .into_iter()
-        .map(|k| ((k as u32).trailing_zeros(), k.name()))
-        .collect()
-}
-
-/// The log levels of `foxglove.LogLevel`: (code, name, meaning).
-pub const LOG_LEVELS: [(u64, &str, &str); 6] = [
-    (0, "UNKNOWN", "unknown level"),
-    (1, "DEBUG", "debug"),
-    (2, "INFO", "information (a mode change)"),
-    (
-        3,
-        "WARNING",
-        "warning (a refused command, the autopilot letting go)",
-    ),
-    (4, "ERROR", "error (a fault, an e-stop)"),
-    (5, "FATAL", "fatal"),
-];
+use anguilla_ipc::{MAX_JOINTS, SensorKind};
 
 /// A gait's parameters.
 fn gait(description: &str) -> Value {
@@ -367,6 +281,21 @@ pub fn state() -> Value {
                             "lost_samples",
                             count("Samples the sensor's counter says were lost since start"),
                         ),
+                        (
+                            "x_m",
+                            real(
+                                "The nose's estimated position (m), x, in the estimate's local frame (x, y level, the origin where the estimate started): the model's motion dead-reckoned with the estimated attitude, corrected by position fixes",
+                            ),
+                        ),
+                        ("y_m", real("The nose's estimated position (m), y, as x_m")),
+                        (
+                            "position_sigma_m",
+                            real("The position's standard deviation (m, horizontal)"),
+                        ),
+                        (
+                            "position_fixes",
+                            count("Position fixes taken into the estimate since start"),
+                        ),
                     ],
                 ),
             ),
@@ -554,8 +483,8 @@ pub fn frame_transforms() -> Value {
             (
                 "child_frame_id",
                 names(
-                    "head: measured with a head sensor (heading, pitch, roll, depth; x, y \
-                     integrated from the predicted speed), else predicted; head_predicted: \
+                    "head: the daemon's estimate with a head sensor (heading, pitch, roll, \
+                     depth, and x, y: nav.x_m, nav.y_m), else predicted; head_predicted: \
                      the model's speed and turn rate integrated in the plane",
                     ["head", "head_predicted"],
                 ),
@@ -800,7 +729,8 @@ mod tests {
     use super::*;
     use crate::config::Config;
     use crate::mcap_log::{Scene, TOPICS};
-    use anguilla_ipc::StateSnapshot;
+    use anguilla_drivers::BusState;
+    use anguilla_ipc::{Cause, FaultKind, HoldState, Mode, SensorHealth, StateSnapshot};
 
     /// Snapshots that take every mode, cause, sensor health, bus state,
     /// hold and node state (255 included), codes this anguilla does not

@@ -49,8 +49,4 @@ impl Sensor for Nav {
             }
         }
     }
-
-    fn as_nav(&self) -> Option<&Nav> {
-        Some(self)
-    }
 }

@@ -1,25 +1,32 @@
 //! The robot's sensors, as one list: each configured sensor claims its
-//! frames (routed by the node id in the frame's identifier), moves on once
-//! a period with the model's prediction, judges its own health and fills
-//! its entry of the snapshot ([`anguilla_ipc::SensorEntry`], whose kind
-//! code and value names are [`SensorKind`]'s).
+//! frames (routed by the node id in the frame's identifier) or reads its
+//! own wire on a thread of its own, moves on once a period, judges its own
+//! health, hands the estimate what it observed ([`Observation`]), and
+//! fills its entry of the snapshot ([`anguilla_ipc::SensorEntry`], whose
+//! kind code and value names are [`SensorKind`]'s).
 //!
 //! - [`crate::nav::Nav`]: the head's IMU and pressure sensor and the
-//!   navigation estimate on it (`[sensor] node`); the autopilot's, and the
-//!   supervisor's judge of a hold;
+//!   navigation estimate on it (`[sensor] node`); the autopilot's, the
+//!   supervisor's judge of a hold, and where the others' observations go;
 //! - [`tail_imu::TailImu`]: an IMU in the tail (`[sensor] tail-imu`),
-//!   shown and recorded as measured.
+//!   shown and recorded as measured;
+//! - [`usbl::Usbl`]: a USBL off the bus (`[sensor.usbl]`), whose position
+//!   fixes correct the estimate's x, y.
 //!
-//! A further kind is a module here implementing [`Sensor`], a line in
-//! [`Sensors::new`] that builds it from its configuration, and its
+//! A further kind is a module here implementing [`Sensor`] (with its
+//! section, if it has one, a field of [`crate::config::SensorConfig`]), a
+//! line in [`Sensors::new`] that builds it from its section, and its
 //! [`SensorKind`] (code, name, values) in the operator vocabulary, from
-//! which `ctl status`, the recordings and the Foxglove view show it.
+//! which `ctl status`, the recordings and the Foxglove view show it; what
+//! it observes is an [`Observation`] the estimate takes.
 //!
 //! The list is built once; nothing here allocates in the control period.
 
 pub mod frames;
 pub mod head_nav;
+pub mod observation;
 pub mod tail_imu;
+pub mod usbl;
 
 use anguilla_ipc::{MAX_SENSORS, SensorEntry, SensorHealth, SensorKind};
 use anguilla_protocol::Frame;
@@ -28,13 +35,15 @@ use anguilla_protocol::time::Nanos;
 
 use crate::config::Config;
 use crate::nav::{Nav, Prediction};
+pub use observation::Observation;
 
-/// One sensor on the bus. Every method runs in the control period and
-/// allocates nothing.
+/// One sensor. Every method runs in the control period and allocates
+/// nothing.
 pub trait Sensor: Send {
     /// What it is.
     fn kind(&self) -> SensorKind;
-    /// Its node id (its frames carry it in their identifier).
+    /// Its node id (its frames carry it in their identifier); 0 for a
+    /// sensor off the bus.
     fn id(&self) -> u8;
     /// Takes one of its frames (the list routes by id); `false` if the
     /// frame is not one of its kind's (it then goes to the drives).
@@ -49,19 +58,33 @@ pub trait Sensor: Send {
     /// Its entry of the snapshot (kind, id and health are filled by the
     /// list; this fills samples and values).
     fn fill(&self, entry: &mut SensorEntry);
-    /// The head sensor's estimate, if this is it.
-    fn as_nav(&self) -> Option<&Nav> {
+    /// What it observed in the last step for the estimate, taken once.
+    fn observation(&mut self) -> Option<Observation> {
         None
     }
+}
+
+/// Why a sensor could not be started.
+#[derive(Debug, thiserror::Error)]
+#[error("sensor {kind}: {source}")]
+pub struct SensorError {
+    /// Which.
+    pub kind: SensorKind,
+    /// What the system said (it names the source).
+    pub source: std::io::Error,
 }
 
 /// No sensor at this node id.
 const NONE: u8 = u8::MAX;
 
-/// The configured sensors, the head sensor first.
+/// The head sensor's place in `by_id`.
+const HEAD: u8 = u8::MAX - 1;
+
+/// The configured sensors: the head sensor (the estimate) and the others.
 pub struct Sensors {
-    list: Vec<Box<dyn Sensor>>,
-    /// Node id (0..=63) → index in `list`.
+    nav: Option<Nav>,
+    others: Vec<Box<dyn Sensor>>,
+    /// Node id (0..=63) → index in `others`, or [`HEAD`].
     by_id: [u8; 64],
     /// The bus's clock: the time of the periods in which the bus carried
     /// a frame, anyone's.
@@ -70,33 +93,48 @@ pub struct Sensors {
     heard: bool,
     /// The last step's time.
     stepped: Nanos,
+    /// Observations the estimate left out (or had no estimate for).
+    left_out: u64,
 }
 
 impl Sensors {
     /// The sensors of `cfg`, unheard-of at `now` (at most
-    /// [`MAX_SENSORS`], one per node id: the configuration checks both).
-    pub fn new(cfg: &Config, now: Nanos) -> Self {
-        let mut list: Vec<Box<dyn Sensor>> = Vec::with_capacity(MAX_SENSORS);
-        if let Some(nav) = Nav::new(cfg, now) {
-            list.push(Box::new(nav));
-        }
+    /// [`MAX_SENSORS`], one per node id: the configuration checks both);
+    /// an error if a sensor off the bus cannot open its source.
+    pub fn new(cfg: &Config, now: Nanos) -> Result<Self, SensorError> {
+        let nav = Nav::new(cfg, now);
+        let mut others: Vec<Box<dyn Sensor>> = Vec::with_capacity(MAX_SENSORS);
         if let Some(imu) = tail_imu::TailImu::new(cfg, now) {
-            list.push(Box::new(imu));
+            others.push(Box::new(imu));
         }
-        list.truncate(MAX_SENSORS);
+        if let Some(u) = &cfg.sensor.usbl {
+            let usbl = usbl::Usbl::open(u, now).map_err(|source| SensorError {
+                kind: SensorKind::Usbl,
+                source,
+            })?;
+            others.push(Box::new(usbl));
+        }
+        others.truncate(MAX_SENSORS - nav.is_some() as usize);
         let mut by_id = [NONE; 64];
-        for (i, s) in list.iter().enumerate() {
-            if let Some(slot) = by_id.get_mut(s.id() as usize) {
+        if let Some(n) = &nav {
+            by_id[n.id() as usize % 64] = HEAD;
+        }
+        for (i, s) in others.iter().enumerate() {
+            if s.id() != 0
+                && let Some(slot) = by_id.get_mut(s.id() as usize)
+            {
                 *slot = i as u8;
             }
         }
-        Self {
-            list,
+        Ok(Self {
+            nav,
+            others,
             by_id,
             bus: now,
             heard: false,
             stepped: now,
-        }
+            left_out: 0,
+        })
     }
 
     /// Gives `frame` to the sensor whose id it carries; `false` if no
@@ -110,33 +148,48 @@ impl Sensors {
         let Some((_, node)) = Function::split_id(raw) else {
             return false;
         };
-        match self.by_id.get(node as usize) {
-            Some(&i) if i != NONE => self.list[i as usize].ingest(now, frame),
+        match (self.by_id.get(node as usize), &mut self.nav) {
+            (Some(&HEAD), Some(nav)) => nav.ingest(now, frame),
+            (Some(&i), _) if i != NONE && i != HEAD => self.others[i as usize].ingest(now, frame),
             _ => false,
         }
     }
 
     /// Whether no sensor is configured.
     pub fn is_empty(&self) -> bool {
-        self.list.is_empty()
+        self.nav.is_none() && self.others.is_empty()
     }
 
-    /// Moves every sensor on by one period; the bus's clock moves on by
-    /// it if a frame came in it.
+    /// Moves every sensor on by one period (the bus's clock moves on by
+    /// it if a frame came in it), then hands the estimate what the others
+    /// observed.
     pub fn step(&mut self, now: Nanos, dt: f64, pred: &Prediction) {
         if self.heard {
             self.bus += now.saturating_sub(self.stepped);
         }
         self.heard = false;
         self.stepped = now;
-        for s in &mut self.list {
-            s.step(now, self.bus, dt, pred);
+        if let Some(nav) = &mut self.nav {
+            nav.step_on_bus(now, self.bus, dt, pred);
         }
+        for s in &mut self.others {
+            s.step(now, self.bus, dt, pred);
+            if let Some(obs) = s.observation() {
+                let taken = self.nav.as_mut().is_some_and(|n| n.observe(&obs));
+                self.left_out += !taken as u64;
+            }
+        }
+    }
+
+    /// Observations the estimate left out since start (outlying fixes,
+    /// fixes before the estimate began).
+    pub fn left_out(&self) -> u64 {
+        self.left_out
     }
 
     /// The head sensor's estimate, if there is one.
     pub fn nav(&self) -> Option<&Nav> {
-        self.list.iter().find_map(|s| s.as_nav())
+        self.nav.as_ref()
     }
 
     /// The head sensor's health ([`SensorHealth::None`] without one).
@@ -146,14 +199,16 @@ impl Sensors {
 
     /// Every sensor, the head sensor first.
     pub fn iter(&self) -> impl Iterator<Item = &dyn Sensor> {
-        self.list.iter().map(|s| &**s)
+        let head = self.nav.iter().map(|n| n as &dyn Sensor);
+        head.chain(self.others.iter().map(|s| &**s))
     }
 
     /// The snapshot's list: one entry per sensor, kind 0 past the last.
     pub fn fill(&self, entries: &mut [SensorEntry; MAX_SENSORS]) {
-        for (i, e) in entries.iter_mut().enumerate() {
+        let mut list = self.iter();
+        for e in entries.iter_mut() {
             *e = SensorEntry::default();
-            if let Some(s) = self.list.get(i) {
+            if let Some(s) = list.next() {
                 e.kind = s.kind() as u8;
                 e.id = s.id();
                 e.health = s.health() as u8;

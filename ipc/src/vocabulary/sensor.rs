@@ -73,11 +73,15 @@ pub enum SensorKind {
     /// An IMU in the tail section (`[tail-imu]`): its attitude and rates
     /// as measured, no estimate.
     TailImu = 2,
+    /// A USBL (or any position sensor off the bus) handing position fixes
+    /// to the estimate (`[sensor.usbl]`): its last fix as sent, and the
+    /// fix's age.
+    Usbl = 3,
 }
 
 impl SensorKind {
     /// Every kind, in the order of their codes.
-    pub const ALL: [SensorKind; 2] = [SensorKind::HeadNav, SensorKind::TailImu];
+    pub const ALL: [SensorKind; 3] = [SensorKind::HeadNav, SensorKind::TailImu, SensorKind::Usbl];
 
     /// The kind of a snapshot's code (0: an empty entry).
     pub fn from_code(code: u8) -> Option<SensorKind> {
@@ -89,6 +93,7 @@ impl SensorKind {
         match self {
             SensorKind::HeadNav => "head-nav",
             SensorKind::TailImu => "tail-imu",
+            SensorKind::Usbl => "usbl",
         }
     }
 
@@ -112,6 +117,14 @@ impl SensorKind {
                 ("rate_y", "rad/s"),
                 ("rate_z", "rad/s"),
                 ("temperature", "degC"),
+            ],
+            SensorKind::Usbl => &[
+                ("x", "m"),
+                ("y", "m"),
+                ("sigma", "m"),
+                ("age", "s"),
+                ("malformed", "count"),
+                ("dropped", "count"),
             ],
         }
     }

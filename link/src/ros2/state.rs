@@ -133,8 +133,9 @@ pub fn tf_static(stamp_ns: u64) -> Vec<u8> {
     )
 }
 
-/// The transforms of `s`: the head in `odom` (measured with a head
-/// sensor, else predicted; dead-reckoned in the plane), and each joint's
+/// The transforms of `s`: the head in `odom` (the daemon's estimate with a
+/// head sensor: its x, y, depth and attitude; else the model's prediction
+/// integrated in the plane), and each joint's
 /// pitch and yaw as the URDF's joints.
 pub fn transforms(s: &StateSnapshot, head: Pose, g: &Geometry) -> Vec<Transform> {
     let mut out = vec![Transform {
@@ -171,7 +172,8 @@ pub fn transforms(s: &StateSnapshot, head: Pose, g: &Geometry) -> Vec<Transform>
 }
 
 /// Turns a stream of snapshots into the node's topics: keeps the head's
-/// track (`tf` dead-reckons it) and the body's geometry.
+/// track (the prediction `tf` falls back on without a head sensor) and the
+/// body's geometry.
 #[derive(Debug, Clone)]
 pub struct RosState {
     geometry: Geometry,

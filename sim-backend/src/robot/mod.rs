@@ -668,6 +668,13 @@ impl RunningSim {
         self.truth.lock().map(|g| g.clone()).unwrap_or_default()
     }
 
+    /// [`RunningSim::truth`] for another thread (a simulated sensor off
+    /// the bus).
+    pub fn truth_reader(&self) -> impl Fn() -> Truth + Send + 'static {
+        let t = self.truth.clone();
+        move || t.lock().map(|g| g.clone()).unwrap_or_default()
+    }
+
     /// Node states and counters at the last tick.
     pub fn status(&self) -> Status {
         self.status.lock().map(|g| *g).unwrap_or_default()

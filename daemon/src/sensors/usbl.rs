@@ -1,0 +1,528 @@
+//! A USBL, or any position sensor that is not on the CAN bus
+//! (`[sensor.usbl]`): its position-fix sentences
+//! ([`anguilla_protocol::position_fix`]) arrive over UDP or a serial line,
+//! are read by a thread of its own, and reach the control loop through a
+//! bounded lock-free channel ([`SLOT`] fixes): the period takes what is
+//! there and never waits. Each fix becomes an
+//! [`Observation::PositionFix`] stamped with its arrival less
+//! `latency`, moved by `offset` into the estimate's frame.
+//!
+//! Health: waiting before the first fix (silent once `timeout` has passed
+//! five times over); silent when the last fix is older than `timeout`;
+//! error when the newest sentence was malformed; ok otherwise. Malformed
+//! sentences and fixes the full channel had no room for are counted and
+//! shown (the sensor's values).
+//!
+//! With the built-in simulated robot, a `udp:` source is sent fixes by its
+//! simulated USBL (`anguilla_sim::usbl`, not a dependency of this
+//! crate: `anguilla run` starts it beside the robot).
+
+use std::io::{self, Read};
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use anguilla_ipc::{SensorEntry, SensorHealth, SensorKind};
+use anguilla_protocol::Frame;
+use anguilla_protocol::position_fix::{Fix, MAX_LEN, parse};
+use anguilla_protocol::time::Nanos;
+use crossbeam_channel::{Receiver, Sender, TrySendError};
+use serde::{Deserialize, Serialize};
+
+use super::Sensor;
+use super::observation::Observation;
+use crate::config::{ConfigError, fmt_f, range};
+use crate::nav::Prediction;
+
+/// Fixes the channel from the reader thread holds.
+pub const SLOT: usize = 4;
+/// How often the reader thread looks whether it should stop.
+const POLL: Duration = Duration::from_millis(200);
+
+/// `[sensor.usbl]`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct UsblConfig {
+    /// Where the sentences come from: `udp:ADDRESS:PORT` (bound; one
+    /// sentence a datagram) or `serial:PATH:BAUD` (one a line).
+    pub source: String,
+    /// From the measurement to the sentence's arrival (s), 0..=10.
+    pub latency: f64,
+    /// A sensor without a fix this long is silent (s), 0.1..=600.
+    pub timeout: f64,
+    /// Where the estimate's origin is in the sensor's frame (m): a fix
+    /// `(x, y)` is `(x − offset[0], y − offset[1])` to the estimate.
+    pub offset: [f64; 2],
+}
+
+impl Default for UsblConfig {
+    fn default() -> Self {
+        Self {
+            source: "udp:127.0.0.1:14660".into(),
+            latency: 0.3,
+            timeout: 5.0,
+            offset: [0.0, 0.0],
+        }
+    }
+}
+
+/// Where a USBL's sentences come from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Source {
+    /// A UDP socket bound to this address.
+    Udp(SocketAddr),
+    /// A serial port at a baud rate.
+    Serial(String, u32),
+}
+
+impl Source {
+    /// Reads `udp:ADDRESS:PORT` or `serial:PATH:BAUD`.
+    pub fn parse(text: &str) -> Result<Source, String> {
+        let expected = "expected \"udp:ADDRESS:PORT\" or \"serial:PATH:BAUD\"";
+        if let Some(addr) = text.strip_prefix("udp:") {
+            return addr
+                .parse()
+                .map(Source::Udp)
+                .map_err(|e| format!("\"{text}\": {e} ({expected})"));
+        }
+        if let Some((path, baud)) = text
+            .strip_prefix("serial:")
+            .and_then(|rest| rest.rsplit_once(':'))
+        {
+            return match baud.parse::<u32>() {
+                Ok(b) if b > 0 && !path.is_empty() => Ok(Source::Serial(path.into(), b)),
+                _ => Err(format!("\"{text}\": no path or baud rate ({expected})")),
+            };
+        }
+        Err(format!("\"{text}\" ({expected})"))
+    }
+}
+
+impl UsblConfig {
+    /// Checks every key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        Source::parse(&self.source)
+            .map_err(|e| ConfigError::Derived(format!("sensor.usbl.source = {e}")))?;
+        range("sensor.usbl.latency", self.latency, 0.0, 10.0, "0 ..= 10 s")?;
+        range(
+            "sensor.usbl.timeout",
+            self.timeout,
+            0.1,
+            600.0,
+            "0.1 ..= 600 s",
+        )?;
+        for v in self.offset {
+            range("sensor.usbl.offset", v, -1e6, 1e6, "finite metres")?;
+        }
+        Ok(())
+    }
+
+    /// The section in the commented default file (commented out: no USBL
+    /// by default).
+    pub fn write_default(&self, w: &mut dyn FnMut(String)) {
+        w("# A USBL or another position sensor off the bus (docs/autopilot.md,".into());
+        w("# \"Position\"): uncomment to use one. Its \"$ANFIX,x,y,sigma*HH\" sentences".into());
+        w(
+            "# come from \"udp:ADDRESS:PORT\" (bound) or \"serial:PATH:BAUD\"; latency (s) from"
+                .into(),
+        );
+        w("# measurement to arrival; silent after timeout (s); offset (m): the estimate's".into());
+        w(
+            "# origin in the sensor's frame. The built-in robot simulates one on a udp: source."
+                .into(),
+        );
+        w("# [sensor.usbl]".into());
+        w(format!("# source = \"{}\"", self.source));
+        w(format!("# latency = {}", fmt_f(self.latency)));
+        w(format!("# timeout = {}", fmt_f(self.timeout)));
+        w(format!(
+            "# offset = [{}, {}]",
+            fmt_f(self.offset[0]),
+            fmt_f(self.offset[1])
+        ));
+    }
+}
+
+/// What the reader thread counts, and its stop flag.
+#[derive(Debug, Default)]
+struct Shared {
+    malformed: AtomicU64,
+    dropped: AtomicU64,
+    stop: AtomicBool,
+}
+
+/// The USBL.
+pub struct Usbl {
+    rx: Receiver<Fix>,
+    shared: Arc<Shared>,
+    thread: Option<JoinHandle<()>>,
+    latency: Nanos,
+    timeout: Nanos,
+    offset: [f64; 2],
+    started: Nanos,
+    now: Nanos,
+    /// The last fix, as sent, and when it was measured.
+    last: Option<(Nanos, Fix)>,
+    received: u32,
+    malformed_at_fix: u64,
+    pending: Option<Observation>,
+    health: SensorHealth,
+}
+
+impl Usbl {
+    /// Opens `cfg`'s source and starts its reader thread.
+    pub fn open(cfg: &UsblConfig, now: Nanos) -> io::Result<Usbl> {
+        let source = Source::parse(&cfg.source)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        let (tx, rx) = crossbeam_channel::bounded(SLOT);
+        let shared = Arc::new(Shared::default());
+        let named = |e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", cfg.source));
+        let thread = match source {
+            Source::Udp(addr) => {
+                let sock = UdpSocket::bind(addr).map_err(named)?;
+                sock.set_read_timeout(Some(POLL)).map_err(named)?;
+                let sh = shared.clone();
+                std::thread::Builder::new()
+                    .name("anguilla-usbl".into())
+                    .spawn(move || read_udp(&sock, &tx, &sh))?
+            }
+            Source::Serial(path, baud) => {
+                let port = serialport::new(&path, baud)
+                    .timeout(POLL)
+                    .open()
+                    .map_err(|e| named(e.into()))?;
+                let sh = shared.clone();
+                std::thread::Builder::new()
+                    .name("anguilla-usbl".into())
+                    .spawn(move || read_lines(port, &tx, &sh))?
+            }
+        };
+        Ok(Usbl {
+            rx,
+            shared,
+            thread: Some(thread),
+            latency: Nanos::from_secs_f64(cfg.latency),
+            timeout: Nanos::from_secs_f64(cfg.timeout),
+            offset: cfg.offset,
+            started: now,
+            now,
+            last: None,
+            received: 0,
+            malformed_at_fix: 0,
+            pending: None,
+            health: SensorHealth::Waiting,
+        })
+    }
+
+    fn judge(&self) -> SensorHealth {
+        let malformed = self.shared.malformed.load(Ordering::Relaxed);
+        match self.last {
+            _ if malformed > self.malformed_at_fix => SensorHealth::Error,
+            None if self.now.saturating_sub(self.started) > self.timeout * 5 => {
+                SensorHealth::Silent
+            }
+            None => SensorHealth::Waiting,
+            Some((at, _)) if self.now.saturating_sub(at) > self.timeout + self.latency => {
+                SensorHealth::Silent
+            }
+            Some(_) => SensorHealth::Ok,
+        }
+    }
+}
+
+impl Drop for Usbl {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// One sentence: to the channel if it is a fix and there is room.
+fn deliver(bytes: &[u8], tx: &Sender<Fix>, shared: &Shared) {
+    match parse(bytes) {
+        Ok(fix) => match tx.try_send(fix) {
+            Ok(()) => {}
+            Err(TrySendError::Full(_)) => {
+                shared.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(TrySendError::Disconnected(_)) => shared.stop.store(true, Ordering::Relaxed),
+        },
+        Err(e) => {
+            let n = shared.malformed.fetch_add(1, Ordering::Relaxed);
+            if n.is_multiple_of(100) {
+                tracing::warn!("usbl: malformed sentence ({} so far): {e}", n + 1);
+            }
+        }
+    }
+}
+
+fn read_udp(sock: &UdpSocket, tx: &Sender<Fix>, shared: &Shared) {
+    let mut buf = [0u8; 2 * MAX_LEN];
+    while !shared.stop.load(Ordering::Relaxed) {
+        match sock.recv(&mut buf) {
+            // A datagram longer than the buffer arrives cut: too long.
+            Ok(n) if n == buf.len() => deliver(&buf, tx, shared),
+            Ok(n) => deliver(&buf[..n], tx, shared),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) => {}
+            // An ICMP error from an earlier send, an interrupted call.
+            Err(_) => std::thread::sleep(POLL / 4),
+        }
+    }
+}
+
+fn read_lines(mut port: impl Read, tx: &Sender<Fix>, shared: &Shared) {
+    let mut line = [0u8; MAX_LEN + 1];
+    let mut len = 0;
+    let mut buf = [0u8; 64];
+    while !shared.stop.load(Ordering::Relaxed) {
+        let n = match port.read(&mut buf) {
+            Ok(0) => return,
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue;
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(e) => {
+                tracing::warn!("usbl: the serial line failed: {e}");
+                return;
+            }
+        };
+        for &b in &buf[..n] {
+            if b == b'\n' {
+                deliver(&line[..len.min(line.len())], tx, shared);
+                len = 0;
+            } else if len < line.len() {
+                line[len] = b;
+                len += 1;
+            } else {
+                // Too long: counted at its end as one malformed sentence.
+                len = line.len();
+            }
+        }
+    }
+}
+
+impl Sensor for Usbl {
+    fn kind(&self) -> SensorKind {
+        SensorKind::Usbl
+    }
+
+    /// Off the bus: 0, which no frame carries to it.
+    fn id(&self) -> u8 {
+        0
+    }
+
+    fn ingest(&mut self, _now: Nanos, _frame: &Frame) -> bool {
+        false
+    }
+
+    fn step(&mut self, now: Nanos, _bus: Nanos, _dt: f64, _pred: &Prediction) {
+        self.now = now;
+        while let Ok(fix) = self.rx.try_recv() {
+            let at = now.saturating_sub(self.latency);
+            self.last = Some((at, fix));
+            self.received = self.received.saturating_add(1);
+            self.malformed_at_fix = self.shared.malformed.load(Ordering::Relaxed);
+            self.pending = Some(Observation::PositionFix {
+                at,
+                x: fix.x - self.offset[0],
+                y: fix.y - self.offset[1],
+                sigma: fix.sigma,
+            });
+        }
+        self.health = self.judge();
+    }
+
+    fn health(&self) -> SensorHealth {
+        self.health
+    }
+
+    fn observation(&mut self) -> Option<Observation> {
+        self.pending.take()
+    }
+
+    /// x, y and σ of the last fix as sent, its age (s), and the malformed
+    /// and dropped sentences ([`SensorKind::Usbl`]'s values).
+    fn fill(&self, entry: &mut SensorEntry) {
+        entry.samples = self.received;
+        let (age, fix) = match self.last {
+            Some((at, f)) => (self.now.saturating_sub(at).as_secs_f64(), f),
+            None => (
+                0.0,
+                Fix {
+                    x: 0.0,
+                    y: 0.0,
+                    sigma: 0.0,
+                },
+            ),
+        };
+        let v = [
+            fix.x,
+            fix.y,
+            fix.sigma,
+            age,
+            self.shared.malformed.load(Ordering::Relaxed) as f64,
+            self.shared.dropped.load(Ordering::Relaxed) as f64,
+        ];
+        for (slot, x) in entry.values.iter_mut().zip(v) {
+            *slot = x as f32;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Instant;
+
+    /// Steps `u` until `done` or 10 s of wall time (a busy machine).
+    fn step_until(u: &mut Usbl, now: &mut Nanos, done: impl Fn(&Usbl) -> bool) {
+        let t0 = Instant::now();
+        while !done(u) && t0.elapsed() < Duration::from_secs(10) {
+            *now += Nanos::from_millis(10);
+            u.step(*now, *now, 0.01, &Prediction::still());
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+
+    #[test]
+    fn sources_are_read_or_named() {
+        assert_eq!(
+            Source::parse("udp:127.0.0.1:5000"),
+            Ok(Source::Udp(SocketAddr::from(([127, 0, 0, 1], 5000))))
+        );
+        assert_eq!(
+            Source::parse("serial:/dev/ttyUSB0:115200"),
+            Ok(Source::Serial("/dev/ttyUSB0".into(), 115_200))
+        );
+        for bad in [
+            "udp:nowhere",
+            "serial:/dev/ttyUSB0",
+            "serial::9600",
+            "tcp:1.2.3.4:5",
+        ] {
+            let e = Source::parse(bad).expect_err(bad);
+            assert!(e.contains(bad) && e.contains("expected"), "{e}");
+        }
+        let mut cfg = UsblConfig {
+            source: "usb".into(),
+            ..UsblConfig::default()
+        };
+        let e = cfg.validate().expect_err("a bad source").to_string();
+        assert!(e.contains("sensor.usbl.source"), "{e}");
+        cfg.source = UsblConfig::default().source;
+        cfg.latency = -1.0;
+        let e = cfg.validate().expect_err("a bad latency").to_string();
+        assert!(e.contains("sensor.usbl.latency"), "{e}");
+    }
+
+    #[test]
+    fn fixes_over_udp_become_observations_and_garbage_is_counted() {
+        // Bind a port, then let the USBL have it.
+        let probe = UdpSocket::bind("127.0.0.1:0").expect("a port");
+        let addr = probe.local_addr().expect("its address");
+        drop(probe);
+        let cfg = UsblConfig {
+            source: format!("udp:{addr}"),
+            latency: 0.5,
+            offset: [1.0, 0.0],
+            ..UsblConfig::default()
+        };
+        let mut u = Usbl::open(&cfg, Nanos::ZERO).expect("bound");
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("a sender");
+        let mut now = Nanos::ZERO;
+        assert_eq!(u.health(), SensorHealth::Waiting);
+        tx.send_to(b"$ANFIX,1,2,3*00", addr).expect("sent");
+        step_until(&mut u, &mut now, |u| u.health() == SensorHealth::Error);
+        assert_eq!(u.health(), SensorHealth::Error, "a bad checksum");
+        let fix = Fix {
+            x: 3.0,
+            y: 4.0,
+            sigma: 0.5,
+        };
+        tx.send_to(fix.sentence().as_bytes(), addr).expect("sent");
+        step_until(&mut u, &mut now, |u| u.received == 1);
+        assert_eq!(u.health(), SensorHealth::Ok);
+        let obs = u.observation().expect("an observation");
+        let Observation::PositionFix { at, x, y, sigma } = obs;
+        assert_eq!((x, y, sigma), (2.0, 4.0, 0.5), "moved by the offset");
+        assert_eq!(at, now.saturating_sub(Nanos::from_millis(500)));
+        assert_eq!(u.observation(), None, "taken once");
+        let mut e = SensorEntry::default();
+        u.fill(&mut e);
+        assert_eq!((e.samples, e.values[0], e.values[4]), (1, 3.0, 1.0));
+        // Silent after the timeout (5 s) past the fix's time.
+        let t = now;
+        while now.saturating_sub(t) < Nanos::from_millis(6000) {
+            now += Nanos::from_millis(100);
+            u.step(now, now, 0.1, &Prediction::still());
+        }
+        assert_eq!(u.health(), SensorHealth::Silent);
+    }
+
+    #[test]
+    fn a_flood_never_blocks_the_period_and_is_counted() {
+        let probe = UdpSocket::bind("127.0.0.1:0").expect("a port");
+        let addr = probe.local_addr().expect("its address");
+        drop(probe);
+        let cfg = UsblConfig {
+            source: format!("udp:{addr}"),
+            ..UsblConfig::default()
+        };
+        let mut u = Usbl::open(&cfg, Nanos::ZERO).expect("bound");
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("a sender");
+        let line = Fix {
+            x: 1.0,
+            y: 1.0,
+            sigma: 1.0,
+        }
+        .sentence();
+        // No period takes them: the channel fills, the rest are dropped.
+        for _ in 0..200 {
+            let _ = tx.send_to(line.as_bytes(), addr);
+        }
+        let t0 = Instant::now();
+        while u.shared.dropped.load(Ordering::Relaxed) == 0
+            && t0.elapsed() < Duration::from_secs(10)
+        {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(u.shared.dropped.load(Ordering::Relaxed) > 0);
+        let now = Nanos::from_millis(10);
+        u.step(now, now, 0.01, &Prediction::still());
+        assert!(u.received as usize <= SLOT + 2, "{}", u.received);
+        assert!(u.observation().is_some());
+    }
+
+    #[test]
+    fn serial_lines_are_cut_and_read() {
+        let (tx, rx) = crossbeam_channel::bounded(SLOT);
+        let shared = Shared::default();
+        let good = Fix {
+            x: -1.0,
+            y: 2.5,
+            sigma: 0.2,
+        }
+        .sentence();
+        let mut bytes = good.clone().into_bytes();
+        bytes.extend([b'$'; 300]);
+        bytes.push(b'\n');
+        bytes.extend(good.as_bytes());
+        read_lines(&bytes[..], &tx, &shared);
+        assert_eq!(rx.try_iter().count(), 2);
+        assert_eq!(shared.malformed.load(Ordering::Relaxed), 1, "the long line");
+    }
+}

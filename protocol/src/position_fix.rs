@@ -1,0 +1,206 @@
+//! The position-fix sentence: how a position sensor that is not on the CAN
+//! bus (a USBL's topside unit, a motion-capture bridge) hands the daemon a
+//! fix, over UDP (one sentence a datagram) or a serial line (one a line).
+//!
+//! ```text
+//! $ANFIX,<x>,<y>,<sigma>*HH
+//! ```
+//!
+//! - `x`, `y`: where the robot's nose is (m), in the estimate's local
+//!   frame: x and y level, z up, the origin where the estimate started (a
+//!   sensor whose frame differs is moved by `[sensor.usbl] offset`);
+//! - `sigma`: the fix's horizontal standard deviation (m), > 0;
+//! - `HH`: the NMEA 0183 checksum, two hexadecimal digits: the XOR of the
+//!   bytes between `$` and `*`.
+//!
+//! A trailing `\r\n` (or `\n`) is allowed. The time of the fix is its
+//! arrival less the sensor's configured latency (`[sensor.usbl] latency`):
+//! a sensor states its delay once, not per sentence.
+//!
+//! ```
+//! use anguilla_protocol::position_fix::{Fix, parse};
+//! let f = Fix { x: 1.5, y: -2.25, sigma: 0.5 };
+//! let line = f.sentence();
+//! assert_eq!(line, "$ANFIX,1.5,-2.25,0.5*43\r\n");
+//! assert_eq!(parse(line.as_bytes()), Ok(f));
+//! ```
+
+use std::fmt;
+
+/// The sentence's start, up to its first field.
+pub const TALKER: &str = "$ANFIX";
+/// The longest sentence accepted (bytes, line end included).
+pub const MAX_LEN: usize = 96;
+
+/// One position fix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fix {
+    /// x (m), local frame.
+    pub x: f64,
+    /// y (m), local frame.
+    pub y: f64,
+    /// Horizontal standard deviation (m).
+    pub sigma: f64,
+}
+
+impl Fix {
+    /// The sentence, checksum and `\r\n` included.
+    pub fn sentence(&self) -> String {
+        let body = format!("ANFIX,{},{},{}", self.x, self.y, self.sigma);
+        format!("${body}*{:02X}\r\n", checksum(body.as_bytes()))
+    }
+}
+
+/// Why a sentence is not a fix.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FixError {
+    /// Longer than [`MAX_LEN`] bytes.
+    TooLong(usize),
+    /// Not `$ANFIX,`.
+    NotAFix,
+    /// No `*HH` checksum at the end.
+    NoChecksum,
+    /// The checksum does not match the sentence.
+    Checksum {
+        /// What the sentence says.
+        sent: u8,
+        /// What its bytes give.
+        computed: u8,
+    },
+    /// Not three fields.
+    Fields(usize),
+    /// A field that is not a finite number (or a sigma that is not > 0).
+    Field {
+        /// `x`, `y` or `sigma`.
+        name: &'static str,
+        /// The field as sent (lossy UTF-8, cut at 24 bytes).
+        text: String,
+    },
+}
+
+impl fmt::Display for FixError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FixError::TooLong(n) => write!(f, "sentence of {n} bytes (at most {MAX_LEN})"),
+            FixError::NotAFix => write!(f, "not a position fix (expected \"{TALKER},\")"),
+            FixError::NoChecksum => write!(f, "no checksum (expected \"*HH\" at the end)"),
+            FixError::Checksum { sent, computed } => write!(
+                f,
+                "checksum {sent:02X} does not match the sentence's {computed:02X}"
+            ),
+            FixError::Fields(n) => write!(f, "{n} fields (expected 3: x, y, sigma)"),
+            FixError::Field { name, text } => {
+                let what = if *name == "sigma" {
+                    "a number > 0"
+                } else {
+                    "a finite number"
+                };
+                write!(f, "{name} = \"{text}\" (expected {what})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for FixError {}
+
+/// The NMEA 0183 checksum of `bytes` (XOR of every byte).
+pub fn checksum(bytes: &[u8]) -> u8 {
+    bytes.iter().fold(0, |a, b| a ^ b)
+}
+
+/// Reads one sentence (one datagram, or one line of a serial stream).
+pub fn parse(line: &[u8]) -> Result<Fix, FixError> {
+    if line.len() > MAX_LEN {
+        return Err(FixError::TooLong(line.len()));
+    }
+    let line = line.strip_suffix(b"\n").unwrap_or(line);
+    let line = line.strip_suffix(b"\r").unwrap_or(line);
+    let Some(rest) = line.strip_prefix(TALKER.as_bytes()) else {
+        return Err(FixError::NotAFix);
+    };
+    if rest.first() != Some(&b',') {
+        return Err(FixError::NotAFix);
+    }
+    let star = line.len().checked_sub(3).filter(|&i| line[i] == b'*');
+    let Some(star) = star else {
+        return Err(FixError::NoChecksum);
+    };
+    let hex = std::str::from_utf8(&line[star + 1..]).ok();
+    let Some(sent) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) else {
+        return Err(FixError::NoChecksum);
+    };
+    let body = &line[1..star];
+    let computed = checksum(body);
+    if sent != computed {
+        return Err(FixError::Checksum { sent, computed });
+    }
+    let fields = &body[TALKER.len()..];
+    let n = fields.split(|&b| b == b',').count();
+    if n != 3 {
+        return Err(FixError::Fields(n));
+    }
+    let mut it = fields.split(|&b| b == b',');
+    let mut next = |name: &'static str| {
+        let raw = it.next().unwrap_or_default();
+        let v = std::str::from_utf8(raw)
+            .ok()
+            .and_then(|t| t.parse::<f64>().ok())
+            .filter(|v| v.is_finite() && (name != "sigma" || *v > 0.0));
+        v.ok_or_else(|| FixError::Field {
+            name,
+            text: String::from_utf8_lossy(&raw[..raw.len().min(24)]).into_owned(),
+        })
+    };
+    Ok(Fix {
+        x: next("x")?,
+        y: next("y")?,
+        sigma: next("sigma")?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn a_bad_sentence_is_named() {
+        let cases: [(&[u8], &str); 7] = [
+            (b"$GPGGA,1,2*00", "not a position fix"),
+            (b"$ANFIX,1,2,3", "no checksum"),
+            (b"$ANFIX,1,2,3*00", "checksum 00 does not match"),
+            (b"$ANFIX,1,2*", "no checksum"),
+            (b"$ANFIX,1,2*5B", "2 fields"),
+            (b"$ANFIX,1,nan,3*17", "y = \"nan\""),
+            (b"$ANFIX,1,2,0*47", "sigma = \"0\" (expected a number > 0)"),
+        ];
+        for (line, want) in cases {
+            let e = match parse(line) {
+                Err(e) => e.to_string(),
+                Ok(f) => panic!("{:?} read as {f:?}", String::from_utf8_lossy(line)),
+            };
+            let body = line.strip_prefix(b"$").unwrap_or(line);
+            let body = body.split(|&b| b == b'*').next().unwrap_or_default();
+            assert!(
+                e.contains(want),
+                "{:?} (checksum {:02X}): {e}",
+                String::from_utf8_lossy(line),
+                checksum(body)
+            );
+        }
+        assert!(matches!(parse(&[b'$'; 200]), Err(FixError::TooLong(200))));
+    }
+
+    proptest! {
+        #[test]
+        fn any_bytes_are_a_fix_or_an_error(bytes in proptest::collection::vec(any::<u8>(), 0..120)) {
+            let _ = parse(&bytes);
+        }
+
+        #[test]
+        fn a_fix_reads_back(x in -1e4..1e4f64, y in -1e4..1e4f64, sigma in 1e-3..1e3f64) {
+            let f = Fix { x, y, sigma };
+            prop_assert_eq!(parse(f.sentence().as_bytes()), Ok(f));
+        }
+    }
+}

@@ -1,0 +1,154 @@
+//! The estimate's position end to end: the built-in robot with a head
+//! sensor and a simulated USBL (`[sensor.usbl]` on a `udp:` source, fixes
+//! at 1 Hz with noise, latency and dropouts), the daemon taking its fixes
+//! into the estimate's x, y, and every viewer showing that one position:
+//! `ctl status --json` and `monitor --json` (`snapshot_json`), the
+//! recording and the Foxglove view (`McapLog`: `/anguilla/state` and
+//! `/tf`), and the ROS 2 node's `tf` (`transforms` of the head's pose).
+
+use std::time::Duration;
+
+use anguilla_daemon::config::Config;
+use anguilla_daemon::mcap_log::McapLog;
+use anguilla_daemon::sensors::usbl::UsblConfig;
+use anguilla_ipc::pose::HeadTrack;
+use anguilla_ipc::{Command, SensorHealth, SensorKind, StateSnapshot, SwimParams};
+use anguilla_system_tests::process::{connect, keep_alive_for, ok, wait_for};
+use anguilla_system_tests::{Robot, Watchdog};
+
+fn config(name: &str) -> Config {
+    let mut cfg = anguilla_system_tests::family_config(
+        anguilla_protocol::Family::Anguilla,
+        12,
+        "position",
+        name,
+    );
+    cfg.sensor.node = 20;
+    // A port of the machine's own, free now.
+    let probe = std::net::UdpSocket::bind("127.0.0.1:0").expect("a port");
+    let addr = probe.local_addr().expect("its address");
+    drop(probe);
+    cfg.sensor.usbl = Some(UsblConfig {
+        source: format!("udp:{addr}"),
+        latency: 0.3,
+        ..UsblConfig::default()
+    });
+    cfg.validate().expect("valid");
+    cfg
+}
+
+fn usbl(s: &StateSnapshot) -> Option<&anguilla_ipc::SensorEntry> {
+    s.sensors.iter().find(|e| e.kind == SensorKind::Usbl as u8)
+}
+
+/// x, y of every viewer of `s`: the status JSON, the recording's state
+/// and `/tf` (read back from an MCAP file written by the recorder's own
+/// writer), and the ROS 2 node's head transform.
+fn viewers(cfg: &Config, s: &StateSnapshot) -> Vec<(&'static str, f64, f64)> {
+    let v = anguilla_teleop::json::snapshot_json(s);
+    let num = |v: &serde_json::Value| v.as_f64().expect("a number");
+    let mut out = vec![
+        ("ctl status --json", num(&v["x_m"]), num(&v["y_m"])),
+        (
+            "ctl status --json nav",
+            num(&v["nav"]["x_m"]),
+            num(&v["nav"]["y_m"]),
+        ),
+    ];
+    let path = std::env::temp_dir().join(format!("anguilla-position-{}.mcap", std::process::id()));
+    let mut log = McapLog::create(&path, cfg).expect("an MCAP file");
+    log.write(s).expect("written");
+    log.finish().expect("finished");
+    let bytes = std::fs::read(&path).expect("read back");
+    let _ = std::fs::remove_file(&path);
+    for m in mcap::MessageStream::new(&bytes).expect("an MCAP stream") {
+        let m = m.expect("a message");
+        let json: serde_json::Value = serde_json::from_slice(&m.data).expect("JSON");
+        match m.channel.topic.as_str() {
+            "/anguilla/state" => out.push((
+                "recording /anguilla/state",
+                num(&json["nav"]["x_m"]),
+                num(&json["nav"]["y_m"]),
+            )),
+            "/tf" => {
+                let head = json["transforms"]
+                    .as_array()
+                    .expect("transforms")
+                    .iter()
+                    .find(|t| t["child_frame_id"] == "head")
+                    .expect("the head's transform");
+                out.push((
+                    "recording and Foxglove /tf",
+                    num(&head["translation"]["x"]),
+                    num(&head["translation"]["y"]),
+                ));
+            }
+            _ => {}
+        }
+    }
+    let (head, _) = HeadTrack::default().update(s);
+    let g = anguilla_link::ros2::state::Geometry {
+        segments: vec![(0.1, 0.05, 0.05); 13],
+        limits: [1.0; 3],
+    };
+    let tf = anguilla_link::ros2::state::transforms(s, head, &g);
+    let t = tf.iter().find(|t| t.child == "head").expect("head in odom");
+    out.push(("ROS 2 tf", t.pose.translation[0], t.pose.translation[1]));
+    out
+}
+
+#[test]
+fn usbl_fixes_hold_the_estimate_to_the_truth_and_every_viewer_shows_it() {
+    let _wd = Watchdog::new("usbl", Duration::from_secs(180));
+    let cfg = config("usbl");
+    let robot = Robot::start_with(cfg.clone()).expect("daemon, robot and USBL start");
+    let mut client = connect(&robot.prefix, "usbl");
+    let s = wait_for(&mut client, "the USBL's first fix", 15.0, |s| {
+        usbl(s).is_some_and(|e| e.health == SensorHealth::Ok as u8 && e.samples > 0)
+    });
+    let e = usbl(&s).expect("listed");
+    assert_eq!(e.id, 0, "off the bus");
+    anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
+    // Swim a wide turn: x and y both move.
+    ok(
+        &mut client,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn: 0.3,
+            pitch: 0.0,
+        }),
+    );
+    let fixes0 = s.nav.position_fixes;
+    let s = wait_for(&mut client, "eight fixes taken while swimming", 30.0, |s| {
+        s.nav.position_fixes >= fixes0 + 8
+    });
+    let truth = robot.truth().position;
+    let (x, y) = (f64::from(s.nav.x_m), f64::from(s.nav.y_m));
+    let err = (x - truth[0]).hypot(y - truth[1]);
+    let swum = truth[0].hypot(truth[1]);
+    let sigma = s.nav.position_sigma_m;
+    eprintln!(
+        "after {} fixes: estimate ({x:.2}, {y:.2}) m, truth ({:.2}, {:.2}) m, error {err:.2} m, \
+         sigma {sigma:.2} m, {swum:.2} m from the start",
+        s.nav.position_fixes, truth[0], truth[1]
+    );
+    assert!(swum > 0.5, "the robot swam {swum} m");
+    // The fixes bound the uncertainty (dead-reckoned it grows by at least
+    // 0.05 m/s: over 1 m in 20 s) and the error (fixes of σ 0.3 m).
+    assert!(sigma < 0.8, "sigma {sigma} m");
+    assert!(err < 1.0, "estimate {err} m from the truth");
+    // One position, whoever looks.
+    let seen = viewers(&cfg, &s);
+    assert_eq!(seen.len(), 5, "{seen:?}");
+    for (who, vx, vy) in &seen {
+        assert_eq!(
+            (*vx as f32, *vy as f32),
+            (s.nav.x_m, s.nav.y_m),
+            "{who} shows another position: {seen:?}"
+        );
+    }
+    ok(&mut client, Command::EStop);
+    keep_alive_for(&mut client, 0.2, |_| {});
+    robot.stop();
+}
