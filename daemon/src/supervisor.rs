@@ -438,31 +438,35 @@ impl Supervisor {
                 Mode::Swimming | Mode::Stopping => invalid("stop first, or e-stop"),
                 Mode::EStop => Ok(()),
             },
-            Command::Swim(p) => {
-                self.validate(&p)?;
-                match mode {
-                    Mode::Ready | Mode::Swimming | Mode::Stopping => {
-                        self.swim = p;
-                        if mode != Mode::Swimming {
-                            self.enter(Mode::Swimming, now, Cause::Command);
-                        }
-                        Ok(())
-                    }
-                    Mode::Idle | Mode::Enabling => invalid("enable and wait for ready"),
-                    Mode::Fault | Mode::EStop => invalid("reset first"),
+            Command::Swim(_) | Command::Hold(_) | Command::SwimHold(..) => {
+                // The gait and the hold are checked before either is taken:
+                // a held swim takes both or neither. A hold needs a healthy
+                // sensor (manual never does).
+                let (swim, hold) = cmd.swim_and_hold();
+                if let Some(p) = &swim {
+                    self.validate(p)?;
                 }
-            }
-            Command::Hold(h) => {
-                let h = self.validate_hold(&h)?;
+                let hold = match hold {
+                    Some(h) => Some(self.validate_hold(&h)?),
+                    None => None,
+                };
                 match mode {
-                    // Holding needs a healthy sensor; manual never does.
                     Mode::Ready | Mode::Swimming | Mode::Stopping
-                        if h.is_active() && self.sensor != SensorHealth::Ok =>
+                        if hold.is_some_and(|h| h.is_active())
+                            && self.sensor != SensorHealth::Ok =>
                     {
                         Err(Refusal::Sensor(self.sensor))
                     }
                     Mode::Ready | Mode::Swimming | Mode::Stopping => {
-                        self.hold = h;
+                        if let Some(h) = hold {
+                            self.hold = h;
+                        }
+                        if let Some(p) = swim {
+                            self.swim = p;
+                            if mode != Mode::Swimming {
+                                self.enter(Mode::Swimming, now, Cause::Command);
+                            }
+                        }
                         Ok(())
                     }
                     Mode::Idle | Mode::Enabling => invalid("enable and wait for ready"),
@@ -785,6 +789,51 @@ mod tests {
         assert!(!s.hold().is_active());
         assert_eq!(s.mode(), Mode::Stopping);
         assert_eq!(s.cause(), Cause::SensorLost);
+    }
+
+    /// Issue 47: a held swim is one request, taken whole or refused whole,
+    /// from Ready: never a manual swim first, never a hold without its swim.
+    #[test]
+    fn a_held_swim_takes_its_gait_and_its_hold_or_neither() {
+        let ready = || {
+            let mut s = Supervisor::new(SupervisorConfig::default());
+            s.command(Nanos::ZERO, A, 1, Command::TakeControl).unwrap();
+            s.command(MS, A, 2, Command::Enable).unwrap();
+            s.tick(2 * MS, &ok_obs());
+            assert_eq!(s.mode(), Mode::Ready);
+            s
+        };
+        let Command::Swim(p) = swim() else {
+            unreachable!("swim() is a swim")
+        };
+        let held = Hold {
+            heading: Some(60.0),
+            depth: None,
+        };
+        // No healthy sensor: neither the swim nor the hold.
+        let mut s = ready();
+        s.observe_sensor(3 * MS, SensorHealth::Silent);
+        assert_eq!(
+            s.command(3 * MS, A, 3, Command::SwimHold(p, held)),
+            Err(Refusal::Sensor(SensorHealth::Silent))
+        );
+        assert_eq!((s.mode(), s.hold().is_active()), (Mode::Ready, false));
+        // A bad gait: neither either, whatever the sensor.
+        let mut s = ready();
+        s.observe_sensor(3 * MS, SensorHealth::Ok);
+        let bad = SwimParams {
+            frequency: f64::NAN,
+            ..p
+        };
+        assert!(
+            s.command(3 * MS, A, 3, Command::SwimHold(bad, held))
+                .is_err()
+        );
+        assert_eq!((s.mode(), s.hold().is_active()), (Mode::Ready, false));
+        // Both, in the one request.
+        s.command(4 * MS, A, 4, Command::SwimHold(p, held)).unwrap();
+        assert_eq!(s.mode(), Mode::Swimming);
+        assert_eq!(s.hold(), held);
     }
 
     #[test]

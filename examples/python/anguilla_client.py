@@ -20,8 +20,8 @@ except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
 LAYOUT_VERSION = 10
-ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD = range(
-    1, 11)
+(ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD,
+ SWIM_HOLD) = range(1, 12)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
 IDLE, ENABLING, READY, SWIMMING, STOPPING, FAULT, E_STOP = range(7)
 MODES = ["idle", "enabling", "ready", "swimming", "stopping", "fault", "e-stop"]
@@ -112,9 +112,15 @@ class HoldBody(_Payload):
     _fields_ = [("hold", u32), ("heading", f32), ("depth", f32)]
 
 
+class SwimHoldBody(_Payload):
+    _fields_ = [("amplitude", f32), ("frequency", f32), ("turn", f32), ("pitch", f32),
+                ("hold", u32), ("heading", f32), ("depth", f32)]
+
+
 class CommandBody(ctypes.Union):
     """`CommandRequest.body`: the parameters of the request's code."""
-    _fields_ = [("swim", SwimBody), ("hold", HoldBody), ("words", u32 * 7)]
+    _fields_ = [("swim", SwimBody), ("hold", HoldBody), ("swim_hold", SwimHoldBody),
+                ("words", u32 * 7)]
 
 
 class CommandRequest(_Payload):
@@ -131,7 +137,7 @@ class CommandReply(_Payload):
 
 for _t, _size in ((JointSnapshot, 64), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
                   (LimitsSnapshot, 24), (NavSnapshot, 80), (SensorEntry, 40), (StateSnapshot, 2552),
-                  (SwimBody, 16), (HoldBody, 12), (CommandRequest, 40),
+                  (SwimBody, 16), (HoldBody, 12), (SwimHoldBody, 28), (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))
 

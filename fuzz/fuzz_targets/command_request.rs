@@ -7,13 +7,37 @@
 #![no_main]
 
 use anguilla_ipc::{
-    Command, CommandReply, CommandRequest, HoldBody, LAYOUT_VERSION, Raw as _, SwimBody, hold_bits,
+    Command, CommandReply, CommandRequest, Hold, HoldBody, LAYOUT_VERSION, Raw as _, SwimBody,
+    SwimHoldBody, SwimParams, hold_bits,
 };
 use libfuzzer_sys::fuzz_target;
 
 /// Equal, or both NaN (an f32 NaN's payload need not survive f64 and back).
 fn same(a: f64, b: f64) -> bool {
     a == b || (a.is_nan() && b.is_nan())
+}
+
+/// The swim `p` read from `b` and sent again as `q`.
+fn same_swim(p: &SwimParams, b: &SwimBody, q: &SwimParams) {
+    assert!(same(p.amplitude, f64::from(b.amplitude)));
+    assert!(same(p.frequency, f64::from(b.frequency)));
+    assert!(same(p.turn, f64::from(b.turn)));
+    assert!(same(p.pitch, f64::from(b.pitch)));
+    assert!(same(p.amplitude, q.amplitude) && same(p.frequency, q.frequency));
+    assert!(same(p.turn, q.turn) && same(p.pitch, q.pitch));
+}
+
+/// The hold `h` read from `b` and sent again as `g`.
+fn same_hold(h: &Hold, b: &HoldBody, g: &Hold) {
+    assert!(b.hold <= u32::from(hold_bits::HEADING | hold_bits::DEPTH));
+    assert_eq!(u32::from(h.bits()), b.hold);
+    assert_eq!(h.bits(), g.bits());
+    let opt = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => same(a, b),
+        (None, None) => true,
+        _ => false,
+    };
+    assert!(opt(h.heading, g.heading) && opt(h.depth, g.depth));
 }
 
 fuzz_target!(|input: &[u8]| {
@@ -30,26 +54,23 @@ fuzz_target!(|input: &[u8]| {
             assert_eq!(again.code, req.code);
             let back = again.command().expect("a tool's own request reads");
             match (cmd, back) {
-                (Command::Swim(p), Command::Swim(q)) => {
-                    let b: SwimBody = req.body_as();
-                    assert!(same(p.amplitude, f64::from(b.amplitude)));
-                    assert!(same(p.frequency, f64::from(b.frequency)));
-                    assert!(same(p.turn, f64::from(b.turn)));
-                    assert!(same(p.pitch, f64::from(b.pitch)));
-                    assert!(same(p.amplitude, q.amplitude) && same(p.frequency, q.frequency));
-                    assert!(same(p.turn, q.turn) && same(p.pitch, q.pitch));
-                }
-                (Command::Hold(h), Command::Hold(g)) => {
-                    let b: HoldBody = req.body_as();
-                    assert!(b.hold <= u32::from(hold_bits::HEADING | hold_bits::DEPTH));
-                    assert_eq!(u32::from(h.bits()), b.hold);
-                    assert_eq!(h.bits(), g.bits());
-                    let opt = |a: Option<f64>, b: Option<f64>| match (a, b) {
-                        (Some(a), Some(b)) => same(a, b),
-                        (None, None) => true,
-                        _ => false,
+                (Command::Swim(p), Command::Swim(q)) => same_swim(&p, &req.body_as(), &q),
+                (Command::Hold(h), Command::Hold(g)) => same_hold(&h, &req.body_as(), &g),
+                (Command::SwimHold(p, h), Command::SwimHold(q, g)) => {
+                    let b: SwimHoldBody = req.body_as();
+                    let swim = SwimBody {
+                        amplitude: b.amplitude,
+                        frequency: b.frequency,
+                        turn: b.turn,
+                        pitch: b.pitch,
                     };
-                    assert!(opt(h.heading, g.heading) && opt(h.depth, g.depth));
+                    let hold = HoldBody {
+                        hold: b.hold,
+                        heading: b.heading,
+                        depth: b.depth,
+                    };
+                    same_swim(&p, &swim, &q);
+                    same_hold(&h, &hold, &g);
                 }
                 (c, b) => assert_eq!(c, b),
             }

@@ -10,21 +10,20 @@ use anguilla_teleop::json::command_from_json;
 use libfuzzer_sys::fuzz_target;
 use serde_json::{Value, json};
 
-/// The command as a client would write it (scripts/foxglove_commands.py).
+/// The command as a client would write it (scripts/foxglove_commands.py):
+/// its gait and its hold, if it has them.
 fn to_json(cmd: Command) -> Value {
     let mut v = json!({ "command": cmd.name() });
-    match cmd {
-        Command::Swim(p) => {
-            v["amplitude"] = json!(p.amplitude);
-            v["frequency"] = json!(p.frequency);
-            v["turn"] = json!(p.turn);
-            v["pitch"] = json!(p.pitch);
-        }
-        Command::Hold(h) => {
-            v["heading"] = json!(h.heading);
-            v["depth"] = json!(h.depth);
-        }
-        _ => {}
+    let (swim, hold) = cmd.swim_and_hold();
+    if let Some(p) = swim {
+        v["amplitude"] = json!(p.amplitude);
+        v["frequency"] = json!(p.frequency);
+        v["turn"] = json!(p.turn);
+        v["pitch"] = json!(p.pitch);
+    }
+    if let Some(h) = hold {
+        v["heading"] = json!(h.heading);
+        v["depth"] = json!(h.depth);
     }
     v
 }
@@ -39,21 +38,19 @@ fuzz_target!(|input: &[u8]| {
     };
     let v: Value = serde_json::from_slice(input).expect("a command is JSON");
     assert_eq!(v["command"].as_str(), Some(cmd.name()));
-    match cmd {
-        Command::Swim(p) => {
-            for x in [p.amplitude, p.frequency, p.turn, p.pitch] {
-                assert!(x.is_finite(), "{x}");
-            }
+    let (swim, hold) = cmd.swim_and_hold();
+    if let Some(p) = swim {
+        for x in [p.amplitude, p.frequency, p.turn, p.pitch] {
+            assert!(x.is_finite(), "{x}");
         }
-        Command::Hold(h) => {
-            if let Some(d) = h.heading {
-                assert!((0.0..360.0).contains(&d), "heading {d}");
-            }
-            if let Some(d) = h.depth {
-                assert!(d.is_finite(), "depth {d}");
-            }
+    }
+    if let Some(h) = hold {
+        if let Some(d) = h.heading {
+            assert!((0.0..360.0).contains(&d), "heading {d}");
         }
-        _ => {}
+        if let Some(d) = h.depth {
+            assert!(d.is_finite(), "depth {d}");
+        }
     }
     let text = to_json(cmd).to_string();
     assert_eq!(command_from_json(text.as_bytes()), Ok(cmd), "{text}");

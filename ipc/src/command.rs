@@ -35,6 +35,9 @@ pub mod code {
     pub const KEEP_ALIVE: u32 = CommandKind::KeepAlive.code();
     /// Set the autopilot's holds from the request's [`HoldBody`](super::HoldBody).
     pub const HOLD: u32 = CommandKind::Hold.code();
+    /// Swim with the gait and the holds of the request's
+    /// [`SwimHoldBody`](super::SwimHoldBody), in one request.
+    pub const SWIM_HOLD: u32 = CommandKind::SwimHold.code();
 }
 
 /// 32-bit words in a [`CommandRequest`]'s body: the most parameters one
@@ -55,7 +58,8 @@ pub struct CommandRequest {
     /// older number is refused as a duplicate, except for an E-stop).
     pub sequence: u32,
     /// The command's parameters, laid out by `code`: [`SwimBody`] for
-    /// SWIM, [`HoldBody`] for HOLD, zero for the others (ignored). A float
+    /// SWIM, [`HoldBody`] for HOLD, [`SwimHoldBody`] for SWIM-HOLD, zero for
+    /// the others (ignored). A float
     /// is its IEEE 754 bits; words past a body's size are zero.
     pub body: [u32; BODY_WORDS],
 }
@@ -136,26 +140,129 @@ impl Body for HoldBody {
     }
 }
 
+/// SWIM-HOLD's body: the gait ([`SwimBody`]'s fields) and what the
+/// autopilot holds ([`HoldBody`]'s), one after the other.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct SwimHoldBody {
+    /// Swim amplitude, fraction of the maximum (0..=1).
+    pub amplitude: f32,
+    /// Swim frequency (Hz).
+    pub frequency: f32,
+    /// Yaw turn curvature (1/m); the autopilot's while a heading is held.
+    pub turn: f32,
+    /// Pitch curvature (1/m); the autopilot's while a depth is held.
+    pub pitch: f32,
+    /// What to hold: bit 0 heading, bit 1 depth ([`hold_bits`]); 0 manual.
+    pub hold: u32,
+    /// Heading to hold (deg), with bit 0.
+    pub heading: f32,
+    /// Depth to hold (m below the surface), with bit 1.
+    pub depth: f32,
+}
+
+impl Body for SwimHoldBody {
+    const KIND: CommandKind = CommandKind::SwimHold;
+    fn to_words(&self) -> [u32; BODY_WORDS] {
+        let swim = SwimBody {
+            amplitude: self.amplitude,
+            frequency: self.frequency,
+            turn: self.turn,
+            pitch: self.pitch,
+        }
+        .to_words();
+        let hold = HoldBody {
+            hold: self.hold,
+            heading: self.heading,
+            depth: self.depth,
+        }
+        .to_words();
+        let mut w = swim;
+        w[4..].copy_from_slice(&hold[..3]);
+        w
+    }
+    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
+        let s = SwimBody::from_words(w);
+        let mut rest = [0; BODY_WORDS];
+        rest[..3].copy_from_slice(&w[4..]);
+        let h = HoldBody::from_words(&rest);
+        Self {
+            amplitude: s.amplitude,
+            frequency: s.frequency,
+            turn: s.turn,
+            pitch: s.pitch,
+            hold: h.hold,
+            heading: h.heading,
+            depth: h.depth,
+        }
+    }
+}
+
+impl SwimBody {
+    fn of(p: &SwimParams) -> Self {
+        Self {
+            amplitude: p.amplitude as f32,
+            frequency: p.frequency as f32,
+            turn: p.turn as f32,
+            pitch: p.pitch as f32,
+        }
+    }
+
+    fn params(&self) -> SwimParams {
+        SwimParams {
+            amplitude: self.amplitude as f64,
+            frequency: self.frequency as f64,
+            turn: self.turn as f64,
+            pitch: self.pitch as f64,
+        }
+    }
+}
+
+impl HoldBody {
+    fn of(h: &Hold) -> Self {
+        Self {
+            hold: u32::from(h.bits()),
+            heading: h.heading.unwrap_or(0.0) as f32,
+            depth: h.depth.unwrap_or(0.0) as f32,
+        }
+    }
+
+    /// The hold, or why its bits are not one.
+    fn read(&self) -> Result<Hold, RequestError> {
+        if self.hold & !u32::from(hold_bits::HEADING | hold_bits::DEPTH) != 0 {
+            return Err(RequestError::HoldBits(self.hold));
+        }
+        let on = |bit: u8, v: f32| (self.hold & u32::from(bit) != 0).then_some(v as f64);
+        Ok(Hold {
+            heading: on(hold_bits::HEADING, self.heading),
+            depth: on(hold_bits::DEPTH, self.depth),
+        })
+    }
+}
+
 const _: () = assert!(size_of::<SwimBody>() <= 4 * BODY_WORDS);
+const _: () = assert!(size_of::<SwimHoldBody>() <= 4 * BODY_WORDS);
 const _: () = assert!(size_of::<HoldBody>() <= 4 * BODY_WORDS);
 
 impl CommandRequest {
     /// A request for `cmd` with sequence number `sequence`.
     pub fn new(cmd: Command, sequence: u32) -> Self {
         let body = match cmd {
-            Command::Swim(p) => SwimBody {
-                amplitude: p.amplitude as f32,
-                frequency: p.frequency as f32,
-                turn: p.turn as f32,
-                pitch: p.pitch as f32,
+            Command::Swim(p) => SwimBody::of(&p).to_words(),
+            Command::Hold(h) => HoldBody::of(&h).to_words(),
+            Command::SwimHold(p, h) => {
+                let (s, h) = (SwimBody::of(&p), HoldBody::of(&h));
+                SwimHoldBody {
+                    amplitude: s.amplitude,
+                    frequency: s.frequency,
+                    turn: s.turn,
+                    pitch: s.pitch,
+                    hold: h.hold,
+                    heading: h.heading,
+                    depth: h.depth,
+                }
+                .to_words()
             }
-            .to_words(),
-            Command::Hold(h) => HoldBody {
-                hold: u32::from(h.bits()),
-                heading: h.heading.unwrap_or(0.0) as f32,
-                depth: h.depth.unwrap_or(0.0) as f32,
-            }
-            .to_words(),
             // No parameters: an empty body. Every command is named here, so
             // a new one with parameters is not sent without them.
             Command::Enable
@@ -198,10 +305,12 @@ impl CommandRequest {
         match CommandKind::from_code(old.code) {
             Some(CommandKind::Swim) => body[..4].copy_from_slice(&words[3..7]),
             Some(CommandKind::Hold) => body[..3].copy_from_slice(&words[7..10]),
-            // Layout 5's other requests carried no parameters; an unknown
-            // code is refused when read, as it was then.
+            // Layout 5's other requests carried no parameters (SWIM-HOLD
+            // came with layout 10); an unknown code is refused when read,
+            // as it was then.
             Some(
-                CommandKind::Enable
+                CommandKind::SwimHold
+                | CommandKind::Enable
                 | CommandKind::Disable
                 | CommandKind::Stop
                 | CommandKind::EStop
@@ -244,31 +353,28 @@ impl CommandRequest {
         Ok(match kind {
             CommandKind::Enable => Command::Enable,
             CommandKind::Disable => Command::Disable,
-            CommandKind::Swim => {
-                let b: SwimBody = self.body_as();
-                Command::Swim(SwimParams {
-                    amplitude: b.amplitude as f64,
-                    frequency: b.frequency as f64,
-                    turn: b.turn as f64,
-                    pitch: b.pitch as f64,
-                })
-            }
+            CommandKind::Swim => Command::Swim(self.body_as::<SwimBody>().params()),
             CommandKind::Stop => Command::Stop,
             CommandKind::EStop => Command::EStop,
             CommandKind::Reset => Command::Reset,
             CommandKind::TakeControl => Command::TakeControl,
             CommandKind::ReleaseControl => Command::ReleaseControl,
             CommandKind::KeepAlive => Command::KeepAlive,
-            CommandKind::Hold => {
-                let b: HoldBody = self.body_as();
-                if b.hold & !u32::from(hold_bits::HEADING | hold_bits::DEPTH) != 0 {
-                    return Err(RequestError::HoldBits(b.hold));
-                }
-                let on = |bit: u8, v: f32| (b.hold & u32::from(bit) != 0).then_some(v as f64);
-                Command::Hold(Hold {
-                    heading: on(hold_bits::HEADING, b.heading),
-                    depth: on(hold_bits::DEPTH, b.depth),
-                })
+            CommandKind::Hold => Command::Hold(self.body_as::<HoldBody>().read()?),
+            CommandKind::SwimHold => {
+                let b: SwimHoldBody = self.body_as();
+                let swim = SwimBody {
+                    amplitude: b.amplitude,
+                    frequency: b.frequency,
+                    turn: b.turn,
+                    pitch: b.pitch,
+                };
+                let hold = HoldBody {
+                    hold: b.hold,
+                    heading: b.heading,
+                    depth: b.depth,
+                };
+                Command::SwimHold(swim.params(), hold.read()?)
             }
         })
     }
@@ -283,7 +389,8 @@ pub enum RequestError {
     /// The command code is not one of [`code`].
     #[error("unknown command code {0} (expected 1..={n})", n = CommandKind::ALL.len())]
     UnknownCode(u32),
-    /// A HOLD request's `hold` has bits beyond heading (1) and depth (2).
+    /// A HOLD or SWIM-HOLD request's `hold` has bits beyond heading (1)
+    /// and depth (2).
     #[error("hold bits {0:#x} unknown (expected 0..=3: 1 heading, 2 depth)")]
     HoldBits(u32),
 }

@@ -2,7 +2,7 @@
 
 use core::fmt::Write as _;
 
-use crate::command::{CommandReply, CommandRequest, HoldBody, SwimBody};
+use crate::command::{CommandReply, CommandRequest, HoldBody, SwimBody, SwimHoldBody};
 use crate::payload::*;
 
 /// One row of the documented payload layout.
@@ -99,6 +99,10 @@ pub fn layout_table() -> Vec<LayoutRow> {
         amplitude: "float", frequency: "float", turn: "float", pitch: "float",
     ]));
     v.extend(rows!(HoldBody, "HoldBody", [hold: "uint32_t", heading: "float", depth: "float"]));
+    v.extend(rows!(SwimHoldBody, "SwimHoldBody", [
+        amplitude: "float", frequency: "float", turn: "float", pitch: "float",
+        hold: "uint32_t", heading: "float", depth: "float",
+    ]));
     v.extend(rows!(CommandReply, "CommandReply", [
         sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
         reason_len: "uint16_t", reason: "char[120]",
@@ -107,7 +111,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
 }
 
 /// Every payload type documented, with its size in bytes.
-pub fn payload_sizes() -> [(&'static str, usize); 12] {
+pub fn payload_sizes() -> [(&'static str, usize); 13] {
     [
         ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
         ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
@@ -120,6 +124,7 @@ pub fn payload_sizes() -> [(&'static str, usize); 12] {
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
         ("SwimBody", core::mem::size_of::<SwimBody>()),
         ("HoldBody", core::mem::size_of::<HoldBody>()),
+        ("SwimHoldBody", core::mem::size_of::<SwimHoldBody>()),
         ("CommandReply", core::mem::size_of::<CommandReply>()),
     ]
 }
@@ -136,6 +141,7 @@ fn body_type(kind: crate::vocabulary::CommandKind) -> Option<&'static str> {
     match kind {
         K::Swim => named(SwimBody::KIND, "SwimBody"),
         K::Hold => named(HoldBody::KIND, "HoldBody"),
+        K::SwimHold => named(SwimHoldBody::KIND, "SwimHoldBody"),
         K::Enable
         | K::Disable
         | K::Stop
@@ -241,7 +247,8 @@ pub fn codes_markdown() -> String {
             | CommandKind::Reset
             | CommandKind::ReleaseControl
             | CommandKind::KeepAlive
-            | CommandKind::Hold => "yes",
+            | CommandKind::Hold
+            | CommandKind::SwimHold => "yes",
         };
         let _ = writeln!(out, "| {} | {} | {body} | {control} |", k.code(), k.name());
     }

@@ -14,11 +14,23 @@ fn requests_roundtrip_and_bad_ones_are_named() {
     };
     let r = CommandRequest::new(Command::Swim(p), 3);
     assert_eq!(r.command(), Ok(Command::Swim(p)));
+    let h = Hold {
+        heading: Some(60.0),
+        depth: Some(1.5),
+    };
+    let held = CommandRequest::new(Command::SwimHold(p, h), 4);
+    assert_eq!(held.command(), Ok(Command::SwimHold(p, h)));
+    let mut forged = held;
+    forged.body[4] = 8;
+    assert_eq!(
+        forged.command().unwrap_err().to_string(),
+        "hold bits 0x8 unknown (expected 0..=3: 1 heading, 2 depth)"
+    );
     let mut bad = r;
     bad.code = 42;
     assert_eq!(
         bad.command().unwrap_err().to_string(),
-        "unknown command code 42 (expected 1..=10)"
+        "unknown command code 42 (expected 1..=11)"
     );
     bad = r;
     bad.layout_version = 99;

@@ -463,10 +463,13 @@ impl Ctl {
         interrupted: &dyn Fn() -> bool,
     ) -> Result<(), CtlError> {
         let start = Instant::now();
-        if hold.is_active() {
-            self.request(Command::Hold(hold))?;
-        }
-        self.request(Command::Swim(p))?;
+        // One request: the daemon takes the gait and the hold together or
+        // neither, so a held swim never starts manual.
+        self.request(if hold.is_active() {
+            Command::SwimHold(p, hold)
+        } else {
+            Command::Swim(p)
+        })?;
         self.wait_mode("swim", |m| m == Mode::Swimming)?;
         let mut last_send = Instant::now();
         loop {
@@ -736,11 +739,11 @@ mod tests {
         (ctl, sent)
     }
 
-    /// `ctl swim --heading`: the hold goes before the swim, so the robot
-    /// never swims unheld between them (issue 47: two requests with a
-    /// manual swim between them).
+    /// `ctl swim --heading`: the hold and the swim are one request (issue
+    /// 47: two requests had a manual swim between them), which the daemon
+    /// takes whole or refuses whole.
     #[test]
-    fn a_held_swim_sends_its_hold_before_it_swims() {
+    fn a_held_swim_is_one_request() {
         use Mode::*;
         let (mut c, sent) = lagging_recorded(&[
             Ready, Ready, Ready, Swimming, Swimming, Swimming, Swimming, Ready, Ready, Ready, Ready,
@@ -760,11 +763,9 @@ mod tests {
         let _ = c.swim_holding(p, hold, Some(Duration::ZERO), &|| false);
         let kinds = sent.lock().unwrap().clone();
         use anguilla_ipc::CommandKind as K;
-        let at = |k: K| kinds.iter().position(|x| *x == k);
-        assert!(
-            at(K::Hold).is_some() && at(K::Hold) < at(K::Swim),
-            "{kinds:?}"
-        );
+        let first = kinds.iter().find(|k| !matches!(k, K::TakeControl));
+        assert_eq!(first, Some(&K::SwimHold), "{kinds:?}");
+        assert!(!kinds.contains(&K::Hold), "{kinds:?}");
     }
 
     /// Seen in CI through the link: `ctl reset` after `ctl estop` was

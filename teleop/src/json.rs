@@ -352,17 +352,24 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             names.join(", ")
         ));
     };
-    match kind {
-        CommandKind::Swim => Ok(Command::Swim(SwimParams {
+    let swim = || -> Result<SwimParams, String> {
+        Ok(SwimParams {
             amplitude: num("amplitude", true)?.unwrap_or_default(),
             frequency: num("frequency", true)?.unwrap_or_default(),
             turn: num("turn", false)?.unwrap_or(0.0),
             pitch: num("pitch", false)?.unwrap_or(0.0),
-        })),
-        CommandKind::Hold => Ok(Command::Hold(Hold {
+        })
+    };
+    let hold = || -> Result<Hold, String> {
+        Ok(Hold {
             heading: num("heading", false)?.map(crate::hold::wrap_heading),
             depth: num("depth", false)?,
-        })),
+        })
+    };
+    match kind {
+        CommandKind::Swim => Ok(Command::Swim(swim()?)),
+        CommandKind::Hold => Ok(Command::Hold(hold()?)),
+        CommandKind::SwimHold => Ok(Command::SwimHold(swim()?, hold()?)),
         CommandKind::Enable
         | CommandKind::Disable
         | CommandKind::Stop

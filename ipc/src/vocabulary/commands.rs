@@ -31,11 +31,13 @@ pub enum CommandKind {
     KeepAlive = 9,
     /// [`Command::Hold`].
     Hold = 10,
+    /// [`Command::SwimHold`].
+    SwimHold = 11,
 }
 
 impl CommandKind {
     /// Every kind, in the order of their codes (1, 2, ...).
-    pub const ALL: [CommandKind; 10] = [
+    pub const ALL: [CommandKind; 11] = [
         CommandKind::Enable,
         CommandKind::Disable,
         CommandKind::Swim,
@@ -46,6 +48,7 @@ impl CommandKind {
         CommandKind::ReleaseControl,
         CommandKind::KeepAlive,
         CommandKind::Hold,
+        CommandKind::SwimHold,
     ];
 
     /// Its request code.
@@ -75,6 +78,7 @@ impl CommandKind {
             CommandKind::ReleaseControl => "release-control",
             CommandKind::KeepAlive => "keep-alive",
             CommandKind::Hold => "hold",
+            CommandKind::SwimHold => "swim-hold",
         }
     }
 
@@ -95,7 +99,7 @@ impl CommandKind {
             CommandKind::TakeControl => Some(Command::TakeControl),
             CommandKind::ReleaseControl => Some(Command::ReleaseControl),
             CommandKind::KeepAlive => Some(Command::KeepAlive),
-            CommandKind::Swim | CommandKind::Hold => None,
+            CommandKind::Swim | CommandKind::Hold | CommandKind::SwimHold => None,
         }
     }
 }
@@ -130,12 +134,17 @@ pub enum Command {
     /// Set what the autopilot holds while swimming: a heading, a depth,
     /// both, or neither (manual). Needs a healthy head sensor.
     Hold(Hold),
+    /// Swim (or change the gait) with what the autopilot holds, in one
+    /// request: both are taken or neither is, so a held swim never starts
+    /// manual (`ctl swim --heading`). An active hold needs a healthy head
+    /// sensor, as [`Command::Hold`].
+    SwimHold(SwimParams, Hold),
 }
 
 impl Command {
     /// Every command, once each (in the order of their request codes),
     /// those with parameters at rest: the table of their names.
-    pub const ALL: [Command; 10] = [
+    pub const ALL: [Command; 11] = [
         Command::Enable,
         Command::Disable,
         Command::Swim(SwimParams::REST),
@@ -146,6 +155,7 @@ impl Command {
         Command::ReleaseControl,
         Command::KeepAlive,
         Command::Hold(Hold::MANUAL),
+        Command::SwimHold(SwimParams::REST, Hold::MANUAL),
     ];
 
     /// What it is, without its parameters.
@@ -161,6 +171,25 @@ impl Command {
             Command::ReleaseControl => CommandKind::ReleaseControl,
             Command::KeepAlive => CommandKind::KeepAlive,
             Command::Hold(_) => CommandKind::Hold,
+            Command::SwimHold(..) => CommandKind::SwimHold,
+        }
+    }
+
+    /// What it asks of the swim: its gait, its hold (a held swim both;
+    /// the other commands neither).
+    pub const fn swim_and_hold(&self) -> (Option<SwimParams>, Option<Hold>) {
+        match *self {
+            Command::Swim(p) => (Some(p), None),
+            Command::Hold(h) => (None, Some(h)),
+            Command::SwimHold(p, h) => (Some(p), Some(h)),
+            Command::Enable
+            | Command::Disable
+            | Command::Stop
+            | Command::EStop
+            | Command::Reset
+            | Command::TakeControl
+            | Command::ReleaseControl
+            | Command::KeepAlive => (None, None),
         }
     }
 
