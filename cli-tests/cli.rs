@@ -838,6 +838,23 @@ fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--head-sensor", "64"]);
     assert!(!ok);
     assert!(err.contains("--head-sensor 64: 64 outside 1..=63"), "{err}");
+    let (ok, _, err) = run(&[
+        "sim",
+        "--slcan-pty",
+        "--usbl",
+        "127.0.0.1:9",
+        "--usbl-latency",
+        "2",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("--usbl 127.0.0.1:9 --usbl-latency 2: simulated USBL")
+            && err.contains("latency shorter than a fix's period"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--usbl", "nowhere"]);
+    assert!(!ok);
+    assert!(err.contains("nowhere"), "{err}");
 }
 
 #[test]

@@ -124,6 +124,16 @@ pub struct SimArgs {
     /// (the daemon's `[sensor] tail-imu`).
     #[arg(long, value_name = "ID")]
     tail_imu: Option<u8>,
+    /// A USBL off the bus, sending the nose's true position to
+    /// ADDRESS:PORT in UDP datagrams (the daemon's `[sensor.usbl] source =
+    /// "udp:ADDRESS:PORT"`): 1 Hz, σ 0.3 m per axis, 10 % of fixes lost,
+    /// each sent --usbl-latency after it was measured (docs/autopilot.md,
+    /// "Position").
+    #[arg(long, value_name = "ADDRESS:PORT")]
+    usbl: Option<std::net::SocketAddr>,
+    /// The simulated USBL's latency (s, 0 ..< 1: less than a fix's period).
+    #[arg(long, value_name = "S", default_value_t = 0.3, requires = "usbl")]
+    usbl_latency: f64,
     /// The body's ballast: its centre of mass this far below its axis (m,
     /// 0..=0.05; default 0.02, as the daemon's `[model] ballast`; 0: the
     /// paper's body, which rolls freely under pitch curvature).
@@ -236,6 +246,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         }
         if args.truth.is_some() {
             bail!("--truth: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
+        if args.usbl.is_some() {
+            bail!("--usbl: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
         return run_bus_alone(args, adapters);
     }
@@ -409,6 +422,27 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let running = robot
         .spawn(clock)
         .context("starting the simulation thread")?;
+    // Stopped when dropped, at the end of this function.
+    let _usbl = match args.usbl {
+        Some(addr) => {
+            let truth = running.truth_reader();
+            let usbl = anguilla_sim::usbl::SimUsbl::spawn(
+                anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency),
+                move || {
+                    let p = truth().position;
+                    [p[0], p[1]]
+                },
+            );
+            match usbl {
+                Ok(u) => Some(u),
+                Err(e) => {
+                    let _ = running.stop();
+                    bail!("--usbl {addr} --usbl-latency {}: {e}", args.usbl_latency);
+                }
+            }
+        }
+        None => None,
+    };
     let stop_truth = AtomicBool::new(false);
     let truth_report = std::thread::scope(|scope| {
         let recorder = truth_file.map(|f| scope.spawn(|| record_truth(f, &running, &stop_truth)));
