@@ -95,6 +95,15 @@ impl SimUsbl {
         })
     }
 
+    /// Starts sending fixes of `robot`'s true nose position.
+    pub fn beside(cfg: UsblSimConfig, robot: &crate::robot::RunningSim) -> io::Result<SimUsbl> {
+        let truth = robot.truth_reader();
+        Self::spawn(cfg, move || {
+            let p = truth().position;
+            [p[0], p[1]]
+        })
+    }
+
     /// Fixes sent so far.
     pub fn sent(&self) -> u64 {
         self.sent.load(Ordering::Relaxed)
@@ -185,7 +194,13 @@ mod tests {
         }
         // The mean of 20: σ 0.3 / √20 ≈ 0.07 m.
         assert!((sx / 20.0 - 10.0).abs() < 0.4 && (sy / 20.0 + 5.0).abs() < 0.4);
-        assert!(usbl.sent() >= 20);
+        // Counted once its send returned, which may be after the datagram
+        // arrived (CI, under load): wait for the count, not for time.
+        let end = Instant::now() + Duration::from_secs(10);
+        while usbl.sent() < 20 && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert!(usbl.sent() >= 20, "{} sent", usbl.sent());
         let e = SimUsbl::spawn(
             UsblSimConfig::typical(rx.local_addr().expect("its address"), 2.0),
             || [0.0; 2],
