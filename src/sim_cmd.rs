@@ -425,15 +425,8 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     // Stopped when dropped, at the end of this function.
     let _usbl = match args.usbl {
         Some(addr) => {
-            let truth = running.truth_reader();
-            let usbl = anguilla_sim::usbl::SimUsbl::spawn(
-                anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency),
-                move || {
-                    let p = truth().position;
-                    [p[0], p[1]]
-                },
-            );
-            match usbl {
+            let cfg = anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency);
+            match anguilla_sim::usbl::SimUsbl::beside(cfg, &running) {
                 Ok(u) => Some(u),
                 Err(e) => {
                     let _ = running.stop();

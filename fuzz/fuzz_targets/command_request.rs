@@ -57,18 +57,7 @@ fuzz_target!(|input: &[u8]| {
                 (Command::Swim(p), Command::Swim(q)) => same_swim(&p, &req.body_as(), &q),
                 (Command::Hold(h), Command::Hold(g)) => same_hold(&h, &req.body_as(), &g),
                 (Command::SwimHold(p, h), Command::SwimHold(q, g)) => {
-                    let b: SwimHoldBody = req.body_as();
-                    let swim = SwimBody {
-                        amplitude: b.amplitude,
-                        frequency: b.frequency,
-                        turn: b.turn,
-                        pitch: b.pitch,
-                    };
-                    let hold = HoldBody {
-                        hold: b.hold,
-                        heading: b.heading,
-                        depth: b.depth,
-                    };
+                    let (swim, hold) = req.body_as::<SwimHoldBody>().parts();
                     same_swim(&p, &swim, &q);
                     same_hold(&h, &hold, &g);
                 }

@@ -161,31 +161,9 @@ pub struct SwimHoldBody {
     pub depth: f32,
 }
 
-impl Body for SwimHoldBody {
-    const KIND: CommandKind = CommandKind::SwimHold;
-    fn to_words(&self) -> [u32; BODY_WORDS] {
-        let swim = SwimBody {
-            amplitude: self.amplitude,
-            frequency: self.frequency,
-            turn: self.turn,
-            pitch: self.pitch,
-        }
-        .to_words();
-        let hold = HoldBody {
-            hold: self.hold,
-            heading: self.heading,
-            depth: self.depth,
-        }
-        .to_words();
-        let mut w = swim;
-        w[4..].copy_from_slice(&hold[..3]);
-        w
-    }
-    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
-        let s = SwimBody::from_words(w);
-        let mut rest = [0; BODY_WORDS];
-        rest[..3].copy_from_slice(&w[4..]);
-        let h = HoldBody::from_words(&rest);
+impl SwimHoldBody {
+    /// The gait's body and the hold's, one after the other.
+    pub fn join(s: SwimBody, h: HoldBody) -> Self {
         Self {
             amplitude: s.amplitude,
             frequency: s.frequency,
@@ -195,6 +173,37 @@ impl Body for SwimHoldBody {
             heading: h.heading,
             depth: h.depth,
         }
+    }
+
+    /// The gait's body and the hold's.
+    pub fn parts(&self) -> (SwimBody, HoldBody) {
+        let s = SwimBody {
+            amplitude: self.amplitude,
+            frequency: self.frequency,
+            turn: self.turn,
+            pitch: self.pitch,
+        };
+        let h = HoldBody {
+            hold: self.hold,
+            heading: self.heading,
+            depth: self.depth,
+        };
+        (s, h)
+    }
+}
+
+impl Body for SwimHoldBody {
+    const KIND: CommandKind = CommandKind::SwimHold;
+    fn to_words(&self) -> [u32; BODY_WORDS] {
+        let (s, h) = self.parts();
+        let mut w = s.to_words();
+        w[4..].copy_from_slice(&h.to_words()[..3]);
+        w
+    }
+    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
+        let mut rest = [0; BODY_WORDS];
+        rest[..3].copy_from_slice(&w[4..]);
+        Self::join(SwimBody::from_words(w), HoldBody::from_words(&rest))
     }
 }
 
@@ -251,17 +260,7 @@ impl CommandRequest {
             Command::Swim(p) => SwimBody::of(&p).to_words(),
             Command::Hold(h) => HoldBody::of(&h).to_words(),
             Command::SwimHold(p, h) => {
-                let (s, h) = (SwimBody::of(&p), HoldBody::of(&h));
-                SwimHoldBody {
-                    amplitude: s.amplitude,
-                    frequency: s.frequency,
-                    turn: s.turn,
-                    pitch: s.pitch,
-                    hold: h.hold,
-                    heading: h.heading,
-                    depth: h.depth,
-                }
-                .to_words()
+                SwimHoldBody::join(SwimBody::of(&p), HoldBody::of(&h)).to_words()
             }
             // No parameters: an empty body. Every command is named here, so
             // a new one with parameters is not sent without them.
@@ -362,18 +361,7 @@ impl CommandRequest {
             CommandKind::KeepAlive => Command::KeepAlive,
             CommandKind::Hold => Command::Hold(self.body_as::<HoldBody>().read()?),
             CommandKind::SwimHold => {
-                let b: SwimHoldBody = self.body_as();
-                let swim = SwimBody {
-                    amplitude: b.amplitude,
-                    frequency: b.frequency,
-                    turn: b.turn,
-                    pitch: b.pitch,
-                };
-                let hold = HoldBody {
-                    hold: b.hold,
-                    heading: b.heading,
-                    depth: b.depth,
-                };
+                let (swim, hold) = self.body_as::<SwimHoldBody>().parts();
                 Command::SwimHold(swim.params(), hold.read()?)
             }
         })

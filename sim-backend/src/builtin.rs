@@ -99,20 +99,13 @@ impl Builtin {
             .fifo_priority
             .and_then(|p| running.set_fifo_priority(p).err());
         let usbl = match &cfg.usbl {
-            Some(u) => {
-                let truth = running.truth_reader();
-                let usbl = crate::usbl::SimUsbl::spawn(u.clone(), move || {
-                    let p = truth().position;
-                    [p[0], p[1]]
-                });
-                match usbl {
-                    Ok(u) => Some(u),
-                    Err(e) => {
-                        let _ = running.stop();
-                        return Err(SimError::Thread(e));
-                    }
+            Some(u) => match crate::usbl::SimUsbl::beside(u.clone(), &running) {
+                Ok(u) => Some(u),
+                Err(e) => {
+                    let _ = running.stop();
+                    return Err(SimError::Thread(e));
                 }
-            }
+            },
             None => None,
         };
         Ok((
