@@ -165,7 +165,13 @@ pub fn replay_with(
     if cut_at.is_some() || stopped.is_some() {
         periods.pop();
     }
-    let mut ctl = Controller::new(&cfg, start)?;
+    // A sensor off the bus is not replayed: its readings are not among the
+    // session's inputs, the frames sent do not depend on them (the position
+    // estimate steers nothing yet), and its source may be held by the
+    // running daemon (a port in use).
+    let mut live = cfg.clone();
+    live.sensor.usbl = None;
+    let mut ctl = Controller::new(&live, start)?;
     let mut bus = ReplayBus {
         rx: Default::default(),
         expected: Vec::new(),

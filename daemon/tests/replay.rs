@@ -116,6 +116,29 @@ fn every_drive_family_replays_bit_for_bit() {
     }
 }
 
+/// A session recorded with a USBL replays while its port is taken (the
+/// daemon still running, on the robot): a sensor off the bus is not
+/// replayed (its fixes are not among the session's inputs, and the frames
+/// sent do not depend on them), so its source is not opened.
+#[test]
+fn a_session_with_a_usbl_replays_while_its_port_is_taken() {
+    let probe = std::net::UdpSocket::bind("127.0.0.1:0").expect("a port");
+    let addr = probe.local_addr().expect("its address");
+    drop(probe);
+    let mut cfg = Config::default();
+    cfg.sensor.node = 20;
+    cfg.sensor.usbl = Some(anguilla_daemon::sensors::usbl::UsblConfig {
+        source: format!("udp:{addr}"),
+        ..Default::default()
+    });
+    let dir = record_session_with("replay-usbl", false, cfg);
+    let _daemon = std::net::UdpSocket::bind(addr).expect("the port, as a running daemon holds it");
+    let report = replay::replay(&dir).expect("replays without opening the USBL's source");
+    assert!(report.identical(), "{:?}", report.mismatch);
+    assert!(report.periods > 400, "{} periods", report.periods);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn sends_the_bus_refused_are_recorded_and_refused_again_in_the_replay() {
     let dir = record_session_with("replay-refused", true, Config::default());
