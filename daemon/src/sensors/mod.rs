@@ -93,8 +93,6 @@ pub struct Sensors {
     heard: bool,
     /// The last step's time.
     stepped: Nanos,
-    /// Observations the estimate left out (or had no estimate for).
-    left_out: u64,
 }
 
 impl Sensors {
@@ -133,7 +131,6 @@ impl Sensors {
             bus: now,
             heard: false,
             stepped: now,
-            left_out: 0,
         })
     }
 
@@ -174,17 +171,12 @@ impl Sensors {
         }
         for s in &mut self.others {
             s.step(now, self.bus, dt, pred);
-            if let Some(obs) = s.observation() {
-                let taken = self.nav.as_mut().is_some_and(|n| n.observe(&obs));
-                self.left_out += !taken as u64;
+            // A fix the estimate leaves out is counted by it
+            // (`Plane::rejected`); without a head sensor there is none.
+            if let (Some(obs), Some(nav)) = (s.observation(), &mut self.nav) {
+                nav.observe(&obs);
             }
         }
-    }
-
-    /// Observations the estimate left out since start (outlying fixes,
-    /// fixes before the estimate began).
-    pub fn left_out(&self) -> u64 {
-        self.left_out
     }
 
     /// The head sensor's estimate, if there is one.
