@@ -2,7 +2,7 @@
 //! 17). Its own process, reading the daemon's state over iceoryx2 like any
 //! operator tool (or through `anguilla link` with `--connect`), so the
 //! real-time daemon never links a WebSocket stack. It serves the channels
-//! of the session's MCAP file (`anguilla_daemon::mcap_log`) over the
+//! of the session's MCAP file (`anguilla_view`) over the
 //! Foxglove WebSocket protocol. Read-only unless `[foxglove] commands =
 //! true`: then each Foxglove client that publishes on [`COMMAND_TOPIC`] is
 //! its own operator session, under the daemon's authority and deadman
@@ -17,7 +17,7 @@ use anguilla_ipc::{Command, Session};
 use foxglove::websocket::{Capability, Client, ClientChannel, ClientId, ServerListener};
 use serde_json::json;
 
-use anguilla_daemon::mcap_log::{Scene, TOPICS, schemas};
+use anguilla_view::{Scene, TOPICS, schemas};
 use anyhow::Context as _;
 
 use crate::output::outln;
@@ -171,7 +171,7 @@ pub fn run(args: FoxgloveArgs) -> anyhow::Result<()> {
         gone,
         open: &|| args.daemon.open(&prefix, "anguilla-foxglove-client", true),
     };
-    let mut scene = Scene::new(&cfg.daemon);
+    let mut scene = Scene::new(cfg.daemon.robot.joints);
     let every = Duration::from_secs_f64(1.0 / args.rate);
     let mut last = None::<Instant>;
     // With commands, a short wait: a command waits at most this long.
@@ -284,7 +284,7 @@ const UNNAMED: &str = "command";
 
 /// [`REPLY_TOPIC`]'s JSON Schema (`anguilla.CommandReply`).
 fn reply_schema() -> serde_json::Value {
-    use anguilla_daemon::mcap_log::schema::{boolean, count, message, names, string};
+    use anguilla_view::schema::{boolean, count, message, names, string};
     message(
         "anguilla.CommandReply",
         "The outcome of one command a Foxglove client published on /anguilla/command",
@@ -378,7 +378,7 @@ impl Operators<'_> {
 
 #[cfg(test)]
 mod tests {
-    use anguilla_daemon::mcap_log::schema::{check, table};
+    use anguilla_view::schema::{check, table};
 
     use super::*;
 

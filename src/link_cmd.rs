@@ -184,7 +184,7 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
                 .map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
             humble: l.ros2_distro == "humble",
             geometry: anguilla_link::ros2::state::Geometry {
-                segments: anguilla_daemon::mcap_log::segments(cfg),
+                segments: anguilla_view::segments(cfg.robot.joints),
                 limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
             },
             allow_command: l.inbound.iter().any(|n| n == "command"),

@@ -436,7 +436,7 @@ fn export_ros2(args: ExportArgs) -> anyhow::Result<()> {
         rates: TOPICS.map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
         start_ns: start_s.saturating_mul(1_000_000_000),
         geometry: anguilla_link::ros2::state::Geometry {
-            segments: anguilla_daemon::mcap_log::segments(&cfg),
+            segments: anguilla_view::segments(cfg.robot.joints),
             limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
         },
         humble: l.ros2_distro == "humble",

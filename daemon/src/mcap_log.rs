@@ -3,7 +3,7 @@
 //!
 //! One message per recorded [`StateSnapshot`] on each channel, stamped with
 //! the daemon's clock (`time_ns`, from the controller's start), JSON
-//! encoded, each channel with its JSON Schema ([`schema`]; the fields,
+//! encoded, each channel with its JSON Schema ([`anguilla_view::schema`]; the fields,
 //! their units and codes in `docs/data.md`):
 //!
 //! | topic | schema | what |
@@ -18,11 +18,10 @@
 //! calls it each second), so a killed daemon leaves a file readable up to
 //! its last chunk; [`McapLog::finish`] writes the summary and index.
 //!
-//! Its files: this one, the writer and the channels; `scene.rs`, the
-//! [`Scene`] that turns snapshots into the channels' messages (`json.rs`
-//! the state, joints and sensors messages, `changes.rs` the `/log` lines,
-//! `svg.rs` the body's picture); `export.rs` and `repair.rs`, the files
-//! written after a session; [`schema`] and [`swim`].
+//! The messages and their schemas are [`anguilla_view`]'s (its [`Scene`]
+//! turns snapshots into the channels' messages; the live Foxglove server
+//! uses the same). Its files: this one, the writer; `export.rs` and
+//! `repair.rs`, the files written after a session; [`swim`].
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -34,38 +33,16 @@ use mcap::records::MessageHeader;
 use crate::config::Config;
 use anguilla_ipc::StateSnapshot;
 
-mod changes;
 mod export;
-mod json;
 mod repair;
-mod scene;
-pub mod schema;
-mod svg;
 pub mod swim;
 
-pub use changes::{hold_line, surface_line};
+use anguilla_view::{Scene, TOPICS, schemas};
 pub use export::{Exported, export, export_into, export_with, for_each_state};
 pub use repair::{Repaired, repair, repair_into};
-pub use scene::{Link, Scene, segments};
-
-/// The channels, in the order they are created.
-pub const TOPICS: [&str; 6] = [
-    "/anguilla/state",
-    "/anguilla/joints",
-    "/log",
-    "/tf",
-    "/body",
-    "/anguilla/sensors",
-];
 
 fn err(e: mcap::McapError) -> io::Error {
     io::Error::other(e.to_string())
-}
-
-/// The schemas of [`TOPICS`], in order: (name, JSON schema text); see
-/// [`schema`].
-pub fn schemas() -> [(&'static str, Vec<u8>); 6] {
-    schema::all().map(|(name, s)| (name, s.to_string().into_bytes()))
 }
 
 /// The session's MCAP writer.
@@ -117,7 +94,7 @@ impl McapLog {
             w,
             ids,
             seq: 0,
-            scene: Scene::new(cfg),
+            scene: Scene::new(cfg.robot.joints),
             truth: None,
         })
     }

@@ -1,4 +1,5 @@
-//! The simulated robot's ground truth, recorded beside the estimate.
+//! The simulated robot's ground truth, recorded beside the estimate (the
+//! message and its schema: [`anguilla_view::truth`]).
 //!
 //! When `anguilla run` drives its built-in simulated robot, it hands the
 //! simulation's true pose and motion to the recorder
@@ -21,114 +22,8 @@ use std::fs::File;
 use std::io::{self, BufWriter};
 
 use mcap::records::MessageHeader;
-use serde_json::{Value, json};
 
-use crate::mcap_log::schema::{message, number, object};
-
-/// The channel's topic.
-pub const TOPIC: &str = "/sim/truth";
-/// The channel's schema name.
-pub const SCHEMA_NAME: &str = "anguilla.SimTruth";
-
-/// The simulated robot's true state at one instant.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct GroundTruth {
-    /// The simulation's own time (s), from its start.
-    pub sim_time: f64,
-    /// The nose's position (m; world frame, x and y horizontal, z up; the
-    /// robot starts at the origin).
-    pub position: [f64; 3],
-    /// The head's orientation, unit quaternion `[w, x, y, z]`, from the
-    /// model's head frame (x towards the tail, z up) to the world.
-    pub orientation: [f64; 4],
-    /// The nose's velocity (m/s, world frame).
-    pub velocity: [f64; 3],
-    /// Forward speed at the head (m/s, positive head first).
-    pub speed: f64,
-    /// The body's heading (rad, counter-clockwise from the world's x): the
-    /// direction from the body's centroid to the nose, the operator's and
-    /// the autopilot's convention.
-    pub heading: f64,
-    /// Depth of the nose below the surface (m, positive down).
-    pub depth: f64,
-}
-
-impl GroundTruth {
-    /// The channel's message.
-    pub fn message(&self) -> Value {
-        let [w, x, y, z] = self.orientation;
-        json!({
-            "sim_time": self.sim_time,
-            "position": { "x": self.position[0], "y": self.position[1], "z": self.position[2] },
-            "orientation": { "x": x, "y": y, "z": z, "w": w },
-            "velocity": { "x": self.velocity[0], "y": self.velocity[1], "z": self.velocity[2] },
-            "speed": self.speed,
-            "heading_deg": self.heading.to_degrees().rem_euclid(360.0),
-            "depth": self.depth,
-        })
-    }
-}
-
-fn vector(what: &str, unit: &str) -> Value {
-    object(
-        what,
-        ["x", "y", "z"]
-            .map(|n| (n, number(&format!("{what}, {n} ({unit})"))))
-            .into(),
-    )
-}
-
-/// The channel's JSON Schema (draft 2020-12; [`crate::mcap_log::schema`]).
-pub fn schema() -> Value {
-    message(
-        SCHEMA_NAME,
-        "The simulated robot's ground truth (anguilla run against its built-in robot, or anguilla sim --truth FILE: that channel alone)",
-        vec![
-            (
-                "sim_time",
-                number("The simulation's own time since its start (s)"),
-            ),
-            (
-                "position",
-                vector(
-                    "The nose's position in the world (z up; the start at the origin)",
-                    "m",
-                ),
-            ),
-            (
-                "orientation",
-                object(
-                    "The head's orientation: unit quaternion from the model's head frame \
-                     (x towards the tail, z up) to the world",
-                    ["x", "y", "z", "w"]
-                        .map(|n| (n, number(&format!("Quaternion component {n}"))))
-                        .into(),
-                ),
-            ),
-            (
-                "velocity",
-                vector("The nose's velocity in the world", "m/s"),
-            ),
-            (
-                "speed",
-                number("Forward speed at the head, positive head first (m/s)"),
-            ),
-            (
-                "heading_deg",
-                json!({
-                    "type": "number", "minimum": 0, "maximum": 360,
-                    "description": "The body's heading, counter-clockwise from the world's x, \
-                        from the body's centroid to the nose: the operator's convention, \
-                        0 ..< 360 (deg)"
-                }),
-            ),
-            (
-                "depth",
-                number("Depth of the nose below the surface, positive down (m)"),
-            ),
-        ],
-    )
-}
+pub use anguilla_view::truth::{GroundTruth, SCHEMA_NAME, TOPIC, schema};
 
 fn mcap_err(e: mcap::McapError) -> io::Error {
     io::Error::other(e.to_string())
@@ -188,36 +83,5 @@ impl TruthFile {
     pub fn finish(mut self) -> io::Result<()> {
         self.w.finish().map_err(mcap_err)?;
         io::Write::flush(&mut self.w.into_inner())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Every key of a message is a property of the schema, every required
-    /// property is present, and a heading of −90° is written as 270°.
-    #[test]
-    fn the_message_matches_its_schema() {
-        let t = GroundTruth {
-            sim_time: 1.5,
-            position: [1.0, -2.0, 0.25],
-            orientation: [1.0, 0.0, 0.0, 0.0],
-            velocity: [-0.2, 0.0, 0.0],
-            speed: 0.2,
-            heading: -std::f64::consts::FRAC_PI_2,
-            depth: 0.75,
-        };
-        let m = t.message();
-        crate::mcap_log::schema::check(&schema(), &m).unwrap();
-        assert!((m["heading_deg"].as_f64().unwrap() - 270.0).abs() < 1e-9);
-        assert_eq!(m["orientation"]["w"], 1.0);
-        // A message missing a field, or with one more, does not pass.
-        let mut less = m.clone();
-        less.as_object_mut().unwrap().remove("depth");
-        assert!(crate::mcap_log::schema::check(&schema(), &less).is_err());
-        let mut more = m;
-        more["yaw"] = json!(0.0);
-        assert!(crate::mcap_log::schema::check(&schema(), &more).is_err());
     }
 }

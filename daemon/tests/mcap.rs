@@ -10,10 +10,11 @@ use anguilla_testkit::lockstep;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anguilla_daemon::mcap_log::{self, McapLog, TOPICS};
+use anguilla_daemon::mcap_log::{self, McapLog};
 use anguilla_daemon::record;
 use anguilla_ipc::Hold;
 use anguilla_ipc::vocabulary::Command;
+use anguilla_view::TOPICS;
 use lockstep::{Rig, config};
 
 /// Records a session of the swimming robot with a head sensor: swim, hold
@@ -163,7 +164,7 @@ fn ground_truth_goes_to_its_own_channel() {
                 let schema = m.channel.schema.as_ref().unwrap();
                 assert_eq!(schema.name, "anguilla.SimTruth");
                 let schema: serde_json::Value = serde_json::from_slice(&schema.data).unwrap();
-                if let Err(e) = mcap_log::schema::check(&schema, &v) {
+                if let Err(e) = anguilla_view::schema::check(&schema, &v) {
                     panic!("/sim/truth message {}: {e}", truths.len());
                 }
                 truths.push(v);
@@ -193,7 +194,7 @@ fn ground_truth_goes_to_its_own_channel() {
 }
 
 /// Every message of the controller's own snapshots conforms to the schema
-/// its channel's schema record carries (`mcap_log::schema::check`).
+/// its channel's schema record carries (`anguilla_view::schema::check`).
 fn every_message_matches_its_channels_schema(path: &Path) {
     let bytes = std::fs::read(path).unwrap();
     let mut checked = BTreeMap::<String, usize>::new();
@@ -203,7 +204,7 @@ fn every_message_matches_its_channels_schema(path: &Path) {
         let schema: serde_json::Value = serde_json::from_slice(&schema.data).unwrap();
         let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
         let n = checked.entry(m.channel.topic.clone()).or_insert(0);
-        if let Err(e) = mcap_log::schema::check(&schema, &v) {
+        if let Err(e) = anguilla_view::schema::check(&schema, &v) {
             panic!("{} message {n}: {e}", m.channel.topic);
         }
         *n += 1;
@@ -336,7 +337,7 @@ fn the_readme_picture_is_the_scene() {
     rig.run(3.0, |_| {});
     let dir = std::env::temp_dir().join(format!("anguilla-mcap-svg-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let log = mcap_log::Scene::new(&cfg);
+    let log = anguilla_view::Scene::new(cfg.robot.joints);
     let s = rig.state();
     let links = log.links(s);
     assert_eq!(links.len(), cfg.robot.joints + 1);
@@ -424,4 +425,19 @@ fn fits(svg: &str) {
             assert!(apart, "{l} covers the label at {t:?}");
         }
     }
+}
+
+/// The recording's `bus.state` codes (named in `anguilla_view`, below the
+/// drivers) are the drivers' [`BusState`] codes, every one of them.
+#[test]
+fn the_views_bus_states_are_the_drivers() {
+    use anguilla_drivers::BusState;
+    let drivers: Vec<(u64, String)> = BusState::ALL
+        .into_iter()
+        .map(|s| {
+            let c = s.code();
+            (u64::from(c), anguilla_ipc::bus_state_name(c).to_string())
+        })
+        .collect();
+    assert_eq!(anguilla_view::schema::bus_state_codes(), drivers);
 }

@@ -55,7 +55,6 @@ pub mod estop;
 pub mod guard;
 pub mod layout;
 pub mod payload;
-pub mod pose;
 pub mod service;
 pub mod service_user;
 pub mod vocabulary;

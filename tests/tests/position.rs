@@ -11,10 +11,10 @@ use std::time::Duration;
 use anguilla_daemon::config::Config;
 use anguilla_daemon::mcap_log::McapLog;
 use anguilla_daemon::sensors::usbl::UsblConfig;
-use anguilla_ipc::pose::HeadTrack;
 use anguilla_ipc::{Command, SensorHealth, SensorKind, StateSnapshot, SwimParams};
 use anguilla_system_tests::process::{connect, keep_alive_for, ok, wait_for};
 use anguilla_system_tests::{Robot, Watchdog};
+use anguilla_view::pose::HeadTrack;
 
 fn config(name: &str) -> Config {
     let mut cfg = anguilla_system_tests::family_config(

@@ -362,10 +362,10 @@ pub(super) fn logger(rx: Receiver<Event>, bus_spec: String) {
                 ];
                 let lines = holds
                     .into_iter()
-                    .filter_map(|(now, was, words)| crate::mcap_log::hold_line(now, was, words))
+                    .filter_map(|(now, was, words)| anguilla_view::hold_line(now, was, words))
                     .chain(
                         (nav.surfaced != was[2])
-                            .then(|| crate::mcap_log::surface_line(nav.surfaced != 0, nav.depth_m)),
+                            .then(|| anguilla_view::surface_line(nav.surfaced != 0, nav.depth_m)),
                     );
                 for (level, line) in lines {
                     if level >= 3 {

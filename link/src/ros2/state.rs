@@ -3,8 +3,8 @@
 //! ([`super::bag`]), from the same snapshot to the same bytes.
 
 use anguilla_ipc::StateSnapshot;
-use anguilla_ipc::pose::{HeadTrack, Pose, quaternion_rpy};
 use anguilla_ipc::vocabulary::{Cause, FaultKind, Mode};
+use anguilla_view::pose::{HeadTrack, Pose, quaternion_rpy};
 
 use super::msgs;
 
@@ -256,7 +256,7 @@ pub fn messages(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 5] {
     let mut unknown = [0.0; 9];
     unknown[0] = -1.0;
     // The attitude as the recording's /tf and this node's tf give it
-    // (REP 103; anguilla_ipc::pose); unknown without a head sensor.
+    // (REP 103; anguilla_view::pose); unknown without a head sensor.
     let sensed = nav.samples > 0;
     let imu = msgs::Imu {
         header: header(SENSOR_FRAME),

@@ -6,7 +6,7 @@
 //! attitude), so `ctl status`, the recording, Foxglove and ROS 2 show one
 //! position; without one, the model's prediction integrated here.
 
-use crate::StateSnapshot;
+use anguilla_ipc::StateSnapshot;
 
 /// A pose: translation (m) and rotation (unit quaternion x, y, z, w).
 #[derive(Debug, Clone, Copy, PartialEq)]

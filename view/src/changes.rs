@@ -5,7 +5,7 @@ use anguilla_ipc::{Cause, FaultSet, HoldState, Mode, SensorHealth, StateSnapshot
 
 /// What changed between two snapshots, as log lines (level, text):
 /// foxglove.Log levels 2 info, 3 warning, 4 error.
-pub(super) fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String)> {
+pub(crate) fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<(u8, String)> {
     let mut out = Vec::new();
     let mode = Mode::from_code(s.mode).map_or("unknown", Mode::name);
     let cause = Cause::from_code(s.cause).map_or("unknown", Cause::name);

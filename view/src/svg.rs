@@ -4,7 +4,7 @@
 use anguilla_ipc::StateSnapshot;
 use nalgebra::Vector3;
 
-use super::scene::{Link, Scene};
+use crate::scene::{Link, Scene};
 
 impl Scene {
     /// The `/body` scene of `s` drawn as an SVG: seen from above and from

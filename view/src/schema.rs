@@ -1,7 +1,7 @@
-//! The JSON Schemas (draft 2020-12) of the channels in [`super::TOPICS`]:
+//! The JSON Schemas (draft 2020-12) of the channels in [`crate::TOPICS`]:
 //! what a viewer reads to list a message's fields, their units and their
 //! codes. `docs/data.md`'s field tables are generated from them
-//! ([`markdown`]); a test checks every message [`super::Scene`] writes
+//! ([`markdown`]); a test checks every message [`crate::Scene`] writes
 //! against them ([`check`]), and CI checks a daemon's recording again with
 //! Python's `jsonschema` (`scripts/check_mcap.py`).
 //!
@@ -10,16 +10,21 @@
 //! no other (`additionalProperties: false`). Enumerations come from the
 //! code's own tables (`codes.rs`: [`anguilla_ipc::Mode::ALL`],
 //! [`anguilla_ipc::Cause::ALL`], [`anguilla_ipc::SensorHealth::ALL`],
-//! [`anguilla_drivers::BusState::ALL`],
+//! [`anguilla_ipc::bus_state_name`],
 //! [`anguilla_protocol::behaviour::STATES`],
 //! [`anguilla_ipc::FaultKind::ALL`]), so a new
 //! mode or cause is in the schema the moment it exists.
 //!
-//! The builders ([`message`], [`object`], [`real`], …) are public for the
-//! next channel: a schema is a list of described properties.
+//! anguilla's own messages (`anguilla.State`, `anguilla.Joints`,
+//! `anguilla.Sensors`, `anguilla.SimTruth`) are typed structs whose schema
+//! is made from their definition ([`crate::view!`], `message.rs`); the
+//! Foxglove messages (`foxglove.Log`, `foxglove.FrameTransforms`,
+//! `foxglove.SceneUpdate`) follow Foxglove's published schemas, written
+//! here. The builders ([`message`], [`object`], [`real`], …) are public for
+//! the next channel: a schema is a list of described properties.
 //!
 //! ```
-//! use anguilla_daemon::mcap_log::schema::{check, message, real};
+//! use anguilla_view::schema::{check, message, real};
 //! use serde_json::json;
 //!
 //! let s = message(
@@ -52,352 +57,8 @@ pub use codes::{
 };
 pub use table::table;
 
-use anguilla_ipc::{MAX_JOINTS, SensorKind};
-
-/// A gait's parameters.
-fn gait(description: &str) -> Value {
-    object(
-        description,
-        vec![
-            (
-                "amplitude",
-                real("Undulation amplitude, a fraction of the configured maximum (0..=1)"),
-            ),
-            ("frequency", real("Undulation frequency (Hz)")),
-            (
-                "turn",
-                real("Yaw turn curvature K_c3 (1/m, positive turns left)"),
-            ),
-            ("pitch", real("Pitch curvature K_c2 (1/m, positive dives)")),
-        ],
-    )
-}
-
-/// `anguilla.State`, written by `state_json`.
-pub fn state() -> Value {
-    let faults: Vec<String> = fault_bits()
-        .iter()
-        .map(|(b, n)| format!("{b} {n}"))
-        .collect();
-    message(
-        "anguilla.State",
-        "The daemon's state: mode, faults, gait, the model's prediction, bus and loop \
-         statistics, the head sensor's estimate and the autopilot",
-        vec![
-            (
-                "time_ns",
-                count(
-                    "The daemon's clock when the snapshot was taken (ns since the controller \
-                     started; the message's log time)",
-                ),
-            ),
-            (
-                "sequence",
-                count(
-                    "The snapshot's number: +1 every control period (a recording keeps every \
-                     tenth, the live view at most --rate a second)",
-                ),
-            ),
-            ("mode", names("Operating mode", mode_names())),
-            ("cause", names("Why the mode last changed", cause_names())),
-            (
-                "fault_kinds",
-                bits(
-                    &format!(
-                        "Latched faults, one bit each (0: none); bit {}",
-                        faults.join(", ")
-                    ),
-                    u64::from(u32::MAX),
-                ),
-            ),
-            (
-                "fault_nodes",
-                count("Nodes involved in the faults: bit i set for node id i (0..=63)"),
-            ),
-            (
-                "feedforward_dropped",
-                boolean("True while the torque feedforward is dropped (the model diverged)"),
-            ),
-            (
-                "predicted_head_speed",
-                real("The model's predicted forward speed of the head (m/s)"),
-            ),
-            (
-                "predicted_turn_rate",
-                real("The model's predicted turn rate of the head (rad/s, positive left)"),
-            ),
-            ("gait_target", gait("The gait the operator asked for")),
-            (
-                "gait_actual",
-                gait("The gait being executed: the target shaped by trapezoidal profiles"),
-            ),
-            (
-                "bus",
-                object(
-                    "Bus statistics since start",
-                    vec![
-                        ("tx_frames", count("Frames sent")),
-                        ("rx_frames", count("Frames received")),
-                        (
-                            "tx_dropped",
-                            count("Frames the driver could not send (queue full, bus-off)"),
-                        ),
-                        (
-                            "malformed",
-                            count(
-                                "Frames received that did not decode (unknown id, bad length, bad value)",
-                            ),
-                        ),
-                        ("errors", count("Bus error events the driver reported")),
-                        (
-                            "rx_overruns",
-                            count("Frames lost on reception to a full receive queue"),
-                        ),
-                        ("bus_off_count", count("Times the bus went bus-off")),
-                        (
-                            "state",
-                            codes("The bus state the period acted on", &bus_state_codes()),
-                        ),
-                    ],
-                ),
-            ),
-            (
-                "loop",
-                object(
-                    "Control-loop timing over a sliding window",
-                    vec![
-                        ("period_ns", count("The configured control period (ns)")),
-                        (
-                            "jitter_p99_ns",
-                            count("Wake-up lateness, 99th percentile (ns)"),
-                        ),
-                        ("jitter_max_ns", count("Wake-up lateness, maximum (ns)")),
-                        (
-                            "compute_p99_ns",
-                            count("Compute time of one period, 99th percentile (ns)"),
-                        ),
-                        ("periods", count("Periods run since start")),
-                        (
-                            "overruns",
-                            count(
-                                "Periods that started more than a whole period late (skipped, never caught up)",
-                            ),
-                        ),
-                    ],
-                ),
-            ),
-            (
-                "clamped_setpoints",
-                count("Setpoints clamped to the joint limits since start"),
-            ),
-            (
-                "refused_commands",
-                count("Operator commands refused since start"),
-            ),
-            (
-                "records_lost",
-                count(
-                    "Recording records lost since start (the recorder fell behind or failed); 0 without a recording",
-                ),
-            ),
-            (
-                "nav",
-                object(
-                    "The head sensor, the daemon's estimate of the head's attitude and depth \
-                     (0 until the first sample), and the autopilot (docs/autopilot.md)",
-                    vec![
-                        ("sensor", names("The head sensor's health", sensor_names())),
-                        (
-                            "hold",
-                            codes(
-                                "What the autopilot holds (bit 0 heading, bit 1 depth)",
-                                &hold_codes(),
-                            ),
-                        ),
-                        (
-                            "heading_hold",
-                            names(
-                                "How the heading hold is doing, as the daemon judges it (off: not held; not converging and cannot: the target is not reached)",
-                                hold_state_names(),
-                            ),
-                        ),
-                        (
-                            "depth_hold",
-                            names(
-                                "How the depth hold is doing, as the daemon judges it",
-                                hold_state_names(),
-                            ),
-                        ),
-                        (
-                            "surfaced",
-                            boolean(
-                                "True while the depth estimate is at the surface (shallower than 0.05 m)",
-                            ),
-                        ),
-                        (
-                            "heading_deg",
-                            real(
-                                "The body's heading (deg, 0..<360, earth frame, counter-clockwise seen from above)",
-                            ),
-                        ),
-                        (
-                            "pitch_deg",
-                            real("The body's pitch (deg, positive nose up)"),
-                        ),
-                        (
-                            "roll_deg",
-                            real("The head's roll (deg, positive right side down)"),
-                        ),
-                        (
-                            "depth_m",
-                            real("The head's depth below the surface (m, positive down)"),
-                        ),
-                        (
-                            "depth_rate",
-                            real("The depth's rate of change (m/s, positive descending)"),
-                        ),
-                        (
-                            "heading_target_deg",
-                            real("The heading held (deg); 0 unless hold has bit 0"),
-                        ),
-                        (
-                            "depth_target_m",
-                            real("The depth held (m, positive down); 0 unless hold has bit 1"),
-                        ),
-                        (
-                            "rate_innovation",
-                            real(
-                                "Model health: the gyro's body rates less the model's predicted head rates (rad/s, magnitude, low-passed over about 1 s)",
-                            ),
-                        ),
-                        (
-                            "depth_innovation",
-                            real(
-                                "Model health: the measured depth less the predicted one at the last sample (m)",
-                            ),
-                        ),
-                        ("samples", count("Head-sensor samples received since start")),
-                        (
-                            "lost_samples",
-                            count("Samples the sensor's counter says were lost since start"),
-                        ),
-                        (
-                            "x_m",
-                            real(
-                                "The nose's estimated position (m), x, in the estimate's local frame (x, y level, the origin where the estimate started): the model's motion dead-reckoned with the estimated attitude, corrected by position fixes",
-                            ),
-                        ),
-                        ("y_m", real("The nose's estimated position (m), y, as x_m")),
-                        (
-                            "position_sigma_m",
-                            real("The position's standard deviation (m, horizontal)"),
-                        ),
-                        (
-                            "position_fixes",
-                            count("Position fixes taken into the estimate since start"),
-                        ),
-                    ],
-                ),
-            ),
-        ],
-    )
-}
-
-/// `anguilla.Joints`, written by `joints_json`: one array per quantity,
-/// one entry per joint, head first.
-pub fn joints() -> Value {
-    let per_joint = |d: &str| array(&format!("{d}, per joint, head first"), real(d), MAX_JOINTS);
-    message(
-        "anguilla.Joints",
-        "Per joint (head first; the configured joints): commanded and measured angles and \
-         rates, the model's feedforward torque, the measured torque, and the node's state",
-        vec![
-            ("commanded_pitch", per_joint("Commanded pitch angle (rad)")),
-            ("commanded_yaw", per_joint("Commanded yaw angle (rad)")),
-            ("measured_pitch", per_joint("Measured pitch angle (rad)")),
-            ("measured_yaw", per_joint("Measured yaw angle (rad)")),
-            (
-                "commanded_pitch_velocity",
-                per_joint("Commanded pitch velocity (rad/s)"),
-            ),
-            (
-                "commanded_yaw_velocity",
-                per_joint("Commanded yaw velocity (rad/s)"),
-            ),
-            (
-                "measured_pitch_velocity",
-                per_joint("Measured pitch velocity (rad/s)"),
-            ),
-            (
-                "measured_yaw_velocity",
-                per_joint("Measured yaw velocity (rad/s)"),
-            ),
-            (
-                "feedforward_pitch_torque",
-                per_joint("The model's pitch torque, sent as feedforward (N·m)"),
-            ),
-            (
-                "feedforward_yaw_torque",
-                per_joint("The model's yaw torque, sent as feedforward (N·m)"),
-            ),
-            (
-                "measured_pitch_torque",
-                per_joint("Measured pitch torque (N·m)"),
-            ),
-            (
-                "measured_yaw_torque",
-                per_joint("Measured yaw torque (N·m)"),
-            ),
-            (
-                "pitch_torque_residual",
-                per_joint(
-                    "Pitch torque residual: measured less predicted torque, low-passed, over \
-                     the prediction's low-passed magnitude plus a floor ([monitor]; 0 while \
-                     not swimming or without measured torque)",
-                ),
-            ),
-            (
-                "yaw_torque_residual",
-                per_joint("Yaw torque residual, as the pitch's"),
-            ),
-            (
-                "residual_alarm",
-                array(
-                    "The torque-residual alarms, per joint, head first",
-                    bits(
-                        "Bit 0 pitch, bit 1 yaw alarmed; bit 2 pitch, bit 3 yaw below the \
-                         prediction (else above); 0 none",
-                        15,
-                    ),
-                    MAX_JOINTS,
-                ),
-            ),
-            (
-                "node_state",
-                array(
-                    "The node's state as it last reported it, per joint, head first",
-                    codes(
-                        "The node's state (for a bought drive family, the worse of the \
-                         joint's two drives; docs/ipc.md)",
-                        &node_state_codes(),
-                    ),
-                    MAX_JOINTS,
-                ),
-            ),
-            (
-                "node_alive",
-                array(
-                    "Whether the node's heartbeat is current, per joint, head first",
-                    codes(
-                        "The node's heartbeat",
-                        &[(0, "overdue".into()), (1, "current".into())],
-                    ),
-                    MAX_JOINTS,
-                ),
-            ),
-        ],
-    )
-}
+use crate::message::{Joints, Sensors, State};
+use anguilla_ipc::MAX_JOINTS;
 
 /// `time` of Foxglove's schemas, here the daemon's clock.
 fn time(description: &str) -> Value {
@@ -600,77 +261,16 @@ pub fn scene_update() -> Value {
     )
 }
 
-/// The schemas of [`super::TOPICS`], in order: (name, schema).
+/// The schemas of [`crate::TOPICS`], in order: (name, schema).
 pub fn all() -> [(&'static str, Value); 6] {
     [
-        ("anguilla.State", state()),
-        ("anguilla.Joints", joints()),
+        ("anguilla.State", State::schema()),
+        ("anguilla.Joints", Joints::schema()),
         ("foxglove.Log", log()),
         ("foxglove.FrameTransforms", frame_transforms()),
         ("foxglove.SceneUpdate", scene_update()),
-        ("anguilla.Sensors", sensors()),
+        ("anguilla.Sensors", Sensors::schema()),
     ]
-}
-
-/// `anguilla.Sensors`, written by `sensors_json`: one entry per configured
-/// sensor, whatever its kind ([`SensorKind`]'s table names the values).
-pub fn sensors() -> Value {
-    let kinds: Vec<String> = SensorKind::ALL
-        .iter()
-        .map(|k| {
-            let v: Vec<&str> = k.values().iter().map(|(n, _)| *n).collect();
-            format!("{} ({})", k.name(), v.join(", "))
-        })
-        .collect();
-    message(
-        "anguilla.Sensors",
-        "Every configured sensor, the head sensor first: its kind, node id, health and \
-         values (each named, with its unit)",
-        vec![
-            (
-                "time_ns",
-                count("The daemon's clock when the snapshot was taken (ns)"),
-            ),
-            (
-                "sensors",
-                array(
-                    "The sensors",
-                    object(
-                        "One sensor",
-                        vec![
-                            (
-                                "kind",
-                                names(
-                                    &format!("What it is: {}", kinds.join("; ")),
-                                    SensorKind::ALL.iter().map(|k| k.name()).chain([UNKNOWN]),
-                                ),
-                            ),
-                            ("id", count("Its node id on the bus")),
-                            ("health", names("Its health", sensor_names())),
-                            ("samples", count("Samples received since start")),
-                            (
-                                "values",
-                                array(
-                                    "Its values, in its kind's order (none before its \
-                                     first sample is counted, zeros until then)",
-                                    object(
-                                        "One value",
-                                        vec![
-                                            ("name", string("The value's name")),
-                                            ("unit", string("Its unit")),
-                                            ("value", real("The value")),
-                                        ],
-                                    ),
-                                    anguilla_ipc::SENSOR_VALUES,
-                                ),
-                            ),
-                        ],
-                    ),
-                    anguilla_ipc::MAX_SENSORS,
-                ),
-            ),
-        ],
-    )
 }
 
 /// `docs/data.md`'s generated part: per channel, a table of its fields
@@ -678,7 +278,7 @@ pub fn sensors() -> Value {
 /// codes.
 pub fn markdown() -> String {
     let mut out = String::new();
-    for (topic, (name, s)) in super::TOPICS.iter().zip(all()) {
+    for (topic, (name, s)) in crate::TOPICS.iter().zip(all()) {
         let _ = writeln!(out, "### `{topic}` ({name})\n");
         out.push_str(&table(&s));
         out.push('\n');
@@ -727,10 +327,13 @@ mod tests {
     use std::collections::BTreeSet;
 
     use super::*;
-    use crate::config::Config;
-    use crate::mcap_log::{Scene, TOPICS};
-    use anguilla_drivers::BusState;
-    use anguilla_ipc::{Cause, FaultKind, HoldState, Mode, SensorHealth, StateSnapshot};
+    use crate::{Scene, TOPICS};
+
+    /// The default robot's joints.
+    const JOINTS: usize = 12;
+    use anguilla_ipc::{
+        Cause, FaultKind, HoldState, Mode, SensorHealth, SensorKind, StateSnapshot,
+    };
 
     /// Snapshots that take every mode, cause, sensor health, bus state,
     /// hold and node state (255 included), codes this anguilla does not
@@ -759,7 +362,8 @@ mod tests {
                     refused_commands: i / 4,
                     ..StateSnapshot::default()
                 };
-                s.bus.state = BusState::ALL[i as usize % BusState::ALL.len()].code();
+                let states = bus_state_codes();
+                s.bus.state = states[i as usize % states.len()].0 as u8;
                 s.bus.tx_frames = i * 1000;
                 s.loop_stats.period_ns = 2_000_000;
                 s.loop_stats.periods = i * 10;
@@ -807,12 +411,11 @@ mod tests {
 
     #[test]
     fn every_message_conforms_to_its_channels_schema() {
-        let cfg = Config::default();
-        let mut scene = Scene::new(&cfg);
+        let mut scene = Scene::new(JOINTS);
         let schemas = all();
         let mut per_channel = [0usize; 6];
         let mut seen: [BTreeSet<String>; 3] = Default::default();
-        for s in snapshots(cfg.robot.joints) {
+        for s in snapshots(JOINTS) {
             for (ch, v) in scene.messages(&s) {
                 if let Err(e) = check(&schemas[ch].1, &v) {
                     panic!("{} message {}: {e}\n{v}", TOPICS[ch], per_channel[ch]);
@@ -885,16 +488,15 @@ mod tests {
     /// a keyword it does not check.
     #[test]
     fn the_check_refuses_what_does_not_conform() {
-        let cfg = Config::default();
-        let mut scene = Scene::new(&cfg);
+        let mut scene = Scene::new(JOINTS);
         let mut s = StateSnapshot {
-            joint_count: cfg.robot.joints as u32,
+            joint_count: JOINTS as u32,
             ..StateSnapshot::default()
         };
         s.nav.samples = 1;
         let msgs = scene.messages(&s);
         let written = &msgs[0].1;
-        let schema = state();
+        let schema = State::schema();
         assert_eq!(check(&schema, written), Ok(()));
         let bad = |f: &dyn Fn(&mut Value)| {
             let mut v = written.clone();
@@ -916,7 +518,7 @@ mod tests {
         let joints = &msgs[1].1;
         let mut long = joints.clone();
         long["node_state"] = json!(vec![1; MAX_JOINTS + 1]);
-        let e = check(&super::joints(), &long).unwrap_err();
+        let e = check(&Joints::schema(), &long).unwrap_err();
         assert_eq!(
             e,
             format!("node_state: {} items, at most {MAX_JOINTS}", MAX_JOINTS + 1)

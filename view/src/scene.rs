@@ -2,14 +2,18 @@
 //! body's links posed from the measured joint angles.
 
 use anguilla_ipc::StateSnapshot;
-use anguilla_ipc::pose::{HeadTrack, Pose};
 use anguilla_model::Body;
 use nalgebra::{UnitQuaternion, Vector3};
 use serde_json::{Value, json};
 
-use super::changes::log_lines;
-use super::json::{finite, joints_json, sensors_json, stamp, state_json};
-use crate::config::Config;
+use crate::changes::log_lines;
+use crate::message::{Joints, Sensors, State, finite};
+use crate::pose::{HeadTrack, Pose};
+use crate::to_json;
+
+fn stamp(ns: u64) -> Value {
+    json!({ "sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000 })
+}
 
 fn quat(q: &UnitQuaternion<f64>) -> Value {
     json!({ "x": q.i, "y": q.j, "z": q.k, "w": q.w })
@@ -32,13 +36,13 @@ pub struct Link {
     pub semi_axes: (f64, f64),
 }
 
-/// The body's links as the robot configured by `cfg` has them, head
-/// first: the body cut into `joints + 1` equal parts, each one's length
+/// The body's links of a robot of `joints` joints, head first: the body
+/// cut into `joints + 1` equal parts, each one's length
 /// and its semi-axes (width, height) at its middle (m). The recording's
 /// `/body` and the ROS 2 node's URDF draw these.
-pub fn segments(cfg: &Config) -> Vec<(f64, f64, f64)> {
+pub fn segments(joints: usize) -> Vec<(f64, f64, f64)> {
     let body = Body::paper();
-    let n = cfg.robot.joints + 1;
+    let n = joints + 1;
     let l = body.length / n as f64;
     (0..n)
         .map(|k| {
@@ -62,28 +66,31 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// The scene of a robot configured by `cfg`.
-    pub fn new(cfg: &Config) -> Self {
+    /// The scene of a robot of `joints` joints.
+    pub fn new(joints: usize) -> Self {
         Self {
             last: None,
             track: HeadTrack::default(),
-            links: segments(cfg),
+            links: segments(joints),
         }
     }
 
     /// The messages of one snapshot: (index in
-    /// [`TOPICS`](super::TOPICS), JSON), one on every channel but `/log`,
+    /// [`TOPICS`](crate::TOPICS), JSON), one on every channel but `/log`,
     /// which gets one per change.
     pub fn messages(&mut self, s: &StateSnapshot) -> Vec<(usize, Value)> {
         let ns = s.time_ns;
-        let mut out = vec![(0, state_json(s)), (1, joints_json(s))];
+        let mut out = vec![
+            (0, to_json(&State::from(s))),
+            (1, to_json(&Joints::from(s))),
+        ];
         for (level, message) in log_lines(self.last.as_ref(), s) {
             let v = json!({ "timestamp": stamp(ns), "level": level, "message": message,
                             "name": "anguilla", "file": "", "line": 0 });
             out.push((2, v));
         }
         // The head: measured with a head sensor, else predicted; the
-        // predicted one integrated in the plane (ipc::pose, as ROS 2's tf).
+        // predicted one integrated in the plane (crate::pose, as ROS 2's tf).
         let (head, predicted) = self.track.update(s);
         let tf = |child: &str, p: &Pose| {
             let [x, y, z] = p.translation;
@@ -97,7 +104,7 @@ impl Scene {
             json!({ "transforms": [tf("head", &head), tf("head_predicted", &predicted)] }),
         ));
         out.push((4, self.scene_json(s, ns)));
-        out.push((5, sensors_json(s)));
+        out.push((5, to_json(&Sensors::from(s))));
         self.last = Some(*s);
         out
     }

@@ -1,0 +1,181 @@
+//! The simulated robot's ground truth as viewers see it: the channel
+//! [`TOPIC`] (schema [`SCHEMA_NAME`]) beside the estimate, in a session's
+//! MCAP file when `anguilla run` drives its built-in robot, or alone in
+//! `anguilla sim --truth FILE`'s. A real robot has no such channel.
+
+use serde::Serialize;
+use serde_json::{Value, json};
+
+use crate::schema::{message, number, object};
+
+/// The channel's topic.
+pub const TOPIC: &str = "/sim/truth";
+/// The channel's schema name.
+pub const SCHEMA_NAME: &str = "anguilla.SimTruth";
+
+/// The simulated robot's true state at one instant.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GroundTruth {
+    /// The simulation's own time (s), from its start.
+    pub sim_time: f64,
+    /// The nose's position (m; world frame, x and y horizontal, z up; the
+    /// robot starts at the origin).
+    pub position: [f64; 3],
+    /// The head's orientation, unit quaternion `[w, x, y, z]`, from the
+    /// model's head frame (x towards the tail, z up) to the world.
+    pub orientation: [f64; 4],
+    /// The nose's velocity (m/s, world frame).
+    pub velocity: [f64; 3],
+    /// Forward speed at the head (m/s, positive head first).
+    pub speed: f64,
+    /// The body's heading (rad, counter-clockwise from the world's x): the
+    /// direction from the body's centroid to the nose, the operator's and
+    /// the autopilot's convention.
+    pub heading: f64,
+    /// Depth of the nose below the surface (m, positive down).
+    pub depth: f64,
+}
+
+/// A vector's components.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Xyz {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+impl From<[f64; 3]> for Xyz {
+    fn from([x, y, z]: [f64; 3]) -> Self {
+        Self { x, y, z }
+    }
+}
+
+/// A unit quaternion's components.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Xyzw {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// w.
+    pub w: f64,
+}
+
+/// [`Xyz`]'s schema: each component described by the vector's own text.
+fn xyz(what: &str, unit: &str) -> Value {
+    object(
+        what,
+        ["x", "y", "z"]
+            .map(|n| (n, number(&format!("{what}, {n} ({unit})"))))
+            .into(),
+    )
+}
+
+fn metres(d: &str) -> Value {
+    xyz(d, "m")
+}
+
+fn metres_per_second(d: &str) -> Value {
+    xyz(d, "m/s")
+}
+
+/// [`Xyzw`]'s schema.
+fn xyzw(what: &str) -> Value {
+    object(
+        what,
+        ["x", "y", "z", "w"]
+            .map(|n| (n, number(&format!("Quaternion component {n}"))))
+            .into(),
+    )
+}
+
+fn degrees(d: &str) -> Value {
+    json!({ "type": "number", "minimum": 0, "maximum": 360, "description": d })
+}
+
+crate::view! {
+    /// The simulated robot's ground truth (anguilla run against its built-in
+    /// robot, or anguilla sim --truth FILE: that channel alone)
+    pub struct Truth {
+        /// The simulation's own time since its start (s)
+        sim_time: f64 => number,
+        /// The nose's position in the world (z up; the start at the origin)
+        position: Xyz => metres,
+        /// The head's orientation: unit quaternion from the model's head frame
+        /// (x towards the tail, z up) to the world
+        orientation: Xyzw => xyzw,
+        /// The nose's velocity in the world
+        velocity: Xyz => metres_per_second,
+        /// Forward speed at the head, positive head first (m/s)
+        speed: f64 => number,
+        /// The body's heading, counter-clockwise from the world's x, from the
+        /// body's centroid to the nose: the operator's convention, 0 ..< 360 (deg)
+        heading_deg: f64 => degrees,
+        /// Depth of the nose below the surface, positive down (m)
+        depth: f64 => number,
+    }
+}
+
+impl From<&GroundTruth> for Truth {
+    fn from(t: &GroundTruth) -> Self {
+        let [w, x, y, z] = t.orientation;
+        Self {
+            sim_time: t.sim_time,
+            position: t.position.into(),
+            orientation: Xyzw { x, y, z, w },
+            velocity: t.velocity.into(),
+            speed: t.speed,
+            heading_deg: t.heading.to_degrees().rem_euclid(360.0),
+            depth: t.depth,
+        }
+    }
+}
+
+impl GroundTruth {
+    /// The channel's message.
+    pub fn message(&self) -> Value {
+        crate::to_json(&Truth::from(self))
+    }
+}
+
+/// The channel's JSON Schema (draft 2020-12; [`crate::schema`]).
+pub fn schema() -> Value {
+    message(SCHEMA_NAME, &Truth::description(), Truth::properties())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::schema::check;
+
+    /// Every key of a message is a property of the schema, every required
+    /// property is present, and a heading of −90° is written as 270°.
+    #[test]
+    fn the_message_matches_its_schema() {
+        let t = GroundTruth {
+            sim_time: 1.5,
+            position: [1.0, -2.0, 0.25],
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            velocity: [-0.2, 0.0, 0.0],
+            speed: 0.2,
+            heading: -std::f64::consts::FRAC_PI_2,
+            depth: 0.75,
+        };
+        let m = t.message();
+        check(&schema(), &m).unwrap();
+        assert!((m["heading_deg"].as_f64().unwrap() - 270.0).abs() < 1e-9);
+        assert_eq!(m["orientation"]["w"], 1.0);
+        // A message missing a field, or with one more, does not pass.
+        let mut less = m.clone();
+        less.as_object_mut().unwrap().remove("depth");
+        assert!(check(&schema(), &less).is_err());
+        let mut more = m;
+        more["yaw"] = json!(0.0);
+        assert!(check(&schema(), &more).is_err());
+    }
+}
