@@ -2,6 +2,7 @@
 
 use anguilla_ipc::FaultSet;
 use anguilla_ipc::StateSnapshot;
+use anguilla_view::{Bus, Gait, Loop};
 use serde_json::{Value, json};
 
 use crate::hold::{has_estimate, held};
@@ -27,9 +28,6 @@ fn hold_state_name(code: u8) -> Option<&'static str> {
 /// target `null` unless held) and raw in `nav`.
 pub fn snapshot_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
-    let gait = |g: &anguilla_ipc::GaitSnapshot| json!({"amplitude": g.amplitude, "frequency": g.frequency, "turn": g.turn, "pitch": g.pitch});
-    let l = &s.loop_stats;
-    let b = &s.bus;
     let faults = FaultSet {
         kinds: s.fault_kinds,
         nodes: s.fault_nodes,
@@ -58,20 +56,11 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "holder": s.holder().map(|h| format!("{h:032x}")),
         "predicted_head_speed": s.predicted_head_speed,
         "predicted_turn_rate": s.predicted_turn_rate,
-        "gait_target": gait(&s.gait_target),
-        "gait_actual": gait(&s.gait_actual),
-        "loop_stats": {
-            "period_ns": l.period_ns, "jitter_p50_ns": l.jitter_p50_ns,
-            "jitter_p99_ns": l.jitter_p99_ns, "jitter_max_ns": l.jitter_max_ns,
-            "compute_p50_ns": l.compute_p50_ns, "compute_p99_ns": l.compute_p99_ns,
-            "compute_max_ns": l.compute_max_ns, "periods": l.periods, "overruns": l.overruns,
-        },
-        "bus": {
-            "tx_frames": b.tx_frames, "rx_frames": b.rx_frames, "tx_dropped": b.tx_dropped,
-            "malformed": b.malformed, "errors": b.errors, "rx_overruns": b.rx_overruns,
-            "bus_off_count": b.bus_off_count,
-            "state": b.state,
-        },
+        // The recording's definitions (anguilla_view): the same keys.
+        "gait_target": Gait::from(&s.gait_target),
+        "gait_actual": Gait::from(&s.gait_actual),
+        "loop_stats": Loop::from(&s.loop_stats),
+        "bus": Bus::from(&s.bus),
         "clamped_setpoints": s.clamped_setpoints,
         "refused_commands": s.refused_commands,
         "socket_estops": s.socket_estops,

@@ -69,6 +69,12 @@ macro_rules! view {
             pub fn object(description: &str) -> ::serde_json::Value {
                 $crate::schema::object(description, Self::properties())
             }
+
+            /// Its schema as a closed object of the named type `title`
+            /// (e.g. `foxglove.Vector3`), described by `description`.
+            pub fn typed(title: &str, description: &str) -> ::serde_json::Value {
+                $crate::schema::typed_object(title, description, Self::properties())
+            }
         }
 
         impl ::serde::Serialize for $name {

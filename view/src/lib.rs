@@ -3,7 +3,9 @@
 //! payload ([`anguilla_ipc::StateSnapshot`]).
 //!
 //! - **Messages** ([`State`], [`Joints`], [`Sensors`],
-//!   [`truth::Truth`]): typed structs made from a snapshot, each defined
+//!   [`truth::Truth`], and Foxglove's [`foxglove::Log`],
+//!   [`foxglove::FrameTransforms`], [`foxglove::SceneUpdate`]): typed
+//!   structs made from a snapshot, each defined
 //!   once with its fields' schema beside them ([`view!`]), so the JSON a
 //!   viewer gets and the JSON Schema it is checked against are the same
 //!   definition. The recorder (the session's MCAP file) and the live
@@ -34,6 +36,7 @@
 mod changes;
 #[doc(hidden)]
 pub mod define;
+pub mod foxglove;
 mod message;
 pub mod pose;
 mod scene;

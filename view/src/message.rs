@@ -4,8 +4,8 @@
 //! schema cannot disagree.
 
 use anguilla_ipc::{
-    Cause, GaitSnapshot, HoldState, JointSnapshot, MAX_JOINTS, MAX_SENSORS, Mode, SENSOR_VALUES,
-    SensorHealth, SensorKind, StateSnapshot,
+    BusSnapshot, Cause, GaitSnapshot, HoldState, JointSnapshot, LoopSnapshot, MAX_JOINTS,
+    MAX_SENSORS, Mode, SENSOR_VALUES, SensorHealth, SensorKind, StateSnapshot,
 };
 use serde_json::Value;
 
@@ -87,16 +87,53 @@ crate::view! {
     pub struct Loop {
         /// The configured control period (ns)
         period_ns: u32 => count,
+        /// Wake-up lateness, median (ns)
+        jitter_p50_ns: u32 => count,
         /// Wake-up lateness, 99th percentile (ns)
         jitter_p99_ns: u32 => count,
         /// Wake-up lateness, maximum (ns)
         jitter_max_ns: u32 => count,
+        /// Compute time of one period, median (ns)
+        compute_p50_ns: u32 => count,
         /// Compute time of one period, 99th percentile (ns)
         compute_p99_ns: u32 => count,
+        /// Compute time of one period, maximum (ns)
+        compute_max_ns: u32 => count,
         /// Periods run since start
         periods: u64 => count,
         /// Periods that started more than a whole period late (skipped, never caught up)
         overruns: u64 => count,
+    }
+}
+
+impl From<&BusSnapshot> for Bus {
+    fn from(b: &BusSnapshot) -> Self {
+        Self {
+            tx_frames: b.tx_frames,
+            rx_frames: b.rx_frames,
+            tx_dropped: b.tx_dropped,
+            malformed: b.malformed,
+            errors: b.errors,
+            rx_overruns: b.rx_overruns,
+            bus_off_count: b.bus_off_count,
+            state: b.state,
+        }
+    }
+}
+
+impl From<&LoopSnapshot> for Loop {
+    fn from(l: &LoopSnapshot) -> Self {
+        Self {
+            period_ns: l.period_ns,
+            jitter_p50_ns: l.jitter_p50_ns,
+            jitter_p99_ns: l.jitter_p99_ns,
+            jitter_max_ns: l.jitter_max_ns,
+            compute_p50_ns: l.compute_p50_ns,
+            compute_p99_ns: l.compute_p99_ns,
+            compute_max_ns: l.compute_max_ns,
+            periods: l.periods,
+            overruns: l.overruns,
+        }
     }
 }
 
@@ -211,7 +248,6 @@ impl State {
 impl From<&StateSnapshot> for State {
     fn from(s: &StateSnapshot) -> Self {
         let n = &s.nav;
-        let (b, l) = (&s.bus, &s.loop_stats);
         Self {
             time_ns: s.time_ns,
             sequence: s.sequence,
@@ -224,24 +260,8 @@ impl From<&StateSnapshot> for State {
             predicted_turn_rate: s.predicted_turn_rate,
             gait_target: Gait::from(&s.gait_target),
             gait_actual: Gait::from(&s.gait_actual),
-            bus: Bus {
-                tx_frames: b.tx_frames,
-                rx_frames: b.rx_frames,
-                tx_dropped: b.tx_dropped,
-                malformed: b.malformed,
-                errors: b.errors,
-                rx_overruns: b.rx_overruns,
-                bus_off_count: b.bus_off_count,
-                state: b.state,
-            },
-            loop_stats: Loop {
-                period_ns: l.period_ns,
-                jitter_p99_ns: l.jitter_p99_ns,
-                jitter_max_ns: l.jitter_max_ns,
-                compute_p99_ns: l.compute_p99_ns,
-                periods: l.periods,
-                overruns: l.overruns,
-            },
+            bus: Bus::from(&s.bus),
+            loop_stats: Loop::from(&s.loop_stats),
             clamped_setpoints: s.clamped_setpoints,
             refused_commands: s.refused_commands,
             records_lost: s.records_lost,

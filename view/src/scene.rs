@@ -4,23 +4,32 @@
 use anguilla_ipc::StateSnapshot;
 use anguilla_model::Body;
 use nalgebra::{UnitQuaternion, Vector3};
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use crate::changes::log_lines;
+use crate::foxglove::{
+    self, Color, FrameTransform, FrameTransforms, Log, Quaternion, SceneEntity, SceneUpdate,
+    SpherePrimitive, Time,
+};
 use crate::message::{Joints, Sensors, State, finite};
 use crate::pose::{HeadTrack, Pose};
 use crate::to_json;
 
-fn stamp(ns: u64) -> Value {
-    json!({ "sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000 })
+fn quaternion(q: &UnitQuaternion<f64>) -> Quaternion {
+    Quaternion {
+        x: q.i,
+        y: q.j,
+        z: q.k,
+        w: q.w,
+    }
 }
 
-fn quat(q: &UnitQuaternion<f64>) -> Value {
-    json!({ "x": q.i, "y": q.j, "z": q.k, "w": q.w })
-}
-
-fn vec3(v: &Vector3<f64>) -> Value {
-    json!({ "x": v.x, "y": v.y, "z": v.z })
+fn vector3(v: &Vector3<f64>) -> foxglove::Vector3 {
+    foxglove::Vector3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
+    }
 }
 
 /// One link of the body, posed in the head frame.
@@ -85,25 +94,32 @@ impl Scene {
             (1, to_json(&Joints::from(s))),
         ];
         for (level, message) in log_lines(self.last.as_ref(), s) {
-            let v = json!({ "timestamp": stamp(ns), "level": level, "message": message,
-                            "name": "anguilla", "file": "", "line": 0 });
-            out.push((2, v));
+            out.push((2, to_json(&Log::new(ns, level, message))));
         }
         // The head: measured with a head sensor, else predicted; the
         // predicted one integrated in the plane (crate::pose, as ROS 2's tf).
         let (head, predicted) = self.track.update(s);
-        let tf = |child: &str, p: &Pose| {
+        let tf = |child: &'static str, p: &Pose| {
             let [x, y, z] = p.translation;
             let [qx, qy, qz, qw] = p.rotation;
-            json!({ "timestamp": stamp(ns), "parent_frame_id": "world", "child_frame_id": child,
-                    "translation": { "x": x, "y": y, "z": z },
-                    "rotation": { "x": qx, "y": qy, "z": qz, "w": qw } })
+            FrameTransform {
+                timestamp: Time::from_ns(ns),
+                parent_frame_id: "world",
+                child_frame_id: child,
+                translation: foxglove::Vector3 { x, y, z },
+                rotation: Quaternion {
+                    x: qx,
+                    y: qy,
+                    z: qz,
+                    w: qw,
+                },
+            }
         };
-        out.push((
-            3,
-            json!({ "transforms": [tf("head", &head), tf("head_predicted", &predicted)] }),
-        ));
-        out.push((4, self.scene_json(s, ns)));
+        let transforms = FrameTransforms {
+            transforms: vec![tf("head", &head), tf("head_predicted", &predicted)],
+        };
+        out.push((3, to_json(&transforms)));
+        out.push((4, to_json(&self.scene_update(s, ns))));
         out.push((5, to_json(&Sensors::from(s))));
         self.last = Some(*s);
         out
@@ -140,26 +156,49 @@ impl Scene {
         out
     }
 
-    fn scene_json(&self, s: &StateSnapshot, ns: u64) -> Value {
+    /// `/body`'s message: the links as ellipsoids, shaded head to tail.
+    fn scene_update(&self, s: &StateSnapshot, ns: u64) -> SceneUpdate {
         let links = self.links(s);
         let n = links.len();
-        let spheres: Vec<Value> = links
+        let spheres = links
             .iter()
             .enumerate()
-            .map(|(k, l)| {
-                let shade = 0.35 + 0.5 * k as f64 / n as f64;
-                json!({
-                    "pose": { "position": vec3(&l.centre), "orientation": quat(&l.orientation) },
-                    "size": { "x": l.length, "y": 2.0 * l.semi_axes.0, "z": 2.0 * l.semi_axes.1 },
-                    "color": { "r": 0.1, "g": shade, "b": 0.6, "a": 1.0 }
-                })
+            .map(|(k, l)| SpherePrimitive {
+                pose: foxglove::Pose {
+                    position: vector3(&l.centre),
+                    orientation: quaternion(&l.orientation),
+                },
+                size: foxglove::Vector3 {
+                    x: l.length,
+                    y: 2.0 * l.semi_axes.0,
+                    z: 2.0 * l.semi_axes.1,
+                },
+                color: Color {
+                    r: 0.1,
+                    g: 0.35 + 0.5 * k as f64 / n as f64,
+                    b: 0.6,
+                    a: 1.0,
+                },
             })
             .collect();
-        json!({ "deletions": [], "entities": [{
-            "timestamp": stamp(ns), "frame_id": "head", "id": "body",
-            "lifetime": { "sec": 0, "nsec": 0 }, "frame_locked": true, "metadata": [],
-            "arrows": [], "cubes": [], "spheres": spheres, "cylinders": [], "lines": [],
-            "triangles": [], "texts": [], "models": []
-        }]})
+        SceneUpdate {
+            deletions: [],
+            entities: vec![SceneEntity {
+                timestamp: Time::from_ns(ns),
+                frame_id: "head",
+                id: "body",
+                lifetime: Time { sec: 0, nsec: 0 },
+                frame_locked: true,
+                metadata: [],
+                arrows: [],
+                cubes: [],
+                spheres,
+                cylinders: [],
+                lines: [],
+                triangles: [],
+                texts: [],
+                models: [],
+            }],
+        }
     }
 }

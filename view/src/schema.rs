@@ -39,7 +39,7 @@
 
 use core::fmt::Write as _;
 
-use serde_json::{Value, json};
+use serde_json::Value;
 
 mod build;
 mod check;
@@ -57,218 +57,17 @@ pub use codes::{
 };
 pub use table::table;
 
+use crate::foxglove::{FrameTransforms, Log, SceneUpdate};
 use crate::message::{Joints, Sensors, State};
-use anguilla_ipc::MAX_JOINTS;
-
-/// `time` of Foxglove's schemas, here the daemon's clock.
-fn time(description: &str) -> Value {
-    json!({
-        "type": "object",
-        "title": "time",
-        "description": description,
-        "properties": {
-            "sec": { "type": "integer", "minimum": 0, "description": "Whole seconds (s)" },
-            "nsec": { "type": "integer", "minimum": 0, "maximum": 999_999_999,
-                      "description": "Nanoseconds past sec (ns)" }
-        },
-        "required": ["sec", "nsec"],
-        "additionalProperties": false
-    })
-}
-
-const STAMP: &str = "The snapshot's time on the daemon's clock (since the controller started, \
-                     not Unix time), as the message's log time";
-
-fn vector3(description: &str, unit: &str) -> Value {
-    typed_object(
-        "foxglove.Vector3",
-        description,
-        vec![
-            ("x", number(&format!("x ({unit})"))),
-            ("y", number(&format!("y ({unit})"))),
-            ("z", number(&format!("z ({unit})"))),
-        ],
-    )
-}
-
-fn quaternion(description: &str) -> Value {
-    typed_object(
-        "foxglove.Quaternion",
-        description,
-        vec![
-            ("x", number("x (unit quaternion)")),
-            ("y", number("y")),
-            ("z", number("z")),
-            ("w", number("w")),
-        ],
-    )
-}
-
-/// `foxglove.Log`, written by `Scene::messages` from `log_lines`.
-pub fn log() -> Value {
-    let levels: Vec<Value> = LOG_LEVELS
-        .iter()
-        .map(|(c, name, what)| json!({ "const": c, "title": name, "description": what }))
-        .collect();
-    message(
-        "foxglove.Log",
-        "A log line: a mode change, a fault, refused commands, the autopilot letting go",
-        vec![
-            ("timestamp", time(STAMP)),
-            (
-                "level",
-                json!({ "title": "foxglove.LogLevel", "description": "Log level", "oneOf": levels }),
-            ),
-            ("message", string("The text")),
-            ("name", string("Who logs: anguilla")),
-            ("file", string("Source file: empty")),
-            (
-                "line",
-                json!({ "type": "integer", "minimum": 0, "description": "Line in the file: 0" }),
-            ),
-        ],
-    )
-}
-
-/// `foxglove.FrameTransforms`, written by `Scene::messages`.
-pub fn frame_transforms() -> Value {
-    let transform = typed_object(
-        "foxglove.FrameTransform",
-        "The pose of a child frame in its parent (translation, then rotation)",
-        vec![
-            ("timestamp", time(STAMP)),
-            (
-                "parent_frame_id",
-                names("The parent frame: the world (x, y level, z up)", ["world"]),
-            ),
-            (
-                "child_frame_id",
-                names(
-                    "head: the daemon's estimate with a head sensor (heading, pitch, roll, \
-                     depth, and x, y: nav.x_m, nav.y_m), else predicted; head_predicted: \
-                     the model's speed and turn rate integrated in the plane",
-                    ["head", "head_predicted"],
-                ),
-            ),
-            (
-                "translation",
-                vector3("The child frame's origin in the parent frame", "m"),
-            ),
-            (
-                "rotation",
-                quaternion("The child frame's orientation in the parent frame"),
-            ),
-        ],
-    );
-    message(
-        "foxglove.FrameTransforms",
-        "The head's pose in the world, measured and predicted",
-        vec![(
-            "transforms",
-            array("The transforms: head, then head_predicted", transform, 2),
-        )],
-    )
-}
-
-/// `foxglove.SceneUpdate`, written by `Scene::scene_json`.
-pub fn scene_update() -> Value {
-    let sphere = typed_object(
-        "foxglove.SpherePrimitive",
-        "One link of the body as an ellipsoid",
-        vec![
-            (
-                "pose",
-                typed_object(
-                    "foxglove.Pose",
-                    "The link's centre and orientation in the head frame (x along the link towards the tail)",
-                    vec![
-                        ("position", vector3("The link's centre", "m")),
-                        ("orientation", quaternion("The link's orientation")),
-                    ],
-                ),
-            ),
-            (
-                "size",
-                vector3(
-                    "The ellipsoid's diameters: x the link's length, y its width, z its height",
-                    "m",
-                ),
-            ),
-            (
-                "color",
-                typed_object(
-                    "foxglove.Color",
-                    "The link's colour",
-                    vec![
-                        ("r", number("Red (0..=1)")),
-                        ("g", number("Green (0..=1)")),
-                        ("b", number("Blue (0..=1)")),
-                        ("a", number("Alpha (0..=1)")),
-                    ],
-                ),
-            ),
-        ],
-    );
-    let entity = typed_object(
-        "foxglove.SceneEntity",
-        "The body",
-        vec![
-            ("timestamp", time(STAMP)),
-            (
-                "frame_id",
-                names("The frame the body is drawn in", ["head"]),
-            ),
-            ("id", names("The entity: the body", ["body"])),
-            (
-                "lifetime",
-                json!({
-                    "type": "object", "title": "duration",
-                    "description": "How long the entity stays: 0, until replaced",
-                    "properties": {
-                        "sec": { "type": "integer", "description": "Whole seconds (s)" },
-                        "nsec": { "type": "integer", "minimum": 0, "maximum": 999_999_999,
-                                  "description": "Nanoseconds past sec (ns)" }
-                    },
-                    "required": ["sec", "nsec"],
-                    "additionalProperties": false
-                }),
-            ),
-            (
-                "frame_locked",
-                boolean("True: the body follows its frame as the frame moves"),
-            ),
-            ("metadata", empty_array("Key-value pairs: none")),
-            ("arrows", empty_array("Arrow primitives: none")),
-            ("cubes", empty_array("Cube primitives: none")),
-            (
-                "spheres",
-                array("The links, head first", sphere, MAX_JOINTS + 1),
-            ),
-            ("cylinders", empty_array("Cylinder primitives: none")),
-            ("lines", empty_array("Line primitives: none")),
-            ("triangles", empty_array("Triangle list primitives: none")),
-            ("texts", empty_array("Text primitives: none")),
-            ("models", empty_array("Model primitives: none")),
-        ],
-    );
-    message(
-        "foxglove.SceneUpdate",
-        "The body's links as ellipsoids, posed from the measured joint angles, in the head frame",
-        vec![
-            ("deletions", empty_array("Entities deleted: none")),
-            ("entities", array("The body", entity, 1)),
-        ],
-    )
-}
 
 /// The schemas of [`crate::TOPICS`], in order: (name, schema).
 pub fn all() -> [(&'static str, Value); 6] {
     [
         ("anguilla.State", State::schema()),
         ("anguilla.Joints", Joints::schema()),
-        ("foxglove.Log", log()),
-        ("foxglove.FrameTransforms", frame_transforms()),
-        ("foxglove.SceneUpdate", scene_update()),
+        ("foxglove.Log", Log::schema()),
+        ("foxglove.FrameTransforms", FrameTransforms::schema()),
+        ("foxglove.SceneUpdate", SceneUpdate::schema()),
         ("anguilla.Sensors", Sensors::schema()),
     ]
 }
@@ -328,6 +127,8 @@ mod tests {
 
     use super::*;
     use crate::{Scene, TOPICS};
+    use anguilla_ipc::MAX_JOINTS;
+    use serde_json::json;
 
     /// The default robot's joints.
     const JOINTS: usize = 12;

@@ -1,9 +1,11 @@
 //! The daemon's state as ROS 2 messages: what the node publishes live
 //! ([`super::node`]) and `anguilla export --ros2` writes to a bag
-//! ([`super::bag`]), from the same snapshot to the same bytes.
+//! ([`super::bag`]), from the same snapshot to the same bytes; the joints
+//! and the head's pose as every viewer has them ([`anguilla_view`]).
 
 use anguilla_ipc::StateSnapshot;
 use anguilla_ipc::vocabulary::{Cause, FaultKind, Mode};
+use anguilla_view::Joints;
 use anguilla_view::pose::{HeadTrack, Pose, quaternion_rpy};
 
 use super::msgs;
@@ -232,14 +234,16 @@ const ATMOSPHERE: f64 = 101_325.0;
 /// The joint states, IMU, pressure, feed-forward and residual messages of
 /// `s` (the first five topics).
 pub fn messages(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 5] {
-    let n = (s.joint_count as usize).min(s.joints.len());
-    let joints = &s.joints[..n];
-    let pairs = |f: fn(&anguilla_ipc::JointSnapshot) -> [f32; 2]| -> Vec<f64> {
-        joints
+    // The joints as every viewer has them (the recording's
+    // /anguilla/joints), pitch and yaw axes interleaved, head first.
+    let j = Joints::from(s);
+    let n = j.measured_pitch.len();
+    let pairs = |pitch: &[f32], yaw: &[f32]| -> Vec<f64> {
+        pitch
             .iter()
-            .flat_map(f)
-            .map(f64::from)
-            .collect::<Vec<f64>>()
+            .zip(yaw)
+            .flat_map(|(&p, &y)| [f64::from(p), f64::from(y)])
+            .collect()
     };
     let header = |frame: &str| msgs::Header {
         stamp: msgs::Time::from_ns(stamp_ns),
@@ -248,9 +252,9 @@ pub fn messages(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 5] {
     let js = msgs::JointState {
         header: header(""),
         name: axis_names(n),
-        position: pairs(|j| [j.measured_pitch, j.measured_yaw]),
-        velocity: pairs(|j| [j.measured_pitch_velocity, j.measured_yaw_velocity]),
-        effort: pairs(|j| [j.measured_pitch_torque, j.measured_yaw_torque]),
+        position: pairs(&j.measured_pitch, &j.measured_yaw),
+        velocity: pairs(&j.measured_pitch_velocity, &j.measured_yaw_velocity),
+        effort: pairs(&j.measured_pitch_torque, &j.measured_yaw_torque),
     };
     let nav = &s.nav;
     let mut unknown = [0.0; 9];
@@ -280,8 +284,8 @@ pub fn messages(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 5] {
         fluid_pressure: ATMOSPHERE + RHO_G * f64::from(nav.depth_m),
         variance: 0.0,
     };
-    let ff = pairs(|j| [j.predicted_pitch_torque, j.predicted_yaw_torque]);
-    let res = pairs(|j| [j.pitch_torque_residual, j.yaw_torque_residual]);
+    let ff = pairs(&j.feedforward_pitch_torque, &j.feedforward_yaw_torque);
+    let res = pairs(&j.pitch_torque_residual, &j.yaw_torque_residual);
     [
         js.encode(),
         imu.encode(),
