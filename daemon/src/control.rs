@@ -5,8 +5,8 @@
 //! threads"):
 //!
 //! 1. drain the bus into the joints' [`Drives`] (the family's master);
-//! 2. the head sensor's [`Nav`] estimate moves on with the model's
-//!    prediction and the newest sample; the [`Supervisor`] turns
+//! 2. the head sensor's `Nav` estimate moves on with the model's
+//!    prediction and the newest sample; the `Supervisor` turns
 //!    observations and timeouts into directives (operator commands arrive
 //!    before, through [`Controller::command`]); a hold whose sensor failed
 //!    ends, and the swim stops smoothly;

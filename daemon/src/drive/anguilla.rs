@@ -2,7 +2,7 @@
 //! a joint's two axes. Commands go to every node at once (Enable, Disable,
 //! ClearFaults, E-stop on 0x000), the watchdog is written to each node
 //! before every enable, setpoints carry the cycle tag and SYNC applies
-//! them; what the nodes say is kept in the [`NodeTable`].
+//! them; what the nodes say is kept in the `NodeTable`.
 
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{

@@ -2,7 +2,7 @@
 //!
 //! The controller computes, each period, a setpoint per axis (position,
 //! velocity feed-forward, torque feed-forward, at the joint) and the
-//! supervisor decides what the drives must do ([`Drive`]: disabled,
+//! supervisor decides what the drives must do (`Drive`: disabled,
 //! enabling, following setpoints) and when to E-stop or reset faults. A
 //! [`Drives`] implementation turns that into its family's frames and turns
 //! the frames its drives send into what the supervisor observes
@@ -230,7 +230,7 @@ pub trait Drives: Send {
     /// What the joints report at `now`: a joint is lost once any of its
     /// drives has not been heard for the heartbeat timeout, and silent once
     /// any of them owes feedback for more than the feedback periods
-    /// (whatever its heartbeats say: [`crate::nodes`]).
+    /// (whatever its heartbeats say: `crate::nodes`).
     fn observe(&self, now: Nanos, limits: &Liveness) -> NodeReport;
     /// Whether an E-stop from another sender was seen since the last call
     /// (then cleared).

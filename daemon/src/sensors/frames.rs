@@ -2,7 +2,7 @@
 //! "The head sensor"): one FD `HeadSample`, or the classic `HeadAttitude`,
 //! `HeadRates`, `HeadAccel` and `HeadDepth` tied by their sample counter.
 //! Every IMU of the robot speaks it, whatever it is for: the head's
-//! navigation sensor ([`crate::nav::Nav`]) and the tail's IMU
+//! navigation sensor (`crate::nav::Nav`) and the tail's IMU
 //! ([`super::tail_imu::TailImu`]) read their samples here. Counts the
 //! samples, the ones lost (gaps in the counter, or classic samples missing
 //! a frame) and how many times the measured values repeated exactly.

@@ -1,4 +1,4 @@
-//! The head sensor ([`Nav`]) as the list's first [`Sensor`]: its frames,
+//! The head sensor (`Nav`) as the list's first [`Sensor`]: its frames,
 //! its step with the model's prediction, its health, and the estimate as
 //! its values ([`SensorKind::HeadNav`]).
 

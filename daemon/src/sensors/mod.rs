@@ -5,7 +5,7 @@
 //! fills its entry of the snapshot ([`anguilla_ipc::SensorEntry`], whose
 //! kind code and value names are [`SensorKind`]'s).
 //!
-//! - [`crate::nav::Nav`]: the head's IMU and pressure sensor and the
+//! - `crate::nav::Nav`: the head's IMU and pressure sensor and the
 //!   navigation estimate on it (`[sensor] node`); the autopilot's, the
 //!   supervisor's judge of a hold, and where the others' observations go;
 //! - [`tail_imu::TailImu`]: an IMU in the tail (`[sensor] tail-imu`),

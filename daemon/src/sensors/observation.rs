@@ -1,4 +1,4 @@
-//! What a sensor hands the estimate ([`crate::nav::Nav::observe`]): typed
+//! What a sensor hands the estimate (`crate::nav::Nav::observe`): typed
 //! observations with their time and uncertainty, whatever the sensor and
 //! its wire. The head sensor's own samples (attitude, rates, depth) are
 //! the estimate's process and are read by it directly.

@@ -7,7 +7,7 @@
 //! Health: silent past `[sensor] timeout` (and before the first sample,
 //! five times that); error on an IMU or reset bit, or a sample with
 //! neither attitude nor rates; stuck when the measured values repeated
-//! exactly [`crate::nav::STUCK_SAMPLES`] times more.
+//! exactly `crate::nav::STUCK_SAMPLES` times more.
 
 use anguilla_ipc::{SensorEntry, SensorHealth, SensorKind};
 use anguilla_protocol::Frame;
