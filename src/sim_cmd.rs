@@ -2,20 +2,16 @@
 //! behind an emulated SLCAN adapter on a pseudo-terminal.
 
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use anguilla_drivers::mem::MemBus;
-use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
-use anguilla_drivers::{Clock, MonotonicClock};
 use anguilla_model::dynamics::NODES_RANGE;
 use anguilla_model::{Current, MAX_CURRENT};
 use anguilla_protocol::Family;
 use anguilla_protocol::message::Variant;
 use anguilla_sim::actuator::ActuatorParams;
 use anguilla_sim::sensor::SensorConfig;
-use anguilla_sim::{RobotConfig, SimError, SimRobot, TICK_RANGE};
+use anguilla_sim::serve::{ScenarioText, Serve, TruthSink, Wire, serve};
+use anguilla_sim::{RobotConfig, SimError, TICK_RANGE};
 use anyhow::{Context, bail};
 use clap::Args;
 
@@ -250,8 +246,110 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         if args.usbl.is_some() {
             bail!("--usbl: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
-        return run_bus_alone(args, adapters);
+        let alone = Serve {
+            robot: None,
+            wire: wire(args, adapters),
+            scenario: None,
+            usbl: None,
+            truth: None,
+        };
+        return serve_until_stopped(alone, args.duration);
     }
+    let cfg = robot_config(args, current)?;
+    let scenario = match &args.scenario {
+        Some(p) => Some(
+            std::fs::read_to_string(p)
+                .with_context(|| format!("reading the scenario file {}", p.display()))?,
+        ),
+        None => None,
+    };
+
+    // Made before the robot starts: a file that is there is refused.
+    let truth: Option<Box<dyn TruthSink>> = match &args.truth {
+        Some(p) => Some(Box::new(TruthRecord {
+            file: anguilla_daemon::truth::TruthFile::from_file(anguilla::user_file::create_new(p)?)
+                .with_context(|| format!("--truth {}", p.display()))?,
+            path: p.display().to_string(),
+        })),
+        None => None,
+    };
+    let serve = Serve {
+        robot: Some(cfg),
+        wire: wire(args, adapters),
+        scenario: match (&args.scenario, scenario) {
+            (Some(p), Some(text)) => Some(ScenarioText {
+                name: p.display().to_string(),
+                text,
+            }),
+            _ => None,
+        },
+        usbl: args
+            .usbl
+            .map(|addr| anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency)),
+        truth,
+    };
+    serve_until_stopped(serve, args.duration)
+}
+
+/// Serves `s` until a stop signal or `duration` seconds, printing its
+/// lines (a failing stdout ends them, never the simulation).
+fn serve_until_stopped(s: Serve, duration: Option<f64>) -> anyhow::Result<()> {
+    crate::signals::install();
+    let mut out = crate::output::Status::default();
+    let end = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
+    let wait = |deadline: Instant| {
+        let deadline = end.map_or(deadline, |e| e.min(deadline));
+        let ns = deadline
+            .saturating_duration_since(Instant::now())
+            .as_nanos() as u64;
+        crate::signals::sleep_until_ns(anguilla_daemon::rt::monotonic_ns() + ns)
+            || end.is_some_and(|e| deadline >= e)
+    };
+    serve(s, &wait, &mut |line| out.line(format_args!("{line}")))?;
+    Ok(())
+}
+
+/// `--truth FILE`: the ground truth into an MCAP file, stamped with this
+/// machine's monotonic clock (the daemon's).
+struct TruthRecord {
+    file: anguilla_daemon::truth::TruthFile,
+    path: String,
+}
+
+impl TruthSink for TruthRecord {
+    fn name(&self) -> String {
+        self.path.clone()
+    }
+
+    fn write(&mut self, t: &anguilla_sim::Truth) -> std::io::Result<()> {
+        let t = anguilla::builtin_sim::ground_truth(t);
+        self.file.write(anguilla_daemon::rt::monotonic_ns(), &t)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+
+    fn finish(self: Box<Self>) -> std::io::Result<()> {
+        self.file.finish()
+    }
+}
+
+/// Where the robot goes: `--bus SPEC`, or `--slcan-pty`'s adapters.
+fn wire(args: &SimArgs, adapters: usize) -> Wire {
+    match &args.bus {
+        Some(spec) if !args.slcan_pty => Wire::Bus(spec.clone()),
+        _ => Wire::Adapters {
+            count: adapters,
+            bitrate: args.bitrate,
+            data_bitrate: data_bitrate(args),
+        },
+    }
+}
+
+/// The simulated robot `args` describe, checked; its errors name the
+/// option at fault.
+fn robot_config(args: &SimArgs, current: Current) -> anyhow::Result<RobotConfig> {
     let axis_ids = match &args.axis_ids {
         Some(text) => {
             if !args.drive.drive_per_axis() {
@@ -351,144 +449,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             _ => return Err(e).context("the simulated robot's settings"),
         }
     }
-    let scenario = match &args.scenario {
-        Some(p) => Some(
-            std::fs::read_to_string(p)
-                .with_context(|| format!("reading the scenario file {}", p.display()))?,
-        ),
-        None => None,
-    };
-
-    // Made before the robot starts: a file that is there is refused.
-    let truth_file = match &args.truth {
-        Some(p) => Some(
-            anguilla_daemon::truth::TruthFile::from_file(anguilla::user_file::create_new(p)?)
-                .with_context(|| format!("--truth {}", p.display()))?,
-        ),
-        None => None,
-    };
-
-    crate::signals::install();
-    // Status lines: a failing stdout ends them, never the simulation.
-    let mut out = crate::output::Status::default();
-
-    let mut _emulators = Vec::new();
-    let (mut robot, clock): (SimRobot, Arc<dyn Clock>) = if args.slcan_pty {
-        let bus = wire(args).build();
-        _emulators = start_adapters(&bus, adapters, args, &mut out)?;
-        let clock = bus.clock();
-        let robot = SimRobot::on_mem(cfg, bus.participant(), clock.now())
-            .context("building the simulated robot")?;
-        (robot, clock)
-    } else {
-        let spec = args.bus.as_deref().unwrap_or_default();
-        let robot = anguilla_sim::open_robot(cfg, spec)
-            .with_context(|| format!("opening the bus {spec}"))?;
-        let clock: Arc<dyn Clock> = match robot.mem_bus() {
-            Some(b) => b.clock(),
-            None => Arc::new(MonotonicClock::new()),
-        };
-        (robot, clock)
-    };
-    if let Some(text) = &scenario {
-        let name = args
-            .scenario
-            .as_ref()
-            .map(|p| p.display().to_string())
-            .unwrap_or_default();
-        robot
-            .load_scenario(text)
-            .with_context(|| format!("in the scenario file {name}"))?;
-    }
-    // A joint is one node, or two drives (pitch:yaw), as the family says.
-    let drives = if args.drive.drive_per_axis() {
-        let pairs: Vec<String> = (0..args.joints)
-            .map(|j| {
-                let [p, y] = robot.config().drive_ids(j);
-                format!("{p}:{y}")
-            })
-            .collect();
-        format!("{} drives {}", args.drive, pairs.join(","))
-    } else {
-        format!("nodes 1..={}", args.joints)
-    };
-    out.line(format_args!(
-        "simulated robot: {} joints ({} CAN), {drives}, on {}; Ctrl-C stops",
-        args.joints,
-        if args.fd { "FD" } else { "classic" },
-        robot.bus().spec()
-    ));
-
-    let running = robot
-        .spawn(clock)
-        .context("starting the simulation thread")?;
-    // Stopped when dropped, at the end of this function.
-    let _usbl = match args.usbl {
-        Some(addr) => {
-            let cfg = anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency);
-            match anguilla_sim::usbl::SimUsbl::beside(cfg, &running) {
-                Ok(u) => Some(u),
-                Err(e) => {
-                    let _ = running.stop();
-                    bail!("--usbl {addr} --usbl-latency {}: {e}", args.usbl_latency);
-                }
-            }
-        }
-        None => None,
-    };
-    let stop_truth = AtomicBool::new(false);
-    let truth_report = std::thread::scope(|scope| {
-        let recorder = truth_file.map(|f| scope.spawn(|| record_truth(f, &running, &stop_truth)));
-        each_second_until_stopped(args.duration, |_| {
-            let t = running.truth();
-            let s = running.status();
-            out.line(format_args!(
-            "t {:7.1} s  speed {:+.3} m/s  heading {:5.1} deg  depth {:.2} m  nodes boot/disabled/enabled/fault/estop {:?}  frames in {} out {}  send errors {}  slipped {:.2} s",
-            t.time.as_secs_f64(),
-            t.forward_speed + 0.0, // no "-0.000" at rest
-            t.heading.to_degrees().rem_euclid(360.0),
-            t.depth + 0.0,
-            s.states,
-            s.stats.frames_in,
-            s.stats.frames_out,
-            s.stats.send_errors,
-            s.stats.slipped.as_secs_f64(),
-        ));
-        });
-        stop_truth.store(true, Ordering::Release);
-        recorder.map(|r| {
-            r.join()
-                .unwrap_or_else(|_| (0, Some("the recorder panicked".into())))
-        })
-    });
-    if let (Some(path), Some((n, failed))) = (&args.truth, truth_report) {
-        match failed {
-            None => out.line(format_args!(
-                "ground truth: {n} samples of /sim/truth in {}",
-                path.display()
-            )),
-            Some(e) => out.line(format_args!(
-                "ground truth LOST after {n} samples in {}: {e}",
-                path.display()
-            )),
-        }
-    }
-    let robot = running
-        .stop()
-        .context("the simulation thread stopped unexpectedly")?;
-    let s = robot.stats();
-    out.line(format_args!(
-        "stopped at t {:.1} s: {} ticks, {} frames in, {} out, {} send errors, {} model errors, {} scenario events, {:.2} s slipped behind real time",
-        robot.time().as_secs_f64(),
-        s.ticks,
-        s.frames_in,
-        s.frames_out,
-        s.send_errors,
-        s.model_errors,
-        s.events,
-        s.slipped.as_secs_f64()
-    ));
-    Ok(())
+    Ok(cfg)
 }
 
 /// The data-phase bit rate of the simulated wire: `--data-bitrate`, by
@@ -504,153 +465,8 @@ fn data_bitrate(args: &SimArgs) -> Option<u32> {
     })
 }
 
-/// The simulated wire behind the emulated adapters: the nominal bit rate,
-/// and the data phase's for CAN FD (at the nominal rate, a CAN FD robot's
-/// traffic overloads it).
-fn wire(args: &SimArgs) -> anguilla_drivers::mem::MemBusBuilder {
-    let b = MemBus::builder("anguilla-sim-slcan").bitrate(args.bitrate);
-    match data_bitrate(args) {
-        Some(d) => b.data_bitrate(d),
-        None => b,
-    }
-}
-
-/// How often `--truth` records the ground truth (ns): the daemon's rate.
-const TRUTH_PERIOD_NS: u64 = 50_000_000;
-
-/// Writes `running`'s ground truth into `file` every [`TRUTH_PERIOD_NS`]
-/// (stamped with CLOCK_MONOTONIC, flushed once a second) until `stop`;
-/// returns the samples written and the error that ended the recording, if
-/// one did (the simulation goes on without it).
-fn record_truth(
-    mut file: anguilla_daemon::truth::TruthFile,
-    running: &anguilla_sim::robot::RunningSim,
-    stop: &AtomicBool,
-) -> (u64, Option<String>) {
-    use anguilla_daemon::rt::monotonic_ns;
-    let mut n = 0u64;
-    let mut next = monotonic_ns();
-    let result = (|| -> std::io::Result<()> {
-        let mut last_sim_time = f64::NEG_INFINITY;
-        while !stop.load(Ordering::Acquire) {
-            let t = anguilla::builtin_sim::ground_truth(&running.truth());
-            // A simulation starved of the CPU may not have stepped since the
-            // last sample: the same state again would say nothing new.
-            if t.sim_time > last_sim_time {
-                last_sim_time = t.sim_time;
-                file.write(monotonic_ns(), &t)?;
-                n += 1;
-                if n.is_multiple_of(20) {
-                    file.flush()?;
-                }
-            }
-            next += TRUTH_PERIOD_NS;
-            std::thread::sleep(Duration::from_nanos(next.saturating_sub(monotonic_ns())));
-        }
-        file.finish()
-    })();
-    (n, result.err().map(|e| e.to_string()))
-}
-
 /// The most emulated adapters `--adapters` starts on one bus.
 const ADAPTERS_RANGE: std::ops::RangeInclusive<usize> = 1..=8;
-
-/// Starts `n` emulated SLCAN adapters on `bus`, each on its own pty, and
-/// prints each one's device path.
-fn start_adapters(
-    bus: &MemBus,
-    n: usize,
-    args: &SimArgs,
-    out: &mut crate::output::Status,
-) -> anyhow::Result<Vec<SlcanEmulator>> {
-    (0..n)
-        .map(|k| {
-            let emu = SlcanEmulator::on_pty(
-                Box::new(bus.participant()),
-                EmulatorConfig {
-                    fd: args.fd,
-                    ..EmulatorConfig::default()
-                },
-            )
-            .with_context(|| format!("creating the SLCAN pseudo-terminal of adapter {}", k + 1))?;
-            let path = emu.path().unwrap_or("?").to_owned();
-            match data_bitrate(args) {
-                Some(d) => out.line(format_args!(
-                    "slcan device: {path} (open it with slcan:{path}@{}?fd=1; CAN FD, data phase at {d} bit/s)",
-                    args.bitrate
-                )),
-                None => out.line(format_args!(
-                    "slcan device: {path} (open it with slcan:{path}@{})",
-                    args.bitrate
-                )),
-            }
-            Ok(emu)
-        })
-        .collect()
-}
-
-/// Calls `each_second` with the time since the start once a second, until
-/// `duration` seconds (if any) have passed or a stop signal arrives;
-/// sleeps to absolute deadlines in between and wakes at once on a signal.
-fn each_second_until_stopped(duration: Option<f64>, mut each_second: impl FnMut(Duration)) {
-    const S: u64 = 1_000_000_000;
-    let start = anguilla_daemon::rt::monotonic_ns();
-    let end = duration.map(|d| start.saturating_add((d * 1e9) as u64));
-    let mut next = start + S;
-    loop {
-        let deadline = end.map_or(next, |e| e.min(next));
-        if crate::signals::sleep_until_ns(deadline) || end.is_some_and(|e| deadline >= e) {
-            return;
-        }
-        each_second(Duration::from_nanos(next - start));
-        next += S;
-    }
-}
-
-/// `--slcan-pty --joints 0`: the adapters on one simulated bus and nothing
-/// else, so that tools opened on different adapters talk to each other.
-fn run_bus_alone(args: &SimArgs, adapters: usize) -> anyhow::Result<()> {
-    crate::signals::install();
-    let mut out = crate::output::Status::default();
-    let bus = wire(args).build();
-    let emulators = start_adapters(&bus, adapters, args, &mut out)?;
-    out.line(format_args!(
-        "no robot: {adapters} adapter(s) on one simulated {} CAN bus at {} bit/s; Ctrl-C stops",
-        if args.fd { "FD" } else { "classic" },
-        args.bitrate
-    ));
-    let started = Instant::now();
-    each_second_until_stopped(args.duration, |el| {
-        let (from, to) = frame_counts(&emulators);
-        out.line(format_args!(
-            "t {:7.1} s  frames from hosts {from:?}  to hosts {to:?}",
-            el.as_secs_f64(),
-        ));
-    });
-    let (from, to) = frame_counts(&emulators);
-    for e in emulators {
-        e.stop();
-    }
-    out.line(format_args!(
-        "stopped after {:.1} s: frames from hosts {from:?}, to hosts {to:?}",
-        started.elapsed().as_secs_f64()
-    ));
-    Ok(())
-}
-
-/// Frames each adapter took from its host onto the bus, and gave it.
-fn frame_counts(emulators: &[SlcanEmulator]) -> (Vec<u64>, Vec<u64>) {
-    let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
-    emulators
-        .iter()
-        .map(|e| {
-            (
-                get(&e.stats().frames_from_host),
-                get(&e.stats().frames_to_host),
-            )
-        })
-        .unzip()
-}
 
 /// `--axis-ids`: comma-separated `PITCH:YAW` pairs of node ids (0..=255
 /// here; the family's range is checked with the rest of the settings).

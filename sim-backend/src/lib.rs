@@ -25,11 +25,15 @@
 //! - [`usbl`]: a USBL off the bus, sending noisy fixes of the true position
 //!   over UDP;
 //! - [`scenario`]: the fault-injection scenario language;
+//! - [`serve`]: a robot served on a bus or behind emulated SLCAN adapters
+//!   until told to stop, with its scenario, USBL and ground-truth record
+//!   (what `anguilla sim` runs once its options are checked);
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 //!
 //! In process, `anguilla run` starts [`builtin::Builtin`], which puts the
 //! robot on an in-process bus and runs it with [`SimRobot::spawn`] on the
-//! bus's clock; `anguilla sim` opens any bus with [`open_robot`];
+//! bus's clock; `anguilla sim` opens any bus with [`open_robot`]
+//! ([`serve::serve`]);
 //! tests drive [`SimRobot::step_until`] on a
 //! [`ManualClock`](anguilla_drivers::ManualClock), faster than real time and
 //! deterministically:
@@ -71,6 +75,7 @@ pub mod rng;
 pub mod robot;
 pub mod scenario;
 pub mod sensor;
+pub mod serve;
 pub mod usbl;
 
 pub use robot::{
