@@ -312,6 +312,17 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
     out(&format!("done: {}\n", outcome.mode))
 }
 
+/// The position's health in words, with the last fix's age.
+fn position_words(n: &anguilla_ipc::NavSnapshot) -> String {
+    let name = anguilla_ipc::PositionHealth::from_code(n.position_health)
+        .map_or("unknown", anguilla_ipc::PositionHealth::name);
+    if n.position_fixes > 0 && n.fix_age_ms != u32::MAX {
+        format!("{name}, last {:.1} s ago", f64::from(n.fix_age_ms) / 1e3)
+    } else {
+        name.to_string()
+    }
+}
+
 /// The human summary of `ctl status`.
 fn summary(s: &StateSnapshot, who: Option<String>) -> String {
     let faults = FaultSet {
@@ -334,7 +345,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
         format!("sensor {}, no sample yet", sensor_name(n.sensor))
     } else {
         format!(
-            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}, x {:.2} m, y {:.2} m (+/- {:.2} m, {} fixes); sensor {}",
+            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}, x {:.2} m, y {:.2} m (+/- {:.2} m, {} fixes; {}), current {:+.3}, {:+.3} m/s (+/- {:.3}); sensor {}",
             n.heading_deg,
             n.pitch_deg,
             n.roll_deg,
@@ -350,6 +361,10 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
             n.y_m,
             n.position_sigma_m,
             n.position_fixes,
+            position_words(n),
+            n.current_x,
+            n.current_y,
+            n.current_sigma,
             sensor_name(n.sensor)
         )
     };

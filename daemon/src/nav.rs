@@ -32,10 +32,11 @@
 //! pressure jump beyond [`MAX_DEPTH_INNOVATION`], which is left out of the
 //! estimate). A roll beyond `roll-alarm` is an alarm in the
 //! snapshot, not a health: the autopilot steers through it.
-//! - the nose's **position** x, y ([`position::Plane`]) is propagated
-//!   with the same world velocity and corrected by the position fixes
-//!   other sensors observe ([`Observation::PositionFix`], handed over by
-//!   [`Nav::observe`]).
+//! - the nose's **position** x, y and the water's **current**
+//!   ([`position::Plane`]) are propagated with the same world velocity and
+//!   corrected by the position fixes other sensors observe
+//!   ([`Observation::PositionFix`], handed over by [`Nav::observe`]); the
+//!   fixes' age makes the position's health ([`anguilla_ipc::PositionHealth`]).
 //!
 //! Nothing here allocates after [`Nav::new`].
 
@@ -187,7 +188,10 @@ impl Nav {
             errors: SensorErrors::default(),
             status: SensorStatus::default(),
             health: SensorHealth::Waiting,
-            plane: Plane::new(),
+            plane: Plane::new(cfg.sensor.usbl.as_ref().map(|_| position::FixTimes {
+                stale: cfg.autopilot.fix_stale,
+                lost: cfg.autopilot.fix_lost,
+            })),
         })
     }
 
@@ -424,6 +428,15 @@ impl Nav {
         s.y_m = y as f32;
         s.position_sigma_m = self.plane.sigma() as f32;
         s.position_fixes = self.plane.fixes();
+        let (cx, cy) = self.plane.current();
+        s.current_x = cx as f32;
+        s.current_y = cy as f32;
+        s.current_sigma = self.plane.current_sigma() as f32;
+        s.fix_age_ms = self
+            .plane
+            .fix_age()
+            .map_or(u32::MAX, |a| (a * 1e3).min(f64::from(u32::MAX - 1)) as u32);
+        s.position_health = self.plane.health() as u8;
     }
 }
 

@@ -19,7 +19,7 @@ try:
 except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
-LAYOUT_VERSION = 10
+LAYOUT_VERSION = 11
 (ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD,
  SWIM_HOLD) = range(1, 12)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
@@ -78,7 +78,9 @@ class NavSnapshot(_Payload):
             "heading_target_deg", "depth_target_m", "rate_innovation", "depth_innovation")] + [
         ("heading_hold", u8), ("depth_hold", u8), ("surfaced", u8), ("reserved", u8),
         ("samples", u64), ("lost_samples", u64),
-        ("x_m", f32), ("y_m", f32), ("position_sigma_m", f32), ("position_fixes", u32)]
+        ("x_m", f32), ("y_m", f32), ("position_sigma_m", f32), ("position_fixes", u32),
+        ("current_x", f32), ("current_y", f32), ("current_sigma", f32), ("fix_age_ms", u32),
+        ("position_health", u8), ("reserved_position", u8 * 7)]
 
 
 class SensorEntry(_Payload):
@@ -136,7 +138,7 @@ class CommandReply(_Payload):
 
 
 for _t, _size in ((JointSnapshot, 64), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
-                  (LimitsSnapshot, 24), (NavSnapshot, 80), (SensorEntry, 40), (StateSnapshot, 2552),
+                  (LimitsSnapshot, 24), (NavSnapshot, 104), (SensorEntry, 40), (StateSnapshot, 2576),
                   (SwimBody, 16), (HoldBody, 12), (SwimHoldBody, 28), (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))

@@ -91,6 +91,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
         heading_hold: "uint8_t", depth_hold: "uint8_t", surfaced: "uint8_t", reserved: "uint8_t",
         samples: "uint64_t", lost_samples: "uint64_t",
         x_m: "float", y_m: "float", position_sigma_m: "float", position_fixes: "uint32_t",
+        current_x: "float", current_y: "float", current_sigma: "float", fix_age_ms: "uint32_t",
+        position_health: "uint8_t", reserved_position: "uint8_t[7]",
     ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
         layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", body: "uint32_t[7]",

@@ -8,7 +8,7 @@ use crate::vocabulary::SwimParams;
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 10;
+pub const LAYOUT_VERSION: u32 = 11;
 /// Most sensors a snapshot carries.
 pub const MAX_SENSORS: usize = 4;
 /// Values a [`SensorEntry`] carries.
@@ -269,6 +269,22 @@ pub struct NavSnapshot {
     pub position_sigma_m: f32,
     /// Position fixes taken into the estimate since start.
     pub position_fixes: u32,
+    /// The water's estimated velocity over ground (m/s), x, in the
+    /// estimate's local frame: what moves the robot beside its own
+    /// swimming, learnt from the fixes (0 without them).
+    pub current_x: f32,
+    /// The current's y (m/s), as `current_x`.
+    pub current_y: f32,
+    /// The current's standard deviation (m/s, per axis).
+    pub current_sigma: f32,
+    /// How long ago the last fix taken was measured (ms, saturating);
+    /// `u32::MAX` before the first.
+    pub fix_age_ms: u32,
+    /// Whether fixes hold the position (`PositionHealth`: 0 dead
+    /// reckoning, 1 waiting for a fix, 2 fixed, 3 fix stale, 4 fix lost).
+    pub position_health: u8,
+    /// Padding, always 0.
+    pub reserved_position: [u8; 7],
 }
 
 /// A hold state code's name ("hold state N" for an unknown one).

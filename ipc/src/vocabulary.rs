@@ -4,7 +4,7 @@
 //!
 //! Its files: `mode.rs` ([`Mode`], [`Cause`]), `swim.rs` ([`SwimParams`],
 //! [`Hold`], [`HoldState`]), `sensor.rs` ([`SensorHealth`],
-//! [`SensorKind`]), `commands.rs` ([`Command`], [`CommandKind`]),
+//! [`PositionHealth`], [`SensorKind`]), `commands.rs` ([`Command`], [`CommandKind`]),
 //! `refusal.rs` ([`Refusal`], [`Field`]) and `fault.rs` ([`FaultKind`],
 //! [`FaultSet`]).
 
@@ -27,7 +27,7 @@ pub use commands::{Command, CommandKind};
 pub use fault::{FaultKind, FaultSet};
 pub use mode::{Cause, Mode};
 pub use refusal::{Field, Refusal};
-pub use sensor::{SensorHealth, SensorKind};
+pub use sensor::{PositionHealth, SensorHealth, SensorKind};
 pub use swim::{
     HOLD_DEPTH_TOLERANCE, HOLD_HEADING_TOLERANCE, Hold, HoldState, SURFACE_DEPTH, SwimParams,
     hold_bits,

@@ -88,6 +88,13 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "x_m": estimate(nav.x_m),
         "y_m": estimate(nav.y_m),
         "position_sigma_m": estimate(nav.position_sigma_m),
+        "position": anguilla_ipc::PositionHealth::from_code(nav.position_health)
+            .map_or("unknown", anguilla_ipc::PositionHealth::name),
+        "fix_age_s": (nav.position_fixes > 0 && nav.fix_age_ms != u32::MAX)
+            .then(|| f64::from(nav.fix_age_ms) / 1e3),
+        "current_x": estimate(nav.current_x),
+        "current_y": estimate(nav.current_y),
+        "current_sigma": estimate(nav.current_sigma),
         "heading_target_deg": hold.heading.map(|_| nav.heading_target_deg),
         "depth_target_m": hold.depth.map(|_| nav.depth_target_m),
         "torque_residual_alarms": s.residual_alarms().map(|(joint, axis, r)| json!({
@@ -115,6 +122,9 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
             "samples": nav.samples, "lost_samples": nav.lost_samples,
             "x_m": nav.x_m, "y_m": nav.y_m, "position_sigma_m": nav.position_sigma_m,
             "position_fixes": nav.position_fixes,
+            "current_x": nav.current_x, "current_y": nav.current_y,
+            "current_sigma": nav.current_sigma, "fix_age_ms": nav.fix_age_ms,
+            "position_health": nav.position_health,
         },
     });
     if let (Value::Object(all), Value::Object(more)) = (&mut v, extra) {

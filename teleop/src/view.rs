@@ -1,7 +1,7 @@
 //! The state view shared by `anguilla teleop` and `anguilla monitor`,
 //! drawn with ratatui on any backend (a terminal, or `TestBackend` in tests).
 
-use anguilla_ipc::{Cause, FaultSet, Hold, HoldState, Mode, NavSnapshot, SensorHealth};
+use anguilla_ipc::{Cause, FaultSet, Hold, Mode, NavSnapshot, SensorHealth};
 use anguilla_ipc::{GaitSnapshot, StateSnapshot};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -16,11 +16,13 @@ use ratatui::widgets::{
 use crate::app::Intent;
 
 mod lists;
+mod nav;
 use crate::history::{History, Series};
-use crate::hold::{has_estimate, held, wrap_heading};
+use crate::hold::{held, wrap_heading};
 use crate::keys::KEYS;
 use crate::operator::Refused;
 pub use lists::{residual_line, sensor_lines, sensor_name};
+pub use nav::{COMPASS_DEG_PER_COLUMN, compass_strip, depth_gauge, nav_lines, position_line};
 
 /// Smallest terminal the teleop view fits in (columns).
 pub const MIN_WIDTH: u16 = 80;
@@ -38,194 +40,6 @@ pub fn mode_name(mode: u8) -> &'static str {
 /// "depth" or "heading+depth".
 pub fn autopilot_name(nav: &NavSnapshot) -> &'static str {
     held(nav).name()
-}
-
-/// Degrees of heading per column of [`compass_strip`].
-pub const COMPASS_DEG_PER_COLUMN: f64 = 5.0;
-
-/// `a - b` in degrees, wrapped to -180 ..< 180 (positive: `a` is to the
-/// left of `b`, headings increasing counter-clockwise).
-fn heading_diff(a: f64, b: f64) -> f64 {
-    (a - b + 180.0).rem_euclid(360.0) - 180.0
-}
-
-/// A compass strip `width` columns wide centred on `heading` (the centre
-/// column is the nose), [`COMPASS_DEG_PER_COLUMN`] a column. Headings
-/// increase to the **left**, as the robot sees them turning left (they are
-/// counter-clockwise seen from above). The nose is a `│`; labels every
-/// 30° (but where they would cover the nose or the target), a `·` every
-/// 10°; `target`, if any, is a `◆`, or a `◀` / `▶` at the edge on its side
-/// when it is off the strip.
-pub fn compass_strip(heading: f64, target: Option<f64>, width: usize) -> String {
-    let width = width.max(3);
-    let centre = (width / 2) as f64;
-    let mut cols = vec![' '; width];
-    let column = |deg: f64| centre - (heading_diff(deg, heading) / COMPASS_DEG_PER_COLUMN).round();
-    let target_col = target.map(|t| column(t).clamp(0.0, (width - 1) as f64));
-    for k in 0..36 {
-        let c = column(k as f64 * 10.0);
-        if (0.0..width as f64).contains(&c) {
-            cols[c as usize] = '·';
-        }
-    }
-    for k in 0..12 {
-        let label = (k * 30).to_string();
-        let n = label.len() as f64;
-        let first = column(k as f64 * 30.0) - ((n - 1.0) / 2.0).floor();
-        let covers = |c: f64| (first..first + n).contains(&c);
-        if first >= 0.0
-            && first + n <= width as f64
-            && !covers(centre)
-            && !target_col.is_some_and(covers)
-        {
-            for (i, ch) in label.chars().enumerate() {
-                cols[first as usize + i] = ch;
-            }
-        }
-    }
-    cols[centre as usize] = '│';
-    if let Some(t) = target {
-        let c = column(t);
-        if c < 0.0 {
-            cols[0] = '◀';
-        } else if c >= width as f64 {
-            cols[width - 1] = '▶';
-        } else {
-            cols[c as usize] = '◆';
-        }
-    }
-    cols.into_iter().collect()
-}
-
-/// A depth gauge `width` columns wide: `0├`, the scale, `┤` and its full
-/// scale in metres (at least 2 m, and a quarter beyond the deeper of
-/// `depth` and `target`, rounded up to a metre), with the depth as `●`
-/// and the target, if any, as `◆`.
-pub fn depth_gauge(depth: f64, target: Option<f64>, width: usize) -> String {
-    let deepest = depth.max(target.unwrap_or(0.0)).max(0.0);
-    let full = (deepest * 1.25).ceil().max(2.0);
-    let end = format!("┤{full:.0} m");
-    let inner = width.saturating_sub(2 + end.chars().count()).max(3);
-    let mut cols = vec!['─'; inner];
-    let col = |v: f64| ((v.clamp(0.0, full) / full) * (inner - 1) as f64).round() as usize;
-    if let Some(t) = target {
-        cols[col(t)] = '◆';
-    }
-    cols[col(depth)] = '●';
-    format!("0├{}{end}", cols.into_iter().collect::<String>())
-}
-
-/// The header's head-sensor lines for an area `width` columns wide: one
-/// compact line without a sensor or before its first sample; else the
-/// heading (compass strip, target), pitch and roll (roll alarm), then the
-/// depth (gauge, rate, target), the autopilot and the sensor's health.
-pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
-    let bad = Style::default().fg(Color::Red).add_modifier(Modifier::BOLD);
-    let dim = Style::default().fg(Color::DarkGray);
-    let health = sensor_name(nav.sensor);
-    let health_style = if nav.sensor == SensorHealth::Ok as u8 {
-        Style::default().fg(Color::Green)
-    } else {
-        bad
-    };
-    let hold = held(nav);
-    let mut autopilot = vec![
-        Span::raw("  autopilot "),
-        Span::styled(hold.name(), Style::default().add_modifier(Modifier::BOLD)),
-    ];
-    if !hold.is_active() && nav.hold_exit != 0 {
-        autopilot.push(Span::styled(
-            format!(" (let go: {})", sensor_name(nav.hold_exit)),
-            bad,
-        ));
-    }
-    // How each held quantity is doing, as the daemon judges it: a failure
-    // (not converging, cannot) in red.
-    for (code, what) in [(nav.heading_hold, "hdg"), (nav.depth_hold, "depth")] {
-        match HoldState::from_code(code) {
-            Some(HoldState::Off) => {}
-            Some(h) => autopilot.push(Span::styled(
-                format!(" {what} {}", h.name()),
-                if h.failed() { bad } else { dim },
-            )),
-            None => autopilot.push(Span::styled(format!(" {what} hold state {code}"), bad)),
-        }
-    }
-    if nav.sensor == 0 {
-        return vec![Line::from(Span::styled(
-            "no head sensor (heading and depth hold unavailable)",
-            dim,
-        ))];
-    }
-    if !has_estimate(nav) {
-        let mut spans = vec![
-            Span::raw("head sensor "),
-            Span::styled(health, health_style),
-            Span::raw(": no sample yet"),
-        ];
-        spans.extend(autopilot);
-        return vec![Line::from(spans)];
-    }
-    let heading = wrap_heading(nav.heading_deg as f64);
-    let mut l1 = format!("hdg {heading:05.1}°");
-    if let Some(t) = hold.heading {
-        l1.push_str(&format!(" → {:05.1}°", wrap_heading(t)));
-    }
-    let attitude = format!("  pitch {:+.1}°  roll {:+.1}°", nav.pitch_deg, nav.roll_deg);
-    let alarm = "  ROLL ALARM";
-    let used = l1.chars().count() + 1 + attitude.chars().count() + alarm.len();
-    let strip_width = (width.saturating_sub(used + 1) | 1).clamp(9, 37);
-    let strip = compass_strip(heading, hold.heading, strip_width);
-    let (before, rest) = strip.split_at(
-        strip
-            .char_indices()
-            .nth(strip_width / 2)
-            .map_or(0, |(i, _)| i),
-    );
-    let mut nose = rest.chars();
-    let nose_char = nose.next().unwrap_or(' ').to_string();
-    let mut line1 = vec![
-        Span::raw(format!("{l1} ")),
-        Span::styled(before.to_string(), Style::default().fg(Color::Cyan)),
-        Span::styled(nose_char, Style::default().add_modifier(Modifier::REVERSED)),
-        Span::styled(nose.collect::<String>(), Style::default().fg(Color::Cyan)),
-        Span::raw(attitude),
-    ];
-    if nav.roll_alarm != 0 {
-        line1.push(Span::styled(alarm, bad));
-    }
-    let depth = nav.depth_m as f64;
-    let mut d = format!("depth {depth:.2} m");
-    if let Some(t) = hold.depth {
-        d.push_str(&format!(" → {t:.2} m"));
-    }
-    let rate = nav.depth_rate as f64;
-    d.push_str(&format!(
-        " {}{:.2} m/s",
-        if rate >= 0.0 { '↓' } else { '↑' },
-        rate.abs()
-    ));
-    let sensor = vec![Span::raw("  sensor "), Span::styled(health, health_style)];
-    let used = d.chars().count()
-        + autopilot
-            .iter()
-            .chain(&sensor)
-            .map(|s| s.content.chars().count())
-            .sum::<usize>();
-    let mut line2 = vec![Span::raw(d)];
-    if nav.surfaced != 0 {
-        line2.push(Span::styled(" SURFACED", bad));
-    }
-    let room = width.saturating_sub(used + 2);
-    if room >= 14 {
-        line2.push(Span::styled(
-            format!(" {}", depth_gauge(depth, hold.depth, room.min(30))),
-            Style::default().fg(Color::Cyan),
-        ));
-    }
-    line2.extend(autopilot);
-    line2.extend(sensor);
-    vec![Line::from(line1), Line::from(line2)]
 }
 
 /// The operator's holds in words: "heading 090.0°, depth 1.50 m", or
@@ -309,6 +123,7 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
         .state
         .map(|s| {
             let mut lines = nav_lines(&s.nav, area.width.saturating_sub(2) as usize);
+            lines.extend(position_line(&s.nav));
             lines.extend(sensor_lines(s));
             lines.extend(residual_line(s));
             lines

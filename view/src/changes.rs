@@ -1,7 +1,9 @@
 //! The `/log` channel's lines: what changed between two snapshots (the
 //! mode, faults, refusals, holds, the surface, torque residuals, sensors).
 
-use anguilla_ipc::{Cause, FaultSet, HoldState, Mode, SensorHealth, StateSnapshot};
+use anguilla_ipc::{
+    Cause, FaultSet, HoldState, Mode, NavSnapshot, PositionHealth, SensorHealth, StateSnapshot,
+};
 
 /// What changed between two snapshots, as log lines (level, text):
 /// foxglove.Log levels 2 info, 3 warning, 4 error.
@@ -61,6 +63,9 @@ pub(crate) fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<
         }
         if s.nav.surfaced != l.nav.surfaced {
             out.push(surface_line(s.nav.surfaced != 0, s.nav.depth_m));
+        }
+        if let Some(line) = position_line(&s.nav, &l.nav) {
+            out.push(line);
         }
     }
     // A joint whose torque-residual alarm rose or cleared, named with its
@@ -148,6 +153,35 @@ pub fn hold_line(now: u8, was: u8, words: Option<String>) -> Option<(u8, String)
     }
 }
 
+/// The log line (level, text) for the position's health going from
+/// `was`'s to `now`'s: a stale fix a warning, a lost one an error, a fix
+/// again information; none when it did not change.
+pub fn position_line(now: &NavSnapshot, was: &NavSnapshot) -> Option<(u8, String)> {
+    if now.position_health == was.position_health {
+        return None;
+    }
+    let sigma = now.position_sigma_m;
+    let age = f64::from(now.fix_age_ms) / 1e3;
+    Some(match PositionHealth::from_code(now.position_health) {
+        Some(PositionHealth::Stale) => (
+            3,
+            format!("position: fix stale ({age:.1} s old), dead-reckoned, σ {sigma:.2} m"),
+        ),
+        Some(PositionHealth::Lost) => (
+            4,
+            format!(
+                "position: fix lost ({age:.1} s old), dead-reckoned, σ {sigma:.2} m: not fit \
+                 to steer by"
+            ),
+        ),
+        Some(h @ (PositionHealth::Fixed | PositionHealth::Waiting)) => {
+            (2, format!("position: {h}, σ {sigma:.2} m"))
+        }
+        Some(PositionHealth::DeadReckoning) => (2, "position: dead reckoning".to_string()),
+        None => (3, format!("position: health {}", now.position_health)),
+    })
+}
+
 /// The log line (level, text) for the robot reaching the surface (by the
 /// daemon's estimate, a warning) or leaving it.
 pub fn surface_line(surfaced: bool, depth: f32) -> (u8, String) {
@@ -161,6 +195,40 @@ pub fn surface_line(surfaced: bool, depth: f32) -> (u8, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The position's health changing is a `/log` line: a stale fix a
+    /// warning, a lost one an error, fixed again information; no change,
+    /// no line.
+    #[test]
+    fn the_positions_health_is_logged_as_it_changes() {
+        let mut last = StateSnapshot::default();
+        last.nav.position_health = PositionHealth::Fixed as u8;
+        let mut s = last;
+        assert!(log_lines(Some(&last), &s).is_empty());
+        s.nav.position_health = PositionHealth::Stale as u8;
+        s.nav.fix_age_ms = 6200;
+        s.nav.position_sigma_m = 0.8;
+        assert_eq!(
+            log_lines(Some(&last), &s),
+            [(
+                3,
+                "position: fix stale (6.2 s old), dead-reckoned, σ 0.80 m".to_string()
+            )]
+        );
+        last = s;
+        s.nav.position_health = PositionHealth::Lost as u8;
+        s.nav.fix_age_ms = 31_000;
+        let lines = log_lines(Some(&last), &s);
+        assert_eq!(lines.len(), 1);
+        assert_eq!(lines[0].0, 4);
+        assert!(
+            lines[0].1.starts_with("position: fix lost (31.0 s old)"),
+            "{lines:?}"
+        );
+        last = s;
+        s.nav.position_health = PositionHealth::Fixed as u8;
+        assert_eq!(log_lines(Some(&last), &s)[0].0, 2);
+    }
 
     /// A sensor's change of health is a `/log` line naming its kind and
     /// node; an unchanged one says nothing.

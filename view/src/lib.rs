@@ -44,7 +44,7 @@ pub mod schema;
 mod svg;
 pub mod truth;
 
-pub use changes::{hold_line, surface_line};
+pub use changes::{hold_line, position_line, surface_line};
 pub use message::{Bus, Gait, Joints, Loop, Nav, Sensor, SensorValue, Sensors, State};
 pub use scene::{Link, Scene, segments};
 

@@ -5,14 +5,14 @@
 
 use anguilla_ipc::{
     BusSnapshot, Cause, GaitSnapshot, HoldState, JointSnapshot, LoopSnapshot, MAX_JOINTS,
-    MAX_SENSORS, Mode, SENSOR_VALUES, SensorHealth, SensorKind, StateSnapshot,
+    MAX_SENSORS, Mode, PositionHealth, SENSOR_VALUES, SensorHealth, SensorKind, StateSnapshot,
 };
 use serde_json::Value;
 
 use crate::schema::{
     UNKNOWN, array, bits, boolean, bus_state_codes, cause_names, codes, count, fault_bits,
-    hold_codes, hold_state_names, message, mode_names, names, node_state_codes, real, sensor_names,
-    string,
+    hold_codes, hold_state_names, message, mode_names, names, node_state_codes,
+    position_health_names, real, sensor_names, string,
 };
 
 /// `v`, or 0 if it is not finite.
@@ -186,6 +186,20 @@ crate::view! {
         position_sigma_m: f32 => real,
         /// Position fixes taken into the estimate since start
         position_fixes: u32 => count,
+        /// Whether fixes hold the position: dead reckoning (no position
+        /// sensor), waiting for a fix, fixed, fix stale (older than
+        /// \[autopilot\] fix-stale), fix lost (older than fix-lost)
+        position_health: &'static str => |d: &str| names(d, position_health_names()),
+        /// How long ago the last fix taken was measured (s); null before the first
+        fix_age_s: Option<f64> => real,
+        /// The water's estimated velocity over ground (m/s), x, in the
+        /// estimate's frame: what moves the robot beside its swimming,
+        /// learnt from the fixes (0 without them)
+        current_x: f32 => real,
+        /// The current's y (m/s), as current_x
+        current_y: f32 => real,
+        /// The current's standard deviation (m/s, per axis)
+        current_sigma: f32 => real,
     }
 }
 
@@ -286,6 +300,13 @@ impl From<&StateSnapshot> for State {
                 y_m: n.y_m,
                 position_sigma_m: n.position_sigma_m,
                 position_fixes: n.position_fixes,
+                position_health: PositionHealth::from_code(n.position_health)
+                    .map_or(UNKNOWN, PositionHealth::name),
+                fix_age_s: (n.fix_age_ms != u32::MAX && n.position_fixes > 0)
+                    .then(|| f64::from(n.fix_age_ms) / 1e3),
+                current_x: n.current_x,
+                current_y: n.current_y,
+                current_sigma: n.current_sigma,
             },
         }
     }

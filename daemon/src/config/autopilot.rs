@@ -26,6 +26,10 @@ pub struct AutopilotConfig {
     pub pitch_gain: f64,
     /// Deepest depth a hold accepts (m).
     pub max_depth: f64,
+    /// A position fix older than this makes the position stale (s).
+    pub fix_stale: f64,
+    /// A position fix older than this makes the position lost (s).
+    pub fix_lost: f64,
 }
 
 impl Default for AutopilotConfig {
@@ -39,6 +43,8 @@ impl Default for AutopilotConfig {
             max_dive_angle: 30.0,
             pitch_gain: 0.3,
             max_depth: 10.0,
+            fix_stale: 5.0,
+            fix_lost: 30.0,
         }
     }
 }
@@ -104,8 +110,30 @@ impl AutopilotConfig {
                 1000.0,
                 "0.1 ..= 1000 m",
             ),
+            (
+                "autopilot.fix-stale",
+                a.fix_stale,
+                0.1,
+                600.0,
+                "0.1 ..= 600 s",
+            ),
+            (
+                "autopilot.fix-lost",
+                a.fix_lost,
+                0.1,
+                3600.0,
+                "0.1 ..= 3600 s",
+            ),
         ] {
             range(key, v, lo, hi, expected)?;
+        }
+        if a.fix_lost < a.fix_stale {
+            return Err(ConfigError::Derived(format!(
+                "autopilot.fix-lost = {} s is before fix-stale = {} s (expected fix-lost >= \
+                 fix-stale: a fix is stale before it is lost)",
+                fmt_f(a.fix_lost),
+                fmt_f(a.fix_stale)
+            )));
         }
         Ok(())
     }
@@ -128,5 +156,10 @@ pub(super) fn write_default(d: &AutopilotConfig, w: &mut dyn FnMut(String)) {
     w(format!("max-dive-angle = {}", fmt_f(d.max_dive_angle)));
     w(format!("pitch-gain = {}", fmt_f(d.pitch_gain)));
     w(format!("max-depth = {}", fmt_f(d.max_depth)));
+    w("# The position's health (docs/autopilot.md, \"Position\"): a position fix older".into());
+    w("# than fix-stale (s) makes it stale, older than fix-lost lost (a warning and an".into());
+    w("# error in the log and the recording).".into());
+    w(format!("fix-stale = {}", fmt_f(d.fix_stale)));
+    w(format!("fix-lost = {}", fmt_f(d.fix_lost)));
     w(String::new());
 }

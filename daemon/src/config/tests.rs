@@ -275,3 +275,25 @@ fn a_missing_file_names_the_path() {
     let e = Config::load(Path::new("/nonexistent/anguilla.toml")).unwrap_err();
     assert!(e.to_string().contains("/nonexistent/anguilla.toml"), "{e}");
 }
+
+/// The position's fix times: named when out of range, and a fix cannot be
+/// lost before it is stale.
+#[test]
+fn fix_times_are_checked() {
+    let e = Config::from_toml("[autopilot]\nfix-stale = 0\n", "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("autopilot.fix-stale") && e.contains("0.1 ..= 600 s"),
+        "{e}"
+    );
+    let e = Config::from_toml("[autopilot]\nfix-stale = 10\nfix-lost = 5\n", "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("autopilot.fix-lost = 5.0 s is before fix-stale = 10.0 s"),
+        "{e}"
+    );
+    let c = Config::from_toml("[autopilot]\nfix-stale = 2\nfix-lost = 2\n", "t").unwrap();
+    assert_eq!((c.autopilot.fix_stale, c.autopilot.fix_lost), (2.0, 2.0));
+}

@@ -1,85 +1,154 @@
 //! The nose's horizontal position in the estimate's local frame (x and y
-//! level, z up, the origin where the estimate started): the model's
-//! predicted velocity of the nose, turned into the world by the estimated
-//! attitude, integrated every period (dead reckoning), and corrected by
-//! position fixes (a Kalman update per fix, the same gain on x and y).
+//! level, z up, the origin where the estimate started), and the water's
+//! current: the model's predicted velocity of the nose through the water,
+//! turned into the world by the estimated attitude, plus the estimated
+//! current, integrated every period (dead reckoning), and corrected by
+//! position fixes. Per axis a Kalman filter of two states, position and
+//! current, the same covariance for x and y:
 //!
-//! - **Uncertainty.** The standard deviation starts at 0 (the origin is
-//!   where the estimate started) and grows while dead-reckoned by
-//!   [`SPEED_ERROR`] of the speed plus [`DRIFT`]: a model's speed error
-//!   and an unknown current make a position error that grows with time,
-//!   not with its square root. A fix of standard deviation `σ` then pulls
-//!   the estimate by `K = P / (P + σ²)` and leaves `P (1 − K)`.
+//! - **Prediction.** `p += (v + c) dt`; the position's variance grows by
+//!   the model's speed error ([`SPEED_ERROR`] of the speed, correlated
+//!   over about a second) and, through the current's own uncertainty
+//!   (at first [`CURRENT_SIGMA`]), linearly with time; the current may
+//!   change slowly ([`CURRENT_WALK`]). Without fixes the current stays
+//!   what it was estimated (0 at first) and the standard deviation grows
+//!   by about [`CURRENT_SIGMA`] a second.
+//! - **Fixes.** A fix of standard deviation `σ` corrects the position and,
+//!   through their covariance, the current: a position that keeps drifting
+//!   from the dead-reckoned one is the water moving the robot.
 //! - **Latency.** A fix is stamped with the time it was measured (its
 //!   arrival less the sensor's configured latency). Its innovation is taken
-//!   against the estimate of that time, kept for [`HISTORY`] periods, and
-//!   the correction moves the present and the kept past alike.
+//!   against the estimate of that time, kept for [`HISTORY`] periods, with
+//!   the covariance of that time; the correction then moves the present
+//!   (by the corrected position and the corrected current since) and the
+//!   kept past alike.
 //! - **Outliers.** A fix farther than [`GATE`] standard deviations (of
 //!   the estimate and the fix together) is left out and counted; after
 //!   [`GATE_FIXES`] such fixes in a row the estimate, not the sensor, is
 //!   taken to be wrong, and the next one is believed whole.
+//! - **Health** ([`PositionHealth`]): whether fixes arrive, from the age of
+//!   the last one taken: fixed, stale after `[autopilot] fix-stale`, lost
+//!   after `fix-lost`; dead reckoning alone without a position sensor.
 //!
 //! Nothing here allocates after [`Plane::new`].
 
+use anguilla_ipc::PositionHealth;
 use anguilla_protocol::time::Nanos;
 
 /// Periods of past positions kept for a late fix (at 160 Hz, 6.4 s).
 pub const HISTORY: usize = 1024;
-/// The fraction of the speed by which the dead-reckoned position's
-/// standard deviation grows (the model's speed is this good).
+/// The fraction of the speed by which the model's velocity through the
+/// water is wrong (its standard deviation, correlated over
+/// [`SPEED_CORRELATION`]).
 pub const SPEED_ERROR: f64 = 0.1;
-/// What the standard deviation grows by at rest (m/s): an unknown current.
-pub const DRIFT: f64 = 0.05;
+/// How long the model's speed error lasts (s).
+pub const SPEED_CORRELATION: f64 = 1.0;
+/// The current's standard deviation before any fix (m/s, per axis): the
+/// currents a robot of this size swims in.
+pub const CURRENT_SIGMA: f64 = 0.1;
+/// How fast the current may change (m/s per √s, a random walk): 0.02 m/s
+/// in 100 s.
+pub const CURRENT_WALK: f64 = 0.002;
 /// Standard deviations beyond which a fix is an outlier.
 pub const GATE: f64 = 5.0;
 /// Outlying fixes in a row after which the next one is believed whole.
 pub const GATE_FIXES: u32 = 3;
 
-/// The position estimate.
+/// One axis's covariance of (position, current); x and y share it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Cov {
+    pp: f64,
+    pc: f64,
+    cc: f64,
+}
+
+impl Cov {
+    /// Moved `t` seconds on (negative: back), without process noise.
+    fn shifted(self, t: f64) -> Self {
+        Self {
+            pp: self.pp + 2.0 * t * self.pc + t * t * self.cc,
+            pc: self.pc + t * self.cc,
+            cc: self.cc,
+        }
+    }
+}
+
+/// When a fix is stale and when lost (s since the last one taken).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixTimes {
+    /// Older than this: stale.
+    pub stale: f64,
+    /// Older than this: lost.
+    pub lost: f64,
+}
+
+/// The position and current estimate.
 #[derive(Debug, Clone)]
 pub struct Plane {
     x: f64,
     y: f64,
-    sigma: f64,
+    cx: f64,
+    cy: f64,
+    cov: Cov,
     /// `(time, x, y)` of the last [`HISTORY`] periods, a ring.
     history: Box<[(Nanos, f64, f64)]>,
     next: usize,
     len: usize,
+    now: Nanos,
     fixes: u32,
     rejected: u32,
     gated: u32,
+    last_fix: Option<Nanos>,
+    /// With a position sensor: when a fix is stale and lost.
+    times: Option<FixTimes>,
 }
 
 impl Default for Plane {
     fn default() -> Self {
-        Self::new()
+        Self::new(None)
     }
 }
 
 impl Plane {
-    /// At the origin, certain of it.
-    pub fn new() -> Self {
+    /// At the origin, certain of it, the current unknown; `times` when a
+    /// position sensor gives fixes.
+    pub fn new(times: Option<FixTimes>) -> Self {
         Self {
             x: 0.0,
             y: 0.0,
-            sigma: 0.0,
+            cx: 0.0,
+            cy: 0.0,
+            cov: Cov {
+                pp: 0.0,
+                pc: 0.0,
+                cc: CURRENT_SIGMA * CURRENT_SIGMA,
+            },
             history: vec![(Nanos::ZERO, 0.0, 0.0); HISTORY].into_boxed_slice(),
             next: 0,
             len: 0,
+            now: Nanos::ZERO,
             fixes: 0,
             rejected: 0,
             gated: 0,
+            last_fix: None,
+            times,
         }
     }
 
     /// One period of `dt` s ending at `now`, at the world velocity
-    /// `vx`, `vy` (m/s); non-finite velocities count as 0.
+    /// through the water `vx`, `vy` (m/s); non-finite velocities count as
+    /// 0.
     pub fn propagate(&mut self, now: Nanos, vx: f64, vy: f64, dt: f64) {
         let f = |v: f64| if v.is_finite() { v } else { 0.0 };
-        let (vx, vy) = (f(vx), f(vy));
-        self.x += vx * dt;
-        self.y += vy * dt;
-        self.sigma += (SPEED_ERROR * vx.hypot(vy) + DRIFT) * dt.max(0.0);
+        let (vx, vy, dt) = (f(vx), f(vy), f(dt).max(0.0));
+        self.x += (vx + self.cx) * dt;
+        self.y += (vy + self.cy) * dt;
+        let speed_error = SPEED_ERROR * vx.hypot(vy);
+        let mut c = self.cov.shifted(dt);
+        c.pp += speed_error * speed_error * SPEED_CORRELATION * dt;
+        c.cc += CURRENT_WALK * CURRENT_WALK * dt;
+        self.cov = c;
+        self.now = now;
         self.remember(now);
     }
 
@@ -90,13 +159,12 @@ impl Plane {
     }
 
     /// The kept estimate nearest before `at` (the oldest kept if `at` is
-    /// older still; the present if nothing is kept).
-    fn at(&self, at: Nanos) -> (f64, f64) {
-        let mut best = (self.x, self.y);
+    /// older still; the present if nothing is kept): its time, x, y.
+    fn at(&self, at: Nanos) -> (Nanos, f64, f64) {
+        let mut best = (self.now, self.x, self.y);
         for k in 1..=self.len {
-            let (t, x, y) = self.history[(self.next + HISTORY - k) % HISTORY];
-            best = (x, y);
-            if t <= at {
+            best = self.history[(self.next + HISTORY - k) % HISTORY];
+            if best.0 <= at {
                 break;
             }
         }
@@ -111,37 +179,65 @@ impl Plane {
             self.rejected += 1;
             return false;
         }
-        let (hx, hy) = self.at(at);
+        let (then, hx, hy) = self.at(at);
         let (ex, ey) = (x - hx, y - hy);
-        let p = self.sigma * self.sigma;
+        // The covariance of the estimate's time: `ago` before the present.
+        let ago = self.now.saturating_sub(then).as_nanos() as f64 * 1e-9;
+        let p = self.cov.shifted(-ago);
         let r = sigma * sigma;
-        let outlier = ex.hypot(ey) > GATE * (p + r).sqrt();
-        let k = if !outlier {
+        let outlier = ex.hypot(ey) > GATE * (p.pp + r).sqrt();
+        let whole = if !outlier {
             self.gated = 0;
-            p / (p + r)
+            false
         } else if self.gated < GATE_FIXES {
             self.gated += 1;
             self.rejected += 1;
             return false;
         } else {
-            // The estimate was wrong: the fix is believed whole.
             self.gated = 0;
-            1.0
+            true
         };
-        let (dx, dy) = (k * ex, k * ey);
-        self.x += dx;
-        self.y += dy;
-        for h in self.history.iter_mut() {
-            h.1 += dx;
-            h.2 += dy;
-        }
-        self.sigma = if k >= 1.0 {
-            sigma
+        let after = if whole {
+            // The estimate was wrong: the fix is believed whole, the
+            // current is unknown again.
+            self.cx = 0.0;
+            self.cy = 0.0;
+            self.shift(then, ex, ey, 0.0, 0.0);
+            Cov {
+                pp: r,
+                pc: 0.0,
+                cc: CURRENT_SIGMA * CURRENT_SIGMA,
+            }
         } else {
-            (p * (1.0 - k)).sqrt()
+            let s = p.pp + r;
+            let (kp, kc) = (p.pp / s, p.pc / s);
+            self.cx += kc * ex;
+            self.cy += kc * ey;
+            self.shift(then, kp * ex, kp * ey, kc * ex, kc * ey);
+            Cov {
+                pp: (1.0 - kp) * p.pp,
+                pc: (1.0 - kp) * p.pc,
+                cc: p.cc - kc * p.pc,
+            }
         };
+        self.cov = after.shifted(ago);
         self.fixes = self.fixes.saturating_add(1);
+        self.last_fix = Some(self.last_fix.map_or(at, |l| l.max(at)));
         true
+    }
+
+    /// Moves the present and the kept past by a correction at `then`:
+    /// `dx`, `dy` of position, and `dcx`, `dcy` of current since.
+    fn shift(&mut self, then: Nanos, dx: f64, dy: f64, dcx: f64, dcy: f64) {
+        let since = |t: Nanos| t.saturating_sub(then).as_nanos() as f64 * 1e-9;
+        let t = since(self.now);
+        self.x += dx + dcx * t;
+        self.y += dy + dcy * t;
+        for h in self.history.iter_mut() {
+            let t = since(h.0);
+            h.1 += dx + dcx * t;
+            h.2 += dy + dcy * t;
+        }
     }
 
     /// x, y (m).
@@ -149,9 +245,19 @@ impl Plane {
         (self.x, self.y)
     }
 
-    /// The position's standard deviation (m).
+    /// The position's standard deviation (m, per axis).
     pub fn sigma(&self) -> f64 {
-        self.sigma
+        self.cov.pp.max(0.0).sqrt()
+    }
+
+    /// The water's estimated velocity over ground, x and y (m/s).
+    pub fn current(&self) -> (f64, f64) {
+        (self.cx, self.cy)
+    }
+
+    /// The current's standard deviation (m/s, per axis).
+    pub fn current_sigma(&self) -> f64 {
+        self.cov.cc.max(0.0).sqrt()
     }
 
     /// Fixes taken.
@@ -162,6 +268,26 @@ impl Plane {
     /// Fixes left out (outliers, values not finite).
     pub fn rejected(&self) -> u32 {
         self.rejected
+    }
+
+    /// How long ago the last fix taken was measured (s), at the last
+    /// period; `None` before the first.
+    pub fn fix_age(&self) -> Option<f64> {
+        self.last_fix
+            .map(|l| self.now.saturating_sub(l).as_nanos() as f64 * 1e-9)
+    }
+
+    /// Whether fixes arrive.
+    pub fn health(&self) -> PositionHealth {
+        let Some(times) = self.times else {
+            return PositionHealth::DeadReckoning;
+        };
+        match self.fix_age() {
+            None => PositionHealth::Waiting,
+            Some(a) if a > times.lost => PositionHealth::Lost,
+            Some(a) if a > times.stale => PositionHealth::Stale,
+            Some(_) => PositionHealth::Fixed,
+        }
     }
 }
 
@@ -175,9 +301,14 @@ mod tests {
         Nanos::from_millis(k)
     }
 
+    const TIMES: FixTimes = FixTimes {
+        stale: 5.0,
+        lost: 20.0,
+    };
+
     #[test]
     fn dead_reckoning_drifts_with_its_uncertainty_and_a_fix_pulls_it_back() {
-        let mut p = Plane::new();
+        let mut p = Plane::new(Some(TIMES));
         // The model says 0.5 m/s along x; the truth is 0.4 m/s (a current
         // against it). 20 s.
         for k in 1..=2000 {
@@ -185,21 +316,66 @@ mod tests {
         }
         let (x, _) = p.position();
         assert!((x - 10.0).abs() < 1e-9, "{x}");
+        // The unknown current's 0.1 m/s for 20 s, and a little more.
         let sigma = p.sigma();
-        // 20 s at 0.1 · 0.5 + 0.05 m/s
-        assert!((sigma - 2.0).abs() < 1e-9, "{sigma}");
+        assert!((2.0..2.1).contains(&sigma), "{sigma}");
         // A fix of the truth (8 m) measured now, σ 0.5 m: 2 m off is
-        // within the gate, and pulls by P / (P + R) = 4 / 4.25.
+        // within the gate, and pulls by P / (P + R).
+        let pp = sigma * sigma;
         assert!(p.fix(ms(20_000), 8.0, 0.0, 0.5));
         let (x, _) = p.position();
-        assert!((x - (10.0 - 2.0 * 4.0 / 4.25)).abs() < 1e-9, "{x}");
+        assert!((x - (10.0 - 2.0 * pp / (pp + 0.25))).abs() < 1e-9, "{x}");
         assert!(p.sigma() < 0.5, "{}", p.sigma());
+        // The position was behind all along: the current is against x.
+        assert!(p.current().0 < -0.05, "{:?}", p.current());
         assert_eq!((p.fixes(), p.rejected()), (1, 0));
+    }
+
+    /// The robot swims 0.3 m/s along x (as the model says) through a
+    /// current of (−0.05, 0.08) m/s it does not know; fixes of the truth
+    /// at 1 Hz, σ 0.3 m, 0.3 s late, with a deterministic noise: after
+    /// 60 s the current is known within 0.02 m/s and the position within
+    /// two of its σ.
+    #[test]
+    fn fixes_that_keep_drifting_are_the_current() {
+        let mut p = Plane::new(Some(TIMES));
+        let (cx, cy) = (-0.05, 0.08);
+        let mut truth = Vec::new();
+        let mut noise = 0.37_f64;
+        let mut next = || {
+            noise = (noise * 9301.0 + 0.49297).fract();
+            0.3 * (2.0 * noise - 1.0) * 1.7
+        };
+        for k in 1..=6000u64 {
+            let t = k as f64 * DT;
+            truth.push(((0.3 + cx) * t, cy * t));
+            p.propagate(ms(10 * k), 0.3, 0.0, DT);
+            // A fix measured 0.3 s ago arrives each second.
+            if k % 100 == 0 && k > 30 {
+                let (tx, ty) = truth[k as usize - 31];
+                assert!(p.fix(ms(10 * (k - 30)), tx + next(), ty + next(), 0.3));
+            }
+        }
+        let (ex, ey) = p.current();
+        assert!(
+            (ex - cx).abs() < 0.02 && (ey - cy).abs() < 0.02,
+            "{ex} {ey}"
+        );
+        assert!(p.current_sigma() < 0.02, "{}", p.current_sigma());
+        let (x, y) = p.position();
+        let (tx, ty) = truth[5999];
+        let err = (x - tx).hypot(y - ty);
+        assert!(
+            err < 2.0 * std::f64::consts::SQRT_2 * p.sigma(),
+            "{err} {}",
+            p.sigma()
+        );
+        assert_eq!(p.health(), PositionHealth::Fixed);
     }
 
     #[test]
     fn a_late_fix_is_compared_with_the_estimate_of_its_time() {
-        let mut p = Plane::new();
+        let mut p = Plane::new(Some(TIMES));
         for k in 1..=300 {
             p.propagate(ms(10 * k), 1.0, 0.0, DT);
         }
@@ -207,21 +383,24 @@ mod tests {
         // exactly where the estimate was then, so nothing moves.
         assert!(p.fix(ms(2000), 2.0, 0.0, 0.1));
         assert!((p.position().0 - 3.0).abs() < 1e-9, "{:?}", p.position());
+        assert!(p.current().0.abs() < 1e-9, "{:?}", p.current());
         // A fix measured at 1 s says 1.5 m (0.5 m ahead of the estimate
-        // then): the present moves by the gain times 0.5 m.
-        let s = p.sigma();
-        let k = s * s / (s * s + 0.01);
+        // then), the one of 2 s said 2 m: the robot covered less than the
+        // model says between them, and the water is against it. The
+        // present moves by less than the innovation.
         assert!(p.fix(ms(1000), 1.5, 0.0, 0.1));
-        assert!((p.position().0 - (3.0 + 0.5 * k)).abs() < 1e-9);
+        let moved = p.position().0 - 3.0;
+        assert!(moved.abs() < 0.5, "{moved}");
+        assert!(p.current().0 < -0.01, "{:?}", p.current());
     }
 
     #[test]
     fn an_outlier_is_left_out_until_it_lasts() {
-        let mut p = Plane::new();
+        let mut p = Plane::new(Some(TIMES));
         for k in 1..=100 {
             p.propagate(ms(10 * k), 0.0, 0.0, DT);
         }
-        // σ 0.05 m after 1 s at rest; a fix 50 m away is no fix.
+        // σ 0.1 m after 1 s at rest; a fix 50 m away is no fix.
         for n in 1..=GATE_FIXES {
             assert!(!p.fix(ms(1000), 50.0, 0.0, 0.5), "fix {n}");
             assert_eq!(p.position(), (0.0, 0.0));
@@ -232,5 +411,42 @@ mod tests {
         assert!(p.fix(ms(1000), 50.0, 1.0, 0.5));
         assert_eq!(p.position(), (50.0, 1.0));
         assert_eq!(p.sigma(), 0.5);
+        assert_eq!(p.current(), (0.0, 0.0));
+        assert_eq!(p.current_sigma(), CURRENT_SIGMA);
+    }
+
+    /// The health follows the last fix's age: waiting, fixed, stale,
+    /// lost, fixed again; without a position sensor, dead reckoning.
+    #[test]
+    fn the_health_is_the_age_of_the_last_fix() {
+        let mut p = Plane::new(Some(TIMES));
+        let mut now = 0;
+        let mut run = |p: &mut Plane, s: u64| {
+            for _ in 0..s * 100 {
+                now += 10;
+                p.propagate(ms(now), 0.2, 0.0, DT);
+            }
+            now
+        };
+        run(&mut p, 2);
+        assert_eq!(p.health(), PositionHealth::Waiting);
+        assert_eq!(p.fix_age(), None);
+        let t = run(&mut p, 1);
+        assert!(p.fix(ms(t), p.position().0, 0.0, 0.3));
+        assert_eq!(p.health(), PositionHealth::Fixed);
+        run(&mut p, 5);
+        assert_eq!(p.health(), PositionHealth::Fixed, "{:?}", p.fix_age());
+        run(&mut p, 1);
+        assert_eq!(p.health(), PositionHealth::Stale, "{:?}", p.fix_age());
+        let sigma_stale = p.sigma();
+        run(&mut p, 15);
+        assert_eq!(p.health(), PositionHealth::Lost, "{:?}", p.fix_age());
+        assert!(p.sigma() > sigma_stale, "the uncertainty grows while lost");
+        // An old fix, measured before the last one taken, does not make
+        // the position fresh.
+        let t = run(&mut p, 0);
+        assert!(p.fix(ms(t - 100), p.position().0, 0.0, 0.3));
+        assert_eq!(p.health(), PositionHealth::Fixed);
+        assert_eq!(Plane::new(None).health(), PositionHealth::DeadReckoning);
     }
 }

@@ -51,11 +51,13 @@ pub enum Event {
         /// Periods skipped this time.
         skipped: u64,
     },
-    /// A hold state or the surfacing changed (`NavSnapshot::heading_hold`,
-    /// `depth_hold`, `surfaced`): `was` the three before, `nav` now.
+    /// A hold state, the surfacing or the position's health changed
+    /// (`NavSnapshot::heading_hold`, `depth_hold`, `surfaced`,
+    /// `position_health`): `was` the four before, `nav` now.
     Nav {
-        /// Heading hold, depth hold and surfaced codes before.
-        was: [u8; 3],
+        /// Heading hold, depth hold, surfaced and position health codes
+        /// before.
+        was: [u8; 4],
         /// The snapshot's nav now.
         nav: anguilla_ipc::NavSnapshot,
     },
@@ -366,9 +368,18 @@ pub(super) fn logger(rx: Receiver<Event>, bus_spec: String) {
                     .chain(
                         (nav.surfaced != was[2])
                             .then(|| anguilla_view::surface_line(nav.surfaced != 0, nav.depth_m)),
-                    );
+                    )
+                    .chain({
+                        let before = anguilla_ipc::NavSnapshot {
+                            position_health: was[3],
+                            ..nav
+                        };
+                        anguilla_view::position_line(&nav, &before)
+                    });
                 for (level, line) in lines {
-                    if level >= 3 {
+                    if level >= 4 {
+                        tracing::error!("{line}")
+                    } else if level >= 3 {
                         tracing::warn!("{line}")
                     } else {
                         tracing::info!("{line}")

@@ -485,7 +485,7 @@ fn control_loop(
     let mut bus_state = 0u8;
     let mut node_errors = [0u32; anguilla_ipc::MAX_JOINTS];
     let mut stopping_since: Option<Nanos> = None;
-    let mut nav_seen = [0u8; 3];
+    let mut nav_seen = [0u8; 4];
     loop {
         rt::sleep_until_ns(deadline);
         let wake = rt::monotonic_ns();
@@ -589,7 +589,12 @@ fn control_loop(
             bus_state = now_bus;
         }
         let nav = ctl.snapshot().nav;
-        let nav_now = [nav.heading_hold, nav.depth_hold, nav.surfaced];
+        let nav_now = [
+            nav.heading_hold,
+            nav.depth_hold,
+            nav.surfaced,
+            nav.position_health,
+        ];
         if nav_now != nav_seen {
             emit(Event::Nav { was: nav_seen, nav }, &mut dropped);
             nav_seen = nav_now;

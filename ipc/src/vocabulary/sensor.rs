@@ -61,6 +61,60 @@ impl fmt::Display for SensorHealth {
     }
 }
 
+/// Whether the position estimate is held by fixes
+/// (`NavSnapshot::position_health`): the level an operator, the recording
+/// and a path that is followed act on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum PositionHealth {
+    /// No position sensor (no head sensor, or no `[sensor.usbl]`): x, y
+    /// are dead-reckoned alone, their uncertainty growing without bound.
+    DeadReckoning = 0,
+    /// A position sensor is configured and no fix has been taken yet.
+    Waiting = 1,
+    /// The last fix taken is at most `[autopilot] fix-stale` old.
+    Fixed = 2,
+    /// The last fix taken is older than `fix-stale`: x, y are drifting on
+    /// dead reckoning (their uncertainty shows by how much).
+    Stale = 3,
+    /// The last fix taken is older than `fix-lost`: the position is no
+    /// longer fit to steer by.
+    Lost = 4,
+}
+
+impl PositionHealth {
+    /// Every value, in the order of their codes.
+    pub const ALL: [PositionHealth; 5] = [
+        PositionHealth::DeadReckoning,
+        PositionHealth::Waiting,
+        PositionHealth::Fixed,
+        PositionHealth::Stale,
+        PositionHealth::Lost,
+    ];
+
+    /// The health of a snapshot's code.
+    pub fn from_code(code: u8) -> Option<PositionHealth> {
+        Self::ALL.get(code as usize).copied()
+    }
+
+    /// Lower-case name, as shown to operators.
+    pub fn name(self) -> &'static str {
+        match self {
+            PositionHealth::DeadReckoning => "dead reckoning",
+            PositionHealth::Waiting => "waiting for a fix",
+            PositionHealth::Fixed => "fixed",
+            PositionHealth::Stale => "fix stale",
+            PositionHealth::Lost => "fix lost",
+        }
+    }
+}
+
+impl fmt::Display for PositionHealth {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// What a sensor of the snapshot's list is ([`SensorEntry::kind`](crate::SensorEntry::kind)),
 /// and what its values mean: a tool shows any sensor from this table alone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

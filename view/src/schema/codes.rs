@@ -4,7 +4,8 @@
 //! generated tables of `docs/data.md`.
 
 use anguilla_ipc::{
-    Cause, FaultKind, Hold, HoldState, JointSnapshot, Mode, SensorHealth, bus_state_name, hold_bits,
+    Cause, FaultKind, Hold, HoldState, JointSnapshot, Mode, PositionHealth, SensorHealth,
+    bus_state_name, hold_bits,
 };
 use anguilla_protocol::behaviour;
 
@@ -27,6 +28,14 @@ pub fn hold_state_names() -> impl Iterator<Item = &'static str> {
     HoldState::ALL
         .into_iter()
         .map(HoldState::name)
+        .chain([UNKNOWN])
+}
+
+/// The position's health names (`nav.position_health`).
+pub fn position_health_names() -> impl Iterator<Item = &'static str> {
+    PositionHealth::ALL
+        .into_iter()
+        .map(PositionHealth::name)
         .chain([UNKNOWN])
 }
 
