@@ -7,6 +7,7 @@ use anguilla_daemon::config::Config;
 use anguilla_drivers::Bus;
 use anguilla_sim::SimError;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
+use anguilla_sim::dvl::DvlSimConfig;
 use anguilla_sim::sensor::SensorConfig;
 use anguilla_sim::usbl::UsblSimConfig;
 
@@ -67,18 +68,23 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         head_sensor: head_sensor(cfg, cfg.sensor.node),
         tail_sensor: head_sensor(cfg, cfg.sensor.tail_imu),
         body: cfg.model.body(),
-        usbl: usbl(cfg),
+        usbl: udp_target(cfg.sensor.usbl.as_ref().map(|u| u.source.as_str())).map(|addr| {
+            UsblSimConfig::typical(addr, cfg.sensor.usbl.as_ref().map_or(0.0, |u| u.latency))
+        }),
+        dvl: udp_target(cfg.sensor.dvl.as_ref().map(|d| d.source.as_str())).map(|addr| {
+            DvlSimConfig::typical(addr, cfg.sensor.dvl.as_ref().map_or(0.0, |d| d.latency))
+        }),
     }
 }
 
-/// The simulated USBL for `cfg`'s `[sensor.usbl]` with a `udp:` source:
-/// typical fixes ([`UsblSimConfig::typical`]) sent to that address (the
-/// machine's own if it is unspecified) with the configured latency. None
-/// for a serial source: a serial USBL is a real one.
-fn usbl(cfg: &Config) -> Option<UsblSimConfig> {
+/// Where a simulated sensor off the bus sends, for a `udp:` `source` (the
+/// machine's own address if it is unspecified): the built-in robot's USBL
+/// (typical fixes, [`UsblSimConfig::typical`]) and DVL
+/// ([`DvlSimConfig::typical`]), each with its configured latency. None for
+/// a serial source: a serial sensor is a real one.
+fn udp_target(source: Option<&str>) -> Option<std::net::SocketAddr> {
     use anguilla_daemon::sensors::usbl::Source;
-    let u = cfg.sensor.usbl.as_ref()?;
-    let Ok(Source::Udp(mut addr)) = Source::parse(&u.source) else {
+    let Ok(Source::Udp(mut addr)) = Source::parse(source?) else {
         return None;
     };
     if addr.ip().is_unspecified() {
@@ -88,7 +94,7 @@ fn usbl(cfg: &Config) -> Option<UsblSimConfig> {
             std::net::Ipv6Addr::LOCALHOST.into()
         });
     }
-    Some(UsblSimConfig::typical(addr, u.latency))
+    Some(addr)
 }
 
 /// The simulated IMU at node `id` of `cfg`'s `[sensor]` (the head sensor

@@ -130,6 +130,17 @@ pub struct SimArgs {
     /// The simulated USBL's latency (s, 0 ..< 1: less than a fix's period).
     #[arg(long, value_name = "S", default_value_t = 0.3, requires = "usbl")]
     usbl_latency: f64,
+    /// A DVL off the bus, sending the nose's true velocity over ground to
+    /// ADDRESS:PORT in UDP datagrams (the daemon's `[sensor.dvl] source =
+    /// "udp:ADDRESS:PORT"`): 5 Hz, σ 0.01 m/s per axis, 5 % lost, none
+    /// while the nose is shallower than 0.3 m (no bottom lock), each sent
+    /// --dvl-latency after it was measured.
+    #[arg(long, value_name = "ADDRESS:PORT")]
+    dvl: Option<std::net::SocketAddr>,
+    /// The simulated DVL's latency (s, 0 ..< 0.2: less than a reading's
+    /// period).
+    #[arg(long, value_name = "S", default_value_t = 0.05, requires = "dvl")]
+    dvl_latency: f64,
     /// The body's ballast: its centre of mass this far below its axis (m,
     /// 0..=0.05; default 0.02, as the daemon's `[model] ballast`; 0: the
     /// paper's body, which rolls freely under pitch curvature).
@@ -246,11 +257,15 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         if args.usbl.is_some() {
             bail!("--usbl: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
+        if args.dvl.is_some() {
+            bail!("--dvl: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        }
         let alone = Serve {
             robot: None,
             wire: wire(args, adapters),
             scenario: None,
             usbl: None,
+            dvl: None,
             truth: None,
         };
         return serve_until_stopped(alone, args.duration);
@@ -286,6 +301,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         usbl: args
             .usbl
             .map(|addr| anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency)),
+        dvl: args
+            .dvl
+            .map(|addr| anguilla_sim::dvl::DvlSimConfig::typical(addr, args.dvl_latency)),
         truth,
     };
     serve_until_stopped(serve, args.duration)

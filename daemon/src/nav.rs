@@ -354,6 +354,9 @@ impl Nav {
             Observation::PositionFix { at, x, y, sigma } => {
                 self.initialised && self.plane.fix(at, x, y, sigma)
             }
+            Observation::VelocityOverGround { at, vx, vy, sigma } => {
+                self.initialised && self.plane.velocity(at, vx, vy, sigma)
+            }
         }
     }
 

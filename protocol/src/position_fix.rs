@@ -1,15 +1,22 @@
-//! The position-fix sentence: how a position sensor that is not on the CAN
-//! bus (a USBL's topside unit, a motion-capture bridge) hands the daemon a
-//! fix, over UDP (one sentence a datagram) or a serial line (one a line).
+//! The sentences of sensors that are not on the CAN bus: how a position
+//! sensor (a USBL's topside unit, a motion-capture bridge) hands the daemon
+//! a fix, and a DVL its velocity over ground, over UDP (one sentence a
+//! datagram) or a serial line (one a line).
 //!
 //! ```text
 //! $ANFIX,<x>,<y>,<sigma>*HH
+//! $ANVEL,<vx>,<vy>,<sigma>*HH
 //! ```
 //!
 //! - `x`, `y`: where the robot's nose is (m), in the estimate's local
 //!   frame: x and y level, z up, the origin where the estimate started (a
 //!   sensor whose frame differs is moved by `[sensor.usbl] offset`);
-//! - `sigma`: the fix's horizontal standard deviation (m), > 0;
+//! - `vx`, `vy`: the robot's velocity over ground (m/s), in the same frame
+//!   (a DVL with its own heading reference, its earth-referenced output,
+//!   turned by `[sensor.dvl] rotation`); a DVL without bottom lock sends
+//!   none;
+//! - `sigma`: the fix's horizontal standard deviation (m), or the
+//!   velocity's per axis (m/s), > 0;
 //! - `HH`: the NMEA 0183 checksum, two hexadecimal digits: the XOR of the
 //!   bytes between `$` and `*`.
 //!
@@ -27,8 +34,10 @@
 
 use std::fmt;
 
-/// The sentence's start, up to its first field.
+/// The position fix's start, up to its first field.
 pub const TALKER: &str = "$ANFIX";
+/// The velocity's start, up to its first field.
+pub const VELOCITY_TALKER: &str = "$ANVEL";
 /// The longest sentence accepted (bytes, line end included).
 pub const MAX_LEN: usize = 96;
 
@@ -46,9 +55,32 @@ pub struct Fix {
 impl Fix {
     /// The sentence, checksum and `\r\n` included.
     pub fn sentence(&self) -> String {
-        let body = format!("ANFIX,{},{},{}", self.x, self.y, self.sigma);
-        format!("${body}*{:02X}\r\n", checksum(body.as_bytes()))
+        sentence(TALKER, [self.x, self.y, self.sigma])
     }
+}
+
+/// One velocity over ground (a DVL's, bottom-locked).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Velocity {
+    /// x (m/s), local frame.
+    pub vx: f64,
+    /// y (m/s), local frame.
+    pub vy: f64,
+    /// Standard deviation per axis (m/s).
+    pub sigma: f64,
+}
+
+impl Velocity {
+    /// The sentence, checksum and `\r\n` included.
+    pub fn sentence(&self) -> String {
+        sentence(VELOCITY_TALKER, [self.vx, self.vy, self.sigma])
+    }
+}
+
+fn sentence(talker: &str, fields: [f64; 3]) -> String {
+    let [a, b, c] = fields;
+    let body = format!("{},{a},{b},{c}", &talker[1..]);
+    format!("${body}*{:02X}\r\n", checksum(body.as_bytes()))
 }
 
 /// Why a sentence is not a fix.
@@ -56,8 +88,8 @@ impl Fix {
 pub enum FixError {
     /// Longer than [`MAX_LEN`] bytes.
     TooLong(usize),
-    /// Not `$ANFIX,`.
-    NotAFix,
+    /// Not the sentence expected (`$ANFIX,` or `$ANVEL,`).
+    NotAFix(&'static str),
     /// No `*HH` checksum at the end.
     NoChecksum,
     /// The checksum does not match the sentence.
@@ -82,13 +114,15 @@ impl fmt::Display for FixError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             FixError::TooLong(n) => write!(f, "sentence of {n} bytes (at most {MAX_LEN})"),
-            FixError::NotAFix => write!(f, "not a position fix (expected \"{TALKER},\")"),
+            FixError::NotAFix(talker) => {
+                write!(f, "not a {talker} sentence (expected \"{talker},\")")
+            }
             FixError::NoChecksum => write!(f, "no checksum (expected \"*HH\" at the end)"),
             FixError::Checksum { sent, computed } => write!(
                 f,
                 "checksum {sent:02X} does not match the sentence's {computed:02X}"
             ),
-            FixError::Fields(n) => write!(f, "{n} fields (expected 3: x, y, sigma)"),
+            FixError::Fields(n) => write!(f, "{n} fields (expected 3: x or vx, y or vy, sigma)"),
             FixError::Field { name, text } => {
                 let what = if *name == "sigma" {
                     "a number > 0"
@@ -108,18 +142,34 @@ pub fn checksum(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0, |a, b| a ^ b)
 }
 
-/// Reads one sentence (one datagram, or one line of a serial stream).
+/// Reads one position fix (one datagram, or one line of a serial stream).
 pub fn parse(line: &[u8]) -> Result<Fix, FixError> {
+    let [x, y, sigma] = fields(line, TALKER, ["x", "y", "sigma"])?;
+    Ok(Fix { x, y, sigma })
+}
+
+/// Reads one velocity over ground.
+pub fn parse_velocity(line: &[u8]) -> Result<Velocity, FixError> {
+    let [vx, vy, sigma] = fields(line, VELOCITY_TALKER, ["vx", "vy", "sigma"])?;
+    Ok(Velocity { vx, vy, sigma })
+}
+
+/// The three numbers of a `talker` sentence, named `names` in errors.
+fn fields(
+    line: &[u8],
+    talker: &'static str,
+    names: [&'static str; 3],
+) -> Result<[f64; 3], FixError> {
     if line.len() > MAX_LEN {
         return Err(FixError::TooLong(line.len()));
     }
     let line = line.strip_suffix(b"\n").unwrap_or(line);
     let line = line.strip_suffix(b"\r").unwrap_or(line);
-    let Some(rest) = line.strip_prefix(TALKER.as_bytes()) else {
-        return Err(FixError::NotAFix);
+    let Some(rest) = line.strip_prefix(talker.as_bytes()) else {
+        return Err(FixError::NotAFix(talker));
     };
     if rest.first() != Some(&b',') {
-        return Err(FixError::NotAFix);
+        return Err(FixError::NotAFix(talker));
     }
     let star = line.len().checked_sub(3).filter(|&i| line[i] == b'*');
     let Some(star) = star else {
@@ -134,7 +184,7 @@ pub fn parse(line: &[u8]) -> Result<Fix, FixError> {
     if sent != computed {
         return Err(FixError::Checksum { sent, computed });
     }
-    let fields = &body[TALKER.len()..];
+    let fields = &body[talker.len()..];
     let n = fields.split(|&b| b == b',').count();
     if n != 3 {
         return Err(FixError::Fields(n));
@@ -151,11 +201,7 @@ pub fn parse(line: &[u8]) -> Result<Fix, FixError> {
             text: String::from_utf8_lossy(&raw[..raw.len().min(24)]).into_owned(),
         })
     };
-    Ok(Fix {
-        x: next("x")?,
-        y: next("y")?,
-        sigma: next("sigma")?,
-    })
+    Ok([next(names[0])?, next(names[1])?, next(names[2])?])
 }
 
 #[cfg(test)]
@@ -166,7 +212,7 @@ mod tests {
     #[test]
     fn a_bad_sentence_is_named() {
         let cases: [(&[u8], &str); 7] = [
-            (b"$GPGGA,1,2*00", "not a position fix"),
+            (b"$GPGGA,1,2*00", "not a $ANFIX sentence"),
             (b"$ANFIX,1,2,3", "no checksum"),
             (b"$ANFIX,1,2,3*00", "checksum 00 does not match"),
             (b"$ANFIX,1,2*", "no checksum"),
@@ -201,6 +247,19 @@ mod tests {
         fn a_fix_reads_back(x in -1e4..1e4f64, y in -1e4..1e4f64, sigma in 1e-3..1e3f64) {
             let f = Fix { x, y, sigma };
             prop_assert_eq!(parse(f.sentence().as_bytes()), Ok(f));
+        }
+
+        #[test]
+        fn a_velocity_reads_back(vx in -10.0..10.0f64, vy in -10.0..10.0f64, sigma in 1e-4..1.0f64) {
+            let v = Velocity { vx, vy, sigma };
+            prop_assert_eq!(parse_velocity(v.sentence().as_bytes()), Ok(v));
+            // Neither sentence is taken for the other.
+            prop_assert_eq!(parse(v.sentence().as_bytes()), Err(FixError::NotAFix(TALKER)));
+        }
+
+        #[test]
+        fn any_bytes_are_a_velocity_or_an_error(bytes in proptest::collection::vec(any::<u8>(), 0..120)) {
+            let _ = parse_velocity(&bytes);
         }
     }
 }

@@ -48,6 +48,9 @@ pub struct BuiltinConfig {
     /// A USBL off the bus, sending fixes of the nose's true position, or
     /// none.
     pub usbl: Option<crate::usbl::UsblSimConfig>,
+    /// A DVL off the bus, sending the nose's true velocity over ground, or
+    /// none.
+    pub dvl: Option<crate::dvl::DvlSimConfig>,
 }
 
 /// The in-process robot, running.
@@ -56,6 +59,7 @@ pub struct Builtin {
     bus: MemBus,
     host: anguilla_drivers::mem::ParticipantId,
     usbl: Option<crate::usbl::SimUsbl>,
+    dvl: Option<crate::dvl::SimDvl>,
     /// A priority the system refused (the robot runs without it).
     pub priority_refused: Option<std::io::Error>,
 }
@@ -108,6 +112,17 @@ impl Builtin {
             },
             None => None,
         };
+        let dvl = match &cfg.dvl {
+            Some(d) => match crate::dvl::SimDvl::beside(d.clone(), &running) {
+                Ok(d) => Some(d),
+                Err(e) => {
+                    drop(usbl);
+                    let _ = running.stop();
+                    return Err(SimError::Thread(e));
+                }
+            },
+            None => None,
+        };
         Ok((
             host,
             Builtin {
@@ -115,6 +130,7 @@ impl Builtin {
                 bus,
                 host: host_id,
                 usbl,
+                dvl,
                 priority_refused,
             },
         ))
@@ -148,9 +164,15 @@ impl Builtin {
         self.usbl.as_ref().map_or(0, crate::usbl::SimUsbl::sent)
     }
 
-    /// Stops the robot's thread (and its USBL's).
+    /// Velocities the simulated DVL has sent (0 without one).
+    pub fn dvl_readings(&self) -> u64 {
+        self.dvl.as_ref().map_or(0, crate::dvl::SimDvl::sent)
+    }
+
+    /// Stops the robot's thread (and its USBL's and DVL's).
     pub fn stop(self) {
         drop(self.usbl);
+        drop(self.dvl);
         let _ = self.running.stop();
     }
 }

@@ -23,7 +23,8 @@
 //! - [`sensor`]: the optional head sensor (IMU and pressure) beside the
 //!   joints, sampled from the body's true head state;
 //! - [`usbl`]: a USBL off the bus, sending noisy fixes of the true position
-//!   over UDP;
+//!   over UDP; [`dvl`]: a DVL, sending the true velocity over ground while
+//!   it has bottom lock;
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`serve`]: a robot served on a bus or behind emulated SLCAN adapters
 //!   until told to stop, with its scenario, USBL and ground-truth record
@@ -66,6 +67,7 @@ pub mod actuator;
 pub mod builtin;
 pub mod cia402;
 pub mod device;
+pub mod dvl;
 pub mod error;
 pub mod mit;
 pub mod node;

@@ -14,6 +14,7 @@ use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
 use anguilla_drivers::{Clock, MonotonicClock};
 
+use crate::dvl::{DvlSimConfig, SimDvl};
 use crate::robot::{RobotConfig, RunningSim, SimRobot, Truth};
 use crate::usbl::{SimUsbl, UsblSimConfig};
 
@@ -69,6 +70,8 @@ pub struct Serve {
     pub scenario: Option<ScenarioText>,
     /// A USBL off the bus, sending the nose's true position.
     pub usbl: Option<UsblSimConfig>,
+    /// A DVL off the bus, sending the nose's true velocity over ground.
+    pub dvl: Option<DvlSimConfig>,
     /// Where the ground truth is recorded.
     pub truth: Option<Box<dyn TruthSink>>,
 }
@@ -98,6 +101,7 @@ pub fn serve(s: Serve, wait: Wait, say: &mut dyn FnMut(&str)) -> Result<(), Serv
         wire,
         scenario,
         usbl,
+        dvl,
         truth,
     } = s;
     let mut emulators = Vec::new();
@@ -179,6 +183,22 @@ pub fn serve(s: Serve, wait: Wait, say: &mut dyn FnMut(&str)) -> Result<(), Serv
                     let _ = running.stop();
                     return Err(fail(
                         format_args!("--usbl {addr} --usbl-latency {latency}"),
+                        e,
+                    ));
+                }
+            }
+        }
+        None => None,
+    };
+    let _dvl = match dvl {
+        Some(cfg) => {
+            let (addr, latency) = (cfg.target, cfg.latency);
+            match SimDvl::beside(cfg, &running) {
+                Ok(d) => Some(d),
+                Err(e) => {
+                    let _ = running.stop();
+                    return Err(fail(
+                        format_args!("--dvl {addr} --dvl-latency {latency}"),
                         e,
                     ));
                 }
@@ -433,6 +453,7 @@ mod tests {
             wire: Wire::Bus(format!("mem:{bus}")),
             scenario: None,
             usbl: None,
+            dvl: None,
             truth: Some(Box::new(sink)),
         };
         // A state, not a time: stop once the sink has what we wait for.
@@ -504,6 +525,7 @@ mod tests {
             wire: Wire::Bus("mem:x".into()),
             scenario: None,
             usbl: None,
+            dvl: None,
             truth: None,
         };
         let e = serve(alone, &never, &mut |_| {}).unwrap_err().to_string();
@@ -516,6 +538,7 @@ mod tests {
                 text: "1.0 node 3 sideways\n".into(),
             }),
             usbl: None,
+            dvl: None,
             truth: None,
         };
         let e = serve(bad_scenario, &never, &mut |_| {})
@@ -527,6 +550,7 @@ mod tests {
             wire: Wire::Bus("carrier-pigeon:1".into()),
             scenario: None,
             usbl: None,
+            dvl: None,
             truth: None,
         };
         let e = serve(no_bus, &never, &mut |_| {}).unwrap_err().to_string();

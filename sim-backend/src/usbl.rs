@@ -53,30 +53,49 @@ impl UsblSimConfig {
     }
 }
 
-/// The simulated USBL, running on its own thread until dropped.
-pub struct SimUsbl {
+/// A simulated sensor off the bus, sending a sentence to a UDP address at
+/// a rate on its own thread until dropped: the USBL's and the DVL's
+/// ([`crate::dvl`]) common part.
+pub(crate) struct Sender {
     stop: Arc<AtomicBool>,
     sent: Arc<AtomicU64>,
     thread: Option<JoinHandle<()>>,
 }
 
-impl SimUsbl {
-    /// Starts sending fixes of `truth()` (the nose's x, y in m).
-    pub fn spawn(
-        cfg: UsblSimConfig,
-        truth: impl Fn() -> [f64; 2] + Send + 'static,
-    ) -> io::Result<SimUsbl> {
-        if !(cfg.rate_hz > 0.0 && cfg.latency >= 0.0 && cfg.latency * cfg.rate_hz < 1.0) {
+/// When and where a [`Sender`] sends.
+pub(crate) struct Schedule {
+    /// The thread's name.
+    pub name: &'static str,
+    /// Where its datagrams go.
+    pub target: SocketAddr,
+    /// Readings a second (> 0).
+    pub rate_hz: f64,
+    /// From measurement to sending (s), less than a period.
+    pub latency: f64,
+    /// The fraction of readings lost (0..1).
+    pub dropout: f64,
+    /// The noise's seed.
+    pub seed: u64,
+}
+
+impl Sender {
+    /// Starts sending what `measure` makes each period (`None`: nothing
+    /// this time, as a DVL without bottom lock).
+    pub(crate) fn start(
+        s: Schedule,
+        mut measure: impl FnMut(&mut Rng) -> Option<String> + Send + 'static,
+    ) -> io::Result<Self> {
+        if !(s.rate_hz > 0.0 && s.latency >= 0.0 && s.latency * s.rate_hz < 1.0) {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 format!(
-                    "simulated USBL: rate {} Hz with latency {} s (expected a rate > 0 and a \
-                     latency shorter than a fix's period)",
-                    cfg.rate_hz, cfg.latency
+                    "simulated {}: rate {} Hz with latency {} s (expected a rate > 0 and a \
+                     latency shorter than a reading's period)",
+                    s.name, s.rate_hz, s.latency
                 ),
             ));
         }
-        let local: SocketAddr = if cfg.target.is_ipv4() {
+        let local: SocketAddr = if s.target.is_ipv4() {
             ([127, 0, 0, 1], 0).into()
         } else {
             (std::net::Ipv6Addr::LOCALHOST, 0).into()
@@ -86,13 +105,58 @@ impl SimUsbl {
         let sent = Arc::new(AtomicU64::new(0));
         let (st, se) = (stop.clone(), sent.clone());
         let thread = std::thread::Builder::new()
-            .name("sim-usbl".into())
-            .spawn(move || run(&cfg, &sock, &truth, &st, &se))?;
-        Ok(SimUsbl {
+            .name(format!("sim-{}", s.name))
+            .spawn(move || run(&s, &sock, &mut measure, &st, &se))?;
+        Ok(Self {
             stop,
             sent,
             thread: Some(thread),
         })
+    }
+
+    /// Sentences sent so far.
+    pub(crate) fn sent(&self) -> u64 {
+        self.sent.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Sender {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The simulated USBL, running on its own thread until dropped.
+pub struct SimUsbl(Sender);
+
+impl SimUsbl {
+    /// Starts sending fixes of `truth()` (the nose's x, y in m).
+    pub fn spawn(
+        cfg: UsblSimConfig,
+        truth: impl Fn() -> [f64; 2] + Send + 'static,
+    ) -> io::Result<SimUsbl> {
+        let sigma = cfg.sigma;
+        let schedule = Schedule {
+            name: "USBL",
+            target: cfg.target,
+            rate_hz: cfg.rate_hz,
+            latency: cfg.latency,
+            dropout: cfg.dropout,
+            seed: cfg.seed,
+        };
+        Sender::start(schedule, move |rng| {
+            let [x, y] = truth();
+            let fix = Fix {
+                x: x + sigma * rng.normal(),
+                y: y + sigma * rng.normal(),
+                sigma,
+            };
+            Some(fix.sentence())
+        })
+        .map(SimUsbl)
     }
 
     /// Starts sending fixes of `robot`'s true nose position.
@@ -106,16 +170,7 @@ impl SimUsbl {
 
     /// Fixes sent so far.
     pub fn sent(&self) -> u64 {
-        self.sent.load(Ordering::Relaxed)
-    }
-}
-
-impl Drop for SimUsbl {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
+        self.0.sent()
     }
 }
 
@@ -134,33 +189,30 @@ fn sleep_until(until: Instant, stop: &AtomicBool) -> bool {
 }
 
 fn run(
-    cfg: &UsblSimConfig,
+    s: &Schedule,
     sock: &UdpSocket,
-    truth: &dyn Fn() -> [f64; 2],
+    measure: &mut dyn FnMut(&mut Rng) -> Option<String>,
     stop: &AtomicBool,
     sent: &AtomicU64,
 ) {
-    let mut rng = Rng::new(cfg.seed);
-    let period = Duration::from_secs_f64(1.0 / cfg.rate_hz);
-    let latency = Duration::from_secs_f64(cfg.latency);
+    let mut rng = Rng::new(s.seed);
+    let period = Duration::from_secs_f64(1.0 / s.rate_hz);
+    let latency = Duration::from_secs_f64(s.latency);
     let mut next = Instant::now() + period;
     while sleep_until(next, stop) {
         let measured = next;
         next += period;
-        let [x, y] = truth();
-        let (nx, ny) = (rng.normal(), rng.normal());
-        if rng.uniform() < cfg.dropout {
+        let sentence = measure(&mut rng);
+        if rng.uniform() < s.dropout {
             continue;
         }
-        let fix = Fix {
-            x: x + cfg.sigma * nx,
-            y: y + cfg.sigma * ny,
-            sigma: cfg.sigma,
+        let Some(sentence) = sentence else {
+            continue;
         };
         if !sleep_until(measured + latency, stop) {
             return;
         }
-        if sock.send_to(fix.sentence().as_bytes(), cfg.target).is_ok() {
+        if sock.send_to(sentence.as_bytes(), s.target).is_ok() {
             sent.fetch_add(1, Ordering::Relaxed);
         }
     }
@@ -208,5 +260,6 @@ mod tests {
         .err()
         .expect("a latency longer than the period");
         assert!(e.to_string().contains("latency shorter"), "{e}");
+        assert!(e.to_string().starts_with("simulated USBL"), "{e}");
     }
 }

@@ -230,6 +230,7 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
         tail_sensor: None,
         body: anguilla_model::Body::paper(),
         usbl: None,
+        dvl: None,
     })
     .unwrap();
     // Real time: wait (bounded, a watchdog against a hang, not a speed

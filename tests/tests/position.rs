@@ -225,3 +225,77 @@ fn a_current_the_model_does_not_know_is_learnt_from_the_fixes() {
     keep_alive_for(&mut client, 0.2, |_| {});
     robot.stop();
 }
+
+/// A DVL alone (no position fix): the built-in robot swims straight
+/// through the same cross current; the velocities over ground, less the
+/// model's through the water, are the current, and the dead-reckoned
+/// position follows the truth with it.
+#[test]
+fn a_dvl_alone_learns_the_current_and_holds_the_dead_reckoning() {
+    let _wd = Watchdog::new("dvl", Duration::from_secs(180));
+    let mut cfg = config("dvl");
+    let probe = std::net::UdpSocket::bind("127.0.0.1:0").expect("a port");
+    let addr = probe.local_addr().expect("its address");
+    drop(probe);
+    cfg.sensor.usbl = None;
+    cfg.sensor.dvl = Some(anguilla_daemon::sensors::dvl::DvlConfig {
+        source: format!("udp:{addr}"),
+        ..Default::default()
+    });
+    cfg.validate().expect("valid");
+    let robot = Robot::start_with_scenario(cfg, "0 water current 0 0.1\n")
+        .expect("daemon, robot and DVL start");
+    let mut client = connect(&robot.prefix, "dvl");
+    let dvl = |s: &StateSnapshot| {
+        s.sensors
+            .iter()
+            .find(|e| e.kind == SensorKind::Dvl as u8)
+            .copied()
+    };
+    wait_for(&mut client, "the DVL's first velocity", 15.0, |s| {
+        dvl(s).is_some_and(|e| e.samples > 0 && e.health == SensorHealth::Ok as u8)
+    });
+    anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
+    ok(
+        &mut client,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        }),
+    );
+    let n0 = wait_for(&mut client, "swimming", 10.0, |s| dvl(s).is_some())
+        .sensors
+        .iter()
+        .find(|e| e.kind == SensorKind::Dvl as u8)
+        .map_or(0, |e| e.samples);
+    let s = wait_for(&mut client, "100 more velocities taken", 120.0, |s| {
+        dvl(s).is_some_and(|e| e.samples >= n0 + 100)
+    });
+    let truth = robot.truth();
+    let (cx, cy) = (f64::from(s.nav.current_x), f64::from(s.nav.current_y));
+    let err =
+        (f64::from(s.nav.x_m) - truth.position[0]).hypot(f64::from(s.nav.y_m) - truth.position[1]);
+    let swum = truth.position[0].hypot(truth.position[1]);
+    eprintln!(
+        "DVL alone: current ({cx:.3}, {cy:.3}) m/s ± {:.3}, truth (0, 0.1); position error \
+         {err:.2} m after {swum:.1} m, σ {:.2} m; position health {}",
+        s.nav.current_sigma, s.nav.position_sigma_m, s.nav.position_health
+    );
+    assert!(
+        (cy - 0.1).abs() < 0.04 && cx.abs() < 0.06,
+        "current ({cx}, {cy})"
+    );
+    // Dead reckoning alone (no fix): the current carried the robot about
+    // 2 m sideways in 20 s; with the DVL's current the error stays small.
+    assert!(err < 1.0, "estimate {err} m from the truth after {swum} m");
+    assert_eq!(
+        s.nav.position_health,
+        PositionHealth::DeadReckoning as u8,
+        "no position sensor: dead reckoning, even with a DVL"
+    );
+    ok(&mut client, Command::EStop);
+    keep_alive_for(&mut client, 0.2, |_| {});
+    robot.stop();
+}

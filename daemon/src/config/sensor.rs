@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::fmt_f;
+use crate::sensors::dvl::DvlConfig;
 use crate::sensors::usbl::UsblConfig;
 
 /// `[sensor]`: the head sensor (IMU and pressure; protocol/README.md
@@ -35,6 +36,9 @@ pub struct SensorConfig {
     /// A USBL or another position sensor off the bus (`[sensor.usbl]`,
     /// its module's section); none if absent.
     pub usbl: Option<UsblConfig>,
+    /// A DVL off the bus (`[sensor.dvl]`, its module's section); none if
+    /// absent.
+    pub dvl: Option<DvlConfig>,
 }
 
 impl Default for SensorConfig {
@@ -49,6 +53,7 @@ impl Default for SensorConfig {
             roll_alarm: 60.0,
             tail_imu: 0,
             usbl: None,
+            dvl: None,
         }
     }
 }
@@ -80,5 +85,7 @@ pub(super) fn write_default(d: &SensorConfig, w: &mut dyn FnMut(String)) {
     w(format!("tail-imu = {}", d.tail_imu));
     w(String::new());
     d.usbl.clone().unwrap_or_default().write_default(w);
+    w(String::new());
+    d.dvl.clone().unwrap_or_default().write_default(w);
     w(String::new());
 }

@@ -290,6 +290,17 @@ impl Config {
                 ));
             }
         }
+        if let Some(d) = &s.dvl {
+            d.validate()?;
+            if s.node == 0 {
+                return Err(ConfigError::Derived(
+                    "[sensor.dvl] needs the head sensor (sensor.node): its velocity is compared \
+                     with the model's, turned by the estimated heading; set sensor.node or \
+                     remove [sensor.dvl]"
+                        .into(),
+                ));
+            }
+        }
         if s.tail_imu != 0 {
             range(
                 "sensor.tail-imu",

@@ -22,6 +22,10 @@
 //!   the covariance of that time; the correction then moves the present
 //!   (by the corrected position and the corrected current since) and the
 //!   kept past alike.
+//! - **Velocities over ground** (a DVL): less the model's velocity through
+//!   the water at their time, they observe the current directly (with the
+//!   model's speed error added to theirs), and through the covariance the
+//!   position.
 //! - **Outliers.** A fix farther than [`GATE`] standard deviations (of
 //!   the estimate and the fix together) is left out and counted; after
 //!   [`GATE_FIXES`] such fixes in a row the estimate, not the sensor, is
@@ -73,6 +77,25 @@ impl Cov {
     }
 }
 
+/// One period kept: its time, the position, and the model's velocity
+/// through the water.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Kept {
+    t: Nanos,
+    x: f64,
+    y: f64,
+    vx: f64,
+    vy: f64,
+}
+
+const ORIGIN: Kept = Kept {
+    t: Nanos::ZERO,
+    x: 0.0,
+    y: 0.0,
+    vx: 0.0,
+    vy: 0.0,
+};
+
 /// When a fix is stale and when lost (s since the last one taken).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FixTimes {
@@ -90,12 +113,14 @@ pub struct Plane {
     cx: f64,
     cy: f64,
     cov: Cov,
-    /// `(time, x, y)` of the last [`HISTORY`] periods, a ring.
-    history: Box<[(Nanos, f64, f64)]>,
+    /// `(time, x, y)` of the last [`HISTORY`] periods, a ring, with the
+    /// model's velocity through the water then.
+    history: Box<[Kept]>,
     next: usize,
     len: usize,
     now: Nanos,
     fixes: u32,
+    velocities: u32,
     rejected: u32,
     gated: u32,
     last_fix: Option<Nanos>,
@@ -123,11 +148,12 @@ impl Plane {
                 pc: 0.0,
                 cc: CURRENT_SIGMA * CURRENT_SIGMA,
             },
-            history: vec![(Nanos::ZERO, 0.0, 0.0); HISTORY].into_boxed_slice(),
+            history: vec![ORIGIN; HISTORY].into_boxed_slice(),
             next: 0,
             len: 0,
             now: Nanos::ZERO,
             fixes: 0,
+            velocities: 0,
             rejected: 0,
             gated: 0,
             last_fix: None,
@@ -149,26 +175,50 @@ impl Plane {
         c.cc += CURRENT_WALK * CURRENT_WALK * dt;
         self.cov = c;
         self.now = now;
-        self.remember(now);
-    }
-
-    fn remember(&mut self, now: Nanos) {
-        self.history[self.next] = (now, self.x, self.y);
+        self.history[self.next] = Kept {
+            t: now,
+            x: self.x,
+            y: self.y,
+            vx,
+            vy,
+        };
         self.next = (self.next + 1) % HISTORY;
         self.len = (self.len + 1).min(HISTORY);
     }
 
-    /// The kept estimate nearest before `at` (the oldest kept if `at` is
-    /// older still; the present if nothing is kept): its time, x, y.
-    fn at(&self, at: Nanos) -> (Nanos, f64, f64) {
-        let mut best = (self.now, self.x, self.y);
+    /// The kept period nearest before `at` (the oldest kept if `at` is
+    /// older still; the present, at rest, if nothing is kept).
+    fn at(&self, at: Nanos) -> Kept {
+        let mut best = Kept {
+            t: self.now,
+            x: self.x,
+            y: self.y,
+            ..ORIGIN
+        };
         for k in 1..=self.len {
             best = self.history[(self.next + HISTORY - k) % HISTORY];
-            if best.0 <= at {
+            if best.t <= at {
                 break;
             }
         }
         best
+    }
+
+    /// Whether an innovation is taken: `Some(false)` within the gate,
+    /// `Some(true)` believed whole after [`GATE_FIXES`] outliers in a row,
+    /// `None` left out.
+    fn gate(&mut self, outlier: bool) -> Option<bool> {
+        if !outlier {
+            self.gated = 0;
+            Some(false)
+        } else if self.gated < GATE_FIXES {
+            self.gated += 1;
+            self.rejected += 1;
+            None
+        } else {
+            self.gated = 0;
+            Some(true)
+        }
     }
 
     /// Takes a fix measured at `at`: `x`, `y` (m, local frame) with
@@ -179,24 +229,16 @@ impl Plane {
             self.rejected += 1;
             return false;
         }
-        let (then, hx, hy) = self.at(at);
-        let (ex, ey) = (x - hx, y - hy);
+        let then = self.at(at);
+        let (ex, ey) = (x - then.x, y - then.y);
         // The covariance of the estimate's time: `ago` before the present.
-        let ago = self.now.saturating_sub(then).as_nanos() as f64 * 1e-9;
+        let ago = self.now.saturating_sub(then.t).as_nanos() as f64 * 1e-9;
         let p = self.cov.shifted(-ago);
         let r = sigma * sigma;
-        let outlier = ex.hypot(ey) > GATE * (p.pp + r).sqrt();
-        let whole = if !outlier {
-            self.gated = 0;
-            false
-        } else if self.gated < GATE_FIXES {
-            self.gated += 1;
-            self.rejected += 1;
+        let Some(whole) = self.gate(ex.hypot(ey) > GATE * (p.pp + r).sqrt()) else {
             return false;
-        } else {
-            self.gated = 0;
-            true
         };
+        let then = then.t;
         let after = if whole {
             // The estimate was wrong: the fix is believed whole, the
             // current is unknown again.
@@ -226,6 +268,48 @@ impl Plane {
         true
     }
 
+    /// Takes a velocity over ground measured at `at`: `vx`, `vy` (m/s,
+    /// local frame) with standard deviation `sigma` (m/s per axis, > 0).
+    /// Less the model's velocity through the water then, it observes the
+    /// current. Returns whether it was taken (as [`Plane::fix`]).
+    pub fn velocity(&mut self, at: Nanos, vx: f64, vy: f64, sigma: f64) -> bool {
+        if !(vx.is_finite() && vy.is_finite() && sigma.is_finite() && sigma > 0.0) {
+            self.rejected += 1;
+            return false;
+        }
+        let then = self.at(at);
+        let (ex, ey) = (vx - then.vx - self.cx, vy - then.vy - self.cy);
+        let ago = self.now.saturating_sub(then.t).as_nanos() as f64 * 1e-9;
+        let p = self.cov.shifted(-ago);
+        // What it observes is the current plus the model's speed error.
+        let model = SPEED_ERROR * then.vx.hypot(then.vy);
+        let r = sigma * sigma + model * model;
+        let Some(whole) = self.gate(ex.hypot(ey) > GATE * (p.cc + r).sqrt()) else {
+            return false;
+        };
+        let after = if whole {
+            // The current was wrong: the velocity's is believed whole.
+            self.cx += ex;
+            self.cy += ey;
+            self.shift(then.t, 0.0, 0.0, ex, ey);
+            Cov { cc: r, ..p }
+        } else {
+            let s = p.cc + r;
+            let (kp, kc) = (p.pc / s, p.cc / s);
+            self.cx += kc * ex;
+            self.cy += kc * ey;
+            self.shift(then.t, kp * ex, kp * ey, kc * ex, kc * ey);
+            Cov {
+                pp: p.pp - kp * p.pc,
+                pc: p.pc - kp * p.cc,
+                cc: p.cc - kc * p.cc,
+            }
+        };
+        self.cov = after.shifted(ago);
+        self.velocities = self.velocities.saturating_add(1);
+        true
+    }
+
     /// Moves the present and the kept past by a correction at `then`:
     /// `dx`, `dy` of position, and `dcx`, `dcy` of current since.
     fn shift(&mut self, then: Nanos, dx: f64, dy: f64, dcx: f64, dcy: f64) {
@@ -234,9 +318,9 @@ impl Plane {
         self.x += dx + dcx * t;
         self.y += dy + dcy * t;
         for h in self.history.iter_mut() {
-            let t = since(h.0);
-            h.1 += dx + dcx * t;
-            h.2 += dy + dcy * t;
+            let t = since(h.t);
+            h.x += dx + dcx * t;
+            h.y += dy + dcy * t;
         }
     }
 
@@ -265,7 +349,12 @@ impl Plane {
         self.fixes
     }
 
-    /// Fixes left out (outliers, values not finite).
+    /// Velocities over ground taken.
+    pub fn velocities(&self) -> u32 {
+        self.velocities
+    }
+
+    /// Fixes and velocities left out (outliers, values not finite).
     pub fn rejected(&self) -> u32 {
         self.rejected
     }
@@ -371,6 +460,37 @@ mod tests {
             p.sigma()
         );
         assert_eq!(p.health(), PositionHealth::Fixed);
+    }
+
+    /// A DVL alone (5 Hz, σ 0.01 m/s) learns a current of (0.05, −0.1)
+    /// m/s the model does not know within 0.02 m/s in 20 s, and the
+    /// dead-reckoned position then drifts by far less than without it.
+    #[test]
+    fn velocities_over_ground_are_the_current_without_a_fix() {
+        let (cx, cy) = (0.05, -0.1);
+        let run = |dvl: bool| {
+            let mut p = Plane::new(None);
+            for k in 1..=6000u64 {
+                p.propagate(ms(10 * k), 0.3, 0.0, DT);
+                if dvl && k % 20 == 0 {
+                    assert!(p.velocity(ms(10 * k), 0.3 + cx, cy, 0.01), "at {k}");
+                }
+                if k == 2000 && dvl {
+                    let (ex, ey) = p.current();
+                    assert!(
+                        (ex - cx).abs() < 0.02 && (ey - cy).abs() < 0.02,
+                        "{ex} {ey}"
+                    );
+                }
+            }
+            let (x, y) = p.position();
+            (x - (0.3 + cx) * 60.0).hypot(y - cy * 60.0)
+        };
+        let (with, without) = (run(true), run(false));
+        assert!(
+            with < 0.5 && without > 5.0,
+            "{with} m with, {without} m without"
+        );
     }
 
     #[test]

@@ -22,9 +22,11 @@
 //!
 //! The list is built once; nothing here allocates in the control period.
 
+pub mod dvl;
 pub mod frames;
 pub mod head_nav;
 pub mod observation;
+mod offbus;
 pub mod tail_imu;
 pub mod usbl;
 
@@ -111,6 +113,13 @@ impl Sensors {
                 source,
             })?;
             others.push(Box::new(usbl));
+        }
+        if let Some(d) = &cfg.sensor.dvl {
+            let dvl = dvl::Dvl::open(d, now).map_err(|source| SensorError {
+                kind: SensorKind::Dvl,
+                source,
+            })?;
+            others.push(Box::new(dvl));
         }
         others.truncate(MAX_SENSORS - nav.is_some() as usize);
         let mut by_id = [NONE; 64];

@@ -22,4 +22,17 @@ pub enum Observation {
         /// Standard deviation (m).
         sigma: f64,
     },
+    /// The robot's velocity over ground at `at`: `vx`, `vy` (m/s) in the
+    /// estimate's local frame, with the standard deviation `sigma` (m/s,
+    /// per axis).
+    VelocityOverGround {
+        /// When it was measured.
+        at: Nanos,
+        /// x (m/s).
+        vx: f64,
+        /// y (m/s).
+        vy: f64,
+        /// Standard deviation (m/s).
+        sigma: f64,
+    },
 }

@@ -17,29 +17,20 @@
 //! simulated USBL (`anguilla_sim::usbl`, not a dependency of this
 //! crate: `anguilla run` starts it beside the robot).
 
-use std::io::{self, Read};
-use std::net::{SocketAddr, UdpSocket};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::thread::JoinHandle;
-use std::time::Duration;
+use std::io;
 
 use anguilla_ipc::{SensorEntry, SensorHealth, SensorKind};
 use anguilla_protocol::Frame;
-use anguilla_protocol::position_fix::{Fix, MAX_LEN, parse};
+use anguilla_protocol::position_fix::{Fix, parse};
 use anguilla_protocol::time::Nanos;
-use crossbeam_channel::{Receiver, Sender, TrySendError};
 use serde::{Deserialize, Serialize};
 
 use super::Sensor;
 use super::observation::Observation;
+use super::offbus::{Reader, judge};
+pub use super::offbus::{SLOT, Source};
 use crate::config::{ConfigError, fmt_f, range};
 use crate::nav::Prediction;
-
-/// Fixes the channel from the reader thread holds.
-pub const SLOT: usize = 4;
-/// How often the reader thread looks whether it should stop.
-const POLL: Duration = Duration::from_millis(200);
 
 /// `[sensor.usbl]`.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -65,38 +56,6 @@ impl Default for UsblConfig {
             timeout: 5.0,
             offset: [0.0, 0.0],
         }
-    }
-}
-
-/// Where a USBL's sentences come from.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Source {
-    /// A UDP socket bound to this address.
-    Udp(SocketAddr),
-    /// A serial port at a baud rate.
-    Serial(String, u32),
-}
-
-impl Source {
-    /// Reads `udp:ADDRESS:PORT` or `serial:PATH:BAUD`.
-    pub fn parse(text: &str) -> Result<Source, String> {
-        let expected = "expected \"udp:ADDRESS:PORT\" or \"serial:PATH:BAUD\"";
-        if let Some(addr) = text.strip_prefix("udp:") {
-            return addr
-                .parse()
-                .map(Source::Udp)
-                .map_err(|e| format!("\"{text}\": {e} ({expected})"));
-        }
-        if let Some((path, baud)) = text
-            .strip_prefix("serial:")
-            .and_then(|rest| rest.rsplit_once(':'))
-        {
-            return match baud.parse::<u32>() {
-                Ok(b) if b > 0 && !path.is_empty() => Ok(Source::Serial(path.into(), b)),
-                _ => Err(format!("\"{text}\": no path or baud rate ({expected})")),
-            };
-        }
-        Err(format!("\"{text}\" ({expected})"))
     }
 }
 
@@ -145,19 +104,9 @@ impl UsblConfig {
     }
 }
 
-/// What the reader thread counts, and its stop flag.
-#[derive(Debug, Default)]
-struct Shared {
-    malformed: AtomicU64,
-    dropped: AtomicU64,
-    stop: AtomicBool,
-}
-
 /// The USBL.
 pub struct Usbl {
-    rx: Receiver<Fix>,
-    shared: Arc<Shared>,
-    thread: Option<JoinHandle<()>>,
+    reader: Reader<Fix>,
     latency: Nanos,
     timeout: Nanos,
     offset: [f64; 2],
@@ -174,35 +123,8 @@ pub struct Usbl {
 impl Usbl {
     /// Opens `cfg`'s source and starts its reader thread.
     pub fn open(cfg: &UsblConfig, now: Nanos) -> io::Result<Usbl> {
-        let source = Source::parse(&cfg.source)
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        let (tx, rx) = crossbeam_channel::bounded(SLOT);
-        let shared = Arc::new(Shared::default());
-        let named = |e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", cfg.source));
-        let thread = match source {
-            Source::Udp(addr) => {
-                let sock = UdpSocket::bind(addr).map_err(named)?;
-                sock.set_read_timeout(Some(POLL)).map_err(named)?;
-                let sh = shared.clone();
-                std::thread::Builder::new()
-                    .name("anguilla-usbl".into())
-                    .spawn(move || read_udp(&sock, &tx, &sh))?
-            }
-            Source::Serial(path, baud) => {
-                let port = serialport::new(&path, baud)
-                    .timeout(POLL)
-                    .open()
-                    .map_err(|e| named(e.into()))?;
-                let sh = shared.clone();
-                std::thread::Builder::new()
-                    .name("anguilla-usbl".into())
-                    .spawn(move || read_lines(port, &tx, &sh))?
-            }
-        };
         Ok(Usbl {
-            rx,
-            shared,
-            thread: Some(thread),
+            reader: Reader::open(&cfg.source, "usbl", parse)?,
             latency: Nanos::from_secs_f64(cfg.latency),
             timeout: Nanos::from_secs_f64(cfg.timeout),
             offset: cfg.offset,
@@ -214,104 +136,6 @@ impl Usbl {
             pending: None,
             health: SensorHealth::Waiting,
         })
-    }
-
-    fn judge(&self) -> SensorHealth {
-        let malformed = self.shared.malformed.load(Ordering::Relaxed);
-        match self.last {
-            _ if malformed > self.malformed_at_fix => SensorHealth::Error,
-            None if self.now.saturating_sub(self.started) > self.timeout * 5 => {
-                SensorHealth::Silent
-            }
-            None => SensorHealth::Waiting,
-            Some((at, _)) if self.now.saturating_sub(at) > self.timeout + self.latency => {
-                SensorHealth::Silent
-            }
-            Some(_) => SensorHealth::Ok,
-        }
-    }
-}
-
-impl Drop for Usbl {
-    fn drop(&mut self) {
-        self.shared.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-/// One sentence: to the channel if it is a fix and there is room.
-fn deliver(bytes: &[u8], tx: &Sender<Fix>, shared: &Shared) {
-    match parse(bytes) {
-        Ok(fix) => match tx.try_send(fix) {
-            Ok(()) => {}
-            Err(TrySendError::Full(_)) => {
-                shared.dropped.fetch_add(1, Ordering::Relaxed);
-            }
-            Err(TrySendError::Disconnected(_)) => shared.stop.store(true, Ordering::Relaxed),
-        },
-        Err(e) => {
-            let n = shared.malformed.fetch_add(1, Ordering::Relaxed);
-            if n.is_multiple_of(100) {
-                tracing::warn!("usbl: malformed sentence ({} so far): {e}", n + 1);
-            }
-        }
-    }
-}
-
-fn read_udp(sock: &UdpSocket, tx: &Sender<Fix>, shared: &Shared) {
-    let mut buf = [0u8; 2 * MAX_LEN];
-    while !shared.stop.load(Ordering::Relaxed) {
-        match sock.recv(&mut buf) {
-            // A datagram longer than the buffer arrives cut: too long.
-            Ok(n) if n == buf.len() => deliver(&buf, tx, shared),
-            Ok(n) => deliver(&buf[..n], tx, shared),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) => {}
-            // An ICMP error from an earlier send, an interrupted call.
-            Err(_) => std::thread::sleep(POLL / 4),
-        }
-    }
-}
-
-fn read_lines(mut port: impl Read, tx: &Sender<Fix>, shared: &Shared) {
-    let mut line = [0u8; MAX_LEN + 1];
-    let mut len = 0;
-    let mut buf = [0u8; 64];
-    while !shared.stop.load(Ordering::Relaxed) {
-        let n = match port.read(&mut buf) {
-            Ok(0) => return,
-            Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                continue;
-            }
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => {
-                tracing::warn!("usbl: the serial line failed: {e}");
-                return;
-            }
-        };
-        for &b in &buf[..n] {
-            if b == b'\n' {
-                deliver(&line[..len.min(line.len())], tx, shared);
-                len = 0;
-            } else if len < line.len() {
-                line[len] = b;
-                len += 1;
-            } else {
-                // Too long: counted at its end as one malformed sentence.
-                len = line.len();
-            }
-        }
     }
 }
 
@@ -331,11 +155,13 @@ impl Sensor for Usbl {
 
     fn step(&mut self, now: Nanos, _bus: Nanos, _dt: f64, _pred: &Prediction) {
         self.now = now;
-        while let Ok(fix) = self.rx.try_recv() {
+        // One fix a period: the others wait in the channel, none is
+        // overwritten unseen.
+        if let Some(fix) = self.reader.take() {
             let at = now.saturating_sub(self.latency);
             self.last = Some((at, fix));
             self.received = self.received.saturating_add(1);
-            self.malformed_at_fix = self.shared.malformed.load(Ordering::Relaxed);
+            self.malformed_at_fix = self.reader.malformed();
             self.pending = Some(Observation::PositionFix {
                 at,
                 x: fix.x - self.offset[0],
@@ -343,7 +169,14 @@ impl Sensor for Usbl {
                 sigma: fix.sigma,
             });
         }
-        self.health = self.judge();
+        self.health = judge(
+            now,
+            self.started,
+            self.last.map(|(at, _)| at),
+            self.timeout,
+            self.latency,
+            self.reader.malformed() > self.malformed_at_fix,
+        );
     }
 
     fn health(&self) -> SensorHealth {
@@ -374,8 +207,8 @@ impl Sensor for Usbl {
             fix.y,
             fix.sigma,
             age,
-            self.shared.malformed.load(Ordering::Relaxed) as f64,
-            self.shared.dropped.load(Ordering::Relaxed) as f64,
+            self.reader.malformed() as f64,
+            self.reader.dropped() as f64,
         ];
         for (slot, x) in entry.values.iter_mut().zip(v) {
             *slot = x as f32;
@@ -386,7 +219,8 @@ impl Sensor for Usbl {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::time::Instant;
+    use std::net::{SocketAddr, UdpSocket};
+    use std::time::{Duration, Instant};
 
     /// Steps `u` until `done` or 10 s of wall time (a busy machine).
     fn step_until(u: &mut Usbl, now: &mut Nanos, done: impl Fn(&Usbl) -> bool) {
@@ -457,7 +291,9 @@ mod tests {
         step_until(&mut u, &mut now, |u| u.received == 1);
         assert_eq!(u.health(), SensorHealth::Ok);
         let obs = u.observation().expect("an observation");
-        let Observation::PositionFix { at, x, y, sigma } = obs;
+        let Observation::PositionFix { at, x, y, sigma } = obs else {
+            panic!("a position fix: {obs:?}");
+        };
         assert_eq!((x, y, sigma), (2.0, 4.0, 0.5), "moved by the offset");
         assert_eq!(at, now.saturating_sub(Nanos::from_millis(500)));
         assert_eq!(u.observation(), None, "taken once");
@@ -495,39 +331,18 @@ mod tests {
             let _ = tx.send_to(line.as_bytes(), addr);
         }
         let t0 = Instant::now();
-        while u.shared.dropped.load(Ordering::Relaxed) == 0
-            && t0.elapsed() < Duration::from_secs(10)
-        {
+        while u.reader.dropped() == 0 && t0.elapsed() < Duration::from_secs(10) {
             std::thread::sleep(Duration::from_millis(5));
         }
-        assert!(u.shared.dropped.load(Ordering::Relaxed) > 0);
+        assert!(u.reader.dropped() > 0);
         let now = Nanos::from_millis(10);
         u.step(now, now, 0.01, &Prediction::still());
-        let dropped = u.shared.dropped.load(Ordering::Relaxed);
+        let dropped = u.reader.dropped();
         assert!(
             u64::from(u.received) + dropped <= 200 && u64::from(u.received) < 200,
             "{} taken, {dropped} dropped of 200",
             u.received
         );
         assert!(u.observation().is_some());
-    }
-
-    #[test]
-    fn serial_lines_are_cut_and_read() {
-        let (tx, rx) = crossbeam_channel::bounded(SLOT);
-        let shared = Shared::default();
-        let good = Fix {
-            x: -1.0,
-            y: 2.5,
-            sigma: 0.2,
-        }
-        .sentence();
-        let mut bytes = good.clone().into_bytes();
-        bytes.extend([b'$'; 300]);
-        bytes.push(b'\n');
-        bytes.extend(good.as_bytes());
-        read_lines(&bytes[..], &tx, &shared);
-        assert_eq!(rx.try_iter().count(), 2);
-        assert_eq!(shared.malformed.load(Ordering::Relaxed), 1, "the long line");
     }
 }

@@ -131,11 +131,19 @@ pub enum SensorKind {
     /// to the estimate (`[sensor.usbl]`): its last fix as sent, and the
     /// fix's age.
     Usbl = 3,
+    /// A DVL off the bus handing its velocity over ground to the estimate
+    /// (`[sensor.dvl]`): its last velocity as sent, and its age.
+    Dvl = 4,
 }
 
 impl SensorKind {
     /// Every kind, in the order of their codes.
-    pub const ALL: [SensorKind; 3] = [SensorKind::HeadNav, SensorKind::TailImu, SensorKind::Usbl];
+    pub const ALL: [SensorKind; 4] = [
+        SensorKind::HeadNav,
+        SensorKind::TailImu,
+        SensorKind::Usbl,
+        SensorKind::Dvl,
+    ];
 
     /// The kind of a snapshot's code (0: an empty entry).
     pub fn from_code(code: u8) -> Option<SensorKind> {
@@ -148,6 +156,7 @@ impl SensorKind {
             SensorKind::HeadNav => "head-nav",
             SensorKind::TailImu => "tail-imu",
             SensorKind::Usbl => "usbl",
+            SensorKind::Dvl => "dvl",
         }
     }
 
@@ -176,6 +185,14 @@ impl SensorKind {
                 ("x", "m"),
                 ("y", "m"),
                 ("sigma", "m"),
+                ("age", "s"),
+                ("malformed", "count"),
+                ("dropped", "count"),
+            ],
+            SensorKind::Dvl => &[
+                ("vx", "m/s"),
+                ("vy", "m/s"),
+                ("sigma", "m/s"),
                 ("age", "s"),
                 ("malformed", "count"),
                 ("dropped", "count"),

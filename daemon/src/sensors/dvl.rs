@@ -1,0 +1,283 @@
+//! A DVL (`[sensor.dvl]`): a Doppler velocity log measuring the robot's
+//! velocity over ground while it has bottom lock. Its velocity sentences
+//! (`$ANVEL`, [`anguilla_protocol::position_fix`]) arrive over UDP or a
+//! serial line and are read as a USBL's are (`offbus.rs`). Each
+//! becomes an [`Observation::VelocityOverGround`] stamped with its arrival
+//! less `latency`, turned by `rotation` into the estimate's frame: the
+//! velocity over ground less the model's velocity through the water is
+//! the current, which the estimate learns from it without a position fix.
+//!
+//! Without bottom lock (too high above the bottom, or near the surface,
+//! where bubbles blind it) a DVL sends nothing: the sensor goes silent
+//! after `timeout`, and the estimate dead-reckons with the current it has.
+//!
+//! With the built-in simulated robot, a `udp:` source is sent velocities
+//! by its simulated DVL (`anguilla_sim::usbl::SimDvl`).
+
+use std::io;
+
+use anguilla_ipc::{SensorEntry, SensorHealth, SensorKind};
+use anguilla_protocol::Frame;
+use anguilla_protocol::position_fix::{Velocity, parse_velocity};
+use anguilla_protocol::time::Nanos;
+use serde::{Deserialize, Serialize};
+
+use super::Sensor;
+use super::observation::Observation;
+use super::offbus::{Reader, Source, judge};
+use crate::config::{ConfigError, fmt_f, range};
+use crate::nav::Prediction;
+
+/// `[sensor.dvl]`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
+pub struct DvlConfig {
+    /// Where the sentences come from: `udp:ADDRESS:PORT` (bound; one
+    /// sentence a datagram) or `serial:PATH:BAUD` (one a line).
+    pub source: String,
+    /// From the measurement to the sentence's arrival (s), 0..=10.
+    pub latency: f64,
+    /// A DVL without a velocity this long is silent (s), 0.1..=600: no
+    /// bottom lock.
+    pub timeout: f64,
+    /// The angle from the DVL's frame to the estimate's (deg,
+    /// counter-clockwise): a velocity `(vx, vy)` is turned by it.
+    pub rotation: f64,
+}
+
+impl Default for DvlConfig {
+    fn default() -> Self {
+        Self {
+            source: "udp:127.0.0.1:14661".into(),
+            latency: 0.05,
+            timeout: 2.0,
+            rotation: 0.0,
+        }
+    }
+}
+
+impl DvlConfig {
+    /// Checks every key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        Source::parse(&self.source)
+            .map_err(|e| ConfigError::Derived(format!("sensor.dvl.source = {e}")))?;
+        range("sensor.dvl.latency", self.latency, 0.0, 10.0, "0 ..= 10 s")?;
+        range(
+            "sensor.dvl.timeout",
+            self.timeout,
+            0.1,
+            600.0,
+            "0.1 ..= 600 s",
+        )?;
+        range(
+            "sensor.dvl.rotation",
+            self.rotation,
+            -360.0,
+            360.0,
+            "-360 ..= 360 deg",
+        )
+    }
+
+    /// The section in the commented default file (commented out: no DVL
+    /// by default).
+    pub fn write_default(&self, w: &mut dyn FnMut(String)) {
+        w("# A DVL off the bus (docs/autopilot.md, \"Position\"): uncomment to use one.".into());
+        w(
+            "# Its \"$ANVEL,vx,vy,sigma*HH\" sentences (velocity over ground, m/s) come from"
+                .into(),
+        );
+        w("# \"udp:ADDRESS:PORT\" (bound) or \"serial:PATH:BAUD\"; latency (s) from".into());
+        w("# measurement to arrival; silent after timeout (s): no bottom lock; rotation".into());
+        w(
+            "# (deg) turns its frame into the estimate's. The built-in robot simulates one on"
+                .into(),
+        );
+        w("# a udp: source.".into());
+        w("# [sensor.dvl]".into());
+        w(format!("# source = \"{}\"", self.source));
+        w(format!("# latency = {}", fmt_f(self.latency)));
+        w(format!("# timeout = {}", fmt_f(self.timeout)));
+        w(format!("# rotation = {}", fmt_f(self.rotation)));
+    }
+}
+
+/// The DVL.
+pub struct Dvl {
+    reader: Reader<Velocity>,
+    latency: Nanos,
+    timeout: Nanos,
+    /// cos and sin of `rotation`.
+    turn: (f64, f64),
+    started: Nanos,
+    now: Nanos,
+    /// The last velocity, as sent, and when it was measured.
+    last: Option<(Nanos, Velocity)>,
+    received: u32,
+    malformed_at_reading: u64,
+    pending: Option<Observation>,
+    health: SensorHealth,
+}
+
+impl Dvl {
+    /// Opens `cfg`'s source and starts its reader thread.
+    pub fn open(cfg: &DvlConfig, now: Nanos) -> io::Result<Dvl> {
+        let (s, c) = cfg.rotation.to_radians().sin_cos();
+        Ok(Dvl {
+            reader: Reader::open(&cfg.source, "dvl", parse_velocity)?,
+            latency: Nanos::from_secs_f64(cfg.latency),
+            timeout: Nanos::from_secs_f64(cfg.timeout),
+            turn: (c, s),
+            started: now,
+            now,
+            last: None,
+            received: 0,
+            malformed_at_reading: 0,
+            pending: None,
+            health: SensorHealth::Waiting,
+        })
+    }
+}
+
+impl Sensor for Dvl {
+    fn kind(&self) -> SensorKind {
+        SensorKind::Dvl
+    }
+
+    /// Off the bus: 0, which no frame carries to it.
+    fn id(&self) -> u8 {
+        0
+    }
+
+    fn ingest(&mut self, _now: Nanos, _frame: &Frame) -> bool {
+        false
+    }
+
+    fn step(&mut self, now: Nanos, _bus: Nanos, _dt: f64, _pred: &Prediction) {
+        self.now = now;
+        if let Some(v) = self.reader.take() {
+            let at = now.saturating_sub(self.latency);
+            self.last = Some((at, v));
+            self.received = self.received.saturating_add(1);
+            self.malformed_at_reading = self.reader.malformed();
+            let (c, s) = self.turn;
+            self.pending = Some(Observation::VelocityOverGround {
+                at,
+                vx: c * v.vx - s * v.vy,
+                vy: s * v.vx + c * v.vy,
+                sigma: v.sigma,
+            });
+        }
+        self.health = judge(
+            now,
+            self.started,
+            self.last.map(|(at, _)| at),
+            self.timeout,
+            self.latency,
+            self.reader.malformed() > self.malformed_at_reading,
+        );
+    }
+
+    fn health(&self) -> SensorHealth {
+        self.health
+    }
+
+    fn observation(&mut self) -> Option<Observation> {
+        self.pending.take()
+    }
+
+    /// vx, vy and σ of the last velocity as sent, its age (s), and the
+    /// malformed and dropped sentences ([`SensorKind::Dvl`]'s values).
+    fn fill(&self, entry: &mut SensorEntry) {
+        entry.samples = self.received;
+        let (age, v) = match self.last {
+            Some((at, v)) => (self.now.saturating_sub(at).as_secs_f64(), v),
+            None => (
+                0.0,
+                Velocity {
+                    vx: 0.0,
+                    vy: 0.0,
+                    sigma: 0.0,
+                },
+            ),
+        };
+        let values = [
+            v.vx,
+            v.vy,
+            v.sigma,
+            age,
+            self.reader.malformed() as f64,
+            self.reader.dropped() as f64,
+        ];
+        for (slot, x) in entry.values.iter_mut().zip(values) {
+            *slot = x as f32;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::UdpSocket;
+    use std::time::{Duration, Instant};
+
+    #[test]
+    fn velocities_over_udp_become_observations_turned_into_the_estimates_frame() {
+        let probe = UdpSocket::bind("127.0.0.1:0").expect("a port");
+        let addr = probe.local_addr().expect("its address");
+        drop(probe);
+        let cfg = DvlConfig {
+            source: format!("udp:{addr}"),
+            rotation: 90.0,
+            ..DvlConfig::default()
+        };
+        let mut d = Dvl::open(&cfg, Nanos::ZERO).expect("bound");
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("a sender");
+        let v = Velocity {
+            vx: 0.5,
+            vy: 0.0,
+            sigma: 0.01,
+        };
+        tx.send_to(v.sentence().as_bytes(), addr).expect("sent");
+        let mut now = Nanos::ZERO;
+        let t0 = Instant::now();
+        while d.received == 0 && t0.elapsed() < Duration::from_secs(10) {
+            now += Nanos::from_millis(10);
+            d.step(now, now, 0.01, &Prediction::still());
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        assert_eq!(d.health(), SensorHealth::Ok);
+        let Some(Observation::VelocityOverGround { at, vx, vy, sigma }) = d.observation() else {
+            panic!("a velocity");
+        };
+        assert!(
+            vx.abs() < 1e-12 && (vy - 0.5).abs() < 1e-12,
+            "turned 90°: {vx} {vy}"
+        );
+        assert_eq!(sigma, 0.01);
+        assert_eq!(at, now.saturating_sub(Nanos::from_millis(50)));
+        // A position fix is not a velocity: malformed, an error.
+        let fix = anguilla_protocol::position_fix::Fix {
+            x: 1.0,
+            y: 1.0,
+            sigma: 1.0,
+        };
+        tx.send_to(fix.sentence().as_bytes(), addr).expect("sent");
+        let t0 = Instant::now();
+        while d.health() != SensorHealth::Error && t0.elapsed() < Duration::from_secs(10) {
+            now += Nanos::from_millis(10);
+            d.step(now, now, 0.01, &Prediction::still());
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        assert_eq!(d.health(), SensorHealth::Error);
+        let mut e = SensorEntry::default();
+        d.fill(&mut e);
+        assert_eq!((e.samples, e.values[0], e.values[4]), (1, 0.5, 1.0));
+        // No bottom lock: silent after the timeout.
+        let bad = DvlConfig {
+            rotation: 400.0,
+            ..DvlConfig::default()
+        };
+        let e = bad.validate().expect_err("a bad rotation").to_string();
+        assert!(e.contains("sensor.dvl.rotation"), "{e}");
+    }
+}
