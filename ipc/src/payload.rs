@@ -271,7 +271,8 @@ pub struct NavSnapshot {
     pub position_fixes: u32,
     /// The water's estimated velocity over ground (m/s), x, in the
     /// estimate's local frame: what moves the robot beside its own
-    /// swimming, learnt from the fixes (0 without them).
+    /// swimming, learnt from position fixes or a DVL's velocities (0
+    /// without either).
     pub current_x: f32,
     /// The current's y (m/s), as `current_x`.
     pub current_y: f32,

@@ -37,6 +37,28 @@ fn config(name: &str) -> Config {
     cfg
 }
 
+/// Takes control, enables and swims F1 at full amplitude with `turn`
+/// (1/m).
+fn swim(client: &mut anguilla_ipc::Client, turn: f64) {
+    anguilla_system_tests::process::take_control_and_enable(client, 5.0);
+    ok(
+        client,
+        Command::Swim(SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn,
+            pitch: 0.0,
+        }),
+    );
+}
+
+/// E-stops and stops the robot.
+fn stop(client: &mut anguilla_ipc::Client, robot: Robot) {
+    ok(client, Command::EStop);
+    keep_alive_for(client, 0.2, |_| {});
+    robot.stop();
+}
+
 fn usbl(s: &StateSnapshot) -> Option<&anguilla_ipc::SensorEntry> {
     s.sensors.iter().find(|e| e.kind == SensorKind::Usbl as u8)
 }
@@ -115,17 +137,8 @@ fn usbl_fixes_hold_the_estimate_to_the_truth_and_every_viewer_shows_it() {
     });
     let e = usbl(&s).expect("listed");
     assert_eq!(e.id, 0, "off the bus");
-    anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
     // Swim a wide turn: x and y both move.
-    ok(
-        &mut client,
-        Command::Swim(SwimParams {
-            amplitude: 1.0,
-            frequency: 1.0,
-            turn: 0.3,
-            pitch: 0.0,
-        }),
-    );
+    swim(&mut client, 0.3);
     let fixes0 = s.nav.position_fixes;
     let s = wait_for(&mut client, "eight fixes taken while swimming", 30.0, |s| {
         s.nav.position_fixes >= fixes0 + 8
@@ -157,9 +170,7 @@ fn usbl_fixes_hold_the_estimate_to_the_truth_and_every_viewer_shows_it() {
             "{who} shows another position: {seen:?}"
         );
     }
-    ok(&mut client, Command::EStop);
-    keep_alive_for(&mut client, 0.2, |_| {});
-    robot.stop();
+    stop(&mut client, robot);
 }
 
 /// The water moves the robot sideways at 0.1 m/s (`water current 0 0.1`
@@ -177,17 +188,10 @@ fn a_current_the_model_does_not_know_is_learnt_from_the_fixes() {
     wait_for(&mut client, "the USBL's first fix", 15.0, |s| {
         s.nav.position_fixes > 0
     });
-    anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
-    ok(
-        &mut client,
-        Command::Swim(SwimParams {
-            amplitude: 1.0,
-            frequency: 1.0,
-            turn: 0.0,
-            pitch: 0.0,
-        }),
-    );
-    let s0 = wait_for(&mut client, "swimming", 10.0, |s| s.nav.position_fixes > 0);
+    swim(&mut client, 0.0);
+    let s0 = wait_for(&mut client, "swimming", 10.0, |s| {
+        s.gait_actual.amplitude > 0.0
+    });
     let s = wait_for(
         &mut client,
         "40 more fixes taken while swimming",
@@ -221,9 +225,7 @@ fn a_current_the_model_does_not_know_is_learnt_from_the_fixes() {
         v["current_y"].as_f64().map(|c| c as f32),
         Some(s.nav.current_y)
     );
-    ok(&mut client, Command::EStop);
-    keep_alive_for(&mut client, 0.2, |_| {});
-    robot.stop();
+    stop(&mut client, robot);
 }
 
 /// A DVL alone (no position fix): the built-in robot swims straight
@@ -255,21 +257,14 @@ fn a_dvl_alone_learns_the_current_and_holds_the_dead_reckoning() {
     wait_for(&mut client, "the DVL's first velocity", 15.0, |s| {
         dvl(s).is_some_and(|e| e.samples > 0 && e.health == SensorHealth::Ok as u8)
     });
-    anguilla_system_tests::process::take_control_and_enable(&mut client, 5.0);
-    ok(
-        &mut client,
-        Command::Swim(SwimParams {
-            amplitude: 1.0,
-            frequency: 1.0,
-            turn: 0.0,
-            pitch: 0.0,
-        }),
-    );
-    let n0 = wait_for(&mut client, "swimming", 10.0, |s| dvl(s).is_some())
-        .sensors
-        .iter()
-        .find(|e| e.kind == SensorKind::Dvl as u8)
-        .map_or(0, |e| e.samples);
+    swim(&mut client, 0.0);
+    let n0 = wait_for(&mut client, "swimming", 10.0, |s| {
+        s.gait_actual.amplitude > 0.0 && dvl(s).is_some()
+    })
+    .sensors
+    .iter()
+    .find(|e| e.kind == SensorKind::Dvl as u8)
+    .map_or(0, |e| e.samples);
     let s = wait_for(&mut client, "100 more velocities taken", 120.0, |s| {
         dvl(s).is_some_and(|e| e.samples >= n0 + 100)
     });
@@ -295,7 +290,5 @@ fn a_dvl_alone_learns_the_current_and_holds_the_dead_reckoning() {
         PositionHealth::DeadReckoning as u8,
         "no position sensor: dead reckoning, even with a DVL"
     );
-    ok(&mut client, Command::EStop);
-    keep_alive_for(&mut client, 0.2, |_| {});
-    robot.stop();
+    stop(&mut client, robot);
 }

@@ -194,7 +194,7 @@ crate::view! {
         fix_age_s: Option<f64> => real,
         /// The water's estimated velocity over ground (m/s), x, in the
         /// estimate's frame: what moves the robot beside its swimming,
-        /// learnt from the fixes (0 without them)
+        /// learnt from position fixes or a DVL's velocities (0 without either)
         current_x: f32 => real,
         /// The current's y (m/s), as current_x
         current_y: f32 => real,

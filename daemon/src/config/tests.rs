@@ -297,3 +297,28 @@ fn fix_times_are_checked() {
     let c = Config::from_toml("[autopilot]\nfix-stale = 2\nfix-lost = 2\n", "t").unwrap();
     assert_eq!((c.autopilot.fix_stale, c.autopilot.fix_lost), (2.0, 2.0));
 }
+
+/// An off-bus sensor's latency must fit the estimate's history and arrive
+/// before the fix is stale.
+#[test]
+fn off_bus_latencies_are_checked_against_the_history_and_fix_stale() {
+    let base = "[sensor]\nnode = 20\n\n[sensor.usbl]\nsource = \"udp:127.0.0.1:14660\"\n";
+    let e = Config::from_toml(&format!("{base}latency = 9\n"), "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("sensor.usbl.latency = 9.0 s: the estimate keeps"),
+        "{e}"
+    );
+    let e = Config::from_toml(
+        &format!("[autopilot]\nfix-stale = 0.2\n\n{base}latency = 0.3\n"),
+        "t",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("is not below autopilot.fix-stale = 0.2 s"),
+        "{e}"
+    );
+    Config::from_toml(&format!("{base}latency = 0.3\n"), "t").expect("the default latency");
+}

@@ -21,15 +21,19 @@
 //!   against the estimate of that time, kept for [`HISTORY`] periods, with
 //!   the covariance of that time; the correction then moves the present
 //!   (by the corrected position and the corrected current since) and the
-//!   kept past alike.
+//!   kept past alike. A fix older than the kept history is left out and
+//!   counted. The covariance of the fix's time is the present one moved
+//!   back without taking out the process noise added since: with a
+//!   latency of a few tenths of a second, slightly over-confident.
 //! - **Velocities over ground** (a DVL): less the model's velocity through
 //!   the water at their time, they observe the current directly (with the
 //!   model's speed error added to theirs), and through the covariance the
 //!   position.
 //! - **Outliers.** A fix farther than [`GATE`] standard deviations (of
 //!   the estimate and the fix together) is left out and counted; after
-//!   [`GATE_FIXES`] such fixes in a row the estimate, not the sensor, is
-//!   taken to be wrong, and the next one is believed whole.
+//!   [`GATE_FIXES`] such fixes in a row (fixes and velocities counted
+//!   apart) the estimate, not the sensor, is taken to be wrong, and the
+//!   next one is believed whole.
 //! - **Health** ([`PositionHealth`]): whether fixes arrive, from the age of
 //!   the last one taken: fixed, stale after `[autopilot] fix-stale`, lost
 //!   after `fix-lost`; dead reckoning alone without a position sensor.
@@ -122,7 +126,8 @@ pub struct Plane {
     fixes: u32,
     velocities: u32,
     rejected: u32,
-    gated: u32,
+    gated_fix: u32,
+    gated_velocity: u32,
     last_fix: Option<Nanos>,
     /// With a position sensor: when a fix is stale and lost.
     times: Option<FixTimes>,
@@ -155,7 +160,8 @@ impl Plane {
             fixes: 0,
             velocities: 0,
             rejected: 0,
-            gated: 0,
+            gated_fix: 0,
+            gated_velocity: 0,
             last_fix: None,
             times,
         }
@@ -186,9 +192,11 @@ impl Plane {
         self.len = (self.len + 1).min(HISTORY);
     }
 
-    /// The kept period nearest before `at` (the oldest kept if `at` is
-    /// older still; the present, at rest, if nothing is kept).
-    fn at(&self, at: Nanos) -> Kept {
+    /// The kept period nearest before `at` (the first kept if `at` is
+    /// before the estimate started; the present, at rest, if nothing is
+    /// kept); `None` if `at` is older than the whole kept history (a fix
+    /// later than [`HISTORY`] periods cannot be placed).
+    fn at(&self, at: Nanos) -> Option<Kept> {
         let mut best = Kept {
             t: self.now,
             x: self.x,
@@ -198,25 +206,26 @@ impl Plane {
         for k in 1..=self.len {
             best = self.history[(self.next + HISTORY - k) % HISTORY];
             if best.t <= at {
-                break;
+                return Some(best);
             }
         }
-        best
+        (self.len < HISTORY).then_some(best)
     }
 
-    /// Whether an innovation is taken: `Some(false)` within the gate,
-    /// `Some(true)` believed whole after [`GATE_FIXES`] outliers in a row,
-    /// `None` left out.
-    fn gate(&mut self, outlier: bool) -> Option<bool> {
+    /// Whether an innovation is taken, counting outliers in a row in
+    /// `gated` (each kind of observation its own): `Some(false)` within the
+    /// gate, `Some(true)` believed whole after [`GATE_FIXES`] outliers in a
+    /// row, `None` left out.
+    fn gate(gated: &mut u32, rejected: &mut u32, outlier: bool) -> Option<bool> {
         if !outlier {
-            self.gated = 0;
+            *gated = 0;
             Some(false)
-        } else if self.gated < GATE_FIXES {
-            self.gated += 1;
-            self.rejected += 1;
+        } else if *gated < GATE_FIXES {
+            *gated += 1;
+            *rejected += 1;
             None
         } else {
-            self.gated = 0;
+            *gated = 0;
             Some(true)
         }
     }
@@ -229,22 +238,27 @@ impl Plane {
             self.rejected += 1;
             return false;
         }
-        let then = self.at(at);
+        let Some(then) = self.at(at) else {
+            self.rejected += 1;
+            return false;
+        };
         let (ex, ey) = (x - then.x, y - then.y);
         // The covariance of the estimate's time: `ago` before the present.
         let ago = self.now.saturating_sub(then.t).as_nanos() as f64 * 1e-9;
         let p = self.cov.shifted(-ago);
         let r = sigma * sigma;
-        let Some(whole) = self.gate(ex.hypot(ey) > GATE * (p.pp + r).sqrt()) else {
+        let outlier = ex.hypot(ey) > GATE * (p.pp + r).sqrt();
+        let Some(whole) = Self::gate(&mut self.gated_fix, &mut self.rejected, outlier) else {
             return false;
         };
         let then = then.t;
         let after = if whole {
             // The estimate was wrong: the fix is believed whole, the
-            // current is unknown again.
+            // current is unknown again (and so is its drift since).
+            let (cx, cy) = (self.cx, self.cy);
             self.cx = 0.0;
             self.cy = 0.0;
-            self.shift(then, ex, ey, 0.0, 0.0);
+            self.shift(then, ex, ey, -cx, -cy);
             Cov {
                 pp: r,
                 pc: 0.0,
@@ -277,14 +291,18 @@ impl Plane {
             self.rejected += 1;
             return false;
         }
-        let then = self.at(at);
+        let Some(then) = self.at(at) else {
+            self.rejected += 1;
+            return false;
+        };
         let (ex, ey) = (vx - then.vx - self.cx, vy - then.vy - self.cy);
         let ago = self.now.saturating_sub(then.t).as_nanos() as f64 * 1e-9;
         let p = self.cov.shifted(-ago);
         // What it observes is the current plus the model's speed error.
         let model = SPEED_ERROR * then.vx.hypot(then.vy);
         let r = sigma * sigma + model * model;
-        let Some(whole) = self.gate(ex.hypot(ey) > GATE * (p.cc + r).sqrt()) else {
+        let outlier = ex.hypot(ey) > GATE * (p.cc + r).sqrt();
+        let Some(whole) = Self::gate(&mut self.gated_velocity, &mut self.rejected, outlier) else {
             return false;
         };
         let after = if whole {
@@ -292,7 +310,11 @@ impl Plane {
             self.cx += ex;
             self.cy += ey;
             self.shift(then.t, 0.0, 0.0, ex, ey);
-            Cov { cc: r, ..p }
+            Cov {
+                pc: 0.0,
+                cc: r,
+                ..p
+            }
         } else {
             let s = p.cc + r;
             let (kp, kc) = (p.pc / s, p.cc / s);
@@ -311,9 +333,10 @@ impl Plane {
     }
 
     /// Moves the present and the kept past by a correction at `then`:
-    /// `dx`, `dy` of position, and `dcx`, `dcy` of current since.
+    /// `dx`, `dy` of position, and `dcx`, `dcy` of current, the whole
+    /// track (before `then` too) moved as the constant-current model has it.
     fn shift(&mut self, then: Nanos, dx: f64, dy: f64, dcx: f64, dcy: f64) {
-        let since = |t: Nanos| t.saturating_sub(then).as_nanos() as f64 * 1e-9;
+        let since = |t: Nanos| (t.as_nanos() as f64 - then.as_nanos() as f64) * 1e-9;
         let t = since(self.now);
         self.x += dx + dcx * t;
         self.y += dy + dcy * t;
@@ -514,6 +537,38 @@ mod tests {
         assert!(p.current().0 < -0.01, "{:?}", p.current());
     }
 
+    /// A fix measured before the kept history cannot be placed: left out
+    /// and counted, the estimate untouched.
+    #[test]
+    fn a_fix_older_than_the_history_is_left_out() {
+        let mut p = Plane::new(Some(TIMES));
+        for k in 1..=(HISTORY as u64 + 100) {
+            p.propagate(ms(10 * k), 0.1, 0.0, DT);
+        }
+        let before = p.position();
+        assert!(!p.fix(ms(10), 0.0, 0.0, 0.3));
+        assert!(!p.velocity(ms(10), 0.0, 0.0, 0.01));
+        assert_eq!((p.position(), p.rejected()), (before, 2));
+        assert!(p.fix(ms(10 * HISTORY as u64), p.position().0, 0.0, 0.3));
+    }
+
+    /// Fixes and velocities count their outliers apart: a DVL within its
+    /// gate does not stop three outlying fixes in a row from making the
+    /// fourth believed.
+    #[test]
+    fn outliers_in_a_row_are_counted_per_kind() {
+        let mut p = Plane::new(Some(TIMES));
+        for k in 1..=100 {
+            p.propagate(ms(10 * k), 0.0, 0.0, DT);
+        }
+        for _ in 0..GATE_FIXES {
+            assert!(!p.fix(ms(1000), 50.0, 0.0, 0.5));
+            assert!(p.velocity(ms(1000), 0.0, 0.0, 0.01));
+        }
+        assert!(p.fix(ms(1000), 50.0, 0.0, 0.5));
+        assert_eq!(p.position().0, 50.0);
+    }
+
     #[test]
     fn an_outlier_is_left_out_until_it_lasts() {
         let mut p = Plane::new(Some(TIMES));
@@ -562,11 +617,16 @@ mod tests {
         run(&mut p, 15);
         assert_eq!(p.health(), PositionHealth::Lost, "{:?}", p.fix_age());
         assert!(p.sigma() > sigma_stale, "the uncertainty grows while lost");
-        // An old fix, measured before the last one taken, does not make
-        // the position fresh.
+        // A fresh fix makes it fixed again.
         let t = run(&mut p, 0);
         assert!(p.fix(ms(t - 100), p.position().0, 0.0, 0.3));
         assert_eq!(p.health(), PositionHealth::Fixed);
+        // A late one, measured before the last one taken, is taken but
+        // does not make the position fresh.
+        run(&mut p, 6);
+        assert_eq!(p.health(), PositionHealth::Stale, "{:?}", p.fix_age());
+        assert!(p.fix(ms(t - 200), p.position().0, 0.0, 0.3));
+        assert_eq!(p.health(), PositionHealth::Stale, "{:?}", p.fix_age());
         assert_eq!(Plane::new(None).health(), PositionHealth::DeadReckoning);
     }
 }

@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Sensor;
 use super::observation::Observation;
-use super::offbus::{Reader, Source, judge};
+use super::offbus::{Line, Source};
 use crate::config::{ConfigError, fmt_f, range};
 use crate::nav::Prediction;
 
@@ -103,19 +103,10 @@ impl DvlConfig {
 
 /// The DVL.
 pub struct Dvl {
-    reader: Reader<Velocity>,
-    latency: Nanos,
-    timeout: Nanos,
+    line: Line<Velocity>,
     /// cos and sin of `rotation`.
     turn: (f64, f64),
-    started: Nanos,
-    now: Nanos,
-    /// The last velocity, as sent, and when it was measured.
-    last: Option<(Nanos, Velocity)>,
-    received: u32,
-    malformed_at_reading: u64,
     pending: Option<Observation>,
-    health: SensorHealth,
 }
 
 impl Dvl {
@@ -123,17 +114,16 @@ impl Dvl {
     pub fn open(cfg: &DvlConfig, now: Nanos) -> io::Result<Dvl> {
         let (s, c) = cfg.rotation.to_radians().sin_cos();
         Ok(Dvl {
-            reader: Reader::open(&cfg.source, "dvl", parse_velocity)?,
-            latency: Nanos::from_secs_f64(cfg.latency),
-            timeout: Nanos::from_secs_f64(cfg.timeout),
+            line: Line::open(
+                &cfg.source,
+                "dvl",
+                parse_velocity,
+                cfg.latency,
+                cfg.timeout,
+                now,
+            )?,
             turn: (c, s),
-            started: now,
-            now,
-            last: None,
-            received: 0,
-            malformed_at_reading: 0,
             pending: None,
-            health: SensorHealth::Waiting,
         })
     }
 }
@@ -153,12 +143,7 @@ impl Sensor for Dvl {
     }
 
     fn step(&mut self, now: Nanos, _bus: Nanos, _dt: f64, _pred: &Prediction) {
-        self.now = now;
-        if let Some(v) = self.reader.take() {
-            let at = now.saturating_sub(self.latency);
-            self.last = Some((at, v));
-            self.received = self.received.saturating_add(1);
-            self.malformed_at_reading = self.reader.malformed();
+        if let Some((at, v)) = self.line.step(now) {
             let (c, s) = self.turn;
             self.pending = Some(Observation::VelocityOverGround {
                 at,
@@ -167,18 +152,10 @@ impl Sensor for Dvl {
                 sigma: v.sigma,
             });
         }
-        self.health = judge(
-            now,
-            self.started,
-            self.last.map(|(at, _)| at),
-            self.timeout,
-            self.latency,
-            self.reader.malformed() > self.malformed_at_reading,
-        );
     }
 
     fn health(&self) -> SensorHealth {
-        self.health
+        self.line.health()
     }
 
     fn observation(&mut self) -> Option<Observation> {
@@ -188,29 +165,7 @@ impl Sensor for Dvl {
     /// vx, vy and σ of the last velocity as sent, its age (s), and the
     /// malformed and dropped sentences ([`SensorKind::Dvl`]'s values).
     fn fill(&self, entry: &mut SensorEntry) {
-        entry.samples = self.received;
-        let (age, v) = match self.last {
-            Some((at, v)) => (self.now.saturating_sub(at).as_secs_f64(), v),
-            None => (
-                0.0,
-                Velocity {
-                    vx: 0.0,
-                    vy: 0.0,
-                    sigma: 0.0,
-                },
-            ),
-        };
-        let values = [
-            v.vx,
-            v.vy,
-            v.sigma,
-            age,
-            self.reader.malformed() as f64,
-            self.reader.dropped() as f64,
-        ];
-        for (slot, x) in entry.values.iter_mut().zip(values) {
-            *slot = x as f32;
-        }
+        self.line.fill(entry, |v| [v.vx, v.vy, v.sigma]);
     }
 }
 
@@ -240,7 +195,7 @@ mod tests {
         tx.send_to(v.sentence().as_bytes(), addr).expect("sent");
         let mut now = Nanos::ZERO;
         let t0 = Instant::now();
-        while d.received == 0 && t0.elapsed() < Duration::from_secs(10) {
+        while d.line.received() == 0 && t0.elapsed() < Duration::from_secs(10) {
             now += Nanos::from_millis(10);
             d.step(now, now, 0.01, &Prediction::still());
             std::thread::sleep(Duration::from_millis(2));
@@ -255,6 +210,14 @@ mod tests {
         );
         assert_eq!(sigma, 0.01);
         assert_eq!(at, now.saturating_sub(Nanos::from_millis(50)));
+        // No bottom lock, nothing sent: silent after the timeout (2 s)
+        // past the reading's time.
+        let t = now;
+        while now.saturating_sub(t) < Nanos::from_millis(2100) {
+            now += Nanos::from_millis(100);
+            d.step(now, now, 0.1, &Prediction::still());
+        }
+        assert_eq!(d.health(), SensorHealth::Silent);
         // A position fix is not a velocity: malformed, an error.
         let fix = anguilla_protocol::position_fix::Fix {
             x: 1.0,
@@ -272,7 +235,6 @@ mod tests {
         let mut e = SensorEntry::default();
         d.fill(&mut e);
         assert_eq!((e.samples, e.values[0], e.values[4]), (1, 0.5, 1.0));
-        // No bottom lock: silent after the timeout.
         let bad = DvlConfig {
             rotation: 400.0,
             ..DvlConfig::default()

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use anguilla_ipc::SensorHealth;
+use anguilla_ipc::{SensorEntry, SensorHealth};
 use anguilla_protocol::position_fix::{FixError, MAX_LEN};
 use anguilla_protocol::time::Nanos;
 use crossbeam_channel::{Receiver, Sender, TrySendError};
@@ -175,6 +175,109 @@ pub fn judge(
         None => SensorHealth::Waiting,
         Some(at) if now.saturating_sub(at) > timeout + latency => SensorHealth::Silent,
         Some(_) => SensorHealth::Ok,
+    }
+}
+
+/// An off-bus sensor's reading side, as the control loop sees it: one
+/// reading a period from its [`Reader`], stamped with its arrival less the
+/// latency, the last one kept, and the health ([`judge`]).
+pub struct Line<T> {
+    reader: Reader<T>,
+    latency: Nanos,
+    timeout: Nanos,
+    started: Nanos,
+    now: Nanos,
+    /// The last reading, as sent, and when it was measured.
+    last: Option<(Nanos, T)>,
+    received: u32,
+    malformed_at_reading: u64,
+    health: SensorHealth,
+}
+
+impl<T: Copy + Send + 'static> Line<T> {
+    /// Opens `source` ([`Reader::open`]) for a sensor whose readings
+    /// arrive `latency` s after they were measured and which is silent
+    /// after `timeout` s without one.
+    pub fn open(
+        source: &str,
+        name: &'static str,
+        parse: Parse<T>,
+        latency: f64,
+        timeout: f64,
+        now: Nanos,
+    ) -> io::Result<Self> {
+        Ok(Self {
+            reader: Reader::open(source, name, parse)?,
+            latency: Nanos::from_secs_f64(latency),
+            timeout: Nanos::from_secs_f64(timeout),
+            started: now,
+            now,
+            last: None,
+            received: 0,
+            malformed_at_reading: 0,
+            health: SensorHealth::Waiting,
+        })
+    }
+
+    /// One period at `now`: the reading taken, if one waited, with the
+    /// time it was measured; the health judged.
+    pub fn step(&mut self, now: Nanos) -> Option<(Nanos, T)> {
+        self.now = now;
+        let taken = self.reader.take().map(|r| {
+            let at = now.saturating_sub(self.latency);
+            self.last = Some((at, r));
+            self.received = self.received.saturating_add(1);
+            self.malformed_at_reading = self.reader.malformed();
+            (at, r)
+        });
+        self.health = judge(
+            now,
+            self.started,
+            self.last.map(|(at, _)| at),
+            self.timeout,
+            self.latency,
+            self.reader.malformed() > self.malformed_at_reading,
+        );
+        taken
+    }
+
+    /// The health after the last [`Line::step`].
+    pub fn health(&self) -> SensorHealth {
+        self.health
+    }
+
+    /// Readings taken since start.
+    #[cfg(test)]
+    pub fn received(&self) -> u32 {
+        self.received
+    }
+
+    /// The sensor's entry: the readings taken, then the last reading's
+    /// three `values` as sent (zeros before the first), its age (s), and
+    /// the malformed and dropped sentences.
+    pub fn fill(&self, entry: &mut SensorEntry, values: impl Fn(&T) -> [f64; 3]) {
+        entry.samples = self.received;
+        let ([a, b, c], age) = match &self.last {
+            Some((at, r)) => (values(r), self.now.saturating_sub(*at).as_secs_f64()),
+            None => ([0.0; 3], 0.0),
+        };
+        let v = [
+            a,
+            b,
+            c,
+            age,
+            self.reader.malformed() as f64,
+            self.reader.dropped() as f64,
+        ];
+        for (slot, x) in entry.values.iter_mut().zip(v) {
+            *slot = x as f32;
+        }
+    }
+
+    /// The reader (its counters).
+    #[cfg(test)]
+    pub fn reader(&self) -> &Reader<T> {
+        &self.reader
     }
 }
 

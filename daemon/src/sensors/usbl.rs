@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Sensor;
 use super::observation::Observation;
-use super::offbus::{Reader, judge};
+use super::offbus::Line;
 pub use super::offbus::{SLOT, Source};
 use crate::config::{ConfigError, fmt_f, range};
 use crate::nav::Prediction;
@@ -106,35 +106,18 @@ impl UsblConfig {
 
 /// The USBL.
 pub struct Usbl {
-    reader: Reader<Fix>,
-    latency: Nanos,
-    timeout: Nanos,
+    line: Line<Fix>,
     offset: [f64; 2],
-    started: Nanos,
-    now: Nanos,
-    /// The last fix, as sent, and when it was measured.
-    last: Option<(Nanos, Fix)>,
-    received: u32,
-    malformed_at_fix: u64,
     pending: Option<Observation>,
-    health: SensorHealth,
 }
 
 impl Usbl {
     /// Opens `cfg`'s source and starts its reader thread.
     pub fn open(cfg: &UsblConfig, now: Nanos) -> io::Result<Usbl> {
         Ok(Usbl {
-            reader: Reader::open(&cfg.source, "usbl", parse)?,
-            latency: Nanos::from_secs_f64(cfg.latency),
-            timeout: Nanos::from_secs_f64(cfg.timeout),
+            line: Line::open(&cfg.source, "usbl", parse, cfg.latency, cfg.timeout, now)?,
             offset: cfg.offset,
-            started: now,
-            now,
-            last: None,
-            received: 0,
-            malformed_at_fix: 0,
             pending: None,
-            health: SensorHealth::Waiting,
         })
     }
 }
@@ -153,15 +136,10 @@ impl Sensor for Usbl {
         false
     }
 
+    /// One fix a period: the others wait in the channel, none is
+    /// overwritten unseen.
     fn step(&mut self, now: Nanos, _bus: Nanos, _dt: f64, _pred: &Prediction) {
-        self.now = now;
-        // One fix a period: the others wait in the channel, none is
-        // overwritten unseen.
-        if let Some(fix) = self.reader.take() {
-            let at = now.saturating_sub(self.latency);
-            self.last = Some((at, fix));
-            self.received = self.received.saturating_add(1);
-            self.malformed_at_fix = self.reader.malformed();
+        if let Some((at, fix)) = self.line.step(now) {
             self.pending = Some(Observation::PositionFix {
                 at,
                 x: fix.x - self.offset[0],
@@ -169,18 +147,10 @@ impl Sensor for Usbl {
                 sigma: fix.sigma,
             });
         }
-        self.health = judge(
-            now,
-            self.started,
-            self.last.map(|(at, _)| at),
-            self.timeout,
-            self.latency,
-            self.reader.malformed() > self.malformed_at_fix,
-        );
     }
 
     fn health(&self) -> SensorHealth {
-        self.health
+        self.line.health()
     }
 
     fn observation(&mut self) -> Option<Observation> {
@@ -190,29 +160,7 @@ impl Sensor for Usbl {
     /// x, y and σ of the last fix as sent, its age (s), and the malformed
     /// and dropped sentences ([`SensorKind::Usbl`]'s values).
     fn fill(&self, entry: &mut SensorEntry) {
-        entry.samples = self.received;
-        let (age, fix) = match self.last {
-            Some((at, f)) => (self.now.saturating_sub(at).as_secs_f64(), f),
-            None => (
-                0.0,
-                Fix {
-                    x: 0.0,
-                    y: 0.0,
-                    sigma: 0.0,
-                },
-            ),
-        };
-        let v = [
-            fix.x,
-            fix.y,
-            fix.sigma,
-            age,
-            self.reader.malformed() as f64,
-            self.reader.dropped() as f64,
-        ];
-        for (slot, x) in entry.values.iter_mut().zip(v) {
-            *slot = x as f32;
-        }
+        self.line.fill(entry, |f| [f.x, f.y, f.sigma]);
     }
 }
 
@@ -288,7 +236,7 @@ mod tests {
             sigma: 0.5,
         };
         tx.send_to(fix.sentence().as_bytes(), addr).expect("sent");
-        step_until(&mut u, &mut now, |u| u.received == 1);
+        step_until(&mut u, &mut now, |u| u.line.received() == 1);
         assert_eq!(u.health(), SensorHealth::Ok);
         let obs = u.observation().expect("an observation");
         let Observation::PositionFix { at, x, y, sigma } = obs else {
@@ -331,17 +279,17 @@ mod tests {
             let _ = tx.send_to(line.as_bytes(), addr);
         }
         let t0 = Instant::now();
-        while u.reader.dropped() == 0 && t0.elapsed() < Duration::from_secs(10) {
+        while u.line.reader().dropped() == 0 && t0.elapsed() < Duration::from_secs(10) {
             std::thread::sleep(Duration::from_millis(5));
         }
-        assert!(u.reader.dropped() > 0);
+        assert!(u.line.reader().dropped() > 0);
         let now = Nanos::from_millis(10);
         u.step(now, now, 0.01, &Prediction::still());
-        let dropped = u.reader.dropped();
+        let dropped = u.line.reader().dropped();
+        let received = u.line.received();
         assert!(
-            u64::from(u.received) + dropped <= 200 && u64::from(u.received) < 200,
-            "{} taken, {dropped} dropped of 200",
-            u.received
+            u64::from(received) + dropped <= 200 && u64::from(received) < 200,
+            "{received} taken, {dropped} dropped of 200"
         );
         assert!(u.observation().is_some());
     }
