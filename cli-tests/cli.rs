@@ -849,7 +849,20 @@ fn bad_arguments_are_errors_that_name_them() {
     assert!(!ok);
     assert!(
         err.contains("--usbl 127.0.0.1:9 --usbl-latency 2: simulated USBL")
-            && err.contains("latency shorter than a fix's period"),
+            && err.contains("latency shorter than a reading's period"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&[
+        "sim",
+        "--slcan-pty",
+        "--dvl",
+        "127.0.0.1:9",
+        "--dvl-latency",
+        "0.5",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("--dvl 127.0.0.1:9 --dvl-latency 0.5: simulated DVL: rate 5 Hz"),
         "{err}"
     );
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--usbl", "nowhere"]);
