@@ -314,12 +314,12 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
 
 /// The position's health in words, with the last fix's age.
 fn position_words(n: &anguilla_ipc::NavSnapshot) -> String {
-    let name = anguilla_ipc::PositionHealth::from_code(n.position_health)
+    let name = n
+        .position_state()
         .map_or("unknown", anguilla_ipc::PositionHealth::name);
-    if n.position_fixes > 0 && n.fix_age_ms != u32::MAX {
-        format!("{name}, last {:.1} s ago", f64::from(n.fix_age_ms) / 1e3)
-    } else {
-        name.to_string()
+    match n.fix_age_s() {
+        Some(age) => format!("{name}, last {age:.1} s ago"),
+        None => name.to_string(),
     }
 }
 

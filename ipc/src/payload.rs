@@ -297,6 +297,18 @@ fn hold_state_name(code: u8) -> std::borrow::Cow<'static, str> {
 }
 
 impl NavSnapshot {
+    /// The position's health (`None`: an unknown code).
+    pub fn position_state(&self) -> Option<crate::PositionHealth> {
+        crate::PositionHealth::from_code(self.position_health)
+    }
+
+    /// How long ago the last fix taken was measured (s); `None` before
+    /// the first.
+    pub fn fix_age_s(&self) -> Option<f64> {
+        (self.position_fixes > 0 && self.fix_age_ms != u32::MAX)
+            .then(|| f64::from(self.fix_age_ms) / 1e3)
+    }
+
     /// The heading hold's state (`None`: an unknown code).
     pub fn heading_state(&self) -> Option<crate::HoldState> {
         crate::HoldState::from_code(self.heading_hold)

@@ -173,38 +173,29 @@ pub fn serve(s: Serve, wait: Wait, say: &mut dyn FnMut(&str)) -> Result<(), Serv
     let running = robot
         .spawn(clock)
         .map_err(|e| fail("starting the simulation thread", e))?;
-    // Stopped when dropped, at the end of this function.
-    let _usbl = match usbl {
-        Some(cfg) => {
-            let (addr, latency) = (cfg.target, cfg.latency);
-            match SimUsbl::beside(cfg, &running) {
-                Ok(u) => Some(u),
-                Err(e) => {
-                    let _ = running.stop();
-                    return Err(fail(
-                        format_args!("--usbl {addr} --usbl-latency {latency}"),
-                        e,
-                    ));
-                }
-            }
+    // The sensors beside it, stopped when dropped at the end of this
+    // function; the robot stopped if one cannot start.
+    let beside = (|| {
+        let usbl = usbl
+            .map(|c| {
+                let what = format!("--usbl {} --usbl-latency {}", c.target, c.latency);
+                SimUsbl::beside(c, &running).map_err(|e| fail(what, e))
+            })
+            .transpose()?;
+        let dvl = dvl
+            .map(|c| {
+                let what = format!("--dvl {} --dvl-latency {}", c.target, c.latency);
+                SimDvl::beside(c, &running).map_err(|e| fail(what, e))
+            })
+            .transpose()?;
+        Ok::<_, ServeError>((usbl, dvl))
+    })();
+    let _beside = match beside {
+        Ok(b) => b,
+        Err(e) => {
+            let _ = running.stop();
+            return Err(e);
         }
-        None => None,
-    };
-    let _dvl = match dvl {
-        Some(cfg) => {
-            let (addr, latency) = (cfg.target, cfg.latency);
-            match SimDvl::beside(cfg, &running) {
-                Ok(d) => Some(d),
-                Err(e) => {
-                    let _ = running.stop();
-                    return Err(fail(
-                        format_args!("--dvl {addr} --dvl-latency {latency}"),
-                        e,
-                    ));
-                }
-            }
-        }
-        None => None,
     };
     let truth_name = truth.as_ref().map(|t| t.name()).unwrap_or_default();
     let stop_truth = AtomicBool::new(false);

@@ -88,10 +88,8 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "x_m": estimate(nav.x_m),
         "y_m": estimate(nav.y_m),
         "position_sigma_m": estimate(nav.position_sigma_m),
-        "position": anguilla_ipc::PositionHealth::from_code(nav.position_health)
-            .map_or("unknown", anguilla_ipc::PositionHealth::name),
-        "fix_age_s": (nav.position_fixes > 0 && nav.fix_age_ms != u32::MAX)
-            .then(|| f64::from(nav.fix_age_ms) / 1e3),
+        "position": nav.position_state().map_or("unknown", anguilla_ipc::PositionHealth::name),
+        "fix_age_s": nav.fix_age_s(),
         "current_x": estimate(nav.current_x),
         "current_y": estimate(nav.current_y),
         "current_sigma": estimate(nav.current_sigma),

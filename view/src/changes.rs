@@ -162,7 +162,7 @@ pub fn position_line(now: &NavSnapshot, was: &NavSnapshot) -> Option<(u8, String
     }
     let sigma = now.position_sigma_m;
     let age = f64::from(now.fix_age_ms) / 1e3;
-    Some(match PositionHealth::from_code(now.position_health) {
+    Some(match now.position_state() {
         Some(PositionHealth::Stale) => (
             3,
             format!("position: fix stale ({age:.1} s old), dead-reckoned, σ {sigma:.2} m"),

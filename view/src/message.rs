@@ -300,10 +300,8 @@ impl From<&StateSnapshot> for State {
                 y_m: n.y_m,
                 position_sigma_m: n.position_sigma_m,
                 position_fixes: n.position_fixes,
-                position_health: PositionHealth::from_code(n.position_health)
-                    .map_or(UNKNOWN, PositionHealth::name),
-                fix_age_s: (n.fix_age_ms != u32::MAX && n.position_fixes > 0)
-                    .then(|| f64::from(n.fix_age_ms) / 1e3),
+                position_health: n.position_state().map_or(UNKNOWN, PositionHealth::name),
+                fix_age_s: n.fix_age_s(),
                 current_x: n.current_x,
                 current_y: n.current_y,
                 current_sigma: n.current_sigma,

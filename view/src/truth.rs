@@ -3,9 +3,9 @@
 //! MCAP file when `anguilla run` drives its built-in robot, or alone in
 //! `anguilla sim --truth FILE`'s. A real robot has no such channel.
 
-use serde::Serialize;
 use serde_json::{Value, json};
 
+use crate::foxglove::{Quaternion, Vector3};
 use crate::schema::{message, number, object};
 
 /// The channel's topic.
@@ -36,37 +36,8 @@ pub struct GroundTruth {
     pub depth: f64,
 }
 
-/// A vector's components.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Xyz {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-    /// z.
-    pub z: f64,
-}
-
-impl From<[f64; 3]> for Xyz {
-    fn from([x, y, z]: [f64; 3]) -> Self {
-        Self { x, y, z }
-    }
-}
-
-/// A unit quaternion's components.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Xyzw {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-    /// z.
-    pub z: f64,
-    /// w.
-    pub w: f64,
-}
-
-/// [`Xyz`]'s schema: each component described by the vector's own text.
+/// A vector's schema here: each component described by the vector's own
+/// text (the values are [`Vector3`]s).
 fn xyz(what: &str, unit: &str) -> Value {
     object(
         what,
@@ -84,7 +55,7 @@ fn metres_per_second(d: &str) -> Value {
     xyz(d, "m/s")
 }
 
-/// [`Xyzw`]'s schema.
+/// An orientation's schema here (the values are [`Quaternion`]s).
 fn xyzw(what: &str) -> Value {
     object(
         what,
@@ -105,12 +76,12 @@ crate::view! {
         /// The simulation's own time since its start (s)
         sim_time: f64 => number,
         /// The nose's position in the world (z up; the start at the origin)
-        position: Xyz => metres,
+        position: Vector3 => metres,
         /// The head's orientation: unit quaternion from the model's head frame
         /// (x towards the tail, z up) to the world
-        orientation: Xyzw => xyzw,
+        orientation: Quaternion => xyzw,
         /// The nose's velocity in the world
-        velocity: Xyz => metres_per_second,
+        velocity: Vector3 => metres_per_second,
         /// Forward speed at the head, positive head first (m/s)
         speed: f64 => number,
         /// The body's heading, counter-clockwise from the world's x, from the
@@ -121,14 +92,18 @@ crate::view! {
     }
 }
 
+fn vector([x, y, z]: [f64; 3]) -> Vector3 {
+    Vector3 { x, y, z }
+}
+
 impl From<&GroundTruth> for Truth {
     fn from(t: &GroundTruth) -> Self {
         let [w, x, y, z] = t.orientation;
         Self {
             sim_time: t.sim_time,
-            position: t.position.into(),
-            orientation: Xyzw { x, y, z, w },
-            velocity: t.velocity.into(),
+            position: vector(t.position),
+            orientation: Quaternion { x, y, z, w },
+            velocity: vector(t.velocity),
             speed: t.speed,
             heading_deg: t.heading.to_degrees().rem_euclid(360.0),
             depth: t.depth,

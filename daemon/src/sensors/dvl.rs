@@ -172,8 +172,8 @@ impl Sensor for Dvl {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sensors::offbus::step_until;
     use std::net::UdpSocket;
-    use std::time::{Duration, Instant};
 
     #[test]
     fn velocities_over_udp_become_observations_turned_into_the_estimates_frame() {
@@ -194,12 +194,7 @@ mod tests {
         };
         tx.send_to(v.sentence().as_bytes(), addr).expect("sent");
         let mut now = Nanos::ZERO;
-        let t0 = Instant::now();
-        while d.line.received() == 0 && t0.elapsed() < Duration::from_secs(10) {
-            now += Nanos::from_millis(10);
-            d.step(now, now, 0.01, &Prediction::still());
-            std::thread::sleep(Duration::from_millis(2));
-        }
+        step_until(&mut d, &mut now, |d| d.line.received() > 0);
         assert_eq!(d.health(), SensorHealth::Ok);
         let Some(Observation::VelocityOverGround { at, vx, vy, sigma }) = d.observation() else {
             panic!("a velocity");
@@ -225,12 +220,7 @@ mod tests {
             sigma: 1.0,
         };
         tx.send_to(fix.sentence().as_bytes(), addr).expect("sent");
-        let t0 = Instant::now();
-        while d.health() != SensorHealth::Error && t0.elapsed() < Duration::from_secs(10) {
-            now += Nanos::from_millis(10);
-            d.step(now, now, 0.01, &Prediction::still());
-            std::thread::sleep(Duration::from_millis(2));
-        }
+        step_until(&mut d, &mut now, |d| d.health() == SensorHealth::Error);
         assert_eq!(d.health(), SensorHealth::Error);
         let mut e = SensorEntry::default();
         d.fill(&mut e);

@@ -84,43 +84,25 @@ impl<T: Send + 'static> Reader<T> {
         let (tx, rx) = crossbeam_channel::bounded(SLOT);
         let shared = Arc::new(Shared::default());
         let named = |e: io::Error| io::Error::new(e.kind(), format!("{source}: {e}"));
-        let sh = shared.clone();
+        let d = Deliver {
+            tx,
+            shared: shared.clone(),
+            parse,
+            name,
+        };
+        let thread = std::thread::Builder::new().name(format!("anguilla-{name}"));
         let thread = match parsed {
             Source::Udp(addr) => {
                 let sock = UdpSocket::bind(addr).map_err(named)?;
                 sock.set_read_timeout(Some(POLL)).map_err(named)?;
-                std::thread::Builder::new()
-                    .name(format!("anguilla-{name}"))
-                    .spawn(move || {
-                        read_udp(
-                            &sock,
-                            &Deliver {
-                                tx,
-                                shared: sh,
-                                parse,
-                                name,
-                            },
-                        )
-                    })?
+                thread.spawn(move || read_udp(&sock, &d))?
             }
             Source::Serial(path, baud) => {
                 let port = serialport::new(&path, baud)
                     .timeout(POLL)
                     .open()
                     .map_err(|e| named(e.into()))?;
-                std::thread::Builder::new()
-                    .name(format!("anguilla-{name}"))
-                    .spawn(move || {
-                        read_lines(
-                            port,
-                            &Deliver {
-                                tx,
-                                shared: sh,
-                                parse,
-                                name,
-                            },
-                        )
-                    })?
+                thread.spawn(move || read_lines(port, &d))?
             }
         };
         Ok(Self {
@@ -361,6 +343,19 @@ fn read_lines<T>(mut port: impl Read, d: &Deliver<T>) {
                 len = line.len();
             }
         }
+    }
+}
+
+/// Steps an off-bus sensor `s` (its reader thread delivers meanwhile)
+/// until `done`, or 10 s of wall time (a busy machine): a wait for a
+/// state, polled every 2 ms, 10 ms of the daemon's clock a step.
+#[cfg(test)]
+pub(super) fn step_until<S: super::Sensor>(s: &mut S, now: &mut Nanos, done: impl Fn(&S) -> bool) {
+    let t0 = std::time::Instant::now();
+    while !done(s) && t0.elapsed() < Duration::from_secs(10) {
+        *now += Nanos::from_millis(10);
+        s.step(*now, *now, 0.01, &crate::nav::Prediction::still());
+        std::thread::sleep(Duration::from_millis(2));
     }
 }
 

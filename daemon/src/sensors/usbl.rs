@@ -170,15 +170,7 @@ mod tests {
     use std::net::{SocketAddr, UdpSocket};
     use std::time::{Duration, Instant};
 
-    /// Steps `u` until `done` or 10 s of wall time (a busy machine).
-    fn step_until(u: &mut Usbl, now: &mut Nanos, done: impl Fn(&Usbl) -> bool) {
-        let t0 = Instant::now();
-        while !done(u) && t0.elapsed() < Duration::from_secs(10) {
-            *now += Nanos::from_millis(10);
-            u.step(*now, *now, 0.01, &Prediction::still());
-            std::thread::sleep(Duration::from_millis(2));
-        }
-    }
+    use crate::sensors::offbus::step_until;
 
     #[test]
     fn sources_are_read_or_named() {

@@ -201,7 +201,7 @@ pub fn nav_lines(nav: &NavSnapshot, width: usize) -> Vec<Line<'static>> {
 /// uncertainty, whether fixes hold them (a stale fix yellow, a lost one
 /// red) and the estimated current.
 pub fn position_line(nav: &NavSnapshot) -> Option<Line<'static>> {
-    let health = PositionHealth::from_code(nav.position_health);
+    let health = nav.position_state();
     if nav.sensor == 0 || health == Some(PositionHealth::DeadReckoning) {
         return None;
     }
@@ -211,11 +211,9 @@ pub fn position_line(nav: &NavSnapshot) -> Option<Line<'static>> {
         _ => Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
     };
     let name = health.map_or("unknown", PositionHealth::name);
-    let age = if nav.position_fixes > 0 && nav.fix_age_ms != u32::MAX {
-        format!(" {:.1} s ago", f64::from(nav.fix_age_ms) / 1e3)
-    } else {
-        String::new()
-    };
+    let age = nav
+        .fix_age_s()
+        .map_or(String::new(), |a| format!(" {a:.1} s ago"));
     let (cx, cy) = (f64::from(nav.current_x), f64::from(nav.current_y));
     Some(Line::from(vec![
         Span::raw(format!(
