@@ -40,8 +40,9 @@ def run_json_lines(cmd, env=None):
     return lines
 
 
-def build():
-    """Builds the daemon's benchmark and the model's example in one cargo
+def build(all_exe=False):
+    """Builds the daemon's benchmarks (its guidance benchmark too, which
+    scripts/check-guidance runs) and the model's example in one cargo
     invocation (one feature resolution, so the model and nalgebra are
     compiled once) and returns their executables. The release profile, not
     `cargo bench`'s: the same code (opt-level 3, 4 codegen units; the bench
@@ -50,7 +51,8 @@ def build():
     serde, zstd's C, 143 of its 241 units) are compiled once, not twice."""
     out = subprocess.run(
         ["cargo", "build", "--release", "--message-format=json-render-diagnostics",
-         "-p", "anguilla-daemon", "--bench", "daemon", "-p", "anguilla-model", "--example", "realtime"],
+         "-p", "anguilla-daemon", "--bench", "daemon", "--bench", "guidance",
+         "-p", "anguilla-model", "--example", "realtime"],
         cwd=ROOT, check=True, stdout=subprocess.PIPE, text=True).stdout
     exe = {}
     for line in out.splitlines():
@@ -60,9 +62,11 @@ def build():
             continue
         if m.get("reason") == "compiler-artifact" and m.get("executable"):
             exe[m["target"]["name"]] = m["executable"]
-    missing = {"daemon", "realtime"} - exe.keys()
+    missing = {"daemon", "guidance", "realtime"} - exe.keys()
     if missing:
         sys.exit(f"bench-check: cargo built no executable for {sorted(missing)}")
+    if all_exe:
+        return exe
     return exe["daemon"], exe["realtime"]
 
 

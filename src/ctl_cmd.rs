@@ -85,6 +85,52 @@ pub enum CtlCmd {
         #[arg(long, value_name = "M", allow_negative_numbers = true)]
         depth: Option<f64>,
     },
+    /// Take control and follow the path in PATH_FILE (JSON,
+    /// docs/path.schema.json; docs/autopilot.md, "Following a path"): the
+    /// robot joins the line from its first waypoint to the second and
+    /// follows each leg, integral line-of-sight guidance holding the
+    /// heading through a current. Needs the daemon in ready, its head
+    /// sensor and a position that is not lost. Prints the progress every
+    /// second; done when the daemon reports the last waypoint reached (it
+    /// then stops), an error when it stopped the path (the fix lost, the
+    /// geofence) or the swim ended otherwise. A looped path runs until
+    /// Ctrl-C.
+    Follow {
+        /// The path file.
+        #[arg(value_name = "PATH_FILE")]
+        path: std::path::PathBuf,
+        /// Amplitude, fraction of the configured maximum (0..=1).
+        #[arg(long, default_value_t = 1.0)]
+        amplitude: f64,
+        /// Undulation frequency (Hz).
+        #[arg(long, default_value_t = 1.0)]
+        frequency: f64,
+        /// After the last waypoint, back to the first, until Ctrl-C (as
+        /// the file's "loop": true).
+        #[arg(long = "loop")]
+        looped: bool,
+    },
+    /// Take control and swim to X, Y (m, the estimate's frame: `ctl
+    /// status` shows where the robot is) along the straight line from
+    /// where it is, as `follow` does a path; done when the daemon reports
+    /// it reached (within `[guidance] acceptance-radius`).
+    Goto {
+        /// x (m).
+        #[arg(allow_negative_numbers = true)]
+        x: f64,
+        /// y (m).
+        #[arg(allow_negative_numbers = true)]
+        y: f64,
+        /// The depth to hold on the way (m below the surface).
+        #[arg(long, value_name = "M", allow_negative_numbers = true)]
+        depth: Option<f64>,
+        /// Amplitude, fraction of the configured maximum (0..=1).
+        #[arg(long, default_value_t = 1.0)]
+        amplitude: f64,
+        /// Undulation frequency (Hz).
+        #[arg(long, default_value_t = 1.0)]
+        frequency: f64,
+    },
     /// Take control and swim the calibration swim (docs/calibration.md):
     /// a minute of forward gaits at three frequencies, glides, turns both
     /// ways, a dive and a climb, which `anguilla calibrate` fits the
@@ -175,6 +221,51 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
             )));
         }
     }
+    // A path is read and checked before anything is sent.
+    let path = match &args.cmd {
+        CtlCmd::Follow { path, looped, .. } => {
+            let text = std::fs::read_to_string(path).map_err(|e| {
+                CtlError::Refused(format!("reading the path file {}: {e}", path.display()))
+            })?;
+            let mut p = anguilla_teleop::path::PathFile::parse(&text)
+                .map_err(|e| CtlError::Refused(format!("{}: {e}", path.display())))?;
+            p.looped |= *looped;
+            if p.looped && p.waypoints.len() < 2 {
+                return Err(CtlError::Refused(format!(
+                    "{}: a looped path needs at least 2 waypoints",
+                    path.display()
+                )));
+            }
+            Some((path.clone(), p))
+        }
+        CtlCmd::Goto { x, y, depth, .. } => {
+            if !(x.is_finite() && y.is_finite()) {
+                return Err(CtlError::Refused(format!(
+                    "goto {x} {y}: expected finite metres"
+                )));
+            }
+            if let Some(d) = depth
+                && !(d.is_finite() && *d >= 0.0)
+            {
+                return Err(CtlError::Refused(format!(
+                    "--depth {d} is invalid (expected metres below the surface, >= 0)"
+                )));
+            }
+            let w = anguilla_ipc::Waypoint {
+                index: 0,
+                x: *x,
+                y: *y,
+                depth: *depth,
+            };
+            let p = anguilla_teleop::path::PathFile {
+                waypoints: vec![w],
+                looped: false,
+                lines: vec![],
+            };
+            Some((std::path::PathBuf::new(), p))
+        }
+        _ => None,
+    };
     if let CtlCmd::CalibrateSwim { min_depth } = args.cmd
         && !(min_depth.is_finite() && min_depth >= 0.0)
     {
@@ -290,6 +381,52 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
                 &|| crate::signals::requested(),
             )?
         }
+        CtlCmd::Follow {
+            amplitude,
+            frequency,
+            ..
+        }
+        | CtlCmd::Goto {
+            amplitude,
+            frequency,
+            ..
+        } => {
+            let (file, p) = path.expect("read above");
+            let goto = file.as_os_str().is_empty();
+            let follow = anguilla_ipc::Follow {
+                swim: SwimParams {
+                    amplitude,
+                    frequency,
+                    turn: 0.0,
+                    pitch: 0.0,
+                },
+                count: p.waypoints.len() as u32,
+                looped: p.looped,
+                from_here: goto,
+            };
+            let r = c.follow(
+                &p.waypoints,
+                follow,
+                &mut |s| {
+                    let _ = out(&format!(
+                        "{:6.1} s  {}\n",
+                        s.time_ns as f64 * 1e-9,
+                        ctl::guide_words(s)
+                    ));
+                },
+                &|| crate::signals::requested(),
+            );
+            // A refusal naming a waypoint names its line in the file.
+            match r {
+                Err(CtlError::Refused(why)) if !goto => {
+                    return Err(CtlError::Refused(match p.line_of(&why) {
+                        Some(line) => format!("{}: line {line}: {why}", file.display()),
+                        None => why,
+                    }));
+                }
+                r => r?,
+            }
+        }
         CtlCmd::Swim {
             amplitude,
             frequency,
@@ -383,6 +520,12 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
     } else {
         format!("ALARM {}", alarms.join(", "))
     };
+    // The path: its state, and where on it the robot is.
+    let path = match s.guide.guide_state() {
+        Some(anguilla_ipc::GuideState::Off) => "none".to_string(),
+        Some(g) => format!("{g}: {}", ctl::guide_words(s)),
+        None => format!("state {}", s.guide.state),
+    };
     // Every sensor of the list, as its kind names its values.
     let mut sensors = String::new();
     for e in s.sensors.iter().filter(|e| e.kind != 0) {
@@ -419,6 +562,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
          nav       {nav}\n\
          {sensors}\
          autopilot {}\n\
+         path      {path}\n\
          residual  {residual}\n\
          bus       {bus_state}; tx {}, rx {}, tx dropped {}, malformed {}\n\
          loop      {:.1} Hz; jitter p99 {:.0} us; overruns {}\n\

@@ -10,7 +10,10 @@
 //!    observations and timeouts into directives (operator commands arrive
 //!    before, through [`Controller::command`]); a hold whose sensor failed
 //!    ends, and the swim stops smoothly;
-//! 3. the [`Autopilot`] replaces the turn and pitch of what it holds; the
+//! 3. a path followed sets the heading (and depth) held, from the
+//!    estimate's position ([`Guidance`]; a path done, the fix lost or the
+//!    geofence crossed stops the swim); the [`Autopilot`] replaces the
+//!    turn and pitch of what it holds; the
 //!    gait parameters follow the operator's targets along our own
 //!    trapezoidal [`profile`](crate::profile)s (and the model's parametric
 //!    gait smooths them once more, to C² in time);
@@ -40,6 +43,7 @@ use crate::autopilot::{self, Autopilot};
 use crate::config::{Config, FaultPolicyConfig};
 use crate::drive::Liveness;
 use crate::drive::{self, DriveError, Drives, Out, Period};
+use crate::guidance::Guidance;
 use crate::nav::Nav;
 use crate::profile::{Follower, Limits};
 use crate::residual::ResidualMonitor;
@@ -152,6 +156,7 @@ pub struct Controller {
     sensors: Sensors,
     residual: ResidualMonitor,
     autopilot: Option<Autopilot>,
+    guidance: Guidance,
     hold: Hold,
     hold_exit: Option<SensorHealth>,
     /// How the heading and depth holds are doing, judged each period.
@@ -291,6 +296,7 @@ impl Controller {
             sensors,
             residual: ResidualMonitor::new(&cfg.monitor, joints),
             autopilot,
+            guidance: Guidance::new(cfg),
             hold: Hold::MANUAL,
             hold_exit: None,
             hold_states: [anguilla_ipc::HoldState::Off; 2],
@@ -387,23 +393,86 @@ impl Controller {
         let req = &env.request;
         let reply = match req.command() {
             Err(e) => CommandReply::refused(req, self.sup.mode() as u8, &e),
-            Ok(cmd) => match self.sup.command(now, env.origin, req.sequence, cmd) {
-                Ok(()) => {
-                    if self.sup.holder() == Some(env.origin)
-                        && self.holder_node != Some((env.origin, env.node))
-                    {
-                        self.holder_node = Some((env.origin, env.node));
-                        self.new_holder_node = true;
-                    }
-                    CommandReply::accepted(req, self.sup.mode() as u8)
-                }
+            Ok(cmd) => match self.check_path(env.origin, &cmd) {
                 Err(why) => CommandReply::refused(req, self.sup.mode() as u8, &why),
+                Ok(()) => match self.sup.command(now, env.origin, req.sequence, cmd) {
+                    Ok(()) => {
+                        self.path_accepted(&cmd);
+                        if self.sup.holder() == Some(env.origin)
+                            && self.holder_node != Some((env.origin, env.node))
+                        {
+                            self.holder_node = Some((env.origin, env.node));
+                            self.new_holder_node = true;
+                        }
+                        CommandReply::accepted(req, self.sup.mode() as u8)
+                    }
+                    Err(why) => CommandReply::refused(req, self.sup.mode() as u8, &why),
+                },
             },
         };
         if reply.accepted == 0 {
             self.counters.refused += 1;
         }
         reply
+    }
+
+    /// A path command's own checks, for the holder (anyone else's is
+    /// refused by the supervisor, for its authority).
+    fn check_path(
+        &self,
+        origin: ClientId,
+        cmd: &Command,
+    ) -> Result<(), crate::guidance::PathRefusal> {
+        if self.sup.holder() != Some(origin) {
+            return Ok(());
+        }
+        match cmd {
+            Command::Waypoint(w) => self.guidance.check_waypoint(w),
+            Command::Follow(f) => {
+                let nav = self.sensors.nav().filter(|n| n.has_estimate());
+                let plane = nav.map(|n| n.plane());
+                self.guidance.check_follow(
+                    f,
+                    plane.map(|p| p.position()),
+                    plane.map_or(anguilla_ipc::PositionHealth::DeadReckoning, |p| p.health()),
+                )
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// What an accepted command does to the path: a waypoint is loaded, a
+    /// follow starts it, and any other command that sets the swim or its
+    /// hold, stops it or gives control up ends it.
+    fn path_accepted(&mut self, cmd: &Command) {
+        match cmd {
+            Command::Waypoint(w) => self.guidance.load(w),
+            Command::Follow(f) => {
+                if let Some(nav) = self.sensors.nav() {
+                    self.guidance.start(f, nav.plane().position());
+                }
+            }
+            Command::Swim(_)
+            | Command::Hold(_)
+            | Command::SwimHold(..)
+            | Command::Stop
+            | Command::EStop
+            | Command::ReleaseControl
+            | Command::Disable
+            | Command::Reset => self.guidance.end(anguilla_ipc::GuideState::Ended),
+            Command::Enable | Command::TakeControl | Command::KeepAlive => {}
+        }
+    }
+
+    /// Hands the estimate an observation the host read itself (after
+    /// the period that covers its time); `false` if it was left out.
+    pub fn observe(&mut self, obs: &crate::sensors::Observation) -> bool {
+        self.sensors.observe(obs)
+    }
+
+    /// The path followed, if any.
+    pub fn guidance(&self) -> &Guidance {
+        &self.guidance
     }
 
     /// The head sensor's health ([`SensorHealth::None`] without one).
@@ -475,7 +544,8 @@ impl Controller {
             bus: period_state,
         });
         self.ingest(now, bus); // 1
-        let d = self.supervise(now, period_state, bus); // 2
+        let mut d = self.supervise(now, period_state, bus); // 2
+        self.guide(now, &mut d);
         let mode = self.sup.mode();
         let (target, followed) = self.follow_targets(&d, mode); // 3
         self.step_model(); // 4

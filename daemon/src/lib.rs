@@ -16,6 +16,7 @@
 //! - **The robot:** [`drive`] (the joints' drives between the controller
 //!   and the bus: one master per family — anguilla nodes, CiA 402, ODrive,
 //!   MIT mode), [`sensors`] (the sensors and their sections), [`autopilot`],
+//!   [`guidance`] (following a path, the geofence),
 //!   [`profile`] (trapezoidal profiles), [`speed`] (the model's steady
 //!   speeds, for the ROS 2 velocity command), [`tracking`] (the second
 //!   line of defence against a limp joint), [`calibration`] (the
@@ -37,6 +38,7 @@ pub mod calibration;
 pub mod config;
 pub mod control;
 pub mod drive;
+pub mod guidance;
 
 pub mod mcap_log;
 mod nav;

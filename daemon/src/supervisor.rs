@@ -410,7 +410,10 @@ impl Supervisor {
             })
         };
         match cmd {
-            Command::TakeControl | Command::KeepAlive | Command::EStop => Ok(()),
+            // A waypoint is the controller's to check and keep.
+            Command::TakeControl | Command::KeepAlive | Command::EStop | Command::Waypoint(_) => {
+                Ok(())
+            }
             Command::ReleaseControl => {
                 self.holder = None;
                 self.hold = Hold::MANUAL;
@@ -438,7 +441,7 @@ impl Supervisor {
                 Mode::Swimming | Mode::Stopping => invalid("stop first, or e-stop"),
                 Mode::EStop => Ok(()),
             },
-            Command::Swim(_) | Command::Hold(_) | Command::SwimHold(..) => {
+            Command::Swim(_) | Command::Hold(_) | Command::SwimHold(..) | Command::Follow(_) => {
                 // The gait and the hold are checked before either is taken:
                 // a held swim takes both or neither. A hold needs a healthy
                 // sensor (manual never does).
@@ -515,6 +518,15 @@ impl Supervisor {
                 }
                 _ => invalid("nothing to reset"),
             },
+        }
+    }
+
+    /// The daemon stops a swim smoothly for `cause` (a path done, the
+    /// geofence, the position fix lost), holding `hold` on the way down.
+    pub fn stop_for(&mut self, now: Nanos, cause: Cause, hold: Hold) {
+        if self.mode == Mode::Swimming {
+            self.hold = hold;
+            self.stop_if_swimming(now, cause);
         }
     }
 
@@ -888,7 +900,7 @@ mod tests {
             assert_eq!(Cause::from_code(c.code()), Some(c));
         }
         assert_eq!(Cause::OperatorSilent.code(), 2);
-        assert_eq!(Cause::from_code(9), None);
+        assert_eq!(Cause::from_code(Cause::ALL.len() as u8), None);
     }
 
     #[test]

@@ -179,3 +179,75 @@ fn a_period_with_the_autopilot_allocates_nothing() {
         "{n} allocations in {periods} periods with the autopilot"
     );
 }
+
+/// Path following: loading waypoints, following them through legs with
+/// the estimate's position (fixes handed in), a refused waypoint (its
+/// reason formatted in place), the geofence crossed: no allocation.
+#[test]
+fn a_period_following_a_path_allocates_nothing() {
+    use anguilla_daemon::sensors::Observation;
+    use anguilla_ipc::vocabulary::{Follow, Waypoint};
+    let mut cfg = lockstep::config();
+    cfg.guidance.fence_radius = 6.0;
+    cfg.validate().expect("valid");
+    let mut rig = lockstep::Rig::new(&cfg, 11, [0.0, 0.05, 0.0]);
+    rig.ok(Command::TakeControl);
+    rig.ok(Command::Enable);
+    assert!(rig.run_until(5.0, |r| r.state().mode == Mode::Ready as u8));
+    COUNT.with(|n| n.set(0));
+    let points = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (-2.0, 2.0)];
+    for (i, &(x, y)) in points.iter().enumerate() {
+        let w = Command::Waypoint(Waypoint {
+            index: i as u32,
+            x,
+            y,
+            depth: None,
+        });
+        let r = counted(|| rig.command(w));
+        assert_eq!(r.accepted, 1, "{}", r.reason());
+    }
+    let outside = Command::Waypoint(Waypoint {
+        index: 5,
+        x: 10.0,
+        y: 0.0,
+        depth: None,
+    });
+    let r = counted(|| rig.command(outside));
+    assert_eq!(r.accepted, 0, "outside the fence");
+    let follow = Command::Follow(Follow {
+        swim: SwimParams {
+            amplitude: 1.0,
+            frequency: 1.0,
+            turn: 0.0,
+            pitch: 0.0,
+        },
+        count: points.len() as u32,
+        looped: true,
+        from_here: false,
+    });
+    let r = counted(|| rig.command(follow));
+    assert_eq!(r.accepted, 1, "{}", r.reason());
+    let mut legs = std::collections::BTreeSet::new();
+    for k in 0..6000 {
+        let now = rig.advance();
+        counted(|| rig.control(now));
+        if k % 10 == 0 {
+            let p = rig.truth().position;
+            let fix = Observation::PositionFix {
+                at: now,
+                x: p[0],
+                y: p[1],
+                sigma: 0.05,
+            };
+            counted(|| rig.ctl.observe(&fix));
+        }
+        legs.insert(rig.state().guide.leg);
+        if k % 20 == 0 {
+            let r = counted(|| rig.command(Command::KeepAlive));
+            assert_eq!(r.accepted, 1);
+        }
+    }
+    assert!(legs.len() >= 3, "legs swum: {legs:?}");
+    let n = COUNT.with(|n| n.get());
+    assert_eq!(n, 0, "{n} allocations following a path");
+}

@@ -19,7 +19,7 @@ try:
 except ImportError:  # the payloads alone (zenoh_client.py) need no iceoryx2
     iox2 = None
 
-LAYOUT_VERSION = 11
+LAYOUT_VERSION = 12
 (ENABLE, DISABLE, SWIM, STOP, ESTOP, RESET, TAKE_CONTROL, RELEASE_CONTROL, KEEP_ALIVE, HOLD,
  SWIM_HOLD) = range(1, 12)
 HOLD_HEADING, HOLD_DEPTH = 1, 2
@@ -83,6 +83,14 @@ class NavSnapshot(_Payload):
         ("position_health", u8), ("reserved_position", u8 * 7)]
 
 
+class GuideSnapshot(_Payload):
+    _fields_ = [("state", u8), ("looped", u8), ("leg", u16), ("waypoints", u16),
+                ("reserved", u16)] + [
+        (n, f32) for n in (
+            "cross_track_m", "along_track_m", "leg_length_m", "heading_deg", "integral_m",
+            "from_x", "from_y", "to_x", "to_y", "to_go_m")]
+
+
 class SensorEntry(_Payload):
     _fields_ = [("kind", u8), ("id", u8), ("health", u8), ("reserved", u8), ("samples", u32),
                 ("values", f32 * 8)]
@@ -98,7 +106,8 @@ class StateSnapshot(_Payload):
         ("loop_stats", LoopSnapshot), ("bus", BusSnapshot),
         ("clamped_setpoints", u64), ("refused_commands", u64),
         ("operator_silent_stops", u64), ("socket_estops", u64), ("records_lost", u64),
-        ("limits", LimitsSnapshot), ("nav", NavSnapshot), ("sensors", SensorEntry * 4),
+        ("limits", LimitsSnapshot), ("nav", NavSnapshot), ("guide", GuideSnapshot),
+        ("sensors", SensorEntry * 4),
         ("joints", JointSnapshot * 32)]
 
     def holder(self):
@@ -119,10 +128,18 @@ class SwimHoldBody(_Payload):
                 ("hold", u32), ("heading", f32), ("depth", f32)]
 
 
+class WaypointBody(_Payload):
+    _fields_ = [("index", u32), ("x", f32), ("y", f32), ("depth", f32)]
+
+
+class FollowBody(_Payload):
+    _fields_ = [("amplitude", f32), ("frequency", f32), ("count", u32), ("flags", u32)]
+
+
 class CommandBody(ctypes.Union):
     """`CommandRequest.body`: the parameters of the request's code."""
     _fields_ = [("swim", SwimBody), ("hold", HoldBody), ("swim_hold", SwimHoldBody),
-                ("words", u32 * 7)]
+                ("waypoint", WaypointBody), ("follow", FollowBody), ("words", u32 * 7)]
 
 
 class CommandRequest(_Payload):
@@ -138,8 +155,9 @@ class CommandReply(_Payload):
 
 
 for _t, _size in ((JointSnapshot, 64), (GaitSnapshot, 16), (LoopSnapshot, 48), (BusSnapshot, 56),
-                  (LimitsSnapshot, 24), (NavSnapshot, 104), (SensorEntry, 40), (StateSnapshot, 2576),
-                  (SwimBody, 16), (HoldBody, 12), (SwimHoldBody, 28), (CommandRequest, 40),
+                  (LimitsSnapshot, 24), (NavSnapshot, 104), (GuideSnapshot, 48), (SensorEntry, 40),
+                  (StateSnapshot, 2624), (SwimBody, 16), (HoldBody, 12), (SwimHoldBody, 28),
+                  (WaypointBody, 16), (FollowBody, 16), (CommandRequest, 40),
                   (CommandReply, 128)):
     assert ctypes.sizeof(_t) == _size, (_t.__name__, ctypes.sizeof(_t))
 

@@ -9,7 +9,7 @@ use core::fmt::{self, Write as _};
 use iceoryx2::prelude::*;
 
 use crate::payload::{LAYOUT_VERSION, Raw, sealed::Sealed};
-use crate::vocabulary::{Command, CommandKind, Hold, SwimParams, hold_bits};
+use crate::vocabulary::{Command, CommandKind, Follow, Hold, SwimParams, Waypoint, hold_bits};
 
 /// Command codes of [`CommandRequest::code`], from [`CommandKind`]'s table.
 pub mod code {
@@ -38,6 +38,12 @@ pub mod code {
     /// Swim with the gait and the holds of the request's
     /// [`SwimHoldBody`](super::SwimHoldBody), in one request.
     pub const SWIM_HOLD: u32 = CommandKind::SwimHold.code();
+    /// Load one waypoint of a path from the request's
+    /// [`WaypointBody`](super::WaypointBody).
+    pub const WAYPOINT: u32 = CommandKind::Waypoint.code();
+    /// Follow the path loaded, with the request's
+    /// [`FollowBody`](super::FollowBody).
+    pub const FOLLOW: u32 = CommandKind::Follow.code();
 }
 
 /// 32-bit words in a [`CommandRequest`]'s body: the most parameters one
@@ -58,7 +64,8 @@ pub struct CommandRequest {
     /// older number is refused as a duplicate, except for an E-stop).
     pub sequence: u32,
     /// The command's parameters, laid out by `code`: [`SwimBody`] for
-    /// SWIM, [`HoldBody`] for HOLD, [`SwimHoldBody`] for SWIM-HOLD, zero for
+    /// SWIM, [`HoldBody`] for HOLD, [`SwimHoldBody`] for SWIM-HOLD,
+    /// [`WaypointBody`] for WAYPOINT, [`FollowBody`] for FOLLOW, zero for
     /// the others (ignored). A float
     /// is its IEEE 754 bits; words past a body's size are zero.
     pub body: [u32; BODY_WORDS],
@@ -249,7 +256,140 @@ impl HoldBody {
     }
 }
 
+/// WAYPOINT's body: one waypoint of the path being loaded.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct WaypointBody {
+    /// Its place in the path, from 0 (0 starts a new path).
+    pub index: u32,
+    /// x (m), in the estimate's local frame.
+    pub x: f32,
+    /// y (m).
+    pub y: f32,
+    /// The depth to hold on the leg ending there (m below the surface);
+    /// NaN: none.
+    pub depth: f32,
+}
+
+impl Body for WaypointBody {
+    const KIND: CommandKind = CommandKind::Waypoint;
+    fn to_words(&self) -> [u32; BODY_WORDS] {
+        let mut w = [0; BODY_WORDS];
+        w[..4].copy_from_slice(&[
+            self.index,
+            self.x.to_bits(),
+            self.y.to_bits(),
+            self.depth.to_bits(),
+        ]);
+        w
+    }
+    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
+        Self {
+            index: w[0],
+            x: f32::from_bits(w[1]),
+            y: f32::from_bits(w[2]),
+            depth: f32::from_bits(w[3]),
+        }
+    }
+}
+
+impl WaypointBody {
+    fn of(p: &Waypoint) -> Self {
+        Self {
+            index: p.index,
+            x: p.x as f32,
+            y: p.y as f32,
+            depth: p.depth.map_or(f32::NAN, |d| d as f32),
+        }
+    }
+
+    fn waypoint(&self) -> Waypoint {
+        Waypoint {
+            index: self.index,
+            x: self.x as f64,
+            y: self.y as f64,
+            depth: (!self.depth.is_nan()).then_some(self.depth as f64),
+        }
+    }
+}
+
+/// The bits of [`FollowBody::flags`].
+pub mod follow_bits {
+    /// After the last waypoint, back to the first.
+    pub const LOOP: u32 = 1 << 0;
+    /// The first leg runs from where the robot is to waypoint 0.
+    pub const FROM_HERE: u32 = 1 << 1;
+}
+
+/// FOLLOW's body: the gait and how the path loaded is followed.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct FollowBody {
+    /// Swim amplitude, fraction of the maximum (0..=1).
+    pub amplitude: f32,
+    /// Swim frequency (Hz).
+    pub frequency: f32,
+    /// The path's waypoints: the number loaded.
+    pub count: u32,
+    /// [`follow_bits`].
+    pub flags: u32,
+}
+
+impl Body for FollowBody {
+    const KIND: CommandKind = CommandKind::Follow;
+    fn to_words(&self) -> [u32; BODY_WORDS] {
+        let mut w = [0; BODY_WORDS];
+        w[..4].copy_from_slice(&[
+            self.amplitude.to_bits(),
+            self.frequency.to_bits(),
+            self.count,
+            self.flags,
+        ]);
+        w
+    }
+    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
+        Self {
+            amplitude: f32::from_bits(w[0]),
+            frequency: f32::from_bits(w[1]),
+            count: w[2],
+            flags: w[3],
+        }
+    }
+}
+
+impl FollowBody {
+    fn of(f: &Follow) -> Self {
+        let bit = |on: bool, b: u32| if on { b } else { 0 };
+        Self {
+            amplitude: f.swim.amplitude as f32,
+            frequency: f.swim.frequency as f32,
+            count: f.count,
+            flags: bit(f.looped, follow_bits::LOOP) | bit(f.from_here, follow_bits::FROM_HERE),
+        }
+    }
+
+    /// The command, or why its flags are not one.
+    fn read(&self) -> Result<Follow, RequestError> {
+        if self.flags & !(follow_bits::LOOP | follow_bits::FROM_HERE) != 0 {
+            return Err(RequestError::FollowBits(self.flags));
+        }
+        Ok(Follow {
+            swim: SwimParams {
+                amplitude: self.amplitude as f64,
+                frequency: self.frequency as f64,
+                turn: 0.0,
+                pitch: 0.0,
+            },
+            count: self.count,
+            looped: self.flags & follow_bits::LOOP != 0,
+            from_here: self.flags & follow_bits::FROM_HERE != 0,
+        })
+    }
+}
+
 const _: () = assert!(size_of::<SwimBody>() <= 4 * BODY_WORDS);
+const _: () = assert!(size_of::<WaypointBody>() <= 4 * BODY_WORDS);
+const _: () = assert!(size_of::<FollowBody>() <= 4 * BODY_WORDS);
 const _: () = assert!(size_of::<SwimHoldBody>() <= 4 * BODY_WORDS);
 const _: () = assert!(size_of::<HoldBody>() <= 4 * BODY_WORDS);
 
@@ -262,6 +402,8 @@ impl CommandRequest {
             Command::SwimHold(p, h) => {
                 SwimHoldBody::join(SwimBody::of(&p), HoldBody::of(&h)).to_words()
             }
+            Command::Waypoint(w) => WaypointBody::of(&w).to_words(),
+            Command::Follow(f) => FollowBody::of(&f).to_words(),
             // No parameters: an empty body. Every command is named here, so
             // a new one with parameters is not sent without them.
             Command::Enable
@@ -284,11 +426,12 @@ impl CommandRequest {
     /// A request recorded under an older layout read as this one, so that
     /// sessions recorded then still replay: layout 5 (before the body:
     /// SWIM's four floats in words 3..7, HOLD's bits and floats in words
-    /// 7..10, a 40-byte request too) is moved into the body; layout 6
-    /// to 9 (whose requests are this layout's; 7 to 10 changed the
-    /// state snapshot only) are relabelled; any other request unchanged.
+    /// 7..10, a 40-byte request too) is moved into the body; layouts 6
+    /// to 11 (whose requests are this layout's; 7 to 12 changed the
+    /// state snapshot only, or added commands) are relabelled; any other
+    /// request unchanged.
     pub fn from_older_layout(old: Self) -> Self {
-        if (6..=9).contains(&old.layout_version) {
+        if (6..LAYOUT_VERSION).contains(&old.layout_version) {
             return Self {
                 layout_version: LAYOUT_VERSION,
                 ..old
@@ -309,6 +452,8 @@ impl CommandRequest {
             // as it was then.
             Some(
                 CommandKind::SwimHold
+                | CommandKind::Waypoint
+                | CommandKind::Follow
                 | CommandKind::Enable
                 | CommandKind::Disable
                 | CommandKind::Stop
@@ -364,6 +509,8 @@ impl CommandRequest {
                 let (swim, hold) = self.body_as::<SwimHoldBody>().parts();
                 Command::SwimHold(swim.params(), hold.read()?)
             }
+            CommandKind::Waypoint => Command::Waypoint(self.body_as::<WaypointBody>().waypoint()),
+            CommandKind::Follow => Command::Follow(self.body_as::<FollowBody>().read()?),
         })
     }
 }
@@ -381,6 +528,10 @@ pub enum RequestError {
     /// and depth (2).
     #[error("hold bits {0:#x} unknown (expected 0..=3: 1 heading, 2 depth)")]
     HoldBits(u32),
+    /// A FOLLOW request's `flags` has bits beyond loop (1) and from-here
+    /// (2).
+    #[error("follow flags {0:#x} unknown (expected 0..=3: 1 loop, 2 from here)")]
+    FollowBits(u32),
 }
 
 /// Bytes of reason text in a [`CommandReply`].

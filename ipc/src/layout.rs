@@ -2,7 +2,9 @@
 
 use core::fmt::Write as _;
 
-use crate::command::{CommandReply, CommandRequest, HoldBody, SwimBody, SwimHoldBody};
+use crate::command::{
+    CommandReply, CommandRequest, FollowBody, HoldBody, SwimBody, SwimHoldBody, WaypointBody,
+};
 use crate::payload::*;
 
 /// One row of the documented payload layout.
@@ -49,7 +51,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
         bus: "BusSnapshot", clamped_setpoints: "uint64_t", refused_commands: "uint64_t",
         operator_silent_stops: "uint64_t", socket_estops: "uint64_t",
         records_lost: "uint64_t",
-        limits: "LimitsSnapshot", nav: "NavSnapshot", sensors: "SensorEntry[4]",
+        limits: "LimitsSnapshot", nav: "NavSnapshot", guide: "GuideSnapshot",
+        sensors: "SensorEntry[4]",
         joints: "JointSnapshot[32]",
     ]));
     v.extend(rows!(JointSnapshot, "JointSnapshot", [
@@ -94,6 +97,12 @@ pub fn layout_table() -> Vec<LayoutRow> {
         current_x: "float", current_y: "float", current_sigma: "float", fix_age_ms: "uint32_t",
         position_health: "uint8_t", reserved_position: "uint8_t[7]",
     ]));
+    v.extend(rows!(GuideSnapshot, "GuideSnapshot", [
+        state: "uint8_t", looped: "uint8_t", leg: "uint16_t", waypoints: "uint16_t",
+        reserved: "uint16_t", cross_track_m: "float", along_track_m: "float",
+        leg_length_m: "float", heading_deg: "float", integral_m: "float",
+        from_x: "float", from_y: "float", to_x: "float", to_y: "float", to_go_m: "float",
+    ]));
     v.extend(rows!(CommandRequest, "CommandRequest", [
         layout_version: "uint32_t", code: "uint32_t", sequence: "uint32_t", body: "uint32_t[7]",
     ]));
@@ -105,6 +114,12 @@ pub fn layout_table() -> Vec<LayoutRow> {
         amplitude: "float", frequency: "float", turn: "float", pitch: "float",
         hold: "uint32_t", heading: "float", depth: "float",
     ]));
+    v.extend(rows!(WaypointBody, "WaypointBody", [
+        index: "uint32_t", x: "float", y: "float", depth: "float",
+    ]));
+    v.extend(rows!(FollowBody, "FollowBody", [
+        amplitude: "float", frequency: "float", count: "uint32_t", flags: "uint32_t",
+    ]));
     v.extend(rows!(CommandReply, "CommandReply", [
         sequence: "uint32_t", accepted: "uint8_t", mode: "uint8_t",
         reason_len: "uint16_t", reason: "char[120]",
@@ -113,7 +128,7 @@ pub fn layout_table() -> Vec<LayoutRow> {
 }
 
 /// Every payload type documented, with its size in bytes.
-pub fn payload_sizes() -> [(&'static str, usize); 13] {
+pub fn payload_sizes() -> [(&'static str, usize); 16] {
     [
         ("StateSnapshot", core::mem::size_of::<StateSnapshot>()),
         ("JointSnapshot", core::mem::size_of::<JointSnapshot>()),
@@ -122,11 +137,14 @@ pub fn payload_sizes() -> [(&'static str, usize); 13] {
         ("BusSnapshot", core::mem::size_of::<BusSnapshot>()),
         ("LimitsSnapshot", core::mem::size_of::<LimitsSnapshot>()),
         ("NavSnapshot", core::mem::size_of::<NavSnapshot>()),
+        ("GuideSnapshot", core::mem::size_of::<GuideSnapshot>()),
         ("SensorEntry", core::mem::size_of::<SensorEntry>()),
         ("CommandRequest", core::mem::size_of::<CommandRequest>()),
         ("SwimBody", core::mem::size_of::<SwimBody>()),
         ("HoldBody", core::mem::size_of::<HoldBody>()),
         ("SwimHoldBody", core::mem::size_of::<SwimHoldBody>()),
+        ("WaypointBody", core::mem::size_of::<WaypointBody>()),
+        ("FollowBody", core::mem::size_of::<FollowBody>()),
         ("CommandReply", core::mem::size_of::<CommandReply>()),
     ]
 }
@@ -144,6 +162,8 @@ fn body_type(kind: crate::vocabulary::CommandKind) -> Option<&'static str> {
         K::Swim => named(SwimBody::KIND, "SwimBody"),
         K::Hold => named(HoldBody::KIND, "HoldBody"),
         K::SwimHold => named(SwimHoldBody::KIND, "SwimHoldBody"),
+        K::Waypoint => named(WaypointBody::KIND, "WaypointBody"),
+        K::Follow => named(FollowBody::KIND, "FollowBody"),
         K::Enable
         | K::Disable
         | K::Stop
@@ -250,7 +270,9 @@ pub fn codes_markdown() -> String {
             | CommandKind::ReleaseControl
             | CommandKind::KeepAlive
             | CommandKind::Hold
-            | CommandKind::SwimHold => "yes",
+            | CommandKind::SwimHold
+            | CommandKind::Waypoint
+            | CommandKind::Follow => "yes",
         };
         let _ = writeln!(out, "| {} | {} | {body} | {control} |", k.code(), k.name());
     }
@@ -299,6 +321,16 @@ pub fn codes_markdown() -> String {
     let _ = writeln!(out, "|---:|---|");
     for h in crate::HoldState::ALL {
         let _ = writeln!(out, "| {} | {} |", h as u8, h.name());
+    }
+    let _ = writeln!(
+        out,
+        "\n`GuideSnapshot.state` (how a path is doing; 4 and up: it was not \
+         finished):\n"
+    );
+    let _ = writeln!(out, "| code | guide state |");
+    let _ = writeln!(out, "|---:|---|");
+    for g in crate::GuideState::ALL {
+        let _ = writeln!(out, "| {} | {} |", g as u8, g.name());
     }
     let _ = writeln!(
         out,

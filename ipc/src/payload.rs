@@ -8,7 +8,7 @@ use crate::vocabulary::SwimParams;
 /// Most joints a snapshot carries.
 pub const MAX_JOINTS: usize = 32;
 /// Version of the payload layouts; bumped on any change.
-pub const LAYOUT_VERSION: u32 = 11;
+pub const LAYOUT_VERSION: u32 = 12;
 /// Most sensors a snapshot carries.
 pub const MAX_SENSORS: usize = 4;
 /// Values a [`SensorEntry`] carries.
@@ -288,6 +288,55 @@ pub struct NavSnapshot {
     pub reserved_position: [u8; 7],
 }
 
+/// The path being followed (`Command::Follow`; docs/autopilot.md,
+/// "Following a path"): where on it the robot is and what the guidance
+/// asks. Positions in the estimate's local frame, as `NavSnapshot::x_m`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct GuideSnapshot {
+    /// How the path is doing (`GuideState`: 0 off, 1 following, 2 done,
+    /// 3 ended by a command, 4 stopped: fix lost, 5 stopped: fence).
+    pub state: u8,
+    /// 1 when the path loops back to its first waypoint.
+    pub looped: u8,
+    /// The waypoint the current leg ends at (its index in the path).
+    pub leg: u16,
+    /// Waypoints in the path.
+    pub waypoints: u16,
+    /// Padding, always 0.
+    pub reserved: u16,
+    /// The distance from the leg's line (m), positive left of its
+    /// direction.
+    pub cross_track_m: f32,
+    /// How far along the leg the robot is from its start (m).
+    pub along_track_m: f32,
+    /// The leg's length (m).
+    pub leg_length_m: f32,
+    /// The heading the guidance asks for (deg, as `heading_deg`).
+    pub heading_deg: f32,
+    /// The integral term's equivalent offset, `κ · y_int` (m): the
+    /// sideways push of the current the guidance has learnt to lean
+    /// against.
+    pub integral_m: f32,
+    /// The leg's start, x (m).
+    pub from_x: f32,
+    /// The leg's start, y (m).
+    pub from_y: f32,
+    /// The leg's end (the waypoint it heads for), x (m).
+    pub to_x: f32,
+    /// The leg's end, y (m).
+    pub to_y: f32,
+    /// The distance from the robot to the leg's end (m).
+    pub to_go_m: f32,
+}
+
+impl GuideSnapshot {
+    /// The path's state (`None`: an unknown code).
+    pub fn guide_state(&self) -> Option<crate::GuideState> {
+        crate::GuideState::from_code(self.state)
+    }
+}
+
 /// A hold state code's name ("hold state N" for an unknown one).
 fn hold_state_name(code: u8) -> std::borrow::Cow<'static, str> {
     crate::HoldState::from_code(code).map_or_else(
@@ -465,6 +514,8 @@ pub struct StateSnapshot {
     pub limits: LimitsSnapshot,
     /// The head sensor, the estimate and the autopilot.
     pub nav: NavSnapshot,
+    /// The path being followed, or the last one (`GuideState`).
+    pub guide: GuideSnapshot,
     /// Every configured sensor, the head sensor first (`kind` 0 past the
     /// last).
     pub sensors: [SensorEntry; MAX_SENSORS],
@@ -530,6 +581,7 @@ impl Default for StateSnapshot {
             records_lost: 0,
             limits: LimitsSnapshot::default(),
             nav: NavSnapshot::default(),
+            guide: GuideSnapshot::default(),
             sensors: [SensorEntry::default(); MAX_SENSORS],
             joints: [JointSnapshot::default(); MAX_JOINTS],
         }

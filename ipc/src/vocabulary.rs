@@ -4,7 +4,8 @@
 //!
 //! Its files: `mode.rs` ([`Mode`], [`Cause`]), `swim.rs` ([`SwimParams`],
 //! [`Hold`], [`HoldState`]), `sensor.rs` ([`SensorHealth`],
-//! [`PositionHealth`], [`SensorKind`]), `commands.rs` ([`Command`], [`CommandKind`]),
+//! [`PositionHealth`], [`SensorKind`]), `commands.rs` ([`Command`], [`CommandKind`]), `path.rs` ([`Waypoint`],
+//! [`Follow`], [`GuideState`]),
 //! `refusal.rs` ([`Refusal`], [`Field`]) and `fault.rs` ([`FaultKind`],
 //! [`FaultSet`]).
 
@@ -19,6 +20,7 @@ pub type ClientId = u128;
 mod commands;
 mod fault;
 mod mode;
+mod path;
 mod refusal;
 mod sensor;
 mod swim;
@@ -26,6 +28,7 @@ mod swim;
 pub use commands::{Command, CommandKind};
 pub use fault::{FaultKind, FaultSet};
 pub use mode::{Cause, Mode};
+pub use path::{Follow, GuideState, MAX_WAYPOINTS, Waypoint};
 pub use refusal::{Field, Refusal};
 pub use sensor::{PositionHealth, SensorHealth, SensorKind};
 pub use swim::{

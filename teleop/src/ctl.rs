@@ -441,6 +441,73 @@ impl Ctl {
         self.stop_and_release(r)
     }
 
+    /// Takes control, loads `waypoints` one a request, follows them with
+    /// `follow` (its count the waypoints'), keeping control alive, until
+    /// the daemon reports the path done (then waits for ready and
+    /// releases). `progress` is told the state about once a second.
+    /// A path the daemon stopped (the fix lost, the geofence), a swim that
+    /// ended otherwise, or an interruption is an error naming it; a
+    /// looped path ends only by an interruption, which is then its
+    /// outcome.
+    pub fn follow(
+        &mut self,
+        waypoints: &[anguilla_ipc::Waypoint],
+        follow: anguilla_ipc::Follow,
+        progress: &mut dyn FnMut(&StateSnapshot),
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<Outcome, CtlError> {
+        use anguilla_ipc::GuideState;
+        let r = self.take_control().and_then(|()| {
+            for w in waypoints {
+                self.request(Command::Waypoint(*w))?;
+            }
+            self.request(Command::Follow(follow))?;
+            // The daemon reports the path's state from the period after.
+            let fresh_from = self.state.sequence + 2;
+            self.wait_mode("follow", |m| m == Mode::Swimming)?;
+            let (mut last_keep, mut last_told) = (Instant::now(), Instant::now());
+            loop {
+                if interrupted() {
+                    return if follow.looped {
+                        Ok(())
+                    } else {
+                        Err(CtlError::Refused(format!(
+                            "interrupted before the path's end ({})",
+                            guide_words(&self.state)
+                        )))
+                    };
+                }
+                if last_keep.elapsed() >= self.keep_period() {
+                    self.request(Command::KeepAlive)?;
+                    last_keep = Instant::now();
+                }
+                self.refresh(Duration::from_millis(20))?;
+                if self.state.sequence < fresh_from {
+                    continue;
+                }
+                if last_told.elapsed() >= Duration::from_secs(1) {
+                    progress(&self.state);
+                    last_told = Instant::now();
+                }
+                match self.state.guide.guide_state() {
+                    Some(GuideState::Following) if self.mode() == Mode::Swimming => {}
+                    Some(GuideState::Done) => {
+                        progress(&self.state);
+                        return Ok(());
+                    }
+                    Some(g) if g.failed() => {
+                        return Err(CtlError::Refused(format!(
+                            "the path {g} ({})",
+                            guide_words(&self.state)
+                        )));
+                    }
+                    _ => return Err(CtlError::Refused(swim_ended(&self.state))),
+                }
+            }
+        });
+        self.stop_and_release(r)
+    }
+
     /// After a swim that ended with `r`: stop if still holding control,
     /// wait for ready, release; `r`'s error first.
     fn stop_and_release(&mut self, r: Result<(), CtlError>) -> Result<Outcome, CtlError> {
@@ -532,6 +599,26 @@ pub fn hold_missed(s: &StateSnapshot, hold: &Hold) -> Option<String> {
     })
 }
 
+/// Where the robot is on the path, in words: "leg 2 of 4 (to 10.00,
+/// 3.00 m), 7.10 m along 10.00, cross-track +0.04 m, current (0.00,
+/// 0.10) m/s".
+pub fn guide_words(s: &StateSnapshot) -> String {
+    let g = &s.guide;
+    format!(
+        "leg to waypoint {} of {} ({:.2}, {:.2}) m, {:.2} m along {:.2}, cross-track {:+.2} m, \
+         current ({:.2}, {:.2}) m/s",
+        g.leg,
+        g.waypoints,
+        g.to_x,
+        g.to_y,
+        g.along_track_m,
+        g.leg_length_m,
+        g.cross_track_m,
+        s.nav.current_x,
+        s.nav.current_y
+    )
+}
+
 /// Why a swim ended, from the daemon's state: its mode, the cause, and
 /// the faults or the sensor's health that made the autopilot let go.
 pub fn swim_ended(s: &StateSnapshot) -> String {
@@ -553,6 +640,9 @@ pub fn swim_ended(s: &StateSnapshot) -> String {
         }
         Some(Cause::Shutdown) => {
             format!("the swim ended: the daemon went to {m} (it is shutting down)")
+        }
+        Some(c @ (Cause::PathDone | Cause::Fence | Cause::FixLost)) => {
+            format!("the swim ended: the daemon went to {m} ({})", c.words())
         }
         _ => format!("the swim ended: the daemon went to {m} ({faults})"),
     }

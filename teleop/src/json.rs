@@ -2,7 +2,7 @@
 
 use anguilla_ipc::FaultSet;
 use anguilla_ipc::StateSnapshot;
-use anguilla_view::{Bus, Gait, Loop};
+use anguilla_view::{Bus, Gait, Guide, Loop};
 use serde_json::{Value, json};
 
 use crate::hold::{has_estimate, held};
@@ -25,7 +25,8 @@ fn hold_state_name(code: u8) -> Option<&'static str> {
 /// `heading_hold` and `depth_hold` the daemon's hold states by name, `null`
 /// when not held, `hold_words` them with their values, `surfaced`;
 /// the estimate `null` without a sensor or before its first sample; a
-/// target `null` unless held) and raw in `nav`.
+/// target `null` unless held) and raw in `nav`. The path (`guide`) is
+/// the recording's `guide`, its state by name.
 pub fn snapshot_json(s: &StateSnapshot) -> Value {
     let n = (s.joint_count as usize).min(s.joints.len());
     let faults = FaultSet {
@@ -61,6 +62,7 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "gait_actual": Gait::from(&s.gait_actual),
         "loop_stats": Loop::from(&s.loop_stats),
         "bus": Bus::from(&s.bus),
+        "guide": Guide::from(&s.guide),
         "clamped_setpoints": s.clamped_setpoints,
         "refused_commands": s.refused_commands,
         "socket_estops": s.socket_estops,
@@ -321,7 +323,10 @@ mod tests {
 /// [`anguilla_ipc::Command::name`]'s (`take-control`, `enable`, `swim`,
 /// `stop`, `e-stop`, ...). `swim` takes `amplitude` and `frequency` (and
 /// optionally `turn`, `pitch`); `hold` takes `heading` (degrees) and/or
-/// `depth` (m). The daemon checks the ranges; this checks the shape, and
+/// `depth` (m); `waypoint` takes `index`, `x`, `y` (m) and optionally
+/// `depth`; `follow` takes `amplitude`, `frequency`, `count` and
+/// optionally `loop` and `from_here` (booleans). The daemon checks the
+/// ranges; this checks the shape, and
 /// each error names the field and what was expected.
 pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> {
     use anguilla_ipc::{Command, CommandKind, Hold, SwimParams};
@@ -363,7 +368,37 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             depth: num("depth", false)?,
         })
     };
+    let flag = |k: &str| -> Result<bool, String> {
+        match v.get(k) {
+            None | Some(Value::Null) => Ok(false),
+            Some(x) => x
+                .as_bool()
+                .ok_or_else(|| format!("\"{k}\" of {name} must be true or false, not {x}")),
+        }
+    };
+    let count = |k: &str| -> Result<u32, String> {
+        let x = num(k, true)?.unwrap_or_default();
+        if x.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&x) {
+            Ok(x as u32)
+        } else {
+            Err(format!(
+                "\"{k}\" of {name} must be a whole number >= 0, not {x}"
+            ))
+        }
+    };
     match kind {
+        CommandKind::Waypoint => Ok(Command::Waypoint(anguilla_ipc::Waypoint {
+            index: count("index")?,
+            x: num("x", true)?.unwrap_or_default(),
+            y: num("y", true)?.unwrap_or_default(),
+            depth: num("depth", false)?,
+        })),
+        CommandKind::Follow => Ok(Command::Follow(anguilla_ipc::Follow {
+            swim: swim()?,
+            count: count("count")?,
+            looped: flag("loop")?,
+            from_here: flag("from_here")?,
+        })),
         CommandKind::Swim => Ok(Command::Swim(swim()?)),
         CommandKind::Hold => Ok(Command::Hold(hold()?)),
         CommandKind::SwimHold => Ok(Command::SwimHold(swim()?, hold()?)),
@@ -384,6 +419,36 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
 mod command_tests {
     use super::command_from_json;
     use anguilla_ipc::{Command, SwimParams};
+
+    #[test]
+    fn a_path_is_sent_as_json_waypoints_and_a_follow() {
+        use anguilla_ipc::{Follow, Waypoint};
+        assert_eq!(
+            command_from_json(br#"{"command":"waypoint","index":2,"x":1.5,"y":-2,"depth":0.5}"#),
+            Ok(Command::Waypoint(Waypoint {
+                index: 2,
+                x: 1.5,
+                y: -2.0,
+                depth: Some(0.5)
+            }))
+        );
+        assert_eq!(
+            command_from_json(
+                br#"{"command":"follow","amplitude":1,"frequency":1,"count":3,"loop":true}"#
+            ),
+            Ok(Command::Follow(Follow {
+                swim: SwimParams {
+                    amplitude: 1.0,
+                    frequency: 1.0,
+                    turn: 0.0,
+                    pitch: 0.0
+                },
+                count: 3,
+                looped: true,
+                from_here: false
+            }))
+        );
+    }
 
     #[test]
     fn commands_parse_and_bad_ones_say_what_was_expected() {
@@ -411,6 +476,14 @@ mod command_tests {
             (
                 br#"{"command":"swim","amplitude":"big","frequency":1}"#,
                 "\"amplitude\" of swim must be a number",
+            ),
+            (
+                br#"{"command":"waypoint","index":1.5,"x":0,"y":0}"#,
+                "\"index\" of waypoint must be a whole number",
+            ),
+            (
+                br#"{"command":"follow","amplitude":1,"frequency":1,"count":2,"loop":"yes"}"#,
+                "\"loop\" of follow must be true or false",
             ),
         ] {
             let e = command_from_json(bad).unwrap_err();

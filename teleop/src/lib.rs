@@ -15,7 +15,8 @@
 //! - [`pad`]: the gamepad session (evdev devices or a scripted pad, hot-plug);
 //! - [`session`]: the teleop and monitor sessions and the `--json` pace;
 //! - [`view`]: the state view, drawn with ratatui on any backend;
-//! - [`ctl`]: `anguilla ctl`, one scripted command per call;
+//! - [`ctl`]: `anguilla ctl`, one scripted command per call; [`path`]:
+//!   the path file of `ctl follow`;
 //! - [`history`]: the monitor's ring buffers; [`json`]: `--json` lines.
 //!
 //! ```
@@ -41,5 +42,6 @@ pub mod json;
 pub mod keys;
 pub mod operator;
 pub mod pad;
+pub mod path;
 pub mod session;
 pub mod view;

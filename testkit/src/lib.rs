@@ -38,6 +38,8 @@
 #![warn(missing_docs)]
 
 #[cfg(feature = "lockstep")]
+pub mod guided;
+#[cfg(feature = "lockstep")]
 pub mod lockstep;
 
 use std::alloc::{GlobalAlloc, Layout, System};

@@ -2,7 +2,8 @@
 //! mode, faults, refusals, holds, the surface, torque residuals, sensors).
 
 use anguilla_ipc::{
-    Cause, FaultSet, HoldState, Mode, NavSnapshot, PositionHealth, SensorHealth, StateSnapshot,
+    Cause, FaultSet, GuideSnapshot, GuideState, HoldState, Mode, NavSnapshot, PositionHealth,
+    SensorHealth, StateSnapshot,
 };
 
 /// What changed between two snapshots, as log lines (level, text):
@@ -65,6 +66,9 @@ pub(crate) fn log_lines(last: Option<&StateSnapshot>, s: &StateSnapshot) -> Vec<
             out.push(surface_line(s.nav.surfaced != 0, s.nav.depth_m));
         }
         if let Some(line) = position_line(&s.nav, &l.nav) {
+            out.push(line);
+        }
+        if let Some(line) = guide_line(&s.guide, &l.guide) {
             out.push(line);
         }
     }
@@ -182,6 +186,34 @@ pub fn position_line(now: &NavSnapshot, was: &NavSnapshot) -> Option<(u8, String
     })
 }
 
+/// The log line (level, text) for a path that started, moved on to its
+/// next leg or ended between `was` and `now`: a path stopped (fix lost,
+/// fence) an error, the rest information; none when neither its state
+/// nor its leg changed.
+pub fn guide_line(now: &GuideSnapshot, was: &GuideSnapshot) -> Option<(u8, String)> {
+    if (now.state, now.leg) == (was.state, was.leg) {
+        return None;
+    }
+    let state = now.guide_state();
+    let leg = || {
+        format!(
+            "leg to waypoint {} of {} ({:.2}, {:.2}) m",
+            now.leg, now.waypoints, now.to_x, now.to_y
+        )
+    };
+    Some(match state {
+        Some(GuideState::Following) => (2, format!("path: following, {}", leg())),
+        Some(g @ (GuideState::FixLost | GuideState::Fence)) => (
+            4,
+            format!("path {g}, {:.2} m off the {}", now.cross_track_m, leg()),
+        ),
+        Some(g @ (GuideState::Done | GuideState::Ended | GuideState::Off)) => {
+            (2, format!("path {g}"))
+        }
+        None => (3, format!("path: state {}", now.state)),
+    })
+}
+
 /// The log line (level, text) for the robot reaching the surface (by the
 /// daemon's estimate, a warning) or leaving it.
 pub fn surface_line(surfaced: bool, depth: f32) -> (u8, String) {
@@ -195,6 +227,32 @@ pub fn surface_line(surfaced: bool, depth: f32) -> (u8, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A path's start, each new leg and its end are `/log` lines; a path
+    /// stopped by a lost fix is an error.
+    #[test]
+    fn a_path_s_legs_and_its_end_are_logged() {
+        let was = GuideSnapshot::default();
+        let mut now = GuideSnapshot {
+            state: GuideState::Following as u8,
+            leg: 1,
+            waypoints: 4,
+            to_x: 5.0,
+            ..Default::default()
+        };
+        let (level, line) = guide_line(&now, &was).expect("a line");
+        assert_eq!(level, 2);
+        assert!(
+            line.contains("following, leg to waypoint 1 of 4 (5.00, 0.00)"),
+            "{line}"
+        );
+        assert_eq!(guide_line(&now, &now), None, "no change, no line");
+        let before = now;
+        now.state = GuideState::FixLost as u8;
+        let (level, line) = guide_line(&now, &before).expect("a line");
+        assert_eq!(level, 4);
+        assert!(line.contains("position fix lost"), "{line}");
+    }
 
     /// The position's health changing is a `/log` line: a stale fix a
     /// warning, a lost one an error, fixed again information; no change,

@@ -44,8 +44,8 @@ pub mod schema;
 mod svg;
 pub mod truth;
 
-pub use changes::{hold_line, position_line, surface_line};
-pub use message::{Bus, Gait, Joints, Loop, Nav, Sensor, SensorValue, Sensors, State};
+pub use changes::{guide_line, hold_line, position_line, surface_line};
+pub use message::{Bus, Gait, Guide, Joints, Loop, Nav, Sensor, SensorValue, Sensors, State};
 pub use scene::{Link, Scene, segments};
 
 /// The channels, in the order they are created.

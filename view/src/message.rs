@@ -4,14 +4,15 @@
 //! schema cannot disagree.
 
 use anguilla_ipc::{
-    BusSnapshot, Cause, GaitSnapshot, HoldState, JointSnapshot, LoopSnapshot, MAX_JOINTS,
-    MAX_SENSORS, Mode, PositionHealth, SENSOR_VALUES, SensorHealth, SensorKind, StateSnapshot,
+    BusSnapshot, Cause, GaitSnapshot, GuideSnapshot, GuideState, HoldState, JointSnapshot,
+    LoopSnapshot, MAX_JOINTS, MAX_SENSORS, Mode, PositionHealth, SENSOR_VALUES, SensorHealth,
+    SensorKind, StateSnapshot,
 };
 use serde_json::Value;
 
 use crate::schema::{
     UNKNOWN, array, bits, boolean, bus_state_codes, cause_names, codes, count, fault_bits,
-    hold_codes, hold_state_names, message, mode_names, names, node_state_codes,
+    guide_state_names, hold_codes, hold_state_names, message, mode_names, names, node_state_codes,
     position_health_names, real, sensor_names, string,
 };
 
@@ -203,6 +204,64 @@ crate::view! {
     }
 }
 
+crate::view! {
+    /// The path being followed, or the last one (docs/autopilot.md,
+    /// "Following a path"); positions in the estimate's frame, as nav.x_m
+    pub struct Guide {
+        /// How the path is doing (off: no path since the start; stopped: it
+        /// was not finished)
+        state: &'static str => |d: &str| names(d, guide_state_names()),
+        /// Waypoints in the path
+        waypoints: u16 => count,
+        /// The waypoint the current leg ends at (its index, from 0)
+        leg: u16 => count,
+        /// True when the path loops back to its first waypoint
+        looped: bool => boolean,
+        /// The distance from the leg's line (m), positive left of its direction
+        cross_track_m: f32 => real,
+        /// How far along the leg the robot is from its start (m)
+        along_track_m: f32 => real,
+        /// The leg's length (m)
+        leg_length_m: f32 => real,
+        /// The heading the guidance asks of the heading hold (deg)
+        heading_deg: f32 => real,
+        /// The integral term's offset (m): the current's sideways push the
+        /// guidance has learnt to lean against
+        integral_m: f32 => real,
+        /// The leg's start, x (m)
+        from_x: f32 => real,
+        /// The leg's start, y (m)
+        from_y: f32 => real,
+        /// The leg's end (the waypoint it heads for), x (m)
+        to_x: f32 => real,
+        /// The leg's end, y (m)
+        to_y: f32 => real,
+        /// The distance from the robot to the leg's end (m)
+        to_go_m: f32 => real,
+    }
+}
+
+impl From<&GuideSnapshot> for Guide {
+    fn from(g: &GuideSnapshot) -> Self {
+        Self {
+            state: GuideState::from_code(g.state).map_or(UNKNOWN, GuideState::name),
+            waypoints: g.waypoints,
+            leg: g.leg,
+            looped: g.looped != 0,
+            cross_track_m: g.cross_track_m,
+            along_track_m: g.along_track_m,
+            leg_length_m: g.leg_length_m,
+            heading_deg: g.heading_deg,
+            integral_m: g.integral_m,
+            from_x: g.from_x,
+            from_y: g.from_y,
+            to_x: g.to_x,
+            to_y: g.to_y,
+            to_go_m: g.to_go_m,
+        }
+    }
+}
+
 fn hold_state(code: u8) -> &'static str {
     HoldState::from_code(code).map_or(UNKNOWN, HoldState::name)
 }
@@ -249,6 +308,8 @@ crate::view! {
         /// The head sensor, the daemon's estimate of the head's attitude and
         /// depth (0 until the first sample), and the autopilot (docs/autopilot.md)
         nav: Nav => Nav::object,
+        /// The path being followed, or the last one
+        guide: Guide => Guide::object,
     }
 }
 
@@ -306,6 +367,7 @@ impl From<&StateSnapshot> for State {
                 current_y: n.current_y,
                 current_sigma: n.current_sigma,
             },
+            guide: Guide::from(&s.guide),
         }
     }
 }

@@ -52,8 +52,8 @@ pub use build::{
 };
 pub use check::check;
 pub use codes::{
-    LOG_LEVELS, UNKNOWN, bus_state_codes, cause_names, fault_bits, hold_codes, hold_state_names,
-    mode_names, node_state_codes, position_health_names, sensor_names,
+    LOG_LEVELS, UNKNOWN, bus_state_codes, cause_names, fault_bits, guide_state_names, hold_codes,
+    hold_state_names, mode_names, node_state_codes, position_health_names, sensor_names,
 };
 pub use table::table;
 

@@ -25,6 +25,7 @@ mod bus;
 mod control;
 mod error;
 mod gait;
+mod guidance;
 mod ipc;
 mod limits;
 mod model;
@@ -44,6 +45,7 @@ pub use bus::{BUS_BUILTIN, BUS_UNSET, BusConfig};
 pub use control::{BUILTIN_TIMEOUT, ControlConfig, FaultPolicyConfig};
 pub use error::{ConfigError, fmt_f, fmt_number, range, read_file};
 pub use gait::GaitConfig;
+pub use guidance::{GuidanceConfig, MAX_FENCE_VERTICES, polygon_area};
 pub use ipc::IpcConfig;
 pub use limits::LimitsConfig;
 pub use model::{COEFFICIENT_MAX, ModelConfig};
@@ -81,6 +83,8 @@ pub struct Config {
     pub sensor: SensorConfig,
     /// `[autopilot]`.
     pub autopilot: AutopilotConfig,
+    /// `[guidance]`.
+    pub guidance: GuidanceConfig,
     /// `[monitor]`.
     pub monitor: MonitorConfig,
     /// The file's [`OTHER_SECTIONS`] as written, unread: the daemon has no
@@ -218,6 +222,7 @@ impl Config {
         self.validate_robot()?;
         self.validate_sensor()?;
         self.autopilot.validate()?;
+        self.guidance.validate()?;
         self.monitor.validate()?;
         self.control.validate()?;
         self.gait.validate()?;
@@ -323,6 +328,7 @@ pub fn sections_toml(d: &Config) -> String {
     model::write_default(&d.model, &mut w);
     sensor::write_default(&d.sensor, &mut w);
     autopilot::write_default(&d.autopilot, &mut w);
+    guidance::write_default(&d.guidance, &mut w);
     monitor::write_default(&d.monitor, &mut w);
     o
 }

@@ -62,6 +62,7 @@ impl Controller {
         s.nav.depth_target_m = self.hold.depth.unwrap_or(0.0) as f32;
         s.nav.hold_exit = self.hold_exit.map_or(0, |h| h as u8);
         [s.nav.heading_hold, s.nav.depth_hold] = self.hold_states.map(|h| h as u8);
+        self.guidance.fill(&mut s.guide);
         let hb_timeout = Nanos::from_secs_f64(self.cfg.control.heartbeat_timeout);
         // The torque residual is judged while swimming on the model's
         // feed-forward, with drives that measure torque.

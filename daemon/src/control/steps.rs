@@ -4,7 +4,7 @@
 //! [`Controller::run_period`]'s and `snapshot.rs`'s).
 
 use anguilla_drivers::{Bus, BusState};
-use anguilla_ipc::vocabulary::{Mode, Nanos, SwimParams};
+use anguilla_ipc::vocabulary::{Cause, GuideState, Hold, Mode, Nanos, PositionHealth, SwimParams};
 use anguilla_model::{CurvatureSource, GaitParams, HeadState, ModelError, StepReport};
 use anguilla_protocol::message::{self, AxisSetpoint, NodeSet};
 
@@ -154,6 +154,59 @@ impl Controller {
             self.head = HeadState::launch(0.0);
         }
         d
+    }
+
+    /// Step 3, first half: the path. The estimate leaving the geofence
+    /// stops any swim; a path followed sets the heading (and depth) held,
+    /// ends when the swim does, and stops the swim at its last waypoint
+    /// or when the position fix is lost (holding the last heading).
+    pub(super) fn guide(&mut self, now: Nanos, d: &mut Directives) {
+        let Some(plane) = self
+            .sensors
+            .nav()
+            .filter(|n| n.has_estimate())
+            .map(|n| n.plane())
+        else {
+            self.guidance.end(GuideState::Ended);
+            return;
+        };
+        let at = plane.position();
+        let swimming = self.sup.mode() == Mode::Swimming;
+        if self.guidance.left_fence(at.0, at.1) && swimming {
+            self.guidance.end(GuideState::Fence);
+            self.sup.stop_for(now, Cause::Fence, d.hold);
+            return;
+        }
+        if !self.guidance.following() {
+            return;
+        }
+        if !swimming {
+            self.guidance.end(GuideState::Ended);
+            return;
+        }
+        let last = Hold {
+            heading: Some(self.guidance.heading()),
+            depth: self.guidance.depth().or(d.hold.depth),
+        };
+        if plane.health() == PositionHealth::Lost {
+            self.guidance.end(GuideState::FixLost);
+            self.sup.stop_for(now, Cause::FixLost, last);
+            d.hold = last;
+            return;
+        }
+        let (current, speed) = (plane.current(), self.report.forward_speed);
+        match self.guidance.steer(self.dt, at, current, speed) {
+            Some(s) => {
+                d.hold.heading = Some(s.heading);
+                if s.depth.is_some() {
+                    d.hold.depth = s.depth;
+                }
+            }
+            None => {
+                self.sup.stop_for(now, Cause::PathDone, last);
+                d.hold = last;
+            }
+        }
     }
 
     /// Step 3: the autopilot's turn and pitch where it holds; the gait

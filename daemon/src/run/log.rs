@@ -61,6 +61,14 @@ pub enum Event {
         /// The snapshot's nav now.
         nav: anguilla_ipc::NavSnapshot,
     },
+    /// The path's state or leg changed (`StateSnapshot::guide`): `was`
+    /// before, `guide` now.
+    Guide {
+        /// Before.
+        was: anguilla_ipc::GuideSnapshot,
+        /// Now.
+        guide: anguilla_ipc::GuideSnapshot,
+    },
     /// Joints' drives report errors they did not report before (one event
     /// per code: twelve joints latching the same E-stop are one line).
     NodeErrors {
@@ -357,6 +365,12 @@ pub(super) fn logger(rx: Receiver<Event>, bus_spec: String) {
                 tracing::warn!("{n}")
             }
             Some(Event::Drive(n)) => tracing::error!("{n}"),
+            Some(Event::Guide { was, guide }) => match anguilla_view::guide_line(&guide, &was) {
+                Some((level, line)) if level >= 4 => tracing::error!("{line}"),
+                Some((level, line)) if level >= 3 => tracing::warn!("{line}"),
+                Some((_, line)) => tracing::info!("{line}"),
+                None => {}
+            },
             Some(Event::Nav { was, nav }) => {
                 let holds = [
                     (nav.heading_hold, was[0], nav.heading_words()),

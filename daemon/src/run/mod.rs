@@ -486,6 +486,7 @@ fn control_loop(
     let mut node_errors = [0u32; anguilla_ipc::MAX_JOINTS];
     let mut stopping_since: Option<Nanos> = None;
     let mut nav_seen = [0u8; 4];
+    let mut guide_seen = anguilla_ipc::GuideSnapshot::default();
     loop {
         rt::sleep_until_ns(deadline);
         let wake = rt::monotonic_ns();
@@ -599,6 +600,17 @@ fn control_loop(
             emit(Event::Nav { was: nav_seen, nav }, &mut dropped);
             nav_seen = nav_now;
         }
+        let guide = ctl.snapshot().guide;
+        if (guide.state, guide.leg) != (guide_seen.state, guide_seen.leg) {
+            emit(
+                Event::Guide {
+                    was: guide_seen,
+                    guide,
+                },
+                &mut dropped,
+            );
+        }
+        guide_seen = guide;
         let new_mode = ctl.supervisor().mode();
         if new_mode != mode {
             emit(

@@ -188,6 +188,13 @@ impl Sensors {
         }
     }
 
+    /// Hands the estimate an observation the host read itself (a pose
+    /// from the ROS 2 node, a test rig's truth); `false` if it was left
+    /// out (no head sensor, an outlier, before the estimate began).
+    pub fn observe(&mut self, obs: &Observation) -> bool {
+        self.nav.as_mut().is_some_and(|n| n.observe(obs))
+    }
+
     /// The head sensor's estimate, if there is one.
     pub fn nav(&self) -> Option<&Nav> {
         self.nav.as_ref()

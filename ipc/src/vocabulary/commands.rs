@@ -3,6 +3,7 @@
 
 use core::fmt;
 
+use super::path::{Follow, Waypoint};
 use super::swim::{Hold, SwimParams};
 
 /// What a [`Command`] is, without its parameters: one table for its
@@ -33,11 +34,15 @@ pub enum CommandKind {
     Hold = 10,
     /// [`Command::SwimHold`].
     SwimHold = 11,
+    /// [`Command::Waypoint`].
+    Waypoint = 12,
+    /// [`Command::Follow`].
+    Follow = 13,
 }
 
 impl CommandKind {
     /// Every kind, in the order of their codes (1, 2, ...).
-    pub const ALL: [CommandKind; 11] = [
+    pub const ALL: [CommandKind; 13] = [
         CommandKind::Enable,
         CommandKind::Disable,
         CommandKind::Swim,
@@ -49,6 +54,8 @@ impl CommandKind {
         CommandKind::KeepAlive,
         CommandKind::Hold,
         CommandKind::SwimHold,
+        CommandKind::Waypoint,
+        CommandKind::Follow,
     ];
 
     /// Its request code.
@@ -79,6 +86,8 @@ impl CommandKind {
             CommandKind::KeepAlive => "keep-alive",
             CommandKind::Hold => "hold",
             CommandKind::SwimHold => "swim-hold",
+            CommandKind::Waypoint => "waypoint",
+            CommandKind::Follow => "follow",
         }
     }
 
@@ -99,7 +108,11 @@ impl CommandKind {
             CommandKind::TakeControl => Some(Command::TakeControl),
             CommandKind::ReleaseControl => Some(Command::ReleaseControl),
             CommandKind::KeepAlive => Some(Command::KeepAlive),
-            CommandKind::Swim | CommandKind::Hold | CommandKind::SwimHold => None,
+            CommandKind::Swim
+            | CommandKind::Hold
+            | CommandKind::SwimHold
+            | CommandKind::Waypoint
+            | CommandKind::Follow => None,
         }
     }
 }
@@ -139,12 +152,20 @@ pub enum Command {
     /// manual (`ctl swim --heading`). An active hold needs a healthy head
     /// sensor, as [`Command::Hold`].
     SwimHold(SwimParams, Hold),
+    /// Load one waypoint of a path (the holder only; any mode): index 0
+    /// starts a new path.
+    Waypoint(Waypoint),
+    /// Swim along the path loaded, the guidance holding the heading
+    /// (docs/autopilot.md, "Following a path"). Needs a healthy head
+    /// sensor and a position that is not lost; any later swim, hold, stop
+    /// or E-stop ends the path.
+    Follow(Follow),
 }
 
 impl Command {
     /// Every command, once each (in the order of their request codes),
     /// those with parameters at rest: the table of their names.
-    pub const ALL: [Command; 11] = [
+    pub const ALL: [Command; 13] = [
         Command::Enable,
         Command::Disable,
         Command::Swim(SwimParams::REST),
@@ -156,6 +177,18 @@ impl Command {
         Command::KeepAlive,
         Command::Hold(Hold::MANUAL),
         Command::SwimHold(SwimParams::REST, Hold::MANUAL),
+        Command::Waypoint(Waypoint {
+            index: 0,
+            x: 0.0,
+            y: 0.0,
+            depth: None,
+        }),
+        Command::Follow(Follow {
+            swim: SwimParams::REST,
+            count: 0,
+            looped: false,
+            from_here: false,
+        }),
     ];
 
     /// What it is, without its parameters.
@@ -172,17 +205,30 @@ impl Command {
             Command::KeepAlive => CommandKind::KeepAlive,
             Command::Hold(_) => CommandKind::Hold,
             Command::SwimHold(..) => CommandKind::SwimHold,
+            Command::Waypoint(_) => CommandKind::Waypoint,
+            Command::Follow(_) => CommandKind::Follow,
         }
     }
 
-    /// What it asks of the swim: its gait, its hold (a held swim both;
-    /// the other commands neither).
+    /// What it asks of the swim: its gait, its hold (a held swim both; a
+    /// path its gait, the hold being the guidance's; the other commands
+    /// neither).
     pub const fn swim_and_hold(&self) -> (Option<SwimParams>, Option<Hold>) {
         match *self {
             Command::Swim(p) => (Some(p), None),
             Command::Hold(h) => (None, Some(h)),
             Command::SwimHold(p, h) => (Some(p), Some(h)),
-            Command::Enable
+            // A path holds a heading: the guidance's, set every period
+            // (the value here stands in for it).
+            Command::Follow(f) => (
+                Some(f.swim),
+                Some(Hold {
+                    heading: Some(0.0),
+                    depth: None,
+                }),
+            ),
+            Command::Waypoint(_)
+            | Command::Enable
             | Command::Disable
             | Command::Stop
             | Command::EStop

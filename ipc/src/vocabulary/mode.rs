@@ -81,11 +81,20 @@ pub enum Cause {
     /// run --duration`): a swim stops smoothly, then every actuator is
     /// disabled. No operator asked.
     Shutdown,
+    /// A path was followed to its last waypoint: the swim stops smoothly.
+    PathDone,
+    /// The estimate crossed the geofence (`[guidance] fence`): the swim
+    /// stops smoothly.
+    Fence,
+    /// A path was being followed and the position fix was lost (older
+    /// than `[autopilot] fix-lost`): the swim stops smoothly, holding the
+    /// last heading.
+    FixLost,
 }
 
 impl Cause {
     /// Every cause, in the order of their codes.
-    pub const ALL: [Cause; 7] = [
+    pub const ALL: [Cause; 10] = [
         Cause::None,
         Cause::Command,
         Cause::OperatorSilent,
@@ -93,6 +102,9 @@ impl Cause {
         Cause::Progress,
         Cause::SensorLost,
         Cause::Shutdown,
+        Cause::PathDone,
+        Cause::Fence,
+        Cause::FixLost,
     ];
 
     /// Its code in a snapshot (`StateSnapshot::cause`).
@@ -116,6 +128,9 @@ impl Cause {
             Cause::Progress => "step done",
             Cause::SensorLost => "the head sensor was lost",
             Cause::Shutdown => "the daemon is shutting down",
+            Cause::PathDone => "the path's last waypoint was reached",
+            Cause::Fence => "the robot crossed the geofence",
+            Cause::FixLost => "the position fix was lost while following a path",
         }
     }
 
@@ -129,6 +144,9 @@ impl Cause {
             Cause::Progress => "progress",
             Cause::SensorLost => "head sensor lost",
             Cause::Shutdown => "shutdown",
+            Cause::PathDone => "path done",
+            Cause::Fence => "fence",
+            Cause::FixLost => "fix lost",
         }
     }
 }

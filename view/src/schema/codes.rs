@@ -4,8 +4,8 @@
 //! generated tables of `docs/data.md`.
 
 use anguilla_ipc::{
-    Cause, FaultKind, Hold, HoldState, JointSnapshot, Mode, PositionHealth, SensorHealth,
-    bus_state_name, hold_bits,
+    Cause, FaultKind, GuideState, Hold, HoldState, JointSnapshot, Mode, PositionHealth,
+    SensorHealth, bus_state_name, hold_bits,
 };
 use anguilla_protocol::behaviour;
 
@@ -28,6 +28,14 @@ pub fn hold_state_names() -> impl Iterator<Item = &'static str> {
     HoldState::ALL
         .into_iter()
         .map(HoldState::name)
+        .chain([UNKNOWN])
+}
+
+/// A path's state names (`guide.state`).
+pub fn guide_state_names() -> impl Iterator<Item = &'static str> {
+    GuideState::ALL
+        .into_iter()
+        .map(GuideState::name)
         .chain([UNKNOWN])
 }
 
