@@ -403,6 +403,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
                 count: p.waypoints.len() as u32,
                 looped: p.looped,
                 from_here: goto,
+                resume: false,
             };
             let r = c.follow(
                 &p.waypoints,

@@ -297,6 +297,10 @@ fn daemon_limits(op: &mut Operator, prefix: &str) -> anyhow::Result<Limits> {
 pub struct TeleopArgs {
     #[command(flatten)]
     daemon: DaemonArgs,
+    /// A path (JSON, docs/path.schema.json) the `f` key follows, pauses
+    /// and resumes (docs/autopilot.md, "Following a path").
+    #[arg(long, value_name = "FILE")]
+    path: Option<PathBuf>,
 }
 
 /// Arguments of `anguilla joy`.
@@ -355,6 +359,18 @@ fn need_terminal(tool: &str, hint: &str) -> anyhow::Result<()> {
 
 /// `anguilla teleop`.
 pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
+    // A bad path file is refused before anything is opened.
+    let path = match &args.path {
+        Some(file) => {
+            let text = std::fs::read_to_string(file)
+                .map_err(|e| anyhow::anyhow!("reading the path file {}: {e}", file.display()))?;
+            Some(
+                anguilla_teleop::path::PathFile::parse(&text)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?,
+            )
+        }
+        None => None,
+    };
     need_terminal(
         "anguilla teleop",
         "run it in a terminal (for scripts, `anguilla monitor --json` streams the state)",
@@ -362,7 +378,9 @@ pub fn teleop(args: TeleopArgs) -> anyhow::Result<()> {
     let prefix = args.daemon.prefix()?;
     let mut op = args.daemon.operator(&prefix, "anguilla-teleop", true)?;
     let limits = daemon_limits(&mut op, &prefix)?;
-    let mut session = TeleopSession::new(Driver::new(op, Intent::new(limits)), &prefix);
+    let mut driver = Driver::new(op, Intent::new(limits));
+    driver.path = path;
+    let mut session = TeleopSession::new(driver, &prefix);
     // SIGTERM (and SIGINT outside raw mode) ends the loop like `q`.
     crate::signals::install();
     let mut terminal = ratatui::init();

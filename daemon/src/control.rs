@@ -449,7 +449,13 @@ impl Controller {
             Command::Waypoint(w) => self.guidance.load(w),
             Command::Follow(f) => {
                 if let Some(nav) = self.sensors.nav() {
-                    self.guidance.start(f, nav.plane().position());
+                    let plane = nav.plane();
+                    if f.resume {
+                        let speed = self.report.forward_speed;
+                        self.guidance.resume(plane.current(), speed);
+                    } else {
+                        self.guidance.start(f, plane.position());
+                    }
                 }
             }
             Command::Swim(_)
@@ -459,7 +465,7 @@ impl Controller {
             | Command::EStop
             | Command::ReleaseControl
             | Command::Disable
-            | Command::Reset => self.guidance.end(anguilla_ipc::GuideState::Ended),
+            | Command::Reset => self.guidance.end(anguilla_ipc::GuideState::Interrupted),
             Command::Enable | Command::TakeControl | Command::KeepAlive => {}
         }
     }

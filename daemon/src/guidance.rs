@@ -101,6 +101,8 @@ pub enum PathRefusal {
     Position(PositionHealth),
     /// No head sensor: no heading, no position.
     NoSensor,
+    /// A resume, and no path was interrupted.
+    NothingToResume(GuideState),
 }
 
 impl fmt::Display for PathRefusal {
@@ -142,6 +144,11 @@ impl fmt::Display for PathRefusal {
                 f,
                 "the position is '{}': a path needs a position that is not lost or waiting",
                 h.name()
+            ),
+            PathRefusal::NothingToResume(g) => write!(
+                f,
+                "no path to resume: the last one is '{}' (only one a command interrupted resumes)",
+                g.name()
             ),
             PathRefusal::NoSensor => write!(
                 f,
@@ -336,6 +343,22 @@ impl Guidance {
         if matches!(health, PositionHealth::Lost | PositionHealth::Waiting) {
             return Err(PathRefusal::Position(health));
         }
+        if !self.fence.contains(x, y) {
+            return Err(PathRefusal::RobotOutsideFence { x, y });
+        }
+        if f.resume {
+            let n = (self.len - self.loop_start) as u32;
+            return if self.state != GuideState::Interrupted {
+                Err(PathRefusal::NothingToResume(self.state))
+            } else if f.count != n {
+                Err(PathRefusal::Count {
+                    got: f.count,
+                    loaded: n,
+                })
+            } else {
+                Ok(())
+            };
+        }
         let loaded = self.loaded_len as u32;
         if f.count != loaded {
             return Err(PathRefusal::Count {
@@ -346,9 +369,6 @@ impl Guidance {
         let needed = if f.from_here { 1 } else { 2 };
         if loaded < needed {
             return Err(PathRefusal::TooFew { loaded, needed });
-        }
-        if !self.fence.contains(x, y) {
-            return Err(PathRefusal::RobotOutsideFence { x, y });
         }
         if f.from_here {
             let p = self.loaded[0];
@@ -382,6 +402,16 @@ impl Guidance {
         self.state = GuideState::Following;
         self.cross = 0.0;
         self.along = 0.0;
+    }
+
+    /// Takes the interrupted path up again on its leg (after
+    /// [`Guidance::check_follow`] of a resume), its integral seeded from
+    /// the estimated `current` at `speed` as on a new leg.
+    pub fn resume(&mut self, current: (f64, f64), speed: f64) {
+        if self.state == GuideState::Interrupted && self.len > 0 {
+            self.state = GuideState::Following;
+            self.y_int = self.crab_integral(current, speed);
+        }
     }
 
     /// Whether a path is being followed.

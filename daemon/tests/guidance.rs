@@ -101,8 +101,36 @@ fn only_the_holder_loads_a_path_and_any_command_of_its_own_ends_it() {
         pitch: 0.0,
     }));
     rig.period();
-    assert_eq!(rig.state().guide.guide_state(), Some(GuideState::Ended));
+    assert_eq!(
+        rig.state().guide.guide_state(),
+        Some(GuideState::Interrupted)
+    );
     assert_eq!(rig.state().mode, Mode::Swimming as u8);
+    // Resumed on its leg (a resume of another path's count is refused).
+    let resume = |count| {
+        Command::Follow(anguilla_ipc::Follow {
+            swim: anguilla_ipc::SwimParams {
+                amplitude: 1.0,
+                frequency: 1.0,
+                turn: 0.0,
+                pitch: 0.0,
+            },
+            count,
+            looped: false,
+            from_here: false,
+            resume: true,
+        })
+    };
+    let r = rig.command(resume(3));
+    assert_eq!(r.accepted, 0);
+    assert!(r.reason().contains("not 3"), "{}", r.reason());
+    rig.ok(resume(2));
+    rig.period();
+    assert_eq!(rig.state().guide.guide_state(), Some(GuideState::Following));
+    assert_eq!(rig.state().guide.leg, 1);
+    // Nothing to resume while following.
+    let r = rig.command(resume(2));
+    assert!(r.reason().contains("no path to resume"), "{}", r.reason());
     // Followed again; an E-stop ends it at once.
     follow(&mut rig, &[(0.0, 0.0), (50.0, 0.0)], false, false);
     rig.period();
@@ -110,7 +138,10 @@ fn only_the_holder_loads_a_path_and_any_command_of_its_own_ends_it() {
     rig.ok(Command::EStop);
     rig.period();
     assert_eq!(rig.state().mode, Mode::EStop as u8);
-    assert_eq!(rig.state().guide.guide_state(), Some(GuideState::Ended));
+    assert_eq!(
+        rig.state().guide.guide_state(),
+        Some(GuideState::Interrupted)
+    );
 }
 
 #[test]
@@ -160,6 +191,7 @@ fn crossing_the_geofence_stops_the_swim() {
         count: 1,
         looped: false,
         from_here: true,
+        resume: false,
     }));
     assert_eq!(r.accepted, 0);
     assert!(

@@ -224,6 +224,7 @@ fn a_period_following_a_path_allocates_nothing() {
         count: points.len() as u32,
         looped: true,
         from_here: false,
+        resume: false,
     });
     let r = counted(|| rig.command(follow));
     assert_eq!(r.accepted, 1, "{}", r.reason());

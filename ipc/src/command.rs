@@ -319,6 +319,8 @@ pub mod follow_bits {
     pub const LOOP: u32 = 1 << 0;
     /// The first leg runs from where the robot is to waypoint 0.
     pub const FROM_HERE: u32 = 1 << 1;
+    /// Resume the interrupted path on its leg.
+    pub const RESUME: u32 = 1 << 2;
 }
 
 /// FOLLOW's body: the gait and how the path loaded is followed.
@@ -364,13 +366,15 @@ impl FollowBody {
             amplitude: f.swim.amplitude as f32,
             frequency: f.swim.frequency as f32,
             count: f.count,
-            flags: bit(f.looped, follow_bits::LOOP) | bit(f.from_here, follow_bits::FROM_HERE),
+            flags: bit(f.looped, follow_bits::LOOP)
+                | bit(f.from_here, follow_bits::FROM_HERE)
+                | bit(f.resume, follow_bits::RESUME),
         }
     }
 
     /// The command, or why its flags are not one.
     fn read(&self) -> Result<Follow, RequestError> {
-        if self.flags & !(follow_bits::LOOP | follow_bits::FROM_HERE) != 0 {
+        if self.flags & !(follow_bits::LOOP | follow_bits::FROM_HERE | follow_bits::RESUME) != 0 {
             return Err(RequestError::FollowBits(self.flags));
         }
         Ok(Follow {
@@ -383,6 +387,7 @@ impl FollowBody {
             count: self.count,
             looped: self.flags & follow_bits::LOOP != 0,
             from_here: self.flags & follow_bits::FROM_HERE != 0,
+            resume: self.flags & follow_bits::RESUME != 0,
         })
     }
 }
@@ -530,7 +535,7 @@ pub enum RequestError {
     HoldBits(u32),
     /// A FOLLOW request's `flags` has bits beyond loop (1) and from-here
     /// (2).
-    #[error("follow flags {0:#x} unknown (expected 0..=3: 1 loop, 2 from here)")]
+    #[error("follow flags {0:#x} unknown (expected 0..=7: 1 loop, 2 from here, 4 resume)")]
     FollowBits(u32),
 }
 

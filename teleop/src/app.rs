@@ -85,6 +85,10 @@ pub enum Action {
     TakeControl,
     /// Release control authority (the daemon stops a swim).
     ReleaseControl,
+    /// Follow the path given to the tool (`--path`); while following,
+    /// pause it (swim on straight, by hand); after a pause, resume it on
+    /// its leg. The driver sends it ([`crate::operator::Driver`]).
+    Follow,
     /// Leave the tool (stops the swim and releases control first).
     Quit,
 }
@@ -253,7 +257,7 @@ impl Intent {
                 self.rest();
                 Some(Command::ReleaseControl)
             }
-            Action::Quit => None,
+            Action::Quit | Action::Follow => None,
         }
     }
 
@@ -290,6 +294,43 @@ impl Intent {
         } else {
             Command::KeepAlive
         }
+    }
+
+    /// The gait a path is followed at: the target's amplitude and
+    /// frequency, or F1 (amplitude 1, [`DEFAULT_FREQUENCY`]) at rest.
+    pub fn follow_gait(&self) -> SwimParams {
+        let p = self.params;
+        SwimParams {
+            amplitude: if p.amplitude > 0.0 { p.amplitude } else { 1.0 },
+            frequency: if p.frequency > 0.0 {
+                p.frequency
+            } else {
+                DEFAULT_FREQUENCY.min(self.limits.max_frequency)
+            },
+            turn: 0.0,
+            pitch: 0.0,
+        }
+    }
+
+    /// A path started: the guidance steers, so the steady command is a
+    /// keep-alive (a swim would end the path) and nothing is held by hand.
+    pub fn follow_started(&mut self) {
+        self.params = SwimParams {
+            turn: 0.0,
+            pitch: 0.0,
+            ..self.follow_gait()
+        };
+        self.swimming = false;
+        self.hold.clear();
+    }
+
+    /// The operator takes over from a path (its pause): swim on at the
+    /// path's gait, straight, by hand. Returns the swim to send.
+    pub fn take_over(&mut self) -> Command {
+        self.params = self.follow_gait();
+        self.swimming = true;
+        self.hold.clear();
+        Command::Swim(self.params)
     }
 
     /// The daemon refused a swim (no control, wrong mode, out of range):

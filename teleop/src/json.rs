@@ -398,6 +398,7 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             count: count("count")?,
             looped: flag("loop")?,
             from_here: flag("from_here")?,
+            resume: flag("resume")?,
         })),
         CommandKind::Swim => Ok(Command::Swim(swim()?)),
         CommandKind::Hold => Ok(Command::Hold(hold()?)),
@@ -445,7 +446,8 @@ mod command_tests {
                 },
                 count: 3,
                 looped: true,
-                from_here: false
+                from_here: false,
+                resume: false
             }))
         );
     }

@@ -43,6 +43,11 @@ pub const KEYS: &[(&str, &str, &str)] = &[
     ("r", "reset", "clear a fault or an E-stop"),
     ("t/g", "take/give ctl", "take control / give it back"),
     (
+        "f",
+        "follow path",
+        "follow the path of --path FILE (from ready or swimming); while following, pause it (swim on straight, by hand); again, resume it on its leg; space stops",
+    ),
+    (
         "q",
         "quit",
         "quit: stops the swim and releases control first (also Ctrl-C)",
@@ -77,6 +82,7 @@ pub fn action_for(key: KeyEvent) -> Option<Action> {
         KeyCode::Char(' ') => Action::Stop,
         KeyCode::Char('x') | KeyCode::Char('X') | KeyCode::Char('!') => Action::EStop,
         KeyCode::Char('e') | KeyCode::Char('E') => Action::Enable,
+        KeyCode::Char('f') | KeyCode::Char('F') => Action::Follow,
         KeyCode::Char('d') | KeyCode::Char('D') => Action::Disable,
         KeyCode::Char('r') | KeyCode::Char('R') => Action::Reset,
         KeyCode::Char('t') | KeyCode::Char('T') => Action::TakeControl,

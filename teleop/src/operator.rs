@@ -196,6 +196,8 @@ pub struct Driver {
     pub op: Operator,
     /// The operator's intent.
     pub intent: Intent,
+    /// The path [`Action::Follow`] follows (`anguilla teleop --path`).
+    pub path: Option<crate::path::PathFile>,
     next_steady: Instant,
     refusals_seen: u64,
 }
@@ -206,6 +208,7 @@ impl Driver {
         Self {
             op,
             intent,
+            path: None,
             next_steady: Instant::now(),
             refusals_seen: 0,
         }
@@ -216,6 +219,9 @@ impl Driver {
     /// when the action started a swim ([`Intent::hold_update`]). Returns
     /// the action's command.
     pub fn act(&mut self, action: Action) -> Result<Option<Command>, IpcError> {
+        if action == Action::Follow {
+            return self.follow();
+        }
         let cmd = self.intent.apply(action);
         if let Some(c) = cmd {
             self.op.send(c)?;
@@ -225,6 +231,43 @@ impl Driver {
             self.op.send(h)?;
         }
         Ok(cmd)
+    }
+
+    /// [`Action::Follow`]: with a path, start it (its waypoints one a
+    /// request, then the follow), pause the one followed (the operator
+    /// takes over: a straight swim), or resume the one paused on its leg.
+    /// Returns the last command sent; none without a path.
+    fn follow(&mut self) -> Result<Option<Command>, IpcError> {
+        use anguilla_ipc::{Follow, GuideState};
+        let Some(path) = &self.path else {
+            return Ok(None);
+        };
+        let guide = self.op.state().map(|s| s.guide);
+        let state = guide.and_then(|g| g.guide_state());
+        let cmd = if state == Some(GuideState::Following) {
+            self.intent.take_over()
+        } else {
+            let n = path.waypoints.len();
+            let resume = state == Some(GuideState::Interrupted)
+                && guide.is_some_and(|g| usize::from(g.waypoints) == n);
+            if !resume {
+                for w in &path.waypoints {
+                    self.op.send(Command::Waypoint(*w))?;
+                }
+            }
+            let f = Command::Follow(Follow {
+                swim: self.intent.follow_gait(),
+                count: n as u32,
+                looped: path.looped,
+                from_here: false,
+                resume,
+            });
+            self.intent.follow_started();
+            f
+        };
+        self.op.send(cmd)?;
+        self.next_steady = Instant::now() + STEADY_PERIOD;
+        Ok(Some(cmd))
     }
 
     /// One turn of the tool's loop: collect replies and state, follow the

@@ -22,7 +22,9 @@ use crate::hold::{held, wrap_heading};
 use crate::keys::KEYS;
 use crate::operator::Refused;
 pub use lists::{residual_line, sensor_lines, sensor_name};
-pub use nav::{COMPASS_DEG_PER_COLUMN, compass_strip, depth_gauge, nav_lines, position_line};
+pub use nav::{
+    COMPASS_DEG_PER_COLUMN, compass_strip, depth_gauge, nav_lines, path_line, position_line,
+};
 
 /// Smallest terminal the teleop view fits in (columns).
 pub const MIN_WIDTH: u16 = 80;
@@ -124,6 +126,7 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
         .map(|s| {
             let mut lines = nav_lines(&s.nav, area.width.saturating_sub(2) as usize);
             lines.extend(position_line(&s.nav));
+            lines.extend(path_line(&s.guide));
             lines.extend(sensor_lines(s));
             lines.extend(residual_line(s));
             lines

@@ -174,6 +174,7 @@ pub fn follow(rig: &mut Rig, points: &[(f64, f64)], looped: bool, from_here: boo
         count: points.len() as u32,
         looped,
         from_here,
+        resume: false,
     }));
 }
 

@@ -349,3 +349,88 @@ fn the_readmes_calibration_recipe_works_as_written() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A path followed across processes (issue 48): `ctl goto` against
+/// `anguilla run`'s built-in robot with a head sensor and a geofence is
+/// done when the daemon reports the waypoint reached, which `ctl status
+/// --json` then shows; a path file with a waypoint outside the fence is
+/// refused naming its line, and a malformed one naming its line before
+/// anything is sent.
+#[test]
+fn ctl_goto_and_follow_swim_to_where_they_are_told() {
+    let _dog = Watchdog::new("ctl-goto", Duration::from_secs(240));
+    let prefix = format!("anguilla-ctl/goto-{}", std::process::id());
+    let _d = daemon_with(
+        &prefix,
+        "goto",
+        "\n[sensor]\nnode = 20\n[guidance]\nfence-radius = 20\n",
+    );
+    let status = |prefix: &str| -> Option<serde_json::Value> {
+        let o = ctl(prefix, &["status", "--json"]);
+        (o.status.code() == Some(0))
+            .then(|| serde_json::from_slice(&o.stdout).ok())
+            .flatten()
+    };
+    poll_until("the sensor ok", Duration::from_secs(20), || {
+        status(&prefix).filter(|s| s["sensor"] == "ok")
+    });
+    let dir = std::env::temp_dir().join(format!("anguilla-goto-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A malformed file: refused with its line, nothing sent.
+    let bad = dir.join("bad.json");
+    std::fs::write(
+        &bad,
+        "{\"waypoints\": [\n  {\"x\": 1, \"y\": \"two\"}\n]}\n",
+    )
+    .unwrap();
+    let o = ctl(&prefix, &["follow", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("line 2") && err.contains("expected f64"),
+        "{err}"
+    );
+    // Not enabled: the daemon refuses the path's start, said as such.
+    let o = ctl(&prefix, &["goto", "3", "1"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("enable"), "{}", text(&o));
+    assert_eq!(ctl(&prefix, &["enable"]).status.code(), Some(0));
+    // A waypoint outside the fence: refused by the daemon, named by line.
+    let far = dir.join("far.json");
+    std::fs::write(
+        &far,
+        "{\"waypoints\": [\n  {\"x\": 0, \"y\": 0},\n  {\"x\": 30, \"y\": 0}\n]}\n",
+    )
+    .unwrap();
+    let o = ctl(&prefix, &["follow", far.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("line 3") && err.contains("outside the geofence"),
+        "{err}"
+    );
+    // The goto: done when reached, the state says so.
+    let s = status(&prefix).expect("a state");
+    let (x0, y0) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
+    let (x, y) = (x0 + 3.0, y0 + 1.5);
+    let o = Proc::new(anguilla_bin())
+        .args(["ctl", "--prefix", &prefix, "goto"])
+        .args([format!("{x}"), format!("{y}")])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("leg to waypoint 0 of 1"), "{out}");
+    let s = status(&prefix).expect("a state");
+    assert_eq!(s["guide"]["state"], "done", "{s}");
+    let (xe, ye) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
+    // Reached within the acceptance radius (0.5 m), then glided while the
+    // swim stopped.
+    assert!(
+        (xe - x).hypot(ye - y) < 1.5,
+        "at ({xe}, {ye}) for ({x}, {y})"
+    );
+    assert_eq!(s["mode_name"], "ready", "{s}");
+    assert_eq!(s["cause_name"], "path done", "{s}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -440,3 +440,102 @@ fn a_second_client_cannot_take_control_but_can_estop() {
         1
     );
 }
+
+/// The keyboard client follows a path (issue 48): `f` loads the
+/// `--path` file and starts it, `f` again pauses it (the operator takes
+/// over, swimming on straight), `f` once more resumes it on its leg, and
+/// space stops the swim (the path interrupted).
+#[test]
+fn the_keyboard_client_follows_pauses_and_resumes_a_path() {
+    use anguilla_ipc::GuideState;
+    let _dog = Watchdog::new("teleop path", Duration::from_secs(240));
+    let mut cfg = anguilla_system_tests::family_config(
+        anguilla_protocol::Family::Anguilla,
+        12,
+        "tpath",
+        "tp",
+    );
+    cfg.sensor.node = 20;
+    cfg.validate().expect("valid");
+    let robot = Robot::start_with(cfg.clone()).expect("daemon and robot start");
+    let mut op = Operator::connect(&robot.prefix, "systest-teleop-path").expect("connect");
+    let limits = published_limits(&mut op, &robot.config);
+    let mut d = Driver::new(op, Intent::new(limits));
+    let text =
+        "{\"waypoints\": [{\"x\": 0, \"y\": 0}, {\"x\": 20, \"y\": 0}, {\"x\": 20, \"y\": 10}]}";
+    d.path = Some(anguilla_teleop::path::PathFile::parse(text).expect("a path"));
+    let none = Duration::ZERO;
+    let guide = |s: &StateSnapshot| s.guide.guide_state();
+    wait_for(
+        &mut d,
+        "the estimate",
+        Duration::from_secs(20),
+        none,
+        |s, _| s.nav.samples > 0,
+    );
+    assert_eq!(
+        d.op.request(Command::TakeControl, REPLY).unwrap().accepted,
+        1
+    );
+    d.act(Action::Enable).unwrap();
+    wait_for(
+        &mut d,
+        "ready",
+        Duration::from_secs(20),
+        none,
+        mode_is(Mode::Ready),
+    );
+    // Follow.
+    assert!(matches!(
+        d.act(Action::Follow).unwrap(),
+        Some(Command::Follow(_))
+    ));
+    let s = wait_for(
+        &mut d,
+        "following",
+        Duration::from_secs(10),
+        none,
+        |s, _| guide(s) == Some(GuideState::Following) && s.mode == Mode::Swimming as u8,
+    );
+    assert_eq!((s.guide.leg, s.guide.waypoints), (1, 3));
+    // The steady sender keeps the path alive (a keep-alive, not a swim
+    // that would end it): still following 3 s on.
+    let start = Instant::now();
+    let s = wait_for(
+        &mut d,
+        "3 s of the path",
+        Duration::from_secs(20),
+        none,
+        |_, _| start.elapsed() >= Duration::from_secs(3),
+    );
+    assert_eq!(guide(&s), Some(GuideState::Following), "{:?}", s.guide);
+    // Pause: the operator swims on, straight.
+    assert!(matches!(
+        d.act(Action::Follow).unwrap(),
+        Some(Command::Swim(_))
+    ));
+    let s = wait_for(&mut d, "paused", Duration::from_secs(10), none, |s, _| {
+        guide(s) == Some(GuideState::Interrupted)
+    });
+    assert_eq!(s.mode, Mode::Swimming as u8, "swimming on");
+    // Resume on the same leg.
+    assert!(matches!(
+        d.act(Action::Follow).unwrap(),
+        Some(Command::Follow(f)) if f.resume
+    ));
+    let s = wait_for(&mut d, "resumed", Duration::from_secs(10), none, |s, _| {
+        guide(s) == Some(GuideState::Following)
+    });
+    assert_eq!(s.guide.leg, 1, "the leg it was on");
+    // Space: stop; the path is interrupted and the robot comes to rest.
+    d.act(Action::Stop).unwrap();
+    let s = wait_for(
+        &mut d,
+        "ready",
+        Duration::from_secs(30),
+        none,
+        mode_is(Mode::Ready),
+    );
+    assert_eq!(guide(&s), Some(GuideState::Interrupted));
+    assert_eq!(s.refused_commands, 0, "nothing refused");
+}

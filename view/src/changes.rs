@@ -207,7 +207,7 @@ pub fn guide_line(now: &GuideSnapshot, was: &GuideSnapshot) -> Option<(u8, Strin
             4,
             format!("path {g}, {:.2} m off the {}", now.cross_track_m, leg()),
         ),
-        Some(g @ (GuideState::Done | GuideState::Ended | GuideState::Off)) => {
+        Some(g @ (GuideState::Done | GuideState::Interrupted | GuideState::Off)) => {
             (2, format!("path {g}"))
         }
         None => (3, format!("path: state {}", now.state)),

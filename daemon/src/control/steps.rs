@@ -167,7 +167,7 @@ impl Controller {
             .filter(|n| n.has_estimate())
             .map(|n| n.plane())
         else {
-            self.guidance.end(GuideState::Ended);
+            self.guidance.end(GuideState::Interrupted);
             return;
         };
         let at = plane.position();
@@ -181,7 +181,7 @@ impl Controller {
             return;
         }
         if !swimming {
-            self.guidance.end(GuideState::Ended);
+            self.guidance.end(GuideState::Interrupted);
             return;
         }
         let last = Hold {

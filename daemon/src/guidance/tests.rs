@@ -35,6 +35,7 @@ fn follow(count: usize, looped: bool, from_here: bool) -> Follow {
         count: count as u32,
         looped,
         from_here,
+        resume: false,
     }
 }
 

@@ -188,6 +188,7 @@ impl Command {
             count: 0,
             looped: false,
             from_here: false,
+            resume: false,
         }),
     ];
 

@@ -44,6 +44,11 @@ pub struct Follow {
     /// waypoint 0 (`ctl goto`); otherwise the first leg is waypoint 0 to 1
     /// and the robot joins it from wherever it is.
     pub from_here: bool,
+    /// Resume the path an operator's command interrupted
+    /// ([`GuideState::Interrupted`]) on the leg it was on, instead of
+    /// starting the one loaded (`count` is then the interrupted path's;
+    /// `looped` and `from_here` are its own).
+    pub resume: bool,
 }
 
 /// How the path is doing (`GuideSnapshot::state`). Codes 4 and up are
@@ -57,9 +62,10 @@ pub enum GuideState {
     Following = 1,
     /// The last waypoint was reached; the swim stops.
     Done = 2,
-    /// An operator's command (a swim, a hold, a stop, an E-stop, control
-    /// released) or the end of the swim ended it.
-    Ended = 3,
+    /// An operator's command (a swim, a hold: the operator took over; a
+    /// stop, an E-stop, control released) or the end of the swim
+    /// interrupted it; [`Follow::resume`] takes it up again on its leg.
+    Interrupted = 3,
     /// The position fix was lost (older than `[autopilot] fix-lost`): the
     /// swim stops, holding the last heading.
     FixLost = 4,
@@ -73,7 +79,7 @@ impl GuideState {
         GuideState::Off,
         GuideState::Following,
         GuideState::Done,
-        GuideState::Ended,
+        GuideState::Interrupted,
         GuideState::FixLost,
         GuideState::Fence,
     ];
@@ -89,7 +95,7 @@ impl GuideState {
             GuideState::Off => "off",
             GuideState::Following => "following",
             GuideState::Done => "done",
-            GuideState::Ended => "ended by a command",
+            GuideState::Interrupted => "interrupted by a command",
             GuideState::FixLost => "stopped: position fix lost",
             GuideState::Fence => "stopped: geofence crossed",
         }

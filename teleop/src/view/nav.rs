@@ -230,9 +230,66 @@ pub fn position_line(nav: &NavSnapshot) -> Option<Line<'static>> {
     ]))
 }
 
+/// The path line, once a path was followed: its state (stopped red and
+/// bold), the leg, the cross-track error and how far to the leg's end.
+pub fn path_line(g: &anguilla_ipc::GuideSnapshot) -> Option<Line<'static>> {
+    use anguilla_ipc::GuideState;
+    let state = g.guide_state();
+    if state == Some(GuideState::Off) {
+        return None;
+    }
+    let style = match state {
+        Some(GuideState::Following) => Style::default().fg(Color::Green),
+        Some(s) if s.failed() => Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
+        _ => Style::default(),
+    };
+    let name = state.map_or("unknown", GuideState::name);
+    Some(Line::from(vec![
+        Span::raw("path "),
+        Span::styled(name.to_string(), style),
+        Span::raw(format!(
+            "  leg to {}/{} ({:+.1}, {:+.1}) m  {:.1} m to go  cross-track {:+.2} m  heading {:05.1}°",
+            g.leg, g.waypoints, g.to_x, g.to_y, g.to_go_m, g.cross_track_m, g.heading_deg
+        )),
+    ]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A path followed is a line with its leg and cross-track error; a
+    /// path stopped for a lost fix is red and bold; none before a path.
+    #[test]
+    fn the_path_line_says_where_on_the_path_the_robot_is() {
+        use anguilla_ipc::{GuideSnapshot, GuideState};
+        assert!(path_line(&GuideSnapshot::default()).is_none());
+        let mut g = GuideSnapshot {
+            state: GuideState::Following as u8,
+            leg: 2,
+            waypoints: 4,
+            to_x: 10.0,
+            to_y: 3.0,
+            to_go_m: 4.5,
+            cross_track_m: -0.12,
+            heading_deg: 92.0,
+            ..Default::default()
+        };
+        let text = |l: &Line| {
+            l.spans
+                .iter()
+                .map(|s| s.content.to_string())
+                .collect::<String>()
+        };
+        let l = path_line(&g).expect("a line");
+        assert_eq!(
+            text(&l),
+            "path following  leg to 2/4 (+10.0, +3.0) m  4.5 m to go  cross-track -0.12 m  heading 092.0°"
+        );
+        g.state = GuideState::FixLost as u8;
+        let l = path_line(&g).expect("a line");
+        assert_eq!(l.spans[1].style.fg, Some(Color::Red));
+    }
 
     /// With a position sensor the line says x, y, their σ, the fix's
     /// state and age and the current; a lost fix is red and bold; without
