@@ -16,6 +16,10 @@ hash), then, as a ROS 2 node would:
   changes nothing;
 - stops publishing: the daemon's deadman stops the swim (cause: operator
   silent);
+- publishes a `nav_msgs/msg/Path` (rosbags' CDR) on `path` and calls
+  `~/follow_path`: the daemon follows it (its state's `guide` says
+  following, leg 1) and the node keeps control alive while it does;
+  `~/stop` interrupts it;
 - calls `~/estop`: the robot is in e-stop, and stays there while twists
   keep coming (it latches).
 Every reply must echo the call's sequence number and GID. Exit 0 when all
@@ -102,18 +106,25 @@ def main(argv=None):
                   for r in z.liveliness().get(f"@ros2_lv/{a.domain}/**", timeout=2.0) if r.ok]
         time.sleep(0.2)
     mine = [t for t in tokens if t and t["node"] == a.node and t["kind"] in ("MS", "SS")]
-    services, cmd_vel = {}, {}
+    services, cmd_vel, path_sub = {}, {}, None
     for t in mine:
         if t["kind"] == "SS":
             if t["type"] != "std_srvs/srv/Trigger" or t["hash"] != trigger:
                 fail(f"service {t['topic']}: {t['type']} {t['hash']}, expected Trigger {trigger}")
             services[t["topic"].rsplit("/", 1)[1]] = t
+        elif t["topic"].endswith("/path"):
+            if t["type"] != "nav_msgs/msg/Path" or t["hash"] != jazzy.hash_rihs01(t["type"]):
+                fail(f"path: {t['type']} {t['hash']}, expected nav_msgs/msg/Path with rosbags' hash")
+            path_sub = t
         elif t["topic"].endswith("/cmd_vel"):
             if t["hash"] != jazzy.hash_rihs01(t["type"]):
                 fail(f"cmd_vel [{t['type']}]: hash {t['hash']} is not rosbags' own")
             cmd_vel[t["type"]] = t
         print(f"  {t['kind']} {t['topic']} [{t['type']}] {t['hash']}: hash checked")
-    for name in ("take_control", "release_control", "enable", "disable", "stop", "estop"):
+    if path_sub is None:
+        fail("no path subscription")
+    for name in ("take_control", "release_control", "enable", "disable", "stop", "estop",
+                 "follow_path", "resume_path"):
         if name not in services:
             fail(f"no service ~/{name} among {sorted(services)}")
     for ty in ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"):
@@ -219,6 +230,38 @@ def main(argv=None):
           f"cause code {s.cause}")
     if s.cause != CAUSE_OPERATOR_SILENT:
         fail(f"the swim ended with cause {s.cause}, not 'operator silent' ({CAUSE_OPERATOR_SILENT})")
+    # A path: three waypoints from where the robot is, in odom.
+    T = jazzy.types
+    hdr = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0),
+                                   frame_id="odom")
+    s = state()
+    x0, y0 = s.nav.x_m, s.nav.y_m
+    poses = [T["geometry_msgs/msg/PoseStamped"](
+        header=hdr, pose=T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=x0 + dx, y=y0 + dy, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+        for dx, dy in ((0.0, 0.0), (20.0, 0.0), (20.0, 10.0))]
+    body = jazzy.serialize_cdr(T["nav_msgs/msg/Path"](header=hdr, poses=poses), "nav_msgs/msg/Path")
+    att = struct.pack("<qq", 1, time.time_ns()) + bytes([16]) + GID
+    z.declare_publisher(key(path_sub)).put(bytes(body), attachment=att)
+    time.sleep(0.5)
+    ok, _ = call("take_control")
+    ok, message = call("follow_path")
+    if not ok:
+        fail(f"~/follow_path was refused: {message}")
+    s = wait_for("the path followed", lambda s: s.guide.state == 1 and MODES[s.mode] == "swimming", 10)
+    if (s.guide.leg, s.guide.waypoints) != (1, 3):
+        fail(f"following leg {s.guide.leg} of {s.guide.waypoints}, expected 1 of 3")
+    time.sleep(3.0)
+    s = state()
+    if s.guide.state != 1 or MODES[s.mode] != "swimming":
+        fail(f"the path was not kept alive: guide state {s.guide.state}, mode {MODES[s.mode]}")
+    print(f"  following: leg {s.guide.leg}, cross-track {s.guide.cross_track_m:+.2f} m, "
+          f"{s.guide.to_go_m:.1f} m to go")
+    call("stop")
+    s = wait_for("the path stopped", lambda s: MODES[s.mode] in ("ready", "stopping"), 10)
+    if s.guide.state != 3:
+        fail(f"after ~/stop the path's state is {s.guide.state}, not interrupted (3)")
     call("estop")
     wait_for("e-stop", lambda s: MODES[s.mode] == "e-stop", 5)
     for _ in range(10):
@@ -227,7 +270,7 @@ def main(argv=None):
     if MODES[state().mode] != "e-stop":
         fail(f"twists after the e-stop took the robot to {MODES[state().mode]}")
     print("ros2 drive client: OK (took control, enabled, swam from cmd_vel, the deadman "
-          "stopped it, e-stop latched)")
+          "stopped it, followed a nav_msgs/Path, e-stop latched)")
     close(z)
 
 

@@ -40,7 +40,9 @@ use anguilla_ipc::vocabulary::Command;
 
 use crate::ros2::graph::qualified;
 use crate::ros2::msgs;
-use crate::ros2::node::{CMD_VEL, LATCHED, Ros2Node, Ros2Settings, SERVICES, TOPICS, service_name};
+use crate::ros2::node::{
+    CMD_VEL, LATCHED, PATH_SERVICES, Ros2Node, Ros2Settings, SERVICES, TOPICS, service_name,
+};
 use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
@@ -262,8 +264,12 @@ fn access_control(s: &LinkSettings) -> String {
                     key,
                 );
             }
+            let key = node.data_key(&qualified(&r.namespace, "path"), &msgs::PATH);
+            rule("ros2-path-put", "put", "ingress", key.clone());
+            rule("ros2-path-declare", "declare_subscriber", "egress", key);
         }
-        for (name, cmd) in SERVICES {
+        let path_services = PATH_SERVICES.map(|n| (n, Command::KeepAlive));
+        for (name, cmd) in SERVICES.into_iter().chain(path_services) {
             if !(if cmd == Command::EStop {
                 r.allow_estop
             } else {
@@ -874,17 +880,17 @@ mod tests {
         let puts = keys(&acl, "put", "ingress");
         assert_eq!(
             puts.len(),
-            2,
-            "Twist and TwistStamped on cmd_vel only: {puts:?}"
+            3,
+            "Twist and TwistStamped on cmd_vel and a Path on path only: {puts:?}"
         );
-        assert!(
-            puts.iter()
-                .all(|k| k.starts_with("7/eel/cmd_vel/geometry_msgs::msg::dds_::Twist"))
-        );
+        assert!(puts.iter().all(|k| {
+            k.starts_with("7/eel/cmd_vel/geometry_msgs::msg::dds_::Twist")
+                || k.starts_with("7/eel/path/nav_msgs::msg::dds_::Path_/")
+        }));
         assert_eq!(
             keys(&acl, "query", "ingress").len(),
-            6 + 2 + 2,
-            "six services, two caches, the link's prefix and e-stop"
+            6 + 2 + 2 + 2,
+            "six services, two path services, two caches, the link's prefix and e-stop"
         );
     }
 }

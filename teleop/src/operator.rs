@@ -187,6 +187,9 @@ impl Operator {
     }
 }
 
+/// How long the keyboard client waits for a waypoint's reply.
+const WAYPOINT_REPLY: Duration = Duration::from_secs(1);
+
 /// The keyboard client's driving logic without a terminal: an [`Intent`],
 /// its immediate commands, and the steady 10 Hz sender while holding
 /// control. `anguilla teleop` and the system tests use the same code.
@@ -251,8 +254,19 @@ impl Driver {
             let resume = state == Some(GuideState::Interrupted)
                 && guide.is_some_and(|g| usize::from(g.waypoints) == n);
             if !resume {
+                // One a request, each answered before the next (the
+                // daemon keeps only a few unanswered requests per
+                // client); a refusal (outside the fence, too deep) is the
+                // operator's to read in the header, and nothing follows.
                 for w in &path.waypoints {
-                    self.op.send(Command::Waypoint(*w))?;
+                    if self
+                        .op
+                        .request(Command::Waypoint(*w), WAYPOINT_REPLY)?
+                        .accepted
+                        == 0
+                    {
+                        return Ok(None);
+                    }
                 }
             }
             let f = Command::Follow(Follow {

@@ -56,6 +56,7 @@ types! {
     TWIST = "geometry_msgs/msg/Twist", "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a";
     TWIST_STAMPED = "geometry_msgs/msg/TwistStamped", "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64";
     TRIGGER = "std_srvs/srv/Trigger", "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f";
+    PATH = "nav_msgs/msg/Path", "RIHS01_1957a5bb3cee5da65c4e52e52b65a93df227efce4c20f8458b36e73066ca334b";
 }
 
 /// `std_srvs/srv/Trigger`'s response: `bool success`, `string message`.
@@ -309,9 +310,77 @@ impl Twist {
     }
 }
 
+/// A `nav_msgs/msg/Path`'s poses as waypoints: x, y of each pose's
+/// position (m, the `odom` frame: the daemon's estimate's), and a depth
+/// of `−z` where z is below 0 (none at 0 or above). At most `max` poses:
+/// more is an error naming the count, as is a pose that is not finite.
+pub fn path_waypoints(msg: &[u8], max: usize) -> Result<Vec<anguilla_ipc::Waypoint>, String> {
+    let mut r = Reader::new(msg).map_err(|e| e.to_string())?;
+    let header = read_header(&mut r).map_err(|e| e.to_string())?;
+    let n = r.u32("poses' length").map_err(|e| e.to_string())? as usize;
+    if n > max {
+        return Err(format!("{n} poses (expected at most {max})"));
+    }
+    if !matches!(header.frame_id.as_str(), "" | "odom") {
+        return Err(format!(
+            "frame \"{}\" (expected \"odom\", the daemon's estimate's frame)",
+            header.frame_id
+        ));
+    }
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        read_header(&mut r).map_err(|e| e.to_string())?;
+        let mut v = [0.0; 7];
+        for x in &mut v {
+            *x = r.f64("a pose").map_err(|e| e.to_string())?;
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(format!("pose {i} is not finite"));
+        }
+        out.push(anguilla_ipc::Waypoint {
+            index: i as u32,
+            x: v[0],
+            y: v[1],
+            depth: (v[2] < 0.0).then_some(-v[2]),
+        });
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A path of two poses (the second 1.5 m down) reads as two waypoints;
+    /// a truncated one, another frame and too many poses are refused.
+    #[test]
+    fn a_path_reads_as_waypoints() {
+        let path = |frame: &str, poses: &[[f64; 3]]| {
+            let mut w = Writer::new();
+            w.i32(1).u32(2).string(frame).u32(poses.len() as u32);
+            for p in poses {
+                w.i32(1).u32(2).string(frame);
+                for x in p.iter().chain(&[0.0, 0.0, 0.0, 1.0]) {
+                    w.f64(*x);
+                }
+            }
+            w.finish()
+        };
+        let msg = path("odom", &[[0.0, 0.0, 0.0], [10.0, 2.0, -1.5]]);
+        let w = path_waypoints(&msg, 64).expect("a path");
+        assert_eq!(w.len(), 2);
+        assert_eq!(
+            (w[1].index, w[1].x, w[1].y, w[1].depth),
+            (1, 10.0, 2.0, Some(1.5))
+        );
+        assert_eq!(w[0].depth, None);
+        let e = path_waypoints(&msg[..msg.len() - 4], 64).unwrap_err();
+        assert!(e.contains("ends before"), "{e}");
+        let e = path_waypoints(&path("map", &[[0.0; 3]]), 64).unwrap_err();
+        assert!(e.contains("frame \"map\""), "{e}");
+        let e = path_waypoints(&msg, 1).unwrap_err();
+        assert!(e.contains("2 poses"), "{e}");
+    }
 
     #[test]
     fn dds_names_follow_rmw_zenoh() {

@@ -9,7 +9,7 @@
 //! | `pressure` | `sensor_msgs/msg/FluidPressure` | the head's depth as absolute pressure (fresh water, 1 atm at the surface) |
 //! | `feedforward` | `std_msgs/msg/Float64MultiArray` | the model's predicted torques, the axes in `joint_states`' order |
 //! | `torque_residual` | `std_msgs/msg/Float64MultiArray` | the normalised torque residuals, the same order |
-//! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode, cause, faults, bus, each joint's drive |
+//! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode, cause, faults, bus, the path (cross-track error, estimated current), each joint's drive |
 //!
 //! Every topic is under the node's namespace. The stamps are the tether
 //! computer's wall clock at publication (ROS 2 tools expect wall time;
@@ -19,7 +19,9 @@
 //! (`geometry_msgs/msg/Twist` or `TwistStamped`) becomes swim commands
 //! ([`swim_of`]), and `~/take_control`, `~/release_control`, `~/enable`,
 //! `~/disable`, `~/stop` and `~/estop` (`std_srvs/srv/Trigger`) the
-//! daemon's commands, answered with its reply. The ROS 2 side is one
+//! daemon's commands, answered with its reply; `path`
+//! (`nav_msgs/msg/Path`) is kept, `~/follow_path` follows it and
+//! `~/resume_path` resumes it ([`PATH_SERVICES`]). The ROS 2 side is one
 //! client of the daemon, so one operator session: it holds control only
 //! by `~/take_control`, and the daemon's deadman stops the swim when the
 //! twists stop. `~/estop` goes through the E-stop socket first.
@@ -49,8 +51,11 @@ use super::state;
 use crate::{LinkError, zenoh_err};
 
 mod cmd_vel;
+mod path;
 
 pub use cmd_vel::{SPEED_RUNGS, SpeedTable, TwistSwim, swim_of};
+pub use path::PATH_SERVICES;
+use path::PathSlot;
 
 /// Where and how often the node publishes.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,7 +101,7 @@ pub const SERVICES: [(&str, Command); 6] = [
 ];
 
 /// A service call, queued for the link's loop: the service's index in
-/// [`SERVICES`], the query, and for `~/estop` what relaying it to the
+/// [`SERVICES`] (then [`PATH_SERVICES`]), the query, and for `~/estop` what relaying it to the
 /// E-stop socket gave (done at once, on Zenoh's thread).
 struct Inbound(usize, Query, Option<Result<(), String>>);
 
@@ -129,6 +134,8 @@ struct Call {
     query: Query,
     attachment: Vec<u8>,
     sent: Instant,
+    /// A path service's: its success starts the keep-alive.
+    path: bool,
 }
 
 /// An `~/estop` call waiting for the state to say e-stop.
@@ -186,6 +193,12 @@ pub struct Ros2Node {
     conv: state::RosState,
     inbox: Receiver<Inbound>,
     twist: Arc<TwistSlot>,
+    path: Arc<PathSlot>,
+    /// While the ROS 2 side's path is followed: when it started and when
+    /// control was last kept alive.
+    following: Option<(Instant, Instant)>,
+    /// The newest path state the daemon showed.
+    guide: anguilla_ipc::GuideSnapshot,
     /// The ROS 2 side's own client of the daemon: one operator session.
     client: Option<Client>,
     calls: HashMap<u32, Call>,
@@ -326,6 +339,7 @@ impl Ros2Node {
         }
         let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
         let twist = Arc::new(TwistSlot::default());
+        let path = Arc::new(PathSlot::default());
         let mut subscribers = Vec::new();
         if settings.allow_command {
             let name = qualified(&settings.namespace, "cmd_vel");
@@ -421,6 +435,17 @@ impl Ros2Node {
             ))?);
             entity += 1;
         }
+        path::declare(
+            session,
+            &id,
+            &settings,
+            &tx,
+            &path,
+            &mut subscribers,
+            &mut queryables,
+            &mut tokens,
+            entity,
+        )?;
         let conv = state::RosState::new(settings.geometry.clone());
         Ok(Self {
             settings,
@@ -434,6 +459,9 @@ impl Ros2Node {
             conv,
             inbox,
             twist,
+            path,
+            following: None,
+            guide: anguilla_ipc::GuideSnapshot::default(),
             client: None,
             calls: HashMap::new(),
             estops: Vec::new(),
@@ -482,9 +510,11 @@ impl Ros2Node {
             self.call(i, q, relayed)?;
         }
         self.send_twist();
+        self.keep_path_alive();
         if let Some(c) = &mut self.client {
             let calls = &mut self.calls;
             let in_flight = &mut self.swim_in_flight;
+            let following = &mut self.following;
             let r = c.replies(|r| {
                 if *in_flight == Some(r.sequence) {
                     *in_flight = None;
@@ -496,6 +526,10 @@ impl Ros2Node {
                     } else {
                         format!("refused: {}; mode {mode}", r.reason())
                     };
+                    if call.path && r.accepted != 0 {
+                        let now = Instant::now();
+                        *following = Some((now, now));
+                    }
                     answer(&call, r.accepted != 0, &text);
                 }
             });
@@ -617,6 +651,10 @@ impl Ros2Node {
         q: Query,
         relayed: Option<Result<(), String>>,
     ) -> Result<(), LinkError> {
+        if i >= SERVICES.len() {
+            self.path_call(i - SERVICES.len(), q);
+            return Ok(());
+        }
         let (name, cmd) = SERVICES[i];
         let attachment = q
             .attachment()
@@ -626,6 +664,7 @@ impl Ros2Node {
             query: q,
             attachment,
             sent: Instant::now(),
+            path: false,
         };
         let sent = self.client().and_then(|c| Ok(c.send(cmd)?));
         if let Err(e) = &sent {
@@ -678,6 +717,7 @@ impl Ros2Node {
     pub fn publish(&mut self, s: &StateSnapshot) -> Result<(), LinkError> {
         self.limits = Some(s.limits);
         self.mode = Some(s.mode);
+        self.guide = s.guide;
         if s.loop_stats.period_ns > 0 {
             self.period = Duration::from_nanos(u64::from(s.loop_stats.period_ns));
         }

@@ -345,6 +345,37 @@ pub fn diagnostics(s: &StateSnapshot, stamp_ns: u64) -> msgs::DiagnosticArray {
             kv("bus off", b.bus_off_count.to_string()),
         ],
     });
+    // The path and the estimated current (docs/autopilot.md, "Following
+    // a path"): the cross-track error and the current, as the recording's
+    // `guide` and `nav` have them.
+    let g = &s.guide;
+    let guide = anguilla_ipc::GuideState::from_code(g.state);
+    let nav = &s.nav;
+    status.push(msgs::DiagnosticStatus {
+        level: u8::from(guide.is_some_and(anguilla_ipc::GuideState::failed)),
+        name: "anguilla: path".into(),
+        message: guide
+            .map_or("unknown", anguilla_ipc::GuideState::name)
+            .into(),
+        hardware_id: "anguilla".into(),
+        values: vec![
+            kv("leg", g.leg.to_string()),
+            kv("waypoints", g.waypoints.to_string()),
+            kv("cross_track_m", format!("{:.3}", g.cross_track_m)),
+            kv("along_track_m", format!("{:.3}", g.along_track_m)),
+            kv("to_go_m", format!("{:.3}", g.to_go_m)),
+            kv("heading_deg", format!("{:.1}", g.heading_deg)),
+            kv("current_x", format!("{:.3}", nav.current_x)),
+            kv("current_y", format!("{:.3}", nav.current_y)),
+            kv("current_sigma", format!("{:.3}", nav.current_sigma)),
+            kv(
+                "position",
+                nav.position_state()
+                    .map_or("unknown", anguilla_ipc::PositionHealth::name)
+                    .into(),
+            ),
+        ],
+    });
     let n = (s.joint_count as usize).min(s.joints.len());
     for (i, j) in s.joints[..n].iter().enumerate() {
         let alive = j.node_alive != 0;
@@ -391,8 +422,30 @@ mod tests {
             j.node_alive = 1;
         }
         let d = diagnostics(&s, 1);
-        assert_eq!(d.status.len(), 2 + 3);
+        assert_eq!(d.status.len(), 3 + 3, "daemon, bus, path and the joints");
         assert!(d.status.iter().all(|x| x.level == 0), "{d:?}");
+        // A path stopped for a lost fix is a warning, with its cross-track
+        // error and the current.
+        let mut lost = s;
+        lost.guide.state = anguilla_ipc::GuideState::FixLost as u8;
+        lost.guide.cross_track_m = 0.25;
+        lost.nav.current_y = 0.1;
+        let d = diagnostics(&lost, 1);
+        let p = d
+            .status
+            .iter()
+            .find(|x| x.name == "anguilla: path")
+            .unwrap();
+        assert_eq!(p.level, 1);
+        assert!(p.message.contains("fix lost"), "{}", p.message);
+        let value = |k: &str| {
+            p.values
+                .iter()
+                .find(|(n, _)| n == k)
+                .map(|(_, v)| v.clone())
+        };
+        assert_eq!(value("cross_track_m").as_deref(), Some("0.250"));
+        assert_eq!(value("current_y").as_deref(), Some("0.100"));
         s.joints[1].node_alive = 0;
         let d = diagnostics(&s, 1);
         let j2 = d
