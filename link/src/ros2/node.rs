@@ -26,12 +26,12 @@
 //! by `~/take_control`, and the daemon's deadman stops the swim when the
 //! twists stop. `~/estop` goes through the E-stop socket first.
 
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::Instant;
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anguilla_ipc::vocabulary::{Command, Mode};
@@ -45,17 +45,20 @@ use zenoh_ext::{
     AdvancedPublisher, AdvancedPublisherBuilderExt as _, CacheConfig, MissDetectionConfig,
 };
 
-use super::graph::{Kind, NodeId, Qos, attachment, qualified, read_attachment};
+use super::graph::{Kind, NodeId, Qos, attachment, qualified};
 use super::msgs::{self, MsgType};
 use super::state;
 use crate::{LinkError, zenoh_err};
 
 mod cmd_vel;
 mod path;
+mod reply;
 
+use cmd_vel::TwistSlot;
 pub use cmd_vel::{SPEED_RUNGS, SpeedTable, TwistSwim, swim_of};
 pub use path::PATH_SERVICES;
-use path::PathSlot;
+use path::{KeepAlive, PathSlot};
+use reply::{Call, answer, reply_err, wall_ns};
 
 /// Where and how often the node publishes.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,39 +107,6 @@ pub const SERVICES: [(&str, Command); 6] = [
 /// [`SERVICES`] (then [`PATH_SERVICES`]), the query, and for `~/estop` what relaying it to the
 /// E-stop socket gave (done at once, on Zenoh's thread).
 struct Inbound(usize, Query, Option<Result<(), String>>);
-
-/// The newest `cmd_vel` not yet sent (latest wins: a flood is one slot,
-/// never a queue), written by Zenoh's threads.
-#[derive(Default)]
-struct TwistSlot {
-    latest: Mutex<Option<msgs::Twist>>,
-    /// Twists replaced by a newer one before they were sent.
-    superseded: AtomicU64,
-    /// Messages that were not their type's CDR.
-    undecodable: AtomicU64,
-}
-
-impl TwistSlot {
-    fn put(&self, t: msgs::Twist) {
-        let mut slot = self.latest.lock().unwrap_or_else(|p| p.into_inner());
-        if slot.replace(t).is_some() {
-            self.superseded.fetch_add(1, Ordering::Relaxed);
-        }
-    }
-
-    fn take(&self) -> Option<msgs::Twist> {
-        self.latest.lock().unwrap_or_else(|p| p.into_inner()).take()
-    }
-}
-
-/// A service call waiting for the daemon's reply.
-struct Call {
-    query: Query,
-    attachment: Vec<u8>,
-    sent: Instant,
-    /// A path service's: its success starts the keep-alive.
-    path: bool,
-}
 
 /// An `~/estop` call waiting for the state to say e-stop.
 struct EStopCall {
@@ -194,9 +164,8 @@ pub struct Ros2Node {
     inbox: Receiver<Inbound>,
     twist: Arc<TwistSlot>,
     path: Arc<PathSlot>,
-    /// While the ROS 2 side's path is followed: when it started and when
-    /// control was last kept alive.
-    following: Option<(Instant, Instant)>,
+    /// While the ROS 2 side's path is followed: control kept alive.
+    following: KeepAlive,
     /// The newest path state the daemon showed.
     guide: anguilla_ipc::GuideSnapshot,
     /// The ROS 2 side's own client of the daemon: one operator session.
@@ -235,12 +204,6 @@ fn gid(zid: &[u8; 16], entity: u32) -> [u8; 16] {
     let mut gid = *zid;
     gid[12..].copy_from_slice(&entity.to_le_bytes());
     gid
-}
-
-fn wall_ns() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
 }
 
 impl Ros2Node {
@@ -435,17 +398,29 @@ impl Ros2Node {
             ))?);
             entity += 1;
         }
-        path::declare(
-            session,
-            &id,
-            &settings,
-            &tx,
-            &path,
-            &mut subscribers,
-            &mut queryables,
-            &mut tokens,
-            entity,
-        )?;
+        if settings.allow_command {
+            let tx = tx.clone();
+            path::declare(
+                session,
+                &id,
+                (&settings.namespace, &settings.node),
+                &path,
+                move |k, q| {
+                    let i = SERVICES.len() + k;
+                    if let Err(TrySendError::Full(Inbound(_, q, _))) =
+                        tx.try_send(Inbound(i, q, None))
+                    {
+                        reply_err(&q, "the link is busy: call dropped");
+                    }
+                },
+                path::Declared {
+                    subscribers: &mut subscribers,
+                    queryables: &mut queryables,
+                    tokens: &mut tokens,
+                },
+                entity,
+            )?;
+        }
         let conv = state::RosState::new(settings.geometry.clone());
         Ok(Self {
             settings,
@@ -460,7 +435,7 @@ impl Ros2Node {
             inbox,
             twist,
             path,
-            following: None,
+            following: KeepAlive::default(),
             guide: anguilla_ipc::GuideSnapshot::default(),
             client: None,
             calls: HashMap::new(),
@@ -527,8 +502,7 @@ impl Ros2Node {
                         format!("refused: {}; mode {mode}", r.reason())
                     };
                     if call.path && r.accepted != 0 {
-                        let now = Instant::now();
-                        *following = Some((now, now));
+                        following.start();
                     }
                     answer(&call, r.accepted != 0, &text);
                 }
@@ -645,6 +619,65 @@ impl Ros2Node {
         });
     }
 
+    /// A path service's call (`k` its index in [`PATH_SERVICES`]): the
+    /// waypoints and the follow sent ([`path::load`]: a few control
+    /// periods a waypoint), the call answered by the follow's reply or the
+    /// first waypoint refused.
+    fn path_call(&mut self, k: usize, q: Query) {
+        let call = Call::of(q, true);
+        let name = PATH_SERVICES[k];
+        let resume = name == "resume_path";
+        let waypoints = match (resume, self.path.latest()) {
+            (true, _) => Vec::new(),
+            (false, Some(Ok(w))) => w,
+            (false, Some(Err(e))) => {
+                let why = format!("~/{name}: the last path was refused: {e}");
+                return answer(&call, false, &why);
+            }
+            (false, None) => {
+                return answer(
+                    &call,
+                    false,
+                    &format!("~/{name}: no path received on `path`"),
+                );
+            }
+        };
+        let count = if resume {
+            u32::from(self.guide.waypoints)
+        } else {
+            waypoints.len() as u32
+        };
+        let follow = path::follow(resume, count, self.settings.frequency);
+        match self
+            .client()
+            .and_then(|c| Ok(path::load(c, &waypoints, follow, CALL_TIMEOUT)?))
+        {
+            Ok(Ok(seq)) => {
+                self.calls.insert(seq, call);
+            }
+            Ok(Err(why)) => answer(&call, false, &format!("~/{name}: refused: {why}")),
+            Err(e) => {
+                self.client = None;
+                self.swim_in_flight = None;
+                answer(&call, false, &format!("~/{name}: {e}"));
+            }
+        }
+    }
+
+    /// Keeps control alive while the ROS 2 side's path is followed (the
+    /// daemon's deadman would stop the swim otherwise).
+    fn keep_path_alive(&mut self) {
+        let followed = self.guide.guide_state() == Some(anguilla_ipc::GuideState::Following);
+        if !self.following.due(followed, CALL_TIMEOUT) {
+            return;
+        }
+        if let Err(e) = self.client().and_then(|c| Ok(c.send(Command::KeepAlive)?)) {
+            tracing::warn!("ROS 2 path keep-alive: {e}");
+            self.client = None;
+            self.following.stop();
+        }
+    }
+
     fn call(
         &mut self,
         i: usize,
@@ -656,16 +689,7 @@ impl Ros2Node {
             return Ok(());
         }
         let (name, cmd) = SERVICES[i];
-        let attachment = q
-            .attachment()
-            .map(|a| a.to_bytes().into_owned())
-            .unwrap_or_default();
-        let call = Call {
-            query: q,
-            attachment,
-            sent: Instant::now(),
-            path: false,
-        };
+        let call = Call::of(q, false);
         let sent = self.client().and_then(|c| Ok(c.send(cmd)?));
         if let Err(e) = &sent {
             self.client = None;
@@ -748,31 +772,6 @@ impl Ros2Node {
             }
         }
         Ok(())
-    }
-}
-
-/// Answers a service call: a `Trigger` response, with rmw_zenoh's
-/// attachment (the request's sequence number and GID, which the caller
-/// matches the reply by).
-fn answer(call: &Call, success: bool, message: &str) {
-    let now = i64::try_from(wall_ns()).unwrap_or(i64::MAX);
-    let (seq, gid) = read_attachment(&call.attachment).map_or((0, [0; 16]), |(s, _, g)| (s, g));
-    let r = call
-        .query
-        .reply(
-            call.query.key_expr().clone(),
-            msgs::trigger_response(success, message),
-        )
-        .attachment(attachment(seq, now, &gid).to_vec())
-        .wait();
-    if let Err(e) = r {
-        tracing::debug!("ROS 2 service reply: {e}");
-    }
-}
-
-fn reply_err(q: &Query, text: &str) {
-    if let Err(e) = q.reply_err(text.to_string()).wait() {
-        tracing::debug!("ROS 2 service error reply: {e}");
     }
 }
 
