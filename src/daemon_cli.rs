@@ -178,6 +178,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         tracing::info!("{note}");
     }
     crate::signals::install();
+    // The loop below polls the stop flag, and the robot is driven while
+    // this thread opens its state reader: a signal never ends it there.
+    anguilla_ipc::guard::stop_is_polled();
     // Before any thread starts (the simulated robot's first).
     anguilla_daemon::rt::prepare(&run::rt_request(&cfg));
     let stop = Arc::new(AtomicBool::new(false));
@@ -212,8 +215,23 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     };
     let prefix = cfg.ipc.prefix.clone();
     let running = run::spawn(cfg, bus, stop.clone())?;
-    let status =
-        Client::new(&prefix, "anguilla-run-status").context("reading the daemon's state")?;
+    let status = match Client::new(&prefix, "anguilla-run-status") {
+        Ok(c) => c,
+        Err(e) => {
+            // The loop drives the robot already: stop it as a signal would
+            // (a swim ramped down, the actuators disabled) before saying so.
+            running.request_stop();
+            let stopped = running.join();
+            if let Some(sim) = sim {
+                sim.stop();
+            }
+            let e = anyhow::Error::new(e).context("reading the daemon's state");
+            return Err(match stopped {
+                Ok(_) => e,
+                Err(r) => e.context(format!("and stopping the control loop: {r}")),
+            });
+        }
+    };
     let start = Instant::now();
     let mut last_print = Instant::now();
     let mut next_truth_ns = 0;

@@ -264,6 +264,21 @@ static OPENING: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new
 /// The stop signal a handler saw while no call was under [`bounded`] (0:
 /// none): a call that starts after it ends the process at once.
 static STOPPED_BY: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
+/// Whether this process's own loop polls the stop flag ([`stop_is_polled`]).
+static POLLED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Says that this process's loop polls the stop flag and must see every
+/// stop signal itself: from now on a stop signal during a call under
+/// [`bounded`] no longer ends the process ([`opening`] stays false); the
+/// call finishes and the loop stops as it stops on its own. The daemon
+/// calls it: it opens its own state reader while its control loop already
+/// drives the robot, and a Ctrl-C that ended the process there (the CI
+/// failure of stop 60: SIGINT while a loaded machine took seconds to open
+/// it) left the actuators enabled and the recording unfinished. The
+/// watchdog's limit ([`OPEN_LIMIT`]) still holds.
+pub fn stop_is_polled() {
+    POLLED.store(true, std::sync::atomic::Ordering::SeqCst);
+}
 
 /// Called by a stop signal's handler that found no call under [`bounded`]
 /// ([`opening`] false): a call that starts later ends the process at once
@@ -277,7 +292,8 @@ pub fn stop_requested(sig: i32) {
 /// that sees it ends the process at once (`libc::_exit`; the call cannot
 /// be interrupted). Async-signal-safe (one atomic load).
 pub fn opening() -> bool {
-    OPENING.load(std::sync::atomic::Ordering::SeqCst) > 0
+    use std::sync::atomic::Ordering::SeqCst;
+    OPENING.load(SeqCst) > 0 && !POLLED.load(SeqCst)
 }
 
 /// What to check when iceoryx2 does not answer: its directory and
@@ -317,7 +333,7 @@ pub fn bounded<T>(what: &str, f: impl FnOnce() -> T) -> T {
     // other: both sequentially consistent).
     OPENING.fetch_add(1, SeqCst);
     let sig = STOPPED_BY.load(SeqCst);
-    if sig != 0 {
+    if sig != 0 && !POLLED.load(SeqCst) {
         // SAFETY: _exit ends the process at once, as the signal's handler
         // would have had the call been under way.
         unsafe { libc::_exit(128 + sig) };
@@ -414,5 +430,32 @@ mod tests {
         assert_eq!(unsafe { libc::waitpid(pid, &mut status, 0) }, pid);
         assert!(libc::WIFEXITED(status), "status {status:#x}");
         assert_eq!(libc::WEXITSTATUS(status), 128 + libc::SIGTERM);
+    }
+
+    /// A process whose loop polls the stop flag (the daemon, its robot
+    /// driven meanwhile) is not ended by a stop signal that comes before or
+    /// during a call under `bounded`: the call returns its value, and the
+    /// handler's test (`opening`) says not to end it.
+    #[test]
+    fn a_process_that_polls_its_stop_flag_is_not_ended_by_a_signal_in_a_bounded_call() {
+        // SAFETY: as above (atomics and _exit in the child).
+        let pid = unsafe { libc::fork() };
+        assert!(pid >= 0, "fork failed");
+        if pid == 0 {
+            stop_is_polled();
+            stop_requested(libc::SIGINT);
+            let (value, opening_inside) = bounded("a call that returns", || (7, opening()));
+            // SAFETY: as above.
+            unsafe { libc::_exit(if opening_inside { 1 } else { value }) };
+        }
+        let mut status = 0;
+        // SAFETY: pid is our child.
+        assert_eq!(unsafe { libc::waitpid(pid, &mut status, 0) }, pid);
+        assert!(libc::WIFEXITED(status), "status {status:#x}");
+        assert_eq!(
+            libc::WEXITSTATUS(status),
+            7,
+            "1: opening() was true inside the call"
+        );
     }
 }
