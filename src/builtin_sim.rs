@@ -83,18 +83,9 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
 /// ([`DvlSimConfig::typical`]), each with its configured latency. None for
 /// a serial source: a serial sensor is a real one.
 fn udp_target(source: Option<&str>) -> Option<std::net::SocketAddr> {
-    use anguilla_daemon::sensors::usbl::Source;
-    let Ok(Source::Udp(mut addr)) = Source::parse(source?) else {
-        return None;
-    };
-    if addr.ip().is_unspecified() {
-        addr.set_ip(if addr.is_ipv4() {
-            std::net::Ipv4Addr::LOCALHOST.into()
-        } else {
-            std::net::Ipv6Addr::LOCALHOST.into()
-        });
-    }
-    Some(addr)
+    anguilla_daemon::sensors::usbl::Source::parse(source?)
+        .ok()?
+        .send_to()
 }
 
 /// The simulated IMU at node `id` of `cfg`'s `[sensor]` (the head sensor

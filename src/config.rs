@@ -83,7 +83,31 @@ impl Config {
 
     fn validate_others(&self) -> Result<(), ConfigError> {
         self.foxglove.validate()?;
-        self.link.validate().map_err(link::error)
+        self.link.validate().map_err(link::error)?;
+        if self.link.ros2_pose {
+            self.pose_fix_target()?;
+        }
+        Ok(())
+    }
+
+    /// Where the ROS 2 node sends its position fixes (`[link] ros2-pose`):
+    /// the daemon's `[sensor.usbl]` source, which must be `udp:` (this
+    /// machine's loopback when it is bound to every address).
+    pub fn pose_fix_target(&self) -> Result<std::net::SocketAddr, ConfigError> {
+        use anguilla_daemon::sensors::usbl::Source;
+        let source = self.daemon.sensor.usbl.as_ref().map(|u| u.source.as_str());
+        let target = source
+            .and_then(|s| Source::parse(s).ok())
+            .and_then(|s| s.send_to());
+        target.ok_or_else(|| {
+            ConfigError::Derived(format!(
+                "link.ros2-pose = true needs [sensor.usbl] with a \"udp:ADDRESS:PORT\" source \
+                 (where the daemon reads position fixes; it has {})",
+                source.map_or("no [sensor.usbl]".to_string(), |s| format!(
+                    "source = {s:?}"
+                ))
+            ))
+        })
     }
 }
 

@@ -166,6 +166,10 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     } else {
         [0.0; anguilla_daemon::speed::N]
     };
+    // Checked with the configuration: a udp: [sensor.usbl] source.
+    let pose_to = (l.ros2 && l.ros2_pose)
+        .then(|| whole.pose_fix_target())
+        .transpose()?;
     let settings = LinkSettings {
         prefix: prefix.clone(),
         listen,
@@ -192,6 +196,11 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             speeds: anguilla_link::ros2::node::SpeedTable::new(speeds),
             max_speed: l.ros2_max_speed,
             frequency: l.ros2_frequency.min(cfg.gait.max_frequency),
+            pose: pose_to.map(|to| anguilla_link::ros2::node::PoseSettings {
+                to,
+                frame: l.ros2_pose_frame.clone(),
+                sigma: l.ros2_pose_sigma,
+            }),
         }),
     };
     crate::signals::install();
@@ -239,6 +248,12 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
                 String::new()
             }
         );
+        if let Some(p) = &n.settings().pose {
+            eprintln!(
+                "anguilla link: ROS 2 position fixes: pose_fix and odom_fix in frame {:?} go to                  the daemon's [sensor.usbl] at {}, aged by their stamps",
+                p.frame, p.to
+            );
+        }
     }
     bridge.run(&|| !running())?;
     let st = bridge.stats();
@@ -265,6 +280,12 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
             n.undecodable(),
             n.clamped,
         );
+        if let Some(p) = n.pose_stats() {
+            eprintln!(
+                "anguilla link: ROS 2 position fixes: {} sent to the daemon, {} superseded by a                  newer one, {} refused, {} stale (older than 60 s), {} stamped ahead of this                  clock, {} failed to send",
+                p.sent, p.superseded, p.refused, p.stale, p.ahead, p.failed
+            );
+        }
     }
     Ok(())
 }

@@ -123,6 +123,7 @@ fn a_period_with_the_autopilot_allocates_nothing() {
         x: 0.1,
         y: 0.0,
         sigma: 0.5,
+        age: 0.0,
     }
     .sentence();
     let mut rig = lockstep::Rig::new(&cfg, 9, [0.0; 3]);

@@ -21,7 +21,12 @@ hash), then, as a ROS 2 node would:
   following, leg 1) and the node keeps control alive while it does;
   `~/stop` interrupts it;
 - calls `~/estop`: the robot is in e-stop, and stays there while twists
-  keep coming (it latches).
+  keep coming (it latches);
+- publishes a `geometry_msgs/msg/PoseStamped` on `pose_fix` stamped 0.8 s
+  ago, then a `nav_msgs/msg/Odometry` on `odom_fix` with a covariance:
+  the daemon's position sensor shows each fix, its σ (the link's
+  `ros2-pose-sigma`, then the covariance's) and an age of at least the
+  stamp's (the link ages each fix by its stamp).
 Every reply must echo the call's sequence number and GID. Exit 0 when all
 holds, 1 otherwise.
 """
@@ -32,6 +37,7 @@ import struct
 import sys
 import time
 
+import numpy
 import zenoh
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
@@ -88,6 +94,7 @@ def main(argv=None):
     ap.add_argument("--domain", type=int, default=0)
     ap.add_argument("--node", default="anguilla")
     ap.add_argument("--max-speed", type=float, default=0.4, help="[link] ros2-max-speed")
+    ap.add_argument("--pose-sigma", type=float, default=0.01, help="[link] ros2-pose-sigma")
     a = ap.parse_args(argv)
     jazzy = get_typestore(Stores.ROS2_JAZZY)
     srv = service_store()
@@ -106,7 +113,7 @@ def main(argv=None):
                   for r in z.liveliness().get(f"@ros2_lv/{a.domain}/**", timeout=2.0) if r.ok]
         time.sleep(0.2)
     mine = [t for t in tokens if t and t["node"] == a.node and t["kind"] in ("MS", "SS")]
-    services, cmd_vel, path_sub = {}, {}, None
+    services, cmd_vel, path_sub, fixes = {}, {}, None, {}
     for t in mine:
         if t["kind"] == "SS":
             if t["type"] != "std_srvs/srv/Trigger" or t["hash"] != trigger:
@@ -116,6 +123,10 @@ def main(argv=None):
             if t["type"] != "nav_msgs/msg/Path" or t["hash"] != jazzy.hash_rihs01(t["type"]):
                 fail(f"path: {t['type']} {t['hash']}, expected nav_msgs/msg/Path with rosbags' hash")
             path_sub = t
+        elif t["topic"].endswith(("/pose_fix", "/odom_fix")):
+            if t["hash"] != jazzy.hash_rihs01(t["type"]):
+                fail(f"{t['topic']} [{t['type']}]: hash {t['hash']} is not rosbags' own")
+            fixes[t["topic"].rsplit("/", 1)[1]] = t
         elif t["topic"].endswith("/cmd_vel"):
             if t["hash"] != jazzy.hash_rihs01(t["type"]):
                 fail(f"cmd_vel [{t['type']}]: hash {t['hash']} is not rosbags' own")
@@ -123,6 +134,9 @@ def main(argv=None):
         print(f"  {t['kind']} {t['topic']} [{t['type']}] {t['hash']}: hash checked")
     if path_sub is None:
         fail("no path subscription")
+    want = {"pose_fix": "geometry_msgs/msg/PoseStamped", "odom_fix": "nav_msgs/msg/Odometry"}
+    if {k: t["type"] for k, t in fixes.items()} != want:
+        fail(f"position-fix subscriptions {sorted(fixes)}, expected {want}")
     for name in ("take_control", "release_control", "enable", "disable", "stop", "estop",
                  "follow_path", "resume_path"):
         if name not in services:
@@ -269,8 +283,65 @@ def main(argv=None):
         time.sleep(0.1)
     if MODES[state().mode] != "e-stop":
         fail(f"twists after the e-stop took the robot to {MODES[state().mode]}")
+    # Position fixes: a motion capture's PoseStamped 0.8 s old, then an
+    # Odometry with σ 0.04 m; the daemon's position sensor (kind 3) shows
+    # each as the link handed it over, aged by its stamp.
+    def fix_shown(x_, y_, sigma, age):
+        def shown(s):
+            return any(e.kind == 3 and math.isclose(e.values[0], x_, abs_tol=1e-3)
+                       and math.isclose(e.values[1], y_, abs_tol=1e-3)
+                       and math.isclose(e.values[2], sigma, rel_tol=1e-3)
+                       and e.values[3] >= age for e in s.sensors)
+        return shown
+
+    def stamped_header(ago):
+        t = time.time_ns() - int(ago * 1e9)
+        return T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](
+            sec=t // 10**9, nanosec=t % 10**9), frame_id="odom")
+
+    def pose(x_, y_):
+        return T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=x_, y=y_, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0))
+
+    pose_pub = z.declare_publisher(key(fixes["pose_fix"]))
+    odom_pub = z.declare_publisher(key(fixes["odom_fix"]))
+    for name, pub, make, (fx, fy, sigma, ago) in (
+        ("pose_fix", pose_pub, lambda: jazzy.serialize_cdr(T["geometry_msgs/msg/PoseStamped"](
+            header=stamped_header(0.8), pose=pose(123.25, -45.5)),
+            "geometry_msgs/msg/PoseStamped"), (123.25, -45.5, a.pose_sigma, 0.8)),
+        ("odom_fix", odom_pub, lambda: jazzy.serialize_cdr(T["nav_msgs/msg/Odometry"](
+            header=stamped_header(0.0), child_frame_id="base_link",
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                pose=pose(-7.5, 8.25), covariance=numpy.array(
+                    [0.0016 if i in (0, 7) else 0.0 for i in range(36)])),
+            twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                twist=T["geometry_msgs/msg/Twist"](
+                    linear=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                    angular=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)),
+                covariance=numpy.zeros(36))), "nav_msgs/msg/Odometry"), (-7.5, 8.25, 0.04, 0.0)),
+    ):
+        # 20 Hz, as a motion capture's bridge (the built-in robot's own
+        # simulated USBL sends to the same port once a second).
+        end, seen, n = time.monotonic() + 15, None, 0
+        while time.monotonic() < end and seen is None:
+            n += 1
+            att = struct.pack("<qq", n, time.time_ns()) + bytes([16]) + GID
+            pub.put(bytes(make()), attachment=att)
+            time.sleep(0.05)
+            s = state()
+            if s is not None and fix_shown(fx, fy, sigma, ago)(s):
+                seen = s
+        if seen is None:
+            e = [e for e in state().sensors if e.kind == 3]
+            fail(f"{name}: the daemon's position sensor does not show ({fx}, {fy}) σ {sigma} "
+                 f"aged >= {ago} s: {[list(x.values) for x in e]}")
+        e = next(e for e in seen.sensors if e.kind == 3)
+        print(f"  {name}: the daemon's position sensor shows ({e.values[0]:.2f}, "
+              f"{e.values[1]:.2f}) σ {e.values[2]:.4f} m, age {e.values[3]:.2f} s")
     print("ros2 drive client: OK (took control, enabled, swam from cmd_vel, the deadman "
-          "stopped it, followed a nav_msgs/Path, e-stop latched)")
+          "stopped it, followed a nav_msgs/Path, e-stop latched, took PoseStamped and "
+          "Odometry fixes aged by their stamps)")
     close(z)
 
 

@@ -36,13 +36,7 @@ use zenoh::Wait as _;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Query;
 
-use anguilla_ipc::vocabulary::Command;
-
-use crate::ros2::graph::qualified;
-use crate::ros2::msgs;
-use crate::ros2::node::{
-    CMD_VEL, LATCHED, PATH_SERVICES, Ros2Node, Ros2Settings, SERVICES, TOPICS, service_name,
-};
+use crate::ros2::node::{Ros2Node, Ros2Settings};
 use crate::wire::{Hello, Stamp, token_of};
 use crate::{Endpoint, LinkError, Tls, zenoh_err};
 
@@ -171,132 +165,7 @@ fn access_control(s: &LinkSettings) -> String {
         rule("state-put", "put", "egress", format!("{p}/state"));
     }
     if let Some(r) = &s.ros2 {
-        // The ROS 2 graph: rmw_zenoh's nodes ask for and watch the
-        // liveliness tokens of the domain; they subscribe to this node's
-        // topics, by their data keys; they drive through cmd_vel and the
-        // services when the allowlist lets them. Nothing else.
-        //
-        // The tokens they declare themselves do not enter: the router
-        // would keep every one for as long as the client stays (an
-        // admitted client declared 10,000: +49 MB, graph queries timed
-        // out), and nobody here needs them: this node reads no graph, and
-        // the list lets no ROS 2 traffic pass from one client to another.
-        // So a client's graph costs the link nothing: docs/ros2.md,
-        // "Security".
-        let graph = format!("@ros2_lv/{}/**", r.domain);
-        for (id, msg, flow) in [
-            ("ros2-graph-query", "liveliness_query", "ingress"),
-            (
-                "ros2-graph-watch",
-                "declare_liveliness_subscriber",
-                "ingress",
-            ),
-            ("ros2-graph-tokens-out", "liveliness_token", "egress"),
-            ("ros2-graph-reply", "reply", "egress"),
-        ] {
-            rule(id, msg, flow, graph.clone());
-        }
-        let node = crate::ros2::graph::NodeId {
-            domain: r.domain,
-            session: String::new(),
-            node: 0,
-            namespace: r.namespace.clone(),
-            name: r.node.clone(),
-            humble: r.humble,
-        };
-        for (i, (name, ty)) in TOPICS.iter().enumerate() {
-            let key = node.data_key(&qualified(&r.namespace, name), ty);
-            rule(
-                &format!("ros2-topic-{i}-subscribe"),
-                "declare_subscriber",
-                "ingress",
-                key.clone(),
-            );
-            rule(&format!("ros2-topic-{i}-put"), "put", "egress", key);
-        }
-        // The transient-local topics: their data keys, and their
-        // publishers' caches and liveliness under `<key>/@adv/`, which a
-        // late subscriber (rmw_zenoh's, an advanced subscriber) asks.
-        for (name, ty) in LATCHED {
-            let key = node.data_key(&qualified(&r.namespace, name), &ty);
-            rule(
-                &format!("ros2-{name}-subscribe"),
-                "declare_subscriber",
-                "ingress",
-                key.clone(),
-            );
-            rule(&format!("ros2-{name}-put"), "put", "egress", key.clone());
-            // the cache replies with its samples on their own key
-            rule(
-                &format!("ros2-{name}-cached"),
-                "reply",
-                "egress",
-                key.clone(),
-            );
-            let adv = format!("{key}/@adv/**");
-            for (id, msg, flow) in [
-                ("cache-query", "query", "ingress"),
-                ("cache-reply", "reply", "egress"),
-                ("heartbeat", "put", "egress"),
-                ("heartbeat-subscribe", "declare_subscriber", "ingress"),
-                ("detect-query", "liveliness_query", "ingress"),
-                ("detect-watch", "declare_liveliness_subscriber", "ingress"),
-                // (a late subscriber's detection token, `@adv/sub/`, is
-                // for publishers that watch them: this one does not)
-                ("detect-token-out", "liveliness_token", "egress"),
-            ] {
-                rule(&format!("ros2-{name}-{id}"), msg, flow, adv.clone());
-            }
-        }
-        if r.allow_command {
-            for (i, ty) in CMD_VEL.iter().enumerate() {
-                let key = node.data_key(&qualified(&r.namespace, "cmd_vel"), ty);
-                rule(
-                    &format!("ros2-cmd-vel-{i}-put"),
-                    "put",
-                    "ingress",
-                    key.clone(),
-                );
-                rule(
-                    &format!("ros2-cmd-vel-{i}-declare"),
-                    "declare_subscriber",
-                    "egress",
-                    key,
-                );
-            }
-            let key = node.data_key(&qualified(&r.namespace, "path"), &msgs::PATH);
-            rule("ros2-path-put", "put", "ingress", key.clone());
-            rule("ros2-path-declare", "declare_subscriber", "egress", key);
-        }
-        let path_services = PATH_SERVICES.map(|n| (n, Command::KeepAlive));
-        for (name, cmd) in SERVICES.into_iter().chain(path_services) {
-            if !(if cmd == Command::EStop {
-                r.allow_estop
-            } else {
-                r.allow_command
-            }) {
-                continue;
-            }
-            let key = node.data_key(&service_name(&r.namespace, &r.node, name), &msgs::TRIGGER);
-            rule(
-                &format!("ros2-{name}-query"),
-                "query",
-                "ingress",
-                key.clone(),
-            );
-            rule(
-                &format!("ros2-{name}-reply"),
-                "reply",
-                "egress",
-                key.clone(),
-            );
-            rule(
-                &format!("ros2-{name}-declare"),
-                "declare_queryable",
-                "egress",
-                key,
-            );
-        }
+        crate::ros2::acl::rules(r, &mut rule);
     }
     let ids: Vec<_> = rules.iter().map(|r| r["id"].clone()).collect();
     let policies = if ids.is_empty() {
@@ -842,6 +711,7 @@ mod tests {
             speeds: crate::ros2::node::SpeedTable::linear(0.4),
             max_speed: 0.4,
             frequency: 1.0,
+            pose: None,
         };
         let mut s = settings(Some(ros2));
         let acl: serde_json::Value = serde_json::from_str(&access_control(&s)).unwrap();
@@ -891,6 +761,24 @@ mod tests {
             keys(&acl, "query", "ingress").len(),
             6 + 2 + 2 + 2,
             "six services, two path services, two caches, the link's prefix and e-stop"
+        );
+        // Position fixes: a PoseStamped on pose_fix and an Odometry on
+        // odom_fix, only when the node takes them.
+        s.ros2.as_mut().unwrap().pose = Some(crate::ros2::node::PoseSettings {
+            to: ([127, 0, 0, 1], 14660).into(),
+            frame: "odom".into(),
+            sigma: 0.01,
+        });
+        let acl: serde_json::Value = serde_json::from_str(&access_control(&s)).unwrap();
+        let puts = keys(&acl, "put", "ingress");
+        assert_eq!(puts.len(), 5, "{puts:?}");
+        assert!(
+            puts.iter()
+                .any(|k| k.starts_with("7/eel/pose_fix/geometry_msgs::msg::dds_::PoseStamped_/"))
+        );
+        assert!(
+            puts.iter()
+                .any(|k| k.starts_with("7/eel/odom_fix/nav_msgs::msg::dds_::Odometry_/"))
         );
     }
 }

@@ -60,6 +60,19 @@ pub struct LinkConfig {
     pub ros2_max_speed: f64,
     /// The undulation frequency a ROS 2 `cmd_vel` swims at (Hz).
     pub ros2_frequency: f64,
+    /// The ROS 2 node takes position fixes: `pose_fix`
+    /// (`geometry_msgs/msg/PoseStamped`) and `odom_fix`
+    /// (`nav_msgs/msg/Odometry`), handed to the daemon's `[sensor.usbl]`
+    /// (its `udp:` source) with their age from their stamps. Needs
+    /// `inbound` to hold `command`: a fix steers a path as a command does.
+    pub ros2_pose: bool,
+    /// The frame the fixes' headers must name (the estimate's frame, its
+    /// origin where the estimate started, moved by `[sensor.usbl]
+    /// offset`).
+    pub ros2_pose_frame: String,
+    /// A fix's horizontal standard deviation (m) when its message says
+    /// none (a `PoseStamped`, an `Odometry` with a zero covariance).
+    pub ros2_pose_sigma: f64,
 }
 
 /// Names a `[link]` allowlist may hold, inbound and outbound.
@@ -89,6 +102,9 @@ impl Default for LinkConfig {
             ros2_rates: BTreeMap::from([("diagnostics".to_string(), 1.0)]),
             ros2_max_speed: 0.4,
             ros2_frequency: 1.0,
+            ros2_pose: false,
+            ros2_pose_frame: "odom".into(),
+            ros2_pose_sigma: 0.01,
         }
     }
 }
@@ -183,6 +199,27 @@ impl LinkConfig {
             10.0,
             "0.05 ..= 10 Hz",
         )?;
+        range(
+            "link.ros2-pose-sigma",
+            l.ros2_pose_sigma,
+            1e-4,
+            100.0,
+            "0.0001 ..= 100 m",
+        )?;
+        if l.ros2_pose_frame.is_empty() {
+            return Err(ConfigError::Range {
+                key: "link.ros2-pose-frame",
+                value: "\"\"".into(),
+                expected: "a frame's name, e.g. \"odom\"",
+            });
+        }
+        if l.ros2_pose && !l.inbound.iter().any(|n| n == "command") {
+            return Err(ConfigError::Derived(
+                "link.ros2-pose = true needs \"command\" in link.inbound (a position fix \
+                 steers a path as a command does)"
+                    .into(),
+            ));
+        }
         // rmw_zenoh, as DDS: 0..=232 (the ports of DDS's domains).
         if l.ros2_domain > 232 {
             return Err(ConfigError::Range {
@@ -295,6 +332,15 @@ mod tests {
         assert!(e.contains("link.ros2-rates.imu = NaN"), "{e}");
         assert!(bad(&|c| c.ros2_domain = 233).contains("'link.ros2-domain'"));
         assert!(bad(&|c| c.ros2_max_speed = 0.0).contains("'link.ros2-max-speed'"));
+        assert!(bad(&|c| c.ros2_pose_sigma = 0.0).contains("'link.ros2-pose-sigma'"));
+        assert!(bad(&|c| c.ros2_pose_frame.clear()).contains("'link.ros2-pose-frame'"));
+        assert!(
+            bad(&|c| {
+                c.ros2_pose = true;
+                c.inbound = vec!["estop".into()];
+            })
+            .contains("needs \"command\"")
+        );
         assert!(bad(&|c| c.ros2_frequency = f64::INFINITY).contains("'link.ros2-frequency'"));
         for n in ["", "1eel", "my-eel", "a/b"] {
             assert!(

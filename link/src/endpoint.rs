@@ -36,6 +36,9 @@ pub enum LinkError {
     /// Making certificates failed.
     #[error("certificates: {0}")]
     Certs(String),
+    /// A socket of the link's own failed; the text names it.
+    #[error("{0}")]
+    Socket(String),
 }
 
 #[cfg(feature = "zenoh")]

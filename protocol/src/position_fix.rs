@@ -4,7 +4,7 @@
 //! datagram) or a serial line (one a line).
 //!
 //! ```text
-//! $ANFIX,<x>,<y>,<sigma>*HH
+//! $ANFIX,<x>,<y>,<sigma>[,<age>]*HH
 //! $ANVEL,<vx>,<vy>,<sigma>*HH
 //! ```
 //!
@@ -17,19 +17,25 @@
 //!   none;
 //! - `sigma`: the fix's horizontal standard deviation (m), or the
 //!   velocity's per axis (m/s), > 0;
+//! - `age` (optional): how old the fix was when the sentence was sent (s,
+//!   0 ..= 60): a bridge that knows each fix's own time stamp (the ROS 2
+//!   node's `pose_fix`, a motion-capture system's) says it, a sensor with a
+//!   constant delay leaves it out;
 //! - `HH`: the NMEA 0183 checksum, two hexadecimal digits: the XOR of the
 //!   bytes between `$` and `*`.
 //!
 //! A trailing `\r\n` (or `\n`) is allowed. The time of the fix is its
-//! arrival less the sensor's configured latency (`[sensor.usbl] latency`):
-//! a sensor states its delay once, not per sentence.
+//! arrival less the sensor's configured latency (`[sensor.usbl] latency`:
+//! the sensor's constant delay, or a bridge's transport) less its `age`.
 //!
 //! ```
 //! use anguilla_protocol::position_fix::{Fix, parse};
-//! let f = Fix { x: 1.5, y: -2.25, sigma: 0.5 };
+//! let f = Fix { x: 1.5, y: -2.25, sigma: 0.5, age: 0.0 };
 //! let line = f.sentence();
 //! assert_eq!(line, "$ANFIX,1.5,-2.25,0.5*43\r\n");
 //! assert_eq!(parse(line.as_bytes()), Ok(f));
+//! let aged = Fix { age: 0.125, ..f };
+//! assert_eq!(parse(aged.sentence().as_bytes()), Ok(aged));
 //! ```
 
 use std::fmt;
@@ -50,12 +56,19 @@ pub struct Fix {
     pub y: f64,
     /// Horizontal standard deviation (m).
     pub sigma: f64,
+    /// How old the fix was when sent (s; 0: not said, the sensor's
+    /// configured latency alone applies).
+    pub age: f64,
 }
 
+/// The oldest `age` a fix may say (s).
+pub const MAX_AGE: f64 = 60.0;
+
 impl Fix {
-    /// The sentence, checksum and `\r\n` included.
+    /// The sentence, checksum and `\r\n` included (the age only when > 0).
     pub fn sentence(&self) -> String {
-        sentence(TALKER, [self.x, self.y, self.sigma])
+        let fields = [self.x, self.y, self.sigma, self.age];
+        sentence(TALKER, &fields[..if self.age > 0.0 { 4 } else { 3 }])
     }
 }
 
@@ -73,13 +86,15 @@ pub struct Velocity {
 impl Velocity {
     /// The sentence, checksum and `\r\n` included.
     pub fn sentence(&self) -> String {
-        sentence(VELOCITY_TALKER, [self.vx, self.vy, self.sigma])
+        sentence(VELOCITY_TALKER, &[self.vx, self.vy, self.sigma])
     }
 }
 
-fn sentence(talker: &str, fields: [f64; 3]) -> String {
-    let [a, b, c] = fields;
-    let body = format!("{},{a},{b},{c}", &talker[1..]);
+fn sentence(talker: &str, fields: &[f64]) -> String {
+    let mut body = talker[1..].to_string();
+    for v in fields {
+        body.push_str(&format!(",{v}"));
+    }
     format!("${body}*{:02X}\r\n", checksum(body.as_bytes()))
 }
 
@@ -99,11 +114,12 @@ pub enum FixError {
         /// What its bytes give.
         computed: u8,
     },
-    /// Not three fields.
+    /// Not the number of fields expected: three (`$ANFIX` also four).
     Fields(usize),
-    /// A field that is not a finite number (or a sigma that is not > 0).
+    /// A field that is not a finite number (or a sigma that is not > 0,
+    /// an age not in 0 ..= [`MAX_AGE`]).
     Field {
-        /// `x`, `y` or `sigma`.
+        /// `x`, `y`, `sigma` or `age`.
         name: &'static str,
         /// The field as sent (lossy UTF-8, cut at 24 bytes).
         text: String,
@@ -122,12 +138,15 @@ impl fmt::Display for FixError {
                 f,
                 "checksum {sent:02X} does not match the sentence's {computed:02X}"
             ),
-            FixError::Fields(n) => write!(f, "{n} fields (expected 3: x or vx, y or vy, sigma)"),
+            FixError::Fields(n) => write!(
+                f,
+                "{n} fields (expected 3: x or vx, y or vy, sigma; a fix may add a 4th, its age)"
+            ),
             FixError::Field { name, text } => {
-                let what = if *name == "sigma" {
-                    "a number > 0"
-                } else {
-                    "a finite number"
+                let what = match *name {
+                    "sigma" => "a number > 0",
+                    "age" => "seconds, 0 ..= 60",
+                    _ => "a finite number",
                 };
                 write!(f, "{name} = \"{text}\" (expected {what})")
             }
@@ -144,22 +163,23 @@ pub fn checksum(bytes: &[u8]) -> u8 {
 
 /// Reads one position fix (one datagram, or one line of a serial stream).
 pub fn parse(line: &[u8]) -> Result<Fix, FixError> {
-    let [x, y, sigma] = fields(line, TALKER, ["x", "y", "sigma"])?;
-    Ok(Fix { x, y, sigma })
+    let [x, y, sigma, age] = fields(line, TALKER, ["x", "y", "sigma", "age"])?;
+    Ok(Fix { x, y, sigma, age })
 }
 
 /// Reads one velocity over ground.
 pub fn parse_velocity(line: &[u8]) -> Result<Velocity, FixError> {
-    let [vx, vy, sigma] = fields(line, VELOCITY_TALKER, ["vx", "vy", "sigma"])?;
+    let [vx, vy, sigma, _] = fields(line, VELOCITY_TALKER, ["vx", "vy", "sigma", ""])?;
     Ok(Velocity { vx, vy, sigma })
 }
 
-/// The three numbers of a `talker` sentence, named `names` in errors.
+/// The numbers of a `talker` sentence, named `names` in errors: three,
+/// and a fourth (0 when absent) where `names[3]` is not empty.
 fn fields(
     line: &[u8],
     talker: &'static str,
-    names: [&'static str; 3],
-) -> Result<[f64; 3], FixError> {
+    names: [&'static str; 4],
+) -> Result<[f64; 4], FixError> {
     if line.len() > MAX_LEN {
         return Err(FixError::TooLong(line.len()));
     }
@@ -186,7 +206,7 @@ fn fields(
     }
     let fields = &body[talker.len()..];
     let n = fields.split(|&b| b == b',').count();
-    if n != 3 {
+    if !(n == 3 || (n == 4 && !names[3].is_empty())) {
         return Err(FixError::Fields(n));
     }
     let mut it = fields.split(|&b| b == b',');
@@ -195,13 +215,22 @@ fn fields(
         let v = std::str::from_utf8(raw)
             .ok()
             .and_then(|t| t.parse::<f64>().ok())
-            .filter(|v| v.is_finite() && (name != "sigma" || *v > 0.0));
+            .filter(|v| {
+                v.is_finite()
+                    && match name {
+                        "sigma" => *v > 0.0,
+                        "age" => (0.0..=MAX_AGE).contains(v),
+                        _ => true,
+                    }
+            });
         v.ok_or_else(|| FixError::Field {
             name,
             text: String::from_utf8_lossy(&raw[..raw.len().min(24)]).into_owned(),
         })
     };
-    Ok([next(names[0])?, next(names[1])?, next(names[2])?])
+    let three = [next(names[0])?, next(names[1])?, next(names[2])?];
+    let fourth = if n == 4 { next(names[3])? } else { 0.0 };
+    Ok([three[0], three[1], three[2], fourth])
 }
 
 #[cfg(test)]
@@ -211,7 +240,7 @@ mod tests {
 
     #[test]
     fn a_bad_sentence_is_named() {
-        let cases: [(&[u8], &str); 7] = [
+        let cases: [(&[u8], &str); 10] = [
             (b"$GPGGA,1,2*00", "not a $ANFIX sentence"),
             (b"$ANFIX,1,2,3", "no checksum"),
             (b"$ANFIX,1,2,3*00", "checksum 00 does not match"),
@@ -219,6 +248,12 @@ mod tests {
             (b"$ANFIX,1,2*5B", "2 fields"),
             (b"$ANFIX,1,nan,3*17", "y = \"nan\""),
             (b"$ANFIX,1,2,0*47", "sigma = \"0\" (expected a number > 0)"),
+            (
+                b"$ANFIX,1,2,3,-1*74",
+                "age = \"-1\" (expected seconds, 0 ..= 60)",
+            ),
+            (b"$ANFIX,1,2,3,61*6F", "age = \"61\""),
+            (b"$ANFIX,1,2,3,4,5*45", "5 fields"),
         ];
         for (line, want) in cases {
             let e = match parse(line) {
@@ -244,8 +279,8 @@ mod tests {
         }
 
         #[test]
-        fn a_fix_reads_back(x in -1e4..1e4f64, y in -1e4..1e4f64, sigma in 1e-3..1e3f64) {
-            let f = Fix { x, y, sigma };
+        fn a_fix_reads_back(x in -1e4..1e4f64, y in -1e4..1e4f64, sigma in 1e-3..1e3f64, age in 0.0..60.0f64) {
+            let f = Fix { x, y, sigma, age };
             prop_assert_eq!(parse(f.sentence().as_bytes()), Ok(f));
         }
 
@@ -253,6 +288,10 @@ mod tests {
         fn a_velocity_reads_back(vx in -10.0..10.0f64, vy in -10.0..10.0f64, sigma in 1e-4..1.0f64) {
             let v = Velocity { vx, vy, sigma };
             prop_assert_eq!(parse_velocity(v.sentence().as_bytes()), Ok(v));
+            // A velocity has no age.
+            let aged = format!("ANVEL,{vx},{vy},{sigma},1");
+            let aged = format!("${aged}*{:02X}", checksum(aged.as_bytes()));
+            prop_assert_eq!(parse_velocity(aged.as_bytes()), Err(FixError::Fields(4)));
             // Neither sentence is taken for the other.
             prop_assert_eq!(parse(v.sentence().as_bytes()), Err(FixError::NotAFix(TALKER)));
         }

@@ -153,6 +153,7 @@ impl SimUsbl {
                 x: x + sigma * rng.normal(),
                 y: y + sigma * rng.normal(),
                 sigma,
+                age: 0.0,
             };
             Some(fix.sentence())
         })

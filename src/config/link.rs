@@ -74,4 +74,11 @@ pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
     w("# and the undulation frequency (Hz).".into());
     w(format!("ros2-max-speed = {}", fmt_f(d.ros2_max_speed)));
     w(format!("ros2-frequency = {}", fmt_f(d.ros2_frequency)));
+    w("# Position fixes from ROS 2 (a tank's motion capture, docs/ros2.md): pose_fix".into());
+    w("# (PoseStamped) and odom_fix (Odometry) in ros2-pose-frame go to the daemon's".into());
+    w("# [sensor.usbl] (its udp: source), aged by their stamps; ros2-pose-sigma (m) is".into());
+    w("# their standard deviation when the message gives none.".into());
+    w(format!("ros2-pose = {}", d.ros2_pose));
+    w(format!("ros2-pose-frame = {:?}", d.ros2_pose_frame));
+    w(format!("ros2-pose-sigma = {}", fmt_f(d.ros2_pose_sigma)));
 }

@@ -164,3 +164,27 @@ fn a_recording_made_when_the_daemon_read_every_section_still_replays() {
     let back = Config::from_toml(&recorded, "config.toml").unwrap();
     assert_eq!((&back.link, &back.foxglove), (&whole.link, &whole.foxglove));
 }
+
+/// ROS 2 position fixes go to the daemon's `[sensor.usbl]`: without one,
+/// or with a serial source, the file is refused naming what it needs; a
+/// `udp:` source bound to every address is reached on the loopback.
+#[test]
+fn ros2_position_fixes_need_a_udp_position_sensor() {
+    let base = "[link]\nros2 = true\nros2-pose = true\n";
+    let e = Config::from_toml(base, "t").unwrap_err().to_string();
+    assert!(
+        e.contains("needs [sensor.usbl]") && e.contains("no [sensor.usbl]"),
+        "{e}"
+    );
+    let serial = format!(
+        "[sensor]\nnode = 20\n[sensor.usbl]\nsource = \"serial:/dev/ttyUSB0:115200\"\n{base}"
+    );
+    let e = Config::from_toml(&serial, "t").unwrap_err().to_string();
+    assert!(e.contains("source = \"serial:/dev/ttyUSB0:115200\""), "{e}");
+    let udp = format!("[sensor]\nnode = 20\n[sensor.usbl]\nsource = \"udp:0.0.0.0:14660\"\n{base}");
+    let c = Config::from_toml(&udp, "t").unwrap();
+    assert_eq!(
+        c.pose_fix_target().unwrap(),
+        std::net::SocketAddr::from(([127, 0, 0, 1], 14660))
+    );
+}

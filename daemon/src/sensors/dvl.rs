@@ -218,6 +218,7 @@ mod tests {
             x: 1.0,
             y: 1.0,
             sigma: 1.0,
+            age: 0.0,
         };
         tx.send_to(fix.sentence().as_bytes(), addr).expect("sent");
         step_until(&mut d, &mut now, |d| d.health() == SensorHealth::Error);

@@ -54,6 +54,23 @@ impl Source {
         }
         Err(format!("\"{text}\" ({expected})"))
     }
+
+    /// Where a sender on this machine sends to reach a `udp:` source (the
+    /// loopback when the source is bound to every address); none for a
+    /// serial source.
+    pub fn send_to(&self) -> Option<SocketAddr> {
+        let &Source::Udp(mut addr) = self else {
+            return None;
+        };
+        if addr.ip().is_unspecified() {
+            addr.set_ip(if addr.is_ipv4() {
+                std::net::Ipv4Addr::LOCALHOST.into()
+            } else {
+                std::net::Ipv6Addr::LOCALHOST.into()
+            });
+        }
+        Some(addr)
+    }
 }
 
 /// What the reader thread counts, and its stop flag.
@@ -162,10 +179,13 @@ pub fn judge(
 
 /// An off-bus sensor's reading side, as the control loop sees it: one
 /// reading a period from its [`Reader`], stamped with its arrival less the
-/// latency, the last one kept, and the health ([`judge`]).
+/// latency (and less the age the reading says, [`Line::aged`]), the last
+/// one kept, and the health ([`judge`]).
 pub struct Line<T> {
     reader: Reader<T>,
     latency: Nanos,
+    /// How old a reading says it is (s) when it arrives.
+    age: fn(&T) -> f64,
     timeout: Nanos,
     started: Nanos,
     now: Nanos,
@@ -191,6 +211,7 @@ impl<T: Copy + Send + 'static> Line<T> {
         Ok(Self {
             reader: Reader::open(source, name, parse)?,
             latency: Nanos::from_secs_f64(latency),
+            age: |_| 0.0,
             timeout: Nanos::from_secs_f64(timeout),
             started: now,
             now,
@@ -201,12 +222,23 @@ impl<T: Copy + Send + 'static> Line<T> {
         })
     }
 
+    /// Readings that say their own age (s, at arrival) are stamped that
+    /// much earlier still: a fix of the ROS 2 node's `pose_fix`, aged from
+    /// its message's stamp.
+    pub fn aged(mut self, age: fn(&T) -> f64) -> Self {
+        self.age = age;
+        self
+    }
+
     /// One period at `now`: the reading taken, if one waited, with the
     /// time it was measured; the health judged.
     pub fn step(&mut self, now: Nanos) -> Option<(Nanos, T)> {
         self.now = now;
+        let age = self.age;
         let taken = self.reader.take().map(|r| {
-            let at = now.saturating_sub(self.latency);
+            let at = now
+                .saturating_sub(self.latency)
+                .saturating_sub(Nanos::from_secs_f64(age(&r)));
             self.last = Some((at, r));
             self.received = self.received.saturating_add(1);
             self.malformed_at_reading = self.reader.malformed();
@@ -377,6 +409,7 @@ mod tests {
             x: -1.0,
             y: 2.5,
             sigma: 0.2,
+            age: 0.0,
         }
         .sentence();
         let mut bytes = good.clone().into_bytes();

@@ -115,7 +115,8 @@ impl Usbl {
     /// Opens `cfg`'s source and starts its reader thread.
     pub fn open(cfg: &UsblConfig, now: Nanos) -> io::Result<Usbl> {
         Ok(Usbl {
-            line: Line::open(&cfg.source, "usbl", parse, cfg.latency, cfg.timeout, now)?,
+            line: Line::open(&cfg.source, "usbl", parse, cfg.latency, cfg.timeout, now)?
+                .aged(|f| f.age),
             offset: cfg.offset,
             pending: None,
         })
@@ -226,6 +227,7 @@ mod tests {
             x: 3.0,
             y: 4.0,
             sigma: 0.5,
+            age: 0.0,
         };
         tx.send_to(fix.sentence().as_bytes(), addr).expect("sent");
         step_until(&mut u, &mut now, |u| u.line.received() == 1);
@@ -240,6 +242,15 @@ mod tests {
         let mut e = SensorEntry::default();
         u.fill(&mut e);
         assert_eq!((e.samples, e.values[0], e.values[4]), (1, 3.0, 1.0));
+        // A fix that says its age (a bridge's, from its stamp) is that
+        // much older again.
+        let aged = Fix { age: 0.25, ..fix };
+        tx.send_to(aged.sentence().as_bytes(), addr).expect("sent");
+        step_until(&mut u, &mut now, |u| u.line.received() == 2);
+        let Some(Observation::PositionFix { at, .. }) = u.observation() else {
+            panic!("a position fix");
+        };
+        assert_eq!(at, now.saturating_sub(Nanos::from_millis(750)));
         // Silent after the timeout (5 s) past the fix's time.
         let t = now;
         while now.saturating_sub(t) < Nanos::from_millis(6000) {
@@ -264,6 +275,7 @@ mod tests {
             x: 1.0,
             y: 1.0,
             sigma: 1.0,
+            age: 0.0,
         }
         .sentence();
         // No period takes them: the channel fills, the rest are dropped.

@@ -9,8 +9,11 @@
 //! - [`state`]: the daemon's state as those messages;
 //! - [`bag`]: a recorded session as a rosbag2 MCAP (`anguilla export --ros2`);
 //! - `node` (feature `zenoh`): the node `anguilla link` runs beside its
-//!   bridge, publishing the daemon's state as ROS 2 topics.
+//!   bridge, publishing the daemon's state as ROS 2 topics;
+//! - `acl` (feature `zenoh`): the node's part of the link's access list.
 
+#[cfg(feature = "zenoh")]
+pub(crate) mod acl;
 pub mod bag;
 pub mod cdr;
 pub mod graph;

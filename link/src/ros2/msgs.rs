@@ -57,6 +57,8 @@ types! {
     TWIST_STAMPED = "geometry_msgs/msg/TwistStamped", "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64";
     TRIGGER = "std_srvs/srv/Trigger", "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f";
     PATH = "nav_msgs/msg/Path", "RIHS01_1957a5bb3cee5da65c4e52e52b65a93df227efce4c20f8458b36e73066ca334b";
+    POSE_STAMPED = "geometry_msgs/msg/PoseStamped", "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8";
+    ODOMETRY = "nav_msgs/msg/Odometry", "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0";
 }
 
 /// `std_srvs/srv/Trigger`'s response: `bool success`, `string message`.
@@ -347,6 +349,72 @@ pub fn path_waypoints(msg: &[u8], max: usize) -> Result<Vec<anguilla_ipc::Waypoi
     Ok(out)
 }
 
+/// A position fix from ROS 2 (`geometry_msgs/msg/PoseStamped` or
+/// `nav_msgs/msg/Odometry`): where the robot is, when, and how well known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseFix {
+    /// The message's stamp (ns since the epoch, ROS time: the sender's
+    /// wall clock); 0 when the sender left it unset.
+    pub stamp_ns: u64,
+    /// x, y (m) in the message's frame.
+    pub x: f64,
+    /// See `x`.
+    pub y: f64,
+    /// The horizontal standard deviation the message says (m): an
+    /// `Odometry`'s covariance (the larger of x's and y's); none for a
+    /// `PoseStamped` or a covariance of 0.
+    pub sigma: Option<f64>,
+}
+
+/// Reads a `PoseStamped` (or an `Odometry` when `odometry`) whose header
+/// names `frame` (an empty frame is taken as it): a position that is not
+/// finite, another frame, or a negative covariance is an error naming it.
+pub fn pose_fix(msg: &[u8], odometry: bool, frame: &str) -> Result<PoseFix, String> {
+    let e = |e: CdrError| e.to_string();
+    let mut r = Reader::new(msg).map_err(e)?;
+    let header = read_header(&mut r).map_err(e)?;
+    if !header.frame_id.is_empty() && header.frame_id != frame {
+        return Err(format!(
+            "frame \"{}\" (expected \"{frame}\": [link] ros2-pose-frame)",
+            header.frame_id
+        ));
+    }
+    if odometry {
+        r.string("child_frame_id").map_err(e)?;
+    }
+    let mut v = [0.0; 7];
+    for x in &mut v {
+        *x = r.f64("pose").map_err(e)?;
+    }
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err("a pose that is not finite".into());
+    }
+    let mut sigma = None;
+    if odometry {
+        let mut cov = [0.0; 36];
+        for c in &mut cov {
+            *c = r.f64("pose.covariance").map_err(e)?;
+        }
+        let (vx, vy) = (cov[0], cov[7]);
+        if !(vx.is_finite() && vy.is_finite() && vx >= 0.0 && vy >= 0.0) {
+            return Err(format!(
+                "covariance x {vx}, y {vy} (expected finite variances >= 0)"
+            ));
+        }
+        sigma = (vx.max(vy) > 0.0).then(|| vx.max(vy).sqrt());
+    }
+    let stamp_ns = u64::try_from(header.stamp.sec)
+        .map_err(|_| format!("stamp {} s (expected >= 0)", header.stamp.sec))?
+        * 1_000_000_000
+        + u64::from(header.stamp.nanosec);
+    Ok(PoseFix {
+        stamp_ns,
+        x: v[0],
+        y: v[1],
+        sigma,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -380,6 +448,61 @@ mod tests {
         assert!(e.contains("frame \"map\""), "{e}");
         let e = path_waypoints(&msg, 1).unwrap_err();
         assert!(e.contains("2 poses"), "{e}");
+    }
+
+    /// A `PoseStamped` and an `Odometry` read as fixes (the odometry's
+    /// σ from its covariance); another frame, a NaN, a negative variance
+    /// or a truncated message are refused with what was wrong.
+    #[test]
+    fn poses_read_as_fixes() {
+        let msg = |odometry: bool, frame: &str, p: [f64; 3], var: f64| {
+            let mut w = Writer::new();
+            w.i32(1_700_000_000).u32(250_000_000).string(frame);
+            if odometry {
+                w.string("base_link");
+            }
+            for x in p.iter().chain(&[0.0, 0.0, 0.0, 1.0]) {
+                w.f64(*x);
+            }
+            if odometry {
+                for i in 0..36 {
+                    w.f64(if i == 0 || i == 7 { var } else { 0.0 });
+                }
+                for _ in 0..42 {
+                    w.f64(0.0);
+                }
+            }
+            w.finish()
+        };
+        let f = pose_fix(&msg(false, "odom", [1.5, -2.0, 0.0], 0.0), false, "odom").unwrap();
+        assert_eq!(
+            f,
+            PoseFix {
+                stamp_ns: 1_700_000_000_250_000_000,
+                x: 1.5,
+                y: -2.0,
+                sigma: None
+            }
+        );
+        let f = pose_fix(&msg(true, "world", [3.0, 4.0, -1.0], 0.0004), true, "world").unwrap();
+        assert_eq!((f.x, f.y), (3.0, 4.0));
+        assert!((f.sigma.unwrap() - 0.02).abs() < 1e-12, "{f:?}");
+        let bad = [
+            (msg(false, "map", [0.0; 3], 0.0), false, "frame \"map\""),
+            (
+                msg(false, "odom", [f64::NAN, 0.0, 0.0], 0.0),
+                false,
+                "not finite",
+            ),
+            (msg(true, "odom", [0.0; 3], -1.0), true, "covariance"),
+        ];
+        for (m, odometry, want) in bad {
+            let e = pose_fix(&m, odometry, "odom").unwrap_err();
+            assert!(e.contains(want), "{e}");
+        }
+        let m = msg(true, "odom", [0.0; 3], 0.0);
+        let e = pose_fix(&m[..100], true, "odom").unwrap_err();
+        assert!(e.contains("ends before"), "{e}");
     }
 
     #[test]

@@ -52,13 +52,15 @@ use crate::{LinkError, zenoh_err};
 
 mod cmd_vel;
 mod path;
+mod pose;
 mod reply;
 
 use cmd_vel::TwistSlot;
 pub use cmd_vel::{SPEED_RUNGS, SpeedTable, TwistSwim, swim_of};
 pub use path::PATH_SERVICES;
 use path::{KeepAlive, PathSlot};
-use reply::{Call, answer, reply_err, wall_ns};
+pub use pose::{POSE_TOPICS, PoseSettings, PoseStats};
+use reply::{Call, EStopCall, answer, reply_err, wall_ns};
 
 /// Where and how often the node publishes.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,6 +91,9 @@ pub struct Ros2Settings {
     pub max_speed: f64,
     /// The undulation frequency `cmd_vel` swims at (Hz).
     pub frequency: f64,
+    /// Position fixes taken on [`POSE_TOPICS`] and handed to the daemon
+    /// (`[link] ros2-pose`), when some.
+    pub pose: Option<PoseSettings>,
 }
 
 /// The services, `~/<name>` (std_srvs/srv/Trigger), and what each sends
@@ -107,13 +112,6 @@ pub const SERVICES: [(&str, Command); 6] = [
 /// [`SERVICES`] (then [`PATH_SERVICES`]), the query, and for `~/estop` what relaying it to the
 /// E-stop socket gave (done at once, on Zenoh's thread).
 struct Inbound(usize, Query, Option<Result<(), String>>);
-
-/// An `~/estop` call waiting for the state to say e-stop.
-struct EStopCall {
-    call: Call,
-    /// What was relayed, and how: for the answer.
-    relayed: String,
-}
 
 struct Topic {
     publisher: Publisher<'static>,
@@ -164,6 +162,8 @@ pub struct Ros2Node {
     inbox: Receiver<Inbound>,
     twist: Arc<TwistSlot>,
     path: Arc<PathSlot>,
+    /// Position fixes to the daemon (`[link] ros2-pose`).
+    pose: Option<pose::PoseInput>,
     /// While the ROS 2 side's path is followed: control kept alive.
     following: KeepAlive,
     /// The newest path state the daemon showed.
@@ -400,7 +400,7 @@ impl Ros2Node {
         }
         if settings.allow_command {
             let tx = tx.clone();
-            path::declare(
+            entity = path::declare(
                 session,
                 &id,
                 (&settings.namespace, &settings.node),
@@ -421,6 +421,19 @@ impl Ros2Node {
                 entity,
             )?;
         }
+        let mut pose = None;
+        if let Some(p) = settings.pose.clone().filter(|_| settings.allow_command) {
+            // The last entities: the next number is not needed.
+            let (input, _) = pose::PoseInput::declare(
+                session,
+                &id,
+                &settings.namespace,
+                p,
+                (&mut subscribers, &mut tokens),
+                entity,
+            )?;
+            pose = Some(input);
+        }
         let conv = state::RosState::new(settings.geometry.clone());
         Ok(Self {
             settings,
@@ -435,6 +448,7 @@ impl Ros2Node {
             inbox,
             twist,
             path,
+            pose,
             following: KeepAlive::default(),
             guide: anguilla_ipc::GuideSnapshot::default(),
             client: None,
@@ -467,6 +481,11 @@ impl Ros2Node {
         self.twist.superseded.load(Ordering::Relaxed)
     }
 
+    /// What the position-fix input has done, when it runs.
+    pub fn pose_stats(&self) -> Option<PoseStats> {
+        self.pose.as_ref().map(pose::PoseInput::stats)
+    }
+
     /// `cmd_vel` messages that were not their type's CDR.
     pub fn undecodable(&self) -> u64 {
         self.twist.undecodable.load(Ordering::Relaxed)
@@ -486,6 +505,9 @@ impl Ros2Node {
         }
         self.send_twist();
         self.keep_path_alive();
+        if let Some(p) = &mut self.pose {
+            p.forward(wall_ns());
+        }
         if let Some(c) = &mut self.client {
             let calls = &mut self.calls;
             let in_flight = &mut self.swim_in_flight;
@@ -585,38 +607,9 @@ impl Ros2Node {
         }
     }
 
-    /// Answers the `~/estop` calls: success once the state says e-stop;
-    /// a failure naming what was relayed when it has not within
-    /// [`CALL_TIMEOUT`].
+    /// Answers the `~/estop` calls ([`reply::answer_estops`]).
     fn answer_estops(&mut self) {
-        let mode = self.mode;
-        let stopped = mode == Some(Mode::EStop as u8);
-        self.estops.retain(|e| {
-            if stopped {
-                answer(
-                    &e.call,
-                    true,
-                    &format!("e-stopped: the robot's state says e-stop ({})", e.relayed),
-                );
-                return false;
-            }
-            if e.call.sent.elapsed() < CALL_TIMEOUT {
-                return true;
-            }
-            let shown = mode
-                .and_then(Mode::from_code)
-                .map_or("none read", Mode::name);
-            answer(
-                &e.call,
-                false,
-                &format!(
-                    "NOT confirmed: {}, but the robot's state does not say e-stop after {:?} \
-                     (mode {shown})",
-                    e.relayed, CALL_TIMEOUT
-                ),
-            );
-            false
-        });
+        reply::answer_estops(&mut self.estops, self.mode, CALL_TIMEOUT);
     }
 
     /// A path service's call (`k` its index in [`PATH_SERVICES`]): the

@@ -1,7 +1,9 @@
 //! Answering a service call: the call waiting for the daemon's reply, and
 //! its `Trigger` response with rmw_zenoh's attachment.
 
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anguilla_ipc::vocabulary::Mode;
 
 use zenoh::Wait as _;
 use zenoh::query::Query;
@@ -64,4 +66,44 @@ pub(super) fn reply_err(q: &Query, text: &str) {
     if let Err(e) = q.reply_err(text.to_string()).wait() {
         tracing::debug!("ROS 2 service error reply: {e}");
     }
+}
+
+/// An `~/estop` call waiting for the state to say e-stop.
+pub(super) struct EStopCall {
+    pub(super) call: Call,
+    /// What was relayed, and how: for the answer.
+    pub(super) relayed: String,
+}
+
+/// Answers the `~/estop` calls, the state showing `mode`: success once it
+/// says e-stop; a failure naming what was relayed when it has not within
+/// `timeout`.
+pub(super) fn answer_estops(estops: &mut Vec<EStopCall>, mode: Option<u8>, timeout: Duration) {
+    let stopped = mode == Some(Mode::EStop as u8);
+    estops.retain(|e| {
+        if stopped {
+            answer(
+                &e.call,
+                true,
+                &format!("e-stopped: the robot's state says e-stop ({})", e.relayed),
+            );
+            return false;
+        }
+        if e.call.sent.elapsed() < timeout {
+            return true;
+        }
+        let shown = mode
+            .and_then(Mode::from_code)
+            .map_or("none read", Mode::name);
+        answer(
+            &e.call,
+            false,
+            &format!(
+                "NOT confirmed: {}, but the robot's state does not say e-stop after {:?} \
+                 (mode {shown})",
+                e.relayed, timeout
+            ),
+        );
+        false
+    });
 }
