@@ -19,6 +19,7 @@ Exit 0 when all holds, 1 otherwise.
 
 import argparse
 import ctypes
+import math
 import os
 import struct
 import sys
@@ -29,7 +30,8 @@ from rosbags.typesys import Stores, get_typestore
 
 from anguilla_client import StateSnapshot
 
-TOPICS = ["joint_states", "imu", "pressure", "feedforward", "torque_residual", "diagnostics", "tf"]
+TOPICS = ["joint_states", "imu", "pressure", "feedforward", "torque_residual", "diagnostics", "tf",
+          "cross_track_error", "current"]
 LATCHED = ["robot_description", "tf_static"]
 
 
@@ -102,8 +104,17 @@ def main(argv=None):
                 fail(f"{name} #{i}: log time {t_ns}, expected {stamp}")
             if hasattr(m, "header") and m.header.stamp.sec * 10**9 + m.header.stamp.nanosec != stamp:
                 fail(f"{name} #{i}: header stamp is not the snapshot's")
+            f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]  # noqa: E731
+            if name == "cross_track_error":
+                want = f32(s.guide.cross_track_m) if s.guide.state == 1 else None
+                if (want is None and not math.isnan(m.data)) or \
+                        (want is not None and m.data != want):
+                    fail(f"cross_track_error #{i}: {m.data}, snapshot {i}'s is {want} "
+                         f"(NaN when no path is followed)")
+            if name == "current" and [m.vector.x, m.vector.y] != [f32(s.nav.current_x),
+                                                                  f32(s.nav.current_y)]:
+                fail(f"current #{i}: not snapshot {i}'s estimated current")
             if name == "joint_states":
-                f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]  # noqa: E731
                 want = [f32(getattr(j, f)) for j in s.joints[:s.joint_count]
                         for f in ("measured_pitch", "measured_yaw")]
                 if list(m.position) != want:

@@ -42,6 +42,8 @@ TOPICS = {
     "torque_residual": "std_msgs/msg/Float64MultiArray",
     "diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
     "tf": "tf2_msgs/msg/TFMessage",
+    "cross_track_error": "std_msgs/msg/Float64",
+    "current": "geometry_msgs/msg/Vector3Stamped",
 }
 # Transient local: a late subscriber gets their last message.
 LATCHED = {
@@ -272,6 +274,19 @@ def main(argv=None):
                         abs(u - v) < 1e-12 for a_, b_ in zip(got_r, rotations(st))
                         for u, v in zip(a_, b_)) for st in states):
                     unmatched.setdefault("tf", []).append(got_r[:2])
+            elif name == "cross_track_error":
+                # NaN while no path is followed, else a state's error
+                if math.isnan(m.data):
+                    if all(st.guide.state == 1 for st in states):
+                        fail("cross_track_error: NaN while every state follows a path")
+                else:
+                    match(name, [m.data], lambda st: [f32(st.guide.cross_track_m)]
+                          if st.guide.state == 1 else [None])
+            elif name == "current":
+                if m.header.frame_id != "odom" or m.vector.z != 0.0:
+                    fail(f"current: frame {m.header.frame_id!r}, z {m.vector.z}: expected odom, 0")
+                match(name, [m.vector.x, m.vector.y],
+                      lambda st: [f32(st.nav.current_x), f32(st.nav.current_y)])
             elif name == "diagnostics":
                 daemon = [x for x in m.status if x.name == "anguilla: daemon"]
                 if not daemon:

@@ -700,7 +700,7 @@ mod tests {
             domain: 7,
             namespace: "/eel".into(),
             node: "anguilla".into(),
-            rates: [20.0; 7],
+            rates: [20.0; crate::ros2::N_TOPICS],
             humble: false,
             geometry: crate::ros2::state::Geometry {
                 segments: vec![(0.5, 0.05, 0.03); 2],

@@ -53,7 +53,8 @@ pub(super) fn write_default(d: &LinkConfig, w: &mut dyn FnMut(String)) {
     w("# docs/ros2.md): ROS_DOMAIN_ID, the node's namespace and name, the distribution".into());
     w("# (\"jazzy\", also for Kilted and later, or \"humble\"), and the most messages a".into());
     w("# second (Hz) of every topic, or of those ros2-rates names (joint_states, imu,".into());
-    w("# pressure, feedforward, torque_residual, diagnostics, tf).".into());
+    w("# pressure, feedforward, torque_residual, diagnostics, tf, cross_track_error,".into());
+    w("# current).".into());
     w(format!("ros2 = {}", d.ros2));
     w(format!("ros2-domain = {}", d.ros2_domain));
     w(format!("ros2-namespace = {:?}", d.ros2_namespace));

@@ -24,7 +24,7 @@ pub mod state;
 
 /// The topics the node publishes, in the order they are declared (their
 /// entity ids follow): name under the namespace, and type.
-pub const TOPICS: [(&str, msgs::MsgType); 7] = [
+pub const TOPICS: [(&str, msgs::MsgType); N_TOPICS] = [
     ("joint_states", msgs::JOINT_STATE),
     ("imu", msgs::IMU),
     ("pressure", msgs::FLUID_PRESSURE),
@@ -32,7 +32,12 @@ pub const TOPICS: [(&str, msgs::MsgType); 7] = [
     ("torque_residual", msgs::FLOAT64_MULTI_ARRAY),
     ("diagnostics", msgs::DIAGNOSTIC_ARRAY),
     ("tf", msgs::TF_MESSAGE),
+    ("cross_track_error", msgs::FLOAT64),
+    ("current", msgs::VECTOR3_STAMPED),
 ];
+
+/// How many topics the node publishes ([`TOPICS`]).
+pub const N_TOPICS: usize = 9;
 
 /// The transient-local topics (reliable, keep last 1; late joiners get
 /// their last message from the publisher's cache): published once.

@@ -59,6 +59,8 @@ types! {
     PATH = "nav_msgs/msg/Path", "RIHS01_1957a5bb3cee5da65c4e52e52b65a93df227efce4c20f8458b36e73066ca334b";
     POSE_STAMPED = "geometry_msgs/msg/PoseStamped", "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8";
     ODOMETRY = "nav_msgs/msg/Odometry", "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0";
+    FLOAT64 = "std_msgs/msg/Float64", "RIHS01_705ba9c3d1a09df43737eb67095534de36fd426c0587779bda2bc51fe790182a";
+    VECTOR3_STAMPED = "geometry_msgs/msg/Vector3Stamped", "RIHS01_d4829622288cbb443886e7ea94ea5671a3b1be6bab4ad04224432a65f7d7887a";
 }
 
 /// `std_srvs/srv/Trigger`'s response: `bool success`, `string message`.
@@ -264,6 +266,23 @@ pub fn float64_array(label: &str, data: &[f64]) -> Vec<u8> {
 pub fn string(s: &str) -> Vec<u8> {
     let mut w = Writer::new();
     w.string(s);
+    w.finish()
+}
+
+/// A `std_msgs/msg/Float64`.
+pub fn float64(v: f64) -> Vec<u8> {
+    let mut w = Writer::new();
+    w.f64(v);
+    w.finish()
+}
+
+/// A `geometry_msgs/msg/Vector3Stamped`.
+pub fn vector3_stamped(h: &Header, v: [f64; 3]) -> Vec<u8> {
+    let mut w = Writer::new();
+    header(&mut w, h);
+    for x in v {
+        w.f64(x);
+    }
     w.finish()
 }
 

@@ -10,6 +10,9 @@
 //! | `feedforward` | `std_msgs/msg/Float64MultiArray` | the model's predicted torques, the axes in `joint_states`' order |
 //! | `torque_residual` | `std_msgs/msg/Float64MultiArray` | the normalised torque residuals, the same order |
 //! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode, cause, faults, bus, the path (cross-track error, estimated current), each joint's drive |
+//! | `tf` | `tf2_msgs/msg/TFMessage` | `odom` → `head`, and each joint's links |
+//! | `cross_track_error` | `std_msgs/msg/Float64` | the path's cross-track error (m, left of the leg positive); NaN when no path is followed |
+//! | `current` | `geometry_msgs/msg/Vector3Stamped` | the estimated water current in `odom` (m/s; z 0) |
 //!
 //! Every topic is under the node's namespace. The stamps are the tether
 //! computer's wall clock at publication (ROS 2 tools expect wall time;
@@ -72,7 +75,7 @@ pub struct Ros2Settings {
     /// The node's name.
     pub node: String,
     /// Most messages a second (Hz) of each of [`TOPICS`], in its order.
-    pub rates: [f64; 7],
+    pub rates: [f64; super::N_TOPICS],
     /// The body, for `tf` and `robot_description`.
     pub geometry: state::Geometry,
     /// Humble: `TypeHashNotSupported` in keys and tokens.

@@ -204,9 +204,10 @@ impl RosState {
     /// Every topic's message of `s`, in [`super::TOPICS`]' order, stamped
     /// `stamp_ns` (ns since the epoch). Advances the head's track: call
     /// it with every snapshot, due or not, or the track skips.
-    pub fn all(&mut self, s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 7] {
+    pub fn all(&mut self, s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; super::N_TOPICS] {
         let (head, _) = self.track.update(s);
         let [a, b, c, d, e] = messages(s, stamp_ns);
+        let [cross_track, current] = guidance(s, stamp_ns);
         [
             a,
             b,
@@ -215,6 +216,8 @@ impl RosState {
             e,
             diagnostics(s, stamp_ns).encode(),
             tf_message(&transforms(s, head, &self.geometry), stamp_ns),
+            cross_track,
+            current,
         ]
     }
 }
@@ -292,6 +295,28 @@ pub fn messages(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 5] {
         pressure.encode(),
         msgs::float64_array("axis", &ff),
         msgs::float64_array("axis", &res),
+    ]
+}
+
+/// The path's cross-track error (m; NaN when no path is followed) and the
+/// estimated current (m/s, in `odom`) of `s`.
+pub fn guidance(s: &StateSnapshot, stamp_ns: u64) -> [Vec<u8>; 2] {
+    let following = s.guide.guide_state() == Some(anguilla_ipc::GuideState::Following);
+    let cross_track = if following {
+        f64::from(s.guide.cross_track_m)
+    } else {
+        f64::NAN
+    };
+    let header = msgs::Header {
+        stamp: msgs::Time::from_ns(stamp_ns),
+        frame_id: "odom".into(),
+    };
+    [
+        msgs::float64(cross_track),
+        msgs::vector3_stamped(
+            &header,
+            [f64::from(s.nav.current_x), f64::from(s.nav.current_y), 0.0],
+        ),
     ]
 }
 
