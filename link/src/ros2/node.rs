@@ -54,12 +54,13 @@ use super::state;
 use crate::{LinkError, zenoh_err};
 
 mod cmd_vel;
+mod latest;
 mod path;
 mod pose;
 mod reply;
 
-use cmd_vel::TwistSlot;
 pub use cmd_vel::{SPEED_RUNGS, SpeedTable, TwistSwim, swim_of};
+use latest::Latest;
 pub use path::PATH_SERVICES;
 use path::{KeepAlive, PathSlot};
 pub use pose::{POSE_TOPICS, PoseSettings, PoseStats};
@@ -163,7 +164,7 @@ pub struct Ros2Node {
     _latched: Vec<AdvancedPublisher<'static>>,
     conv: state::RosState,
     inbox: Receiver<Inbound>,
-    twist: Arc<TwistSlot>,
+    twist: Arc<Latest<msgs::Twist>>,
     path: Arc<PathSlot>,
     /// Position fixes to the daemon (`[link] ros2-pose`).
     pose: Option<pose::PoseInput>,
@@ -304,7 +305,7 @@ impl Ros2Node {
             entity += 1;
         }
         let (tx, inbox): (SyncSender<Inbound>, _) = std::sync::mpsc::sync_channel(INBOX);
-        let twist = Arc::new(TwistSlot::default());
+        let twist = Arc::new(Latest::default());
         let path = Arc::new(PathSlot::default());
         let mut subscribers = Vec::new();
         if settings.allow_command {
@@ -322,7 +323,7 @@ impl Ros2Node {
                             match msgs::Twist::decode(&sample.payload().to_bytes(), stamped) {
                                 Ok(t) => slot.put(t),
                                 Err(_) => {
-                                    slot.undecodable.fetch_add(1, Ordering::Relaxed);
+                                    slot.refuse();
                                 }
                             }
                         })
@@ -491,7 +492,7 @@ impl Ros2Node {
 
     /// `cmd_vel` messages that were not their type's CDR.
     pub fn undecodable(&self) -> u64 {
-        self.twist.undecodable.load(Ordering::Relaxed)
+        self.twist.refused.load(Ordering::Relaxed)
     }
 
     /// Serves what ROS 2 nodes sent: the newest `cmd_vel` becomes a swim

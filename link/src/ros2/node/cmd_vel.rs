@@ -4,9 +4,6 @@
 
 use anguilla_ipc::vocabulary::SwimParams;
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
-
 use crate::ros2::msgs;
 
 /// Rungs of a [`SpeedTable`]: amplitudes `0, 0.05, ..., 1`.
@@ -135,30 +132,6 @@ pub fn swim_of(
         },
         speed: (asked, swum),
     })
-}
-
-/// The newest `cmd_vel` not yet sent (latest wins: a flood is one slot,
-/// never a queue), written by Zenoh's threads.
-#[derive(Default)]
-pub(super) struct TwistSlot {
-    latest: Mutex<Option<msgs::Twist>>,
-    /// Twists replaced by a newer one before they were sent.
-    pub(super) superseded: AtomicU64,
-    /// Messages that were not their type's CDR.
-    pub(super) undecodable: AtomicU64,
-}
-
-impl TwistSlot {
-    pub(super) fn put(&self, t: msgs::Twist) {
-        let mut slot = self.latest.lock().unwrap_or_else(|p| p.into_inner());
-        if slot.replace(t).is_some() {
-            self.superseded.fetch_add(1, Ordering::Relaxed);
-        }
-    }
-
-    pub(super) fn take(&self) -> Option<msgs::Twist> {
-        self.latest.lock().unwrap_or_else(|p| p.into_inner()).take()
-    }
 }
 
 #[cfg(test)]

@@ -9,19 +9,20 @@
 //! Latest wins: the node's loop sends at most one fix a turn, the newest
 //! (a 200 Hz motion capture is not queued behind itself). A message that
 //! is not a fix (another frame, not finite, not its type's CDR) is
-//! refused and counted, the first of a run said on the log; a fix older
+//! refused and counted, the first said on the log; a fix older
 //! than [`MAX_AGE`] is stale and dropped; a stamp ahead of the wall clock
 //! (the clocks disagree) is sent without an age and counted.
 
 use std::net::{SocketAddr, UdpSocket};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use anguilla_protocol::position_fix::{Fix, MAX_AGE};
 use zenoh::Wait as _;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 
+use super::latest::Latest;
 use crate::ros2::graph::{Kind, NodeId, Qos, qualified};
 use crate::ros2::msgs::{self, MsgType, PoseFix};
 use crate::{LinkError, zenoh_err};
@@ -46,32 +47,6 @@ pub struct PoseSettings {
     pub sigma: f64,
 }
 
-/// The newest fix received, and what was refused (written by Zenoh's
-/// threads).
-#[derive(Default)]
-pub(super) struct PoseSlot {
-    latest: Mutex<Option<PoseFix>>,
-    refused: AtomicU64,
-    superseded: AtomicU64,
-}
-
-impl PoseSlot {
-    fn put(&self, f: PoseFix) {
-        let old = self
-            .latest
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .replace(f);
-        if old.is_some() {
-            self.superseded.fetch_add(1, Ordering::Relaxed);
-        }
-    }
-
-    fn take(&self) -> Option<PoseFix> {
-        self.latest.lock().unwrap_or_else(|p| p.into_inner()).take()
-    }
-}
-
 /// What the fix input has done.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
 pub struct PoseStats {
@@ -92,7 +67,7 @@ pub struct PoseStats {
 /// The fix input: its subscriptions' slot and the socket to the daemon.
 pub(super) struct PoseInput {
     settings: PoseSettings,
-    slot: Arc<PoseSlot>,
+    slot: Arc<Latest<PoseFix>>,
     socket: UdpSocket,
     stats: PoseStats,
 }
@@ -120,7 +95,7 @@ impl PoseInput {
         socket.set_nonblocking(true).map_err(|e| {
             LinkError::Socket(format!("ROS 2 position fixes: a non-blocking socket: {e}"))
         })?;
-        let slot = Arc::new(PoseSlot::default());
+        let slot = Arc::new(Latest::default());
         for (topic, ty) in POSE_TOPICS {
             let name = qualified(namespace, topic);
             let (kept, frame) = (slot.clone(), settings.frame.clone());
@@ -132,8 +107,8 @@ impl PoseInput {
                         match msgs::pose_fix(&sample.payload().to_bytes(), odometry, &frame) {
                             Ok(f) => kept.put(f),
                             Err(e) => {
-                                // The first of a run is said; all counted.
-                                if kept.refused.fetch_add(1, Ordering::Relaxed) == 0 {
+                                // The first is said; all counted.
+                                if kept.refuse() {
                                     tracing::warn!("ROS 2 {topic} refused: {e}");
                                 }
                             }
@@ -247,7 +222,7 @@ mod tests {
                 frame: "odom".into(),
                 sigma: 0.01,
             },
-            slot: Arc::new(PoseSlot::default()),
+            slot: Arc::new(Latest::default()),
             socket: UdpSocket::bind("127.0.0.1:0").expect("a socket"),
             stats: PoseStats::default(),
         }
