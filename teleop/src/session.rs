@@ -12,7 +12,7 @@ use anguilla_ipc::{IpcError, StateSnapshot};
 use crate::app::Action;
 use crate::history::History;
 use crate::operator::{Driver, Operator};
-use crate::view::ViewModel;
+use crate::view::{Map, ViewModel};
 
 /// How often a session checks that the state it shows comes from the
 /// daemon that takes its commands.
@@ -39,18 +39,24 @@ pub struct TeleopSession {
     provenance: Option<String>,
     checked: Instant,
     status: String,
+    map: Map,
 }
 
 impl TeleopSession {
     /// A session over `driver`, for the daemon at `prefix`.
     pub fn new(driver: Driver, prefix: &str) -> Self {
         let provenance = driver.op.provenance_problem();
+        let map = driver.path.as_ref().map_or_else(Map::default, |p| {
+            let pts: Vec<(f64, f64)> = p.waypoints.iter().map(|w| (w.x, w.y)).collect();
+            Map::with_path(&pts, p.looped)
+        });
         let mut s = Self {
             driver,
             prefix: prefix.to_string(),
             provenance,
             checked: Instant::now(),
             status: String::new(),
+            map,
         };
         s.refresh_status();
         s
@@ -68,6 +74,9 @@ impl TeleopSession {
     /// [`PROVENANCE_EVERY`]; returns when the next send is due.
     pub fn pump(&mut self, now: Instant) -> Result<Instant, IpcError> {
         let next = self.driver.pump(now)?;
+        if let Some(s) = self.driver.op.state() {
+            self.map.update(s);
+        }
         if now.saturating_duration_since(self.checked) >= PROVENANCE_EVERY {
             self.provenance = self.driver.op.provenance_problem();
             self.checked = now;
@@ -90,6 +99,7 @@ impl TeleopSession {
             intent: Some(&self.driver.intent),
             refused: self.driver.op.last_refused(),
             history: None,
+            map: Some(&self.map),
             status: &self.status,
         }
     }
@@ -103,6 +113,7 @@ pub struct MonitorSession {
     window: f64,
     joint: Option<usize>,
     history: History,
+    map: Map,
     started: bool,
     status: String,
 }
@@ -116,6 +127,7 @@ impl MonitorSession {
             window,
             joint,
             history: History::new(window, 0),
+            map: Map::default(),
             started: false,
             status: format!("prefix '{prefix}' · read-only monitor · q quits"),
         }
@@ -130,6 +142,7 @@ impl MonitorSession {
             self.started = true;
         }
         self.history.push(s);
+        self.map.update(s);
     }
 
     /// Waits up to `timeout` for a new state and records it.
@@ -154,6 +167,7 @@ impl MonitorSession {
             intent: None,
             refused: None,
             history: Some(&self.history),
+            map: Some(&self.map),
             status: &self.status,
         }
     }

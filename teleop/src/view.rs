@@ -16,12 +16,14 @@ use ratatui::widgets::{
 use crate::app::Intent;
 
 mod lists;
+mod map;
 mod nav;
 use crate::history::{History, Series};
 use crate::hold::{held, wrap_heading};
 use crate::keys::KEYS;
 use crate::operator::Refused;
 pub use lists::{residual_line, sensor_lines, sensor_name};
+pub use map::{Map, foot, map_title, render_map};
 pub use nav::{
     COMPASS_DEG_PER_COLUMN, compass_strip, depth_gauge, nav_lines, path_line, position_line,
 };
@@ -96,6 +98,9 @@ pub struct ViewModel<'a> {
     pub refused: Option<&'a Refused>,
     /// Plots (monitor).
     pub history: Option<&'a History>,
+    /// The map of the path and the position, drawn in place of the side
+    /// view and the torques while it has something to show.
+    pub map: Option<&'a Map>,
     /// A line of status from the tool (connection, gamepad, ...).
     pub status: &'a str,
 }
@@ -151,15 +156,25 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
     };
     let [left, right] =
         Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(upper);
-    let [top, side, bars] = Layout::vertical([
-        Constraint::Length(7),
-        Constraint::Length(5),
-        Constraint::Min(5),
-    ])
-    .areas(left);
-    render_body(frame, top, v.state, true);
-    render_body(frame, side, v.state, false);
-    render_torques(frame, bars, v.state);
+    match v.map.filter(|m| m.shown(v.state)) {
+        Some(map) => {
+            let [top, below] =
+                Layout::vertical([Constraint::Length(7), Constraint::Min(5)]).areas(left);
+            render_body(frame, top, v.state, true);
+            render_map(frame, below, map, v.state);
+        }
+        None => {
+            let [top, side, bars] = Layout::vertical([
+                Constraint::Length(7),
+                Constraint::Length(5),
+                Constraint::Min(5),
+            ])
+            .areas(left);
+            render_body(frame, top, v.state, true);
+            render_body(frame, side, v.state, false);
+            render_torques(frame, bars, v.state);
+        }
+    }
     if v.intent.is_some() {
         let key_rows = KEYS.len().div_ceil(2) as u16 + 2;
         let [status, keys] =
@@ -628,6 +643,7 @@ mod tests {
             intent: Some(i),
             refused: r,
             history: None,
+            map: None,
             status: "connected to 'anguilla'",
         }
     }
@@ -921,6 +937,7 @@ mod tests {
             intent: None,
             refused: None,
             history: Some(&h),
+            map: None,
             status: "read-only",
         };
         let text = draw(100, 40, &v);
