@@ -11,8 +11,8 @@
 //! | `/anguilla/state` | `anguilla.State` | mode, cause, faults, gait target and actual, predictions, bus and loop statistics, the head sensor's estimate and the autopilot |
 //! | `/anguilla/joints` | `anguilla.Joints` | per joint (head first): commanded, measured angle and rate, feed-forward and measured torque, pitch and yaw |
 //! | `/log` | `foxglove.Log` | mode changes, faults, refused commands |
-//! | `/tf` | `foxglove.FrameTransforms` | `world` → `head` (measured with a head sensor, else predicted) and `world` → `head_predicted` (the model's speed and turn rate, integrated) |
-//! | `/body` | `foxglove.SceneUpdate` | the body's links as ellipsoids sized from the body profile, posed from the measured joint angles, in frame `head` |
+//! | `/tf` | `foxglove.FrameTransforms` | `world` → `head` (measured with a head sensor, else predicted), `world` → `head_predicted` (the model's speed and turn rate, integrated), and with the built-in simulated robot `world` → `truth` (its true head, from the newest ground truth) |
+//! | `/body` | `foxglove.SceneUpdate` | entity `body`: the body's links as ellipsoids sized from the body profile, posed from the measured joint angles, in frame `head`; entity `guide`, in frame `world`: the path's legs (past ones dim, the current one bright), the cross-track error (red, while following) and the position's 1σ disc, at the estimate's depth |
 //!
 //! The writer finishes a chunk at every [`McapLog::flush`] (the recorder
 //! calls it each second), so a killed daemon leaves a file readable up to
@@ -122,8 +122,11 @@ impl McapLog {
     }
 
     /// Writes the simulated robot's ground truth at daemon time `ns` to
-    /// its own channel ([`crate::truth::TOPIC`]), created with the first.
+    /// its own channel ([`crate::truth::TOPIC`]), created with the first;
+    /// the next snapshot's `/tf` carries it as the frame `truth`
+    /// ([`Scene::truth`]).
     pub fn write_truth(&mut self, ns: u64, t: &crate::truth::GroundTruth) -> io::Result<()> {
+        self.scene.truth(ns, t);
         let channel_id = match self.truth {
             Some(id) => id,
             None => {

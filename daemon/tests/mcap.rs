@@ -156,10 +156,26 @@ fn ground_truth_goes_to_its_own_channel() {
     let (dir, sent) = record_with("truth", true);
     let bytes = std::fs::read(dir.join("session.mcap")).unwrap();
     let (mut truths, mut last_state) = (Vec::new(), None);
+    // /tf's truth frames (stamp, x, y, z), and /body's guide discs.
+    let (mut truth_frames, mut discs) = (Vec::new(), 0);
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
         match m.channel.topic.as_str() {
+            "/tf" => {
+                for t in v["transforms"].as_array().unwrap() {
+                    if t["child_frame_id"] == "truth" {
+                        let ns = t["timestamp"]["sec"].as_u64().unwrap() * 1_000_000_000
+                            + t["timestamp"]["nsec"].as_u64().unwrap();
+                        let p = ["x", "y", "z"].map(|k| t["translation"][k].as_f64().unwrap());
+                        truth_frames.push((ns, p));
+                    }
+                }
+            }
+            "/body" => {
+                let guide = v["entities"].as_array().unwrap().get(1);
+                discs += guide.map_or(0, |g| g["cylinders"].as_array().unwrap().len());
+            }
             "/sim/truth" => {
                 let schema = m.channel.schema.as_ref().unwrap();
                 assert_eq!(schema.name, "anguilla.SimTruth");
@@ -167,7 +183,7 @@ fn ground_truth_goes_to_its_own_channel() {
                 if let Err(e) = anguilla_view::schema::check(&schema, &v) {
                     panic!("/sim/truth message {}: {e}", truths.len());
                 }
-                truths.push(v);
+                truths.push((m.log_time, v));
             }
             "/anguilla/state" => last_state = Some(v),
             _ => {}
@@ -176,7 +192,26 @@ fn ground_truth_goes_to_its_own_channel() {
     // 4.5 s at the lockstep rate, a sample every 20 ticks.
     assert!(truths.len() > 20, "{} truth messages", truths.len());
     assert!(sent > truths.len());
-    let truth = truths.last().unwrap()["heading_deg"].as_f64().unwrap();
+    // Each truth goes out once, on the next snapshot's /tf, at its own
+    // time and position; two between snapshots (a late recorder) leave
+    // the older out.
+    assert!(
+        truth_frames.len() > truths.len() / 2 && truth_frames.len() <= truths.len(),
+        "{} truth frames, {} truths",
+        truth_frames.len(),
+        truths.len()
+    );
+    for (ns, p) in &truth_frames {
+        let (_, t) = truths
+            .iter()
+            .find(|(t, _)| t == ns)
+            .expect("its /sim/truth");
+        let q = ["x", "y", "z"].map(|k| t["position"][k].as_f64().unwrap());
+        assert_eq!(*p, q, "at {ns} ns");
+    }
+    // The head sensor's estimate: the position's uncertainty is drawn.
+    assert!(discs > 0, "no uncertainty disc in /body");
+    let truth = truths.last().unwrap().1["heading_deg"].as_f64().unwrap();
     let state = last_state.unwrap();
     let estimate = state["nav"]["heading_deg"]
         .as_f64()

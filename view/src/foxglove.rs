@@ -1,7 +1,10 @@
 //! The Foxglove messages of `/log`, `/tf` and `/body` (Foxglove's
 //! published schemas `foxglove.Log`, `foxglove.FrameTransforms`,
 //! `foxglove.SceneUpdate`, with what anguilla writes in them): typed, each
-//! field's schema beside it ([`crate::view!`]), as anguilla's own.
+//! field's schema beside it ([`crate::view!`]), as anguilla's own. Each is
+//! a subset of Foxglove's: the same field names and types, with the
+//! values anguilla writes (its frames, its entities, the primitives it
+//! draws) enumerated and every list it leaves empty of length 0.
 
 use serde_json::{Value, json};
 
@@ -133,20 +136,24 @@ fn world(d: &str) -> Value {
 }
 
 fn children(d: &str) -> Value {
-    names(d, ["head", "head_predicted"])
+    names(d, ["head", "head_predicted", "truth"])
 }
 
 crate::view! {
     /// The pose of a child frame in its parent (translation, then rotation)
     pub struct FrameTransform {
         /// The snapshot's time on the daemon's clock (since the controller
-        /// started, not Unix time), as the message's log time
+        /// started, not Unix time), as the message's log time; truth's: the
+        /// ground truth's, as on /sim/truth
         timestamp: Time => stamp_schema,
         /// The parent frame: the world (x, y level, z up)
         parent_frame_id: &'static str => world,
         /// head: the daemon's estimate with a head sensor (heading, pitch, roll,
         /// depth, and x, y: nav.x_m, nav.y_m), else predicted; head_predicted:
-        /// the model's speed and turn rate integrated in the plane
+        /// the model's speed and turn rate integrated in the plane; truth: the
+        /// simulated robot's true nose and head attitude (x forward, as head),
+        /// in a recording of the built-in robot only, stamped with the truth's
+        /// own time
         child_frame_id: &'static str => children,
         /// The child frame's origin in the parent frame
         translation: Vector3 => vector3,
@@ -157,13 +164,15 @@ crate::view! {
 
 fn transforms(d: &str) -> Value {
     let one = FrameTransform::typed("foxglove.FrameTransform", &FrameTransform::description());
-    array(d, one, 2)
+    array(d, one, 3)
 }
 
 crate::view! {
-    /// The head's pose in the world, measured and predicted
+    /// The head's pose in the world, measured and predicted (and the
+    /// simulated robot's true one)
     pub struct FrameTransforms {
-        /// The transforms: head, then head_predicted
+        /// The transforms: head, then head_predicted, then truth when a new
+        /// ground truth came since the snapshot before
         transforms: Vec<FrameTransform> => transforms,
     }
 }
@@ -180,17 +189,36 @@ impl FrameTransforms {
 }
 
 crate::view! {
-    /// The link's centre and orientation in the head frame (x along the link towards the tail)
+    /// A primitive's position and orientation in its entity's frame
     pub struct Pose {
-        /// The link's centre
+        /// Its position in the entity's frame
         position: Vector3 => vector3,
-        /// The link's orientation
+        /// Its orientation in the entity's frame
         orientation: Quaternion => quaternion,
     }
 }
 
+impl Pose {
+    /// At `position`, not turned.
+    pub fn at(position: Vector3) -> Self {
+        Self {
+            position,
+            orientation: Quaternion {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                w: 1.0,
+            },
+        }
+    }
+}
+
+fn pose(d: &str) -> Value {
+    Pose::typed("foxglove.Pose", d)
+}
+
 crate::view! {
-    /// The link's colour
+    /// A colour
     pub struct Color {
         /// Red (0..=1)
         r: f64 => number,
@@ -208,11 +236,77 @@ crate::view! {
     pub struct SpherePrimitive {
         /// The link's centre and orientation in the head frame (x along the
         /// link towards the tail)
-        pose: Pose => |d: &str| Pose::typed("foxglove.Pose", d),
+        pose: Pose => pose,
         /// The ellipsoid's diameters: x the link's length, y its width, z its height
         size: Vector3 => vector3,
         /// The link's colour
-        color: Color => |d: &str| Color::typed("foxglove.Color", d),
+        color: Color => color,
+    }
+}
+
+fn color(d: &str) -> Value {
+    Color::typed("foxglove.Color", d)
+}
+
+/// `foxglove.LineType` `LINE_LIST`: individual segments, points 0-1, 2-3, …
+pub const LINE_LIST: u8 = 2;
+
+fn line_type(d: &str) -> Value {
+    let list = json!({
+        "const": LINE_LIST,
+        "title": "LINE_LIST",
+        "description": "Individual line segments: 0-1, 2-3, 4-5, ..."
+    });
+    json!({ "title": "foxglove.LineType", "description": d, "oneOf": [list] })
+}
+
+/// The legs `/body`'s guide entity remembers and draws, the oldest
+/// forgotten first: a line primitive has at most a segment (two points)
+/// for each.
+pub const GUIDE_LEGS: usize = 64;
+
+fn points(d: &str) -> Value {
+    let one = Vector3::typed("foxglove.Point3", "A point in the world frame");
+    array(d, one, 2 * GUIDE_LEGS)
+}
+
+crate::view! {
+    /// Segments in the world frame: the path's legs, or the cross-track error
+    pub struct LinePrimitive {
+        /// How the points make lines: LINE_LIST, each pair a segment
+        line_type as "type": u8 => line_type,
+        /// The points' origin: the world frame's, not turned
+        pose: Pose => pose,
+        /// The lines' thickness (pixels on the screen)
+        thickness: f64 => number,
+        /// True: the thickness is in pixels, whatever the distance
+        scale_invariant: bool => boolean,
+        /// The segments' ends, in pairs, in the world frame (m)
+        points: Vec<Vector3> => points,
+        /// The lines' colour
+        color: Color => color,
+        /// Per-point colours: none (color for all)
+        colors: Unused => empty_array,
+        /// Indices into points: none (the points in order)
+        indices: Unused => empty_array,
+    }
+}
+
+crate::view! {
+    /// A flat disc: the position estimate's uncertainty
+    pub struct CylinderPrimitive {
+        /// The disc's centre, the estimated nose (nav.x_m, nav.y_m, and
+        /// minus nav.depth_m), level
+        pose: Pose => pose,
+        /// The disc's bounding box: x and y its diameter, twice
+        /// nav.position_sigma_m (1 sigma each way); z its thickness
+        size: Vector3 => vector3,
+        /// The bottom face's diameter over the box's: 1
+        bottom_scale: f64 => number,
+        /// The top face's diameter over the box's: 1
+        top_scale: f64 => number,
+        /// The disc's colour (translucent)
+        color: Color => color,
     }
 }
 
@@ -235,19 +329,33 @@ fn links(d: &str) -> Value {
     array(d, one, MAX_JOINTS + 1)
 }
 
+fn discs(d: &str) -> Value {
+    let one = CylinderPrimitive::typed(
+        "foxglove.CylinderPrimitive",
+        &CylinderPrimitive::description(),
+    );
+    array(d, one, 1)
+}
+
+fn lines(d: &str) -> Value {
+    let one = LinePrimitive::typed("foxglove.LinePrimitive", &LinePrimitive::description());
+    array(d, one, 3)
+}
+
 crate::view! {
-    /// The body
+    /// The body, or the guide (the path and the position's uncertainty)
     pub struct SceneEntity {
         /// The snapshot's time on the daemon's clock (since the controller
         /// started, not Unix time), as the message's log time
         timestamp: Time => stamp_schema,
-        /// The frame the body is drawn in
-        frame_id: &'static str => |d: &str| names(d, ["head"]),
-        /// The entity: the body
-        id: &'static str => |d: &str| names(d, ["body"]),
+        /// The frame the entity is drawn in: head (the body), world (the guide)
+        frame_id: &'static str => |d: &str| names(d, ["head", "world"]),
+        /// The entity: body, or guide
+        id: &'static str => |d: &str| names(d, ["body", "guide"]),
         /// How long the entity stays: 0, until replaced
         lifetime: Time => lifetime,
-        /// True: the body follows its frame as the frame moves
+        /// True (the body): it follows its frame as the frame moves; false
+        /// (the guide): drawn where the world frame is
         frame_locked: bool => boolean,
         /// Key-value pairs: none
         metadata: Unused => empty_array,
@@ -255,12 +363,14 @@ crate::view! {
         arrows: Unused => empty_array,
         /// Cube primitives: none
         cubes: Unused => empty_array,
-        /// The links, head first
+        /// The body's links, head first (the guide: none)
         spheres: Vec<SpherePrimitive> => links,
-        /// Cylinder primitives: none
-        cylinders: Unused => empty_array,
-        /// Line primitives: none
-        lines: Unused => empty_array,
+        /// The guide's uncertainty disc, while there is an estimate (the body: none)
+        cylinders: Vec<CylinderPrimitive> => discs,
+        /// The guide's lines: the past legs (dim), the current leg (bright),
+        /// the cross-track error while following (red), each while there is
+        /// one (the body: none)
+        lines: Vec<LinePrimitive> => lines,
         /// Triangle list primitives: none
         triangles: Unused => empty_array,
         /// Text primitives: none
@@ -274,16 +384,19 @@ fn entities(d: &str) -> Value {
     array(
         d,
         SceneEntity::typed("foxglove.SceneEntity", &SceneEntity::description()),
-        1,
+        2,
     )
 }
 
 crate::view! {
-    /// The body's links as ellipsoids, posed from the measured joint angles, in the head frame
+    /// The body's links as ellipsoids, posed from the measured joint angles,
+    /// in the head frame; and the guide in the world frame: the path's legs,
+    /// the cross-track error and the position estimate's uncertainty
     pub struct SceneUpdate {
-        /// Entities deleted: none
+        /// Entities deleted: none (an empty guide replaces one drawn before)
         deletions: Unused => empty_array,
-        /// The body
+        /// The body, then the guide (from the first snapshot with something
+        /// to draw on)
         entities: Vec<SceneEntity> => entities,
     }
 }

@@ -16,7 +16,9 @@
 //!   Foxglove and the ROS 2 node's `tf` all take it from here.
 //! - **The scene** ([`Scene`]): a stream of snapshots turned into the
 //!   channels' messages ([`TOPICS`]), with the `/log` lines of what
-//!   changed and the body's links posed from the measured joint angles.
+//!   changed, the body's links posed from the measured joint angles, and
+//!   the guide drawn in the world: the path's legs, the cross-track error
+//!   and the position estimate's uncertainty.
 //!
 //! ```
 //! use anguilla_ipc::StateSnapshot;
@@ -37,6 +39,7 @@ mod changes;
 #[doc(hidden)]
 pub mod define;
 pub mod foxglove;
+mod guide;
 mod message;
 pub mod pose;
 mod scene;
@@ -45,6 +48,7 @@ mod svg;
 pub mod truth;
 
 pub use changes::{guide_line, hold_line, position_line, surface_line};
+pub use foxglove::GUIDE_LEGS;
 pub use message::{Bus, Gait, Guide, Joints, Loop, Nav, Sensor, SensorValue, Sensors, State};
 pub use scene::{Link, Scene, segments};
 

@@ -11,9 +11,11 @@ use crate::foxglove::{
     self, Color, FrameTransform, FrameTransforms, Log, Quaternion, SceneEntity, SceneUpdate,
     SpherePrimitive, Time,
 };
+use crate::guide::GuideTrail;
 use crate::message::{Joints, Sensors, State, finite};
 use crate::pose::{HeadTrack, Pose};
 use crate::to_json;
+use crate::truth::GroundTruth;
 
 fn quaternion(q: &UnitQuaternion<f64>) -> Quaternion {
     Quaternion {
@@ -62,8 +64,9 @@ pub fn segments(joints: usize) -> Vec<(f64, f64, f64)> {
 }
 
 /// Turns snapshots into the channels' messages (the MCAP file's and the
-/// live server's): keeps what needs the snapshot before (the predicted
-/// head's dead reckoning, the changes logged).
+/// live server's): keeps what needs the snapshots before (the predicted
+/// head's dead reckoning, the changes logged, the path's legs drawn) and
+/// the simulated robot's ground truth given since the last snapshot.
 #[derive(Debug, Clone)]
 pub struct Scene {
     last: Option<StateSnapshot>,
@@ -72,6 +75,10 @@ pub struct Scene {
     track: HeadTrack,
     /// Each link's length and its semi-axes (m), head first.
     links: Vec<(f64, f64, f64)>,
+    /// `/body`'s guide entity: the legs seen ([`crate::GUIDE_LEGS`]).
+    guide: GuideTrail,
+    /// The newest ground truth not yet on `/tf`, and its time (ns).
+    truth: Option<(u64, GroundTruth)>,
 }
 
 impl Scene {
@@ -81,7 +88,18 @@ impl Scene {
             last: None,
             track: HeadTrack::default(),
             links: segments(joints),
+            guide: GuideTrail::new(),
+            truth: None,
         }
+    }
+
+    /// Takes the simulated robot's ground truth at daemon time `ns`: the
+    /// next snapshot's `/tf` carries it once, as the frame `truth`
+    /// ([`GroundTruth::head_pose`]) stamped `ns` (of several given between
+    /// two snapshots, the newest). A truth whose values are not finite is
+    /// left out.
+    pub fn truth(&mut self, ns: u64, t: &GroundTruth) {
+        self.truth = Some((ns, *t));
     }
 
     /// The messages of one snapshot: (index in
@@ -99,7 +117,7 @@ impl Scene {
         // The head: measured with a head sensor, else predicted; the
         // predicted one integrated in the plane (crate::pose, as ROS 2's tf).
         let (head, predicted) = self.track.update(s);
-        let tf = |child: &'static str, p: &Pose| {
+        let tf = |ns: u64, child: &'static str, p: &Pose| {
             let [x, y, z] = p.translation;
             let [qx, qy, qz, qw] = p.rotation;
             FrameTransform {
@@ -115,9 +133,14 @@ impl Scene {
                 },
             }
         };
-        let transforms = FrameTransforms {
-            transforms: vec![tf("head", &head), tf("head_predicted", &predicted)],
+        let mut transforms = FrameTransforms {
+            transforms: vec![tf(ns, "head", &head), tf(ns, "head_predicted", &predicted)],
         };
+        if let Some((t_ns, t)) = self.truth.take()
+            && let Some(p) = t.head_pose()
+        {
+            transforms.transforms.push(tf(t_ns, "truth", &p));
+        }
         out.push((3, to_json(&transforms)));
         out.push((4, to_json(&self.scene_update(s, ns))));
         out.push((5, to_json(&Sensors::from(s))));
@@ -156,8 +179,9 @@ impl Scene {
         out
     }
 
-    /// `/body`'s message: the links as ellipsoids, shaded head to tail.
-    fn scene_update(&self, s: &StateSnapshot, ns: u64) -> SceneUpdate {
+    /// `/body`'s message: the links as ellipsoids, shaded head to tail;
+    /// then the guide (crate::guide).
+    fn scene_update(&mut self, s: &StateSnapshot, ns: u64) -> SceneUpdate {
         let links = self.links(s);
         let n = links.len();
         let spheres = links
@@ -181,24 +205,27 @@ impl Scene {
                 },
             })
             .collect();
+        let mut entities = Vec::with_capacity(2);
+        entities.push(SceneEntity {
+            timestamp: Time::from_ns(ns),
+            frame_id: "head",
+            id: "body",
+            lifetime: Time { sec: 0, nsec: 0 },
+            frame_locked: true,
+            metadata: [],
+            arrows: [],
+            cubes: [],
+            spheres,
+            cylinders: Vec::new(),
+            lines: Vec::new(),
+            triangles: [],
+            texts: [],
+            models: [],
+        });
+        entities.extend(self.guide.entity(s, ns));
         SceneUpdate {
             deletions: [],
-            entities: vec![SceneEntity {
-                timestamp: Time::from_ns(ns),
-                frame_id: "head",
-                id: "body",
-                lifetime: Time { sec: 0, nsec: 0 },
-                frame_locked: true,
-                metadata: [],
-                arrows: [],
-                cubes: [],
-                spheres,
-                cylinders: [],
-                lines: [],
-                triangles: [],
-                texts: [],
-                models: [],
-            }],
+            entities,
         }
     }
 }

@@ -133,7 +133,7 @@ mod tests {
     /// The default robot's joints.
     const JOINTS: usize = 12;
     use anguilla_ipc::{
-        Cause, FaultKind, HoldState, Mode, SensorHealth, SensorKind, StateSnapshot,
+        Cause, FaultKind, GuideState, HoldState, Mode, SensorHealth, SensorKind, StateSnapshot,
     };
 
     /// Snapshots that take every mode, cause, sensor health, bus state,
@@ -196,7 +196,22 @@ mod tests {
                     js.measured_yaw = -0.2;
                     js.predicted_yaw_torque = 0.05;
                 }
+                // Every path state (and one unknown), legs coming and
+                // going, an estimate with its σ or none.
+                let g = &mut s.guide;
+                g.state = (i / 2 % (GuideState::ALL.len() as u64 + 1)) as u8;
+                g.leg = (i / 7) as u16;
+                let x = (i / 7) as f32;
+                [g.from_x, g.from_y, g.to_x, g.to_y] = [x, 0.0, x + 1.0, x * 0.5];
+                g.cross_track_m = 0.25;
+                s.nav.samples = i % 3;
+                s.nav.x_m = x + 0.5;
+                s.nav.position_sigma_m = 0.1 * (i % 4) as f32;
+                s.nav.position_health = (i % 6) as u8;
                 if i % 5 == 0 {
+                    s.guide.to_x = f32::NAN;
+                    s.nav.position_sigma_m = f32::INFINITY;
+                    s.nav.x_m = f32::NAN;
                     s.predicted_head_speed = f32::NAN;
                     s.predicted_turn_rate = f32::INFINITY;
                     s.gait_actual.turn = f32::NAN;
@@ -216,8 +231,19 @@ mod tests {
         let schemas = all();
         let mut per_channel = [0usize; 6];
         let mut seen: [BTreeSet<String>; 3] = Default::default();
+        let (mut guides, mut truths) = (0, 0);
         for s in snapshots(JOINTS) {
+            if s.sequence % 30 == 0 {
+                let t = crate::truth::GroundTruth {
+                    position: [1.0, 2.0, -0.5],
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                    ..Default::default()
+                };
+                scene.truth(s.time_ns, &t);
+            }
             for (ch, v) in scene.messages(&s) {
+                guides += usize::from(v["entities"][1]["id"] == "guide");
+                truths += usize::from(v["transforms"][2]["child_frame_id"] == "truth");
                 if let Err(e) = check(&schemas[ch].1, &v) {
                     panic!("{} message {}: {e}\n{v}", TOPICS[ch], per_channel[ch]);
                 }
@@ -233,6 +259,10 @@ mod tests {
             }
         }
         assert!(per_channel.iter().all(|&n| n > 0), "{per_channel:?}");
+        assert!(
+            guides > 30 && truths > 1,
+            "{guides} guides, {truths} truths"
+        );
         // The snapshots did take every value the enumerations allow.
         for (k, names) in [
             mode_names().collect::<BTreeSet<_>>(),

@@ -5,7 +5,10 @@
 
 use serde_json::{Value, json};
 
+use nalgebra::UnitQuaternion;
+
 use crate::foxglove::{Quaternion, Vector3};
+use crate::pose::Pose;
 use crate::schema::{message, number, object};
 
 /// The channel's topic.
@@ -112,6 +115,32 @@ impl From<&GroundTruth> for Truth {
 }
 
 impl GroundTruth {
+    /// The head's true pose as `/tf`'s frame `truth`, drawn beside the
+    /// estimated `head`: the nose's position, and the orientation turned
+    /// from the model's head frame (x towards the tail) to the forward one
+    /// (x forward, y left, z up: [`anguilla_model::forward_turn`]), as
+    /// `head`'s. The simulation's world is the estimate's: both start at
+    /// the origin, the heading counted from x. `None` when a value is not
+    /// finite or the orientation is no rotation (zero).
+    pub fn head_pose(&self) -> Option<Pose> {
+        let [w, x, y, z] = self.orientation;
+        let q = nalgebra::Quaternion::new(w, x, y, z);
+        let finite = self
+            .position
+            .iter()
+            .chain(&self.orientation)
+            .all(|v| v.is_finite());
+        let norm = q.norm();
+        if !finite || !norm.is_finite() || norm <= 1e-9 {
+            return None;
+        }
+        let r = UnitQuaternion::from_quaternion(q) * anguilla_model::forward_turn();
+        Some(Pose {
+            translation: self.position,
+            rotation: [r.i, r.j, r.k, r.w],
+        })
+    }
+
     /// The channel's message.
     pub fn message(&self) -> Value {
         crate::to_json(&Truth::from(self))
@@ -152,5 +181,67 @@ mod tests {
         let mut more = m;
         more["yaw"] = json!(0.0);
         assert!(check(&schema(), &more).is_err());
+    }
+
+    /// The truth frame is x forward, as the estimate's head: a robot
+    /// heading along the world's y (its model frame's x, towards the tail,
+    /// along −y) has its frame's x along +y; once in `/tf`, stamped with
+    /// the truth's time; never with a value that is not finite.
+    #[test]
+    fn the_truth_frame_is_the_head_frame_forward_on_tf_once() {
+        let half = std::f64::consts::FRAC_PI_4;
+        // The model frame turned by −90° about z: its x (the tail) along −y.
+        let t = GroundTruth {
+            position: [1.0, 2.0, -0.5],
+            orientation: [half.cos(), 0.0, 0.0, -half.sin()],
+            ..GroundTruth::default()
+        };
+        let p = t.head_pose().unwrap();
+        assert_eq!(p.translation, [1.0, 2.0, -0.5], "the nose");
+        let [x, y, z, w] = p.rotation;
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        let forward = q * nalgebra::Vector3::x();
+        assert!(
+            (forward - nalgebra::Vector3::y()).norm() < 1e-12,
+            "{forward}"
+        );
+        let up = q * nalgebra::Vector3::z();
+        assert!((up - nalgebra::Vector3::z()).norm() < 1e-12, "{up}");
+        let mut scene = crate::Scene::new(4);
+        let s = anguilla_ipc::StateSnapshot {
+            time_ns: 2_000_000_000,
+            ..Default::default()
+        };
+        scene.truth(1_500_000_000, &t);
+        let tf = |scene: &mut crate::Scene| {
+            let m = scene.messages(&s);
+            let tf = m.into_iter().find(|(ch, _)| *ch == 3).unwrap().1;
+            check(&crate::schema::all()[3].1, &tf).unwrap();
+            tf["transforms"].as_array().unwrap().clone()
+        };
+        let first = tf(&mut scene);
+        assert_eq!(first.len(), 3);
+        assert_eq!(first[2]["child_frame_id"], "truth");
+        assert_eq!(
+            first[2]["timestamp"],
+            json!({ "sec": 1, "nsec": 500_000_000 })
+        );
+        assert_eq!(first[2]["translation"]["y"], 2.0);
+        assert_eq!(tf(&mut scene).len(), 2, "a truth goes out once");
+        for bad in [
+            GroundTruth::default(), // a zero quaternion: no rotation
+            GroundTruth {
+                position: [f64::NAN, 0.0, 0.0],
+                ..t
+            },
+            GroundTruth {
+                orientation: [1.0, f64::INFINITY, 0.0, 0.0],
+                ..t
+            },
+        ] {
+            assert_eq!(bad.head_pose(), None, "{bad:?}");
+            scene.truth(1, &bad);
+            assert_eq!(tf(&mut scene).len(), 2);
+        }
     }
 }
