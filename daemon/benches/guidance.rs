@@ -18,7 +18,8 @@
 //!    (1 Hz, σ 0.1 m, 0.3 s late, 5 % lost) with a DVL (5 Hz, σ 0.01 m/s);
 //!    ILOS (the default κ) and plain LOS (κ = 0): the last time the error
 //!    was 0.10 m or more, its RMS and mean over the last 60 s of 180 s,
-//!    the along-track speed, the estimated current's error after 60 s,
+//!    the along-track speed, the estimated current's error after 60 s
+//!    and at the end, the estimate's factor of the model's speed,
 //!    and LOS's predicted offset Δ V⊥ / √(U² − V⊥²).
 //! 2. `lawnmower`: four legs (30, 25, 30, 25 m) in a current of 0.1 m/s
 //!    across the first leg: the RMS per leg from 20 s after its switch.
@@ -54,7 +55,7 @@ fn main() {
                 let across = current[0].abs();
                 let predicted = delta * across / (f.speed * f.speed - across * across).sqrt();
                 println!(
-                    "{{\"bench\":\"guidance_line\",\"fixes\":\"{fixes_name}\",\"current_angle_deg\":{angle},\"law\":\"{law}\",\"kappa\":{kappa},\"look_ahead\":{delta},\"last_beyond_0_1_m_s\":{:.1},\"rms_m\":{:.4},\"mean_m\":{:.4},\"along_speed_mps\":{:.3},\"current_error_60s_mps\":{:.4},\"current_error_across_60s_mps\":{:.4},\"current_error_along_60s_mps\":{:.4},\"speed_through_water_mps\":{:.3},\"los_predicted_offset_m\":{predicted:.4}}}",
+                    "{{\"bench\":\"guidance_line\",\"fixes\":\"{fixes_name}\",\"current_angle_deg\":{angle},\"law\":\"{law}\",\"kappa\":{kappa},\"look_ahead\":{delta},\"last_beyond_0_1_m_s\":{:.1},\"rms_m\":{:.4},\"mean_m\":{:.4},\"along_speed_mps\":{:.3},\"current_error_60s_mps\":{:.4},\"current_error_across_60s_mps\":{:.4},\"current_error_along_60s_mps\":{:.4},\"speed_through_water_mps\":{:.3},\"current_error_end_mps\":{:.4},\"speed_scale_end\":{:.4},\"los_predicted_offset_m\":{predicted:.4}}}",
                     f.last_far,
                     f.rms,
                     f.mean,
@@ -62,7 +63,9 @@ fn main() {
                     f.current_error_60,
                     f.current_across_60,
                     f.current_along_60,
-                    f.speed
+                    f.speed,
+                    f.current_error_end,
+                    f.speed_scale
                 );
             }
         }

@@ -451,7 +451,7 @@ impl Controller {
                 if let Some(nav) = self.sensors.nav() {
                     let plane = nav.plane();
                     if f.resume {
-                        let speed = self.report.forward_speed;
+                        let speed = self.report.forward_speed * plane.speed_scale();
                         self.guidance.resume(plane.current(), speed);
                     } else {
                         self.guidance.start(f, plane.position());

@@ -278,6 +278,11 @@ pub struct LineFigures {
     /// The forward speed through the water the model predicts (m/s, the
     /// mean over the window).
     pub speed: f64,
+    /// The estimated current's error at the run's end (m/s): what more
+    /// time on the line gives.
+    pub current_error_end: f64,
+    /// The estimate's factor of the model's speed at the run's end.
+    pub speed_scale: f64,
 }
 
 /// The straight-path case: the robot at the origin heading +x
@@ -309,6 +314,8 @@ pub fn line_run(
         current_across_60: f64::NAN,
         current_along_60: f64::NAN,
         speed: 0.0,
+        current_error_end: f64::NAN,
+        speed_scale: f64::NAN,
     };
     let (mut sq, mut sum, mut n, mut speed) = (0.0, 0.0, 0usize, 0.0);
     let mut along0: Option<(f64, f64)> = None;
@@ -342,6 +349,12 @@ pub fn line_run(
                 n += 1;
             }
         }
+    }
+    let nav = &rig.state().nav;
+    f.current_error_end =
+        (f64::from(nav.current_x) - current[0]).hypot(f64::from(nav.current_y) - current[1]);
+    if let Some(n) = rig.ctl.nav() {
+        f.speed_scale = n.plane().speed_scale();
     }
     let n = n.max(1) as f64;
     f.rms = (sq / n).sqrt();

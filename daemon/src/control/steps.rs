@@ -194,7 +194,12 @@ impl Controller {
             d.hold = last;
             return;
         }
-        let (current, speed) = (plane.current(), self.report.forward_speed);
+        // The speed through the water: the model's, scaled by how far
+        // fixes found it off.
+        let (current, speed) = (
+            plane.current(),
+            self.report.forward_speed * plane.speed_scale(),
+        );
         match self.guidance.steer(self.dt, at, current, speed) {
             Some(s) => {
                 d.hold.heading = Some(s.heading);
