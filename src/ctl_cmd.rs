@@ -109,6 +109,11 @@ pub enum CtlCmd {
         /// the file's "loop": true).
         #[arg(long = "loop")]
         looped: bool,
+        /// The waypoints are in the robot's frame now (as the file's
+        /// "frame": "here"): its position the origin, x ahead, y to its
+        /// left.
+        #[arg(long)]
+        here: bool,
     },
     /// Take control and swim to X, Y (m, the estimate's frame: `ctl
     /// status` shows where the robot is) along the straight line from
@@ -223,13 +228,18 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
     }
     // A path is read and checked before anything is sent.
     let path = match &args.cmd {
-        CtlCmd::Follow { path, looped, .. } => {
+        CtlCmd::Follow {
+            path, looped, here, ..
+        } => {
             let text = std::fs::read_to_string(path).map_err(|e| {
                 CtlError::Refused(format!("reading the path file {}: {e}", path.display()))
             })?;
             let mut p = anguilla_teleop::path::PathFile::parse(&text)
                 .map_err(|e| CtlError::Refused(format!("{}: {e}", path.display())))?;
             p.looped |= *looped;
+            if *here {
+                p.frame = anguilla_teleop::path::PathFrame::Here;
+            }
             if p.looped && p.waypoints.len() < 2 {
                 return Err(CtlError::Refused(format!(
                     "{}: a looped path needs at least 2 waypoints",
@@ -261,6 +271,7 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
                 waypoints: vec![w],
                 looped: false,
                 lines: vec![],
+                frame: anguilla_teleop::path::PathFrame::Estimate,
             };
             Some((std::path::PathBuf::new(), p))
         }
@@ -405,8 +416,21 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
                 from_here: goto,
                 resume: false,
             };
+            // In the estimate's frame, from the robot's pose now for a
+            // path in the frame "here".
+            let nav = &c.state().nav;
+            let here = (nav.samples > 0).then(|| {
+                (
+                    f64::from(nav.x_m),
+                    f64::from(nav.y_m),
+                    f64::from(nav.heading_deg),
+                )
+            });
+            let waypoints = p
+                .placed(here)
+                .map_err(|e| CtlError::Refused(format!("{}: {e}", file.display())))?;
             let r = c.follow(
-                &p.waypoints,
+                &waypoints,
                 follow,
                 &mut |s| {
                     let _ = out(&format!(

@@ -171,6 +171,14 @@ impl Operator {
         self.state.is_some_and(|s| s.holder() == Some(self.id()))
     }
 
+    /// A command this tool refused before sending it (a path whose frame
+    /// needs a pose the daemon has not given): shown as the daemon's
+    /// refusals are.
+    pub fn refuse_locally(&mut self, kind: Option<CommandKind>, reason: String) {
+        self.refusals += 1;
+        self.last_refused = Some(Refused { kind, reason });
+    }
+
     /// The last refused command and why.
     pub fn last_refused(&self) -> Option<&Refused> {
         self.last_refused.as_ref()
@@ -254,11 +262,28 @@ impl Driver {
             let resume = state == Some(GuideState::Interrupted)
                 && guide.is_some_and(|g| usize::from(g.waypoints) == n);
             if !resume {
+                // In the estimate's frame (from the robot's pose now, for a
+                // path in the frame "here"); without the pose it needs,
+                // nothing is sent and the status says why.
+                let here = self.op.state().filter(|s| s.nav.samples > 0).map(|s| {
+                    (
+                        f64::from(s.nav.x_m),
+                        f64::from(s.nav.y_m),
+                        f64::from(s.nav.heading_deg),
+                    )
+                });
+                let waypoints = match path.placed(here) {
+                    Ok(w) => w,
+                    Err(e) => {
+                        self.op.refuse_locally(Some(CommandKind::Follow), e);
+                        return Ok(None);
+                    }
+                };
                 // One a request, each answered before the next (the
                 // daemon keeps only a few unanswered requests per
                 // client); a refusal (outside the fence, too deep) is the
                 // operator's to read in the header, and nothing follows.
-                for w in &path.waypoints {
+                for w in &waypoints {
                     if self
                         .op
                         .request(Command::Waypoint(*w), WAYPOINT_REPLY)?

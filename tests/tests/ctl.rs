@@ -432,5 +432,37 @@ fn ctl_goto_and_follow_swim_to_where_they_are_told() {
     );
     assert_eq!(s["mode_name"], "ready", "{s}");
     assert_eq!(s["cause_name"], "path done", "{s}");
+    // A path in the robot's frame (--here): 3 m ahead of where it is,
+    // whichever way it faces; a bad frame is refused with its line.
+    let ahead = dir.join("ahead.json");
+    std::fs::write(
+        &ahead,
+        "{\"waypoints\": [{\"x\": 0, \"y\": 0}, {\"x\": 3, \"y\": 0}],\n \"frame\": \"there\"}\n",
+    )
+    .unwrap();
+    let o = ctl(&prefix, &["follow", ahead.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("line 2") && err.contains("frame") && err.contains("\"here\""),
+        "{err}"
+    );
+    std::fs::write(
+        &ahead,
+        "{\"waypoints\": [{\"x\": 0, \"y\": 0}, {\"x\": 3, \"y\": 0}]}\n",
+    )
+    .unwrap();
+    let (x0, y0) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
+    let h = s["heading_deg"].as_f64().unwrap().to_radians();
+    let o = ctl(&prefix, &["follow", "--here", ahead.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = status(&prefix).expect("a state");
+    assert_eq!(s["guide"]["state"], "done", "{s}");
+    let (xe, ye) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
+    let (x, y) = (x0 + 3.0 * h.cos(), y0 + 3.0 * h.sin());
+    assert!(
+        (xe - x).hypot(ye - y) < 1.5,
+        "at ({xe}, {ye}) for ({x}, {y}), 3 m ahead of ({x0}, {y0}) at {h} rad"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
