@@ -507,7 +507,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
         format!("sensor {}, no sample yet", sensor_name(n.sensor))
     } else {
         format!(
-            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}, x {:.2} m, y {:.2} m (+/- {:.2} m, {} fixes; {}), current {:+.3}, {:+.3} m/s (+/- {:.3}); sensor {}",
+            "heading {:.1} deg, pitch {:+.1} deg, roll {:+.1} deg{}, depth {:.2} m ({:+.2} m/s, + down){}, x {:.2} m, y {:.2} m (+/- {:.2} m, {} fixes; {}), current {:+.3}, {:+.3} m/s (+/- {:.3}), model speed x{:.3}; sensor {}",
             n.heading_deg,
             n.pitch_deg,
             n.roll_deg,
@@ -527,6 +527,7 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
             n.current_x,
             n.current_y,
             n.current_sigma,
+            n.speed_scale,
             sensor_name(n.sensor)
         )
     };

@@ -440,6 +440,7 @@ impl Nav {
             .fix_age()
             .map_or(u32::MAX, |a| (a * 1e3).min(f64::from(u32::MAX - 1)) as u32);
         s.position_health = self.plane.health() as u8;
+        s.speed_scale = self.plane.speed_scale() as f32;
     }
 }
 

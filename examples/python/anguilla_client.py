@@ -80,7 +80,7 @@ class NavSnapshot(_Payload):
         ("samples", u64), ("lost_samples", u64),
         ("x_m", f32), ("y_m", f32), ("position_sigma_m", f32), ("position_fixes", u32),
         ("current_x", f32), ("current_y", f32), ("current_sigma", f32), ("fix_age_ms", u32),
-        ("position_health", u8), ("reserved_position", u8 * 7)]
+        ("position_health", u8), ("reserved_position", u8 * 3), ("speed_scale", f32)]
 
 
 class GuideSnapshot(_Payload):

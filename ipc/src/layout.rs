@@ -95,7 +95,8 @@ pub fn layout_table() -> Vec<LayoutRow> {
         samples: "uint64_t", lost_samples: "uint64_t",
         x_m: "float", y_m: "float", position_sigma_m: "float", position_fixes: "uint32_t",
         current_x: "float", current_y: "float", current_sigma: "float", fix_age_ms: "uint32_t",
-        position_health: "uint8_t", reserved_position: "uint8_t[7]",
+        position_health: "uint8_t", reserved_position: "uint8_t[3]",
+        speed_scale: "float",
     ]));
     v.extend(rows!(GuideSnapshot, "GuideSnapshot", [
         state: "uint8_t", looped: "uint8_t", leg: "uint16_t", waypoints: "uint16_t",

@@ -285,7 +285,13 @@ pub struct NavSnapshot {
     /// reckoning, 1 waiting for a fix, 2 fixed, 3 fix stale, 4 fix lost).
     pub position_health: u8,
     /// Padding, always 0.
-    pub reserved_position: [u8; 7],
+    pub reserved_position: [u8; 3],
+    /// The factor by which the model's speed through the water is off,
+    /// as the estimate learnt it from fixes and a DVL's velocities
+    /// (`1 + k`, docs/autopilot.md, "Position"): 1.04 when the body swims
+    /// 4 % faster than the model predicts; 1 until fixes or velocities
+    /// tell, 0 without a head sensor.
+    pub speed_scale: f32,
 }
 
 /// The path being followed (`Command::Follow`; docs/autopilot.md,

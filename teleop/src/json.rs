@@ -95,6 +95,7 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
         "current_x": estimate(nav.current_x),
         "current_y": estimate(nav.current_y),
         "current_sigma": estimate(nav.current_sigma),
+        "speed_scale": estimate(nav.speed_scale),
         "heading_target_deg": hold.heading.map(|_| nav.heading_target_deg),
         "depth_target_m": hold.depth.map(|_| nav.depth_target_m),
         "torque_residual_alarms": s.residual_alarms().map(|(joint, axis, r)| json!({
@@ -124,7 +125,7 @@ pub fn snapshot_json(s: &StateSnapshot) -> Value {
             "position_fixes": nav.position_fixes,
             "current_x": nav.current_x, "current_y": nav.current_y,
             "current_sigma": nav.current_sigma, "fix_age_ms": nav.fix_age_ms,
-            "position_health": nav.position_health,
+            "position_health": nav.position_health, "speed_scale": nav.speed_scale,
         },
     });
     if let (Value::Object(all), Value::Object(more)) = (&mut v, extra) {

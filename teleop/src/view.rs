@@ -137,8 +137,13 @@ pub fn render(frame: &mut Frame, v: &ViewModel) {
             lines
         })
         .unwrap_or_default();
+    // The rows the header's lines take, wrapped to the frame's width (a
+    // position line longer than a narrow terminal takes two).
+    let nav_rows = Paragraph::new(nav.clone())
+        .wrap(Wrap { trim: true })
+        .line_count(area.width.saturating_sub(2));
     let [header, body, footer] = Layout::vertical([
-        Constraint::Length(3 + nav.len() as u16),
+        Constraint::Length(3 + nav_rows as u16),
         Constraint::Min(10),
         Constraint::Length(1),
     ])

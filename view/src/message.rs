@@ -201,6 +201,10 @@ crate::view! {
         current_y: f32 => real,
         /// The current's standard deviation (m/s, per axis)
         current_sigma: f32 => real,
+        /// The factor by which the model's speed through the water is off,
+        /// as fixes and a DVL's velocities taught the estimate (1 until
+        /// they tell; 0 without a head sensor)
+        speed_scale: f32 => real,
     }
 }
 
@@ -366,6 +370,7 @@ impl From<&StateSnapshot> for State {
                 current_x: n.current_x,
                 current_y: n.current_y,
                 current_sigma: n.current_sigma,
+                speed_scale: n.speed_scale,
             },
             guide: Guide::from(&s.guide),
         }

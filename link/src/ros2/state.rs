@@ -393,6 +393,7 @@ pub fn diagnostics(s: &StateSnapshot, stamp_ns: u64) -> msgs::DiagnosticArray {
             kv("current_x", format!("{:.3}", nav.current_x)),
             kv("current_y", format!("{:.3}", nav.current_y)),
             kv("current_sigma", format!("{:.3}", nav.current_sigma)),
+            kv("speed_scale", format!("{:.3}", nav.speed_scale)),
             kv(
                 "position",
                 nav.position_state()

@@ -459,12 +459,20 @@ mod tests {
                 .collect::<Vec<_>>()
                 .join("\n")
         };
-        let s = following(5.0, 2.0, 2.0);
+        let mut s = following(5.0, 2.0, 2.0);
+        s.nav.sensor = anguilla_ipc::SensorHealth::Ok as u8;
+        s.nav.samples = 10;
         let mut m = Map::default();
         m.update(&s);
         let text = draw(&s, &m);
         assert!(
             text.contains("top view (map): cross-track +2.00 m"),
+            "{text}"
+        );
+        // The position line wraps at 80 columns; the header grows and the
+        // path line after it is still there.
+        assert!(
+            text.contains("model speed") && text.contains("path following"),
             "{text}"
         );
         assert!(!text.contains("side view"), "{text}");
@@ -494,6 +502,8 @@ mod tests {
         s.nav.position_health = PositionHealth::Fixed as u8;
         s.nav.position_fixes = 40;
         s.nav.position_sigma_m = 0.8;
+        (s.nav.current_x, s.nav.current_y, s.nav.current_sigma) = (-0.1, 0.0, 0.01);
+        s.nav.speed_scale = 1.039;
         s.guide.leg = 1;
         s.guide.to_x = 30.0;
         for k in 0..=30 {

@@ -222,10 +222,11 @@ pub fn position_line(nav: &NavSnapshot) -> Option<Line<'static>> {
         )),
         Span::styled(format!("{name}{age}"), style),
         Span::raw(format!(
-            "  current {:.2} m/s toward {:05.1}° ±{:.2}",
+            "  current {:.2} m/s toward {:05.1}° ±{:.2}  model speed ×{:.3}",
             cx.hypot(cy),
             wrap_heading(cy.atan2(cx).to_degrees()),
-            nav.current_sigma
+            nav.current_sigma,
+            nav.speed_scale
         )),
     ]))
 }
@@ -306,6 +307,7 @@ mod tests {
             position_health: PositionHealth::Stale as u8,
             current_y: 0.1,
             current_sigma: 0.02,
+            speed_scale: 1.04,
             ..NavSnapshot::default()
         };
         let text = |l: &Line| {
@@ -317,7 +319,7 @@ mod tests {
         let l = position_line(&nav).expect("a line");
         assert_eq!(
             text(&l),
-            "x +1.50 m  y -0.25 m  ±0.30 m  fix stale 6.5 s ago  current 0.10 m/s toward 090.0° ±0.02"
+            "x +1.50 m  y -0.25 m  ±0.30 m  fix stale 6.5 s ago  current 0.10 m/s toward 090.0° ±0.02  model speed ×1.040"
         );
         assert_eq!(l.spans[1].style.fg, Some(Color::Yellow));
         nav.position_health = PositionHealth::Lost as u8;
