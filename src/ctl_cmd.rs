@@ -100,8 +100,14 @@ pub enum CtlCmd {
         #[arg(value_name = "PATH_FILE")]
         path: std::path::PathBuf,
         /// Amplitude, fraction of the configured maximum (0..=1).
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, conflicts_with = "speed")]
         amplitude: f64,
+        /// Speed through the water (m/s) instead of --amplitude: the
+        /// amplitude whose steady speed it is at --frequency, by the model
+        /// of --config's body (the daemon's), corrected by the model speed
+        /// factor the daemon's estimate has learnt.
+        #[arg(long, value_name = "M/S")]
+        speed: Option<f64>,
         /// Undulation frequency (Hz).
         #[arg(long, default_value_t = 1.0)]
         frequency: f64,
@@ -130,8 +136,12 @@ pub enum CtlCmd {
         #[arg(long, value_name = "M", allow_negative_numbers = true)]
         depth: Option<f64>,
         /// Amplitude, fraction of the configured maximum (0..=1).
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, conflicts_with = "speed")]
         amplitude: f64,
+        /// Speed through the water (m/s) instead of --amplitude (as
+        /// `follow --speed`).
+        #[arg(long, value_name = "M/S")]
+        speed: Option<f64>,
         /// Undulation frequency (Hz).
         #[arg(long, default_value_t = 1.0)]
         frequency: f64,
@@ -277,6 +287,21 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         }
         _ => None,
     };
+    // A speed asked for: the body's speed table at the frequency, by the
+    // model of the daemon's configuration, before anything is sent.
+    let speeds = match &args.cmd {
+        CtlCmd::Follow {
+            speed: Some(v),
+            frequency,
+            ..
+        }
+        | CtlCmd::Goto {
+            speed: Some(v),
+            frequency,
+            ..
+        } => Some(speed_table(&args.daemon, *v, *frequency)?),
+        _ => None,
+    };
     if let CtlCmd::CalibrateSwim { min_depth } = args.cmd
         && !(min_depth.is_finite() && min_depth >= 0.0)
     {
@@ -394,16 +419,30 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         }
         CtlCmd::Follow {
             amplitude,
+            speed,
             frequency,
             ..
         }
         | CtlCmd::Goto {
             amplitude,
+            speed,
             frequency,
             ..
         } => {
             let (file, p) = path.expect("read above");
             let goto = file.as_os_str().is_empty();
+            let amplitude = match speed {
+                None => amplitude,
+                Some(v) => {
+                    let scale = c.state().nav.speed_scale;
+                    let table = speeds.ok_or_else(|| {
+                        CtlError::Refused("--speed: no speed table was made".into())
+                    })?;
+                    let (a, words) = amplitude_for_speed(&table, v, frequency, scale)?;
+                    out(&format!("{words}\n"))?;
+                    a
+                }
+            };
             let follow = anguilla_ipc::Follow {
                 swim: SwimParams {
                     amplitude,
@@ -472,6 +511,73 @@ fn ctl(args: CtlArgs) -> Result<(), CtlError> {
         }
     };
     out(&format!("done: {}\n", outcome.mode))
+}
+
+/// The speed table of `--speed v` at `frequency` (Hz): the steady speed
+/// at each amplitude of the body the daemon's configuration (`--config`,
+/// else the default: the built-in robot's) describes.
+fn speed_table(
+    daemon: &crate::teleop_cmd::DaemonArgs,
+    v: f64,
+    frequency: f64,
+) -> Result<anguilla_model::SpeedTable, CtlError> {
+    if !(v.is_finite() && v > 0.0) {
+        return Err(CtlError::Refused(format!(
+            "--speed {v} is invalid (expected metres a second through the water, > 0)"
+        )));
+    }
+    if !(frequency.is_finite() && frequency > 0.0) {
+        return Err(CtlError::Refused(format!(
+            "--frequency {frequency} is invalid (expected Hz, > 0)"
+        )));
+    }
+    let cfg = daemon.at.config().map_err(|e| {
+        CtlError::Refused(format!("--speed needs the daemon's configuration: {e:#}"))
+    })?;
+    let speeds = anguilla_daemon::speed::steady_speeds(&cfg.daemon, frequency).map_err(|e| {
+        CtlError::Refused(format!(
+            "--speed: the model of this body does not swim: {e}"
+        ))
+    })?;
+    Ok(anguilla_model::SpeedTable::new(speeds))
+}
+
+/// The amplitude that swims `v` m/s through the water at `frequency`:
+/// the model's steady speed from `table`, divided by the factor the
+/// daemon's estimate has learnt (`scale`, 1.04 when the body swims 4 %
+/// faster than the model; ignored when not a sensible factor), and the
+/// words that say so. Beyond the body's reach: refused.
+fn amplitude_for_speed(
+    table: &anguilla_model::SpeedTable,
+    v: f64,
+    frequency: f64,
+    scale: f32,
+) -> Result<(f64, String), CtlError> {
+    let scale = f64::from(scale);
+    let scale = if (0.5..=2.0).contains(&scale) {
+        scale
+    } else {
+        1.0
+    };
+    let model = v / scale;
+    let (a, reached) = table.amplitude_for(model);
+    if !reached {
+        return Err(CtlError::Refused(format!(
+            "--speed {v} m/s is beyond this body at {frequency} Hz: its model swims {:.2} m/s at full amplitude{} (ask for less, or a higher --frequency)",
+            table.max_speed() * scale,
+            if scale == 1.0 {
+                String::new()
+            } else {
+                format!(", times the learnt factor {scale:.3}")
+            }
+        )));
+    }
+    Ok((
+        a,
+        format!(
+            "--speed {v} m/s: amplitude {a:.2} at {frequency} Hz (the model's steady speed {model:.2} m/s, times the learnt factor {scale:.3})"
+        ),
+    ))
 }
 
 /// The position's health in words, with the last fix's age.
@@ -620,4 +726,34 @@ fn summary(s: &StateSnapshot, who: Option<String>) -> String {
         l.command_timeout_ms,
         l.daemon_pid,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The amplitude of a speed: the model's steady speed divided by the
+    /// learnt factor (ignored when it is not one: 0 without a head
+    /// sensor), refused beyond full amplitude.
+    #[test]
+    fn a_speed_is_the_amplitude_whose_scaled_steady_speed_it_is() {
+        let table = anguilla_model::SpeedTable::linear(0.6);
+        let (a, words) = amplitude_for_speed(&table, 0.3, 1.0, 1.0).unwrap();
+        assert!((a - 0.5).abs() < 1e-9, "{a}");
+        assert!(words.contains("amplitude 0.50 at 1 Hz"), "{words}");
+        // The body swims 20 % faster than its model: less amplitude.
+        let (a, _) = amplitude_for_speed(&table, 0.3, 1.0, 1.2).unwrap();
+        assert!((a - 0.25 / 0.6).abs() < 1e-6, "{a}");
+        for nonsense in [0.0, f32::NAN, 10.0] {
+            let (a, _) = amplitude_for_speed(&table, 0.3, 1.0, nonsense).unwrap();
+            assert!((a - 0.5).abs() < 1e-9, "{nonsense}: {a}");
+        }
+        let Err(CtlError::Refused(why)) = amplitude_for_speed(&table, 0.7, 1.0, 1.0) else {
+            panic!("0.7 m/s is beyond 0.6");
+        };
+        assert!(
+            why.contains("beyond this body") && why.contains("0.60 m/s"),
+            "{why}"
+        );
+    }
 }

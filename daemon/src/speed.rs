@@ -3,8 +3,8 @@
 //! command an amplitude (issue 46): [`steady_speeds`] swims the daemon's
 //! own model (the same body, control period and gait law as
 //! [`crate::control`]) straight ahead at one frequency through a ladder of
-//! amplitudes, once at start; `anguilla link` inverts the table (its ROS 2
-//! node's `SpeedTable`).
+//! amplitudes, once at start; [`anguilla_model::SpeedTable`] inverts it
+//! (`anguilla link`'s ROS 2 `cmd_vel`, `anguilla ctl follow --speed`).
 //!
 //! The speed of an undulating swimmer is far from linear in its amplitude
 //! (the built-in robot at 1 Hz: 0.03 m/s at amplitude 0.1, 0.33 at 0.4,
@@ -25,7 +25,7 @@ use anguilla_model::{
 use crate::config::Config;
 
 /// Amplitudes in the table: `0, 1/(N-1), ..., 1`.
-pub const N: usize = 21;
+pub const N: usize = anguilla_model::SPEED_RUNGS;
 
 /// Gait periods the model swims at each amplitude before it is measured
 /// (from the previous amplitude's steady swim, one rung lower): on the

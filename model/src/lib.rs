@@ -49,6 +49,7 @@ pub mod gait;
 pub mod identify;
 pub mod paper;
 pub mod run;
+pub mod speed_table;
 
 pub use body::{
     AxialDrag, Body, GRAVITY, Profile, TYPICAL_BALLAST, depth_at_pressure, pressure_at_depth,
@@ -64,3 +65,4 @@ pub use gait::{
     Curvature, CurvatureSource, GaitParams, JointCurvature, JointMotion, JointSegment, LawSource,
     ParametricGait,
 };
+pub use speed_table::{SPEED_RUNGS, SpeedTable};

@@ -452,17 +452,55 @@ fn ctl_goto_and_follow_swim_to_where_they_are_told() {
         "{\"waypoints\": [{\"x\": 0, \"y\": 0}, {\"x\": 3, \"y\": 0}]}\n",
     )
     .unwrap();
+    // A speed beyond the body: refused before anything is sent.
+    let far_speed = ["follow", "--here", "--speed", "5", ahead.to_str().unwrap()];
+    let o = ctl(&prefix, &far_speed);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("beyond this body"), "{}", text(&o));
+    // Where the robot is (it may still glide after the goto).
+    let s = status(&prefix).expect("a state");
     let (x0, y0) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
     let h = s["heading_deg"].as_f64().unwrap().to_radians();
-    let o = ctl(&prefix, &["follow", "--here", ahead.to_str().unwrap()]);
+    // At 0.4 m/s: the amplitude the model's steady speed gives.
+    let slow = [
+        "follow",
+        "--here",
+        "--speed",
+        "0.4",
+        ahead.to_str().unwrap(),
+    ];
+    let o = ctl(&prefix, &slow);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("--speed 0.4 m/s: amplitude 0."),
+        "{}",
+        text(&o)
+    );
     let s = status(&prefix).expect("a state");
     assert_eq!(s["guide"]["state"], "done", "{s}");
-    let (xe, ye) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
-    let (x, y) = (x0 + 3.0 * h.cos(), y0 + 3.0 * h.sin());
+    let g = |k: &str| s["guide"][k].as_f64().unwrap();
+    let (fx, fy, tx, ty) = (g("from_x"), g("from_y"), g("to_x"), g("to_y"));
+    // The leg ran 3 m along the heading from where the robot was when
+    // ctl read it (a little further along its glide than here).
+    let along = (fx - x0) * h.cos() + (fy - y0) * h.sin();
+    let across = -(fx - x0) * h.sin() + (fy - y0) * h.cos();
     assert!(
-        (xe - x).hypot(ye - y) < 1.5,
-        "at ({xe}, {ye}) for ({x}, {y}), 3 m ahead of ({x0}, {y0}) at {h} rad"
+        (-0.05..2.5).contains(&along) && across.abs() < 0.2,
+        "the leg starts at ({fx}, {fy}), the robot was at ({x0}, {y0}) heading {h}"
+    );
+    assert!(((tx - fx).hypot(ty - fy) - 3.0).abs() < 0.01, "{s}");
+    let turn = ((ty - fy).atan2(tx - fx) - h + 3.0 * std::f64::consts::PI)
+        .rem_euclid(std::f64::consts::TAU)
+        - std::f64::consts::PI;
+    assert!(
+        turn.abs() < 0.1,
+        "the leg {turn} (rad) off the heading: {s}"
+    );
+    let (xe, ye) = (s["x_m"].as_f64().unwrap(), s["y_m"].as_f64().unwrap());
+    assert!(
+        (xe - tx).hypot(ye - ty) < 1.5,
+        "at ({xe}, {ye}) for ({tx}, {ty}): {}",
+        text(&o)
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
