@@ -9,8 +9,9 @@
 //! simulated robot in lockstep, default configuration plus `[sensor] node
 //! = 20`, gait at full amplitude and 1 Hz); the current is the simulated
 //! water's, unknown to the daemon. Cross-track errors are the truth's: the
-//! nose's position averaged over each gait period (the tail beat's sway
-//! removed).
+//! body's centroid (half its length behind the nose along its heading)
+//! averaged over each gait period (the tail beat's sway removed), as the
+//! issue asks; the nose's beside them on the line.
 //!
 //! 1. `line`: the robot 2.0 m off a straight line, at −90° to it, the
 //!    current 0.1 m/s at 90° and at 45° to the line; with positions from
@@ -55,7 +56,7 @@ fn main() {
                 let across = current[0].abs();
                 let predicted = delta * across / (f.speed * f.speed - across * across).sqrt();
                 println!(
-                    "{{\"bench\":\"guidance_line\",\"fixes\":\"{fixes_name}\",\"current_angle_deg\":{angle},\"law\":\"{law}\",\"kappa\":{kappa},\"look_ahead\":{delta},\"last_beyond_0_1_m_s\":{:.1},\"rms_m\":{:.4},\"mean_m\":{:.4},\"along_speed_mps\":{:.3},\"current_error_60s_mps\":{:.4},\"current_error_across_60s_mps\":{:.4},\"current_error_along_60s_mps\":{:.4},\"speed_through_water_mps\":{:.3},\"current_error_end_mps\":{:.4},\"speed_scale_end\":{:.4},\"los_predicted_offset_m\":{predicted:.4}}}",
+                    "{{\"bench\":\"guidance_line\",\"fixes\":\"{fixes_name}\",\"current_angle_deg\":{angle},\"law\":\"{law}\",\"kappa\":{kappa},\"look_ahead\":{delta},\"last_beyond_0_1_m_s\":{:.1},\"rms_m\":{:.4},\"mean_m\":{:.4},\"along_speed_mps\":{:.3},\"current_error_60s_mps\":{:.4},\"current_error_across_60s_mps\":{:.4},\"current_error_along_60s_mps\":{:.4},\"speed_through_water_mps\":{:.3},\"nose_rms_m\":{:.4},\"nose_mean_m\":{:.4},\"current_error_end_mps\":{:.4},\"speed_scale_end\":{:.4},\"los_predicted_offset_m\":{predicted:.4}}}",
                     f.last_far,
                     f.rms,
                     f.mean,
@@ -64,6 +65,8 @@ fn main() {
                     f.current_across_60,
                     f.current_along_60,
                     f.speed,
+                    f.nose_rms,
+                    f.nose_mean,
                     f.current_error_end,
                     f.speed_scale
                 );
@@ -99,7 +102,7 @@ fn lawnmower(cfg: &anguilla_daemon::config::Config, name: &str, mut fixes: Fixes
     ];
     follow(&mut rig, &points, false, false);
     let per = (1e9 / rig.ctl.period_ns().as_nanos() as f64).round() as usize;
-    let mut track = Track::new(per);
+    let mut track = Track::new(per, cfg.model.body().length / 2.0);
     let mut legs = [(0.0f64, 0usize, f64::NAN); 4];
     let (mut leg, mut switched) = (1u16, rig.time());
     let start = rig.time();
@@ -115,10 +118,10 @@ fn lawnmower(cfg: &anguilla_daemon::config::Config, name: &str, mut fixes: Fixes
             switched = rig.time();
         }
         let i = usize::from(leg).saturating_sub(1).min(3);
-        if let Some(p) = track.push(&rig)
+        if let Some(avg) = track.push(&rig)
             && rig.time() - switched >= 20.0
         {
-            let (e, _) = cross_track(p, points[i], points[i + 1]);
+            let (e, _) = cross_track(avg.centroid, points[i], points[i + 1]);
             legs[i].0 += e * e;
             legs[i].1 += 1;
             legs[i].2 = rig.time() - switched;

@@ -161,15 +161,11 @@ impl Controller {
     /// ends when the swim does, and stops the swim at its last waypoint
     /// or when the position fix is lost (holding the last heading).
     pub(super) fn guide(&mut self, now: Nanos, d: &mut Directives) {
-        let Some(plane) = self
-            .sensors
-            .nav()
-            .filter(|n| n.has_estimate())
-            .map(|n| n.plane())
-        else {
+        let Some(nav) = self.sensors.nav().filter(|n| n.has_estimate()) else {
             self.guidance.end(GuideState::Interrupted);
             return;
         };
+        let plane = nav.plane();
         let at = plane.position();
         let swimming = self.sup.mode() == Mode::Swimming;
         if self.guidance.left_fence(at.0, at.1) && swimming {

@@ -263,3 +263,27 @@ fn leaving_the_fence_is_seen_once_on_the_way_out() {
     assert!(g.left_fence(4.1, 0.0));
     assert!(!g.left_fence(4.2, 0.0), "once");
 }
+
+/// The body's centre follows the leg, not the nose: with the nose on a
+/// leg along +x and a current of 0.1 m/s to the left at 0.7 m/s, the
+/// robot crabs right and its centre (0.5 m behind) is 0.5 × 0.1 / 0.7 m
+/// left of the nose's track; no current, no correction; a forged NaN
+/// current is no current.
+#[test]
+fn the_cross_track_error_is_the_centres() {
+    let mut g = guidance(0.25);
+    load(&mut g, &[(0.0, 0.0), (10.0, 0.0)]);
+    g.start(&follow(2, false, false), (0.0, 0.0));
+    let behind = Config::default().model.body().length / 2.0;
+    g.steer(DT, (1.0, 0.0), (0.0, 0.1), 0.7).expect("following");
+    assert!((g.cross - behind * 0.1 / 0.7).abs() < 1e-12, "{}", g.cross);
+    g.steer(DT, (1.0, 0.0), (0.0, 0.0), 0.7).expect("following");
+    assert_eq!(g.cross, 0.0);
+    g.steer(DT, (1.0, 0.0), (f64::NAN, 0.1), 0.7)
+        .expect("following");
+    assert_eq!(g.cross, 0.0);
+    // Too slow to crab: no correction.
+    g.steer(DT, (1.0, 0.0), (0.0, 0.1), 0.05)
+        .expect("following");
+    assert_eq!(g.cross, 0.0);
+}
