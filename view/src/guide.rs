@@ -8,8 +8,9 @@
 //!   dim, the snapshot's leg bright. A guide that is off (no path since the
 //!   daemon started: a daemon restarted under a live view) forgets them.
 //! - **The cross-track error**, while following: the segment from the
-//!   estimated nose to its foot on the current leg's line, as long as
-//!   `guide.cross_track_m` says.
+//!   point the daemon measures it of (the body's centre, which follows
+//!   the path: docs/autopilot.md) to its foot on the current leg's line,
+//!   from the guide's `along_track_m` and `cross_track_m`.
 //! - **The uncertainty**: a level disc at the estimated nose, its diameter
 //!   twice `nav.position_sigma_m` (1σ each way), whenever there is an
 //!   estimate (a head sensor's samples), whatever the position's health
@@ -100,17 +101,25 @@ fn estimate(n: &NavSnapshot) -> Option<[f64; 3]> {
         .then(|| [f64::from(n.x_m), f64::from(n.y_m), -f64::from(n.depth_m)])
 }
 
-/// The foot of the perpendicular from `p` on the line through `a` and
-/// `b`; `None` when `a` and `b` coincide (no line) or it is not finite.
-fn foot(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> Option<[f64; 2]> {
+/// The point the daemon measures the cross-track error of (the body's
+/// centre) and its foot on the leg from `a` to `b`, from the guide's own
+/// numbers: `along` the leg from `a`, `cross` to its left; `None` when
+/// `a` and `b` coincide (no line) or a value is not finite.
+fn centre_and_foot(
+    a: [f64; 2],
+    b: [f64; 2],
+    along: f64,
+    cross: f64,
+) -> Option<([f64; 2], [f64; 2])> {
     let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    if !(l2 > 0.0 && l2.is_finite()) {
+    let l = d[0].hypot(d[1]);
+    if !(l > 0.0 && l.is_finite()) {
         return None;
     }
-    let t = ((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2;
-    let f = [a[0] + t * d[0], a[1] + t * d[1]];
-    f.iter().all(|v| v.is_finite()).then_some(f)
+    let u = [d[0] / l, d[1] / l];
+    let f = [a[0] + along * u[0], a[1] + along * u[1]];
+    let c = [f[0] - cross * u[1], f[1] + cross * u[0]];
+    c.iter().chain(&f).all(|v| v.is_finite()).then_some((c, f))
 }
 
 fn line(points: Vec<Vector3>, thickness: f64, color: Color) -> LinePrimitive {
@@ -192,11 +201,15 @@ impl GuideTrail {
         if let Some(leg) = current {
             lines.push(line(leg.ends(z).into(), 4.0, CURRENT));
             let [a, b] = [leg.from, leg.to].map(|[x, y]| [f64::from(x), f64::from(y)]);
+            let (along, cross) = (
+                f64::from(s.guide.along_track_m),
+                f64::from(s.guide.cross_track_m),
+            );
             if state == Some(GuideState::Following)
-                && let Some([x, y, z]) = nose
-                && let Some(f) = foot([x, y], a, b)
+                && let Some([_, _, z]) = nose
+                && let Some((c, f)) = centre_and_foot(a, b, along, cross)
             {
-                lines.push(line(vec![point([x, y], z), point(f, z)], 2.0, CROSS_TRACK));
+                lines.push(line(vec![point(c, z), point(f, z)], 2.0, CROSS_TRACK));
             }
         }
         let sigma = f64::from(s.nav.position_sigma_m);
@@ -466,8 +479,8 @@ mod tests {
                     2..=4 => (true, false, false),
                     // σ: no disc.
                     5 => (true, true, false),
-                    // The daemon's cross-track number is not drawn from.
-                    _ => (true, true, true),
+                    // The cross-track error: not drawn.
+                    _ => (true, false, true),
                 };
                 assert_eq!(drawn, want, "value {k} {bad}: {g}");
             }
@@ -478,5 +491,33 @@ mod tests {
         let lines = guide(&b).unwrap()["lines"].as_array().unwrap().clone();
         let cross = crate::to_json(&CROSS_TRACK);
         assert!(lines.iter().all(|l| l["color"] != cross), "{lines:?}");
+    }
+
+    /// The segment starts where the daemon measures the error, the
+    /// body's centre, not at the nose: a crabbing robot's nose is off the
+    /// leg while its centre is on it.
+    #[test]
+    fn the_cross_track_is_drawn_from_the_point_it_is_of() {
+        let mut scene = Scene::new(12);
+        let mut s = following(2, [10.0, 0.0], [10.0, 8.0], [11.25, 3.0]);
+        s.guide.cross_track_m = -1.18;
+        let (b, _) = body(&mut scene, &s);
+        let g = guide(&b).unwrap();
+        let cross = crate::to_json(&CROSS_TRACK);
+        let seg = g["lines"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|l| l["color"] == cross)
+            .expect("a cross-track segment");
+        let [c, f] = <[[f64; 3]; 2]>::try_from(points(seg)).unwrap();
+        assert!(
+            (c[0] - 11.18).abs() < 1e-5 && (c[1] - 3.0).abs() < 1e-5,
+            "{c:?}"
+        );
+        assert!(
+            (f[0] - 10.0).abs() < 1e-5 && (f[1] - 3.0).abs() < 1e-5,
+            "{f:?}"
+        );
     }
 }
