@@ -509,10 +509,12 @@ impl Guidance {
         // current, not the swinging heading: steering the centre itself
         // couples the turn into the error (a turn towards the leg first
         // swings the centre away) and slowed the join by half.
-        let e = -rx * gamma.sin()
-            + ry * gamma.cos()
-            + self.centre_behind * self.crab_sin(current, speed);
+        let crab = self.crab_sin(current, speed);
+        let e = -rx * gamma.sin() + ry * gamma.cos() + self.centre_behind * crab;
         self.cross = e;
+        // The centre's along-track distance too: behind the nose by
+        // `c cos(crab)`, so that along and cross name one point.
+        self.along -= self.centre_behind * (1.0 - crab * crab).sqrt();
         let b = self.path[self.to];
         self.to_go = (at.0 - b.x).hypot(at.1 - b.y);
         let d = self.look_ahead;

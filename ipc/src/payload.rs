@@ -311,10 +311,11 @@ pub struct GuideSnapshot {
     pub waypoints: u16,
     /// Padding, always 0.
     pub reserved: u16,
-    /// The distance from the leg's line (m), positive left of its
-    /// direction.
+    /// The body's centre's distance from the leg's line (m), positive
+    /// left of its direction (the centre follows the path: half the
+    /// body's length behind the nose, docs/autopilot.md).
     pub cross_track_m: f32,
-    /// How far along the leg the robot is from its start (m).
+    /// How far along the leg the body's centre is from its start (m).
     pub along_track_m: f32,
     /// The leg's length (m).
     pub leg_length_m: f32,

@@ -209,6 +209,9 @@ pub struct Driver {
     pub intent: Intent,
     /// The path [`Action::Follow`] follows (`anguilla teleop --path`).
     pub path: Option<crate::path::PathFile>,
+    /// The waypoints last sent, in the estimate's frame, and whether the
+    /// path loops: for the view to draw (taken by it).
+    pub placed: Option<(Vec<(f64, f64)>, bool)>,
     next_steady: Instant,
     refusals_seen: u64,
 }
@@ -220,6 +223,7 @@ impl Driver {
             op,
             intent,
             path: None,
+            placed: None,
             next_steady: Instant::now(),
             refusals_seen: 0,
         }
@@ -283,6 +287,7 @@ impl Driver {
                 // daemon keeps only a few unanswered requests per
                 // client); a refusal (outside the fence, too deep) is the
                 // operator's to read in the header, and nothing follows.
+                self.placed = Some((waypoints.iter().map(|w| (w.x, w.y)).collect(), path.looped));
                 for w in &waypoints {
                     if self
                         .op

@@ -46,10 +46,16 @@ impl TeleopSession {
     /// A session over `driver`, for the daemon at `prefix`.
     pub fn new(driver: Driver, prefix: &str) -> Self {
         let provenance = driver.op.provenance_problem();
-        let map = driver.path.as_ref().map_or_else(Map::default, |p| {
-            let pts: Vec<(f64, f64)> = p.waypoints.iter().map(|w| (w.x, w.y)).collect();
-            Map::with_path(&pts, p.looped)
-        });
+        // The path as the daemon will be sent it (in the estimate's
+        // frame); a path "here" is drawn once sent, from where it starts.
+        let map = driver
+            .path
+            .as_ref()
+            .and_then(|p| Some((p.placed(None).ok()?, p.looped)))
+            .map_or_else(Map::default, |(w, looped)| {
+                let pts: Vec<(f64, f64)> = w.iter().map(|w| (w.x, w.y)).collect();
+                Map::with_path(&pts, looped)
+            });
         let mut s = Self {
             driver,
             prefix: prefix.to_string(),
@@ -87,7 +93,11 @@ impl TeleopSession {
 
     /// Applies a key's action.
     pub fn act(&mut self, a: Action) -> Result<(), IpcError> {
-        self.driver.act(a).map(|_| ())
+        let r = self.driver.act(a).map(|_| ());
+        if let Some((path, looped)) = self.driver.placed.take() {
+            self.map.set_path(&path, looped);
+        }
+        r
     }
 
     /// What the view shows now.

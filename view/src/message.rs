@@ -221,9 +221,10 @@ crate::view! {
         leg: u16 => count,
         /// True when the path loops back to its first waypoint
         looped: bool => boolean,
-        /// The distance from the leg's line (m), positive left of its direction
+        /// The body's centre's distance from the leg's line (m), positive
+        /// left of its direction (the centre follows the path)
         cross_track_m: f32 => real,
-        /// How far along the leg the robot is from its start (m)
+        /// How far along the leg the body's centre is from its start (m)
         along_track_m: f32 => real,
         /// The leg's length (m)
         leg_length_m: f32 => real,

@@ -277,6 +277,13 @@ fn the_cross_track_error_is_the_centres() {
     let behind = Config::default().model.body().length / 2.0;
     g.steer(DT, (1.0, 0.0), (0.0, 0.1), 0.7).expect("following");
     assert!((g.cross - behind * 0.1 / 0.7).abs() < 1e-12, "{}", g.cross);
+    // Along the leg, the centre is behind the nose by c cos(crab).
+    let cos = (1.0 - (0.1f64 / 0.7).powi(2)).sqrt();
+    assert!(
+        (g.along - (1.0 - behind * cos)).abs() < 1e-12,
+        "{}",
+        g.along
+    );
     g.steer(DT, (1.0, 0.0), (0.0, 0.0), 0.7).expect("following");
     assert_eq!(g.cross, 0.0);
     g.steer(DT, (1.0, 0.0), (f64::NAN, 0.1), 0.7)

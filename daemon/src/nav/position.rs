@@ -315,6 +315,9 @@ impl Plane {
         };
         let gain = p * h.transpose() * si;
         let d = gain * nalgebra::Vector2::new(e.0, e.1);
+        if !(d.iter().all(|v| v.is_finite()) && gain.iter().all(|v| v.is_finite())) {
+            return *p;
+        }
         self.shift(then, d[0], d[1], d[CX], d[CY], d[K]);
         let ikh = Cov::identity() - gain * h;
         // Joseph's form: symmetric and positive whatever the rounding.
@@ -335,9 +338,15 @@ impl Plane {
         };
         let (ex, ey) = (x - then.x, y - then.y);
         // The covariance of the estimate's time: `ago` before the present.
+        let r = sigma * sigma;
+        if !r.is_finite() {
+            // A σ whose square overflows (a forged 1e200) would make the
+            // estimate NaN for good.
+            self.rejected += 1;
+            return false;
+        }
         let (ago, d) = self.since(&then);
         let p = shifted(&self.cov, -ago, (-d.0, -d.1));
-        let r = sigma * sigma;
         let spread = 0.5 * (p[(0, 0)] + p[(1, 1)]);
         let outlier = ex.hypot(ey) > GATE * (spread + r).sqrt();
         if self.fixes == 0 {
@@ -415,6 +424,10 @@ impl Plane {
         // fast error adds to the sensor's.
         let model = SPEED_ERROR * then.vx.hypot(then.vy);
         let r = sigma * sigma + model * model;
+        if !r.is_finite() {
+            self.rejected += 1;
+            return false;
+        }
         let hph = h * p * h.transpose();
         let spread = 0.5 * (hph[(0, 0)] + hph[(1, 1)]);
         let outlier = ex.hypot(ey) > GATE * (spread + r).sqrt();
@@ -746,6 +759,25 @@ mod tests {
         let moved = p.position().0 - 3.0;
         assert!(moved.abs() < 0.5, "{moved}");
         assert!(p.current().0 < -0.01, "{:?}", p.current());
+    }
+
+    /// A forged σ whose square overflows (finite, but 1e200) is refused
+    /// and counted, for a fix and a velocity alike: the estimate stays
+    /// finite and takes the next good one.
+    #[test]
+    fn a_sigma_too_large_to_square_is_refused() {
+        let mut p = Plane::new(Some(TIMES));
+        for k in 1..=100 {
+            p.propagate(ms(10 * k), 0.3, 0.0, DT);
+        }
+        assert!(!p.fix(ms(1000), 0.3, 0.0, 1e200));
+        assert!(!p.velocity(ms(1000), 0.3, 0.0, 1e200));
+        assert_eq!((p.fixes(), p.velocities(), p.rejected()), (0, 0, 2));
+        assert!(p.fix(ms(1000), 0.3, 0.0, 0.1));
+        assert!(p.velocity(ms(1000), 0.3, 0.0, 0.01));
+        let (x, y) = p.position();
+        assert!(x.is_finite() && y.is_finite() && p.sigma().is_finite());
+        assert!(p.current_sigma().is_finite() && p.speed_scale().is_finite());
     }
 
     /// A fix measured before the kept history cannot be placed: left out

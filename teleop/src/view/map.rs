@@ -83,6 +83,13 @@ impl Map {
         }
     }
 
+    /// Draws `path` (the waypoints sent, in the estimate's frame) from
+    /// now on.
+    pub fn set_path(&mut self, path: &[(f64, f64)], looped: bool) {
+        self.path = path.to_vec();
+        self.looped = looped;
+    }
+
     /// Takes in a snapshot (one already seen, by its time, is skipped).
     pub fn update(&mut self, s: &StateSnapshot) {
         if self.last_ns == Some(s.time_ns) {
@@ -99,7 +106,8 @@ impl Map {
             )
         {
             let leg = ((fx, fy), (tx, ty));
-            if self.legs.last() != Some(&leg) {
+            // Each leg once (a looped path comes round to the same ones).
+            if !self.legs.contains(&leg) {
                 if self.legs.len() == MAX_LEGS {
                     self.legs.remove(0);
                 }
@@ -236,7 +244,10 @@ pub fn render_map(frame: &mut Frame, area: Rect, map: &Map, s: Option<&StateSnap
                 return;
             };
             let following = s.guide.guide_state() == Some(GuideState::Following);
-            if following && let Some(&leg) = legs.last() {
+            let g = &s.guide;
+            let current = [g.from_x, g.from_y, g.to_x, g.to_y].map(finite);
+            if following && let [Some(fx), Some(fy), Some(tx), Some(ty)] = current {
+                let leg = ((fx, fy), (tx, ty));
                 seg(ctx, leg, Color::Cyan);
                 let (along, cross) = (
                     f64::from(s.guide.along_track_m),
@@ -336,6 +347,12 @@ mod tests {
             s.nav.x_m = k as f32;
             m.update(&s);
         }
+        assert_eq!(m.legs(), MAX_LEGS);
+        assert_eq!(m.legs.last().unwrap().1, ((MAX_LEGS + 10) as f64, 0.0));
+        // A looped path's next lap: the same legs, not kept again.
+        s.time_ns += 1;
+        (s.guide.from_x, s.guide.to_x) = (20.0, 21.0);
+        m.update(&s);
         assert_eq!(m.legs(), MAX_LEGS);
         assert_eq!(m.legs.last().unwrap().1, ((MAX_LEGS + 10) as f64, 0.0));
         for k in 0..(MAX_TRACK + 10) {
