@@ -23,7 +23,7 @@ use crate::hold::{held, wrap_heading};
 use crate::keys::KEYS;
 use crate::operator::Refused;
 pub use lists::{residual_line, sensor_lines, sensor_name};
-pub use map::{Leg, Map, centre_and_foot, map_title, render_map};
+pub use map::{Map, map_title, render_map};
 pub use nav::{
     COMPASS_DEG_PER_COLUMN, compass_strip, depth_gauge, nav_lines, path_line, position_line,
 };

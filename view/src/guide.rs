@@ -104,8 +104,9 @@ fn estimate(n: &NavSnapshot) -> Option<[f64; 3]> {
 /// The point the daemon measures the cross-track error of (the body's
 /// centre) and its foot on the leg from `a` to `b`, from the guide's own
 /// numbers: `along` the leg from `a`, `cross` to its left; `None` when
-/// `a` and `b` coincide (no line) or a value is not finite.
-fn centre_and_foot(
+/// `a` and `b` coincide (no line) or a value is not finite. The TUI's
+/// map draws the same segment with it.
+pub fn centre_and_foot(
     a: [f64; 2],
     b: [f64; 2],
     along: f64,
@@ -519,5 +520,22 @@ mod tests {
             (f[0] - 10.0).abs() < 1e-5 && (f[1] - 3.0).abs() < 1e-5,
             "{f:?}"
         );
+    }
+
+    /// The centre from the guide's along and cross, left of the leg, and
+    /// its foot on it; nothing for a leg of no length or a NaN.
+    #[test]
+    fn the_centre_and_its_foot_come_from_the_guides_numbers() {
+        let (a, b) = ([0.0, 0.0], [10.0, 0.0]);
+        assert_eq!(
+            centre_and_foot(a, b, 3.0, 4.0),
+            Some(([3.0, 4.0], [3.0, 0.0]))
+        );
+        let ([cx, cy], [fx, fy]) =
+            centre_and_foot(a, [2.0, 2.0], 2f64.sqrt(), 2f64.sqrt()).unwrap();
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(near(fx, 1.0) && near(fy, 1.0) && near(cx, 0.0) && near(cy, 2.0));
+        assert_eq!(centre_and_foot([1.0, 1.0], [1.0, 1.0], 1.0, 1.0), None);
+        assert_eq!(centre_and_foot(a, b, f64::NAN, 1.0), None);
     }
 }

@@ -49,6 +49,7 @@ pub mod truth;
 
 pub use changes::{guide_line, hold_line, position_line, surface_line};
 pub use foxglove::GUIDE_LEGS;
+pub use guide::centre_and_foot;
 pub use message::{Bus, Gait, Guide, Joints, Loop, Nav, Sensor, SensorValue, Sensors, State};
 pub use scene::{Link, Scene, segments};
 

@@ -24,7 +24,7 @@ pub const MAX_TRACK: usize = 600;
 pub const TRACK_STEP_M: f64 = 0.05;
 
 /// A leg: from, to (m).
-pub type Leg = ((f64, f64), (f64, f64));
+type Leg = ((f64, f64), (f64, f64));
 
 /// What the map remembers between snapshots.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -56,21 +56,6 @@ fn positioned(s: &StateSnapshot) -> bool {
 /// Whether a path is, or was, followed.
 fn guided(s: &StateSnapshot) -> bool {
     !matches!(s.guide.guide_state(), Some(GuideState::Off))
-}
-
-/// The point the daemon measures the cross-track error of (the body's
-/// centre, which follows the path) and its foot on the leg from `a` to
-/// `b`, from the guide's own numbers: `along` the leg from `a`, `cross`
-/// to its left; `None` for a leg of no length or values not finite.
-pub fn centre_and_foot((a, b): Leg, along: f64, cross: f64) -> Option<((f64, f64), (f64, f64))> {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let l = dx.hypot(dy);
-    if !(l > 1e-6 && l.is_finite() && along.is_finite() && cross.is_finite()) {
-        return None;
-    }
-    let (ux, uy) = (dx / l, dy / l);
-    let f = (a.0 + along * ux, a.1 + along * uy);
-    Some(((f.0 - cross * uy, f.1 + cross * ux), f))
 }
 
 impl Map {
@@ -253,8 +238,11 @@ pub fn render_map(frame: &mut Frame, area: Rect, map: &Map, s: Option<&StateSnap
                     f64::from(s.guide.along_track_m),
                     f64::from(s.guide.cross_track_m),
                 );
-                if let Some(cf) = centre_and_foot(leg, along, cross) {
-                    seg(ctx, cf, Color::Red);
+                let ends = [[leg.0.0, leg.0.1], [leg.1.0, leg.1.1]];
+                if let Some(([cx, cy], [fx, fy])) =
+                    anguilla_view::centre_and_foot(ends[0], ends[1], along, cross)
+                {
+                    seg(ctx, ((cx, cy), (fx, fy)), Color::Red);
                 }
             }
             let sigma = finite(s.nav.position_sigma_m).unwrap_or(0.0);
@@ -306,23 +294,6 @@ mod tests {
         s.nav.position_health = PositionHealth::Fixed as u8;
         s.nav.position_sigma_m = 0.5;
         s
-    }
-
-    /// The centre from the guide's along and cross, left of the leg, and
-    /// its foot on it; nothing for a leg of no length or a NaN.
-    #[test]
-    fn the_centre_and_its_foot_come_from_the_guides_numbers() {
-        let leg = ((0.0, 0.0), (10.0, 0.0));
-        assert_eq!(
-            centre_and_foot(leg, 3.0, 4.0),
-            Some(((3.0, 4.0), (3.0, 0.0)))
-        );
-        let ((cx, cy), (fx, fy)) =
-            centre_and_foot(((0.0, 0.0), (2.0, 2.0)), 2f64.sqrt(), 2f64.sqrt()).unwrap();
-        let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
-        assert!(near(fx, 1.0) && near(fy, 1.0) && near(cx, 0.0) && near(cy, 2.0));
-        assert_eq!(centre_and_foot(((1.0, 1.0), (1.0, 1.0)), 1.0, 1.0), None);
-        assert_eq!(centre_and_foot(leg, f64::NAN, 1.0), None);
     }
 
     /// Legs are remembered once each, in order, and forgotten oldest
