@@ -838,35 +838,35 @@ fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--head-sensor", "64"]);
     assert!(!ok);
     assert!(err.contains("--head-sensor 64: 64 outside 1..=63"), "{err}");
-    let (ok, _, err) = run(&[
-        "sim",
-        "--slcan-pty",
-        "--usbl",
-        "127.0.0.1:9",
-        "--usbl-latency",
-        "2",
-    ]);
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--sensor", "usbl=127.0.0.1:9@2"]);
     assert!(!ok);
     assert!(
-        err.contains("--usbl 127.0.0.1:9 --usbl-latency 2: simulated USBL")
+        err.contains("--sensor usbl=127.0.0.1:9@2: simulated USBL")
             && err.contains("latency shorter than a reading's period"),
         "{err}"
     );
     let (ok, _, err) = run(&[
         "sim",
         "--slcan-pty",
-        "--dvl",
-        "127.0.0.1:9",
-        "--dvl-latency",
-        "0.5",
+        "--sensor",
+        "usbl=127.0.0.1:9",
+        "--sensor",
+        "dvl=127.0.0.1:9@0.5",
     ]);
     assert!(!ok);
     assert!(
-        err.contains("--dvl 127.0.0.1:9 --dvl-latency 0.5: simulated DVL: rate 5 Hz"),
+        err.contains("--sensor dvl=127.0.0.1:9@0.5: simulated DVL: rate 5 Hz"),
         "{err}"
     );
-    let (ok, _, err) = run(&["sim", "--slcan-pty", "--usbl", "nowhere"]);
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--sensor", "usbl=nowhere"]);
     assert!(!ok);
+    assert!(err.contains("'nowhere' is not ADDRESS:PORT"), "{err}");
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--sensor", "sonar=127.0.0.1:9"]);
+    assert!(!ok);
+    assert!(
+        err.contains("no simulated sensor 'sonar'") && err.contains("usbl, dvl"),
+        "{err}"
+    );
     assert!(err.contains("nowhere"), "{err}");
 }
 

@@ -4,12 +4,12 @@
 //! own thread in real time), configured from the daemon's configuration.
 
 use anguilla_daemon::config::Config;
+use anguilla_daemon::sensors::Source;
 use anguilla_drivers::Bus;
 use anguilla_sim::SimError;
 use anguilla_sim::builtin::{Builtin, BuiltinConfig};
-use anguilla_sim::dvl::DvlSimConfig;
+use anguilla_sim::offbus::SimSensorConfig;
 use anguilla_sim::sensor::SensorConfig;
-use anguilla_sim::usbl::UsblSimConfig;
 
 /// The running built-in robot.
 pub struct BuiltinSim {
@@ -68,24 +68,32 @@ pub fn builtin_config(cfg: &Config, bus_name: &str) -> BuiltinConfig {
         head_sensor: head_sensor(cfg, cfg.sensor.node),
         tail_sensor: head_sensor(cfg, cfg.sensor.tail_imu),
         body: cfg.model.body(),
-        usbl: udp_target(cfg.sensor.usbl.as_ref().map(|u| u.source.as_str())).map(|addr| {
-            UsblSimConfig::typical(addr, cfg.sensor.usbl.as_ref().map_or(0.0, |u| u.latency))
-        }),
-        dvl: udp_target(cfg.sensor.dvl.as_ref().map(|d| d.source.as_str())).map(|addr| {
-            DvlSimConfig::typical(addr, cfg.sensor.dvl.as_ref().map_or(0.0, |d| d.latency))
-        }),
+        off_bus: simulated_off_bus(cfg),
     }
 }
 
-/// Where a simulated sensor off the bus sends, for a `udp:` `source` (the
-/// machine's own address if it is unspecified): the built-in robot's USBL
-/// (typical fixes, [`UsblSimConfig::typical`]) and DVL
-/// ([`DvlSimConfig::typical`]), each with its configured latency. None for
-/// a serial source: a serial sensor is a real one.
-fn udp_target(source: Option<&str>) -> Option<std::net::SocketAddr> {
-    anguilla_daemon::sensors::usbl::Source::parse(source?)
-        .ok()?
-        .send_to()
+/// The simulated counterparts of `cfg`'s sensors off the bus
+/// ([`anguilla_sim::offbus`], by the kind's name, typical noise and rate,
+/// the configured latency), each sending to its section's `udp:` source
+/// (the machine's own address if it is unspecified). None for a serial
+/// source (a serial sensor is a real one), nor for a kind without a
+/// simulated counterpart (it is warned of: the daemon will wait for it).
+fn simulated_off_bus(cfg: &Config) -> Vec<SimSensorConfig> {
+    let mut sims = Vec::new();
+    for section in cfg.sensor.off_bus() {
+        let Some(target) = Source::parse(section.source())
+            .ok()
+            .and_then(|s| s.send_to())
+        else {
+            continue;
+        };
+        let name = section.kind().name();
+        match SimSensorConfig::typical(name, target, Some(section.latency())) {
+            Some(sim) => sims.push(sim),
+            None => tracing::warn!("[sensor.{name}]: the built-in robot does not simulate it"),
+        }
+    }
+    sims
 }
 
 /// The simulated IMU at node `id` of `cfg`'s `[sensor]` (the head sensor
@@ -155,4 +163,41 @@ pub fn start_builtin(
         tracing::warn!("simulated robot thread: SCHED_FIFO priority {p} refused ({e})");
     }
     Ok((host, BuiltinSim { running }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every kind off the bus the daemon reads has its simulated
+    /// counterpart on the built-in robot, sending to its `udp:` source
+    /// with its latency; a serial source is a real sensor, not simulated;
+    /// and no simulated kind is one the daemon cannot read.
+    #[test]
+    fn every_off_bus_kind_is_simulated_on_the_builtin_robot() {
+        let mut cfg = Config::default();
+        cfg.sensor = cfg.sensor.with_every_off_bus();
+        if let Some(u) = &mut cfg.sensor.usbl {
+            u.source = "udp:0.0.0.0:14660".into();
+            u.latency = 0.25;
+        }
+        let sims = simulated_off_bus(&cfg);
+        let daemon: Vec<_> = cfg.sensor.off_bus().map(|s| s.kind().name()).collect();
+        let simulated: Vec<_> = sims.iter().map(SimSensorConfig::name).collect();
+        assert_eq!(simulated, daemon);
+        assert_eq!(SimSensorConfig::NAMES.to_vec(), daemon);
+        assert!(
+            sims[0].describe() == "--sensor usbl=127.0.0.1:14660@0.25",
+            "an unspecified address is sent to this machine: {}",
+            sims[0].describe()
+        );
+        if let Some(d) = &mut cfg.sensor.dvl {
+            d.source = "serial:/dev/ttyUSB0:115200".into();
+        }
+        let sims = simulated_off_bus(&cfg);
+        assert_eq!(
+            sims.iter().map(SimSensorConfig::name).collect::<Vec<_>>(),
+            ["usbl"]
+        );
+    }
 }

@@ -94,7 +94,7 @@ impl Config {
     /// the daemon's `[sensor.usbl]` source, which must be `udp:` (this
     /// machine's loopback when it is bound to every address).
     pub fn pose_fix_target(&self) -> Result<std::net::SocketAddr, ConfigError> {
-        use anguilla_daemon::sensors::usbl::Source;
+        use anguilla_daemon::sensors::Source;
         let source = self.daemon.sensor.usbl.as_ref().map(|u| u.source.as_str());
         let target = source
             .and_then(|s| Source::parse(s).ok())

@@ -9,6 +9,7 @@ use anguilla_model::{Current, MAX_CURRENT};
 use anguilla_protocol::Family;
 use anguilla_protocol::message::Variant;
 use anguilla_sim::actuator::ActuatorParams;
+use anguilla_sim::offbus::SimSensorConfig;
 use anguilla_sim::sensor::SensorConfig;
 use anguilla_sim::serve::{ScenarioText, Serve, TruthSink, Wire, serve};
 use anguilla_sim::{RobotConfig, SimError, TICK_RANGE};
@@ -120,27 +121,20 @@ pub struct SimArgs {
     /// (the daemon's `[sensor] tail-imu`).
     #[arg(long, value_name = "ID")]
     tail_imu: Option<u8>,
-    /// A USBL off the bus, sending the nose's true position to
-    /// ADDRESS:PORT in UDP datagrams (the daemon's `[sensor.usbl] source =
-    /// "udp:ADDRESS:PORT"`): 1 Hz, σ 0.3 m per axis, 10 % of fixes lost,
-    /// each sent --usbl-latency after it was measured (docs/autopilot.md,
-    /// "Position").
-    #[arg(long, value_name = "ADDRESS:PORT")]
-    usbl: Option<std::net::SocketAddr>,
-    /// The simulated USBL's latency (s, 0 ..< 1: less than a fix's period).
-    #[arg(long, value_name = "S", default_value_t = 0.3, requires = "usbl")]
-    usbl_latency: f64,
-    /// A DVL off the bus, sending the nose's true velocity over ground to
-    /// ADDRESS:PORT in UDP datagrams (the daemon's `[sensor.dvl] source =
-    /// "udp:ADDRESS:PORT"`): 5 Hz, σ 0.01 m/s per axis, 5 % lost, none
-    /// while the nose is shallower than 0.3 m (no bottom lock), each sent
-    /// --dvl-latency after it was measured.
-    #[arg(long, value_name = "ADDRESS:PORT")]
-    dvl: Option<std::net::SocketAddr>,
-    /// The simulated DVL's latency (s, 0 ..< 0.2: less than a reading's
-    /// period).
-    #[arg(long, value_name = "S", default_value_t = 0.05, requires = "dvl")]
-    dvl_latency: f64,
+    /// A sensor off the bus beside the robot, sending what the body's
+    /// truth gives to ADDRESS:PORT in UDP datagrams (the daemon's
+    /// `[sensor.NAME] source = "udp:ADDRESS:PORT"`), each LATENCY s after
+    /// it was measured (default: the kind's usual): `usbl` (1 Hz, σ 0.3 m
+    /// per axis, 10 % of fixes lost; latency 0.3 s, under a fix's period)
+    /// or `dvl` (velocity over ground, 5 Hz, σ 0.01 m/s, 5 % lost, none
+    /// while the nose is shallower than 0.3 m; latency 0.05 s, under 0.2).
+    /// Repeat for several (docs/autopilot.md, "Position").
+    #[arg(
+        long = "sensor",
+        value_name = "NAME=ADDRESS:PORT[@LATENCY]",
+        value_parser = SimSensorConfig::parse
+    )]
+    sensors: Vec<SimSensorConfig>,
     /// The body's ballast: its centre of mass this far below its axis (m,
     /// 0..=0.05; default 0.02, as the daemon's `[model] ballast`; 0: the
     /// paper's body, which rolls freely under pitch curvature).
@@ -254,18 +248,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         if args.truth.is_some() {
             bail!("--truth: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
-        if args.usbl.is_some() {
-            bail!("--usbl: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
-        }
-        if args.dvl.is_some() {
-            bail!("--dvl: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
+        if !args.sensors.is_empty() {
+            bail!("--sensor: needs a robot (--joints 1..=63), not the bus alone (--joints 0)");
         }
         let alone = Serve {
             robot: None,
             wire: wire(args, adapters),
             scenario: None,
-            usbl: None,
-            dvl: None,
+            off_bus: Vec::new(),
             truth: None,
         };
         return serve_until_stopped(alone, args.duration);
@@ -298,12 +288,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             }),
             _ => None,
         },
-        usbl: args
-            .usbl
-            .map(|addr| anguilla_sim::usbl::UsblSimConfig::typical(addr, args.usbl_latency)),
-        dvl: args
-            .dvl
-            .map(|addr| anguilla_sim::dvl::DvlSimConfig::typical(addr, args.dvl_latency)),
+        off_bus: args.sensors.clone(),
         truth,
     };
     serve_until_stopped(serve, args.duration)

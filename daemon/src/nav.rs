@@ -188,9 +188,11 @@ impl Nav {
             errors: SensorErrors::default(),
             status: SensorStatus::default(),
             health: SensorHealth::Waiting,
-            plane: Plane::new(cfg.sensor.usbl.as_ref().map(|_| position::FixTimes {
-                stale: cfg.autopilot.fix_stale,
-                lost: cfg.autopilot.fix_lost,
+            plane: Plane::new(cfg.sensor.off_bus().any(|s| s.gives_position()).then_some({
+                position::FixTimes {
+                    stale: cfg.autopilot.fix_stale,
+                    lost: cfg.autopilot.fix_lost,
+                }
             })),
         })
     }

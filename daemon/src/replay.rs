@@ -170,7 +170,7 @@ pub fn replay_with(
     // estimate steers nothing yet), and its source may be held by the
     // running daemon (a port in use).
     let mut live = cfg.clone();
-    live.sensor.usbl = None;
+    live.sensor = cfg.sensor.without_off_bus();
     let mut ctl = Controller::new(&live, start)?;
     let mut bus = ReplayBus {
         rx: Default::default(),

@@ -45,12 +45,9 @@ pub struct BuiltinConfig {
     pub tail_sensor: Option<crate::sensor::SensorConfig>,
     /// The simulated body (its own, not necessarily the daemon's model).
     pub body: anguilla_model::Body,
-    /// A USBL off the bus, sending fixes of the nose's true position, or
-    /// none.
-    pub usbl: Option<crate::usbl::UsblSimConfig>,
-    /// A DVL off the bus, sending the nose's true velocity over ground, or
-    /// none.
-    pub dvl: Option<crate::dvl::DvlSimConfig>,
+    /// Sensors off the bus beside the robot (a USBL, a DVL), sending
+    /// what the body's truth gives.
+    pub off_bus: Vec<crate::offbus::SimSensorConfig>,
 }
 
 /// The in-process robot, running.
@@ -58,8 +55,7 @@ pub struct Builtin {
     running: RunningSim,
     bus: MemBus,
     host: anguilla_drivers::mem::ParticipantId,
-    usbl: Option<crate::usbl::SimUsbl>,
-    dvl: Option<crate::dvl::SimDvl>,
+    off_bus: crate::offbus::SimSensors,
     /// A priority the system refused (the robot runs without it).
     pub priority_refused: Option<std::io::Error>,
 }
@@ -102,26 +98,12 @@ impl Builtin {
         let priority_refused = cfg
             .fifo_priority
             .and_then(|p| running.set_fifo_priority(p).err());
-        let usbl = match &cfg.usbl {
-            Some(u) => match crate::usbl::SimUsbl::beside(u.clone(), &running) {
-                Ok(u) => Some(u),
-                Err(e) => {
-                    let _ = running.stop();
-                    return Err(SimError::Thread(e));
-                }
-            },
-            None => None,
-        };
-        let dvl = match &cfg.dvl {
-            Some(d) => match crate::dvl::SimDvl::beside(d.clone(), &running) {
-                Ok(d) => Some(d),
-                Err(e) => {
-                    drop(usbl);
-                    let _ = running.stop();
-                    return Err(SimError::Thread(e));
-                }
-            },
-            None => None,
+        let off_bus = match crate::offbus::SimSensors::beside(&cfg.off_bus, &running) {
+            Ok(s) => s,
+            Err((_, e)) => {
+                let _ = running.stop();
+                return Err(SimError::Thread(e));
+            }
         };
         Ok((
             host,
@@ -129,8 +111,7 @@ impl Builtin {
                 running,
                 bus,
                 host: host_id,
-                usbl,
-                dvl,
+                off_bus,
                 priority_refused,
             },
         ))
@@ -159,20 +140,15 @@ impl Builtin {
         self.running.truth()
     }
 
-    /// Fixes the simulated USBL has sent (0 without one).
-    pub fn usbl_fixes(&self) -> u64 {
-        self.usbl.as_ref().map_or(0, crate::usbl::SimUsbl::sent)
+    /// Sentences the simulated sensors off the bus named `name` (`usbl`,
+    /// `dvl`) have sent (0 without one).
+    pub fn sent_off_bus(&self, name: &str) -> u64 {
+        self.off_bus.sent(name)
     }
 
-    /// Velocities the simulated DVL has sent (0 without one).
-    pub fn dvl_readings(&self) -> u64 {
-        self.dvl.as_ref().map_or(0, crate::dvl::SimDvl::sent)
-    }
-
-    /// Stops the robot's thread (and its USBL's and DVL's).
+    /// Stops the robot's thread (and its sensors' off the bus).
     pub fn stop(self) {
-        drop(self.usbl);
-        drop(self.dvl);
+        drop(self.off_bus);
         let _ = self.running.stop();
     }
 }

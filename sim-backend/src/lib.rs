@@ -22,12 +22,12 @@
 //!   system tests drive too), on an in-process bus in real time;
 //! - [`sensor`]: the optional head sensor (IMU and pressure) beside the
 //!   joints, sampled from the body's true head state;
-//! - [`usbl`]: a USBL off the bus, sending noisy fixes of the true position
-//!   over UDP; [`dvl`]: a DVL, sending the true velocity over ground while
-//!   it has bottom lock;
+//! - [`offbus`]: the sensors off the bus (a USBL's noisy fixes of the true
+//!   position, a DVL's velocity over ground while it has bottom lock),
+//!   sent over UDP;
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`serve`]: a robot served on a bus or behind emulated SLCAN adapters
-//!   until told to stop, with its scenario, USBL and ground-truth record
+//!   until told to stop, with its scenario, sensors off the bus and ground-truth record
 //!   (what `anguilla sim` runs once its options are checked);
 //! - [`rng`]: the deterministic random source of sensor noise and faults.
 //!
@@ -67,18 +67,17 @@ pub mod actuator;
 pub mod builtin;
 pub mod cia402;
 pub mod device;
-pub mod dvl;
 pub mod error;
 pub mod mit;
 pub mod node;
 pub mod odrive;
+pub mod offbus;
 pub mod plant;
 pub mod rng;
 pub mod robot;
 pub mod scenario;
 pub mod sensor;
 pub mod serve;
-pub mod usbl;
 
 pub use robot::{
     MAX_CATCH_UP, Result, RobotConfig, RunningSim, SimError, SimRobot, SimStats, Status,

@@ -2,7 +2,7 @@
 //! sim` runs once its options are checked ([`serve`]). The robot goes on
 //! a named bus, or behind emulated SLCAN adapters on pseudo-terminals
 //! (several on one simulated wire, or those alone without a robot); a
-//! scenario, a USBL off the bus and a recorder of the ground truth may
+//! scenario, sensors off the bus and a recorder of the ground truth may
 //! run beside it. What happens is told line by line to the caller.
 
 use std::io;
@@ -14,9 +14,8 @@ use anguilla_drivers::mem::MemBus;
 use anguilla_drivers::slcan::emulator::{EmulatorConfig, SlcanEmulator};
 use anguilla_drivers::{Clock, MonotonicClock};
 
-use crate::dvl::{DvlSimConfig, SimDvl};
+use crate::offbus::{SimSensorConfig, SimSensors};
 use crate::robot::{RobotConfig, RunningSim, SimRobot, Truth};
-use crate::usbl::{SimUsbl, UsblSimConfig};
 
 /// Where the robot is served.
 #[derive(Debug, Clone, PartialEq)]
@@ -68,10 +67,9 @@ pub struct Serve {
     pub wire: Wire,
     /// Timed faults.
     pub scenario: Option<ScenarioText>,
-    /// A USBL off the bus, sending the nose's true position.
-    pub usbl: Option<UsblSimConfig>,
-    /// A DVL off the bus, sending the nose's true velocity over ground.
-    pub dvl: Option<DvlSimConfig>,
+    /// Sensors off the bus (a USBL, a DVL), sending what the body's
+    /// truth gives.
+    pub off_bus: Vec<SimSensorConfig>,
     /// Where the ground truth is recorded.
     pub truth: Option<Box<dyn TruthSink>>,
 }
@@ -100,8 +98,7 @@ pub fn serve(s: Serve, wait: Wait, say: &mut dyn FnMut(&str)) -> Result<(), Serv
         robot,
         wire,
         scenario,
-        usbl,
-        dvl,
+        off_bus,
         truth,
     } = s;
     let mut emulators = Vec::new();
@@ -175,26 +172,11 @@ pub fn serve(s: Serve, wait: Wait, say: &mut dyn FnMut(&str)) -> Result<(), Serv
         .map_err(|e| fail("starting the simulation thread", e))?;
     // The sensors beside it, stopped when dropped at the end of this
     // function; the robot stopped if one cannot start.
-    let beside = (|| {
-        let usbl = usbl
-            .map(|c| {
-                let what = format!("--usbl {} --usbl-latency {}", c.target, c.latency);
-                SimUsbl::beside(c, &running).map_err(|e| fail(what, e))
-            })
-            .transpose()?;
-        let dvl = dvl
-            .map(|c| {
-                let what = format!("--dvl {} --dvl-latency {}", c.target, c.latency);
-                SimDvl::beside(c, &running).map_err(|e| fail(what, e))
-            })
-            .transpose()?;
-        Ok::<_, ServeError>((usbl, dvl))
-    })();
-    let _beside = match beside {
+    let _beside = match SimSensors::beside(&off_bus, &running) {
         Ok(b) => b,
-        Err(e) => {
+        Err((c, e)) => {
             let _ = running.stop();
-            return Err(e);
+            return Err(fail(c.describe(), e));
         }
     };
     let truth_name = truth.as_ref().map(|t| t.name()).unwrap_or_default();
@@ -443,8 +425,7 @@ mod tests {
             robot: Some(RobotConfig::with_joints(2)),
             wire: Wire::Bus(format!("mem:{bus}")),
             scenario: None,
-            usbl: None,
-            dvl: None,
+            off_bus: Vec::new(),
             truth: Some(Box::new(sink)),
         };
         // A state, not a time: stop once the sink has what we wait for.
@@ -515,8 +496,7 @@ mod tests {
             robot: None,
             wire: Wire::Bus("mem:x".into()),
             scenario: None,
-            usbl: None,
-            dvl: None,
+            off_bus: Vec::new(),
             truth: None,
         };
         let e = serve(alone, &never, &mut |_| {}).unwrap_err().to_string();
@@ -528,8 +508,7 @@ mod tests {
                 name: "faults.txt".into(),
                 text: "1.0 node 3 sideways\n".into(),
             }),
-            usbl: None,
-            dvl: None,
+            off_bus: Vec::new(),
             truth: None,
         };
         let e = serve(bad_scenario, &never, &mut |_| {})
@@ -540,8 +519,7 @@ mod tests {
             robot: Some(RobotConfig::with_joints(2)),
             wire: Wire::Bus("carrier-pigeon:1".into()),
             scenario: None,
-            usbl: None,
-            dvl: None,
+            off_bus: Vec::new(),
             truth: None,
         };
         let e = serve(no_bus, &never, &mut |_| {}).unwrap_err().to_string();

@@ -229,8 +229,7 @@ fn the_builtin_robot_takes_the_family_and_numbers_bought_joints_from_one() {
         head_sensor: None,
         tail_sensor: None,
         body: anguilla_model::Body::paper(),
-        usbl: None,
-        dvl: None,
+        off_bus: Vec::new(),
     })
     .unwrap();
     // Real time: wait (bounded, a watchdog against a hang, not a speed

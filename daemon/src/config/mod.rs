@@ -244,39 +244,27 @@ impl Config {
     /// when it arrives).
     fn validate_latencies(&self, rate: f64) -> Result<(), ConfigError> {
         let kept = crate::nav::position::HISTORY as f64 / rate;
-        let sensors = [
-            (
-                "sensor.usbl.latency",
-                self.sensor.usbl.as_ref().map(|u| u.latency),
-            ),
-            (
-                "sensor.dvl.latency",
-                self.sensor.dvl.as_ref().map(|d| d.latency),
-            ),
-        ];
-        for (key, latency) in sensors {
-            let Some(latency) = latency else { continue };
+        for section in self.sensor.off_bus() {
+            let (name, latency) = (section.kind().name(), section.latency());
             if latency >= kept / 2.0 {
                 return Err(ConfigError::Derived(format!(
-                    "{key} = {} s: the estimate keeps {} s of its past at {} Hz (1024 \
-                     periods), and a reading must arrive within half of it (expected a \
-                     latency below {} s, or a slower control rate)",
+                    "sensor.{name}.latency = {} s: the estimate keeps {} s of its past at {} \
+                     Hz (1024 periods), and a reading must arrive within half of it (expected \
+                     a latency below {} s, or a slower control rate)",
                     fmt_f(latency),
                     fmt_f(kept),
                     fmt_f(rate),
                     fmt_f(kept / 2.0)
                 )));
             }
-        }
-        if let Some(u) = &self.sensor.usbl
-            && u.latency >= self.autopilot.fix_stale
-        {
-            return Err(ConfigError::Derived(format!(
-                "sensor.usbl.latency = {} s is not below autopilot.fix-stale = {} s: every \
-                 fix would arrive stale (expected fix-stale above the USBL's latency)",
-                fmt_f(u.latency),
-                fmt_f(self.autopilot.fix_stale)
-            )));
+            if section.gives_position() && latency >= self.autopilot.fix_stale {
+                return Err(ConfigError::Derived(format!(
+                    "sensor.{name}.latency = {} s is not below autopilot.fix-stale = {} s: every \
+                     fix would arrive stale (expected fix-stale above the sensor's latency)",
+                    fmt_f(latency),
+                    fmt_f(self.autopilot.fix_stale)
+                )));
+            }
         }
         Ok(())
     }

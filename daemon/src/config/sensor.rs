@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::fmt_f;
+use crate::sensors::OffBusSection;
 use crate::sensors::dvl::DvlConfig;
 use crate::sensors::usbl::UsblConfig;
 
@@ -58,6 +59,43 @@ impl Default for SensorConfig {
     }
 }
 
+impl SensorConfig {
+    /// The sensors off the bus configured, each as its section: the one
+    /// list the checks, the estimate, the replay and the built-in robot's
+    /// simulated counterparts go through. A further kind off the bus is a
+    /// field above and a line here (and in [`Self::without_off_bus`]).
+    pub fn off_bus(&self) -> impl Iterator<Item = &dyn OffBusSection> {
+        let Self { usbl, dvl, .. } = self;
+        [
+            usbl.as_ref().map(|s| s as &dyn OffBusSection),
+            dvl.as_ref().map(|s| s as &dyn OffBusSection),
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// The same with no sensor off the bus (a replay: their readings are
+    /// not among a session's inputs, and the running daemon may hold
+    /// their sources).
+    pub fn without_off_bus(&self) -> SensorConfig {
+        SensorConfig {
+            usbl: None,
+            dvl: None,
+            ..self.clone()
+        }
+    }
+
+    /// The same with every kind off the bus at its defaults (the
+    /// commented default file lists them all).
+    pub fn with_every_off_bus(&self) -> SensorConfig {
+        SensorConfig {
+            usbl: Some(UsblConfig::default()),
+            dvl: Some(DvlConfig::default()),
+            ..self.clone()
+        }
+    }
+}
+
 /// `[sensor]` in the commented default file ([`super::sections_toml`]).
 pub(super) fn write_default(d: &SensorConfig, w: &mut dyn FnMut(String)) {
     w("[sensor]".into());
@@ -84,8 +122,8 @@ pub(super) fn write_default(d: &SensorConfig, w: &mut dyn FnMut(String)) {
     w("# 0: none.".into());
     w(format!("tail-imu = {}", d.tail_imu));
     w(String::new());
-    d.usbl.clone().unwrap_or_default().write_default(w);
-    w(String::new());
-    d.dvl.clone().unwrap_or_default().write_default(w);
-    w(String::new());
+    for section in d.with_every_off_bus().off_bus() {
+        section.write_default(w);
+        w(String::new());
+    }
 }

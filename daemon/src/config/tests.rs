@@ -321,4 +321,49 @@ fn off_bus_latencies_are_checked_against_the_history_and_fix_stale() {
         "{e}"
     );
     Config::from_toml(&format!("{base}latency = 0.3\n"), "t").expect("the default latency");
+    // A DVL gives no position: a latency past fix-stale is its own matter.
+    let dvl =
+        "[autopilot]\nfix-stale = 0.2\n\n[sensor]\nnode = 20\n\n[sensor.dvl]\nlatency = 0.3\n";
+    Config::from_toml(dvl, "t").expect("a DVL's latency is not a fix's");
+    let e = Config::from_toml(&dvl.replace("latency = 0.3", "latency = 9"), "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("sensor.dvl.latency = 9.0 s: the estimate keeps"),
+        "{e}"
+    );
+}
+
+/// Every kind off the bus goes through the one list: each needs the head
+/// sensor, named by its section; a replay drops them all; the default
+/// file shows them all.
+#[test]
+fn every_off_bus_kind_is_in_the_one_list() {
+    use anguilla_ipc::SensorKind;
+    let every = SensorConfig::default().with_every_off_bus();
+    let kinds: Vec<_> = every.off_bus().map(|s| s.kind()).collect();
+    assert_eq!(kinds, [SensorKind::Usbl, SensorKind::Dvl]);
+    assert_eq!(every.without_off_bus().off_bus().count(), 0);
+    for kind in kinds {
+        let name = kind.name();
+        let e = Config::from_toml(&format!("[sensor.{name}]\n"), "t")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!(
+                "[sensor.{name}] needs the head sensor (sensor.node)"
+            )),
+            "{e}"
+        );
+        assert!(
+            super::sections_toml(&Config::default()).contains(&format!("# [sensor.{name}]\n")),
+            "the default file lists [sensor.{name}]"
+        );
+    }
+    let gives: Vec<_> = every.off_bus().map(|s| s.gives_position()).collect();
+    assert_eq!(
+        gives,
+        [true, false],
+        "the USBL fixes the position, the DVL does not"
+    );
 }

@@ -279,26 +279,15 @@ impl Config {
     /// the joints' ids).
     pub(super) fn validate_sensor(&self) -> Result<(), ConfigError> {
         let s = &self.sensor;
-        if let Some(u) = &s.usbl {
-            u.validate()?;
+        for section in s.off_bus() {
+            section.validate()?;
             if s.node == 0 {
-                return Err(ConfigError::Derived(
-                    "[sensor.usbl] needs the head sensor (sensor.node): a fix corrects the \
-                     position the estimate dead-reckons with its heading; set sensor.node or \
-                     remove [sensor.usbl]"
-                        .into(),
-                ));
-            }
-        }
-        if let Some(d) = &s.dvl {
-            d.validate()?;
-            if s.node == 0 {
-                return Err(ConfigError::Derived(
-                    "[sensor.dvl] needs the head sensor (sensor.node): its velocity is compared \
-                     with the model's, turned by the estimated heading; set sensor.node or \
-                     remove [sensor.dvl]"
-                        .into(),
-                ));
+                let name = section.kind().name();
+                return Err(ConfigError::Derived(format!(
+                    "[sensor.{name}] needs the head sensor (sensor.node): its readings correct \
+                     the position the estimate dead-reckons with its heading; set sensor.node \
+                     or remove [sensor.{name}]"
+                )));
             }
         }
         if s.tail_imu != 0 {

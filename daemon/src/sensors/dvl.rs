@@ -12,7 +12,7 @@
 //! after `timeout`, and the estimate dead-reckons with the current it has.
 //!
 //! With the built-in simulated robot, a `udp:` source is sent velocities
-//! by its simulated DVL (`anguilla_sim::usbl::SimDvl`).
+//! by its simulated DVL (`anguilla_sim::offbus::dvl`).
 
 use std::io;
 
@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Sensor;
 use super::observation::Observation;
-use super::offbus::{Line, Source};
+use super::offbus::{Line, OffBusSection, Source};
 use crate::config::{ConfigError, fmt_f, range};
 use crate::nav::Prediction;
 
@@ -56,9 +56,24 @@ impl Default for DvlConfig {
     }
 }
 
-impl DvlConfig {
-    /// Checks every key.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+impl OffBusSection for DvlConfig {
+    fn kind(&self) -> SensorKind {
+        SensorKind::Dvl
+    }
+
+    fn source(&self) -> &str {
+        &self.source
+    }
+
+    fn latency(&self) -> f64 {
+        self.latency
+    }
+
+    fn open(&self, now: Nanos) -> io::Result<Box<dyn Sensor>> {
+        Ok(Box::new(Dvl::open(self, now)?))
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
         Source::parse(&self.source)
             .map_err(|e| ConfigError::Derived(format!("sensor.dvl.source = {e}")))?;
         range("sensor.dvl.latency", self.latency, 0.0, 10.0, "0 ..= 10 s")?;
@@ -80,7 +95,7 @@ impl DvlConfig {
 
     /// The section in the commented default file (commented out: no DVL
     /// by default).
-    pub fn write_default(&self, w: &mut dyn FnMut(String)) {
+    fn write_default(&self, w: &mut dyn FnMut(String)) {
         w("# A DVL off the bus (docs/autopilot.md, \"Position\"): uncomment to use one.".into());
         w(
             "# Its \"$ANVEL,vx,vy,sigma*HH\" sentences (velocity over ground, m/s) come from"

@@ -13,11 +13,14 @@
 //! - [`usbl::Usbl`]: a USBL off the bus (`[sensor.usbl]`), whose position
 //!   fixes correct the estimate's x, y.
 //!
-//! A further kind is a module here implementing [`Sensor`] (with its
-//! section, if it has one, a field of [`crate::config::SensorConfig`]), a
-//! line in [`Sensors::new`] that builds it from its section, and its
+//! A further kind off the bus is a module here implementing [`Sensor`]
+//! and, for its section, [`OffBusSection`] (its keys, checks, default
+//! text and how it opens); the section is a field of
+//! [`crate::config::SensorConfig`] listed by its `off_bus`, from which
+//! [`Sensors::new`] opens it, the checks check it and the built-in robot
+//! simulates it (`anguilla_sim::offbus`, by the kind's name); and its
 //! [`SensorKind`] (code, name, values) in the operator vocabulary, from
-//! which `ctl status`, the recordings and the Foxglove view show it; what
+//! which `ctl status`, the recordings and the Foxglove view show it. What
 //! it observes is an [`Observation`] the estimate takes.
 //!
 //! The list is built once; nothing here allocates in the control period.
@@ -38,6 +41,7 @@ use anguilla_protocol::time::Nanos;
 use crate::config::Config;
 use crate::nav::{Nav, Prediction};
 pub use observation::Observation;
+pub use offbus::{OffBusSection, Source};
 
 /// One sensor. Every method runs in the control period and allocates
 /// nothing.
@@ -107,19 +111,12 @@ impl Sensors {
         if let Some(imu) = tail_imu::TailImu::new(cfg, now) {
             others.push(Box::new(imu));
         }
-        if let Some(u) = &cfg.sensor.usbl {
-            let usbl = usbl::Usbl::open(u, now).map_err(|source| SensorError {
-                kind: SensorKind::Usbl,
+        for section in cfg.sensor.off_bus() {
+            let sensor = section.open(now).map_err(|source| SensorError {
+                kind: section.kind(),
                 source,
             })?;
-            others.push(Box::new(usbl));
-        }
-        if let Some(d) = &cfg.sensor.dvl {
-            let dvl = dvl::Dvl::open(d, now).map_err(|source| SensorError {
-                kind: SensorKind::Dvl,
-                source,
-            })?;
-            others.push(Box::new(dvl));
+            others.push(sensor);
         }
         others.truncate(MAX_SENSORS - nav.is_some() as usize);
         let mut by_id = [NONE; 64];

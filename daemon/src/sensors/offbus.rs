@@ -14,10 +14,39 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use anguilla_ipc::{SensorEntry, SensorHealth};
+use anguilla_ipc::{SensorEntry, SensorHealth, SensorKind};
 use anguilla_protocol::position_fix::{FixError, MAX_LEN};
 use anguilla_protocol::time::Nanos;
 use crossbeam_channel::{Receiver, Sender, TrySendError};
+
+use super::Sensor;
+use crate::config::ConfigError;
+
+/// A kind of sensor off the bus, as its section of `[sensor]` reads: what
+/// the configuration checks, the commented default file, the replay, the
+/// estimate and the built-in robot's simulated counterpart need of it,
+/// whatever the kind ([`crate::config::SensorConfig::off_bus`] lists the
+/// configured ones). A kind's module implements it for its section.
+pub trait OffBusSection: std::fmt::Debug {
+    /// Its kind: `[sensor.NAME]` is its section, NAME its
+    /// [`SensorKind::name`] (and the simulated counterpart's).
+    fn kind(&self) -> SensorKind;
+    /// Its `source` key: `udp:ADDRESS:PORT` or `serial:PATH:BAUD`.
+    fn source(&self) -> &str;
+    /// From the measurement to the sentence's arrival (s).
+    fn latency(&self) -> f64;
+    /// Whether it gives positions (the estimate then judges the position
+    /// by its fixes' age: [`anguilla_ipc::PositionHealth`]).
+    fn gives_position(&self) -> bool {
+        false
+    }
+    /// Checks its keys (named `sensor.NAME.KEY` in the error).
+    fn validate(&self) -> Result<(), ConfigError>;
+    /// Its section in the commented default file, commented out.
+    fn write_default(&self, w: &mut dyn FnMut(String));
+    /// Opens its source and starts its reader thread.
+    fn open(&self, now: Nanos) -> io::Result<Box<dyn Sensor>>;
+}
 
 /// Readings the channel from the reader thread holds.
 pub const SLOT: usize = 4;

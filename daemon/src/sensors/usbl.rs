@@ -14,7 +14,7 @@
 //! shown (the sensor's values).
 //!
 //! With the built-in simulated robot, a `udp:` source is sent fixes by its
-//! simulated USBL (`anguilla_sim::usbl`, not a dependency of this
+//! simulated USBL (`anguilla_sim::offbus::usbl`, not a dependency of this
 //! crate: `anguilla run` starts it beside the robot).
 
 use std::io;
@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Sensor;
 use super::observation::Observation;
-use super::offbus::Line;
+use super::offbus::{Line, OffBusSection};
 pub use super::offbus::{SLOT, Source};
 use crate::config::{ConfigError, fmt_f, range};
 use crate::nav::Prediction;
@@ -59,9 +59,28 @@ impl Default for UsblConfig {
     }
 }
 
-impl UsblConfig {
-    /// Checks every key.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+impl OffBusSection for UsblConfig {
+    fn kind(&self) -> SensorKind {
+        SensorKind::Usbl
+    }
+
+    fn source(&self) -> &str {
+        &self.source
+    }
+
+    fn latency(&self) -> f64 {
+        self.latency
+    }
+
+    fn gives_position(&self) -> bool {
+        true
+    }
+
+    fn open(&self, now: Nanos) -> io::Result<Box<dyn Sensor>> {
+        Ok(Box::new(Usbl::open(self, now)?))
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
         Source::parse(&self.source)
             .map_err(|e| ConfigError::Derived(format!("sensor.usbl.source = {e}")))?;
         range("sensor.usbl.latency", self.latency, 0.0, 10.0, "0 ..= 10 s")?;
@@ -80,7 +99,7 @@ impl UsblConfig {
 
     /// The section in the commented default file (commented out: no USBL
     /// by default).
-    pub fn write_default(&self, w: &mut dyn FnMut(String)) {
+    fn write_default(&self, w: &mut dyn FnMut(String)) {
         w("# A USBL or another position sensor off the bus (docs/autopilot.md,".into());
         w("# \"Position\"): uncomment to use one. Its \"$ANFIX,x,y,sigma*HH\" sentences".into());
         w(

@@ -15,7 +15,7 @@ use std::net::SocketAddr;
 
 use anguilla_protocol::position_fix::Velocity;
 
-use crate::usbl::{Schedule, Sender};
+use super::sender::{Schedule, Sender};
 
 /// The simulated DVL's settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,7 +54,7 @@ impl DvlSimConfig {
 }
 
 /// The simulated DVL, running on its own thread until dropped.
-pub struct SimDvl(Sender);
+pub struct SimDvl(pub(super) Sender);
 
 impl SimDvl {
     /// Starts sending the velocity of `truth()`: the nose's velocity over
