@@ -1,15 +1,37 @@
 //! The command service's payloads: the request, a fixed head (layout
 //! version, code, sequence) and a body whose layout the code chooses, and
-//! the daemon's reply. A command's parameters live in its own body type,
-//! so a new command adds no field to any other command's layout; commands
-//! without parameters send a zero body.
+//! the daemon's reply.
+//!
+//! Each command with parameters is a module of its own, after mini-redis's
+//! `src/cmd/`: its body type and words ([`Body`]), its encoding from and
+//! decoding to the vocabulary's [`Command`], the errors of a body that is
+//! not one, and its JSON form ([`Fields`]): [`swim`], [`hold`],
+//! [`swim_hold`], [`waypoint`], [`follow`]. A new command adds no field to
+//! any other command's layout; commands without parameters send a zero
+//! body. Here, every dispatch over the commands is a `match` the compiler
+//! checks: [`CommandRequest::new`], [`CommandRequest::command`],
+//! [`Command::from_fields`].
+
+pub mod body;
+pub mod follow;
+pub mod hold;
+pub mod swim;
+pub mod swim_hold;
+pub mod waypoint;
 
 use core::fmt::{self, Write as _};
 
 use iceoryx2::prelude::*;
 
+pub use body::{BODY_WORDS, Body, Fields, RequestError};
+pub use follow::{FollowBody, follow_bits};
+pub use hold::HoldBody;
+pub use swim::SwimBody;
+pub use swim_hold::SwimHoldBody;
+pub use waypoint::WaypointBody;
+
 use crate::payload::{LAYOUT_VERSION, Raw, sealed::Sealed};
-use crate::vocabulary::{Command, CommandKind, Follow, Hold, SwimParams, Waypoint, hold_bits};
+use crate::vocabulary::{Command, CommandKind};
 
 /// Command codes of [`CommandRequest::code`], from [`CommandKind`]'s table.
 pub mod code {
@@ -46,10 +68,6 @@ pub mod code {
     pub const FOLLOW: u32 = CommandKind::Follow.code();
 }
 
-/// 32-bit words in a [`CommandRequest`]'s body: the most parameters one
-/// command can carry (28 bytes).
-pub const BODY_WORDS: usize = 7;
-
 /// A command from an operator tool. Who sent it is not a field: the
 /// daemon knows it from the iceoryx2 client port it arrived on.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
@@ -69,327 +87,6 @@ pub struct CommandRequest {
     /// the others (ignored). A float
     /// is its IEEE 754 bits; words past a body's size are zero.
     pub body: [u32; BODY_WORDS],
-}
-
-/// The parameters of one command, as the words of a request's body, in
-/// the order of its `#[repr(C)]` fields (every field 4 bytes), so that a
-/// C or Python client may overlay the struct on the body.
-pub trait Body: Sized {
-    /// The command this body belongs to.
-    const KIND: CommandKind;
-    /// The body's words.
-    fn to_words(&self) -> [u32; BODY_WORDS];
-    /// The body read from a request's words.
-    fn from_words(words: &[u32; BODY_WORDS]) -> Self;
-}
-
-/// SWIM's body: the gait.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-#[repr(C)]
-pub struct SwimBody {
-    /// Swim amplitude, fraction of the maximum (0..=1).
-    pub amplitude: f32,
-    /// Swim frequency (Hz).
-    pub frequency: f32,
-    /// Yaw turn curvature (1/m).
-    pub turn: f32,
-    /// Pitch curvature (1/m).
-    pub pitch: f32,
-}
-
-impl Body for SwimBody {
-    const KIND: CommandKind = CommandKind::Swim;
-    fn to_words(&self) -> [u32; BODY_WORDS] {
-        let mut w = [0; BODY_WORDS];
-        w[..4].copy_from_slice(&[
-            self.amplitude.to_bits(),
-            self.frequency.to_bits(),
-            self.turn.to_bits(),
-            self.pitch.to_bits(),
-        ]);
-        w
-    }
-    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
-        Self {
-            amplitude: f32::from_bits(w[0]),
-            frequency: f32::from_bits(w[1]),
-            turn: f32::from_bits(w[2]),
-            pitch: f32::from_bits(w[3]),
-        }
-    }
-}
-
-/// HOLD's body: what the autopilot holds, and where.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-#[repr(C)]
-pub struct HoldBody {
-    /// What to hold: bit 0 heading, bit 1 depth ([`hold_bits`]); 0 manual.
-    pub hold: u32,
-    /// Heading to hold (deg, counter-clockwise seen from above), with bit 0.
-    pub heading: f32,
-    /// Depth to hold (m below the surface), with bit 1.
-    pub depth: f32,
-}
-
-impl Body for HoldBody {
-    const KIND: CommandKind = CommandKind::Hold;
-    fn to_words(&self) -> [u32; BODY_WORDS] {
-        let mut w = [0; BODY_WORDS];
-        w[..3].copy_from_slice(&[self.hold, self.heading.to_bits(), self.depth.to_bits()]);
-        w
-    }
-    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
-        Self {
-            hold: w[0],
-            heading: f32::from_bits(w[1]),
-            depth: f32::from_bits(w[2]),
-        }
-    }
-}
-
-/// SWIM-HOLD's body: the gait ([`SwimBody`]'s fields) and what the
-/// autopilot holds ([`HoldBody`]'s), one after the other.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-#[repr(C)]
-pub struct SwimHoldBody {
-    /// Swim amplitude, fraction of the maximum (0..=1).
-    pub amplitude: f32,
-    /// Swim frequency (Hz).
-    pub frequency: f32,
-    /// Yaw turn curvature (1/m); the autopilot's while a heading is held.
-    pub turn: f32,
-    /// Pitch curvature (1/m); the autopilot's while a depth is held.
-    pub pitch: f32,
-    /// What to hold: bit 0 heading, bit 1 depth ([`hold_bits`]); 0 manual.
-    pub hold: u32,
-    /// Heading to hold (deg), with bit 0.
-    pub heading: f32,
-    /// Depth to hold (m below the surface), with bit 1.
-    pub depth: f32,
-}
-
-impl SwimHoldBody {
-    /// The gait's body and the hold's, one after the other.
-    pub fn join(s: SwimBody, h: HoldBody) -> Self {
-        Self {
-            amplitude: s.amplitude,
-            frequency: s.frequency,
-            turn: s.turn,
-            pitch: s.pitch,
-            hold: h.hold,
-            heading: h.heading,
-            depth: h.depth,
-        }
-    }
-
-    /// The gait's body and the hold's.
-    pub fn parts(&self) -> (SwimBody, HoldBody) {
-        let s = SwimBody {
-            amplitude: self.amplitude,
-            frequency: self.frequency,
-            turn: self.turn,
-            pitch: self.pitch,
-        };
-        let h = HoldBody {
-            hold: self.hold,
-            heading: self.heading,
-            depth: self.depth,
-        };
-        (s, h)
-    }
-}
-
-impl Body for SwimHoldBody {
-    const KIND: CommandKind = CommandKind::SwimHold;
-    fn to_words(&self) -> [u32; BODY_WORDS] {
-        let (s, h) = self.parts();
-        let mut w = s.to_words();
-        w[4..].copy_from_slice(&h.to_words()[..3]);
-        w
-    }
-    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
-        let mut rest = [0; BODY_WORDS];
-        rest[..3].copy_from_slice(&w[4..]);
-        Self::join(SwimBody::from_words(w), HoldBody::from_words(&rest))
-    }
-}
-
-impl SwimBody {
-    fn of(p: &SwimParams) -> Self {
-        Self {
-            amplitude: p.amplitude as f32,
-            frequency: p.frequency as f32,
-            turn: p.turn as f32,
-            pitch: p.pitch as f32,
-        }
-    }
-
-    fn params(&self) -> SwimParams {
-        SwimParams {
-            amplitude: self.amplitude as f64,
-            frequency: self.frequency as f64,
-            turn: self.turn as f64,
-            pitch: self.pitch as f64,
-        }
-    }
-}
-
-impl HoldBody {
-    fn of(h: &Hold) -> Self {
-        Self {
-            hold: u32::from(h.bits()),
-            heading: h.heading.unwrap_or(0.0) as f32,
-            depth: h.depth.unwrap_or(0.0) as f32,
-        }
-    }
-
-    /// The hold, or why its bits are not one.
-    fn read(&self) -> Result<Hold, RequestError> {
-        if self.hold & !u32::from(hold_bits::HEADING | hold_bits::DEPTH) != 0 {
-            return Err(RequestError::HoldBits(self.hold));
-        }
-        let on = |bit: u8, v: f32| (self.hold & u32::from(bit) != 0).then_some(v as f64);
-        Ok(Hold {
-            heading: on(hold_bits::HEADING, self.heading),
-            depth: on(hold_bits::DEPTH, self.depth),
-        })
-    }
-}
-
-/// WAYPOINT's body: one waypoint of the path being loaded.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-#[repr(C)]
-pub struct WaypointBody {
-    /// Its place in the path, from 0 (0 starts a new path).
-    pub index: u32,
-    /// x (m), in the estimate's local frame.
-    pub x: f32,
-    /// y (m).
-    pub y: f32,
-    /// The depth to hold on the leg ending there (m below the surface);
-    /// NaN: none.
-    pub depth: f32,
-}
-
-impl Body for WaypointBody {
-    const KIND: CommandKind = CommandKind::Waypoint;
-    fn to_words(&self) -> [u32; BODY_WORDS] {
-        let mut w = [0; BODY_WORDS];
-        w[..4].copy_from_slice(&[
-            self.index,
-            self.x.to_bits(),
-            self.y.to_bits(),
-            self.depth.to_bits(),
-        ]);
-        w
-    }
-    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
-        Self {
-            index: w[0],
-            x: f32::from_bits(w[1]),
-            y: f32::from_bits(w[2]),
-            depth: f32::from_bits(w[3]),
-        }
-    }
-}
-
-impl WaypointBody {
-    fn of(p: &Waypoint) -> Self {
-        Self {
-            index: p.index,
-            x: p.x as f32,
-            y: p.y as f32,
-            depth: p.depth.map_or(f32::NAN, |d| d as f32),
-        }
-    }
-
-    fn waypoint(&self) -> Waypoint {
-        Waypoint {
-            index: self.index,
-            x: self.x as f64,
-            y: self.y as f64,
-            depth: (!self.depth.is_nan()).then_some(self.depth as f64),
-        }
-    }
-}
-
-/// The bits of [`FollowBody::flags`].
-pub mod follow_bits {
-    /// After the last waypoint, back to the first.
-    pub const LOOP: u32 = 1 << 0;
-    /// The first leg runs from where the robot is to waypoint 0.
-    pub const FROM_HERE: u32 = 1 << 1;
-    /// Resume the interrupted path on its leg.
-    pub const RESUME: u32 = 1 << 2;
-}
-
-/// FOLLOW's body: the gait and how the path loaded is followed.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-#[repr(C)]
-pub struct FollowBody {
-    /// Swim amplitude, fraction of the maximum (0..=1).
-    pub amplitude: f32,
-    /// Swim frequency (Hz).
-    pub frequency: f32,
-    /// The path's waypoints: the number loaded.
-    pub count: u32,
-    /// [`follow_bits`].
-    pub flags: u32,
-}
-
-impl Body for FollowBody {
-    const KIND: CommandKind = CommandKind::Follow;
-    fn to_words(&self) -> [u32; BODY_WORDS] {
-        let mut w = [0; BODY_WORDS];
-        w[..4].copy_from_slice(&[
-            self.amplitude.to_bits(),
-            self.frequency.to_bits(),
-            self.count,
-            self.flags,
-        ]);
-        w
-    }
-    fn from_words(w: &[u32; BODY_WORDS]) -> Self {
-        Self {
-            amplitude: f32::from_bits(w[0]),
-            frequency: f32::from_bits(w[1]),
-            count: w[2],
-            flags: w[3],
-        }
-    }
-}
-
-impl FollowBody {
-    fn of(f: &Follow) -> Self {
-        let bit = |on: bool, b: u32| if on { b } else { 0 };
-        Self {
-            amplitude: f.swim.amplitude as f32,
-            frequency: f.swim.frequency as f32,
-            count: f.count,
-            flags: bit(f.looped, follow_bits::LOOP)
-                | bit(f.from_here, follow_bits::FROM_HERE)
-                | bit(f.resume, follow_bits::RESUME),
-        }
-    }
-
-    /// The command, or why its flags are not one.
-    fn read(&self) -> Result<Follow, RequestError> {
-        if self.flags & !(follow_bits::LOOP | follow_bits::FROM_HERE | follow_bits::RESUME) != 0 {
-            return Err(RequestError::FollowBits(self.flags));
-        }
-        Ok(Follow {
-            swim: SwimParams {
-                amplitude: self.amplitude as f64,
-                frequency: self.frequency as f64,
-                turn: 0.0,
-                pitch: 0.0,
-            },
-            count: self.count,
-            looped: self.flags & follow_bits::LOOP != 0,
-            from_here: self.flags & follow_bits::FROM_HERE != 0,
-            resume: self.flags & follow_bits::RESUME != 0,
-        })
-    }
 }
 
 const _: () = assert!(size_of::<SwimBody>() <= 4 * BODY_WORDS);
@@ -520,23 +217,29 @@ impl CommandRequest {
     }
 }
 
-/// Why a [`CommandRequest`] could not be read at all.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum RequestError {
-    /// The sender uses another layout version.
-    #[error("layout version {0} is not the daemon's ({LAYOUT_VERSION}); update the tool")]
-    Version(u32),
-    /// The command code is not one of [`code`].
-    #[error("unknown command code {0} (expected 1..={n})", n = CommandKind::ALL.len())]
-    UnknownCode(u32),
-    /// A HOLD or SWIM-HOLD request's `hold` has bits beyond heading (1)
-    /// and depth (2).
-    #[error("hold bits {0:#x} unknown (expected 0..=3: 1 heading, 2 depth)")]
-    HoldBits(u32),
-    /// A FOLLOW request's `flags` has bits beyond loop (1) and from-here
-    /// (2).
-    #[error("follow flags {0:#x} unknown (expected 0..=7: 1 loop, 2 from here, 4 resume)")]
-    FollowBits(u32),
+impl Command {
+    /// The command of kind `kind` from its named fields (its JSON form):
+    /// each command's module reads its own; a command without parameters
+    /// reads none.
+    pub fn from_fields(kind: CommandKind, f: &dyn Fields) -> Result<Command, String> {
+        Ok(match kind {
+            CommandKind::Swim => Command::Swim(swim::from_fields(f)?),
+            CommandKind::Hold => Command::Hold(hold::from_fields(f)?),
+            CommandKind::SwimHold => {
+                Command::SwimHold(swim::from_fields(f)?, hold::from_fields(f)?)
+            }
+            CommandKind::Waypoint => Command::Waypoint(waypoint::from_fields(f)?),
+            CommandKind::Follow => Command::Follow(follow::from_fields(f)?),
+            CommandKind::Enable => Command::Enable,
+            CommandKind::Disable => Command::Disable,
+            CommandKind::Stop => Command::Stop,
+            CommandKind::EStop => Command::EStop,
+            CommandKind::Reset => Command::Reset,
+            CommandKind::TakeControl => Command::TakeControl,
+            CommandKind::ReleaseControl => Command::ReleaseControl,
+            CommandKind::KeepAlive => Command::KeepAlive,
+        })
+    }
 }
 
 /// Bytes of reason text in a [`CommandReply`].

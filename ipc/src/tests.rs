@@ -409,3 +409,78 @@ fn a_tool_never_creates_the_services() {
         });
     });
 }
+
+/// Named fields from two lists, as a JSON object would give them.
+struct Named {
+    numbers: &'static [(&'static str, f64)],
+    flags: &'static [(&'static str, bool)],
+}
+
+impl Fields for Named {
+    fn command(&self) -> &str {
+        "test"
+    }
+    fn number(&self, key: &str) -> Result<Option<f64>, String> {
+        Ok(self
+            .numbers
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, v)| *v))
+    }
+    fn boolean(&self, key: &str) -> Result<Option<bool>, String> {
+        Ok(self.flags.iter().find(|(k, _)| *k == key).map(|(_, v)| *v))
+    }
+}
+
+/// Every command reads its JSON form in its own module, and what it read
+/// goes through its body unchanged; a missing field or a fractional count
+/// is named.
+#[test]
+fn every_command_reads_its_fields_and_round_trips_through_its_body() {
+    let all = Named {
+        numbers: &[
+            ("amplitude", 0.5),
+            ("frequency", 1.5),
+            ("turn", -0.25),
+            ("pitch", 0.125),
+            ("heading", 370.0),
+            ("depth", 1.5),
+            ("index", 2.0),
+            ("x", 3.0),
+            ("y", -4.0),
+            ("count", 3.0),
+        ],
+        flags: &[("loop", true), ("resume", false)],
+    };
+    for kind in CommandKind::ALL {
+        let cmd = Command::from_fields(kind, &all).expect("read");
+        assert_eq!(cmd.kind(), kind);
+        let back = CommandRequest::new(cmd, 1).command().expect("decoded");
+        assert_eq!(back, cmd, "{kind}");
+    }
+    let Ok(Command::SwimHold(p, h)) = Command::from_fields(CommandKind::SwimHold, &all) else {
+        panic!("a held swim");
+    };
+    assert_eq!((p.turn, h.heading, h.depth), (-0.25, Some(10.0), Some(1.5)));
+    let Ok(Command::Follow(f)) = Command::from_fields(CommandKind::Follow, &all) else {
+        panic!("a path");
+    };
+    assert!(f.looped && !f.from_here && f.count == 3 && f.swim.turn == 0.0);
+    let none = Named {
+        numbers: &[("count", 2.5)],
+        flags: &[],
+    };
+    let e = Command::from_fields(CommandKind::Swim, &none).expect_err("no gait");
+    assert_eq!(e, "test needs a number \"amplitude\"");
+    let e = Command::from_fields(CommandKind::Hold, &none).expect("manual");
+    assert_eq!(e, Command::Hold(Hold::MANUAL));
+    let count = Named {
+        numbers: &[("amplitude", 0.5), ("frequency", 1.0), ("count", 2.5)],
+        flags: &[],
+    };
+    let e = Command::from_fields(CommandKind::Follow, &count).expect_err("2.5 waypoints");
+    assert!(
+        e.contains("\"count\" of test must be a whole number >= 0, not 2.5"),
+        "{e}"
+    );
+}

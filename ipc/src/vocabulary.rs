@@ -33,5 +33,5 @@ pub use refusal::{Field, Refusal};
 pub use sensor::{PositionHealth, SensorHealth, SensorKind};
 pub use swim::{
     HOLD_DEPTH_TOLERANCE, HOLD_HEADING_TOLERANCE, Hold, HoldState, SURFACE_DEPTH, SwimParams,
-    hold_bits,
+    hold_bits, wrap_heading,
 };

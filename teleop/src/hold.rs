@@ -34,12 +34,7 @@ pub const HEADING_RATE: f64 = 30.0;
 /// Target depth rate at full stick while a depth is held (m/s).
 pub const DEPTH_RATE: f64 = 0.2;
 
-/// `deg` in 0 ..< 360, rounded to a thousandth of a degree so repeated
-/// steps do not drift.
-pub fn wrap_heading(deg: f64) -> f64 {
-    let h = ((deg.rem_euclid(360.0)) * 1000.0).round() / 1000.0;
-    if h >= 360.0 { 0.0 } else { h }
-}
+pub use anguilla_ipc::wrap_heading;
 
 /// Whether the snapshot carries an estimate: a sensor is configured and
 /// has sent at least one sample.

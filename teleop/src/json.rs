@@ -330,24 +330,13 @@ mod tests {
 /// ranges; this checks the shape, and
 /// each error names the field and what was expected.
 pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> {
-    use anguilla_ipc::{Command, CommandKind, Hold, SwimParams};
+    use anguilla_ipc::{Command, CommandKind};
     let v: Value = serde_json::from_slice(bytes)
         .map_err(|e| format!("not JSON ({e}); expected {{\"command\": NAME, ...}}"))?;
     let name = v
         .get("command")
         .and_then(Value::as_str)
         .ok_or("expected a string field \"command\" (take-control, enable, swim, stop, ...)")?;
-    let num = |k: &str, required: bool| -> Result<Option<f64>, String> {
-        match v.get(k) {
-            None | Some(Value::Null) if !required => Ok(None),
-            Some(x) => x
-                .as_f64()
-                .map(Some)
-                .ok_or_else(|| format!("\"{k}\" of {name} must be a number, not {x}")),
-            None => Err(format!("{name} needs a number \"{k}\"")),
-        }
-    };
-    // The commands without parameters, from the vocabulary's own table.
     let Some(kind) = CommandKind::from_name(name) else {
         let names: Vec<_> = CommandKind::ALL.iter().map(|k| k.name()).collect();
         return Err(format!(
@@ -355,65 +344,38 @@ pub fn command_from_json(bytes: &[u8]) -> Result<anguilla_ipc::Command, String> 
             names.join(", ")
         ));
     };
-    let swim = || -> Result<SwimParams, String> {
-        Ok(SwimParams {
-            amplitude: num("amplitude", true)?.unwrap_or_default(),
-            frequency: num("frequency", true)?.unwrap_or_default(),
-            turn: num("turn", false)?.unwrap_or(0.0),
-            pitch: num("pitch", false)?.unwrap_or(0.0),
-        })
-    };
-    let hold = || -> Result<Hold, String> {
-        Ok(Hold {
-            heading: num("heading", false)?.map(crate::hold::wrap_heading),
-            depth: num("depth", false)?,
-        })
-    };
-    let flag = |k: &str| -> Result<bool, String> {
-        match v.get(k) {
-            None | Some(Value::Null) => Ok(false),
+    // Each command's module reads its own fields.
+    Command::from_fields(kind, &JsonFields { v: &v, name })
+}
+
+/// A command's fields as a JSON object.
+struct JsonFields<'a> {
+    v: &'a Value,
+    name: &'a str,
+}
+
+impl anguilla_ipc::Fields for JsonFields<'_> {
+    fn command(&self) -> &str {
+        self.name
+    }
+
+    fn number(&self, key: &str) -> Result<Option<f64>, String> {
+        match self.v.get(key) {
+            None | Some(Value::Null) => Ok(None),
             Some(x) => x
-                .as_bool()
-                .ok_or_else(|| format!("\"{k}\" of {name} must be true or false, not {x}")),
+                .as_f64()
+                .map(Some)
+                .ok_or_else(|| format!("\"{key}\" of {} must be a number, not {x}", self.name)),
         }
-    };
-    let count = |k: &str| -> Result<u32, String> {
-        let x = num(k, true)?.unwrap_or_default();
-        if x.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&x) {
-            Ok(x as u32)
-        } else {
-            Err(format!(
-                "\"{k}\" of {name} must be a whole number >= 0, not {x}"
-            ))
+    }
+
+    fn boolean(&self, key: &str) -> Result<Option<bool>, String> {
+        match self.v.get(key) {
+            None | Some(Value::Null) => Ok(None),
+            Some(x) => x.as_bool().map(Some).ok_or_else(|| {
+                format!("\"{key}\" of {} must be true or false, not {x}", self.name)
+            }),
         }
-    };
-    match kind {
-        CommandKind::Waypoint => Ok(Command::Waypoint(anguilla_ipc::Waypoint {
-            index: count("index")?,
-            x: num("x", true)?.unwrap_or_default(),
-            y: num("y", true)?.unwrap_or_default(),
-            depth: num("depth", false)?,
-        })),
-        CommandKind::Follow => Ok(Command::Follow(anguilla_ipc::Follow {
-            swim: swim()?,
-            count: count("count")?,
-            looped: flag("loop")?,
-            from_here: flag("from_here")?,
-            resume: flag("resume")?,
-        })),
-        CommandKind::Swim => Ok(Command::Swim(swim()?)),
-        CommandKind::Hold => Ok(Command::Hold(hold()?)),
-        CommandKind::SwimHold => Ok(Command::SwimHold(swim()?, hold()?)),
-        CommandKind::Enable
-        | CommandKind::Disable
-        | CommandKind::Stop
-        | CommandKind::EStop
-        | CommandKind::Reset
-        | CommandKind::TakeControl
-        | CommandKind::ReleaseControl
-        | CommandKind::KeepAlive => kind
-            .bare()
-            .ok_or_else(|| format!("\"{kind}\" has parameters this reader does not know")),
     }
 }
 

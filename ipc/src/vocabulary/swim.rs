@@ -161,3 +161,10 @@ impl fmt::Display for HoldState {
         f.write_str(self.name())
     }
 }
+
+/// `deg` in 0 ..< 360, rounded to a thousandth of a degree so repeated
+/// steps do not drift.
+pub fn wrap_heading(deg: f64) -> f64 {
+    let h = ((deg.rem_euclid(360.0)) * 1000.0).round() / 1000.0;
+    if h >= 360.0 { 0.0 } else { h }
+}
