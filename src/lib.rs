@@ -7,6 +7,7 @@
 //! daemon's sections and the other processes' (`[link]`, `[foxglove]`).
 
 pub mod builtin_sim;
+pub mod calibrate;
 pub mod config;
 pub mod daemon_cli;
 pub mod family_arg;
