@@ -59,6 +59,8 @@ mod endpoint;
 #[cfg(feature = "zenoh")]
 pub mod remote;
 pub mod ros2;
+#[cfg(feature = "zenoh")]
+pub mod run;
 pub mod wire;
 
 #[cfg(feature = "zenoh")]
