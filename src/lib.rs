@@ -11,6 +11,8 @@ pub mod calibrate;
 pub mod config;
 pub mod daemon_cli;
 pub mod family_arg;
+#[cfg(feature = "foxglove")]
+pub mod foxglove;
 pub mod output;
 pub mod signals;
 pub mod user_file;
