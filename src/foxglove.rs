@@ -6,7 +6,7 @@
 //! Foxglove WebSocket protocol. Read-only unless `[foxglove] commands =
 //! true`: then each Foxglove client that publishes on [`COMMAND_TOPIC`] is
 //! its own operator session, under the daemon's authority and deadman
-//! rules ([`Operators`]). The daemon is reached through [`Daemon`]: the
+//! rules (`Operators`). The daemon is reached through [`Daemon`]: the
 //! binary's `--prefix`, `--config` and `--connect`.
 
 use std::collections::HashMap;
