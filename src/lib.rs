@@ -5,11 +5,18 @@
 //! command) and `anguillad` (the daemon alone, the robot's service:
 //! [`daemon_cli`]). [`config`] is the whole configuration file: the
 //! daemon's sections and the other processes' (`[link]`, `[foxglove]`).
+//! The commands whose work is more than a call into one crate have it here,
+//! for their tests to call: [`calibrate`] (it writes the whole file) and,
+//! with the `foxglove` feature, `foxglove` (the live view's server). The
+//! link's run is its crate's (`anguilla_link::run`).
 
 pub mod builtin_sim;
+pub mod calibrate;
 pub mod config;
 pub mod daemon_cli;
 pub mod family_arg;
+#[cfg(feature = "foxglove")]
+pub mod foxglove;
 pub mod output;
 pub mod signals;
 pub mod user_file;

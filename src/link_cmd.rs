@@ -2,13 +2,15 @@
 //! process on the tether computer, an operator tool of the daemon like any
 //! other (iceoryx2), bridging the daemon's state, commands and E-stop to
 //! Zenoh (`anguilla_link::bridge`), so the real-time daemon never runs a
-//! network stack. `anguilla link certs` makes the robot's small CA.
+//! network stack. `anguilla link certs` makes the robot's small CA. The
+//! run is [`anguilla_link::run`]'s; here are its options, what it asks of
+//! the process ([`Host`]: the daemon's configuration, the signals), the
+//! log and the closing counts.
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
 
-use anguilla_link::{Bridge, Endpoint, LinkSettings, Tls};
-use anyhow::Context as _;
+use anguilla_link::run::{Host, Robot, RunOptions};
+use anguilla_link::{Bridge, LinkError};
 
 use crate::teleop_cmd::PrefixArgs;
 
@@ -92,195 +94,42 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
     init_link_logging();
     let whole = args.at.config()?;
     let prefix = args.at.prefix()?;
-    let (cfg, l) = (&whole.daemon, &whole.link);
-    let pick = |flag: &Option<PathBuf>, key: &str| {
-        flag.clone()
-            .or_else(|| (!key.is_empty()).then(|| PathBuf::from(key)))
+    let cfg = &whole.daemon;
+    let opts = RunOptions {
+        prefix,
+        config: whole.link.clone(),
+        listen: args.listen,
+        insecure_loopback: args.insecure_loopback,
+        ca: args.ca,
+        cert: args.cert,
+        key: args.key,
+        state_rate: args.state_rate,
+        duration: args.duration,
+        robot: Robot {
+            joints: cfg.robot.joints,
+            limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
+            max_frequency: cfg.gait.max_frequency,
+        },
     };
-    let tls = match (
-        pick(&args.ca, &l.ca),
-        pick(&args.cert, &l.cert),
-        pick(&args.key, &l.key),
-    ) {
-        (Some(ca), Some(cert), Some(key)) => Some(Tls { ca, cert, key }),
-        (None, None, None) => None,
-        _ => anyhow::bail!(
-            "the CA, the certificate and the key go together (--ca, --cert, --key or [link] ca, \
-             cert, key): give all three for TLS"
-        ),
-    };
-    let texts = if args.listen.is_empty() {
-        l.listen.clone()
-    } else {
-        args.listen.clone()
-    };
-    let listen = texts
-        .iter()
-        .map(|t| Endpoint::parse_at(t, &prefix, tls.as_ref()))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| anyhow::anyhow!("--listen {e}"))?;
-    let insecure_loopback = args.insecure_loopback || l.insecure_loopback;
-    for e in listen.iter().filter(|e| e.insecure()) {
-        e.listenable(insecure_loopback)
-            .map_err(|e| anyhow::anyhow!("--listen {e}"))?;
-        eprintln!(
-            "anguilla link: WARNING: listening on {} without authentication \
-             (insecure-loopback): every local user can drive the robot",
-            e.text
-        );
-    }
-    if listen.iter().any(|e| e.unix) {
-        // The socket Zenoh makes must be the group's (the directory, 0770,
-        // keeps everyone else out).
-        // SAFETY: umask has no preconditions.
-        unsafe { libc::umask(0o007) };
-    }
-    if listen.contains(&Endpoint::local(&prefix)?) {
-        anguilla_link::prepare_local(&prefix).map_err(|e| anyhow::anyhow!("--listen {e}"))?;
-    }
-    let kinds: Vec<&str> = listen
-        .iter()
-        .map(|e| match (e.tls, e.unix) {
-            (true, _) => "TLS, mutual authentication",
-            (false, true) => "Unix socket, the link's user and group only",
-            (false, false) => "plain TCP on loopback, INSECURE",
-        })
-        .collect();
-    let state_rate = args.state_rate.unwrap_or(l.state_rate);
-    anyhow::ensure!(
-        state_rate.is_finite() && (0.1..=1000.0).contains(&state_rate),
-        "--state-rate {state_rate} is invalid (expected 0.1 ..= 1000 states a second)"
-    );
-    if let Some(d) = args.duration {
-        anyhow::ensure!(
-            d.is_finite() && d > 0.0,
-            "--duration {d} is invalid (expected seconds > 0)"
-        );
-    }
-    // cmd_vel's speeds become amplitudes through the model's steady speed
-    // at the frequency it swims (once, here; nothing to compute per twist)
-    let speeds = if l.ros2 {
-        anguilla_daemon::speed::steady_speeds(cfg, l.ros2_frequency).with_context(|| {
-            "the model's steady speeds, for ROS 2 cmd_vel ([model] and [gait] of the configuration)"
-        })?
-    } else {
-        [0.0; anguilla_daemon::speed::N]
-    };
-    // Checked with the configuration: a udp: [sensor.usbl] source.
-    let pose_to = (l.ros2 && l.ros2_pose)
-        .then(|| whole.pose_fix_target())
-        .transpose()?;
-    let settings = LinkSettings {
-        prefix: prefix.clone(),
-        listen,
-        tls,
-        state_rate,
-        max_clients: l.max_clients as usize,
-        idle_timeout: Duration::from_secs_f64(l.idle_timeout),
-        allow_command: l.inbound.iter().any(|n| n == "command"),
-        allow_estop: l.inbound.iter().any(|n| n == "estop"),
-        publish_state: l.outbound.iter().any(|n| n == "state"),
-        ros2: l.ros2.then(|| anguilla_link::ros2::node::Ros2Settings {
-            domain: l.ros2_domain,
-            namespace: l.ros2_namespace.clone(),
-            node: l.ros2_node.clone(),
-            rates: anguilla_link::ros2::TOPICS
-                .map(|(n, _)| l.ros2_rates.get(n).copied().unwrap_or(l.ros2_rate)),
-            humble: l.ros2_distro == "humble",
-            geometry: anguilla_link::ros2::state::Geometry {
-                segments: anguilla_view::segments(cfg.robot.joints),
-                limits: [cfg.limits.angle, cfg.limits.velocity, cfg.limits.torque],
-            },
-            allow_command: l.inbound.iter().any(|n| n == "command"),
-            allow_estop: l.inbound.iter().any(|n| n == "estop"),
-            speeds: anguilla_link::ros2::node::SpeedTable::new(speeds),
-            max_speed: l.ros2_max_speed,
-            frequency: l.ros2_frequency.min(cfg.gait.max_frequency),
-            pose: pose_to.map(|to| anguilla_link::ros2::node::PoseSettings {
-                to,
-                frame: l.ros2_pose_frame.clone(),
-                sigma: l.ros2_pose_sigma,
-            }),
-        }),
-    };
-    crate::signals::install();
-    let start = Instant::now();
-    let running = crate::signals::running_for(args.duration);
-    // The link may start before the daemon.
-    let mut bridge = crate::signals::open_when_up(
-        "anguilla link",
-        &running,
-        || Bridge::open(settings.clone()),
-        |e| matches!(e, anguilla_link::LinkError::Ipc(_)),
-    )
-    .with_context(|| format!("starting the link for prefix '{prefix}'"))?;
-    eprintln!(
-        "anguilla link: prefix '{prefix}' on {} ({}; state at most {state_rate} Hz; \
-         inbound {:?}, outbound {:?})",
-        settings
-            .listen
-            .iter()
-            .map(|e| e.text.as_str())
-            .collect::<Vec<_>>()
-            .join(", "),
-        kinds.join("; "),
-        l.inbound,
-        l.outbound,
-    );
-    if let Some(n) = bridge.ros2() {
-        let id = n.id();
-        eprintln!(
-            "anguilla link: ROS 2 node {}/{} on domain {} ({}; rmw_zenoh's wire; docs/ros2.md); \
-             cmd_vel swims its linear.x through the model's steady speed at {} Hz, up to {:.3} m/s \
-             (full amplitude{})",
-            id.namespace.trim_end_matches('/'),
-            id.name,
-            id.domain,
-            l.ros2_distro,
-            n.settings().frequency,
-            n.settings().speeds.max_speed().min(l.ros2_max_speed),
-            if l.ros2_max_speed < n.settings().speeds.max_speed() {
-                format!(
-                    " swims {:.3} m/s; [link] ros2-max-speed caps it",
-                    n.settings().speeds.max_speed()
-                )
-            } else {
-                String::new()
-            }
-        );
-        if let Some(p) = &n.settings().pose {
-            eprintln!(
-                "anguilla link: ROS 2 position fixes: pose_fix and odom_fix in frame {:?} go to                  the daemon's [sensor.usbl] at {}, aged by their stamps",
-                p.frame, p.to
-            );
-        }
-    }
-    bridge.run(&|| !running())?;
-    let st = bridge.stats();
-    use std::sync::atomic::Ordering::Relaxed;
-    let secs = start.elapsed().as_secs_f64().max(1e-9);
+    let r = anguilla_link::run::run(&opts, &Process { whole: &whole })?;
+    let secs = r.seconds.max(1e-9);
     eprintln!(
         "anguilla link: stopped after {secs:.1} s: {} states ({:.0} payload bytes/s), {} commands \
          forwarded, {} rejected, {} e-stops relayed",
-        st.states.load(Relaxed),
-        st.state_bytes.load(Relaxed) as f64 / secs,
-        st.commands.load(Relaxed),
-        st.rejected.load(Relaxed),
-        st.estops.load(Relaxed),
+        r.states,
+        r.state_bytes as f64 / secs,
+        r.commands,
+        r.rejected,
+        r.estops,
     );
-    if let Some(n) = bridge.ros2() {
+    if let Some(n) = &r.ros2 {
         eprintln!(
             "anguilla link: ROS 2: {} messages published, {} twists sent as swims, {} superseded \
              by a newer one (latest wins, one swim per control period), {} dropped, {} not CDR, \
              {} beyond reach (clamped)",
-            n.published,
-            n.twists,
-            n.superseded(),
-            n.dropped,
-            n.undecodable(),
-            n.clamped,
+            n.published, n.twists, n.superseded, n.dropped, n.undecodable, n.clamped,
         );
-        if let Some(p) = n.pose_stats() {
+        if let Some(p) = &n.pose {
             eprintln!(
                 "anguilla link: ROS 2 position fixes: {} sent to the daemon, {} superseded by a                  newer one, {} refused, {} stale (older than 60 s), {} stamped ahead of this                  clock, {} failed to send",
                 p.sent, p.superseded, p.refused, p.stale, p.ahead, p.failed
@@ -288,6 +137,41 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// What the link asks of this process: the daemon's configuration's
+/// steady speeds and position fixes' target, the stop signals, the wait
+/// for the daemon.
+struct Process<'a> {
+    whole: &'a anguilla::config::Config,
+}
+
+impl Host for Process<'_> {
+    fn steady_speeds(&self, frequency: f64) -> Result<[f64; anguilla_daemon::speed::N], String> {
+        anguilla_daemon::speed::steady_speeds(&self.whole.daemon, frequency)
+            .map_err(|e| crate::output::error_text(&anyhow::Error::new(e)))
+    }
+
+    fn pose_fix_target(&self) -> Result<std::net::SocketAddr, String> {
+        self.whole
+            .pose_fix_target()
+            .map_err(|e| crate::output::error_text(&anyhow::Error::new(e)))
+    }
+
+    fn running(&self, duration: Option<f64>) -> Box<dyn Fn() -> bool> {
+        crate::signals::install();
+        Box::new(crate::signals::running_for(duration))
+    }
+
+    fn open_when_up(
+        &self,
+        running: &dyn Fn() -> bool,
+        open: &mut dyn FnMut() -> Result<Bridge, LinkError>,
+    ) -> Result<Bridge, LinkError> {
+        crate::signals::open_when_up("anguilla link", running, open, |e| {
+            matches!(e, LinkError::Ipc(_))
+        })
+    }
 }
 
 /// The link's log on stderr: its own lines at `ANGUILLA_LOG` (default

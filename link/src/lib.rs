@@ -1,6 +1,8 @@
 //! Remote operation of an anguilla daemon over [Zenoh](https://zenoh.io):
-//! the bridge `anguilla link` runs on the tether computer ([`bridge`]), and
-//! the session the operator tools open with `--connect` ([`remote`]). The
+//! the bridge `anguilla link` runs on the tether computer ([`bridge`]; the
+//! command's run, its options checked and the bridge opened, run and
+//! counted, is [`run`]), and the session the operator tools open with
+//! `--connect` ([`remote`]). The
 //! real-time daemon never links Zenoh: the link is its own process, an
 //! operator tool of the daemon like any other (iceoryx2, `docs/ipc.md`).
 //!
@@ -59,6 +61,8 @@ mod endpoint;
 #[cfg(feature = "zenoh")]
 pub mod remote;
 pub mod ros2;
+#[cfg(feature = "zenoh")]
+pub mod run;
 pub mod wire;
 
 #[cfg(feature = "zenoh")]

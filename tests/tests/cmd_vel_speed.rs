@@ -48,7 +48,7 @@ fn cmd_vel_swims_the_speed_it_asks_for() {
     cfg.ipc.prefix = format!("anguilla-systest/cmdvel-{}", std::process::id());
     cfg.relax_for_builtin();
     // `[link]` at its defaults; what `anguilla link` builds at start
-    // (src/link_cmd.rs)
+    // (anguilla_link::run)
     let l = anguilla_link::config::LinkConfig::default();
     let speeds = SpeedTable::new(
         anguilla_daemon::speed::steady_speeds(&cfg, l.ros2_frequency).expect("the model swims"),
