@@ -131,7 +131,9 @@ pub fn run(args: LinkArgs) -> anyhow::Result<()> {
         );
         if let Some(p) = &n.pose {
             eprintln!(
-                "anguilla link: ROS 2 position fixes: {} sent to the daemon, {} superseded by a                  newer one, {} refused, {} stale (older than 60 s), {} stamped ahead of this                  clock, {} failed to send",
+                "anguilla link: ROS 2 position fixes: {} sent to the daemon, {} superseded by a \
+                 newer one, {} refused, {} stale (older than 60 s), {} stamped ahead of this \
+                 clock, {} failed to send",
                 p.sent, p.superseded, p.refused, p.stale, p.ahead, p.failed
             );
         }

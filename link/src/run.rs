@@ -323,7 +323,8 @@ pub fn run(opts: &RunOptions, host: &dyn Host) -> Result<Report, RunError> {
         ));
         if let Some(p) = &n.settings().pose {
             host.say(&format!(
-                "anguilla link: ROS 2 position fixes: pose_fix and odom_fix in frame {:?} go to                  the daemon's [sensor.usbl] at {}, aged by their stamps",
+                "anguilla link: ROS 2 position fixes: pose_fix and odom_fix in frame {:?} go to \
+                 the daemon's [sensor.usbl] at {}, aged by their stamps",
                 p.frame, p.to
             ));
         }
