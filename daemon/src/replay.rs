@@ -166,9 +166,10 @@ pub fn replay_with(
         periods.pop();
     }
     // A sensor off the bus is not replayed: its readings are not among the
-    // session's inputs, the frames sent do not depend on them (the position
-    // estimate steers nothing yet), and its source may be held by the
-    // running daemon (a port in use).
+    // session's inputs (not recorded yet), and its source may be held by
+    // the running daemon (a port in use). A path followed on its fixes
+    // therefore differs from the first fix on (README, "Recording and
+    // replay").
     let mut live = cfg.clone();
     live.sensor = cfg.sensor.without_off_bus();
     let mut ctl = Controller::new(&live, start)?;
