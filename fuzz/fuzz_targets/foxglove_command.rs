@@ -11,7 +11,7 @@ use libfuzzer_sys::fuzz_target;
 use serde_json::{Value, json};
 
 /// The command as a client would write it (scripts/foxglove_commands.py):
-/// its gait and its hold, if it has them.
+/// its gait and its hold, if it has them, and a path's fields.
 fn to_json(cmd: Command) -> Value {
     let mut v = json!({ "command": cmd.name() });
     let (swim, hold) = cmd.swim_and_hold();
@@ -24,6 +24,21 @@ fn to_json(cmd: Command) -> Value {
     if let Some(h) = hold {
         v["heading"] = json!(h.heading);
         v["depth"] = json!(h.depth);
+    }
+    match cmd {
+        Command::Waypoint(w) => {
+            v["index"] = json!(w.index);
+            v["x"] = json!(w.x);
+            v["y"] = json!(w.y);
+            v["depth"] = json!(w.depth);
+        }
+        Command::Follow(f) => {
+            v["count"] = json!(f.count);
+            v["loop"] = json!(f.looped);
+            v["from_here"] = json!(f.from_here);
+            v["resume"] = json!(f.resume);
+        }
+        _ => {}
     }
     v
 }

@@ -369,6 +369,19 @@ impl anguilla_ipc::Fields for JsonFields<'_> {
         }
     }
 
+    /// A required number given as null says so, as any other non-number.
+    fn required(&self, key: &str) -> Result<f64, String> {
+        match self.v.get(key) {
+            Some(Value::Null) => Err(format!(
+                "\"{key}\" of {} must be a number, not null",
+                self.name
+            )),
+            _ => self
+                .number(key)?
+                .ok_or_else(|| format!("{} needs a number \"{key}\"", self.name)),
+        }
+    }
+
     fn boolean(&self, key: &str) -> Result<Option<bool>, String> {
         match self.v.get(key) {
             None | Some(Value::Null) => Ok(None),
@@ -441,6 +454,10 @@ mod command_tests {
             (
                 br#"{"command":"swim","amplitude":"big","frequency":1}"#,
                 "\"amplitude\" of swim must be a number",
+            ),
+            (
+                br#"{"command":"swim","amplitude":null,"frequency":1}"#,
+                "\"amplitude\" of swim must be a number, not null",
             ),
             (
                 br#"{"command":"waypoint","index":1.5,"x":0,"y":0}"#,

@@ -260,9 +260,10 @@ impl Config {
             if section.gives_position() && latency >= self.autopilot.fix_stale {
                 return Err(ConfigError::Derived(format!(
                     "sensor.{name}.latency = {} s is not below autopilot.fix-stale = {} s: every \
-                     fix would arrive stale (expected fix-stale above the sensor's latency)",
+                     fix would arrive stale (expected fix-stale above the {}'s latency)",
                     fmt_f(latency),
-                    fmt_f(self.autopilot.fix_stale)
+                    fmt_f(self.autopilot.fix_stale),
+                    name.to_uppercase()
                 )));
             }
         }

@@ -65,7 +65,20 @@ impl SensorConfig {
     /// simulated counterparts go through. A further kind off the bus is a
     /// field above and a line here (and in [`Self::without_off_bus`]).
     pub fn off_bus(&self) -> impl Iterator<Item = &dyn OffBusSection> {
-        let Self { usbl, dvl, .. } = self;
+        // Every field named: a new one is a compile error here until it
+        // is listed or said not to be off the bus.
+        let Self {
+            node: _,
+            rate_hz: _,
+            timeout: _,
+            water_density: _,
+            surface_pressure: _,
+            max_rate_innovation: _,
+            roll_alarm: _,
+            tail_imu: _,
+            usbl,
+            dvl,
+        } = self;
         [
             usbl.as_ref().map(|s| s as &dyn OffBusSection),
             dvl.as_ref().map(|s| s as &dyn OffBusSection),

@@ -343,6 +343,16 @@ fn every_off_bus_kind_is_in_the_one_list() {
     let every = SensorConfig::default().with_every_off_bus();
     let kinds: Vec<_> = every.off_bus().map(|s| s.kind()).collect();
     assert_eq!(kinds, [SensorKind::Usbl, SensorKind::Dvl]);
+    // Every kind of the vocabulary but the two on the bus is off it.
+    let on_bus = [SensorKind::HeadNav, SensorKind::TailImu];
+    let off: Vec<_> = SensorKind::ALL
+        .into_iter()
+        .filter(|k| !on_bus.contains(k))
+        .collect();
+    assert_eq!(
+        kinds, off,
+        "a sensor kind missing from SensorConfig::off_bus"
+    );
     assert_eq!(every.without_off_bus().off_bus().count(), 0);
     for kind in kinds {
         let name = kind.name();

@@ -282,10 +282,9 @@ impl Config {
         for section in s.off_bus() {
             section.validate()?;
             if s.node == 0 {
-                let name = section.kind().name();
+                let (name, why) = (section.kind().name(), section.needs_head());
                 return Err(ConfigError::Derived(format!(
-                    "[sensor.{name}] needs the head sensor (sensor.node): its readings correct \
-                     the position the estimate dead-reckons with its heading; set sensor.node \
+                    "[sensor.{name}] needs the head sensor (sensor.node): {why}; set sensor.node \
                      or remove [sensor.{name}]"
                 )));
             }

@@ -65,6 +65,10 @@ impl OffBusSection for DvlConfig {
         &self.source
     }
 
+    fn needs_head(&self) -> &'static str {
+        "its velocity is compared with the model's, turned by the estimated heading"
+    }
+
     fn latency(&self) -> f64 {
         self.latency
     }

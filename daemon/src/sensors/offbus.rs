@@ -40,6 +40,9 @@ pub trait OffBusSection: std::fmt::Debug {
     fn gives_position(&self) -> bool {
         false
     }
+    /// Why it needs the head sensor, for the refusal of a configuration
+    /// without one.
+    fn needs_head(&self) -> &'static str;
     /// Checks its keys (named `sensor.NAME.KEY` in the error).
     fn validate(&self) -> Result<(), ConfigError>;
     /// Its section in the commented default file, commented out.

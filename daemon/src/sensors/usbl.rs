@@ -68,6 +68,10 @@ impl OffBusSection for UsblConfig {
         &self.source
     }
 
+    fn needs_head(&self) -> &'static str {
+        "a fix corrects the position the estimate dead-reckons with its heading"
+    }
+
     fn latency(&self) -> f64 {
         self.latency
     }
