@@ -861,6 +861,16 @@ fn bad_arguments_are_errors_that_name_them() {
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--sensor", "usbl=nowhere"]);
     assert!(!ok);
     assert!(err.contains("'nowhere' is not ADDRESS:PORT"), "{err}");
+    for (skip, says) in [
+        ("1,x", "--skip 1,x: 'x' is not a node id"),
+        ("13", "--skip 13: node 13 is not one of the robot's"),
+        ("2,2", "--skip 2,2: node 2 named twice"),
+    ] {
+        let (ok, _, err) = run(&["sim", "--slcan-pty", "--skip", skip]);
+        assert!(!ok && err.contains(says), "{err}");
+    }
+    let (ok, _, err) = run(&["sim", "--slcan-pty", "--drive", "mit", "--skip", "1"]);
+    assert!(!ok && err.contains("mit drives are all simulated"), "{err}");
     let (ok, _, err) = run(&["sim", "--slcan-pty", "--sensor", "sonar=127.0.0.1:9"]);
     assert!(!ok);
     assert!(

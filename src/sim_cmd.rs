@@ -121,6 +121,12 @@ pub struct SimArgs {
     /// (the daemon's `[sensor] tail-imu`).
     #[arg(long, value_name = "ID")]
     tail_imu: Option<u8>,
+    /// Vertebra nodes the simulator does not play (comma-separated ids of
+    /// 1..=--joints; anguilla drives only): real vertebrae on the same
+    /// bus answer for them, and the simulated body swims with their
+    /// measured motion, heard in their feedback frames (docs/bench.md).
+    #[arg(long, value_name = "IDS")]
+    skip: Option<String>,
     /// A sensor off the bus beside the robot, sending what the body's
     /// truth gives to ADDRESS:PORT in UDP datagrams (the daemon's
     /// `[sensor.NAME] source = "udp:ADDRESS:PORT"`), each LATENCY s after
@@ -404,6 +410,10 @@ fn robot_config(args: &SimArgs, current: Current) -> anyhow::Result<RobotConfig>
         current,
         head_sensor: args.head_sensor.map(SensorConfig::typical),
         tail_sensor: args.tail_imu.map(SensorConfig::typical),
+        observed: match &args.skip {
+            Some(text) => parse_skip(text)?,
+            None => Vec::new(),
+        },
         body: {
             let mut body = match &args.body {
                 Some(path) => anguilla_daemon::config::BodyFile::load(path)
@@ -440,6 +450,16 @@ fn robot_config(args: &SimArgs, current: Current) -> anyhow::Result<RobotConfig>
                 args.joints,
                 args.drive
             ),
+            (
+                SimError::Config {
+                    field: "observed",
+                    reason,
+                },
+                _,
+            ) => bail!(
+                "--skip {}: {reason}",
+                args.skip.as_deref().unwrap_or_default()
+            ),
             (SimError::Config { field, reason }, _) if field.starts_with("tail_sensor") => {
                 bail!("--tail-imu {}: {reason}", args.tail_imu.unwrap_or_default())
             }
@@ -453,6 +473,17 @@ fn robot_config(args: &SimArgs, current: Current) -> anyhow::Result<RobotConfig>
         }
     }
     Ok(cfg)
+}
+
+/// `--skip`'s node ids, or what is wrong with them.
+fn parse_skip(text: &str) -> anyhow::Result<Vec<u8>> {
+    text.split(',')
+        .map(|t| {
+            t.trim().parse::<u8>().map_err(|_| {
+                anyhow::anyhow!("--skip {text}: '{t}' is not a node id (expected ids like 1,2)")
+            })
+        })
+        .collect()
 }
 
 /// The data-phase bit rate of the simulated wire: `--data-bitrate`, by

@@ -63,6 +63,6 @@ pub use dynamics::{
 pub use error::{ModelError, Result};
 pub use gait::{
     Curvature, CurvatureSource, GaitParams, JointCurvature, JointMotion, JointSegment, LawSource,
-    ParametricGait,
+    ParametricGait, hermite,
 };
 pub use speed_table::{SPEED_RUNGS, SpeedTable};

@@ -25,6 +25,8 @@
 //! - [`offbus`]: the sensors off the bus (a USBL's noisy fixes of the true
 //!   position, a DVL's velocity over ground while it has bottom lock),
 //!   sent over UDP;
+//! - [`observed`]: a joint played by a real vertebra on the same bus,
+//!   whose measured motion the body swims with (`anguilla sim --skip`);
 //! - [`scenario`]: the fault-injection scenario language;
 //! - [`serve`]: a robot served on a bus or behind emulated SLCAN adapters
 //!   until told to stop, with its scenario, sensors off the bus and ground-truth record
@@ -70,6 +72,7 @@ pub mod device;
 pub mod error;
 pub mod mit;
 pub mod node;
+pub mod observed;
 pub mod odrive;
 pub mod offbus;
 pub mod plant;

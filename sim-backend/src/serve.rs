@@ -159,8 +159,14 @@ pub fn serve(s: Serve, wait: Wait, say: &mut dyn FnMut(&str)) -> Result<(), Serv
             })
             .collect();
         format!("{family} drives {}", pairs.join(","))
-    } else {
+    } else if robot.config().observed.is_empty() {
         format!("nodes 1..={joints}")
+    } else {
+        let real: Vec<String> = robot.config().observed.iter().map(u8::to_string).collect();
+        format!(
+            "nodes 1..={joints} but {} (real ones on the bus, heard)",
+            real.join(",")
+        )
     };
     say(&format!(
         "simulated robot: {joints} joints ({} CAN), {drives}, on {}; Ctrl-C stops",

@@ -42,6 +42,9 @@ pub struct Rig {
     pub robot: SimRobot,
     /// The daemon's controller.
     pub ctl: Controller,
+    /// "Real" vertebrae on the same bus ([`Rig::mixed`]): another
+    /// simulated robot playing the nodes `robot` does not.
+    pub real: Option<SimRobot>,
     period: Duration,
     seq: u32,
     last_keep_alive: Duration,
@@ -134,10 +137,57 @@ impl Rig {
             host,
             robot,
             ctl,
+            real: None,
             period,
             seq: 0,
             last_keep_alive: Duration::ZERO,
         }
+    }
+
+    /// A mixed robot: the simulated robot plays every joint but those of
+    /// node ids `real`, which it swims with as they move on the bus
+    /// (`anguilla_sim::observed`); another simulated robot on the same
+    /// bus plays them as real vertebrae would, its servos changed by
+    /// `servo`: a whole body of its own that swims with the first's
+    /// joints as they move on the bus, so the real joints are loaded as
+    /// in the water.
+    pub fn mixed(
+        cfg: &Config,
+        seed: u64,
+        real: &[u8],
+        servo: impl FnOnce(&mut anguilla_sim::actuator::ActuatorParams),
+    ) -> Self {
+        let mut rig = Self::with_robot(
+            cfg,
+            seed,
+            [0.0; 3],
+            |_| {},
+            |r| {
+                r.observed = real.to_vec();
+            },
+        );
+        let mut actuator = anguilla_sim::actuator::ActuatorParams::default();
+        servo(&mut actuator);
+        let node_ids = cfg.node_ids();
+        let rcfg = RobotConfig {
+            observed: node_ids
+                .iter()
+                .copied()
+                .filter(|id| !real.contains(id))
+                .collect(),
+            node_ids,
+            variant: cfg.bus.variant(),
+            boot_time: Duration::from_millis(10),
+            seed: seed ^ 0x5EA1,
+            actuator,
+            body: cfg.model.body(),
+            ..RobotConfig::with_joints(cfg.robot.joints)
+        };
+        let bus = rig.robot.mem_bus().expect("an in-memory bus").clone();
+        rig.real = Some(
+            SimRobot::on_mem(rcfg, bus.participant(), Duration::ZERO).expect("the real vertebrae"),
+        );
+        rig
     }
 
     /// Simulated time (s).
@@ -181,6 +231,9 @@ impl Rig {
     pub fn advance(&mut self) -> Nanos {
         self.clock.advance(self.period);
         let t = self.clock.now();
+        if let Some(real) = &mut self.real {
+            real.step_until(t);
+        }
         self.robot.step_until(t);
         Nanos::from_nanos(t.as_nanos() as u64)
     }

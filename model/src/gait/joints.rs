@@ -134,7 +134,7 @@ impl CurvatureSource for JointSegment {
 /// `[value, rate, acceleration]` at the fraction `s` of a span of `h`
 /// seconds of the cubic Hermite curve from `a`'s `[value, rate]` to `b`'s
 /// (their third entries unused); beyond `0..=1` the cubic goes on.
-pub(crate) fn hermite(a: [f64; 3], b: [f64; 3], h: f64, s: f64) -> [f64; 3] {
+pub fn hermite(a: [f64; 3], b: [f64; 3], h: f64, s: f64) -> [f64; 3] {
     let (p0, m0, p1, m1) = (a[0], a[1] * h, b[0], b[1] * h);
     let (s2, s3) = (s * s, s * s * s);
     let value = (2.0 * s3 - 3.0 * s2 + 1.0) * p0

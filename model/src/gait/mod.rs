@@ -12,8 +12,8 @@ mod joints;
 mod law;
 mod parametric;
 
-pub use joints::{JointCurvature, JointMotion, JointSegment};
-pub(crate) use joints::{hermite, spread_joints};
+pub(crate) use joints::spread_joints;
+pub use joints::{JointCurvature, JointMotion, JointSegment, hermite};
 pub use law::{GAITS, GaitLaw, LawSource, NamedGait, TurnKind, Wave, gait_names, named_gait, ramp};
 pub use parametric::{GaitParams, ParametricGait};
 

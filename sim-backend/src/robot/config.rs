@@ -70,6 +70,11 @@ pub struct RobotConfig {
     /// swimming model knows it (tests of the model against its own body
     /// whose gaits climb more than the start's depth).
     pub surface: bool,
+    /// Nodes of [`RobotConfig::node_ids`] the simulator does not play
+    /// (anguilla family only): real vertebrae on the same bus, whose
+    /// measured motion the body swims with ([`crate::observed`]; `anguilla
+    /// sim --skip`). Empty: every joint simulated.
+    pub observed: Vec<u8>,
 }
 
 impl Default for RobotConfig {
@@ -106,6 +111,7 @@ impl RobotConfig {
             head_sensor: None,
             tail_sensor: None,
             surface: true,
+            observed: Vec::new(),
         }
     }
 
@@ -138,6 +144,29 @@ impl RobotConfig {
                 field: "node_ids",
                 reason: "at least one node".into(),
             });
+        }
+        for (i, id) in self.observed.iter().enumerate() {
+            let why = if self.drive != Family::Anguilla {
+                Some(format!(
+                    "real joints on the bus are anguilla vertebrae; {} drives are all simulated",
+                    self.drive
+                ))
+            } else if !self.node_ids.contains(id) {
+                Some(format!(
+                    "node {id} is not one of the robot's {:?}",
+                    self.node_ids
+                ))
+            } else if self.observed[..i].contains(id) {
+                Some(format!("node {id} named twice"))
+            } else {
+                None
+            };
+            if let Some(reason) = why {
+                return Err(SimError::Config {
+                    field: "observed",
+                    reason,
+                });
+            }
         }
         for (i, &id) in self.node_ids.iter().enumerate() {
             if NodeId::new(id).is_err() {
@@ -289,6 +318,13 @@ pub fn joint_device(
                 field: "node_ids",
                 reason: format!("node id {id} outside 1..=63"),
             })?;
+            if cfg.observed.contains(&id.get()) {
+                return Ok(Box::new(crate::observed::ObservedJoint::new(
+                    id,
+                    cfg.variant,
+                    start,
+                )));
+            }
             let nc = NodeConfig {
                 id,
                 variant: cfg.variant,
