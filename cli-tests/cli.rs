@@ -5,6 +5,8 @@ use std::io::{BufRead, BufReader, Write};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use anguilla_testkit::sessions::joints_session;
+
 fn anguilla() -> Command {
     Command::new(env!("CARGO_BIN_EXE_anguilla"))
 }
@@ -452,41 +454,6 @@ fn calibrate_refuses_a_named_pipe_and_counts_what_it_drops() {
     );
     assert!(!err.contains("panicked"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// A session.mcap of `seconds` of 2 joints sampled at 50 Hz, holding
-/// still (`amplitude` 0: the daemon enabled but never swimming) or
-/// swimming at 1 Hz.
-fn joints_session(path: &std::path::Path, seconds: f64, amplitude: f64) {
-    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut w = mcap::WriteOptions::new()
-        .compression(None)
-        .create(file)
-        .unwrap();
-    let ch = w
-        .add_channel(0, "/anguilla/joints", "json", &Default::default())
-        .unwrap();
-    for i in 0..(seconds * 50.0) as u64 {
-        let t = i as f64 * 0.02;
-        let ph = std::f64::consts::TAU * t;
-        let data = format!(
-            "{{\"measured_pitch\": [0.0, 0.001], \"measured_yaw\": [{}, {}], \
-             \"measured_pitch_velocity\": [0.0, 0.0], \"measured_yaw_velocity\": [{}, {}], \
-             \"measured_pitch_torque\": [0.0, 0.0], \"measured_yaw_torque\": [0.01, 0.02]}}",
-            amplitude * ph.sin(),
-            amplitude * (ph - 1.0).sin(),
-            amplitude * ph.cos(),
-            amplitude * (ph - 1.0).cos(),
-        );
-        let header = mcap::records::MessageHeader {
-            channel_id: ch,
-            sequence: i as u32,
-            log_time: 1_000_000_000 + i * 20_000_000,
-            publish_time: 1_000_000_000 + i * 20_000_000,
-        };
-        w.write_to_known_channel(&header, data.as_bytes()).unwrap();
-    }
-    w.finish().unwrap();
 }
 
 /// Issue 46, finding 3: `calibrate` on a session with no swim (the

@@ -3,14 +3,14 @@
 //! simulated robot sends nothing for it and hears its feedback frames as
 //! the daemon does; the body swims with the joint's measured angles and
 //! rates (played one feedback interval late, along the cubic between the
-//! last two frames), so the simulated
-//! vertebrae, the head sensor and the ground truth feel what the real
-//! joint did. The body's load on the joint is kept ([`ObservedJoint::load`]):
-//! what the real joint would feel in the water.
+//! last two frames), so the simulated vertebrae, the head sensor and the
+//! ground truth feel what the real joint did. The body's load on the
+//! joint ([`crate::SimRobot::loads`]) is what the real joint would feel in
+//! the water.
 //!
 //! The anguilla protocol's vertebrae (feedback and heartbeat frames of the
-//! node's id); fault injection does not reach a real node (a scenario
-//! naming it is refused when the robot is built).
+//! node's id). The simulator cannot fault a real node: a scenario naming
+//! it is refused when it is loaded.
 
 use anguilla_protocol::frame::Frame;
 use anguilla_protocol::message::{
@@ -32,11 +32,10 @@ pub struct ObservedJoint {
     before: Option<([AxisFeedback; 2], Nanos)>,
     state: NodeState,
     now: Nanos,
-    load: [Load; 2],
     /// What fault injection would write: kept, never applied.
     faults: [AxisFaults; 2],
-    /// Frames of its id that did not decode.
-    pub undecodable: u64,
+    /// Frames of its id that did not decode ([`NodeCounters::bad_frames`]).
+    undecodable: u64,
 }
 
 impl ObservedJoint {
@@ -49,21 +48,9 @@ impl ObservedJoint {
             before: None,
             state: NodeState::Boot,
             now: start,
-            load: [Load::default(); 2],
             faults: [AxisFaults::default(); 2],
             undecodable: 0,
         }
-    }
-
-    /// The body's load on each axis now: the torque the real joint would
-    /// feel in the water (N·m).
-    pub fn load(&self) -> [f64; 2] {
-        [self.load[0].torque, self.load[1].torque]
-    }
-
-    /// Whether its feedback has been heard.
-    pub fn heard(&self) -> bool {
-        self.last.is_some()
     }
 }
 
@@ -128,9 +115,8 @@ impl JointDevice for ObservedJoint {
         self.last.map_or(0.0, |(f, _)| f[axis.min(1)].torque as f64)
     }
 
-    fn set_load(&mut self, load: [Load; 2]) {
-        self.load = load;
-    }
+    /// The real joint's actuator feels the water, not the simulator.
+    fn set_load(&mut self, _load: [Load; 2]) {}
 
     /// A real joint is where it is.
     fn set_pose(&mut self, _angles: [f64; 2]) {}
@@ -140,7 +126,10 @@ impl JointDevice for ObservedJoint {
     }
 
     fn counters(&self) -> NodeCounters {
-        NodeCounters::default()
+        NodeCounters {
+            bad_frames: self.undecodable,
+            ..NodeCounters::default()
+        }
     }
 
     fn set_silent(&mut self, _silent: bool) {}

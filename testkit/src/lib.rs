@@ -34,13 +34,16 @@
 //!
 //! With the feature `lockstep`, the module `lockstep` is the daemon's
 //! controller and the simulated robot on one manual clock (the daemon's
-//! tests and benches).
+//! tests and benches). With the feature `sessions`, the module `sessions`
+//! writes recorded sessions by hand.
 #![warn(missing_docs)]
 
 #[cfg(feature = "lockstep")]
 pub mod guided;
 #[cfg(feature = "lockstep")]
 pub mod lockstep;
+#[cfg(feature = "sessions")]
+pub mod sessions;
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

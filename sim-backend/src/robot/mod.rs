@@ -304,6 +304,26 @@ impl SimRobot {
                 ),
             });
         }
+        // A real vertebra is not the simulator's to fault.
+        let observed = |id: u8| self.cfg.observed.contains(&id);
+        if let Some((e, id)) = scenario.events.iter().find_map(|e| match e.action {
+            Action::Node { id, .. } if observed(id) => Some((e, id)),
+            Action::Joint { joint, .. } => joint
+                .checked_sub(1)
+                .and_then(|j| self.cfg.node_ids.get(j).copied())
+                .filter(|&id| observed(id))
+                .map(|id| (e, id)),
+            _ => None,
+        }) {
+            return Err(SimError::Config {
+                field: "scenario",
+                reason: format!(
+                    "line {} scripts a fault of node {id}, a real vertebra on the bus \
+                     (--skip): the simulator cannot fault it",
+                    e.line
+                ),
+            });
+        }
         if self.sensor.is_none()
             && let Some(e) = scenario.first_sensor_fault()
         {
